@@ -1,0 +1,41 @@
+#include "bench/cli_util.h"
+
+#include <charconv>
+#include <cmath>
+#include <iostream>
+#include <stdexcept>
+
+#include "core/dataset.h"
+
+namespace insid::cli {
+
+std::map<std::string, double> parse_effect_assignments(const std::vector<std::string>& items,
+                                                       const std::string& option) {
+  std::map<std::string, double> out;
+  for (const std::string& item : items) {
+    const auto eq = item.find('=');
+    if (eq == std::string::npos || eq == 0 || eq + 1 == item.size())
+      throw std::invalid_argument(option + ": expected NAME=VALUE, got '" + item + "'");
+    const std::string name = item.substr(0, eq);
+    const std::string text = item.substr(eq + 1);
+    effect_info(name);  // throws with the list of valid names
+    double value = 0.0;
+    const auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
+    if (ec != std::errc() || ptr != text.data() + text.size() || !std::isfinite(value))
+      throw std::invalid_argument(option + " " + name + ": expected a finite number (SI units), got '" +
+                                  text + "'");
+    out[name] = value;
+  }
+  return out;
+}
+
+void write_json_output(const std::string& path, const nlohmann::json& j) {
+  const std::string text = j.dump(2) + "\n";
+  if (path.empty() || path == "-") {
+    std::cout << text;
+    return;
+  }
+  write_file_atomic(path, text);
+}
+
+}  // namespace insid::cli

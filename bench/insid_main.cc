@@ -1,0 +1,24 @@
+// insid: identify INS sensor errors from flight data and benchmark the optimizers that do it.
+#include <exception>
+#include <iostream>
+
+#include <CLI/CLI.hpp>
+
+#include "bench/commands.h"
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "insid: identify INS sensor errors from navigation data, and benchmark the optimizers "
+      "(GA, PSO, PIO, DVPIO) that do it."};
+  app.require_subcommand(1);
+  insid::cli::add_navigate_command(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  } catch (const std::exception& e) {
+    std::cerr << "insid: error: " << e.what() << '\n';
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,911 @@
+// Dataset I/O for `insid-dataset/1` (DESIGN.md sec. 5).
+//
+// Decisions (beyond the design notes):
+// - CSV: the header must list exactly the format's columns, in order (a UTF-8 BOM, spaces
+//   around names and a trailing CR are tolerated); unknown extra columns are rejected. Fields
+//   may carry surrounding spaces and a leading '+'. Blank lines are allowed only at the end.
+// - Numbers are parsed with std::from_chars (whole file read at once) and written with the
+//   shortest representation that round-trips (std::to_chars), so SI values round-trip exactly.
+// - Angles are stored in degrees and converted once at load with `deg * kDegToRad`. The writer
+//   picks, among the doubles next to `rad * kRadToDeg`, one that maps back to exactly the same
+//   radians (preferring the shortest text), so every value load can produce round-trips bit
+//   for bit; a radian value that no degree double maps to comes back within 1 ulp. Yaw is
+//   written in [0, 360) deg (load keeps whatever the file says).
+// - write_dataset validates first (it never writes a dataset load_dataset would reject),
+//   creates missing parent directories, writes to a sibling temporary directory and renames it
+//   into place; on failure it removes everything it created.
+// - Latitudes must lie strictly inside (-90, 90) deg: the ENU mechanization is singular at the
+//   poles.
+#include "core/dataset.h"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <cerrno>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <sstream>
+#include <string_view>
+#include <system_error>
+
+#include <nlohmann/json.hpp>
+
+#include "core/sensor_errors.h"
+
+namespace insid {
+namespace {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+constexpr std::string_view kFormat = "insid-dataset/1";
+constexpr std::string_view kImuFile = "imu.csv";
+constexpr std::string_view kGnssFile = "gnss.csv";
+constexpr std::string_view kTruthFile = "truth.csv";
+constexpr std::string_view kMetaFile = "meta.json";
+
+constexpr std::array<std::string_view, 7> kImuColumns = {
+    "t_s", "dtheta_x_rad", "dtheta_y_rad", "dtheta_z_rad", "dv_x_mps", "dv_y_mps", "dv_z_mps"};
+constexpr std::array<std::string_view, 7> kGnssColumns = {"t_s",    "lat_deg", "lon_deg", "h_m",
+                                                          "vE_mps", "vN_mps",  "vU_mps"};
+constexpr std::array<std::string_view, 10> kTruthColumns = {
+    "t_s",    "lat_deg", "lon_deg",  "h_m",       "vE_mps",
+    "vN_mps", "vU_mps",  "roll_deg", "pitch_deg", "yaw_deg"};
+
+constexpr double kImuRateTolerance = 0.01;    // each IMU dt within 1% of 1 / imu_rate_hz
+constexpr double kGnssEndAllowance = 1.5;     // GNSS may end 1.5 GNSS periods before the IMU
+
+[[noreturn]] void fail(const std::string& message) { throw DatasetError(message); }
+
+template <std::size_t N>
+std::string join(const std::array<std::string_view, N>& cols) {
+  std::string s;
+  for (std::size_t i = 0; i < N; ++i) {
+    if (i) s += ',';
+    s += cols[i];
+  }
+  return s;
+}
+
+std::string num_text(double v) {
+  char buf[32];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v);
+  return std::string(buf, r.ptr);
+}
+
+void append_num(std::string& out, double v) {
+  char buf[32];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v);
+  out.append(buf, r.ptr);
+}
+
+// Quote untrusted text for an error message (shortened, control characters escaped).
+std::string quote_text(std::string_view text) {
+  constexpr std::size_t kMax = 40;
+  std::string s = "'";
+  for (std::size_t i = 0; i < text.size() && i < kMax; ++i) {
+    const unsigned char c = static_cast<unsigned char>(text[i]);
+    if (c < 0x20 || c == 0x7f) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\x%02x", c);
+      s += buf;
+    } else {
+      s += static_cast<char>(c);
+    }
+  }
+  if (text.size() > kMax) s += "...";
+  s += "'";
+  return s;
+}
+
+bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\r'; }
+
+std::string_view trim(std::string_view s) {
+  while (!s.empty() && is_blank(s.front())) s.remove_prefix(1);
+  while (!s.empty() && is_blank(s.back())) s.remove_suffix(1);
+  return s;
+}
+
+bool all_whitespace(const char* p, const char* end) {
+  for (; p < end; ++p)
+    if (!(is_blank(*p) || *p == '\n')) return false;
+  return true;
+}
+
+std::string os_error(int err) { return std::strerror(err); }
+
+// ------------------------------------------------------------------------------------------
+// Reading
+
+// Whole file into memory. `where` names it in messages.
+std::string read_whole_file(const fs::path& path, const std::string& where) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) fail(where + ": cannot open: " + os_error(errno));
+  struct stat st {};
+  if (::fstat(fd, &st) != 0) {
+    const int err = errno;
+    ::close(fd);
+    fail(where + ": cannot stat: " + os_error(err));
+  }
+  if (!S_ISREG(st.st_mode)) {
+    ::close(fd);
+    fail(where + ": not a regular file");
+  }
+  std::string data;
+  data.resize(static_cast<std::size_t>(st.st_size));
+  std::size_t got = 0;
+  for (;;) {
+    if (got == data.size()) data.resize(data.size() + 65536);  // file grew / unknown size
+    const ssize_t n = ::read(fd, data.data() + got, data.size() - got);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      const int err = errno;
+      ::close(fd);
+      fail(where + ": read error: " + os_error(err));
+    }
+    if (n == 0) break;
+    got += static_cast<std::size_t>(n);
+  }
+  ::close(fd);
+  data.resize(got);
+  return data;
+}
+
+// Location prefix of a CSV message: "<dir>: imu.csv line 12, column dv_x_mps: ".
+struct CsvWhere {
+  std::string prefix;  // "<dir>: " or ""
+  std::string_view file;
+
+  std::string at(std::size_t line, std::string_view column) const {
+    std::string s = prefix;
+    s += file;
+    s += " line " + std::to_string(line);
+    if (!column.empty()) {
+      s += ", column ";
+      s += column;
+    }
+    s += ": ";
+    return s;
+  }
+};
+
+// Parse one numeric field; `field` is untrimmed.
+inline double parse_field(std::string_view field, const CsvWhere& where, std::size_t line,
+                          std::string_view column) {
+  field = trim(field);
+  if (field.empty()) fail(where.at(line, column) + "empty field, expected a number");
+  const char* first = field.data();
+  const char* last = first + field.size();
+  if (*first == '+' && field.size() > 1 && first[1] != '-' && first[1] != '+') ++first;
+  double v = 0.0;
+  const auto r = std::from_chars(first, last, v, std::chars_format::general);
+  if (r.ec == std::errc::result_out_of_range && r.ptr == last)
+    fail(where.at(line, column) + "number out of the double range, got " + quote_text(field));
+  if (r.ec != std::errc() || r.ptr != last)
+    fail(where.at(line, column) + "expected a number, got " + quote_text(field));
+  if (!std::isfinite(v))
+    fail(where.at(line, column) + "expected a finite number, got " + quote_text(field));
+  return v;
+}
+
+template <std::size_t N>
+void check_header(std::string_view header, const std::array<std::string_view, N>& cols,
+                  const CsvWhere& where) {
+  std::vector<std::string_view> got;
+  for (;;) {
+    const std::size_t comma = header.find(',');
+    got.push_back(trim(header.substr(0, comma)));
+    if (comma == std::string_view::npos) break;
+    header.remove_prefix(comma + 1);
+  }
+  if (got.size() == N && std::equal(got.begin(), got.end(), cols.begin())) return;
+
+  std::string got_text;
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    if (i) got_text += ',';
+    got_text += got[i];
+  }
+  const std::string tail = "; expected header '" + join(cols) + "', got " + quote_text(got_text);
+  for (const auto& c : cols)
+    if (std::find(got.begin(), got.end(), c) == got.end())
+      fail(where.at(1, c) + "missing column" + tail);
+  for (const auto& g : got)
+    if (std::find(cols.begin(), cols.end(), g) == cols.end())
+      fail(where.at(1, g.empty() ? std::string_view("(empty name)") : g) + "unknown column" +
+           tail);
+  for (std::size_t i = 0; i < std::min(got.size(), N); ++i)
+    if (got[i] != cols[i])
+      fail(where.at(1, cols[i]) + "column out of order (found '" + std::string(got[i]) +
+           "' in its place)" + tail);
+  fail(where.at(1, "") + "duplicate column" + tail);
+}
+
+// Parse a CSV file with exactly the columns `cols`; on_row(const double* values, line).
+template <std::size_t N, class OnRow>
+void parse_csv(const std::string& text, const std::array<std::string_view, N>& cols,
+               const CsvWhere& where, OnRow&& on_row) {
+  const char* p = text.data();
+  const char* const end = p + text.size();
+  if (text.size() >= 3 && std::memcmp(p, "\xEF\xBB\xBF", 3) == 0) p += 3;  // UTF-8 BOM
+  if (all_whitespace(p, end))
+    fail(where.prefix + std::string(where.file) + " line 1: empty file, expected the header '" +
+         join(cols) + "'");
+
+  auto next_line = [&](const char*& cur) -> std::string_view {
+    const char* nl = static_cast<const char*>(std::memchr(cur, '\n', end - cur));
+    const char* line_end = nl ? nl : end;
+    std::string_view line(cur, line_end - cur);
+    cur = nl ? nl + 1 : end;
+    while (!line.empty() && is_blank(line.back())) line.remove_suffix(1);
+    return line;
+  };
+
+  check_header(next_line(p), cols, where);
+
+  std::array<double, N> values{};
+  std::size_t line_no = 1;
+  while (p < end) {
+    ++line_no;
+    const char* const line_start = p;
+    const std::string_view line = next_line(p);
+    if (trim(line).empty()) {
+      if (all_whitespace(line_start, end)) break;  // trailing blank lines
+      fail(where.at(line_no, "") +
+           "empty line (blank lines are only allowed at the end of the file)");
+    }
+    const char* f = line.data();
+    const char* const lend = f + line.size();
+    for (std::size_t i = 0; i < N; ++i) {
+      const char* comma = static_cast<const char*>(std::memchr(f, ',', lend - f));
+      if (i + 1 < N) {
+        if (!comma)
+          fail(where.at(line_no, cols[i + 1]) + "truncated row, expected " + std::to_string(N) +
+               " fields (" + join(cols) + "), got " + std::to_string(i + 1));
+      } else if (comma) {
+        const std::size_t extra = static_cast<std::size_t>(std::count(comma, lend, ','));
+        fail(where.at(line_no, "") + "too many fields, expected " + std::to_string(N) + " (" +
+             join(cols) + "), got " + std::to_string(N + extra));
+      }
+      const char* fend = comma ? comma : lend;
+      values[i] = parse_field(std::string_view(f, fend - f), where, line_no, cols[i]);
+      f = fend + 1;
+    }
+    on_row(values.data(), line_no);
+  }
+}
+
+// ------------------------------------------------------------------------------------------
+// meta.json
+
+struct MetaReader {
+  std::string prefix;  // "<dir>: meta.json: "
+
+  [[noreturn]] void fail_at(const std::string& msg) const { fail(prefix + msg); }
+
+  static std::string join_path(const std::string& parent, const std::string& key) {
+    return parent.empty() ? key : parent + "." + key;
+  }
+
+  const json* find(const json& obj, const std::string& key) const {
+    const auto it = obj.find(key);
+    if (it == obj.end()) return nullptr;
+    return &*it;
+  }
+
+  const json& require(const json& obj, const std::string& key, const std::string& path) const {
+    const json* v = find(obj, key);
+    if (!v) fail_at("missing field \"" + path + "\"");
+    return *v;
+  }
+
+  double number(const json& v, const std::string& path) const {
+    if (!v.is_number())
+      fail_at("field \"" + path + "\" must be a number, got " + std::string(v.type_name()));
+    const double x = v.get<double>();
+    if (!std::isfinite(x)) fail_at("field \"" + path + "\" must be a finite number");
+    return x;
+  }
+
+  double number(const json& obj, const std::string& key, const std::string& parent) const {
+    const std::string path = join_path(parent, key);
+    return number(require(obj, key, path), path);
+  }
+
+  const json& object(const json& v, const std::string& path) const {
+    if (!v.is_object())
+      fail_at("field \"" + path + "\" must be an object, got " + std::string(v.type_name()));
+    return v;
+  }
+};
+
+DatasetMeta parse_meta(const std::string& text, const std::string& dir_prefix) {
+  const MetaReader r{dir_prefix + std::string(kMetaFile) + ": "};
+  if (all_whitespace(text.data(), text.data() + text.size()))
+    r.fail_at("empty file, expected a JSON object");
+  json j;
+  try {
+    j = json::parse(text);
+  } catch (const json::exception& e) {
+    r.fail_at(std::string("not valid JSON: ") + e.what());
+  }
+  if (!j.is_object())
+    r.fail_at("the top level must be a JSON object, got " + std::string(j.type_name()));
+
+  const json& format = r.require(j, "format", "format");
+  if (!format.is_string())
+    r.fail_at("field \"format\" must be a string, got " + std::string(format.type_name()));
+  if (format.get<std::string>() != kFormat)
+    r.fail_at("field \"format\" must be \"" + std::string(kFormat) + "\", got \"" +
+              format.get<std::string>() + "\"");
+
+  DatasetMeta m;
+  m.imu_rate_hz = r.number(j, "imu_rate_hz", "");
+  m.gnss_rate_hz = r.number(j, "gnss_rate_hz", "");
+  const json& earth = r.object(r.require(j, "earth", "earth"), "earth");
+  m.earth.ellipsoid.a_m = r.number(earth, "a_m", "earth");
+  m.earth.ellipsoid.f = r.number(earth, "f", "earth");
+  m.earth.omega_ie_rad_s = r.number(earth, "omega_ie_rad_s", "earth");
+  m.earth.g_eq_mps2 = r.number(earth, "g_eq_mps2", "earth");
+  m.align_s = r.number(j, "align_s", "");
+
+  const json& ini = r.object(r.require(j, "initial", "initial"), "initial");
+  m.initial.t_s = r.number(ini, "t_s", "initial");
+  m.initial.lat_rad = r.number(ini, "lat_deg", "initial") * kDegToRad;
+  m.initial.lon_rad = r.number(ini, "lon_deg", "initial") * kDegToRad;
+  m.initial.h_m = r.number(ini, "h_m", "initial");
+  m.initial.v_eb_n_mps = {r.number(ini, "vE_mps", "initial"), r.number(ini, "vN_mps", "initial"),
+                          r.number(ini, "vU_mps", "initial")};
+  m.initial.attitude.roll_rad = r.number(ini, "roll_deg", "initial") * kDegToRad;
+  m.initial.attitude.pitch_rad = r.number(ini, "pitch_deg", "initial") * kDegToRad;
+  m.initial.attitude.yaw_rad = r.number(ini, "yaw_deg", "initial") * kDegToRad;
+
+  // Optional parts: absent or null means "not given".
+  if (const json* inj = r.find(j, "injected"); inj && !inj->is_null()) {
+    r.object(*inj, "injected");
+    std::map<std::string, double> values;
+    for (const auto& [name, value] : inj->items()) {
+      const std::string path = "injected." + name;
+      if (!is_effect_name(name)) {
+        std::string known;
+        for (const auto& e : effect_catalogue()) {
+          if (!known.empty()) known += ", ";
+          known += e.name;
+        }
+        r.fail_at("field \"" + path + "\": unknown effect name \"" + name +
+                  "\"; the effect catalogue has: " + known);
+      }
+      values[name] = r.number(value, path);
+    }
+    m.injected = std::move(values);
+  }
+  if (const json* noise = r.find(j, "noise"); noise && !noise->is_null()) {
+    r.object(*noise, "noise");
+    NoiseLevels n;
+    n.arw_deg_rth = r.number(*noise, "arw_deg_rth", "noise");
+    n.vrw_mps_rth = r.number(*noise, "vrw_mps_rth", "noise");
+    n.gnss_vel_sigma_mps = r.number(*noise, "gnss_vel_sigma_mps", "noise");
+    n.gnss_pos_sigma_m = r.number(*noise, "gnss_pos_sigma_m", "noise");
+    m.noise = n;
+  }
+  return m;
+}
+
+// ------------------------------------------------------------------------------------------
+// Validation
+
+struct Validator {
+  std::string prefix;  // "<dir>: " or ""
+
+  [[noreturn]] void meta_fail(const std::string& msg) const {
+    fail(prefix + std::string(kMetaFile) + ": " + msg);
+  }
+  std::string at(std::string_view file, std::size_t index, std::string_view column) const {
+    return CsvWhere{prefix, file}.at(index + 2, column);  // header is line 1
+  }
+
+  void finite(std::string_view file, std::size_t index, std::string_view column,
+              double v) const {
+    if (!std::isfinite(v))
+      fail(at(file, index, column) + "expected a finite number, got " + num_text(v));
+  }
+
+  void latitude(std::string_view file, std::size_t index, double lat_rad) const {
+    if (!(std::fabs(lat_rad) < kPi / 2))
+      fail(at(file, index, "lat_deg") + "latitude " + num_text(lat_rad * kRadToDeg) +
+           " deg must lie strictly within (-90, 90) deg");
+  }
+
+  template <class Rows>
+  void times(std::string_view file, const Rows& rows) const {
+    for (std::size_t i = 1; i < rows.size(); ++i) {
+      if (!(rows[i].t_s > rows[i - 1].t_s))
+        fail(at(file, i, "t_s") + "time " + num_text(rows[i].t_s) +
+             (rows[i].t_s == rows[i - 1].t_s ? " repeats" : " is before") + " the time " +
+             num_text(rows[i - 1].t_s) + " on line " + std::to_string(i + 1) +
+             " (times must be strictly increasing)");
+    }
+  }
+
+  void meta_number(const std::string& path, double v) const {
+    if (!std::isfinite(v)) meta_fail("field \"" + path + "\" must be a finite number");
+  }
+
+  void run(const Dataset& ds) const {
+    const DatasetMeta& m = ds.meta;
+    meta_number("imu_rate_hz", m.imu_rate_hz);
+    meta_number("gnss_rate_hz", m.gnss_rate_hz);
+    meta_number("align_s", m.align_s);
+    if (!(m.imu_rate_hz > 0))
+      meta_fail("field \"imu_rate_hz\" must be > 0, got " + num_text(m.imu_rate_hz));
+    if (!(m.gnss_rate_hz > 0))
+      meta_fail("field \"gnss_rate_hz\" must be > 0, got " + num_text(m.gnss_rate_hz));
+    if (!(m.align_s >= 0)) meta_fail("field \"align_s\" must be >= 0, got " + num_text(m.align_s));
+    if (const std::string e = m.earth.validate(); !e.empty()) meta_fail("invalid Earth model: " + e);
+
+    const TruthSample& ini = m.initial;
+    const std::pair<const char*, double> initial_fields[] = {
+        {"t_s", ini.t_s},
+        {"lat_deg", ini.lat_rad},
+        {"lon_deg", ini.lon_rad},
+        {"h_m", ini.h_m},
+        {"vE_mps", ini.v_eb_n_mps.x()},
+        {"vN_mps", ini.v_eb_n_mps.y()},
+        {"vU_mps", ini.v_eb_n_mps.z()},
+        {"roll_deg", ini.attitude.roll_rad},
+        {"pitch_deg", ini.attitude.pitch_rad},
+        {"yaw_deg", ini.attitude.yaw_rad}};
+    for (const auto& [name, v] : initial_fields) meta_number(std::string("initial.") + name, v);
+    if (!(std::fabs(ini.lat_rad) < kPi / 2))
+      meta_fail("field \"initial.lat_deg\" = " + num_text(ini.lat_rad * kRadToDeg) +
+                " must lie strictly within (-90, 90) deg");
+
+    if (m.injected) {
+      for (const auto& [name, v] : *m.injected) {
+        if (!is_effect_name(name))
+          meta_fail("field \"injected." + name + "\": unknown effect name \"" + name +
+                    "\" (not in the effect catalogue)");
+        meta_number("injected." + name, v);
+      }
+    }
+    if (m.noise) {
+      const std::pair<const char*, double> noise_fields[] = {
+          {"arw_deg_rth", m.noise->arw_deg_rth},
+          {"vrw_mps_rth", m.noise->vrw_mps_rth},
+          {"gnss_vel_sigma_mps", m.noise->gnss_vel_sigma_mps},
+          {"gnss_pos_sigma_m", m.noise->gnss_pos_sigma_m}};
+      for (const auto& [name, v] : noise_fields)
+        if (!(std::isfinite(v) && v >= 0))
+          meta_fail(std::string("field \"noise.") + name + "\" must be a finite number >= 0, got " +
+                    num_text(v));
+    }
+
+    // IMU.
+    if (ds.imu.size() < 2)
+      fail(prefix + std::string(kImuFile) + ": need at least 2 data rows, got " +
+           std::to_string(ds.imu.size()));
+    for (std::size_t i = 0; i < ds.imu.size(); ++i) {
+      const ImuSample& s = ds.imu[i];
+      finite(kImuFile, i, kImuColumns[0], s.t_s);
+      for (int k = 0; k < 3; ++k) finite(kImuFile, i, kImuColumns[1 + k], s.dtheta_b_rad[k]);
+      for (int k = 0; k < 3; ++k) finite(kImuFile, i, kImuColumns[4 + k], s.dv_b_mps[k]);
+    }
+    times(kImuFile, ds.imu);
+    const double dt_nominal = 1.0 / m.imu_rate_hz;
+    for (std::size_t i = 1; i < ds.imu.size(); ++i) {
+      const double dt = ds.imu[i].t_s - ds.imu[i - 1].t_s;
+      if (!(std::fabs(dt - dt_nominal) <= kImuRateTolerance * dt_nominal))
+        fail(at(kImuFile, i, "t_s") + "IMU step " + num_text(dt) + " s from line " +
+             std::to_string(i + 1) + " (t = " + num_text(ds.imu[i - 1].t_s) + ") to line " +
+             std::to_string(i + 2) + " (t = " + num_text(ds.imu[i].t_s) +
+             ") is not within 1% of 1/imu_rate_hz = " + num_text(dt_nominal) + " s");
+    }
+    const double imu_t0 = ds.imu.front().t_s;
+    const double imu_t1 = ds.imu.back().t_s;
+    if (!(m.align_s < imu_t1 - imu_t0))
+      meta_fail("field \"align_s\" = " + num_text(m.align_s) +
+                " s must be shorter than the IMU data span " + num_text(imu_t1 - imu_t0) +
+                " s (imu.csv lines 2-" + std::to_string(ds.imu.size() + 1) + ")");
+
+    // GNSS.
+    if (ds.gnss.size() < 2)
+      fail(prefix + std::string(kGnssFile) + ": need at least 2 data rows, got " +
+           std::to_string(ds.gnss.size()));
+    for (std::size_t i = 0; i < ds.gnss.size(); ++i) {
+      const GnssSample& s = ds.gnss[i];
+      finite(kGnssFile, i, "t_s", s.t_s);
+      finite(kGnssFile, i, "lat_deg", s.lat_rad);
+      finite(kGnssFile, i, "lon_deg", s.lon_rad);
+      finite(kGnssFile, i, "h_m", s.h_m);
+      for (int k = 0; k < 3; ++k) finite(kGnssFile, i, kGnssColumns[4 + k], s.v_eb_n_mps[k]);
+      latitude(kGnssFile, i, s.lat_rad);
+    }
+    times(kGnssFile, ds.gnss);
+    const double nav_start = imu_t0 + m.align_s;
+    if (!(ds.gnss.front().t_s <= nav_start))
+      fail(at(kGnssFile, 0, "t_s") + "GNSS does not cover the start of navigation: the first " +
+           "GNSS time " + num_text(ds.gnss.front().t_s) + " s is after the alignment end " +
+           num_text(nav_start) + " s (first IMU time " + num_text(imu_t0) + " s + align_s " +
+           num_text(m.align_s) + " s); uncovered: [" + num_text(nav_start) + ", " +
+           num_text(ds.gnss.front().t_s) + ") s");
+    const double allowed_gap = kGnssEndAllowance / m.gnss_rate_hz;
+    if (!(ds.gnss.back().t_s >= imu_t1 - allowed_gap))
+      fail(at(kGnssFile, ds.gnss.size() - 1, "t_s") + "GNSS does not cover the end of the " +
+           "flight: the last GNSS time " + num_text(ds.gnss.back().t_s) +
+           " s is more than 1.5/gnss_rate_hz = " + num_text(allowed_gap) +
+           " s before the last IMU time " + num_text(imu_t1) + " s (imu.csv line " +
+           std::to_string(ds.imu.size() + 1) + "); uncovered: (" +
+           num_text(ds.gnss.back().t_s) + ", " + num_text(imu_t1) + "] s");
+
+    // Truth (optional).
+    for (std::size_t i = 0; i < ds.truth.size(); ++i) {
+      const TruthSample& s = ds.truth[i];
+      const double v[10] = {s.t_s,
+                            s.lat_rad,
+                            s.lon_rad,
+                            s.h_m,
+                            s.v_eb_n_mps.x(),
+                            s.v_eb_n_mps.y(),
+                            s.v_eb_n_mps.z(),
+                            s.attitude.roll_rad,
+                            s.attitude.pitch_rad,
+                            s.attitude.yaw_rad};
+      for (int k = 0; k < 10; ++k) finite(kTruthFile, i, kTruthColumns[k], v[k]);
+      latitude(kTruthFile, i, s.lat_rad);
+    }
+    times(kTruthFile, ds.truth);
+  }
+};
+
+// ------------------------------------------------------------------------------------------
+// Writing
+
+// Degrees to write for an angle in radians: a double d next to rad * kRadToDeg such that
+// d * kDegToRad == rad exactly (shortest text among those), else the plain product.
+double degrees_for(double rad) {
+  const double d0 = rad * kRadToDeg;
+  if (!std::isfinite(d0)) return d0;
+  double best = d0;
+  std::size_t best_len = 0;
+  bool found = false;
+  constexpr int kSpan = 4;
+  double cand[2 * kSpan + 1];
+  cand[kSpan] = d0;
+  for (int k = 1; k <= kSpan; ++k) {
+    cand[kSpan + k] = std::nextafter(cand[kSpan + k - 1], HUGE_VAL);
+    cand[kSpan - k] = std::nextafter(cand[kSpan - k + 1], -HUGE_VAL);
+  }
+  // Visit d0 first, then outward, so ties in length go to the closest candidate.
+  for (int step = 0; step <= 2 * kSpan; ++step) {
+    const int k = kSpan + ((step % 2) ? (step + 1) / 2 : -(step / 2));
+    const double d = cand[k];
+    if (d * kDegToRad != rad) continue;
+    const std::size_t len = num_text(d).size();
+    if (!found || len < best_len) {
+      best = d;
+      best_len = len;
+      found = true;
+    }
+  }
+  return best;
+}
+
+// Yaw in [0, 360) deg.
+double yaw_degrees_for(double yaw_rad) {
+  const double wrapped = (yaw_rad >= 0 && yaw_rad < 2 * kPi) ? yaw_rad : wrap_two_pi(yaw_rad);
+  double d = degrees_for(wrapped);
+  if (d >= 360.0) d = std::nextafter(360.0, 0.0);
+  if (d < 0.0) d = 0.0;
+  return d;
+}
+
+template <std::size_t N>
+void append_header(std::string& out, const std::array<std::string_view, N>& cols) {
+  out += join(cols);
+  out += '\n';
+}
+
+template <std::size_t N>
+void append_row(std::string& out, const std::array<double, N>& v) {
+  for (std::size_t i = 0; i < N; ++i) {
+    if (i) out += ',';
+    append_num(out, v[i]);
+  }
+  out += '\n';
+}
+
+std::string imu_text(const std::vector<ImuSample>& imu) {
+  std::string s;
+  s.reserve(64 + imu.size() * 7 * 24);
+  append_header(s, kImuColumns);
+  for (const ImuSample& r : imu)
+    append_row<7>(s, {r.t_s, r.dtheta_b_rad.x(), r.dtheta_b_rad.y(), r.dtheta_b_rad.z(),
+                      r.dv_b_mps.x(), r.dv_b_mps.y(), r.dv_b_mps.z()});
+  return s;
+}
+
+std::string gnss_text(const std::vector<GnssSample>& gnss) {
+  std::string s;
+  s.reserve(64 + gnss.size() * 7 * 24);
+  append_header(s, kGnssColumns);
+  for (const GnssSample& r : gnss)
+    append_row<7>(s, {r.t_s, degrees_for(r.lat_rad), degrees_for(r.lon_rad), r.h_m,
+                      r.v_eb_n_mps.x(), r.v_eb_n_mps.y(), r.v_eb_n_mps.z()});
+  return s;
+}
+
+std::string truth_text(const std::vector<TruthSample>& truth) {
+  std::string s;
+  s.reserve(64 + truth.size() * 10 * 24);
+  append_header(s, kTruthColumns);
+  for (const TruthSample& r : truth)
+    append_row<10>(s, {r.t_s, degrees_for(r.lat_rad), degrees_for(r.lon_rad), r.h_m,
+                       r.v_eb_n_mps.x(), r.v_eb_n_mps.y(), r.v_eb_n_mps.z(),
+                       degrees_for(r.attitude.roll_rad), degrees_for(r.attitude.pitch_rad),
+                       yaw_degrees_for(r.attitude.yaw_rad)});
+  return s;
+}
+
+std::string meta_text(const DatasetMeta& m) {
+  nlohmann::ordered_json j;
+  j["format"] = kFormat;
+  j["imu_rate_hz"] = m.imu_rate_hz;
+  j["gnss_rate_hz"] = m.gnss_rate_hz;
+  j["earth"] = {{"a_m", m.earth.ellipsoid.a_m},
+                {"f", m.earth.ellipsoid.f},
+                {"omega_ie_rad_s", m.earth.omega_ie_rad_s},
+                {"g_eq_mps2", m.earth.g_eq_mps2}};
+  j["align_s"] = m.align_s;
+  const TruthSample& i = m.initial;
+  j["initial"] = {{"t_s", i.t_s},
+                  {"lat_deg", degrees_for(i.lat_rad)},
+                  {"lon_deg", degrees_for(i.lon_rad)},
+                  {"h_m", i.h_m},
+                  {"vE_mps", i.v_eb_n_mps.x()},
+                  {"vN_mps", i.v_eb_n_mps.y()},
+                  {"vU_mps", i.v_eb_n_mps.z()},
+                  {"roll_deg", degrees_for(i.attitude.roll_rad)},
+                  {"pitch_deg", degrees_for(i.attitude.pitch_rad)},
+                  {"yaw_deg", yaw_degrees_for(i.attitude.yaw_rad)}};
+  if (m.injected) {
+    nlohmann::ordered_json inj = nlohmann::ordered_json::object();
+    for (const auto& [name, v] : *m.injected) inj[name] = v;
+    j["injected"] = inj;
+  }
+  if (m.noise) {
+    j["noise"] = {{"arw_deg_rth", m.noise->arw_deg_rth},
+                  {"vrw_mps_rth", m.noise->vrw_mps_rth},
+                  {"gnss_vel_sigma_mps", m.noise->gnss_vel_sigma_mps},
+                  {"gnss_pos_sigma_m", m.noise->gnss_pos_sigma_m}};
+  }
+  return j.dump(2) + "\n";
+}
+
+// Write (create/truncate) a file and fsync it. Throws std::runtime_error naming the path.
+void write_whole_file(const fs::path& path, const std::string& contents) {
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) throw std::runtime_error("cannot create '" + path.string() + "': " + os_error(errno));
+  const char* p = contents.data();
+  std::size_t left = contents.size();
+  while (left > 0) {
+    const ssize_t n = ::write(fd, p, left);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      const int err = errno;
+      ::close(fd);
+      throw std::runtime_error("cannot write '" + path.string() + "': " + os_error(err));
+    }
+    p += n;
+    left -= static_cast<std::size_t>(n);
+  }
+  if (::fsync(fd) != 0 && errno != EINVAL && errno != EROFS) {
+    const int err = errno;
+    ::close(fd);
+    throw std::runtime_error("cannot write '" + path.string() + "' (fsync): " + os_error(err));
+  }
+  if (::close(fd) != 0)
+    throw std::runtime_error("cannot write '" + path.string() + "' (close): " + os_error(errno));
+}
+
+// Unique sibling name: "<name><tag><pid>-<n>".
+fs::path sibling(const fs::path& target, const char* tag) {
+  static std::atomic<unsigned> counter{0};
+  return target.parent_path() /
+         (target.filename().string() + tag + std::to_string(::getpid()) + "-" +
+          std::to_string(counter.fetch_add(1)));
+}
+
+// `dir` made absolute and without a trailing separator.
+fs::path normalized_target(const fs::path& dir) {
+  std::error_code ec;
+  fs::path p = fs::absolute(dir, ec);
+  if (ec) p = dir;
+  p = p.lexically_normal();
+  if (!p.has_filename() && p.has_parent_path()) p = p.parent_path();
+  return p;
+}
+
+}  // namespace
+
+// ------------------------------------------------------------------------------------------
+
+Dataset load_dataset(const fs::path& dir) {
+  const std::string prefix = dir.string() + ": ";
+  std::error_code ec;
+  const fs::file_status st = fs::status(dir, ec);
+  if (!fs::exists(st))
+    fail("dataset directory '" + dir.string() + "' does not exist" +
+         (ec && ec != std::errc::no_such_file_or_directory ? " (" + ec.message() + ")" : ""));
+  if (!fs::is_directory(st))
+    fail("'" + dir.string() + "' is not a directory (an " + std::string(kFormat) +
+         " dataset is a directory with imu.csv, gnss.csv, meta.json and optional truth.csv)");
+
+  auto require_file = [&](std::string_view name) {
+    const fs::path p = dir / name;
+    if (!fs::exists(p, ec))
+      fail(prefix + "missing file " + std::string(name) + " (required by " +
+           std::string(kFormat) + ")");
+    return p;
+  };
+
+  Dataset ds;
+  ds.meta = parse_meta(
+      read_whole_file(require_file(kMetaFile), prefix + std::string(kMetaFile)), prefix);
+
+  {
+    const std::string text =
+        read_whole_file(require_file(kImuFile), prefix + std::string(kImuFile));
+    ds.imu.reserve(static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n')) + 1);
+    parse_csv(text, kImuColumns, CsvWhere{prefix, kImuFile}, [&](const double* v, std::size_t) {
+      ImuSample& s = ds.imu.emplace_back();
+      s.t_s = v[0];
+      s.dtheta_b_rad = {v[1], v[2], v[3]};
+      s.dv_b_mps = {v[4], v[5], v[6]};
+    });
+  }
+  {
+    const std::string text =
+        read_whole_file(require_file(kGnssFile), prefix + std::string(kGnssFile));
+    ds.gnss.reserve(static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n')) + 1);
+    parse_csv(text, kGnssColumns, CsvWhere{prefix, kGnssFile}, [&](const double* v, std::size_t) {
+      GnssSample& s = ds.gnss.emplace_back();
+      s.t_s = v[0];
+      s.lat_rad = v[1] * kDegToRad;
+      s.lon_rad = v[2] * kDegToRad;
+      s.h_m = v[3];
+      s.v_eb_n_mps = {v[4], v[5], v[6]};
+    });
+  }
+  if (const fs::path p = dir / kTruthFile; fs::exists(p, ec)) {
+    const std::string text = read_whole_file(p, prefix + std::string(kTruthFile));
+    ds.truth.reserve(static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n')) + 1);
+    parse_csv(text, kTruthColumns, CsvWhere{prefix, kTruthFile},
+              [&](const double* v, std::size_t) {
+                TruthSample& s = ds.truth.emplace_back();
+                s.t_s = v[0];
+                s.lat_rad = v[1] * kDegToRad;
+                s.lon_rad = v[2] * kDegToRad;
+                s.h_m = v[3];
+                s.v_eb_n_mps = {v[4], v[5], v[6]};
+                s.attitude.roll_rad = v[7] * kDegToRad;
+                s.attitude.pitch_rad = v[8] * kDegToRad;
+                s.attitude.yaw_rad = v[9] * kDegToRad;
+              });
+  }
+
+  Validator{prefix}.run(ds);
+  return ds;
+}
+
+void validate_dataset(const Dataset& dataset) { Validator{""}.run(dataset); }
+
+void write_dataset(const fs::path& dir, const Dataset& dataset) {
+  const std::string where = "cannot write dataset '" + dir.string() + "'";
+  try {
+    Validator{""}.run(dataset);
+  } catch (const DatasetError& e) {
+    fail(where + ": invalid dataset: " + e.what());
+  }
+
+  // Everything in memory first: nothing touches the disk until the data are known good.
+  const std::string meta = meta_text(dataset.meta);
+  const std::string imu = imu_text(dataset.imu);
+  const std::string gnss = gnss_text(dataset.gnss);
+  const std::string truth = dataset.truth.empty() ? std::string() : truth_text(dataset.truth);
+
+  const fs::path target = normalized_target(dir);
+  if (!target.has_filename() || target.filename() == "." || target.filename() == "..")
+    fail(where + ": not a usable directory name");
+  std::error_code ec;
+  const fs::file_status st = fs::symlink_status(target, ec);
+  if (fs::exists(st) && !fs::is_directory(st))
+    fail(where + ": the path exists and is not a directory");
+
+  // Create missing parents; remember the topmost one created, to remove it on failure.
+  const fs::path parent = target.parent_path();
+  fs::path created_top;
+  for (fs::path p = parent; !p.empty() && !fs::exists(p, ec); p = p.parent_path()) {
+    created_top = p;
+    if (p == p.parent_path()) break;
+  }
+  if (!created_top.empty() && !fs::create_directories(parent, ec) && ec) {
+    std::error_code ignored;
+    fs::remove_all(created_top, ignored);
+    fail(where + ": cannot create directory '" + parent.string() + "': " + ec.message());
+  }
+
+  const fs::path tmp = sibling(target, ".tmp-");
+  auto cleanup = [&] {
+    std::error_code ignored;
+    fs::remove_all(tmp, ignored);
+    if (!created_top.empty()) fs::remove_all(created_top, ignored);
+  };
+  if (!fs::create_directory(tmp, ec)) {
+    cleanup();
+    fail(where + ": cannot create temporary directory '" + tmp.string() + "': " +
+         (ec ? ec.message() : std::string("it already exists")));
+  }
+  try {
+    write_whole_file(tmp / kMetaFile, meta);
+    write_whole_file(tmp / kImuFile, imu);
+    write_whole_file(tmp / kGnssFile, gnss);
+    if (!dataset.truth.empty()) write_whole_file(tmp / kTruthFile, truth);
+  } catch (const std::exception& e) {
+    cleanup();
+    fail(where + ": " + e.what());
+  }
+
+  if (fs::exists(fs::symlink_status(target, ec))) {
+    // Move the old one aside, put the new one in place, then delete the old one.
+    const fs::path old = sibling(target, ".old-");
+    fs::rename(target, old, ec);
+    if (ec) {
+      cleanup();
+      fail(where + ": cannot move the existing directory aside to '" + old.string() +
+           "': " + ec.message());
+    }
+    fs::rename(tmp, target, ec);
+    if (ec) {
+      std::error_code ignored;
+      fs::rename(old, target, ignored);
+      cleanup();
+      fail(where + ": cannot rename '" + tmp.string() + "' into place: " + ec.message());
+    }
+    std::error_code ignored;
+    fs::remove_all(old, ignored);  // the new dataset is in place; a leftover is only clutter
+  } else {
+    fs::rename(tmp, target, ec);
+    if (ec) {
+      cleanup();
+      fail(where + ": cannot rename '" + tmp.string() + "' into place: " + ec.message());
+    }
+  }
+}
+
+void write_file_atomic(const fs::path& path, const std::string& contents) {
+  if (!path.has_filename())
+    throw std::runtime_error("cannot write '" + path.string() + "': not a file name");
+  const fs::path tmp = sibling(path, ".tmp-");
+  try {
+    write_whole_file(tmp, contents);
+  } catch (const std::exception& e) {
+    std::error_code ignored;
+    fs::remove(tmp, ignored);
+    throw std::runtime_error("cannot write '" + path.string() + "': " + e.what());
+  }
+  std::error_code ec;
+  fs::rename(tmp, path, ec);
+  if (ec) {
+    std::error_code ignored;
+    fs::remove(tmp, ignored);
+    throw std::runtime_error("cannot write '" + path.string() + "': cannot rename '" +
+                             tmp.string() + "' into place: " + ec.message());
+  }
+}
+
+}  // namespace insid

@@ -1,0 +1,92 @@
+// Dataset format `insid-dataset/1` (DESIGN.md sec. 5): a directory with imu.csv, gnss.csv,
+// optional truth.csv and meta.json. Units are converted once here: angles are radians inside.
+#pragma once
+
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/earth.h"
+#include "core/rotation.h"
+
+namespace insid {
+
+/// IMU increments over (t_s - dt, t_s], body FRD.
+struct ImuSample {
+  double t_s = 0.0;
+  Eigen::Vector3d dtheta_b_rad = Eigen::Vector3d::Zero();  ///< integrated angular rate (rad)
+  Eigen::Vector3d dv_b_mps = Eigen::Vector3d::Zero();      ///< integrated specific force (m/s)
+};
+
+/// GNSS antenna solution.
+struct GnssSample {
+  double t_s = 0.0;
+  double lat_rad = 0.0;
+  double lon_rad = 0.0;
+  double h_m = 0.0;
+  Eigen::Vector3d v_eb_n_mps = Eigen::Vector3d::Zero();  ///< (vE, vN, vU)
+};
+
+/// Reference trajectory of the IMU (truth.csv).
+struct TruthSample {
+  double t_s = 0.0;
+  double lat_rad = 0.0;
+  double lon_rad = 0.0;
+  double h_m = 0.0;
+  Eigen::Vector3d v_eb_n_mps = Eigen::Vector3d::Zero();
+  EulerAngles attitude;
+};
+
+struct NoiseLevels {
+  double arw_deg_rth = 0.0;         ///< angle random walk (deg/sqrt(h))
+  double vrw_mps_rth = 0.0;         ///< velocity random walk (m/s/sqrt(h))
+  double gnss_vel_sigma_mps = 0.0;  ///< GNSS velocity white noise (m/s)
+  double gnss_pos_sigma_m = 0.0;    ///< GNSS position white noise (m)
+};
+
+struct DatasetMeta {
+  double imu_rate_hz = 100.0;
+  double gnss_rate_hz = 10.0;
+  EarthModel earth;
+  double align_s = 600.0;  ///< static alignment window at the start of the data (s)
+  TruthSample initial;     ///< state at the start of the data (initial.t_s)
+  std::optional<std::map<std::string, double>> injected;  ///< catalogue name -> SI value
+  std::optional<NoiseLevels> noise;
+};
+
+struct Dataset {
+  DatasetMeta meta;
+  std::vector<ImuSample> imu;
+  std::vector<GnssSample> gnss;
+  std::vector<TruthSample> truth;  ///< empty when truth.csv is absent
+};
+
+/// Any malformed dataset input. The message names the file, line and field, and what was
+/// expected, e.g. "imu.csv line 12, column dv_x_mps: expected a finite number, got 'nan'".
+class DatasetError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Load and validate a dataset directory. Throws DatasetError.
+Dataset load_dataset(const std::filesystem::path& dir);
+
+/// Write a dataset directory atomically: everything goes to a sibling temporary directory that
+/// is renamed into place only when complete (an existing `dir` is replaced). Throws
+/// DatasetError on I/O failure, leaving no partial directory behind.
+void write_dataset(const std::filesystem::path& dir, const Dataset& dataset);
+
+/// Semantic checks on an in-memory dataset (also run by load_dataset): strictly increasing
+/// times, constant IMU rate within tolerance, GNSS covering the flight, finite values.
+/// Throws DatasetError naming the file and the first offending line.
+void validate_dataset(const Dataset& dataset);
+
+/// Write a file atomically (temp file + rename). Throws std::runtime_error on failure.
+void write_file_atomic(const std::filesystem::path& path, const std::string& contents);
+
+}  // namespace insid

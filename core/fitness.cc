@@ -1,0 +1,190 @@
+#include "core/fitness.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace insid {
+
+std::string to_string(AlignmentMode mode) {
+  return mode == AlignmentMode::kPerCandidate ? "per-candidate" : "fixed";
+}
+
+AlignmentMode alignment_mode_from_string(const std::string& text) {
+  if (text == "per-candidate") return AlignmentMode::kPerCandidate;
+  if (text == "fixed") return AlignmentMode::kFixed;
+  throw std::invalid_argument("alignment mode must be 'per-candidate' or 'fixed', got '" + text +
+                              "'");
+}
+
+GnssSample interpolate_gnss(const std::vector<GnssSample>& gnss, double t_s) {
+  if (gnss.empty()) throw std::invalid_argument("interpolate_gnss: no GNSS data");
+  if (t_s <= gnss.front().t_s) return gnss.front();
+  if (t_s >= gnss.back().t_s) return gnss.back();
+  const auto it = std::upper_bound(gnss.begin(), gnss.end(), t_s,
+                                   [](double t, const GnssSample& g) { return t < g.t_s; });
+  const GnssSample& b = *it;
+  const GnssSample& a = *(it - 1);
+  const double w = (t_s - a.t_s) / (b.t_s - a.t_s);
+  GnssSample out;
+  out.t_s = t_s;
+  out.lat_rad = a.lat_rad + w * (b.lat_rad - a.lat_rad);
+  out.lon_rad = a.lon_rad + w * (b.lon_rad - a.lon_rad);
+  out.h_m = a.h_m + w * (b.h_m - a.h_m);
+  out.v_eb_n_mps = a.v_eb_n_mps + w * (b.v_eb_n_mps - a.v_eb_n_mps);
+  return out;
+}
+
+NavigationProblem::NavigationProblem(std::shared_ptr<const Dataset> dataset,
+                                     NavigationOptions options)
+    : dataset_(std::move(dataset)), options_(options) {
+  if (!dataset_) throw std::invalid_argument("NavigationProblem: null dataset");
+  const Dataset& ds = *dataset_;
+  if (ds.imu.size() < 3 || ds.gnss.size() < 2)
+    throw std::invalid_argument("NavigationProblem: need at least 3 IMU and 2 GNSS samples");
+  const double dt_nominal = 1.0 / ds.meta.imu_rate_hz;
+  const auto n_align = static_cast<std::size_t>(std::llround(ds.meta.align_s * ds.meta.imu_rate_hz));
+  if (n_align + 1 >= ds.imu.size())
+    throw std::invalid_argument("NavigationProblem: align_s = " + std::to_string(ds.meta.align_s) +
+                                " s leaves no IMU data to navigate");
+  nav_begin_ = std::max<std::size_t>(n_align, 1);
+  if (n_align > 0) {
+    window_ = AlignmentWindow::from_imu(ds.imu, 0, n_align, ds.imu.front().t_s - dt_nominal);
+    C_b_n_fixed_ = align_window(window_, ImuCompensator(SensorErrors{}));
+  }
+
+  // Height and vertical-velocity reference at every IMU epoch (GNSS, linear interpolation).
+  h_ref_m_.resize(ds.imu.size());
+  vU_ref_mps_.resize(ds.imu.size());
+  std::size_t j = 0;
+  for (std::size_t k = 0; k < ds.imu.size(); ++k) {
+    const double t = ds.imu[k].t_s;
+    while (j + 1 < ds.gnss.size() && ds.gnss[j + 1].t_s <= t) ++j;
+    if (t <= ds.gnss.front().t_s || j + 1 >= ds.gnss.size()) {
+      const GnssSample& g = t <= ds.gnss.front().t_s ? ds.gnss.front() : ds.gnss.back();
+      h_ref_m_[k] = g.h_m;
+      vU_ref_mps_[k] = g.v_eb_n_mps.z();
+    } else {
+      const GnssSample& a = ds.gnss[j];
+      const GnssSample& b = ds.gnss[j + 1];
+      const double w = (t - a.t_s) / (b.t_s - a.t_s);
+      h_ref_m_[k] = a.h_m + w * (b.h_m - a.h_m);
+      vU_ref_mps_[k] = a.v_eb_n_mps.z() + w * (b.v_eb_n_mps.z() - a.v_eb_n_mps.z());
+    }
+  }
+
+  // GNSS epochs compared: after the navigation start, up to the last IMU epoch.
+  const double t_nav0 = nav_start_t_s();
+  const double t_last = ds.imu.back().t_s;
+  constexpr double kTimeTol = 1e-9;
+  for (std::size_t i = 0; i < ds.gnss.size(); ++i) {
+    const double t = ds.gnss[i].t_s;
+    if (t > t_nav0 + kTimeTol && t <= t_last + kTimeTol) epoch_gnss_index_.push_back(i);
+  }
+  if (epoch_gnss_index_.empty())
+    throw std::invalid_argument("NavigationProblem: no GNSS epoch after the alignment window");
+}
+
+double NavigationProblem::nav_start_t_s() const { return dataset_->imu[nav_begin_ - 1].t_s; }
+
+Eigen::Matrix3d NavigationProblem::initial_attitude(const SensorErrors& candidate) const {
+  if (window_.count == 0)
+    throw std::invalid_argument(
+        "dataset has align_s = 0: no alignment possible; give the initial attitude (truth)");
+  if (options_.alignment == AlignmentMode::kFixed) return C_b_n_fixed_;
+  return align_window(window_, ImuCompensator(candidate));
+}
+
+NavState NavigationProblem::initial_state(const Eigen::Matrix3d& C_b_n) const {
+  const double t0 = nav_start_t_s();
+  const GnssSample g = interpolate_gnss(dataset_->gnss, t0);
+  NavState s;
+  s.t_s = t0;
+  s.lat_rad = g.lat_rad;
+  s.lon_rad = g.lon_rad;
+  s.h_m = h_ref_m_[nav_begin_ - 1];
+  s.v_eb_n = g.v_eb_n_mps;
+  s.q_b_n = Eigen::Quaterniond(C_b_n).normalized();
+  return s;
+}
+
+double NavigationProblem::fitness(const SensorErrors& candidate, FitnessKind kind) const {
+  std::vector<double> r;
+  residuals(candidate, r);
+  double sum = 0.0;
+  for (std::size_t e = 0; e + 1 < r.size(); e += 2) {
+    const double d2 = r[e] * r[e] + r[e + 1] * r[e + 1];
+    sum += kind == FitnessKind::kEq15 ? std::sqrt(d2) : d2;  // Eq. 15
+  }
+  return sum;
+}
+
+void NavigationProblem::residuals(const SensorErrors& candidate, std::vector<double>& r) const {
+  run(candidate, std::nullopt, {}, r);
+}
+
+void NavigationProblem::run(const SensorErrors& candidate,
+                            const std::optional<Eigen::Matrix3d>& C_b_n_override,
+                            const std::function<void(const NavState&)>& on_step,
+                            std::vector<double>& r) const {
+  const Dataset& ds = *dataset_;
+  const EarthModel& earth = ds.meta.earth;
+  const ImuCompensator compensator(candidate);
+  const Eigen::Matrix3d C_b_n0 =
+      C_b_n_override ? *C_b_n_override : initial_attitude(candidate);
+
+  // The increment ending at the navigation start seeds the coning/sculling corrections.
+  ImuSample prev = ds.imu[nav_begin_ - 1];
+  const double t_before =
+      nav_begin_ >= 2 ? ds.imu[nav_begin_ - 2].t_s : prev.t_s - 1.0 / ds.meta.imu_rate_hz;
+  compensator.compensate(prev.t_s, prev.t_s - t_before, prev.dtheta_b_rad, prev.dv_b_mps);
+  Strapdown ins(earth, initial_state(C_b_n0), prev);
+
+  // INS velocity at the GNSS antenna (lever arm, DESIGN.md sec. 4):
+  //   v_ant_n = v_eb_n + C_b_n (omega_ib_b x l_b) - omega_in_n x (C_b_n l_b).
+  const Eigen::Vector3d& l_b = candidate.lever_arm_b_m;
+  const bool has_lever_arm = !l_b.isZero(0);
+  auto antenna_velocity = [&](const NavState& s, const Eigen::Vector3d& omega_ib_b) {
+    if (!has_lever_arm) return Eigen::Vector3d(s.v_eb_n);
+    const Eigen::Matrix3d C = s.q_b_n.toRotationMatrix();
+    const Eigen::Vector3d omega_in_n =
+        earth.omega_ie_n(s.lat_rad) + earth.omega_en_n(s.lat_rad, s.h_m, s.v_eb_n);
+    return Eigen::Vector3d(s.v_eb_n + C * omega_ib_b.cross(l_b) - omega_in_n.cross(C * l_b));
+  };
+
+  // GNSS tagged t is the antenna state at t - latency: compare with the INS at that time.
+  const double latency = candidate.gnss_latency_s;
+  const std::size_t n_epochs = epoch_gnss_index_.size();
+  r.assign(2 * n_epochs, 0.0);
+  std::size_t e = 0;
+  auto emit = [&](const Eigen::Vector3d& v_ins_n) {
+    const GnssSample& g = ds.gnss[epoch_gnss_index_[e]];
+    r[2 * e] = v_ins_n.x() - g.v_eb_n_mps.x();
+    r[2 * e + 1] = v_ins_n.y() - g.v_eb_n_mps.y();
+    ++e;
+  };
+  auto epoch_time = [&](std::size_t i) { return ds.gnss[epoch_gnss_index_[i]].t_s - latency; };
+
+  double t_prev = ins.state().t_s;
+  Eigen::Vector3d v_prev = antenna_velocity(ins.state(), prev.dtheta_b_rad / (prev.t_s - t_before));
+  while (e < n_epochs && epoch_time(e) <= t_prev) emit(v_prev);  // clamped to the start
+
+  for (std::size_t k = nav_begin_; k < ds.imu.size(); ++k) {
+    ImuSample inc = ds.imu[k];
+    compensator.compensate(inc.t_s, inc.t_s - ds.imu[k - 1].t_s, inc.dtheta_b_rad, inc.dv_b_mps);
+    ins.step_aided(inc, h_ref_m_[k], vU_ref_mps_[k]);
+    const NavState& s = ins.state();
+    const Eigen::Vector3d v_now = antenna_velocity(s, ins.omega_ib_b());
+    // INS velocity linearly interpolated to GNSS epochs inside (t_prev, t_k].
+    while (e < n_epochs && epoch_time(e) <= s.t_s) {
+      const double w = (epoch_time(e) - t_prev) / (s.t_s - t_prev);
+      emit(v_prev + w * (v_now - v_prev));
+    }
+    if (on_step) on_step(s);
+    t_prev = s.t_s;
+    v_prev = v_now;
+  }
+  while (e < n_epochs) emit(v_prev);  // epochs past the data end (latency > 0): clamped
+}
+
+}  // namespace insid

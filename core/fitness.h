@@ -1,0 +1,84 @@
+// Per-candidate pipeline of the paper (Sec. 2.3 step 2, DESIGN.md sec. 2): compensate the
+// sensor data with the candidate, align, navigate pure-inertially (height aided), and compare
+// the INS velocity with the GNSS velocity at GNSS epochs after the alignment window.
+//   fitness (Eq. 15) = sum_t sqrt(dvE_t^2 + dvN_t^2),
+// also offered: the sum of squares and the residual vector (dvE_t, dvN_t).
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/alignment.h"
+#include "core/dataset.h"
+#include "core/mechanization.h"
+#include "core/sensor_errors.h"
+
+namespace insid {
+
+enum class AlignmentMode {
+  kPerCandidate,  ///< align from the data compensated with each candidate (paper, default)
+  kFixed,         ///< align once from the data as recorded; same attitude for every candidate
+};
+std::string to_string(AlignmentMode mode);
+/// "per-candidate" | "fixed"; throws std::invalid_argument otherwise.
+AlignmentMode alignment_mode_from_string(const std::string& text);
+
+enum class FitnessKind { kEq15, kSumSquares };
+
+struct NavigationOptions {
+  AlignmentMode alignment = AlignmentMode::kPerCandidate;
+};
+
+/// Everything about one dataset that does not depend on the candidate, computed once:
+/// alignment window sums, the navigation start, the height reference at every IMU epoch and
+/// the GNSS epochs that are compared. Thread-safe to evaluate from several threads.
+class NavigationProblem {
+ public:
+  NavigationProblem(std::shared_ptr<const Dataset> dataset, NavigationOptions options = {});
+
+  const Dataset& dataset() const { return *dataset_; }
+  const NavigationOptions& options() const { return options_; }
+  /// Index of the first IMU sample navigated (the one after the alignment window).
+  std::size_t nav_begin() const { return nav_begin_; }
+  double nav_start_t_s() const;
+  /// Number of GNSS epochs compared (residual vector length is twice this).
+  std::size_t num_epochs() const { return epoch_gnss_index_.size(); }
+  /// Number of navigation (IMU) steps in one run.
+  std::size_t num_steps() const { return dataset_->imu.size() - nav_begin_; }
+
+  /// Initial attitude the candidate would get from alignment (per options).
+  Eigen::Matrix3d initial_attitude(const SensorErrors& candidate) const;
+  /// Initial state at the navigation start for a given attitude (position, velocity from GNSS).
+  NavState initial_state(const Eigen::Matrix3d& C_b_n) const;
+
+  /// Eq. 15 fitness of a candidate.
+  double fitness(const SensorErrors& candidate, FitnessKind kind = FitnessKind::kEq15) const;
+  /// Residuals r = (dvE_0, dvN_0, dvE_1, dvN_1, ...), INS minus GNSS (m/s), size 2*num_epochs.
+  void residuals(const SensorErrors& candidate, std::vector<double>& r) const;
+
+  /// Full run with callbacks (for `insid navigate` and diagnostics). `C_b_n_override` replaces
+  /// the aligned initial attitude (e.g. truth). `on_step` sees the state after every IMU step.
+  /// Returns the residual vector as `residuals` does.
+  void run(const SensorErrors& candidate, const std::optional<Eigen::Matrix3d>& C_b_n_override,
+           const std::function<void(const NavState&)>& on_step, std::vector<double>& r) const;
+
+ private:
+  std::shared_ptr<const Dataset> dataset_;
+  NavigationOptions options_;
+  std::size_t nav_begin_ = 0;
+  AlignmentWindow window_;
+  Eigen::Matrix3d C_b_n_fixed_ = Eigen::Matrix3d::Identity();
+  std::vector<double> h_ref_m_;    // GNSS height interpolated at every IMU epoch
+  std::vector<double> vU_ref_mps_;  // GNSS vertical velocity interpolated at every IMU epoch
+  std::vector<std::size_t> epoch_gnss_index_;  // GNSS rows compared, in time order
+};
+
+/// Linear interpolation helper on GNSS rows: value at time t (clamped to the ends).
+GnssSample interpolate_gnss(const std::vector<GnssSample>& gnss, double t_s);
+
+}  // namespace insid

@@ -1,0 +1,98 @@
+#include "core/fitness.h"
+
+#include <cmath>
+#include <memory>
+
+#include <gtest/gtest.h>
+
+#include "core/test_support.h"
+
+namespace insid {
+namespace {
+
+constexpr double kLat = 40.068 * kDegToRad;
+constexpr double kLon = 116.246 * kDegToRad;
+
+std::shared_ptr<Dataset> static_dataset(const SensorErrors& errors, double duration_s = 1200.0) {
+  const EarthModel earth = EarthModel::paper(kLat, 50.0);
+  const EulerAngles att{0.5 * kDegToRad, -1.0 * kDegToRad, 75.0 * kDegToRad};
+  return std::make_shared<Dataset>(
+      testing::make_static_dataset(earth, kLat, kLon, 50.0, att, duration_s, 600.0, errors));
+}
+
+SensorErrors paper_errors() {
+  // The paper's Sec. 3.2 injection [-2, 1.5, 2, -1.5] sigma (DESIGN.md sec. 2).
+  SensorErrors e;
+  e.accel.bias.x() = -2.0 * kSigmaAccelMps2;
+  e.accel.bias.y() = 1.5 * kSigmaAccelMps2;
+  e.gyro.bias.x() = 2.0 * kSigmaGyroRadS;
+  e.gyro.bias.y() = -1.5 * kSigmaGyroRadS;
+  return e;
+}
+
+TEST(Fitness, ZeroForAPerfectMatch) {
+  for (AlignmentMode mode : {AlignmentMode::kPerCandidate, AlignmentMode::kFixed}) {
+    const NavigationProblem clean(static_dataset({}), {mode});
+    EXPECT_LT(clean.fitness({}), 1e-9 * static_cast<double>(clean.num_epochs()));
+  }
+  // Data with the paper's errors, compensated with exactly those errors.
+  const NavigationProblem problem(static_dataset(paper_errors()));
+  EXPECT_LT(problem.fitness(paper_errors()), 1e-9 * static_cast<double>(problem.num_epochs()));
+  EXPECT_GT(problem.fitness({}), 1e-2);
+}
+
+TEST(Fitness, HandComputedConstructedCase) {
+  // GIVEN a perfectly static IMU but a GNSS that reports (vE, vN) = (0.3, -0.4) m/s after the
+  // alignment window, THEN each epoch's horizontal error is 0.5 m/s: Eq. 15 = 0.5 * epochs,
+  // the sum of squares = 0.25 * epochs, residuals (dvE, dvN) = (-0.3, 0.4).
+  auto ds = static_dataset({}, 700.0);
+  for (GnssSample& g : ds->gnss)
+    if (g.t_s > 600.0 + 1e-9) g.v_eb_n_mps = Eigen::Vector3d(0.3, -0.4, 0.0);
+  const NavigationProblem problem(ds);
+  ASSERT_EQ(problem.num_epochs(), 100u);
+  EXPECT_NEAR(problem.fitness({}), 50.0, 1e-6);
+  EXPECT_NEAR(problem.fitness({}, FitnessKind::kSumSquares), 25.0, 1e-6);
+  std::vector<double> r;
+  problem.residuals({}, r);
+  ASSERT_EQ(r.size(), 200u);
+  EXPECT_NEAR(r[0], -0.3, 1e-8);
+  EXPECT_NEAR(r[1], 0.4, 1e-8);
+  EXPECT_NEAR(r[199], 0.4, 1e-8);
+}
+
+TEST(Fitness, PerCandidateAlignmentDiffersFromFixed) {
+  const auto ds = static_dataset(paper_errors());
+  const NavigationProblem per(ds, {AlignmentMode::kPerCandidate});
+  const NavigationProblem fixed(ds, {AlignmentMode::kFixed});
+  // Fixed: the attitude does not depend on the candidate.
+  EXPECT_LT((fixed.initial_attitude({}) - fixed.initial_attitude(paper_errors())).norm(), 1e-15);
+  EXPECT_GT((per.initial_attitude({}) - per.initial_attitude(paper_errors())).norm(), 1e-6);
+  // Compensating the true errors: per-candidate re-aligns with the compensated data and
+  // matches; fixed keeps the attitude levelled on the biased data, which then mismatches.
+  EXPECT_LT(per.fitness(paper_errors()), 1e-9 * static_cast<double>(per.num_epochs()));
+  EXPECT_GT(fixed.fitness(paper_errors()), 1e-2);
+}
+
+TEST(Fitness, InterpolatedGnssEpochsAndModes) {
+  EXPECT_EQ(alignment_mode_from_string("fixed"), AlignmentMode::kFixed);
+  EXPECT_THROW(alignment_mode_from_string("sometimes"), std::invalid_argument);
+  std::vector<GnssSample> g(2);
+  g[0].t_s = 1.0;
+  g[1].t_s = 3.0;
+  g[1].v_eb_n_mps = Eigen::Vector3d(2.0, -4.0, 6.0);
+  g[1].h_m = 10.0;
+  const GnssSample mid = interpolate_gnss(g, 1.5);
+  EXPECT_DOUBLE_EQ(mid.v_eb_n_mps.x(), 0.5);
+  EXPECT_DOUBLE_EQ(mid.v_eb_n_mps.y(), -1.0);
+  EXPECT_DOUBLE_EQ(mid.h_m, 2.5);
+  EXPECT_DOUBLE_EQ(interpolate_gnss(g, 10.0).h_m, 10.0);
+}
+
+TEST(Fitness, RejectsDataWithoutNavigationPart) {
+  auto ds = static_dataset({}, 700.0);
+  ds->meta.align_s = 700.0;
+  EXPECT_THROW(NavigationProblem{ds}, std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace insid

@@ -1,0 +1,58 @@
+// Strapdown mechanization in the local-level ENU frame from IMU increments (paper Eq. 1-3).
+// This scalar version is the reference: clear code, correctness over speed.
+//
+// Per step (increments over (t_{k-1}, t_k]), following the two-sample algorithms of
+// Savage (Strapdown Analytics, 2000, ch. 7) and Shin (2001, UCGE 20156) as also used by KF-GINS:
+//   1. velocity: sculling-corrected specific-force increment rotated to n with the half-step
+//      n-frame rotation, plus gravity and Coriolis at the extrapolated mid-point (Eq. 1, row 2);
+//   2. position: trapezoidal latitude/longitude update with D^-1 (Eq. 1 row 1, Eq. 2);
+//   3. attitude: coning-corrected body rotation vector and n-frame rotation over the step,
+//      as quaternions (Eq. 3 integrated exactly for the rotation vector).
+// Height and vertical velocity may be aided: replaced after each step by a reference (the
+// paper takes height from an altimeter; DESIGN.md sec. 2 "Vertical channel").
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "core/dataset.h"
+#include "core/earth.h"
+
+namespace insid {
+
+/// Navigation state of the IMU: geodetic position, velocity w.r.t. Earth in n, attitude.
+struct NavState {
+  double t_s = 0.0;
+  double lat_rad = 0.0;
+  double lon_rad = 0.0;
+  double h_m = 0.0;
+  Eigen::Vector3d v_eb_n = Eigen::Vector3d::Zero();  ///< (vE, vN, vU) (m/s)
+  Eigen::Quaterniond q_b_n = Eigen::Quaterniond::Identity();
+};
+
+class Strapdown {
+ public:
+  /// `previous` is the (compensated) increment that ends at initial.t_s; it seeds the
+  /// two-sample coning/sculling corrections (pass zero increments when unknown).
+  Strapdown(const EarthModel& earth, const NavState& initial, const ImuSample& previous);
+
+  /// Free-inertial step with a compensated increment ending at inc.t_s.
+  void step(const ImuSample& inc);
+  /// Height-aided step: after the update, h and vU are replaced by the reference values.
+  void step_aided(const ImuSample& inc, double h_ref_m, double vU_ref_mps);
+
+  const NavState& state() const { return state_; }
+  /// Angular rate of the last step's increment (rad/s), for lever-arm terms.
+  const Eigen::Vector3d& omega_ib_b() const { return omega_ib_b_; }
+
+ private:
+  void update(const ImuSample& inc);
+
+  EarthModel earth_;
+  NavState state_;
+  NavState prev_state_;  // state one step before state_, for mid-point extrapolation
+  ImuSample prev_inc_;
+  Eigen::Vector3d omega_ib_b_ = Eigen::Vector3d::Zero();
+};
+
+}  // namespace insid

@@ -1,0 +1,18 @@
+#!/usr/bin/env bash
+# Install insid's build and script dependencies from Debian 12 packages (as root).
+# Only missing packages are installed; nothing happens when all are present.
+set -euo pipefail
+packages=(build-essential cmake git libeigen3-dev nlohmann-json3-dev libcli11-dev
+          libbenchmark-dev libgtest-dev libboost-dev
+          python3 python3-numpy python3-scipy python3-matplotlib)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "insid: installing ${missing[*]}" >&2
+  SUDO=""
+  [ "$(id -u)" -ne 0 ] && SUDO="sudo"
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >&2
+fi
