@@ -1,0 +1,116 @@
+#include <cmath>
+#include <memory>
+
+#include <gtest/gtest.h>
+
+#include "core/test_support.h"
+#include "identification/identify.h"
+#include "identification/ins_problem.h"
+#include "identification/local_fit.h"
+#include "optimizers/registry.h"
+
+namespace insid {
+namespace {
+
+constexpr double kLat = 40.068 * kDegToRad;
+
+SensorErrors paper_errors() {
+  SensorErrors e;
+  e.accel.bias.x() = -2.0 * kSigmaAccelMps2;
+  e.accel.bias.y() = 1.5 * kSigmaAccelMps2;
+  e.gyro.bias.x() = 2.0 * kSigmaGyroRadS;
+  e.gyro.bias.y() = -1.5 * kSigmaGyroRadS;
+  return e;
+}
+
+// Static data whose biases switch on after the alignment window, navigated with a fixed
+// (recorded-data) alignment: the attitude is then the true one and all four biases show in the
+// Schuler-type velocity error. (With biases present during alignment, levelling and
+// gyrocompassing would absorb accel_bias_x/y and the east gyro bias on static data.)
+std::shared_ptr<const NavigationProblem> static_problem() {
+  static const auto nav = [] {
+    Dataset ds = testing::make_static_dataset(EarthModel::paper(kLat, 50.0), kLat, 2.0, 50.0,
+                                              {0.0, 0.0, 0.7}, 1800.0, 600.0);
+    const SensorErrors errors = paper_errors();
+    for (ImuSample& s : ds.imu)
+      if (s.t_s > 600.0 + 1e-9) apply_imu_errors(errors, 0.0, 0.01, s.dtheta_b_rad, s.dv_b_mps);
+    return std::make_shared<const NavigationProblem>(std::make_shared<const Dataset>(ds),
+                                                     NavigationOptions{AlignmentMode::kFixed});
+  }();
+  return nav;
+}
+
+TEST(Identification, MappingRoundTripsAndUsesThePaperBox) {
+  const ParameterMapping m(EstimatedParameter::paper_four());
+  const Eigen::Vector4d x(-1.0, 0.0, 0.5, 1.0);
+  const Eigen::VectorXd s = m.to_sigma(x);
+  EXPECT_DOUBLE_EQ(s[0], -4.0);
+  EXPECT_DOUBLE_EQ(s[1], 0.0);
+  EXPECT_DOUBLE_EQ(s[2], 2.0);
+  EXPECT_DOUBLE_EQ(s[3], 4.0);
+  EXPECT_LT((m.from_sigma(s) - x).norm(), 1e-15);
+  const SensorErrors e = m.to_errors(x);
+  EXPECT_DOUBLE_EQ(e.gyro.bias.x(), 2.0 * kSigmaGyroRadS);
+  EXPECT_DOUBLE_EQ(e.accel.bias.x(), -4.0 * kSigmaAccelMps2);
+  EXPECT_DOUBLE_EQ(m.sigma_per_unit(0), 4.0);
+}
+
+TEST(Identification, EstimateSpecParsingRejectsBadInput) {
+  const EstimatedParameter p = EstimatedParameter::parse("gyro_scale_z:2e-4:-3:5");
+  EXPECT_EQ(p.name, "gyro_scale_z");
+  EXPECT_DOUBLE_EQ(p.sigma, 2e-4);
+  EXPECT_DOUBLE_EQ(p.upper_sigma, 5.0);
+  EXPECT_THROW(EstimatedParameter::parse("gyro_bias_q"), std::invalid_argument);
+  EXPECT_THROW(EstimatedParameter::parse("gyro_bias_x:abc"), std::invalid_argument);
+  EXPECT_THROW(EstimatedParameter::parse("gyro_bias_x:1:3:2"), std::invalid_argument);
+  EXPECT_THROW(EstimatedParameter::parse("gyro_bias_x:-1"), std::invalid_argument);
+  EXPECT_THROW(ParameterMapping({EstimatedParameter::parse("gyro_bias_x"),
+                                 EstimatedParameter::parse("gyro_bias_x")}),
+               std::invalid_argument);
+}
+
+TEST(Identification, LocalFitFindsTheInjectedBiasesOnNoiseFreeData) {
+  const InsIdentificationProblem problem(static_problem(),
+                                         ParameterMapping(EstimatedParameter::paper_four()));
+  const LocalFitResult fit = local_fit(problem, Eigen::VectorXd::Zero(4));
+  const Eigen::Vector4d truth(-2.0, 1.5, 2.0, -1.5);
+  EXPECT_LT((fit.value_sigma - truth).cwiseAbs().maxCoeff(), 1e-3) << fit.value_sigma.transpose();
+  EXPECT_LT(fit.evaluations, 200);
+  EXPECT_LT(fit.fitness, 1e-3 * problem.fitness(Eigen::VectorXd::Zero(4)));
+}
+
+TEST(Identification, SerialAndOpenMpEvaluationAgreeBitForBit) {
+  const ParameterMapping m(EstimatedParameter::paper_four());
+  opt::EvaluatorOptions serial, parallel;
+  parallel.parallelism = opt::Parallelism::kOpenMP;
+  parallel.num_threads = 2;
+  const InsIdentificationProblem a(static_problem(), m, FitnessKind::kEq15, serial);
+  const InsIdentificationProblem b(static_problem(), m, FitnessKind::kEq15, parallel);
+  opt::RunConfig config;
+  config.seed = 9;
+  config.max_iterations = 4;
+  const opt::Result ra = opt::optimize("dvpio", a, config);
+  const opt::Result rb = opt::optimize("dvpio", b, config);
+  EXPECT_EQ(ra.best_per_evaluation, rb.best_per_evaluation);
+  EXPECT_EQ(ra.best_x, rb.best_x);
+}
+
+TEST(Identification, ResultJsonHasEstimatesErrorsAndHistory) {
+  const ParameterMapping m(EstimatedParameter::paper_four());
+  const InsIdentificationProblem problem(static_problem(), m);
+  opt::RunConfig config;
+  config.max_iterations = 3;
+  const opt::Result r = opt::optimize("pso", problem, config);
+  nlohmann::json j = optimizer_result_json(r, m);
+  add_estimate_json(j, m, m.to_sigma(r.best_x), nonzero_effects(paper_errors()));
+  EXPECT_EQ(j["history"].size(), 3u);
+  EXPECT_EQ(j["best_per_evaluation"].size(), 30u);
+  EXPECT_NEAR(j["truth_sigma"]["gyro_bias_x"].get<double>(), 2.0, 1e-12);
+  EXPECT_NEAR(j["error_sigma"]["accel_bias_y"].get<double>(),
+              j["estimate_sigma"]["accel_bias_y"].get<double>() - 1.5, 1e-12);
+  EXPECT_NEAR(j["estimate"]["gyro_bias_y"].get<double>(),
+              j["estimate_sigma"]["gyro_bias_y"].get<double>() * kSigmaGyroRadS, 1e-20);
+}
+
+}  // namespace
+}  // namespace insid

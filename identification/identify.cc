@@ -1,0 +1,183 @@
+#include "identification/identify.h"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+
+#include "optimizers/random.h"
+
+#ifndef INSID_GIT_REVISION
+#define INSID_GIT_REVISION "unknown"
+#endif
+
+namespace insid {
+
+nlohmann::json ReferenceOptimum::to_json(const ParameterMapping& mapping) const {
+  nlohmann::json j;
+  for (int k = 0; k < mapping.dimension(); ++k)
+    j["estimate_sigma"][mapping.parameters()[static_cast<std::size_t>(k)].name] = value_sigma[k];
+  j["fitness"] = fitness;
+  j["evaluations"] = evaluations;
+  j["starts"] = starts;
+  j["method"] = "multi-start Levenberg-Marquardt + Eq. 15 IRLS";
+  return j;
+}
+
+ReferenceOptimum find_reference_optimum(const InsIdentificationProblem& problem, int starts,
+                                        std::uint64_t seed) {
+  const int n = problem.dimension();
+  opt::Rng rng(seed);
+  ReferenceOptimum best;
+  best.fitness = std::numeric_limits<double>::infinity();
+  for (int s = 0; s < starts; ++s) {
+    Eigen::VectorXd x0 = Eigen::VectorXd::Zero(n);
+    if (s > 0)
+      for (int j = 0; j < n; ++j) x0[j] = -0.8 + 1.6 * rng.uniform();
+    LocalFitOptions options;
+    options.max_iterations = 40;
+    const LocalFitResult fit = local_fit(problem, x0, options);
+    best.evaluations += fit.evaluations;
+    if (fit.fitness < best.fitness) {
+      best.fitness = fit.fitness;
+      best.value_sigma = fit.value_sigma;
+    }
+  }
+  best.starts = starts;
+  return best;
+}
+
+namespace {
+
+std::string cache_key(const InsIdentificationProblem& problem) {
+  std::ostringstream key;
+  key << "alignment=" << to_string(problem.navigation().options().alignment);
+  for (const EstimatedParameter& p : problem.mapping().parameters())
+    key << ";" << p.name << ":" << opt::format_number(p.sigma) << ":"
+        << opt::format_number(p.lower_sigma) << ":" << opt::format_number(p.upper_sigma);
+  for (const auto& [name, value] : nonzero_effects(problem.mapping().base()))
+    key << ";base:" << name << "=" << opt::format_number(value);
+  return key.str();
+}
+
+}  // namespace
+
+ReferenceOptimum cached_reference_optimum(const std::string& data_dir,
+                                          const InsIdentificationProblem& problem) {
+  const std::filesystem::path path = std::filesystem::path(data_dir) / "insid-optimum-cache.json";
+  const std::string key = cache_key(problem);
+  nlohmann::json cache = nlohmann::json::object();
+  {
+    std::ifstream in(path);
+    if (in) {
+      try {
+        in >> cache;
+      } catch (const std::exception&) {
+        cache = nlohmann::json::object();  // a damaged cache is recomputed
+      }
+    }
+  }
+  if (cache.is_object() && cache.contains(key)) {
+    const nlohmann::json& e = cache[key];
+    ReferenceOptimum opt;
+    opt.fitness = e.at("fitness").get<double>();
+    opt.evaluations = e.at("evaluations").get<std::int64_t>();
+    opt.starts = e.at("starts").get<int>();
+    opt.value_sigma.resize(problem.dimension());
+    for (int k = 0; k < problem.dimension(); ++k)
+      opt.value_sigma[k] =
+          e.at("estimate_sigma").at(problem.mapping().parameters()[static_cast<std::size_t>(k)].name);
+    return opt;
+  }
+  std::cerr << "insid: finding the data's own optimum (multi-start local fit, cached in "
+            << path.string() << ")\n";
+  ReferenceOptimum opt = find_reference_optimum(problem);
+  if (!cache.is_object()) cache = nlohmann::json::object();
+  cache[key] = opt.to_json(problem.mapping());
+  try {
+    write_file_atomic(path, cache.dump(2) + "\n");
+  } catch (const std::exception& e) {
+    std::cerr << "insid: note: could not cache the optimum (" << e.what() << ")\n";
+  }
+  return opt;
+}
+
+nlohmann::json optimizer_result_json(const opt::Result& result, const ParameterMapping& mapping,
+                                     bool include_per_evaluation) {
+  nlohmann::json j;
+  j["algorithm"]["name"] = result.algorithm;
+  for (const auto& [name, value] : result.parameters) j["algorithm"]["parameters"][name] = value;
+  j["seed"] = result.seed;
+  j["fitness"] = result.best_f;
+  j["evaluations"] = result.evaluations;
+  j["iterations"] = result.iterations;
+  j["wall_s"] = result.wall_time_s;
+  j["termination"] = std::string(opt::to_string(result.termination));
+  nlohmann::json history = nlohmann::json::array();
+  for (const opt::IterationRecord& rec : result.history) {
+    nlohmann::json h;
+    h["iteration"] = rec.iteration;
+    h["evaluations"] = rec.evaluations;
+    h["best_fitness"] = rec.best_fitness;
+    h["median_fitness"] = rec.median_fitness;
+    h["diversity"] = rec.diversity;
+    h["phase"] = rec.phase;
+    if (rec.d_positive.size() == mapping.dimension()) {
+      h["premature"] = rec.premature;
+      std::vector<double> dp, dn;
+      for (int k = 0; k < mapping.dimension(); ++k) {
+        dp.push_back(rec.d_positive[k] * mapping.sigma_per_unit(k));
+        dn.push_back(rec.d_negative[k] * mapping.sigma_per_unit(k));
+      }
+      h["d_positive_sigma"] = dp;
+      h["d_negative_sigma"] = dn;
+      h["direction_flags"] = rec.direction_flags;
+    }
+    if (!rec.positions.empty()) {
+      nlohmann::json pos = nlohmann::json::array();
+      for (const Eigen::VectorXd& x : rec.positions) {
+        const Eigen::VectorXd s = mapping.to_sigma(x);
+        pos.push_back(std::vector<double>(s.data(), s.data() + s.size()));
+      }
+      h["positions_sigma"] = pos;
+      h["positions_fitness"] = rec.fitness;
+    }
+    history.push_back(h);
+  }
+  j["history"] = history;
+  if (include_per_evaluation) j["best_per_evaluation"] = result.best_per_evaluation;
+  return j;
+}
+
+void add_estimate_json(nlohmann::json& out, const ParameterMapping& mapping,
+                       const Eigen::VectorXd& value_sigma,
+                       const std::optional<std::map<std::string, double>>& injected) {
+  for (int k = 0; k < mapping.dimension(); ++k) {
+    const EstimatedParameter& p = mapping.parameters()[static_cast<std::size_t>(k)];
+    out["estimate"][p.name] = value_sigma[k] * p.sigma;
+    out["estimate_sigma"][p.name] = value_sigma[k];
+    if (injected) {
+      const auto it = injected->find(p.name);
+      const double truth_sigma = (it == injected->end() ? 0.0 : it->second) / p.sigma;
+      out["truth_sigma"][p.name] = truth_sigma;
+      out["error_sigma"][p.name] = value_sigma[k] - truth_sigma;
+    }
+  }
+}
+
+nlohmann::json build_info_json() {
+  nlohmann::json j;
+  j["git_revision"] = INSID_GIT_REVISION;
+#if defined(__clang__)
+  j["compiler"] = std::string("clang ") + __clang_version__;
+#elif defined(__GNUC__)
+  j["compiler"] = std::string("gcc ") + __VERSION__;
+#endif
+#ifdef INSID_CXX_FLAGS
+  j["flags"] = INSID_CXX_FLAGS;
+#endif
+  return j;
+}
+
+}  // namespace insid

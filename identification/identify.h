@@ -1,0 +1,56 @@
+// One identification run on a dataset: optimizer over the INS problem, then the result as JSON
+// (estimate in SI and sigma units, errors against the injected truth and against the data's own
+// optimum, history). Shared by `insid identify` and the campaign runner.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "core/dataset.h"
+#include "core/fitness.h"
+#include "identification/ins_problem.h"
+#include "identification/local_fit.h"
+#include "optimizers/optimizer.h"
+#include "optimizers/parameters.h"
+
+namespace insid {
+
+/// The data's own optimum: best of a multi-start local fit (LM + Eq. 15 IRLS), DESIGN.md
+/// sec. 10: judge an optimizer against it, and the truth against the noise floor.
+struct ReferenceOptimum {
+  Eigen::VectorXd value_sigma;
+  double fitness = 0.0;
+  std::int64_t evaluations = 0;
+  int starts = 0;
+  nlohmann::json to_json(const ParameterMapping& mapping) const;
+};
+
+/// Multi-start local fit from the box centre and `starts - 1` seeded random points.
+ReferenceOptimum find_reference_optimum(const InsIdentificationProblem& problem, int starts = 4,
+                                        std::uint64_t seed = 12345);
+
+/// Cached reference optimum in `<data_dir>/insid-optimum-cache.json` (extra files in a dataset
+/// directory are ignored by the format), keyed by estimated parameters, alignment and fitness.
+/// Computed and stored when missing; a read-only directory only costs the recomputation.
+ReferenceOptimum cached_reference_optimum(const std::string& data_dir,
+                                          const InsIdentificationProblem& problem);
+
+/// Parameters of an optimizer result in JSON: history per iteration and per evaluation, with
+/// DVPIO's d vector converted to sigma units through the mapping.
+nlohmann::json optimizer_result_json(const opt::Result& result, const ParameterMapping& mapping,
+                                     bool include_per_evaluation = true);
+
+/// Estimate / error blocks: "estimate" (SI), "estimate_sigma", and with `injected`,
+/// "truth_sigma" and "error_sigma" (estimate minus truth, sigma units).
+void add_estimate_json(nlohmann::json& out, const ParameterMapping& mapping,
+                       const Eigen::VectorXd& value_sigma,
+                       const std::optional<std::map<std::string, double>>& injected);
+
+/// Compiler, flags, git revision: the build that produced a result.
+nlohmann::json build_info_json();
+
+}  // namespace insid

@@ -1,0 +1,104 @@
+#include "identification/ins_problem.h"
+
+#include <charconv>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+namespace insid {
+namespace {
+
+double parse_number(const std::string& text, const std::string& what, const std::string& spec) {
+  double value = 0.0;
+  const auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (ec != std::errc() || ptr != text.data() + text.size() || !std::isfinite(value))
+    throw std::invalid_argument("--estimate '" + spec + "': " + what +
+                                " must be a finite number, got '" + text + "'");
+  return value;
+}
+
+}  // namespace
+
+EstimatedParameter EstimatedParameter::parse(const std::string& text) {
+  std::vector<std::string> parts;
+  std::stringstream in(text);
+  for (std::string part; std::getline(in, part, ':');) parts.push_back(part);
+  if (parts.empty() || (parts.size() != 1 && parts.size() != 2 && parts.size() != 4))
+    throw std::invalid_argument("--estimate '" + text +
+                                "': expected NAME, NAME:SIGMA or NAME:SIGMA:LO:HI");
+  EstimatedParameter p;
+  p.name = parts[0];
+  p.sigma = effect_info(p.name).sigma;  // throws on an unknown name, listing the valid ones
+  if (parts.size() >= 2) p.sigma = parse_number(parts[1], "SIGMA", text);
+  if (parts.size() == 4) {
+    p.lower_sigma = parse_number(parts[2], "LO", text);
+    p.upper_sigma = parse_number(parts[3], "HI", text);
+  }
+  if (!(p.sigma > 0.0))
+    throw std::invalid_argument("--estimate '" + text + "': SIGMA must be > 0");
+  if (!(p.lower_sigma < p.upper_sigma))
+    throw std::invalid_argument("--estimate '" + text + "': LO must be < HI");
+  return p;
+}
+
+std::vector<EstimatedParameter> EstimatedParameter::paper_four() {
+  return {parse("accel_bias_x"), parse("accel_bias_y"), parse("gyro_bias_x"),
+          parse("gyro_bias_y")};
+}
+
+ParameterMapping::ParameterMapping(std::vector<EstimatedParameter> parameters, SensorErrors base)
+    : parameters_(std::move(parameters)), base_(std::move(base)) {
+  if (parameters_.empty()) throw std::invalid_argument("no parameter to estimate");
+  for (std::size_t i = 0; i < parameters_.size(); ++i)
+    for (std::size_t j = i + 1; j < parameters_.size(); ++j)
+      if (parameters_[i].name == parameters_[j].name)
+        throw std::invalid_argument("parameter '" + parameters_[i].name +
+                                    "' is estimated twice");
+}
+
+Eigen::VectorXd ParameterMapping::to_sigma(const Eigen::VectorXd& x) const {
+  Eigen::VectorXd s(dimension());
+  for (int j = 0; j < dimension(); ++j) {
+    const EstimatedParameter& p = parameters_[static_cast<std::size_t>(j)];
+    s[j] = p.lower_sigma + 0.5 * (x[j] + 1.0) * (p.upper_sigma - p.lower_sigma);
+  }
+  return s;
+}
+
+Eigen::VectorXd ParameterMapping::from_sigma(const Eigen::VectorXd& value_sigma) const {
+  Eigen::VectorXd x(dimension());
+  for (int j = 0; j < dimension(); ++j) {
+    const EstimatedParameter& p = parameters_[static_cast<std::size_t>(j)];
+    x[j] = 2.0 * (value_sigma[j] - p.lower_sigma) / (p.upper_sigma - p.lower_sigma) - 1.0;
+  }
+  return x;
+}
+
+SensorErrors ParameterMapping::to_errors(const Eigen::VectorXd& x) const {
+  SensorErrors errors = base_;
+  const Eigen::VectorXd s = to_sigma(x);
+  for (int j = 0; j < dimension(); ++j) {
+    const EstimatedParameter& p = parameters_[static_cast<std::size_t>(j)];
+    set_effect(errors, p.name, s[j] * p.sigma);
+  }
+  return errors;
+}
+
+double ParameterMapping::sigma_per_unit(int j) const {
+  const EstimatedParameter& p = parameters_[static_cast<std::size_t>(j)];
+  return 0.5 * (p.upper_sigma - p.lower_sigma);
+}
+
+InsIdentificationProblem::InsIdentificationProblem(
+    std::shared_ptr<const NavigationProblem> navigation, ParameterMapping mapping,
+    FitnessKind kind, opt::EvaluatorOptions evaluator)
+    : opt::ScalarProblem(opt::Bounds::unit_box(mapping.dimension()), evaluator),
+      navigation_(std::move(navigation)),
+      mapping_(std::move(mapping)),
+      kind_(kind) {}
+
+double InsIdentificationProblem::fitness(const Eigen::VectorXd& x) const {
+  return navigation_->fitness(mapping_.to_errors(x), kind_);
+}
+
+}  // namespace insid

@@ -1,0 +1,69 @@
+// The INS identification problem for the generic optimizers: a normalised box [-1, 1]^n
+// mapped to catalogue effects in SI units, scored by a full alignment + pure-INS run
+// (core/fitness.h, Eq. 15 by default). The optimizers know nothing of this mapping.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/fitness.h"
+#include "core/sensor_errors.h"
+#include "optimizers/problem.h"
+
+namespace insid {
+
+/// One estimated effect: catalogue name, its sigma (search unit, SI) and box in sigma units.
+struct EstimatedParameter {
+  std::string name;
+  double sigma = 0.0;         ///< SI value of one sigma
+  double lower_sigma = -4.0;  ///< box, in sigma units (DESIGN.md sec. 2: [-4, 4])
+  double upper_sigma = 4.0;
+
+  /// "NAME" (catalogue sigma, [-4, 4]) or "NAME:SIGMA" or "NAME:SIGMA:LO:HI" (SIGMA in SI,
+  /// LO/HI in sigma units). Throws std::invalid_argument naming the bad part.
+  static EstimatedParameter parse(const std::string& text);
+  /// The paper's four: accel_bias_x, accel_bias_y, gyro_bias_x, gyro_bias_y (DESIGN.md sec. 2).
+  static std::vector<EstimatedParameter> paper_four();
+};
+
+/// Maps between the optimizer's normalised coordinates x in [-1, 1]^n, sigma units and SI.
+class ParameterMapping {
+ public:
+  explicit ParameterMapping(std::vector<EstimatedParameter> parameters,
+                            SensorErrors base = {});
+  int dimension() const { return static_cast<int>(parameters_.size()); }
+  const std::vector<EstimatedParameter>& parameters() const { return parameters_; }
+  const SensorErrors& base() const { return base_; }
+
+  Eigen::VectorXd to_sigma(const Eigen::VectorXd& x) const;
+  Eigen::VectorXd from_sigma(const Eigen::VectorXd& value_sigma) const;
+  /// Base errors with the estimated effects set to their SI values (base values replaced).
+  SensorErrors to_errors(const Eigen::VectorXd& x) const;
+  /// Sigma-unit distance that one normalised unit spans in dimension j.
+  double sigma_per_unit(int j) const;
+
+ private:
+  std::vector<EstimatedParameter> parameters_;
+  SensorErrors base_;
+};
+
+class InsIdentificationProblem final : public opt::ScalarProblem {
+ public:
+  InsIdentificationProblem(std::shared_ptr<const NavigationProblem> navigation,
+                           ParameterMapping mapping, FitnessKind kind = FitnessKind::kEq15,
+                           opt::EvaluatorOptions evaluator = {});
+  double fitness(const Eigen::VectorXd& x) const override;
+  std::string name() const override { return "ins-identification"; }
+  const ParameterMapping& mapping() const { return mapping_; }
+  const NavigationProblem& navigation() const { return *navigation_; }
+
+ private:
+  std::shared_ptr<const NavigationProblem> navigation_;
+  ParameterMapping mapping_;
+  FitnessKind kind_;
+};
+
+}  // namespace insid

@@ -1,0 +1,123 @@
+#include "identification/local_fit.h"
+
+#include <cmath>
+
+#include <Eigen/Cholesky>
+
+namespace insid {
+namespace {
+
+double eq15(const std::vector<double>& r) {
+  double sum = 0.0;
+  for (std::size_t e = 0; e + 1 < r.size(); e += 2) sum += std::hypot(r[e], r[e + 1]);
+  return sum;
+}
+
+double sum_sq(const std::vector<double>& r) {
+  double sum = 0.0;
+  for (double v : r) sum += v * v;
+  return sum;
+}
+
+// IRLS weights for Eq. 15: minimising sum_t |r_t| is a fixed point of weighted least squares
+// with w_t = 1 / |r_t| (floored to keep it finite at exact matches).
+std::vector<double> eq15_weights(const std::vector<double>& r) {
+  std::vector<double> w(r.size() / 2);
+  double mean = 0.0;
+  for (std::size_t e = 0; e < w.size(); ++e) mean += std::hypot(r[2 * e], r[2 * e + 1]);
+  mean /= static_cast<double>(std::max<std::size_t>(w.size(), 1));
+  const double floor = std::max(1e-6 * mean, 1e-12);
+  for (std::size_t e = 0; e < w.size(); ++e)
+    w[e] = 1.0 / std::max(std::hypot(r[2 * e], r[2 * e + 1]), floor);
+  return w;
+}
+
+}  // namespace
+
+void residuals_at(const InsIdentificationProblem& problem, const Eigen::VectorXd& x,
+                  std::vector<double>& r) {
+  problem.navigation().residuals(problem.mapping().to_errors(x), r);
+}
+
+LocalFitResult local_fit(const InsIdentificationProblem& problem, const Eigen::VectorXd& x0,
+                         const LocalFitOptions& options) {
+  const ParameterMapping& mapping = problem.mapping();
+  const int n = mapping.dimension();
+  LocalFitResult out;
+  Eigen::VectorXd s = mapping.to_sigma(x0);  // work in sigma units
+  const Eigen::VectorXd s_lo = mapping.to_sigma(Eigen::VectorXd::Constant(n, -1.0));
+  const Eigen::VectorXd s_hi = mapping.to_sigma(Eigen::VectorXd::Constant(n, 1.0));
+  auto clamp = [&](Eigen::VectorXd v) {
+    if (options.clamp_to_box) v = v.cwiseMax(s_lo).cwiseMin(s_hi);
+    return v;
+  };
+  auto objective = [&](const std::vector<double>& r) {
+    return options.eq15 ? eq15(r) : sum_sq(r);
+  };
+
+  std::vector<double> r;
+  residuals_at(problem, mapping.from_sigma(s), r);
+  ++out.evaluations;
+  double f = objective(r);
+  double lambda = 1e-3;
+  const std::size_t m = r.size();
+  Eigen::MatrixXd J(static_cast<Eigen::Index>(m), n);
+  std::vector<double> r_step;
+  for (int it = 0; it < options.max_iterations; ++it) {
+    out.iterations = it + 1;
+    // Forward-difference Jacobian in sigma units (one full INS run per column).
+    for (int j = 0; j < n; ++j) {
+      Eigen::VectorXd s_step = s;
+      double h = options.step_sigma;
+      if (options.clamp_to_box && s_step[j] + h > s_hi[j]) h = -h;
+      s_step[j] += h;
+      residuals_at(problem, mapping.from_sigma(s_step), r_step);
+      ++out.evaluations;
+      for (std::size_t i = 0; i < m; ++i)
+        J(static_cast<Eigen::Index>(i), j) = (r_step[i] - r[i]) / h;
+    }
+    std::vector<double> w(m, 1.0);
+    if (options.eq15) {
+      const std::vector<double> we = eq15_weights(r);
+      for (std::size_t e = 0; e < we.size(); ++e) w[2 * e] = w[2 * e + 1] = we[e];
+    }
+    Eigen::MatrixXd JtWJ = Eigen::MatrixXd::Zero(n, n);
+    Eigen::VectorXd JtWr = Eigen::VectorXd::Zero(n);
+    for (std::size_t i = 0; i < m; ++i) {
+      const auto row = J.row(static_cast<Eigen::Index>(i));
+      JtWJ.noalias() += w[i] * row.transpose() * row;
+      JtWr.noalias() += w[i] * row.transpose() * r[i];
+    }
+    bool improved = false;
+    Eigen::VectorXd step;
+    for (int tries = 0; tries < 12 && !improved; ++tries) {
+      Eigen::MatrixXd A = JtWJ;
+      A.diagonal() += lambda * JtWJ.diagonal().cwiseMax(1e-30);
+      step = -A.ldlt().solve(JtWr);
+      const Eigen::VectorXd s_new = clamp(s + step);
+      residuals_at(problem, mapping.from_sigma(s_new), r_step);
+      ++out.evaluations;
+      const double f_new = objective(r_step);
+      if (std::isfinite(f_new) && f_new <= f) {
+        step = s_new - s;
+        s = s_new;
+        r.swap(r_step);
+        f = f_new;
+        lambda = std::max(lambda * 0.3, 1e-9);
+        improved = true;
+      } else {
+        lambda *= 10.0;
+      }
+    }
+    if (!improved || step.norm() < options.tolerance_sigma) break;
+  }
+  out.value_sigma = s;
+  out.x = mapping.from_sigma(s);
+  out.fitness = eq15(r);
+  out.sum_squares = sum_sq(r);
+  out.residuals = r;
+  out.jacobian_sigma = J;
+  return out;
+}
+
+}  // namespace insid

@@ -1,0 +1,45 @@
+// Local polish of an identification: Levenberg-Marquardt on the residual vector (dvE_t, dvN_t)
+// with a forward-difference Jacobian through the full mechanization, and an iteratively
+// reweighted variant (weights 1/|dv_t|) whose fixed point minimises Eq. 15's sum of norms
+// (Weiszfeld-type IRLS). Eq. 15 is a cone on noise-free data (DESIGN.md sec. 10), so curvature
+// comes from the Gauss-Newton J^T J of the residuals, never from fitness differences.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "identification/ins_problem.h"
+
+namespace insid {
+
+struct LocalFitOptions {
+  int max_iterations = 30;          ///< LM iterations (each: 1 + n residual runs)
+  double step_sigma = 1e-3;         ///< finite-difference step, sigma units
+  double tolerance_sigma = 1e-6;    ///< stop when the step is below this (sigma units)
+  bool eq15 = true;                 ///< IRLS towards the Eq. 15 optimum (else least squares)
+  bool clamp_to_box = true;         ///< keep the estimate inside the search box
+};
+
+struct LocalFitResult {
+  Eigen::VectorXd x;                ///< normalised coordinates
+  Eigen::VectorXd value_sigma;      ///< sigma units
+  double fitness = 0.0;             ///< Eq. 15 at x
+  double sum_squares = 0.0;         ///< sum of squared residuals at x
+  std::int64_t evaluations = 0;     ///< full INS runs spent (Jacobian columns included)
+  int iterations = 0;
+  Eigen::MatrixXd jacobian_sigma;   ///< d r / d value_sigma at x (m/s per sigma)
+  std::vector<double> residuals;    ///< at x
+};
+
+/// Polishes from x0 (normalised coordinates) on the problem's residual vector.
+LocalFitResult local_fit(const InsIdentificationProblem& problem, const Eigen::VectorXd& x0,
+                         const LocalFitOptions& options = {});
+
+/// Residual vector and Eq. 15 fitness at a normalised point.
+void residuals_at(const InsIdentificationProblem& problem, const Eigen::VectorXd& x,
+                  std::vector<double>& r);
+
+}  // namespace insid

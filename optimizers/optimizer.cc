@@ -1,0 +1,230 @@
+#include "optimizers/optimizer.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <utility>
+
+namespace insid::opt {
+
+std::string RunConfig::validate() const {
+  if (max_iterations < 0) {
+    return "run: max_iterations must be >= 0, got " + std::to_string(max_iterations);
+  }
+  if (max_evaluations < 0) {
+    return "run: max_evaluations must be >= 0, got " + std::to_string(max_evaluations);
+  }
+  if (max_iterations == 0 && max_evaluations == 0) {
+    return "run: set max_iterations or max_evaluations (both are 0 = no limit)";
+  }
+  if (std::isnan(target_fitness)) return "run: target_fitness must not be nan";
+  return {};
+}
+
+std::string_view to_string(Termination termination) {
+  switch (termination) {
+    case Termination::kNone: return "running";
+    case Termination::kIterations: return "iterations";
+    case Termination::kEvaluations: return "evaluations";
+    case Termination::kTarget: return "target";
+  }
+  return "unknown";
+}
+
+Optimizer::Optimizer(std::string name, Bounds bounds, RunConfig config)
+    : bounds_(std::move(bounds)), config_(std::move(config)), rng_(config_.seed) {
+  if (std::string error = bounds_.validate(); !error.empty()) throw std::invalid_argument(error);
+  if (std::string error = config_.validate(); !error.empty()) throw std::invalid_argument(error);
+  result_.algorithm = std::move(name);
+  result_.seed = config_.seed;
+}
+
+int Optimizer::planned_iterations(int population) const {
+  if (config_.max_iterations > 0) return config_.max_iterations;
+  return static_cast<int>((config_.max_evaluations + population - 1) / population);
+}
+
+void Optimizer::check_initial_positions(int population) const {
+  const auto& points = config_.initial_positions;
+  if (static_cast<int>(points.size()) > population) {
+    throw std::invalid_argument(name() + ": " + std::to_string(points.size()) +
+                                " initial positions for a population of " +
+                                std::to_string(population));
+  }
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    if (!bounds_.contains(points[i])) {
+      throw std::invalid_argument(name() + ": initial position " + std::to_string(i) + " " +
+                                  format_vector(points[i]) + " is not inside the box");
+    }
+  }
+}
+
+std::vector<Eigen::VectorXd> Optimizer::initial_population(int population) {
+  std::vector<Eigen::VectorXd> points;
+  points.reserve(population);
+  const int n = bounds_.dimension();
+  for (int i = 0; i < population; ++i) {
+    if (i < static_cast<int>(config_.initial_positions.size())) {
+      points.push_back(config_.initial_positions[i]);
+      continue;
+    }
+    Eigen::VectorXd x(n);
+    for (int j = 0; j < n; ++j) x[j] = rng_.uniform(bounds_.lower[j], bounds_.upper[j]);
+    points.push_back(std::move(x));
+  }
+  return points;
+}
+
+Eigen::VectorXd Optimizer::clamp(const Eigen::VectorXd& x) const {
+  Eigen::VectorXd clamped = x;
+  for (Eigen::Index j = 0; j < x.size(); ++j) {
+    clamped[j] = std::clamp(x[j], bounds_.lower[j], bounds_.upper[j]);
+  }
+  return clamped;
+}
+
+std::span<const Eigen::VectorXd> Optimizer::ask() {
+  if (done()) throw std::logic_error(name() + ": ask() after the run has ended");
+  if (pending_) return batch_;
+  if (!start_) start_ = std::chrono::steady_clock::now();
+
+  batch_.clear();
+  propose(batch_);
+  if (batch_.empty()) throw std::logic_error(name() + ": proposed an empty batch");
+  pending_phase_ = phase();
+
+  truncated_ = false;
+  if (config_.max_evaluations > 0) {
+    const std::int64_t remaining = config_.max_evaluations - result_.evaluations;
+    if (static_cast<std::int64_t>(batch_.size()) > remaining) {
+      batch_.resize(static_cast<std::size_t>(remaining));  // remaining > 0 while not done
+      truncated_ = true;
+    }
+  }
+  pending_ = true;
+  return batch_;
+}
+
+void Optimizer::tell(std::span<const double> fitness) {
+  if (!pending_) throw std::logic_error(name() + ": tell() without a pending ask()");
+  if (fitness.size() != batch_.size()) {
+    throw std::invalid_argument(name() + ": tell() got " + std::to_string(fitness.size()) +
+                                " fitness values for " + std::to_string(batch_.size()) +
+                                " candidates");
+  }
+  check_finite_fitness(batch_, fitness,
+                       name() + " iteration " + std::to_string(result_.iterations + 1));
+
+  // Best-so-far first (candidate order; a tie keeps the earlier point), so that accept() sees
+  // the global best including this batch.
+  for (std::size_t i = 0; i < batch_.size(); ++i) {
+    ++result_.evaluations;
+    if (fitness[i] < result_.best_f) {
+      result_.best_f = fitness[i];
+      result_.best_x = batch_[i];
+    }
+    result_.best_per_evaluation.push_back(result_.best_f);
+  }
+  if (!truncated_) accept(batch_, fitness);
+  ++result_.iterations;
+  record_iteration(fitness);
+  pending_ = false;
+
+  if (result_.best_f <= config_.target_fitness) {
+    finish(Termination::kTarget);
+  } else if (config_.max_iterations > 0 && result_.iterations >= config_.max_iterations) {
+    finish(Termination::kIterations);
+  } else if (truncated_ ||
+             (config_.max_evaluations > 0 && result_.evaluations >= config_.max_evaluations)) {
+    finish(Termination::kEvaluations);
+  } else {
+    result_.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() -
+                                                        *start_).count();
+  }
+}
+
+void Optimizer::record_iteration(std::span<const double> fitness) {
+  IterationRecord record;
+  record.iteration = result_.iterations;
+  record.evaluations = result_.evaluations;
+  record.batch_size = static_cast<int>(batch_.size());
+  record.best_fitness = result_.best_f;
+  record.phase = pending_phase_;
+
+  std::vector<double> sorted(fitness.begin(), fitness.end());
+  std::sort(sorted.begin(), sorted.end());
+  const std::size_t half = sorted.size() / 2;
+  record.median_fitness =
+      sorted.size() % 2 == 1 ? sorted[half] : 0.5 * (sorted[half - 1] + sorted[half]);
+
+  double distance_sum = 0.0;
+  for (const Eigen::VectorXd& x : batch_) distance_sum += euclidean_distance(x, result_.best_x);
+  record.diversity = distance_sum / static_cast<double>(batch_.size());
+
+  annotate(record);
+  if (config_.record_positions) {
+    record.positions = batch_;
+    record.fitness.assign(fitness.begin(), fitness.end());
+  }
+  result_.history.push_back(std::move(record));
+}
+
+void Optimizer::finish(Termination termination) {
+  result_.termination = termination;
+  result_.parameters = parameters();
+  result_.wall_time_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - *start_).count();
+}
+
+namespace {
+
+void check_same_box(const Optimizer& optimizer, const Problem& problem) {
+  const Bounds& a = optimizer.bounds();
+  const Bounds& b = problem.bounds();
+  if (a.dimension() != b.dimension() || a.lower != b.lower || a.upper != b.upper) {
+    throw std::invalid_argument(optimizer.name() + ": the optimizer's box differs from that of "
+                                "problem '" + problem.name() + "'");
+  }
+}
+
+}  // namespace
+
+const Result& run(Optimizer& optimizer, const Problem& problem) {
+  check_same_box(optimizer, problem);
+  std::vector<double> fitness;
+  while (!optimizer.done()) {
+    const std::span<const Eigen::VectorXd> batch = optimizer.ask();
+    // NaN-filled: a problem that leaves a slot unwritten is caught by tell().
+    fitness.assign(batch.size(), std::numeric_limits<double>::quiet_NaN());
+    problem.evaluate_batch(batch, fitness);
+    optimizer.tell(fitness);
+  }
+  return optimizer.result();
+}
+
+void run_together(std::span<Optimizer* const> optimizers, const Problem& problem) {
+  for (const Optimizer* optimizer : optimizers) check_same_box(*optimizer, problem);
+  std::vector<Eigen::VectorXd> candidates;
+  std::vector<double> fitness;
+  std::vector<std::pair<Optimizer*, std::size_t>> slices;  // optimizer, batch size
+  for (;;) {
+    candidates.clear();
+    slices.clear();
+    for (Optimizer* optimizer : optimizers) {
+      if (optimizer->done()) continue;
+      const std::span<const Eigen::VectorXd> batch = optimizer->ask();
+      candidates.insert(candidates.end(), batch.begin(), batch.end());
+      slices.emplace_back(optimizer, batch.size());
+    }
+    if (slices.empty()) return;
+    fitness.assign(candidates.size(), std::numeric_limits<double>::quiet_NaN());
+    problem.evaluate_batch(candidates, fitness);
+    std::size_t offset = 0;
+    for (const auto& [optimizer, size] : slices) {
+      optimizer->tell(std::span<const double>(fitness).subspan(offset, size));
+      offset += size;
+    }
+  }
+}
+
+}  // namespace insid::opt

@@ -1,0 +1,185 @@
+// Ask/tell core shared by every optimizer, the run configuration, the result, and drivers.
+//
+//   auto optimizer = make_optimizer("dvpio", problem.bounds(), config);   // registry.h
+//   while (!optimizer->done()) {
+//     std::span<const Eigen::VectorXd> batch = optimizer->ask();
+//     std::vector<double> f(batch.size());
+//     problem.evaluate_batch(batch, f);
+//     optimizer->tell(f);
+//   }
+//   const Result& result = optimizer->result();
+//
+// run() is that loop; run_together() advances several optimizers generation by generation and
+// scores all their candidates in one evaluate_batch() call (a campaign's shared batch).
+//
+// Iterations. One iteration = one batch asked and told. Iteration 1 evaluates the initial
+// population, so the paper's "10 particles, 40 iterations" is 40 batches of 10 = 400
+// evaluations. Budgets: the run stops after max_iterations iterations or max_evaluations
+// evaluations, whichever comes first, or once the best fitness is <= target_fitness (several at
+// once are reported as target, then iterations, then evaluations). The
+// evaluation budget is never exceeded: when the next batch does not fit, ask() returns only its
+// first (remaining-budget) candidates; they count towards the best-so-far and the trace, and
+// the run then ends with Termination::kEvaluations (the algorithm does not update on a
+// truncated batch). All draws come from the run's seed (random.h) inside ask()/tell().
+#pragma once
+
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "optimizers/parameters.h"
+#include "optimizers/problem.h"
+#include "optimizers/random.h"
+
+namespace insid::opt {
+
+struct RunConfig {
+  std::uint64_t seed = 1;
+  int max_iterations = 40;          ///< batches, the initial one included; 0 = no limit
+  std::int64_t max_evaluations = 0;  ///< 0 = no limit; at least one of the two limits is set
+  double target_fitness = -std::numeric_limits<double>::infinity();  ///< stop when best <= it
+  bool record_positions = false;    ///< keep every batch's positions and fitness in history
+  /// Optional starting points (in the box) used for the first members of the initial
+  /// population, the rest drawn uniformly; at most the population size.
+  std::vector<Eigen::VectorXd> initial_positions;
+
+  /// Empty when valid, else a message naming the field and value.
+  std::string validate() const;
+};
+
+enum class Termination {
+  kNone,         ///< still running
+  kIterations,   ///< max_iterations reached
+  kEvaluations,  ///< max_evaluations reached
+  kTarget,       ///< best fitness <= target_fitness
+};
+std::string_view to_string(Termination termination);
+
+/// One iteration (batch). Population statistics are over the candidates evaluated in it.
+struct IterationRecord {
+  int iteration = 0;              ///< 1-based; iteration 1 evaluates the initial population
+  std::int64_t evaluations = 0;   ///< evaluations so far, this batch included
+  int batch_size = 0;             ///< candidates evaluated in this iteration
+  double best_fitness = 0.0;      ///< best-so-far after this iteration
+  double median_fitness = 0.0;    ///< median fitness of this iteration's candidates
+  double diversity = 0.0;         ///< mean ||x_i - x_best|| of this iteration's candidates
+  std::string phase;              ///< operator that produced the batch ("initial", ...)
+  // DVPIO only (false / empty for the other algorithms):
+  bool premature = false;           ///< batch made in premature mode (Eq. 12 probes)
+  Eigen::VectorXd d_positive;       ///< d_jp used by this batch's probes (Eq. 11)
+  Eigen::VectorXd d_negative;       ///< d_jn used by this batch's probes (Eq. 11)
+  std::vector<int> direction_flags; ///< T_j of this batch (Eq. 13): -1, +1, 0 = not probed
+  // Only with RunConfig::record_positions:
+  std::vector<Eigen::VectorXd> positions;  ///< the batch
+  std::vector<double> fitness;             ///< its fitness
+};
+
+struct Result {
+  std::string algorithm;
+  ParameterList parameters;
+  std::uint64_t seed = 0;
+  Eigen::VectorXd best_x;
+  double best_f = std::numeric_limits<double>::infinity();
+  std::int64_t evaluations = 0;
+  int iterations = 0;
+  double wall_time_s = 0.0;  ///< from the first ask() to the end (or to now, while running)
+  Termination termination = Termination::kNone;
+  std::vector<IterationRecord> history;    ///< one per iteration
+  std::vector<double> best_per_evaluation;  ///< best-so-far after each evaluation
+};
+
+class Optimizer {
+ public:
+  virtual ~Optimizer() = default;
+  Optimizer(const Optimizer&) = delete;
+  Optimizer& operator=(const Optimizer&) = delete;
+
+  const std::string& name() const { return result_.algorithm; }
+  const Bounds& bounds() const { return bounds_; }
+  const RunConfig& config() const { return config_; }
+  /// The algorithm's parameters by name (for the result and JSON).
+  virtual ParameterList parameters() const = 0;
+
+  bool done() const { return result_.termination != Termination::kNone; }
+  /// The candidates to evaluate next (non-empty). Repeated calls before tell() return the
+  /// same batch. The span stays valid until tell(). Throws std::logic_error when done().
+  std::span<const Eigen::VectorXd> ask();
+  /// Their fitness, in the same order. Throws std::invalid_argument on a size mismatch and
+  /// NonFiniteFitnessError (naming the candidate) on NaN/inf; the batch then stays pending.
+  void tell(std::span<const double> fitness);
+  /// Live result; final once done().
+  const Result& result() const { return result_; }
+
+ protected:
+  /// Validates bounds and config (throws std::invalid_argument).
+  Optimizer(std::string name, Bounds bounds, RunConfig config);
+
+  /// Appends the candidates of iteration `iteration() + 1` to `batch` (empty on entry).
+  virtual void propose(std::vector<Eigen::VectorXd>& batch) = 0;
+  /// Consumes the fitness of the batch just proposed (never a truncated one). The best-so-far
+  /// (best_x(), best_f()) already includes this batch.
+  virtual void accept(std::span<const Eigen::VectorXd> batch, std::span<const double> fitness) = 0;
+  /// Adds algorithm-specific fields to the record of the iteration just told (also called for
+  /// a truncated final batch, for which accept() was not called).
+  virtual void annotate(IterationRecord& record) const { (void)record; }
+  /// Name of the operator that produced the batch just proposed, for the history.
+  virtual std::string phase() const = 0;
+
+  /// Completed iterations (0 before the initial population has been told).
+  int iteration() const { return result_.iterations; }
+  Rng& rng() { return rng_; }
+  const Eigen::VectorXd& best_x() const { return result_.best_x; }
+  double best_f() const { return result_.best_f; }
+  /// Iterations the run will make if the evaluation budget does not stop it first (with only an
+  /// evaluation budget: ceil(max_evaluations / population)). Used for operator schedules.
+  int planned_iterations(int population) const;
+
+  /// Throws std::invalid_argument if config().initial_positions has more than `population`
+  /// points, or points of the wrong size or outside the box. Call from derived constructors.
+  void check_initial_positions(int population) const;
+  /// `population` points: config().initial_positions first, the rest uniform in the box.
+  std::vector<Eigen::VectorXd> initial_population(int population);
+  /// x clamped to the box.
+  Eigen::VectorXd clamp(const Eigen::VectorXd& x) const;
+
+ private:
+  void record_iteration(std::span<const double> fitness);
+  void finish(Termination termination);
+
+  Bounds bounds_;
+  RunConfig config_;
+  Rng rng_;
+  Result result_;
+  std::vector<Eigen::VectorXd> batch_;
+  bool pending_ = false;
+  bool truncated_ = false;
+  std::string pending_phase_;
+  std::optional<std::chrono::steady_clock::time_point> start_;
+};
+
+/// ||a - b||. A plain loop: GCC 12 reports false -Wmaybe-uninitialized warnings inside Eigen's
+/// AVX-512 reductions and min/max.
+inline double euclidean_distance(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
+  double sum = 0.0;
+  for (Eigen::Index j = 0; j < a.size(); ++j) sum += (a[j] - b[j]) * (a[j] - b[j]);
+  return std::sqrt(sum);
+}
+
+/// ask/evaluate/tell until done; returns the final result. Throws std::invalid_argument when the
+/// problem's box differs from the optimizer's.
+const Result& run(Optimizer& optimizer, const Problem& problem);
+
+/// Advances every optimizer one iteration at a time, scoring the candidates of all unfinished
+/// ones in a single problem.evaluate_batch() call per round. Results equal separate run()s.
+void run_together(std::span<Optimizer* const> optimizers, const Problem& problem);
+
+}  // namespace insid::opt
