@@ -12,6 +12,9 @@ int main(int argc, char** argv) {
       "(GA, PSO, PIO, DVPIO) that do it."};
   app.require_subcommand(1);
   insid::cli::add_navigate_command(app);
+  insid::cli::add_identify_command(app);
+  insid::cli::add_bench_command(app);
+  insid::cli::add_simulate_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -141,15 +141,15 @@ void NavigationProblem::run(const SensorErrors& candidate,
   Strapdown ins(earth, initial_state(C_b_n0), prev);
 
   // INS velocity at the GNSS antenna (lever arm, DESIGN.md sec. 4):
-  //   v_ant_n = v_eb_n + C_b_n (omega_ib_b x l_b) - omega_in_n x (C_b_n l_b).
+  //   v_ant_n = v_eb_n + C_b_n (omega_ib_b x l_b) - omega_ie_n x (C_b_n l_b),
+  // with omega_ib_b extrapolated from the last two increments (mid-interval rates) to the epoch.
   const Eigen::Vector3d& l_b = candidate.lever_arm_b_m;
   const bool has_lever_arm = !l_b.isZero(0);
   auto antenna_velocity = [&](const NavState& s, const Eigen::Vector3d& omega_ib_b) {
     if (!has_lever_arm) return Eigen::Vector3d(s.v_eb_n);
     const Eigen::Matrix3d C = s.q_b_n.toRotationMatrix();
-    const Eigen::Vector3d omega_in_n =
-        earth.omega_ie_n(s.lat_rad) + earth.omega_en_n(s.lat_rad, s.h_m, s.v_eb_n);
-    return Eigen::Vector3d(s.v_eb_n + C * omega_ib_b.cross(l_b) - omega_in_n.cross(C * l_b));
+    return Eigen::Vector3d(s.v_eb_n + C * omega_ib_b.cross(l_b) -
+                           earth.omega_ie_n(s.lat_rad).cross(C * l_b));
   };
 
   // GNSS tagged t is the antenna state at t - latency: compare with the INS at that time.
@@ -166,7 +166,8 @@ void NavigationProblem::run(const SensorErrors& candidate,
   auto epoch_time = [&](std::size_t i) { return ds.gnss[epoch_gnss_index_[i]].t_s - latency; };
 
   double t_prev = ins.state().t_s;
-  Eigen::Vector3d v_prev = antenna_velocity(ins.state(), prev.dtheta_b_rad / (prev.t_s - t_before));
+  Eigen::Vector3d omega_mid_prev = prev.dtheta_b_rad / (prev.t_s - t_before);
+  Eigen::Vector3d v_prev = antenna_velocity(ins.state(), omega_mid_prev);
   while (e < n_epochs && epoch_time(e) <= t_prev) emit(v_prev);  // clamped to the start
 
   for (std::size_t k = nav_begin_; k < ds.imu.size(); ++k) {
@@ -174,7 +175,9 @@ void NavigationProblem::run(const SensorErrors& candidate,
     compensator.compensate(inc.t_s, inc.t_s - ds.imu[k - 1].t_s, inc.dtheta_b_rad, inc.dv_b_mps);
     ins.step_aided(inc, h_ref_m_[k], vU_ref_mps_[k]);
     const NavState& s = ins.state();
-    const Eigen::Vector3d v_now = antenna_velocity(s, ins.omega_ib_b());
+    const Eigen::Vector3d omega_at_epoch = 1.5 * ins.omega_ib_b() - 0.5 * omega_mid_prev;
+    omega_mid_prev = ins.omega_ib_b();
+    const Eigen::Vector3d v_now = antenna_velocity(s, omega_at_epoch);
     // INS velocity linearly interpolated to GNSS epochs inside (t_prev, t_k].
     while (e < n_epochs && epoch_time(e) <= s.t_s) {
       const double w = (epoch_time(e) - t_prev) / (s.t_s - t_prev);

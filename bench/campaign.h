@@ -1,0 +1,96 @@
+// Campaigns: scenarios x algorithms x seeds of identification runs, written as JSON files
+// (results/README.md documents the schema). Runs are independent and deterministic: a run's
+// result depends only on its scenario, algorithm, parameters, budgets and seed, never on the
+// thread count or on which runs were done before. Every file is written atomically; a rerun on
+// the same directory skips finished runs and redoes the ones cut off.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "core/dataset.h"
+#include "core/fitness.h"
+
+namespace insid::campaign {
+
+struct ScenarioSpec {
+  std::string name;
+  std::string preset;          ///< simulate this preset (or...)
+  std::string data_dir;        ///< ...load this dataset directory
+  std::optional<double> flight_s;
+  std::optional<std::string> grade;
+  std::uint64_t data_seed = 1;
+  std::map<std::string, double> set;  ///< extra injected effects (SI), on top of the preset's
+};
+
+struct AlgorithmSpec {
+  std::string label;  ///< unique within the campaign (directory name)
+  std::string name;   ///< ga | pso | pio | dvpio
+  std::map<std::string, double> parameters;  ///< overrides (see `insid identify --param`)
+};
+
+struct CampaignConfig {
+  std::string name = "custom";
+  std::vector<ScenarioSpec> scenarios;
+  std::vector<AlgorithmSpec> algorithms;
+  std::vector<std::uint64_t> seeds;
+  int max_iterations = 40;
+  std::int64_t max_evaluations = 0;
+  AlignmentMode alignment = AlignmentMode::kPerCandidate;
+  std::vector<std::string> estimate;  ///< --estimate specs; empty = the paper's four
+  int record_positions_seeds = 1;     ///< record particle positions for the first k seeds
+  std::vector<double> target_error_sigma = {1.0, 0.3, 0.1};   ///< max |error vs optimum|
+  std::vector<double> target_fitness_gap = {1.0, 0.1, 0.01};  ///< (f - f_opt) / f_opt
+
+  /// Resolved config as JSON (the manifest's "config"; also what resume compares).
+  nlohmann::json to_json() const;
+};
+
+/// Parse a campaign JSON (documented keys; unknown keys rejected, naming the key and `origin`).
+CampaignConfig parse_campaign(const nlohmann::json& j, const std::string& origin);
+/// Presets: "paper-fig9" (the paper scenario, Table 4 GA/PSO/PIO/DVPIO), "quick" (a short
+/// flight for tests and a quick look).
+CampaignConfig preset_campaign(const std::string& name);
+std::vector<std::string> preset_campaign_names();
+/// Seeds 1..n.
+std::vector<std::uint64_t> seed_range(int n);
+
+struct RunOptions {
+  std::string out_dir;
+  int threads = 0;          ///< 0 = OpenMP default
+  bool force_new = false;   ///< discard a different campaign's results in out_dir
+  bool quiet = false;
+  /// Stop after this many newly finished runs (for interruption tests); 0 = no limit.
+  int max_new_runs = 0;
+};
+
+struct CampaignOutcome {
+  int total_runs = 0;
+  int skipped_runs = 0;   ///< already finished before this invocation
+  int new_runs = 0;
+  bool complete = false;  ///< every run present (summary written)
+  double wall_s = 0.0;
+};
+
+/// Run (or resume) a campaign into options.out_dir; writes manifest, runs, optimum files and,
+/// once complete, summary.json. Throws std::runtime_error with a clear message on a config
+/// mismatch with an existing manifest (unless force_new) or on I/O errors.
+CampaignOutcome run_campaign(const CampaignConfig& config, const RunOptions& options);
+
+/// Build summary.json from the run files of a complete campaign directory.
+nlohmann::json summarize_campaign(const std::string& out_dir, const CampaignConfig& config);
+
+/// Path of one run's file: DIR/runs/<scenario>/<label>/seed_<k>.json.
+std::string run_file(const std::string& out_dir, const std::string& scenario,
+                     const std::string& label, std::uint64_t seed);
+
+/// Dataset of a scenario spec (simulated deterministically or loaded).
+std::shared_ptr<const Dataset> scenario_dataset(const ScenarioSpec& spec);
+
+}  // namespace insid::campaign

@@ -1,0 +1,82 @@
+// insid bench: run (or resume) a campaign of identification runs.
+#include <cmath>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "bench/campaign.h"
+#include "bench/commands.h"
+
+namespace insid::cli {
+namespace {
+
+struct BenchArgs {
+  std::string preset;
+  std::string config_path;
+  std::string out;
+  int seeds = 0;
+  int threads = 0;
+  bool force_new = false;
+  int max_new_runs = 0;
+  double flight_s = 0.0;
+};
+
+void run_bench(const BenchArgs& args) {
+  if (args.preset.empty() == args.config_path.empty())
+    throw std::invalid_argument("give exactly one of --preset and --config");
+  campaign::CampaignConfig config;
+  if (!args.preset.empty()) {
+    config = campaign::preset_campaign(args.preset);
+  } else {
+    std::ifstream in(args.config_path);
+    if (!in) throw std::invalid_argument("--config: cannot read " + args.config_path);
+    nlohmann::json j;
+    try {
+      in >> j;
+    } catch (const nlohmann::json::parse_error& e) {
+      throw std::invalid_argument(args.config_path + ": invalid JSON: " + e.what());
+    }
+    config = campaign::parse_campaign(j, args.config_path);
+  }
+  if (args.seeds > 0) config.seeds = campaign::seed_range(args.seeds);
+  if (args.flight_s > 0)
+    for (auto& s : config.scenarios) s.flight_s = args.flight_s;
+  campaign::RunOptions options;
+  options.out_dir = args.out;
+  options.threads = args.threads;
+  options.force_new = args.force_new;
+  options.max_new_runs = args.max_new_runs;
+  const campaign::CampaignOutcome outcome = campaign::run_campaign(config, options);
+  std::cerr << "insid bench: " << outcome.new_runs << " new runs, " << outcome.skipped_runs
+            << " already done, of " << outcome.total_runs << "; " << static_cast<long>(std::lround(outcome.wall_s)) << " s"
+            << (outcome.complete ? "; summary written to " + args.out + "/summary.json"
+                                 : "; incomplete: rerun the same command to continue")
+            << "\n";
+}
+
+}  // namespace
+
+void add_bench_command(CLI::App& app) {
+  auto args = std::make_shared<BenchArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "bench",
+      "Run (or resume) a campaign: scenarios x algorithms x seeds of identification runs, "
+      "written as JSON under --out (results/README.md), with summary statistics.");
+  cmd->add_option("--preset", args->preset, "campaign preset: paper-fig9 | quick");
+  cmd->add_option("--config", args->config_path, "campaign JSON file (results/README.md)");
+  cmd->add_option("--out", args->out, "results directory")->required();
+  cmd->add_option("--seeds", args->seeds, "number of seeds (1..N), overriding the config");
+  cmd->add_option("--threads", args->threads, "threads (0 = all cores)")->capture_default_str();
+  cmd->add_option("--flight-s", args->flight_s,
+                  "override every simulated scenario's flight length after alignment (s)");
+  cmd->add_flag("--force-new", args->force_new,
+                "discard results of a different campaign found in --out");
+  cmd->add_option("--max-new-runs", args->max_new_runs,
+                  "stop after this many new runs (the rest on the next invocation)");
+  cmd->callback([args] { run_bench(*args); });
+}
+
+}  // namespace insid::cli

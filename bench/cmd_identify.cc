@@ -1,0 +1,161 @@
+// insid identify: find the sensor errors of a dataset with GA / PSO / PIO / DVPIO.
+#include <charconv>
+#include <chrono>
+#include <cmath>
+#include <iostream>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "bench/cli_util.h"
+#include "bench/commands.h"
+#include "core/dataset.h"
+#include "core/fitness.h"
+#include "identification/identify.h"
+#include "identification/ins_problem.h"
+#include "optimizers/registry.h"
+
+namespace insid::cli {
+namespace {
+
+struct IdentifyArgs {
+  std::string data_dir;
+  std::string algorithm = "dvpio";
+  std::vector<std::string> estimate;
+  std::vector<std::string> params;
+  std::uint64_t seed = 1;
+  int iterations = 40;
+  std::int64_t evaluations = 0;
+  std::string alignment = "per-candidate";
+  int threads = 0;
+  bool no_reference = false;
+  bool positions = false;
+  std::string out;
+};
+
+void run_identify(const IdentifyArgs& args) {
+  auto dataset = std::make_shared<const Dataset>(load_dataset(args.data_dir));
+  NavigationOptions nav_options;
+  nav_options.alignment = alignment_mode_from_string(args.alignment);
+  auto navigation = std::make_shared<const NavigationProblem>(dataset, nav_options);
+
+  std::vector<EstimatedParameter> estimated;
+  for (const std::string& e : args.estimate) estimated.push_back(EstimatedParameter::parse(e));
+  if (estimated.empty()) estimated = EstimatedParameter::paper_four();
+  ParameterMapping mapping(estimated);
+  opt::EvaluatorOptions evaluator;
+  evaluator.parallelism = args.threads == 1 ? opt::Parallelism::kSerial : opt::Parallelism::kOpenMP;
+  evaluator.num_threads = args.threads;
+  const InsIdentificationProblem problem(navigation, mapping, FitnessKind::kEq15, evaluator);
+
+  const opt::ParameterMap overrides = parse_algorithm_params(args.params, mapping);
+  opt::RunConfig config;
+  config.seed = args.seed;
+  config.max_iterations = args.iterations;
+  config.max_evaluations = args.evaluations;
+  config.record_positions = args.positions;
+  auto optimizer = opt::make_optimizer(args.algorithm, problem.bounds(), config, overrides);
+
+  // ask / evaluate / tell, with progress on stderr.
+  std::vector<double> f;
+  while (!optimizer->done()) {
+    const auto batch = optimizer->ask();
+    f.assign(batch.size(), 0.0);
+    problem.evaluate_batch(batch, f);
+    optimizer->tell(f);
+    const opt::Result& live = optimizer->result();
+    std::cerr << "\rinsid identify: " << args.algorithm << " iteration " << live.iterations << "/"
+              << args.iterations << ", evaluations " << live.evaluations << ", best "
+              << live.best_f << "   " << std::flush;
+  }
+  std::cerr << "\n";
+  const opt::Result& result = optimizer->result();
+
+  nlohmann::json out = optimizer_result_json(result, mapping);
+  out["format"] = "insid-identify/1";
+  out["build"] = build_info_json();
+  out["data"] = args.data_dir;
+  out["alignment"] = to_string(nav_options.alignment);
+  out["fitness_kind"] = "eq15";
+  for (const EstimatedParameter& p : estimated)
+    out["estimated"].push_back({{"name", p.name}, {"sigma", p.sigma},
+                                {"lower_sigma", p.lower_sigma}, {"upper_sigma", p.upper_sigma}});
+  const Eigen::VectorXd best_sigma = mapping.to_sigma(result.best_x);
+  add_estimate_json(out, mapping, best_sigma, dataset->meta.injected);
+  if (!args.no_reference) {
+    const ReferenceOptimum ref = cached_reference_optimum(args.data_dir, problem);
+    out["reference_optimum"] = ref.to_json(mapping);
+    for (int k = 0; k < mapping.dimension(); ++k)
+      out["error_vs_optimum_sigma"][estimated[static_cast<std::size_t>(k)].name] =
+          best_sigma[k] - ref.value_sigma[k];
+    out["fitness_gap"] = result.best_f - ref.fitness;
+  }
+  write_json_output(args.out, out);
+}
+
+}  // namespace
+
+opt::ParameterMap parse_algorithm_params(const std::vector<std::string>& items,
+                                         const ParameterMapping& mapping) {
+  opt::ParameterMap overrides;
+  for (const std::string& item : items) {
+    const auto eq = item.find('=');
+    if (eq == std::string::npos || eq == 0)
+      throw std::invalid_argument("--param: expected KEY=VALUE, got '" + item + "'");
+    std::string key = item.substr(0, eq);
+    const std::string text = item.substr(eq + 1);
+    double value = 0.0;
+    const auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
+    if (ec != std::errc() || ptr != text.data() + text.size() || !std::isfinite(value))
+      throw std::invalid_argument("--param " + key + ": expected a finite number, got '" + text + "'");
+    // Distances given in sigma units (e.g. d_initial_sigma=0.05) are converted to the
+    // optimizer's normalised box.
+    const std::string suffix = "_sigma";
+    if (key.size() > suffix.size() && key.ends_with(suffix)) {
+      key.erase(key.size() - suffix.size());
+      const double unit = mapping.sigma_per_unit(0);
+      for (int k = 1; k < mapping.dimension(); ++k)
+        if (mapping.sigma_per_unit(k) != unit)
+          throw std::invalid_argument("--param " + key + suffix +
+                                      ": the estimated parameters have boxes of different "
+                                      "widths; give " + key + " in normalised units");
+      value /= unit;
+    }
+    overrides[key] = value;
+  }
+  return overrides;
+}
+
+void add_identify_command(CLI::App& app) {
+  auto args = std::make_shared<IdentifyArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "identify",
+      "Identify sensor errors of a dataset with an optimizer (Eq. 15 fitness, one full "
+      "alignment + pure-INS run per candidate); writes a result JSON.");
+  cmd->add_option("--data", args->data_dir, "dataset directory (insid-dataset/1)")->required();
+  cmd->add_option("--algo", args->algorithm, "ga | pso | pio | dvpio")->capture_default_str();
+  cmd->add_option("--estimate", args->estimate,
+                  "NAME[:SIGMA[:LO:HI]] (SIGMA in SI, box in sigma units); default: the paper's "
+                  "four (accel_bias_x accel_bias_y gyro_bias_x gyro_bias_y), [-4, 4] sigma");
+  cmd->add_option("--param", args->params,
+                  "KEY=VALUE algorithm parameter (see optimizers/README.md); distances "
+                  "d_initial, d_min, d_max, dist_threshold are in the normalised box, or in "
+                  "sigma units with the suffix _sigma (d_initial_sigma=0.05)");
+  cmd->add_option("--seed", args->seed, "random seed")->capture_default_str();
+  cmd->add_option("--iterations", args->iterations, "iteration budget (0 = none)")
+      ->capture_default_str();
+  cmd->add_option("--evaluations", args->evaluations, "evaluation budget (0 = none)")
+      ->capture_default_str();
+  cmd->add_option("--alignment", args->alignment, "per-candidate | fixed")->capture_default_str();
+  cmd->add_option("--threads", args->threads, "OpenMP threads (0 = all, 1 = serial)")
+      ->capture_default_str();
+  cmd->add_flag("--no-reference-optimum", args->no_reference,
+                "skip the data's own optimum (multi-start local fit, cached in the dataset dir)");
+  cmd->add_flag("--positions", args->positions, "record every particle's position per iteration");
+  cmd->add_option("--out", args->out, "result JSON file (default: stdout)");
+  cmd->callback([args] { run_identify(*args); });
+}
+
+}  // namespace insid::cli

@@ -1,0 +1,585 @@
+#include "scenarios/scenario.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+
+#include "scenarios/presets.h"
+#include "scenarios/synthesis.h"
+
+namespace insid::scenarios {
+namespace {
+
+using json = nlohmann::json;
+
+std::string num(double v) {
+  std::ostringstream s;
+  s.precision(12);
+  s << v;
+  return s.str();
+}
+
+std::string type_name(const json& v) {
+  if (v.is_number()) return "a number";
+  if (v.is_string()) return "a string";
+  if (v.is_object()) return "an object";
+  if (v.is_array()) return "an array";
+  if (v.is_boolean()) return "a boolean";
+  return "null";
+}
+
+// Reads one JSON object, checking types and rejecting unknown keys.
+class ObjectReader {
+ public:
+  ObjectReader(const json& j, std::string where, std::vector<std::string> valid)
+      : j_(j), where_(std::move(where)), valid_(std::move(valid)) {
+    if (!j.is_object()) fail("expected an object, got " + type_name(j));
+    for (const auto& [key, value] : j.items()) {
+      if (std::find(valid_.begin(), valid_.end(), key) == valid_.end()) {
+        std::string list;
+        for (const auto& v : valid_) list += (list.empty() ? "" : ", ") + v;
+        fail("unknown key '" + key + "' (valid: " + list + ")");
+      }
+    }
+  }
+  [[noreturn]] void fail(const std::string& what) const {
+    throw std::invalid_argument(where_ + ": " + what);
+  }
+  bool has(const std::string& key) const { return j_.contains(key); }
+  double number(const std::string& key) const {
+    if (!has(key)) fail("missing key '" + key + "'");
+    const json& v = j_.at(key);
+    if (!v.is_number()) fail("key '" + key + "' must be a number, got " + type_name(v));
+    const double d = v.get<double>();
+    if (!std::isfinite(d)) fail("key '" + key + "' must be finite");
+    return d;
+  }
+  double number(const std::string& key, double fallback) const {
+    return has(key) ? number(key) : fallback;
+  }
+  std::optional<double> optional_number(const std::string& key) const {
+    if (!has(key)) return std::nullopt;
+    return number(key);
+  }
+  std::string string(const std::string& key, const std::string& fallback) const {
+    if (!has(key)) return fallback;
+    const json& v = j_.at(key);
+    if (!v.is_string()) fail("key '" + key + "' must be a string, got " + type_name(v));
+    return v.get<std::string>();
+  }
+  const json& object(const std::string& key) const {
+    const json& v = j_.at(key);
+    if (!v.is_object()) fail("key '" + key + "' must be an object, got " + type_name(v));
+    return v;
+  }
+  const json& array(const std::string& key) const {
+    const json& v = j_.at(key);
+    if (!v.is_array()) fail("key '" + key + "' must be an array, got " + type_name(v));
+    return v;
+  }
+  const std::string& where() const { return where_; }
+
+ private:
+  const json& j_;
+  std::string where_;
+  std::vector<std::string> valid_;
+};
+
+const std::map<std::string, std::vector<std::string>>& segment_keys() {
+  static const std::map<std::string, std::vector<std::string>> keys = {
+      {"static", {"type", "duration_s", "comment"}},
+      {"straight", {"type", "duration_s", "comment"}},
+      {"speed", {"type", "speed_mps", "accel_mps2", "comment"}},
+      {"turn", {"type", "turn_deg", "direction", "bank_deg", "rate_deg_s", "ramp_s", "comment"}},
+      {"loiter",
+       {"type", "circles", "direction", "bank_deg", "rate_deg_s", "ramp_s", "comment"}},
+      {"s_turns",
+       {"type", "count", "turn_deg", "direction", "bank_deg", "rate_deg_s", "ramp_s", "straight_s",
+        "comment"}},
+      {"climb", {"type", "dh_m", "vz_mps", "ramp_s", "pitch_deg", "comment"}},
+      {"descend", {"type", "dh_m", "vz_mps", "ramp_s", "pitch_deg", "comment"}},
+      {"takeoff", {"type", "dh_m", "vz_mps", "ramp_s", "comment"}},
+  };
+  return keys;
+}
+
+// Validate one segment's keys and types (semantics are checked when it is applied).
+void check_segment(const json& seg, const std::string& where) {
+  if (!seg.is_object())
+    throw std::invalid_argument(where + ": expected an object, got " + type_name(seg));
+  if (!seg.contains("type") || !seg.at("type").is_string())
+    throw std::invalid_argument(where + ": missing string key 'type' (one of: static, straight, "
+                                        "speed, turn, loiter, s_turns, climb, descend, takeoff)");
+  const std::string type = seg.at("type").get<std::string>();
+  const auto it = segment_keys().find(type);
+  if (it == segment_keys().end())
+    throw std::invalid_argument(where + ": unknown segment type '" + type +
+                                "' (valid: static, straight, speed, turn, loiter, s_turns, climb, "
+                                "descend, takeoff)");
+  ObjectReader r(seg, where + " (" + type + ")", it->second);
+  for (const auto& [key, value] : seg.items()) {
+    if (key == "type" || key == "comment" || key == "direction") {
+      if (!value.is_string()) r.fail("key '" + key + "' must be a string, got " + type_name(value));
+    } else if (!value.is_number() || !std::isfinite(value.get<double>())) {
+      r.fail("key '" + key + "' must be a finite number, got " + type_name(value));
+    }
+  }
+  if (seg.contains("direction")) {
+    const std::string d = seg.at("direction").get<std::string>();
+    if (d != "left" && d != "right") r.fail("direction must be 'left' or 'right', got '" + d + "'");
+  }
+}
+
+TurnDirection direction_of(const ObjectReader& r, const std::string& fallback) {
+  return r.string("direction", fallback) == "left" ? TurnDirection::kLeft : TurnDirection::kRight;
+}
+
+TurnSharpness sharpness_of(const ObjectReader& r) {
+  TurnSharpness s;
+  if (r.has("bank_deg")) {
+    s.bank_rad = r.number("bank_deg") * kDegToRad;
+    if (!(s.bank_rad > 0.0)) r.fail("bank_deg must be in (0, 60] deg, got " + num(r.number("bank_deg")));
+  }
+  if (r.has("rate_deg_s")) {
+    s.rate_rad_s = r.number("rate_deg_s") * kDegToRad;
+    if (!(s.rate_rad_s > 0.0))
+      r.fail("rate_deg_s must be in (0, 30] deg/s, got " + num(r.number("rate_deg_s")));
+  }
+  if (r.has("bank_deg") == r.has("rate_deg_s"))
+    r.fail("give exactly one of bank_deg or rate_deg_s");
+  return s;
+}
+
+// Apply one segment to the builder; errors carry `where`.
+void apply_segment(TrajectoryBuilder& b, const json& seg, const std::string& where) {
+  check_segment(seg, where);
+  const std::string type = seg.at("type").get<std::string>();
+  ObjectReader r(seg, where + " (" + type + ")", segment_keys().at(type));
+  try {
+    if (type == "static") {
+      b.hold_static(r.number("duration_s"));
+    } else if (type == "straight") {
+      b.straight(r.number("duration_s"));
+    } else if (type == "speed") {
+      const double target = r.number("speed_mps");
+      if (target != b.speed_mps()) b.change_speed(target, r.number("accel_mps2", 1.0));
+    } else if (type == "turn") {
+      b.turn(r.number("turn_deg") * kDegToRad, direction_of(r, "right"), sharpness_of(r),
+             r.number("ramp_s", 3.0));
+    } else if (type == "loiter") {
+      const double circles = r.number("circles", 1.0);
+      if (!(circles > 0.0)) r.fail("circles must be > 0, got " + num(circles));
+      b.turn(circles * 360.0 * kDegToRad, direction_of(r, "right"), sharpness_of(r),
+             r.number("ramp_s", 3.0));
+    } else if (type == "s_turns") {
+      const double count = r.number("count", 2.0);
+      if (!(count >= 1.0 && count <= 1000.0 && count == std::floor(count)))
+        r.fail("count must be a whole number in [1, 1000], got " + num(count));
+      const double straight_s = r.number("straight_s", 0.0);
+      if (!(straight_s >= 0.0)) r.fail("straight_s must be >= 0, got " + num(straight_s));
+      TurnDirection dir = direction_of(r, "right");
+      for (int i = 0; i < static_cast<int>(count); ++i) {
+        b.turn(r.number("turn_deg") * kDegToRad, dir, sharpness_of(r), r.number("ramp_s", 3.0));
+        if (straight_s > 0.0 && i + 1 < static_cast<int>(count)) b.straight(straight_s);
+        dir = dir == TurnDirection::kLeft ? TurnDirection::kRight : TurnDirection::kLeft;
+      }
+    } else if (type == "climb" || type == "descend") {
+      const double dh = r.number("dh_m");
+      if (!(dh > 0.0))
+        r.fail("dh_m must be > 0 (the height " + std::string(type == "climb" ? "gained" : "lost") +
+               "), got " + num(dh));
+      const std::optional<double> pitch_deg = r.optional_number("pitch_deg");
+      const double pitch_rad = pitch_deg.value_or(0.0) * kDegToRad;
+      b.climb(type == "climb" ? dh : -dh, r.number("vz_mps", 2.0), r.number("ramp_s", 3.0),
+              pitch_deg ? &pitch_rad : nullptr);
+    } else if (type == "takeoff") {
+      b.takeoff(r.number("dh_m"), r.number("vz_mps", 2.0), r.number("ramp_s", 2.0));
+    }
+  } catch (const std::invalid_argument& e) {
+    const std::string msg = e.what();
+    if (msg.rfind(r.where(), 0) == 0) throw;
+    r.fail(msg);
+  }
+}
+
+EarthModel parse_earth(const ObjectReader& top, const json& j, const InitialPose& initial,
+                       std::string& model_out) {
+  ObjectReader r(j, top.where() + ": earth",
+                 {"model", "a_m", "f", "omega_ie_rad_s", "g_eq_mps2", "g0_mps2", "comment"});
+  const std::string model = r.string("model", "wgs84");
+  EarthModel e;
+  if (model == "wgs84") {
+    e = EarthModel::wgs84();
+    if (r.has("g0_mps2")) r.fail("g0_mps2 is only for model 'paper'; use g_eq_mps2");
+  } else if (model == "paper") {
+    if (r.has("g_eq_mps2")) r.fail("model 'paper' sets g_eq_mps2 from g0_mps2; give g0_mps2");
+    e = EarthModel::paper(initial.lat_rad, initial.h_m, r.number("g0_mps2", 9.801));
+  } else {
+    r.fail("model must be 'wgs84' or 'paper', got '" + model + "'");
+  }
+  e.ellipsoid.a_m = r.number("a_m", e.ellipsoid.a_m);
+  e.ellipsoid.f = r.number("f", e.ellipsoid.f);
+  e.omega_ie_rad_s = r.number("omega_ie_rad_s", e.omega_ie_rad_s);
+  e.g_eq_mps2 = r.number("g_eq_mps2", e.g_eq_mps2);
+  if (const std::string err = e.validate(); !err.empty()) r.fail(err);
+  model_out = model;
+  return e;
+}
+
+NoiseSpec parse_noise(const ObjectReader& top, const json& j) {
+  ObjectReader r(j, top.where() + ": noise",
+                 {"grade", "arw_deg_rth", "vrw_mps_rth", "gnss_vel_sigma_mps", "gnss_pos_sigma_m",
+                  "gm_gyro_sigma_deg_h", "gm_accel_sigma_mps2", "gm_tau_s", "comment"});
+  NoiseSpec n;
+  try {
+    n = noise_grade(r.string("grade", "none"));
+  } catch (const std::invalid_argument& e) {
+    r.fail(e.what());
+  }
+  n.arw_deg_rth = r.number("arw_deg_rth", n.arw_deg_rth);
+  n.vrw_mps_rth = r.number("vrw_mps_rth", n.vrw_mps_rth);
+  n.gnss_vel_sigma_mps = r.number("gnss_vel_sigma_mps", n.gnss_vel_sigma_mps);
+  n.gnss_pos_sigma_m = r.number("gnss_pos_sigma_m", n.gnss_pos_sigma_m);
+  n.gm_gyro_sigma_deg_h = r.number("gm_gyro_sigma_deg_h", n.gm_gyro_sigma_deg_h);
+  n.gm_accel_sigma_mps2 = r.number("gm_accel_sigma_mps2", n.gm_accel_sigma_mps2);
+  n.gm_tau_s = r.number("gm_tau_s", n.gm_tau_s);
+  if (const std::string err = n.validate(); !err.empty()) r.fail(err);
+  return n;
+}
+
+void parse_injected(const ObjectReader& top, const json& j, bool in_sigma, SensorErrors& errors) {
+  const std::string where = top.where() + (in_sigma ? ": injected_sigma" : ": injected");
+  if (!j.is_object())
+    throw std::invalid_argument(where + ": expected an object, got " + type_name(j));
+  for (const auto& [key, value] : j.items()) {
+    if (!is_effect_name(key))
+      throw std::invalid_argument(where + ": unknown effect name '" + key +
+                                  "' (see the effect catalogue, DESIGN.md sec. 4)");
+    if (!value.is_number() || !std::isfinite(value.get<double>()))
+      throw std::invalid_argument(where + ": '" + key + "' must be a finite number, got " +
+                                  type_name(value));
+    const double v = value.get<double>() * (in_sigma ? effect_info(key).sigma : 1.0);
+    add_effect(errors, key, v);
+  }
+}
+
+bool is_multiple(double duration_s, double rate_hz) {
+  const double n = duration_s * rate_hz;
+  return std::fabs(n - std::round(n)) < 1e-6;
+}
+
+}  // namespace
+
+ScenarioConfig parse_scenario(const json& j, const std::string& origin) {
+  ObjectReader r(j, origin,
+                 {"name", "description", "comment", "imu_rate_hz", "gnss_rate_hz", "earth",
+                  "initial", "align_s", "flight_s", "substeps", "seed", "noise", "injected",
+                  "injected_sigma", "segments", "repeat"});
+  ScenarioConfig c;
+  c.origin = origin;
+  c.name = r.string("name", "custom");
+  c.description = r.string("description", "");
+  c.imu_rate_hz = r.number("imu_rate_hz", c.imu_rate_hz);
+  c.gnss_rate_hz = r.number("gnss_rate_hz", c.gnss_rate_hz);
+  if (r.has("initial")) {
+    ObjectReader ir(r.object("initial"), origin + ": initial",
+                    {"lat_deg", "lon_deg", "h_m", "roll_deg", "pitch_deg", "yaw_deg", "comment"});
+    c.initial.lat_rad = ir.number("lat_deg") * kDegToRad;
+    c.initial.lon_rad = ir.number("lon_deg") * kDegToRad;
+    c.initial.h_m = ir.number("h_m", 0.0);
+    c.initial.attitude.roll_rad = ir.number("roll_deg", 0.0) * kDegToRad;
+    c.initial.attitude.pitch_rad = ir.number("pitch_deg", 0.0) * kDegToRad;
+    c.initial.attitude.yaw_rad = ir.number("yaw_deg", 0.0) * kDegToRad;
+  } else {
+    r.fail("missing key 'initial' (lat_deg, lon_deg, h_m, roll_deg, pitch_deg, yaw_deg)");
+  }
+  if (r.has("earth")) c.earth = parse_earth(r, r.object("earth"), c.initial, c.earth_model);
+  c.align_s = r.number("align_s", c.align_s);
+  c.flight_s = r.optional_number("flight_s");
+  const double substeps = r.number("substeps", 4.0);
+  if (!(substeps >= 1 && substeps <= 1000 && substeps == std::floor(substeps)))
+    r.fail("substeps must be a whole number in [1, 1000], got " + num(substeps));
+  c.substeps = static_cast<int>(substeps);
+  const double seed = r.number("seed", 1.0);
+  if (!(seed >= 0 && seed <= 9007199254740992.0 && seed == std::floor(seed)))
+    r.fail("seed must be a whole number >= 0, got " + num(seed));
+  c.seed = static_cast<std::uint64_t>(seed);
+  if (r.has("noise")) c.noise = parse_noise(r, r.object("noise"));
+  if (r.has("injected")) parse_injected(r, r.object("injected"), false, c.injected);
+  if (r.has("injected_sigma")) parse_injected(r, r.object("injected_sigma"), true, c.injected);
+  if (r.has("segments")) c.segments = r.array("segments");
+  if (r.has("repeat")) c.repeat = r.array("repeat");
+  for (std::size_t i = 0; i < c.segments.size(); ++i)
+    check_segment(c.segments[i], origin + ": segments[" + std::to_string(i) + "]");
+  for (std::size_t i = 0; i < c.repeat.size(); ++i)
+    check_segment(c.repeat[i], origin + ": repeat[" + std::to_string(i) + "]");
+  plan_scenario(c);  // all semantic checks now, with the origin in every message
+  return c;
+}
+
+ScenarioConfig load_scenario_file(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  if (!in) throw std::invalid_argument("cannot open scenario file '" + path.string() + "'");
+  json j;
+  try {
+    j = json::parse(in);
+  } catch (const json::parse_error& e) {
+    throw std::invalid_argument(path.string() + ": not valid JSON: " + e.what());
+  }
+  return parse_scenario(j, path.string());
+}
+
+std::vector<std::string> preset_names() {
+  std::vector<std::string> names;
+  for (const auto& [name, text] : preset_texts()) names.push_back(name);
+  return names;
+}
+
+ScenarioConfig preset_scenario(std::string_view name) {
+  for (const auto& [n, text] : preset_texts())
+    if (n == name) return parse_scenario(json::parse(text), "preset '" + n + "'");
+  std::string list;
+  for (const auto& n : preset_names()) list += (list.empty() ? "" : ", ") + n;
+  throw std::invalid_argument("unknown preset '" + std::string(name) + "' (valid: " + list + ")");
+}
+
+json scenario_to_json(const ScenarioConfig& c) {
+  json j;
+  j["name"] = c.name;
+  if (!c.description.empty()) j["description"] = c.description;
+  j["imu_rate_hz"] = c.imu_rate_hz;
+  j["gnss_rate_hz"] = c.gnss_rate_hz;
+  j["earth"] = {{"model", c.earth_model == "paper" ? "paper" : "wgs84"},
+                {"a_m", c.earth.ellipsoid.a_m},
+                {"f", c.earth.ellipsoid.f},
+                {"omega_ie_rad_s", c.earth.omega_ie_rad_s}};
+  if (c.earth_model == "paper") {
+    j["earth"]["g0_mps2"] = c.earth.normal_gravity_mps2(c.initial.lat_rad, c.initial.h_m);
+  } else {
+    j["earth"]["g_eq_mps2"] = c.earth.g_eq_mps2;
+  }
+  j["initial"] = {{"lat_deg", c.initial.lat_rad * kRadToDeg},
+                  {"lon_deg", c.initial.lon_rad * kRadToDeg},
+                  {"h_m", c.initial.h_m},
+                  {"roll_deg", c.initial.attitude.roll_rad * kRadToDeg},
+                  {"pitch_deg", c.initial.attitude.pitch_rad * kRadToDeg},
+                  {"yaw_deg", c.initial.attitude.yaw_rad * kRadToDeg}};
+  j["align_s"] = c.align_s;
+  if (c.flight_s) j["flight_s"] = *c.flight_s;
+  j["substeps"] = c.substeps;
+  j["seed"] = c.seed;
+  j["noise"] = {{"grade", c.noise.grade},
+                {"arw_deg_rth", c.noise.arw_deg_rth},
+                {"vrw_mps_rth", c.noise.vrw_mps_rth},
+                {"gnss_vel_sigma_mps", c.noise.gnss_vel_sigma_mps},
+                {"gnss_pos_sigma_m", c.noise.gnss_pos_sigma_m},
+                {"gm_gyro_sigma_deg_h", c.noise.gm_gyro_sigma_deg_h},
+                {"gm_accel_sigma_mps2", c.noise.gm_accel_sigma_mps2},
+                {"gm_tau_s", c.noise.gm_tau_s}};
+  j["injected"] = json::object();
+  for (const auto& [k, v] : nonzero_effects(c.injected)) j["injected"][k] = v;
+  j["segments"] = c.segments;
+  j["repeat"] = c.repeat;
+  return j;
+}
+
+ScenarioPlan plan_scenario(const ScenarioConfig& c) {
+  auto fail = [&](const std::string& what) {
+    throw std::invalid_argument(c.origin + ": " + what);
+  };
+  if (!(c.imu_rate_hz > 0.0 && c.imu_rate_hz <= 10000.0))
+    fail("imu_rate_hz must be in (0, 10000] Hz, got " + num(c.imu_rate_hz));
+  if (!(c.gnss_rate_hz > 0.0 && c.gnss_rate_hz <= c.imu_rate_hz))
+    fail("gnss_rate_hz must be in (0, imu_rate_hz = " + num(c.imu_rate_hz) + "] Hz, got " +
+         num(c.gnss_rate_hz));
+  const double ratio = c.imu_rate_hz / c.gnss_rate_hz;
+  if (std::fabs(ratio - std::round(ratio)) > 1e-9 * ratio)
+    fail("gnss_rate_hz = " + num(c.gnss_rate_hz) + " Hz does not divide imu_rate_hz = " +
+         num(c.imu_rate_hz) + " Hz (the GNSS epochs must fall on IMU epochs)");
+  if (!(c.align_s > 0.0) || !std::isfinite(c.align_s))
+    fail("align_s must be > 0 s, got " + num(c.align_s));
+  if (!is_multiple(c.align_s, c.imu_rate_hz))
+    fail("align_s = " + num(c.align_s) + " s is not a whole number of IMU periods (1/" +
+         num(c.imu_rate_hz) + " s)");
+  if (c.flight_s) {
+    if (!(*c.flight_s > 0.0) || !std::isfinite(*c.flight_s))
+      fail("flight_s must be > 0 s, got " + num(*c.flight_s));
+    if (*c.flight_s > 30.0 * 3600.0) fail("flight_s must be at most 30 h, got " + num(*c.flight_s));
+    if (!is_multiple(*c.flight_s, c.imu_rate_hz))
+      fail("flight_s = " + num(*c.flight_s) + " s is not a whole number of IMU periods (1/" +
+           num(c.imu_rate_hz) + " s)");
+  }
+  if (const std::string e = c.noise.validate(); !e.empty()) fail(e);
+  if (const std::string e = c.earth.validate(); !e.empty()) fail(e);
+  if (!(c.substeps >= 1 && c.substeps <= 1000))
+    fail("substeps must be in [1, 1000], got " + std::to_string(c.substeps));
+  if (!(std::fabs(c.injected.gnss_latency_s) <= 1.0))
+    fail("gnss_latency must be within [-1, 1] s, got " + num(c.injected.gnss_latency_s));
+
+  TrajectoryBuilder b = [&] {
+    try {
+      return TrajectoryBuilder(c.initial, c.earth.normal_gravity_mps2(c.initial.lat_rad,
+                                                                      c.initial.h_m));
+    } catch (const std::invalid_argument& e) {
+      fail(e.what());
+    }
+    throw std::logic_error("unreachable");
+  }();
+  b.hold_static(c.align_s);
+  for (std::size_t i = 0; i < c.segments.size(); ++i)
+    apply_segment(b, c.segments[i], c.origin + ": segments[" + std::to_string(i) + "]");
+  double flight_s = 0.0;
+  if (c.flight_s) {
+    flight_s = *c.flight_s;
+    const double t_end = c.align_s + flight_s;
+    if (!c.repeat.empty()) {
+      for (std::size_t cycle = 0; b.now_s() < t_end; ++cycle) {
+        const double before = b.now_s();
+        for (std::size_t i = 0; i < c.repeat.size() && b.now_s() < t_end; ++i)
+          apply_segment(b, c.repeat[i],
+                        c.origin + ": repeat[" + std::to_string(i) + "] (cycle " +
+                            std::to_string(cycle) + ")");
+        if (!(b.now_s() > before)) fail("repeat segments take no time");
+      }
+    }
+  } else {
+    if (!c.repeat.empty()) fail("'repeat' needs 'flight_s' (how long to keep repeating)");
+    const double flown = b.now_s() - c.align_s;
+    if (!(flown > 0.0)) fail("no flight after the alignment: give 'segments' or 'flight_s'");
+    // Round up to a whole GNSS period.
+    flight_s = std::ceil(flown * c.gnss_rate_hz - 1e-6) / c.gnss_rate_hz;
+  }
+  ScenarioPlan p;
+  p.trajectory = b.build();
+  p.flight_s = flight_s;
+  p.num_imu_steps =
+      static_cast<std::size_t>(std::llround((c.align_s + flight_s) * c.imu_rate_hz));
+  p.num_gnss =
+      static_cast<std::size_t>(std::floor((c.align_s + flight_s) * c.gnss_rate_hz + 1e-6)) + 1;
+  return p;
+}
+
+Dataset simulate(const ScenarioConfig& cfg, bool record_truth_in_meta) {
+  return simulate(cfg, plan_scenario(cfg), record_truth_in_meta);
+}
+
+Dataset simulate(const ScenarioConfig& cfg, const ScenarioPlan& plan, bool record_truth_in_meta) {
+  ImuSynthesizer synth(plan.trajectory, cfg.earth, cfg.imu_rate_hz, cfg.substeps);
+  synth.run(plan.num_imu_steps);
+
+  Dataset ds;
+  DatasetMeta& m = ds.meta;
+  m.imu_rate_hz = cfg.imu_rate_hz;
+  m.gnss_rate_hz = cfg.gnss_rate_hz;
+  m.earth = cfg.earth;
+  m.align_s = cfg.align_s;
+  m.initial.t_s = 0.0;
+  m.initial.lat_rad = cfg.initial.lat_rad;
+  m.initial.lon_rad = cfg.initial.lon_rad;
+  m.initial.h_m = cfg.initial.h_m;
+  m.initial.attitude = cfg.initial.attitude;
+  if (record_truth_in_meta) {
+    m.injected = nonzero_effects(cfg.injected);
+    m.noise = cfg.noise.levels();
+  }
+
+  // --- IMU: errors (DESIGN.md sec. 3 sensor model), bias instability, white noise.
+  const double dt = 1.0 / cfg.imu_rate_hz;
+  const NoiseSpec& n = cfg.noise;
+  const bool noisy = !n.is_zero();
+  GaussianRng imu_rng(splitmix64(cfg.seed ^ 0x494D55ULL));    // "IMU"
+  GaussianRng gm_rng(splitmix64(cfg.seed ^ 0x474D42ULL));     // "GMB"
+  GaussianRng gnss_rng(splitmix64(cfg.seed ^ 0x474E5353ULL));  // "GNSS"
+  const double sigma_dtheta = n.arw_deg_rth * kDegToRad / 60.0 * std::sqrt(dt);
+  const double sigma_dv = n.vrw_mps_rth / 60.0 * std::sqrt(dt);
+  const double gm_phi = std::exp(-dt / n.gm_tau_s);
+  const double gm_drive = std::sqrt(std::max(0.0, 1.0 - gm_phi * gm_phi));
+  const double gm_gyro = n.gm_gyro_sigma_deg_h * kDegToRad / 3600.0;
+  const double gm_accel = n.gm_accel_sigma_mps2;
+  const bool has_gm = gm_gyro > 0.0 || gm_accel > 0.0;
+  Eigen::Vector3d gm_b_gyro = Eigen::Vector3d::Zero(), gm_b_accel = Eigen::Vector3d::Zero();
+  if (has_gm) {  // stationary start
+    for (int i = 0; i < 3; ++i) gm_b_gyro[i] = gm_gyro * gm_rng.normal();
+    for (int i = 0; i < 3; ++i) gm_b_accel[i] = gm_accel * gm_rng.normal();
+  }
+  ds.imu = synth.imu();
+  for (ImuSample& s : ds.imu) {
+    apply_imu_errors(cfg.injected, s.t_s, dt, s.dtheta_b_rad, s.dv_b_mps);
+    if (has_gm) {
+      for (int i = 0; i < 3; ++i)
+        gm_b_gyro[i] = gm_phi * gm_b_gyro[i] + gm_gyro * gm_drive * gm_rng.normal();
+      for (int i = 0; i < 3; ++i)
+        gm_b_accel[i] = gm_phi * gm_b_accel[i] + gm_accel * gm_drive * gm_rng.normal();
+      s.dtheta_b_rad += gm_b_gyro * dt;
+      s.dv_b_mps += gm_b_accel * dt;
+    }
+    if (noisy) {
+      for (int i = 0; i < 3; ++i) s.dtheta_b_rad[i] += sigma_dtheta * imu_rng.normal();
+      for (int i = 0; i < 3; ++i) s.dv_b_mps[i] += sigma_dv * imu_rng.normal();
+    }
+  }
+  ds.truth = synth.truth();
+
+  // --- GNSS: antenna (lever arm) at the tagged time minus the latency, plus white noise.
+  const double latency = cfg.injected.gnss_latency_s;
+  const Eigen::Vector3d& lever = cfg.injected.lever_arm_b_m;
+  const std::size_t decim = static_cast<std::size_t>(std::llround(cfg.imu_rate_hz / cfg.gnss_rate_hz));
+  ds.gnss.reserve(plan.num_gnss);
+  for (std::size_t j = 0; j < plan.num_gnss; ++j) {
+    const double t = static_cast<double>(j) / cfg.gnss_rate_hz;
+    GnssSample g;
+    const std::size_t k = j * decim;  // IMU epoch index (0 = start)
+    if (latency == 0.0 && lever.isZero(0) && k >= 1 && k <= ds.truth.size()) {
+      const TruthSample& tr = ds.truth[k - 1];
+      g.lat_rad = tr.lat_rad;
+      g.lon_rad = tr.lon_rad;
+      g.h_m = tr.h_m;
+      g.v_eb_n_mps = tr.v_eb_n_mps;
+    } else {
+      g = antenna_solution(cfg.earth, synth.state_at(t - latency), lever);
+    }
+    g.t_s = t;
+    if (noisy) {
+      const double dE = n.gnss_pos_sigma_m * gnss_rng.normal();
+      const double dN = n.gnss_pos_sigma_m * gnss_rng.normal();
+      const double dU = n.gnss_pos_sigma_m * gnss_rng.normal();
+      g.lat_rad += dN / (cfg.earth.meridian_radius_m(g.lat_rad) + g.h_m);
+      g.lon_rad += dE / ((cfg.earth.prime_vertical_radius_m(g.lat_rad) + g.h_m) *
+                         std::cos(g.lat_rad));
+      g.h_m += dU;
+      for (int i = 0; i < 3; ++i) g.v_eb_n_mps[i] += n.gnss_vel_sigma_mps * gnss_rng.normal();
+    }
+    ds.gnss.push_back(g);
+  }
+  return ds;
+}
+
+json answer_json(const ScenarioConfig& cfg) {
+  json a;
+  a["format"] = "insid-answer/1";
+  a["scenario"] = cfg.name;
+  a["seed"] = cfg.seed;
+  a["injected"] = json::object();
+  a["injected_sigma"] = json::object();
+  for (const auto& [k, v] : nonzero_effects(cfg.injected)) {
+    a["injected"][k] = v;
+    a["injected_sigma"][k] = v / effect_info(k).sigma;
+  }
+  const NoiseSpec& n = cfg.noise;
+  a["noise"] = {{"grade", n.grade},
+                {"arw_deg_rth", n.arw_deg_rth},
+                {"vrw_mps_rth", n.vrw_mps_rth},
+                {"gnss_vel_sigma_mps", n.gnss_vel_sigma_mps},
+                {"gnss_pos_sigma_m", n.gnss_pos_sigma_m},
+                {"gm_gyro_sigma_deg_h", n.gm_gyro_sigma_deg_h},
+                {"gm_accel_sigma_mps2", n.gm_accel_sigma_mps2},
+                {"gm_tau_s", n.gm_tau_s}};
+  a["config"] = scenario_to_json(cfg);
+  return a;
+}
+
+}  // namespace insid::scenarios

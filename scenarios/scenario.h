@@ -1,0 +1,75 @@
+// Scenario configuration (JSON files and named presets) and the whole simulation:
+// config -> trajectory -> exact IMU increments and truth -> GNSS -> errors and noise -> Dataset.
+// The JSON keys are documented in scenarios/README.md; unknown keys are rejected.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "core/dataset.h"
+#include "core/earth.h"
+#include "core/sensor_errors.h"
+#include "scenarios/noise.h"
+#include "scenarios/trajectory.h"
+
+namespace insid::scenarios {
+
+struct ScenarioConfig {
+  std::string name = "custom";
+  std::string description;
+  std::string origin = "scenario";   ///< where it came from (file or preset), for messages
+  double imu_rate_hz = 100.0;
+  double gnss_rate_hz = 10.0;
+  EarthModel earth;                  ///< default WGS-84
+  std::string earth_model = "wgs84";  ///< "wgs84" | "paper" | "custom" (as given)
+  InitialPose initial;               ///< radians
+  double align_s = 600.0;            ///< static alignment at the start (s)
+  std::optional<double> flight_s;    ///< flight after the alignment (s); default: the segments
+  nlohmann::json segments = nlohmann::json::array();  ///< played once after the alignment
+  nlohmann::json repeat = nlohmann::json::array();    ///< then cycled until flight_s
+  int substeps = 4;                  ///< RK4 sub-steps per IMU interval
+  NoiseSpec noise;                   ///< default: grade "none"
+  SensorErrors injected;             ///< SI
+  std::uint64_t seed = 1;
+};
+
+/// Parse a scenario from JSON. `origin` prefixes every message (e.g. the file name). Throws
+/// std::invalid_argument naming the key, e.g. "my.json: segments[2] (turn): unknown key
+/// 'bank' (valid: type, turn_deg, direction, bank_deg, rate_deg_s, ramp_s, comment)".
+ScenarioConfig parse_scenario(const nlohmann::json& j, const std::string& origin);
+/// Read and parse a scenario file.
+ScenarioConfig load_scenario_file(const std::filesystem::path& path);
+/// Named presets: paper, racetrack, rich, straight.
+std::vector<std::string> preset_names();
+/// Preset by name; throws std::invalid_argument listing the names when unknown.
+ScenarioConfig preset_scenario(std::string_view name);
+/// The effective configuration as JSON (parse_scenario reads it back to the same config).
+nlohmann::json scenario_to_json(const ScenarioConfig& cfg);
+
+/// What a configuration expands to.
+struct ScenarioPlan {
+  Trajectory trajectory;
+  double flight_s = 0.0;         ///< after the alignment
+  std::size_t num_imu_steps = 0;  ///< rows of imu.csv
+  std::size_t num_gnss = 0;       ///< rows of gnss.csv
+};
+/// Validate and expand a configuration (all semantic checks: durations, bank angles, rates).
+ScenarioPlan plan_scenario(const ScenarioConfig& cfg);
+
+/// Run the whole simulation. `record_truth_in_meta` = false leaves `injected` and `noise` out of
+/// meta.json (data that look measured; the answer goes to answer_json()).
+Dataset simulate(const ScenarioConfig& cfg, bool record_truth_in_meta = true);
+/// Same, reusing a plan.
+Dataset simulate(const ScenarioConfig& cfg, const ScenarioPlan& plan,
+                 bool record_truth_in_meta = true);
+
+/// The ground truth of a simulation (written to answer.json with --no-injected).
+nlohmann::json answer_json(const ScenarioConfig& cfg);
+
+}  // namespace insid::scenarios

@@ -1,0 +1,232 @@
+#include "scenarios/synthesis.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace insid::scenarios {
+
+ImuSynthesizer::ImuSynthesizer(Trajectory trajectory, const EarthModel& earth,
+                               double imu_rate_hz, int substeps)
+    : traj_(std::move(trajectory)), earth_(earth), rate_(imu_rate_hz), substeps_(substeps) {
+  if (!(imu_rate_hz > 0.0 && imu_rate_hz <= 10000.0))
+    throw std::invalid_argument("imu_rate_hz must be in (0, 10000], got " +
+                                std::to_string(imu_rate_hz));
+  if (substeps < 1 || substeps > 1000)
+    throw std::invalid_argument("substeps must be in [1, 1000], got " +
+                                std::to_string(substeps));
+  if (const std::string e = earth.validate(); !e.empty()) throw std::invalid_argument(e);
+  breakpoints_ = traj_.breakpoints();
+}
+
+TrueState ImuSynthesizer::state_from(const Kinematics& k, double lat_rad, double lon_rad) const {
+  TrueState s;
+  s.t_s = k.t_s;
+  s.lat_rad = lat_rad;
+  s.lon_rad = lon_rad;
+  s.h_m = k.h_m;
+  s.v_eb_n = k.v_eb_n;
+  s.a_n = k.a_n;
+  s.attitude = k.attitude;
+  s.C_b_n = k.C_b_n;
+  s.omega_nb_b = k.omega_nb_b;
+  const Eigen::Vector3d omega_ie_n = earth_.omega_ie_n(lat_rad);
+  const Eigen::Vector3d omega_en_n = earth_.omega_en_n(lat_rad, k.h_m, k.v_eb_n);
+  const Eigen::Matrix3d C_n_b = k.C_b_n.transpose();
+  // ENU navigation equations read backwards (paper Eq. 1, rows 2-3; Groves 2013 eq. 5.54).
+  s.omega_ib_b = k.omega_nb_b + C_n_b * (omega_ie_n + omega_en_n);
+  s.f_ib_b = C_n_b * (k.a_n + (2.0 * omega_ie_n + omega_en_n).cross(k.v_eb_n) -
+                      earth_.gravity_n(lat_rad, k.h_m));
+  return s;
+}
+
+namespace {
+
+struct PosRate {
+  double lat_dot, lon_dot;
+};
+
+// Kahan-compensated sum += delta.
+void kahan_add(double& sum, double& c, double delta) {
+  const double y = delta - c;
+  const double t = sum + y;
+  c = (t - sum) - y;
+  sum = t;
+}
+
+PosRate position_rate(const EarthModel& earth, double lat, const Kinematics& k) {
+  const double rm_h = earth.meridian_radius_m(lat) + k.h_m;
+  const double rn_h = earth.prime_vertical_radius_m(lat) + k.h_m;
+  return {k.v_eb_n.y() / rm_h, k.v_eb_n.x() / (rn_h * std::cos(lat))};
+}
+
+}  // namespace
+
+void ImuSynthesizer::advance_piece(double t0, double t1, int n, GeoPos& p,
+                                   Eigen::Vector3d* dtheta, Eigen::Vector3d* dv) const {
+  const double h = (t1 - t0) / n;
+  Kinematics k0 = traj_.eval(t0);
+  for (int i = 0; i < n; ++i) {
+    const double ta = t0 + i * h;
+    const double tb = (i + 1 == n) ? t1 : t0 + (i + 1) * h;
+    const Kinematics km = traj_.eval(ta + 0.5 * h);
+    const Kinematics k1 = traj_.eval(tb);
+    // Classical RK4 on (lat, lon); the rates at the stage points integrate into increments.
+    const double lat = p.lat, lon = p.lon;
+    const PosRate p1 = position_rate(earth_, lat, k0);
+    const double lat2 = lat + 0.5 * h * p1.lat_dot;
+    const PosRate p2 = position_rate(earth_, lat2, km);
+    const double lat3 = lat + 0.5 * h * p2.lat_dot;
+    const PosRate p3 = position_rate(earth_, lat3, km);
+    const double lat4 = lat + h * p3.lat_dot;
+    const PosRate p4 = position_rate(earth_, lat4, k1);
+    if (dtheta || dv) {
+      const TrueState s1 = state_from(k0, lat, lon);
+      const TrueState s2 = state_from(km, lat2, lon);
+      const TrueState s3 = state_from(km, lat3, lon);
+      const TrueState s4 = state_from(k1, lat4, lon);
+      if (dtheta)
+        *dtheta += h / 6.0 * (s1.omega_ib_b + 2.0 * (s2.omega_ib_b + s3.omega_ib_b) + s4.omega_ib_b);
+      if (dv) *dv += h / 6.0 * (s1.f_ib_b + 2.0 * (s2.f_ib_b + s3.f_ib_b) + s4.f_ib_b);
+    }
+    kahan_add(p.lat, p.lat_c, h / 6.0 * (p1.lat_dot + 2.0 * (p2.lat_dot + p3.lat_dot) + p4.lat_dot));
+    kahan_add(p.lon, p.lon_c, h / 6.0 * (p1.lon_dot + 2.0 * (p2.lon_dot + p3.lon_dot) + p4.lon_dot));
+    k0 = k1;
+  }
+}
+
+void ImuSynthesizer::advance(double t0, double t1, GeoPos& p, Eigen::Vector3d* dtheta,
+                             Eigen::Vector3d* dv) const {
+  if (t1 == t0) return;
+  const double dt_nominal = 1.0 / rate_;
+  auto pieces = [&](double a, double b) {
+    const int n = std::max(
+        1, static_cast<int>(std::ceil(substeps_ * std::fabs(b - a) / dt_nominal - 1e-9)));
+    advance_piece(a, b, n, p, dtheta, dv);
+  };
+  // Split at breakpoints strictly inside (t0, t1), in the direction of travel.
+  const double lo = std::min(t0, t1), hi = std::max(t0, t1);
+  auto first = std::upper_bound(breakpoints_.begin(), breakpoints_.end(), lo);
+  auto last = std::lower_bound(breakpoints_.begin(), breakpoints_.end(), hi);
+  std::vector<double> cuts(first, last);
+  if (t1 < t0) std::reverse(cuts.begin(), cuts.end());
+  double a = t0;
+  for (double c : cuts) {
+    pieces(a, c);
+    a = c;
+  }
+  pieces(a, t1);
+}
+
+void ImuSynthesizer::run(std::size_t num_steps) {
+  if (num_steps < 1) throw std::invalid_argument("need at least one IMU step");
+  imu_.assign(num_steps, ImuSample{});
+  truth_.assign(num_steps, TruthSample{});
+  lat_grid_.assign(num_steps + 1, 0.0);
+  lon_grid_.assign(num_steps + 1, 0.0);
+  GeoPos p;
+  p.lat = traj_.initial().lat_rad;
+  p.lon = traj_.initial().lon_rad;
+  lat_grid_[0] = p.lat;
+  lon_grid_[0] = p.lon;
+  double t_prev = 0.0;
+  for (std::size_t k = 1; k <= num_steps; ++k) {
+    const double t = static_cast<double>(k) / rate_;
+    ImuSample& s = imu_[k - 1];
+    s.t_s = t;
+    advance(t_prev, t, p, &s.dtheta_b_rad, &s.dv_b_mps);
+    lat_grid_[k] = p.lat;
+    lon_grid_[k] = p.lon;
+    const Kinematics kin = traj_.eval(t);
+    TruthSample& tr = truth_[k - 1];
+    tr.t_s = t;
+    tr.lat_rad = p.lat;
+    tr.lon_rad = p.lon;
+    tr.h_m = kin.h_m;
+    tr.v_eb_n_mps = kin.v_eb_n;
+    tr.attitude = kin.attitude;
+    t_prev = t;
+  }
+}
+
+TrueState ImuSynthesizer::state_at(double t_s) const {
+  if (lat_grid_.empty()) throw std::logic_error("ImuSynthesizer::state_at before run()");
+  const double K = static_cast<double>(lat_grid_.size() - 1);
+  const double kf = std::clamp(std::round(t_s * rate_), 0.0, K);
+  const std::size_t k = static_cast<std::size_t>(kf);
+  GeoPos p;
+  p.lat = lat_grid_[k];
+  p.lon = lon_grid_[k];
+  advance(static_cast<double>(k) / rate_, t_s, p, nullptr, nullptr);
+  return state_from(traj_.eval(t_s), p.lat, p.lon);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Geodesy
+
+Eigen::Vector3d ecef_from_geodetic(const EarthModel& earth, double lat_rad, double lon_rad,
+                                   double h_m) {
+  const double rn = earth.prime_vertical_radius_m(lat_rad);
+  const double e2 = earth.ellipsoid.e2();
+  const double cl = std::cos(lat_rad), sl = std::sin(lat_rad);
+  return {(rn + h_m) * cl * std::cos(lon_rad), (rn + h_m) * cl * std::sin(lon_rad),
+          (rn * (1.0 - e2) + h_m) * sl};
+}
+
+void geodetic_from_ecef(const EarthModel& earth, const Eigen::Vector3d& r_e, double& lat_rad,
+                        double& lon_rad, double& h_m) {
+  const double e2 = earth.ellipsoid.e2();
+  const double p = std::hypot(r_e.x(), r_e.y());
+  lon_rad = std::atan2(r_e.y(), r_e.x());
+  // Fixed-point iteration on latitude (converges to machine precision near the surface).
+  double lat = std::atan2(r_e.z(), p * (1.0 - e2));
+  double h = 0.0;
+  for (int i = 0; i < 10; ++i) {
+    const double rn = earth.prime_vertical_radius_m(lat);
+    h = p / std::cos(lat) - rn;
+    const double next = std::atan2(r_e.z(), p * (1.0 - e2 * rn / (rn + h)));
+    const bool done = std::fabs(next - lat) < 1e-15;
+    lat = next;
+    if (done) break;
+  }
+  const double rn = earth.prime_vertical_radius_m(lat);
+  h = p / std::cos(lat) - rn;
+  lat_rad = lat;
+  h_m = h;
+}
+
+Eigen::Matrix3d C_n_e(double lat_rad, double lon_rad) {
+  const double sl = std::sin(lat_rad), cl = std::cos(lat_rad);
+  const double so = std::sin(lon_rad), co = std::cos(lon_rad);
+  Eigen::Matrix3d c;
+  c << -so, -sl * co, cl * co,  //
+      co, -sl * so, cl * so,    //
+      0.0, cl, sl;
+  return c;
+}
+
+GnssSample antenna_solution(const EarthModel& earth, const TrueState& s,
+                            const Eigen::Vector3d& lever_arm_b_m) {
+  GnssSample g;
+  g.t_s = s.t_s;
+  if (lever_arm_b_m.isZero(0)) {
+    g.lat_rad = s.lat_rad;
+    g.lon_rad = s.lon_rad;
+    g.h_m = s.h_m;
+    g.v_eb_n_mps = s.v_eb_n;
+    return g;
+  }
+  const Eigen::Matrix3d Cne = C_n_e(s.lat_rad, s.lon_rad);
+  const Eigen::Vector3d r_e = ecef_from_geodetic(earth, s.lat_rad, s.lon_rad, s.h_m);
+  const Eigen::Vector3d r_ant_e = r_e + Cne * (s.C_b_n * lever_arm_b_m);
+  geodetic_from_ecef(earth, r_ant_e, g.lat_rad, g.lon_rad, g.h_m);
+  // Groves 2013 eq. 14.x: v_ea = v_eb + C_b (omega_eb_b x l), omega_eb_b = omega_ib_b - C_n_b w_ie.
+  const Eigen::Vector3d omega_eb_b =
+      s.omega_ib_b - s.C_b_n.transpose() * earth.omega_ie_n(s.lat_rad);
+  const Eigen::Vector3d v_ant_e = Cne * (s.v_eb_n + s.C_b_n * omega_eb_b.cross(lever_arm_b_m));
+  g.v_eb_n_mps = C_n_e(g.lat_rad, g.lon_rad).transpose() * v_ant_e;
+  return g;
+}
+
+}  // namespace insid::scenarios
