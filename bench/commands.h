@@ -15,6 +15,7 @@ namespace insid::cli {
 void add_navigate_command(CLI::App& app);
 void add_identify_command(CLI::App& app);
 void add_bench_command(CLI::App& app);
+void add_sweep_command(CLI::App& app);
 void add_simulate_command(CLI::App& app);
 
 /// `--param KEY=VALUE` items; keys ending in _sigma are distances in sigma units, converted

@@ -14,6 +14,7 @@ int main(int argc, char** argv) {
   insid::cli::add_navigate_command(app);
   insid::cli::add_identify_command(app);
   insid::cli::add_bench_command(app);
+  insid::cli::add_sweep_command(app);
   insid::cli::add_simulate_command(app);
   try {
     app.parse(argc, argv);

@@ -173,10 +173,12 @@ nlohmann::json summarize_campaign(const std::string& out_dir, const CampaignConf
       labels.push_back(algo.label);
       friedman_table.back().push_back(stats::median(finals));
     }
-    // Pairwise two-sided Mann-Whitney on final fitness, Holm over the scenario's pairs.
+    // Pairwise two-sided Mann-Whitney on final fitness, Holm over the scenario's pairs. Sweeps
+    // (more than kMaxPairwise settings) skip it: their per-setting CIs are in sweep.json.
+    constexpr std::size_t kMaxPairwise = 12;
     nlohmann::json pairwise = nlohmann::json::array();
     std::vector<double> ps;
-    for (std::size_t a = 0; a < labels.size(); ++a)
+    for (std::size_t a = 0; a < labels.size() && labels.size() <= kMaxPairwise; ++a)
       for (std::size_t b = a + 1; b < labels.size(); ++b) {
         const stats::MannWhitneyResult mw = stats::mann_whitney_u(finals_by_algo[a], finals_by_algo[b]);
         const double a12 = stats::a12(finals_by_algo[a], finals_by_algo[b]);

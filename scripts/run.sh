@@ -1,26 +1,18 @@
 #!/usr/bin/env bash
-# The main job: install dependencies, build, simulate the paper's flight and run the paper
-# reproduction. Outputs go under results/run/ (not committed).
+# The main job: install dependencies, build, and reproduce the paper's comparison (Figure 9):
+# the `paper-fig9` campaign (the `paper` flight simulated in memory, GA / PSO / PIO / DVPIO with
+# Table 4 settings, 31 seeds), then its statistics, figures and report.
+#   scripts/run.sh                 # 31 seeds
+#   scripts/run.sh --seeds 5       # a quick look; any `insid bench` option is passed through
+# Output: results/run/paper-fig9/{manifest.json,runs/,summary.json,report.md,figures/}.
+# Interrupted? Run the same command again: finished runs are kept.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/install-deps.sh
 scripts/build.sh
-insid=build/bench/insid
-out=results/run
+out=results/run/paper-fig9
 mkdir -p "$out"
-echo "== simulate the paper preset (Table 3, Sec. 3.2 injected errors)" >&2
-"$insid" simulate --preset paper --out "$out/paper-data" --seed 1
-echo "== navigate without compensation" >&2
-"$insid" navigate --data "$out/paper-data" --summary "$out/navigate-uncompensated.json"
-echo "== navigate compensating the injected errors" >&2
-comp=$(/usr/bin/python3 -c 'import json,sys; m=json.load(open(sys.argv[1]))["injected"]; print(" ".join(f"--compensate {k}={v!r}" for k,v in m.items()))' "$out/paper-data/meta.json")
-# shellcheck disable=SC2086
-"$insid" navigate --data "$out/paper-data" $comp --summary "$out/navigate-compensated.json"
-/usr/bin/python3 - "$out" <<'PY'
-import json, sys
-d = sys.argv[1]
-a = json.load(open(f"{d}/navigate-uncompensated.json"))
-b = json.load(open(f"{d}/navigate-compensated.json"))
-print(f"Eq. 15 fitness, uncompensated:            {a['fitness']:.4g}  (rms {a['rms_dvh_mps']:.4g} m/s)")
-print(f"Eq. 15 fitness, injected errors removed:  {b['fitness']:.4g}  (rms {b['rms_dvh_mps']:.4g} m/s)")
-PY
+build/bench/insid bench --preset paper-fig9 --out "$out" "$@"
+/usr/bin/python3 scripts/campaign_report.py "$out"
+echo "insid: report in $out/report.md" >&2
+sed -n '/^### Result$/,/^### Statistics/p' "$out/report.md" | head -n 40

@@ -1,0 +1,264 @@
+// Campaign harness: schema of the files, resume after a kill, refusal of a different config.
+#include "bench/campaign.h"
+
+#include <signal.h>
+#include <sys/types.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <thread>
+
+#include <gtest/gtest.h>
+
+#include "bench/sweep.h"
+
+namespace insid::campaign {
+namespace {
+namespace fs = std::filesystem;
+
+const char* kConfig = R"({
+  "name": "test-small",
+  "scenarios": [{"name": "rich-short", "preset": "rich", "flight_s": 300, "grade": "nav",
+                 "data_seed": 3}],
+  "algorithms": [{"label": "PSO", "name": "pso"},
+                 {"label": "DVPIO", "name": "dvpio", "parameters": {"dist_threshold": 0.1}}],
+  "seeds": 4,
+  "max_iterations": 5
+})";
+
+fs::path fresh_dir(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("insid-campaign-test-" + name + "-" +
+                                                    std::to_string(getpid()));
+  fs::remove_all(dir);
+  return dir;
+}
+
+nlohmann::json read(const fs::path& p) {
+  std::ifstream in(p);
+  nlohmann::json j;
+  in >> j;
+  return j;
+}
+
+std::string bytes(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// Every field results/README.md documents as required, with its JSON type.
+void expect_fields(const nlohmann::json& j, const std::vector<std::pair<std::string, char>>& fields,
+                   const std::string& what) {
+  for (const auto& [path, type] : fields) {
+    const nlohmann::json::json_pointer ptr(path);
+    ASSERT_TRUE(j.contains(ptr)) << what << ": missing " << path;
+    const nlohmann::json& v = j.at(ptr);
+    switch (type) {
+      case 'n': EXPECT_TRUE(v.is_number()) << what << path; break;
+      case 's': EXPECT_TRUE(v.is_string()) << what << path; break;
+      case 'a': EXPECT_TRUE(v.is_array()) << what << path; break;
+      case 'o': EXPECT_TRUE(v.is_object()) << what << path; break;
+      default: FAIL();
+    }
+  }
+}
+
+CampaignConfig small_config() { return parse_campaign(nlohmann::json::parse(kConfig), "test"); }
+
+TEST(Campaign, FilesFollowTheDocumentedSchema) {
+  const fs::path dir = fresh_dir("schema");
+  RunOptions options;
+  options.out_dir = dir.string();
+  options.quiet = true;
+  const CampaignOutcome outcome = run_campaign(small_config(), options);
+  ASSERT_TRUE(outcome.complete);
+  EXPECT_EQ(outcome.total_runs, 8);
+  const nlohmann::json manifest = read(dir / "manifest.json");
+  EXPECT_EQ(manifest["schema"], "insid-campaign/1");
+  expect_fields(manifest, {{"/build/git_revision", 's'}, {"/host", 's'}, {"/cores", 'n'},
+                           {"/threads", 'n'}, {"/config/name", 's'}, {"/config/scenarios", 'a'},
+                           {"/config/algorithms", 'a'}, {"/config/seeds", 'a'},
+                           {"/config/max_iterations", 'n'}, {"/config/alignment", 's'},
+                           {"/config/estimate", 'a'}}, "manifest");
+  const nlohmann::json run = read(run_file(dir.string(), "rich-short", "DVPIO", 2));
+  EXPECT_EQ(run["schema"], "insid-run/1");
+  expect_fields(run, {{"/scenario", 's'}, {"/algorithm", 's'}, {"/seed", 'n'}, {"/parameters", 'a'},
+                      {"/result/algorithm/name", 's'}, {"/result/algorithm/parameters", 'o'},
+                      {"/result/fitness", 'n'}, {"/result/evaluations", 'n'},
+                      {"/result/wall_s", 'n'}, {"/result/termination", 's'},
+                      {"/result/history", 'a'}, {"/result/best_per_evaluation", 'a'},
+                      {"/estimate", 'o'}, {"/estimate_sigma", 'o'}, {"/truth_sigma", 'o'},
+                      {"/error_sigma", 'o'}, {"/error_vs_optimum_sigma", 'o'},
+                      {"/optimum_fitness", 'n'}, {"/fitness_gap", 'n'}}, "run");
+  expect_fields(run["result"]["history"][0],
+                {{"/iteration", 'n'}, {"/evaluations", 'n'}, {"/best_fitness", 'n'},
+                 {"/median_fitness", 'n'}, {"/diversity", 'n'}, {"/phase", 's'},
+                 {"/d_positive_sigma", 'a'}, {"/d_negative_sigma", 'a'}}, "history");
+  EXPECT_EQ(run["result"]["best_per_evaluation"].size(), run["result"]["evaluations"].get<std::size_t>());
+  const nlohmann::json summary = read(dir / "summary.json");
+  EXPECT_EQ(summary["schema"], "insid-summary/1");
+  const std::string a = "/scenarios/rich-short/algorithms/PSO";
+  expect_fields(summary, {{a + "/runs", 'n'}, {a + "/final_fitness/median", 'n'},
+                          {a + "/final_fitness/q1", 'n'}, {a + "/final_fitness/q3", 'n'},
+                          {a + "/error_sigma/gyro_bias_x/median_abs", 'n'},
+                          {a + "/success", 'a'}, {a + "/curve_iterations/median", 'a'},
+                          {a + "/curve_evaluations/x", 'a'}, {a + "/wall_s/median", 'n'},
+                          {"/scenarios/rich-short/pairwise", 'a'},
+                          {"/scenarios/rich-short/ranking", 'a'}}, "summary");
+  const nlohmann::json& pw = summary["scenarios"]["rich-short"]["pairwise"][0];
+  expect_fields(pw, {{"/U", 'n'}, {"/p", 'n'}, {"/p_holm", 'n'}, {"/a12", 'n'},
+                     {"/a12_magnitude", 's'}, {"/method", 's'}}, "pairwise");
+  fs::remove_all(dir);
+}
+
+TEST(Campaign, DifferentConfigIsRefusedUnlessForceNew) {
+  const fs::path dir = fresh_dir("mismatch");
+  RunOptions options;
+  options.out_dir = dir.string();
+  options.quiet = true;
+  options.max_new_runs = 1;
+  run_campaign(small_config(), options);
+  CampaignConfig other = small_config();
+  other.max_iterations = 6;
+  try {
+    run_campaign(other, options);
+    FAIL() << "a different config was accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("config.max_iterations"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("--force-new"), std::string::npos);
+  }
+  options.force_new = true;
+  EXPECT_NO_THROW(run_campaign(other, options));
+  fs::remove_all(dir);
+}
+
+TEST(Campaign, KilledCampaignResumesWithoutTouchingFinishedRuns) {
+  // GIVEN a campaign process killed (SIGKILL) after some runs finished
+  const fs::path dir = fresh_dir("kill");
+  const fs::path ref = fresh_dir("kill-ref");
+  fs::create_directories(dir);
+  const fs::path config_path = dir.string() + ".json";
+  std::ofstream(config_path) << kConfig;
+  const pid_t pid = fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    execl(INSID_BINARY, INSID_BINARY, "bench", "--config", config_path.c_str(), "--out",
+          dir.c_str(), "--threads", "1", static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  const fs::path runs = dir / "runs" / "rich-short";
+  auto count_runs = [&] {
+    int n = 0;
+    std::error_code ec;
+    if (!fs::exists(runs, ec)) return 0;
+    for (const auto& e : fs::recursive_directory_iterator(runs, ec))
+      if (e.path().extension() == ".json") ++n;
+    return n;
+  };
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(240);
+  while (count_runs() < 2 && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  kill(pid, SIGKILL);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  const int finished_before = count_runs();
+  ASSERT_GE(finished_before, 2);
+  ASSERT_LT(finished_before, 8) << "the campaign finished before it could be killed";
+  std::map<fs::path, std::pair<std::string, fs::file_time_type>> before;
+  for (const auto& e : fs::recursive_directory_iterator(runs))
+    if (e.path().extension() == ".json")
+      before[e.path()] = {bytes(e.path()), fs::last_write_time(e.path())};
+
+  // WHEN the same campaign is run again on the directory
+  RunOptions options;
+  options.out_dir = dir.string();
+  options.quiet = true;
+  const CampaignOutcome resumed = run_campaign(small_config(), options);
+
+  // THEN finished runs are skipped and untouched, the rest done, and every run equals an
+  // uninterrupted campaign's (wall times aside).
+  EXPECT_TRUE(resumed.complete);
+  EXPECT_EQ(resumed.skipped_runs, finished_before);
+  EXPECT_EQ(resumed.new_runs, 8 - finished_before);
+  for (const auto& [path, old] : before) {
+    EXPECT_EQ(bytes(path), old.first) << path;
+    EXPECT_EQ(fs::last_write_time(path), old.second) << path;
+  }
+  RunOptions ref_options;
+  ref_options.out_dir = ref.string();
+  ref_options.quiet = true;
+  ref_options.threads = 2;
+  ASSERT_TRUE(run_campaign(small_config(), ref_options).complete);
+  for (const char* label : {"PSO", "DVPIO"})
+    for (std::uint64_t seed = 1; seed <= 4; ++seed) {
+      nlohmann::json a = read(run_file(dir.string(), "rich-short", label, seed));
+      nlohmann::json b = read(run_file(ref.string(), "rich-short", label, seed));
+      a["result"].erase("wall_s");
+      b["result"].erase("wall_s");
+      EXPECT_EQ(a, b) << label << " seed " << seed;
+    }
+  fs::remove_all(dir);
+  fs::remove_all(ref);
+  fs::remove(config_path);
+}
+
+TEST(Campaign, BadConfigsGetClearErrors) {
+  nlohmann::json j = nlohmann::json::parse(kConfig);
+  j["colour"] = "blue";
+  try {
+    parse_campaign(j, "c.json");
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("c.json: unknown key \"colour\""), std::string::npos)
+        << e.what();
+  }
+  j = nlohmann::json::parse(kConfig);
+  j["algorithms"][0]["parameters"] = {{"w", 1.7}};
+  EXPECT_THROW(parse_campaign(j, "c.json"), std::invalid_argument);
+  j = nlohmann::json::parse(kConfig);
+  j["algorithms"][1]["label"] = "PSO";
+  EXPECT_THROW(parse_campaign(j, "c.json"), std::invalid_argument);
+  EXPECT_THROW(preset_campaign("paper-fig10"), std::invalid_argument);
+  EXPECT_THROW(SweepAxis::parse("R=0.3:0.1:4"), std::invalid_argument);
+  EXPECT_THROW(SweepAxis::parse("R"), std::invalid_argument);
+  const SweepAxis axis = SweepAxis::parse("R=0.01:0.03:3");
+  ASSERT_EQ(axis.values.size(), 3u);
+  EXPECT_DOUBLE_EQ(axis.values[1], 0.02);
+}
+
+TEST(Campaign, SweepWritesPerSettingStatistics) {
+  const fs::path dir = fresh_dir("sweep");
+  SweepConfig sweep;
+  sweep.algorithm = "dvpio";
+  sweep.axes = {SweepAxis::parse("R=0.02,0.2"), SweepAxis::parse("d0_sigma=0.05")};
+  sweep.scenario.name = "rich";
+  sweep.scenario.preset = "rich";
+  sweep.scenario.flight_s = 300;
+  sweep.seeds = seed_range(3);
+  sweep.max_iterations = 4;
+  RunOptions options;
+  options.out_dir = dir.string();
+  options.quiet = true;
+  ASSERT_TRUE(run_sweep(sweep, options).complete);
+  const nlohmann::json s = read(dir / "sweep.json");
+  EXPECT_EQ(s["schema"], "insid-sweep/1");
+  ASSERT_EQ(s["settings"].size(), 2u);
+  EXPECT_DOUBLE_EQ(s["settings"][1]["parameters"]["R"].get<double>(), 0.2);
+  // d0_sigma = 0.05 sigma is 0.0125 in the normalised [-4, 4] sigma box.
+  const nlohmann::json manifest = read(dir / "manifest.json");
+  EXPECT_DOUBLE_EQ(manifest["config"]["algorithms"][0]["parameters"]["d_initial"].get<double>(), 0.0125);
+  const double lo = s["settings"][0]["median_ci95"][0], hi = s["settings"][0]["median_ci95"][1];
+  const double med = s["settings"][0]["final_fitness"]["median"];
+  EXPECT_LE(lo, med);
+  EXPECT_GE(hi, med);
+  EXPECT_TRUE(fs::exists(dir / "sweep.csv"));
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace insid::campaign

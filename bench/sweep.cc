@@ -1,0 +1,192 @@
+#include "bench/sweep.h"
+
+#include <charconv>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <sstream>
+#include <stdexcept>
+
+#include "bench/stats.h"
+#include "core/dataset.h"
+#include "identification/ins_problem.h"
+#include "optimizers/random.h"
+
+namespace insid::campaign {
+namespace fs = std::filesystem;
+
+namespace {
+
+double parse_value(const std::string& text, const std::string& spec) {
+  double v = 0.0;
+  const auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
+  if (ec != std::errc() || ptr != text.data() + text.size() || !std::isfinite(v))
+    throw std::invalid_argument("--grid '" + spec + "': expected a finite number, got '" + text +
+                                "'");
+  return v;
+}
+
+std::vector<std::string> split(const std::string& s, char sep) {
+  std::vector<std::string> out;
+  std::stringstream in(s);
+  for (std::string part; std::getline(in, part, sep);) out.push_back(part);
+  return out;
+}
+
+// Setting values in the optimizer's units: keys ending in _sigma are distances in sigma units,
+// converted through the (common) box width of the estimated parameters; "d0" is d_initial.
+std::map<std::string, double> optimizer_parameters(const std::map<std::string, double>& setting) {
+  const ParameterMapping mapping(EstimatedParameter::paper_four());
+  std::map<std::string, double> out;
+  for (const auto& [key_in, value_in] : setting) {
+    std::string key = key_in;
+    double value = value_in;
+    const std::string suffix = "_sigma";
+    if (key.size() > suffix.size() && key.ends_with(suffix)) {
+      key.erase(key.size() - suffix.size());
+      value /= mapping.sigma_per_unit(0);
+    }
+    if (key == "d0") key = "d_initial";
+    out[key] = value;
+  }
+  return out;
+}
+
+}  // namespace
+
+SweepAxis SweepAxis::parse(const std::string& text) {
+  const auto eq = text.find('=');
+  if (eq == std::string::npos || eq == 0 || eq + 1 == text.size())
+    throw std::invalid_argument("--grid: expected KEY=LO:HI:N or KEY=V1,V2,..., got '" + text + "'");
+  SweepAxis axis;
+  axis.key = text.substr(0, eq);
+  const std::string rhs = text.substr(eq + 1);
+  if (rhs.find(':') != std::string::npos) {
+    const auto parts = split(rhs, ':');
+    if (parts.size() != 3)
+      throw std::invalid_argument("--grid '" + text + "': expected KEY=LO:HI:N");
+    axis.lo = parse_value(parts[0], text);
+    axis.hi = parse_value(parts[1], text);
+    const double n = parse_value(parts[2], text);
+    if (n < 1 || n != std::floor(n) || n > 1000)
+      throw std::invalid_argument("--grid '" + text + "': N must be a whole number in [1, 1000]");
+    if (!(axis.lo <= axis.hi)) throw std::invalid_argument("--grid '" + text + "': LO must be <= HI");
+    for (int i = 0; i < static_cast<int>(n); ++i)
+      axis.values.push_back(n == 1 ? axis.lo : axis.lo + (axis.hi - axis.lo) * i / (n - 1));
+  } else {
+    for (const std::string& v : split(rhs, ',')) axis.values.push_back(parse_value(v, text));
+    axis.lo = *std::min_element(axis.values.begin(), axis.values.end());
+    axis.hi = *std::max_element(axis.values.begin(), axis.values.end());
+  }
+  return axis;
+}
+
+std::vector<std::map<std::string, double>> sweep_settings(const SweepConfig& sweep) {
+  std::vector<std::map<std::string, double>> settings;
+  if (sweep.axes.empty()) throw std::invalid_argument("sweep: give at least one --grid");
+  if (sweep.random_settings > 0) {
+    opt::Rng rng(sweep.random_seed);
+    for (int i = 0; i < sweep.random_settings; ++i) {
+      std::map<std::string, double> s;
+      for (const SweepAxis& a : sweep.axes) s[a.key] = rng.uniform(a.lo, a.hi);
+      settings.push_back(s);
+    }
+    return settings;
+  }
+  settings.push_back({});
+  for (const SweepAxis& a : sweep.axes) {
+    std::vector<std::map<std::string, double>> next;
+    for (const auto& s : settings)
+      for (double v : a.values) {
+        auto t = s;
+        t[a.key] = v;
+        next.push_back(t);
+      }
+    settings.swap(next);
+  }
+  return settings;
+}
+
+CampaignConfig sweep_campaign(const SweepConfig& sweep) {
+  nlohmann::json j;
+  j["name"] = "sweep-" + sweep.algorithm;
+  nlohmann::json sc = {{"name", sweep.scenario.name}};
+  if (!sweep.scenario.preset.empty()) sc["preset"] = sweep.scenario.preset;
+  if (!sweep.scenario.data_dir.empty()) sc["data"] = sweep.scenario.data_dir;
+  if (sweep.scenario.flight_s) sc["flight_s"] = *sweep.scenario.flight_s;
+  if (sweep.scenario.grade) sc["grade"] = *sweep.scenario.grade;
+  sc["data_seed"] = sweep.scenario.data_seed;
+  j["scenarios"] = {sc};
+  const auto settings = sweep_settings(sweep);
+  for (std::size_t i = 0; i < settings.size(); ++i) {
+    std::ostringstream label;
+    label << "s" << std::setw(4) << std::setfill('0') << i;
+    j["algorithms"].push_back({{"label", label.str()},
+                               {"name", sweep.algorithm},
+                               {"parameters", optimizer_parameters(settings[i])}});
+  }
+  j["seeds"] = sweep.seeds;
+  j["max_iterations"] = sweep.max_iterations;
+  j["max_evaluations"] = sweep.max_evaluations;
+  j["alignment"] = to_string(sweep.alignment);
+  j["record_positions_seeds"] = 0;
+  return parse_campaign(j, "sweep");
+}
+
+CampaignOutcome run_sweep(const SweepConfig& sweep, const RunOptions& options) {
+  const CampaignConfig campaign = sweep_campaign(sweep);
+  const CampaignOutcome outcome = run_campaign(campaign, options);
+  if (!outcome.complete) return outcome;
+  const auto settings = sweep_settings(sweep);
+  nlohmann::json out;
+  out["schema"] = "insid-sweep/1";
+  out["algorithm"] = sweep.algorithm;
+  out["scenario"] = sweep.scenario.name;
+  out["seeds"] = sweep.seeds;
+  for (const SweepAxis& a : sweep.axes) out["grid"][a.key] = a.values;
+  out["random_settings"] = sweep.random_settings;
+  std::ostringstream csv;
+  csv << "setting";
+  for (const SweepAxis& a : sweep.axes) csv << "," << a.key;
+  csv << ",fitness_median,fitness_q1,fitness_q3,fitness_median_ci95_lo,fitness_median_ci95_hi,"
+         "error_norm_median,error_norm_q1,error_norm_q3\n";
+  std::vector<std::pair<double, std::size_t>> ranking;
+  for (std::size_t i = 0; i < settings.size(); ++i) {
+    const AlgorithmSpec& algo = campaign.algorithms[i];
+    std::vector<double> finals, errors;
+    for (std::uint64_t seed : campaign.seeds) {
+      std::ifstream in(run_file(options.out_dir, sweep.scenario.name, algo.label, seed));
+      nlohmann::json r;
+      in >> r;
+      finals.push_back(r["result"]["fitness"].get<double>());
+      double sq = 0.0;
+      for (const auto& item : r["error_vs_optimum_sigma"].items())
+        sq += item.value().get<double>() * item.value().get<double>();
+      errors.push_back(std::sqrt(sq));
+    }
+    const stats::Quartiles qf = stats::quartiles(finals);
+    const stats::Quartiles qe = stats::quartiles(errors);
+    const stats::ConfidenceInterval ci = stats::bootstrap_median_ci(finals, 0.95, 2000, 7 + i);
+    nlohmann::json s;
+    s["label"] = algo.label;
+    s["parameters"] = settings[i];
+    s["final_fitness"] = {{"median", qf.median}, {"q1", qf.q1}, {"q3", qf.q3}};
+    s["median_ci95"] = {ci.lo, ci.hi};
+    s["error_sigma_norm"] = {{"median", qe.median}, {"q1", qe.q1}, {"q3", qe.q3}};
+    out["settings"].push_back(s);
+    ranking.emplace_back(qf.median, i);
+    csv << algo.label;
+    for (const SweepAxis& a : sweep.axes) csv << "," << settings[i].at(a.key);
+    csv << "," << qf.median << "," << qf.q1 << "," << qf.q3 << "," << ci.lo << "," << ci.hi << ","
+        << qe.median << "," << qe.q1 << "," << qe.q3 << "\n";
+  }
+  std::sort(ranking.begin(), ranking.end());
+  for (std::size_t r = 0; r < std::min<std::size_t>(5, ranking.size()); ++r)
+    out["best"].push_back(out["settings"][ranking[r].second]);
+  write_file_atomic(fs::path(options.out_dir) / "sweep.json", out.dump(1) + "\n");
+  write_file_atomic(fs::path(options.out_dir) / "sweep.csv", csv.str());
+  return outcome;
+}
+
+}  // namespace insid::campaign

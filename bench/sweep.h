@@ -1,0 +1,47 @@
+// Parameter sweeps (PIO/DVPIO R, d, premature threshold, ...): every setting over the same
+// seeds, run as a campaign (same resume and atomicity rules), then per-setting statistics.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "bench/campaign.h"
+
+namespace insid::campaign {
+
+/// One swept parameter: its values (user units; keys ending in _sigma are sigma units).
+struct SweepAxis {
+  std::string key;
+  std::vector<double> values;
+  double lo = 0.0, hi = 0.0;  ///< range (for --random)
+  /// "R=0.01:0.3:6" (6 values, linear), "R=0.01,0.05,0.2" (a list), "R=0.05" (one value).
+  static SweepAxis parse(const std::string& text);
+};
+
+struct SweepConfig {
+  std::string algorithm = "dvpio";
+  std::vector<SweepAxis> axes;
+  int random_settings = 0;  ///< > 0: that many random settings in the axes' ranges instead of the grid
+  std::uint64_t random_seed = 1;
+  ScenarioSpec scenario;
+  std::vector<std::uint64_t> seeds = seed_range(11);
+  int max_iterations = 40;
+  std::int64_t max_evaluations = 0;
+  AlignmentMode alignment = AlignmentMode::kPerCandidate;
+};
+
+/// The settings (user units, keys as given), grid order or random draws.
+std::vector<std::map<std::string, double>> sweep_settings(const SweepConfig& sweep);
+
+/// The campaign that runs the sweep (one algorithm label "s<index>" per setting).
+CampaignConfig sweep_campaign(const SweepConfig& sweep);
+
+/// Run (or resume) a sweep into options.out_dir; when complete, write sweep.json and
+/// sweep.csv there. Returns the campaign outcome.
+CampaignOutcome run_sweep(const SweepConfig& sweep, const RunOptions& options);
+
+}  // namespace insid::campaign
