@@ -268,7 +268,9 @@ CampaignConfig parse_campaign(const nlohmann::json& j, const std::string& origin
   return c;
 }
 
-std::vector<std::string> preset_campaign_names() { return {"paper-fig9", "quick"}; }
+std::vector<std::string> preset_campaign_names() {
+  return {"paper-fig9", "quick", "paper-plus-baselines"};
+}
 
 CampaignConfig preset_campaign(const std::string& name) {
   nlohmann::json j;
@@ -292,9 +294,24 @@ CampaignConfig preset_campaign(const std::string& name) {
          {"algorithms", table4},
          {"seeds", 3},
          {"max_iterations", 10}};
+  } else if (name == "paper-plus-baselines") {
+    // Issue 8: the paper's four and the reference baselines at an equal budget of 400
+    // evaluations (the paper's 10 x 40), on the paper and rich scenarios; the EKF-RTS makes one
+    // pass plus one evaluation of its estimate (its cost in INS runs is in its parameters).
+    nlohmann::json algorithms = table4;
+    for (const auto& [label, algo] : std::vector<std::pair<std::string, std::string>>{
+             {"CMA-ES", "cmaes"}, {"DE", "de"}, {"compass", "compass"}, {"LM", "lm"},
+             {"BOBYQA", "bobyqa"}, {"Nelder-Mead", "neldermead"}, {"EKF-RTS", "ekf-rts"}})
+      algorithms.push_back({{"label", label}, {"name", algo}});
+    j = {{"name", "paper-plus-baselines"},
+         {"scenarios", {{{"name", "paper"}, {"preset", "paper"}}, {{"name", "rich"}, {"preset", "rich"}}}},
+         {"algorithms", algorithms},
+         {"seeds", 31},
+         {"max_iterations", 0},
+         {"max_evaluations", 400}};
   } else {
     throw std::invalid_argument("unknown campaign preset '" + name +
-                                "'; valid presets: paper-fig9, quick");
+                                "'; valid presets: paper-fig9, quick, paper-plus-baselines");
   }
   return parse_campaign(j, "preset " + name);
 }

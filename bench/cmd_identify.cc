@@ -1,4 +1,5 @@
-// insid identify: find the sensor errors of a dataset with GA / PSO / PIO / DVPIO.
+// insid identify: find the sensor errors of a dataset with GA / PSO / PIO / DVPIO or a reference
+// baseline (CMA-ES, DE, compass, LM, BOBYQA, Nelder-Mead, EKF-RTS).
 #include <charconv>
 #include <chrono>
 #include <cmath>
@@ -13,6 +14,7 @@
 #include "bench/commands.h"
 #include "core/dataset.h"
 #include "core/fitness.h"
+#include "identification/ekf_rts.h"
 #include "identification/identify.h"
 #include "identification/ins_problem.h"
 #include "optimizers/registry.h"
@@ -58,13 +60,10 @@ void run_identify(const IdentifyArgs& args) {
   config.record_positions = args.positions;
   auto optimizer = opt::make_optimizer(args.algorithm, problem.bounds(), config, overrides);
 
-  // ask / evaluate / tell, with progress on stderr.
-  std::vector<double> f;
+  // ask / evaluate / tell, with progress on stderr (opt::step also feeds the baselines that
+  // need residual vectors or the problem itself: lm, ekf-rts).
   while (!optimizer->done()) {
-    const auto batch = optimizer->ask();
-    f.assign(batch.size(), 0.0);
-    problem.evaluate_batch(batch, f);
-    optimizer->tell(f);
+    opt::step(*optimizer, problem);
     const opt::Result& live = optimizer->result();
     std::cerr << "\rinsid identify: " << args.algorithm << " iteration " << live.iterations << "/"
               << args.iterations << ", evaluations " << live.evaluations << ", best "
@@ -74,6 +73,8 @@ void run_identify(const IdentifyArgs& args) {
   const opt::Result& result = optimizer->result();
 
   nlohmann::json out = optimizer_result_json(result, mapping);
+  if (const auto* ekf = dynamic_cast<const EkfRtsOptimizer*>(optimizer.get()))
+    out["ekf"] = ekf->report_json(mapping);
   out["format"] = "insid-identify/1";
   out["build"] = build_info_json();
   out["data"] = args.data_dir;
@@ -135,7 +136,9 @@ void add_identify_command(CLI::App& app) {
       "Identify sensor errors of a dataset with an optimizer (Eq. 15 fitness, one full "
       "alignment + pure-INS run per candidate); writes a result JSON.");
   cmd->add_option("--data", args->data_dir, "dataset directory (insid-dataset/1)")->required();
-  cmd->add_option("--algo", args->algorithm, "ga | pso | pio | dvpio")->capture_default_str();
+  cmd->add_option("--algo", args->algorithm,
+                  "ga | pso | pio | dvpio (the paper's), or a reference baseline: cmaes | de | "
+                  "compass | lm | bobyqa | neldermead | ekf-rts (optimizers/README.md)")->capture_default_str();
   cmd->add_option("--estimate", args->estimate,
                   "NAME[:SIGMA[:LO:HI]] (SIGMA in SI, box in sigma units); default: the paper's "
                   "four (accel_bias_x accel_bias_y gyro_bias_x gyro_bias_y), [-4, 4] sigma");

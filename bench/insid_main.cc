@@ -5,12 +5,14 @@
 #include <CLI/CLI.hpp>
 
 #include "bench/commands.h"
+#include "identification/ekf_rts.h"
 
 int main(int argc, char** argv) {
   CLI::App app{
       "insid: identify INS sensor errors from navigation data, and benchmark the optimizers "
       "(GA, PSO, PIO, DVPIO) that do it."};
   app.require_subcommand(1);
+  insid::register_ekf_rts();  // "ekf-rts" in the optimizer registry (identification/)
   insid::cli::add_navigate_command(app);
   insid::cli::add_identify_command(app);
   insid::cli::add_bench_command(app);

@@ -101,4 +101,28 @@ double InsIdentificationProblem::fitness(const Eigen::VectorXd& x) const {
   return navigation_->fitness(mapping_.to_errors(x), kind_);
 }
 
+int InsIdentificationProblem::residual_count() const {
+  return static_cast<int>(2 * navigation_->num_epochs());
+}
+
+void InsIdentificationProblem::evaluate_residual_batch(std::span<const Eigen::VectorXd> xs,
+                                                       std::span<std::vector<double>> r_out,
+                                                       std::span<double> f_out) const {
+  if (r_out.size() != xs.size())
+    throw std::invalid_argument("evaluate_residual_batch: " + std::to_string(xs.size()) +
+                                " candidates but " + std::to_string(r_out.size()) + " outputs");
+  // Candidate i writes only r_out[i]: safe under evaluate_each's OpenMP loop.
+  const Eigen::VectorXd* first = xs.data();
+  opt::evaluate_each(xs, f_out, evaluator(), [&](const Eigen::VectorXd& x) {
+    std::vector<double>& r = r_out[static_cast<std::size_t>(&x - first)];
+    navigation_->residuals(mapping_.to_errors(x), r);
+    double sum = 0.0;  // as NavigationProblem::fitness
+    for (std::size_t e = 0; e + 1 < r.size(); e += 2) {
+      const double d2 = r[e] * r[e] + r[e + 1] * r[e + 1];
+      sum += kind_ == FitnessKind::kEq15 ? std::sqrt(d2) : d2;
+    }
+    return sum;
+  });
+}
+
 }  // namespace insid

@@ -50,12 +50,18 @@ class ParameterMapping {
   SensorErrors base_;
 };
 
-class InsIdentificationProblem final : public opt::ScalarProblem {
+class InsIdentificationProblem final : public opt::ScalarProblem, public opt::ResidualProblem {
  public:
   InsIdentificationProblem(std::shared_ptr<const NavigationProblem> navigation,
                            ParameterMapping mapping, FitnessKind kind = FitnessKind::kEq15,
                            opt::EvaluatorOptions evaluator = {});
   double fitness(const Eigen::VectorXd& x) const override;
+  /// Residual vector (dvE_t, dvN_t) of NavigationProblem::residuals, for the least-squares
+  /// baselines ("lm"); one full INS run per point, the fitness of `kind` from the same run.
+  int residual_count() const override;
+  void evaluate_residual_batch(std::span<const Eigen::VectorXd> xs,
+                               std::span<std::vector<double>> r_out,
+                               std::span<double> f_out) const override;
   std::string name() const override { return "ins-identification"; }
   const ParameterMapping& mapping() const { return mapping_; }
   const NavigationProblem& navigation() const { return *navigation_; }

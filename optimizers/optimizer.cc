@@ -189,16 +189,30 @@ void check_same_box(const Optimizer& optimizer, const Problem& problem) {
 
 }  // namespace
 
+void step(Optimizer& optimizer, const Problem& problem) {
+  if (optimizer.done()) return;
+  if (auto* consumer = dynamic_cast<ProblemConsumer*>(&optimizer)) consumer->bind(problem);
+  const std::span<const Eigen::VectorXd> batch = optimizer.ask();
+  // NaN-filled: a problem that leaves a slot unwritten is caught by tell().
+  std::vector<double> fitness(batch.size(), std::numeric_limits<double>::quiet_NaN());
+  if (auto* consumer = dynamic_cast<ResidualConsumer*>(&optimizer)) {
+    const auto* residual_problem = dynamic_cast<const ResidualProblem*>(&problem);
+    if (residual_problem == nullptr) {
+      throw std::invalid_argument(optimizer.name() + " needs residual vectors; problem '" +
+                                  problem.name() + "' has none");
+    }
+    std::vector<std::vector<double>> residuals(batch.size());
+    residual_problem->evaluate_residual_batch(batch, residuals, fitness);
+    consumer->set_residuals(std::move(residuals));
+  } else {
+    problem.evaluate_batch(batch, fitness);
+  }
+  optimizer.tell(fitness);
+}
+
 const Result& run(Optimizer& optimizer, const Problem& problem) {
   check_same_box(optimizer, problem);
-  std::vector<double> fitness;
-  while (!optimizer.done()) {
-    const std::span<const Eigen::VectorXd> batch = optimizer.ask();
-    // NaN-filled: a problem that leaves a slot unwritten is caught by tell().
-    fitness.assign(batch.size(), std::numeric_limits<double>::quiet_NaN());
-    problem.evaluate_batch(batch, fitness);
-    optimizer.tell(fitness);
-  }
+  while (!optimizer.done()) step(optimizer, problem);
   return optimizer.result();
 }
 
@@ -212,11 +226,22 @@ void run_together(std::span<Optimizer* const> optimizers, const Problem& problem
     slices.clear();
     for (Optimizer* optimizer : optimizers) {
       if (optimizer->done()) continue;
+      // Optimizers that need residuals (or the problem) take their own rounds.
+      if (dynamic_cast<ResidualConsumer*>(optimizer) != nullptr ||
+          dynamic_cast<ProblemConsumer*>(optimizer) != nullptr) {
+        step(*optimizer, problem);
+        continue;
+      }
       const std::span<const Eigen::VectorXd> batch = optimizer->ask();
       candidates.insert(candidates.end(), batch.begin(), batch.end());
       slices.emplace_back(optimizer, batch.size());
     }
-    if (slices.empty()) return;
+    if (slices.empty()) {
+      bool all_done = true;
+      for (const Optimizer* optimizer : optimizers) all_done = all_done && optimizer->done();
+      if (all_done) return;
+      continue;
+    }
     fitness.assign(candidates.size(), std::numeric_limits<double>::quiet_NaN());
     problem.evaluate_batch(candidates, fitness);
     std::size_t offset = 0;

@@ -166,6 +166,34 @@ class Optimizer {
   std::optional<std::chrono::steady_clock::time_point> start_;
 };
 
+/// Optional interfaces of an optimizer (reference baselines, optimizers/README.md):
+///  - ResidualConsumer: needs each candidate's residual vector (Levenberg-Marquardt). A driver
+///    evaluates the batch with ResidualProblem::evaluate_residual_batch, hands the residuals over
+///    with set_residuals() and then calls tell() with the fitness from the same runs.
+///  - ProblemConsumer: needs to see the problem once before the first ask() (e.g. a Kalman
+///    filter that reads the data itself); bind() is called by the drivers below.
+/// step(), run(), run_together() and registry.h's optimize() do all of this; a hand-written
+/// ask / evaluate_batch / tell loop works for every optimizer that implements neither.
+class ResidualConsumer {
+ public:
+  virtual ~ResidualConsumer() = default;
+  /// Residual vectors of the pending batch, in its order (call before tell()).
+  virtual void set_residuals(std::vector<std::vector<double>> residuals) = 0;
+};
+
+class ProblemConsumer {
+ public:
+  virtual ~ProblemConsumer() = default;
+  /// Called with the problem before every round (implementations act on the first call only);
+  /// throws std::invalid_argument when the problem is not one the optimizer can work on.
+  virtual void bind(const Problem& problem) = 0;
+};
+
+/// One ask / evaluate / tell round on `problem` (binds a ProblemConsumer first, hands residuals to
+/// a ResidualConsumer; throws std::invalid_argument when the optimizer needs residuals and the
+/// problem has none). Does nothing when the optimizer is done.
+void step(Optimizer& optimizer, const Problem& problem);
+
 /// ||a - b||. A plain loop: GCC 12 reports false -Wmaybe-uninitialized warnings inside Eigen's
 /// AVX-512 reductions and min/max.
 inline double euclidean_distance(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {

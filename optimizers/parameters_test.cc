@@ -95,9 +95,10 @@ TEST(Parameters, UnknownNamesListTheValidOnes) {
   EXPECT_EQ(rejection("pso", {{"inertia", 0.5}}),
             "PSO: unknown parameter 'inertia'; valid parameters: population, w, c1, c2, "
             "v_max_fraction");
-  EXPECT_EQ(rejection("cmaes", {}), "unknown optimizer 'cmaes'; valid optimizers: ga, pso, pio, "
-                                    "dvpio");
-  EXPECT_THROW(default_parameters("cmaes"), std::invalid_argument);
+  EXPECT_EQ(rejection("annealing", {}),
+            "unknown optimizer 'annealing'; valid optimizers: ga, pso, pio, dvpio, cmaes, de, "
+            "compass, lm, bobyqa, neldermead");
+  EXPECT_THROW(default_parameters("annealing"), std::invalid_argument);
 }
 
 TEST(Parameters, RunConfigIsValidated) {

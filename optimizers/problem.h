@@ -109,6 +109,21 @@ class ScalarProblem : public Problem {
   EvaluatorOptions options_;
 };
 
+/// Optional second interface of a problem whose fitness is built from a residual vector (the
+/// least-squares baselines, e.g. "lm", need it). One residual evaluation costs what one fitness
+/// evaluation costs (one full run of the model) and yields the fitness of the same point too.
+class ResidualProblem {
+ public:
+  virtual ~ResidualProblem() = default;
+  /// Length of the residual vector (the same for every x).
+  virtual int residual_count() const = 0;
+  /// r_out[i] = residual vector at xs[i] (resized to residual_count()), f_out[i] = fitness at
+  /// xs[i] from the same run. Same ordering/grouping rules as Problem::evaluate_batch.
+  virtual void evaluate_residual_batch(std::span<const Eigen::VectorXd> xs,
+                                       std::span<std::vector<double>> r_out,
+                                       std::span<double> f_out) const = 0;
+};
+
 /// A ScalarProblem wrapping a callable.
 class FunctionProblem final : public ScalarProblem {
  public:

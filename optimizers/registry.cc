@@ -1,17 +1,33 @@
 #include "optimizers/registry.h"
 
+#include <map>
+#include <mutex>
 #include <stdexcept>
 
+#include "optimizers/ceres_lm.h"
 #include "optimizers/dvpio.h"
 #include "optimizers/ga.h"
+#include "optimizers/nlopt_algorithms.h"
+#include "optimizers/pagmo_algorithms.h"
 #include "optimizers/pio.h"
 #include "optimizers/pso.h"
 
 namespace insid::opt {
-
-std::vector<std::string> algorithm_names() { return {"ga", "pso", "pio", "dvpio"}; }
-
 namespace {
+
+std::mutex& registry_mutex() {
+  static std::mutex mutex;
+  return mutex;
+}
+std::map<std::string, AlgorithmFactory>& registered() {
+  static std::map<std::string, AlgorithmFactory> factories;
+  return factories;
+}
+const AlgorithmFactory* find_registered(std::string_view algorithm) {
+  std::lock_guard<std::mutex> lock(registry_mutex());
+  const auto it = registered().find(std::string(algorithm));
+  return it == registered().end() ? nullptr : &it->second;
+}
 
 [[noreturn]] void unknown_algorithm(std::string_view algorithm) {
   std::string names;
@@ -21,6 +37,25 @@ namespace {
 }
 
 }  // namespace
+
+std::vector<std::string> paper_algorithm_names() { return {"ga", "pso", "pio", "dvpio"}; }
+
+std::vector<std::string> baseline_algorithm_names() {
+  return {"cmaes", "de", "compass", "lm", "bobyqa", "neldermead"};
+}
+
+std::vector<std::string> algorithm_names() {
+  std::vector<std::string> names = paper_algorithm_names();
+  for (const std::string& name : baseline_algorithm_names()) names.push_back(name);
+  std::lock_guard<std::mutex> lock(registry_mutex());
+  for (const auto& [name, factory] : registered()) names.push_back(name);
+  return names;
+}
+
+void register_algorithm(const std::string& name, AlgorithmFactory factory) {
+  std::lock_guard<std::mutex> lock(registry_mutex());
+  registered()[name] = std::move(factory);
+}
 
 std::unique_ptr<Optimizer> make_optimizer(std::string_view algorithm, const Bounds& bounds,
                                           const RunConfig& config,
@@ -37,6 +72,29 @@ std::unique_ptr<Optimizer> make_optimizer(std::string_view algorithm, const Boun
   if (algorithm == "dvpio") {
     return std::make_unique<DvpioOptimizer>(bounds, config, DvpioParams::from_map(overrides));
   }
+  if (algorithm == "cmaes") {
+    return std::make_unique<CmaesOptimizer>(bounds, config, CmaesParams::from_map(overrides));
+  }
+  if (algorithm == "de") {
+    return std::make_unique<DeOptimizer>(bounds, config, DeParams::from_map(overrides));
+  }
+  if (algorithm == "compass") {
+    return std::make_unique<CompassOptimizer>(bounds, config, CompassParams::from_map(overrides));
+  }
+  if (algorithm == "lm") {
+    return std::make_unique<LmOptimizer>(bounds, config, LmParams::from_map(overrides));
+  }
+  if (algorithm == "bobyqa") {
+    return std::make_unique<NloptOptimizer>(NloptOptimizer::Method::kBobyqa, bounds, config,
+                                            NloptParams::from_map(overrides));
+  }
+  if (algorithm == "neldermead") {
+    return std::make_unique<NloptOptimizer>(NloptOptimizer::Method::kNelderMead, bounds, config,
+                                            NloptParams::from_map(overrides));
+  }
+  if (const AlgorithmFactory* factory = find_registered(algorithm)) {
+    return factory->make(bounds, config, overrides);
+  }
   unknown_algorithm(algorithm);
 }
 
@@ -45,6 +103,12 @@ ParameterList default_parameters(std::string_view algorithm) {
   if (algorithm == "pso") return PsoParams{}.list();
   if (algorithm == "pio") return PioParams{}.list();
   if (algorithm == "dvpio") return DvpioParams{}.list();
+  if (algorithm == "cmaes") return CmaesParams{}.list();
+  if (algorithm == "de") return DeParams{}.list();
+  if (algorithm == "compass") return CompassParams{}.list();
+  if (algorithm == "lm") return LmParams{}.list();
+  if (algorithm == "bobyqa" || algorithm == "neldermead") return NloptParams{}.list();
+  if (const AlgorithmFactory* factory = find_registered(algorithm)) return factory->defaults();
   unknown_algorithm(algorithm);
 }
 

@@ -1,0 +1,456 @@
+// Loosely coupled INS/GNSS error-state EKF with closed-loop feedback + Rauch-Tung-Striebel
+// smoother.
+//
+// Error-state model: the local-level (here ENU) psi/phi-angle error model of Groves (2013,
+// "Principles of GNSS, Inertial, and Multisensor Integrated Navigation Systems", 2nd ed.,
+// sec. 14.2.4 and ch. 14.3 loosely coupled integration) and Shin (2001, UCGE 20156, ch. 3),
+// the 15-state (21 with scale factors) form also used by KF-GINS; our own code, simplified where
+// the terms are negligible over a GNSS interval. States (estimate minus truth, except sensor
+// errors, which are truth minus estimate so that the correction adds):
+//   dr (E, N, U metres), dv (ENU), phi (attitude error: C_b_n_est = (I - [phi x]) C_b_n_true),
+//   db_g, db_a [, ds_g, ds_a].
+// Dynamics (continuous, F):
+//   dr'  = dv
+//   dv'  = [f_n x] phi - (2 w_ie + w_en) x dv + C_b_n (db_a + diag(f_b) ds_a) + (0, 0, 2g/R dr_U)
+//   phi' = -w_in x phi + d(w_en)/dv dv - C_b_n (db_g + diag(w_b) ds_g)
+//   sensor errors: random constants (the dataset's noise block has no bias instability).
+// Discretisation every propagation_interval_s: Phi = I + F dt + (F dt)^2 / 2 with F at the
+// current state and the interval's mean specific force and rate; Q = diag(VRW^2, ARW^2) dt on
+// dv and phi (isotropic noise: the body-to-n rotation leaves it diagonal).
+// Measurements every update_interval_s at the IMU epoch (GNSS interpolated linearly to it):
+// INS minus GNSS position (ENU metres) and velocity, H = [I 0 ...; 0 I ...], Joseph update. The
+// lever arm and GNSS latency are not modelled. After each update the error estimate is fed back
+// (position, velocity, attitude, sensor errors) and the strapdown restarts from the corrected
+// state.
+// Smoother: for closed-loop feedback the error state is zero after each reset, so with A_k =
+// P_k|k Phi_k^T P_k+1|k^-1 the smoothed error relative to the corrected state at update k is
+//   e_k = A_k (e_k+1 + dx_k+1),   P_k|N = P_k|k + A_k (P_k+1|N - P_k+1|k) A_k^T,   e_N = 0,
+// where dx_k+1 is the correction applied at update k+1. Reported: the smoothed sensor errors at
+// the navigation start (the estimate of the constant biases given all the data) and their
+// standard deviations, and the forward filter's final values.
+#include "identification/ekf_rts.h"
+
+#include <cmath>
+#include <stdexcept>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Dense>
+
+#include "core/mechanization.h"
+#include "core/rotation.h"
+#include "optimizers/registry.h"
+
+namespace insid {
+namespace {
+
+
+
+// Defaults when the dataset has no noise block (nav grade of scenarios/noise.cc) and floors
+// that keep the filter numerically healthy on noise-free data.
+constexpr NoiseLevels kDefaultNoise{0.002, 0.001, 0.01, 0.02};
+constexpr NoiseLevels kNoiseFloor{1e-4, 1e-4, 1e-3, 1e-2};
+
+enum : int { kR = 0, kV = 3, kPhi = 6, kBg = 9, kBa = 12, kSg = 15, kSa = 18 };
+
+struct UpdateRecord {
+  Eigen::MatrixXd P_post;       // after the update (or the initial P)
+  Eigen::MatrixXd Phi_next;     // to the next update
+  Eigen::MatrixXd P_prior_next; // prior covariance at the next update
+  Eigen::VectorXd dx;           // correction applied at this update (0 for the initial)
+  Eigen::VectorXd sensor_est;   // sensor-error estimates after this update (bg, ba, [sg, sa])
+};
+
+std::vector<std::string> sensor_names(bool scale) {
+  std::vector<std::string> n = {"gyro_bias_x",  "gyro_bias_y",  "gyro_bias_z",
+                                "accel_bias_x", "accel_bias_y", "accel_bias_z"};
+  if (scale)
+    for (const char* s : {"gyro_scale_x", "gyro_scale_y", "gyro_scale_z", "accel_scale_x",
+                          "accel_scale_y", "accel_scale_z"})
+      n.emplace_back(s);
+  return n;
+}
+
+double pick(double override_value, std::optional<double> data, double fallback, double floor) {
+  const double v = override_value >= 0.0 ? override_value : (data ? *data : fallback);
+  return std::max(v, floor);
+}
+
+}  // namespace
+
+std::span<const opt::ParameterField<EkfRtsParams>> EkfRtsParams::fields() {
+  static const opt::ParameterField<EkfRtsParams> kFields[] = {
+      {"update_interval_s", &EkfRtsParams::update_interval_s, "GNSS update interval (s)"},
+      {"propagation_interval_s", &EkfRtsParams::propagation_interval_s,
+       "covariance propagation step (s)"},
+      {"scale_factors", &EkfRtsParams::scale_factors, "1: estimate scale factors too"},
+      {"use_position", &EkfRtsParams::use_position, "1: GNSS position and velocity, 0: velocity"},
+      {"arw_deg_rth", &EkfRtsParams::arw_deg_rth, "angle random walk; < 0: from the dataset"},
+      {"vrw_mps_rth", &EkfRtsParams::vrw_mps_rth, "velocity random walk; < 0: from the dataset"},
+      {"gnss_vel_sigma_mps", &EkfRtsParams::gnss_vel_sigma_mps,
+       "GNSS velocity noise; < 0: from the dataset"},
+      {"gnss_pos_sigma_m", &EkfRtsParams::gnss_pos_sigma_m,
+       "GNSS position noise; < 0: from the dataset"},
+      {"initial_bias_sigma", &EkfRtsParams::initial_bias_sigma,
+       "prior std of each bias, catalogue sigma units"},
+      {"initial_scale_ppm", &EkfRtsParams::initial_scale_ppm, "prior std of each scale factor"},
+  };
+  return kFields;
+}
+
+std::string EkfRtsParams::validate() const {
+  for (std::string error :
+       {opt::check_positive(kAlgorithm, "update_interval_s", update_interval_s),
+        opt::check_positive(kAlgorithm, "propagation_interval_s", propagation_interval_s),
+        opt::check_range(kAlgorithm, "scale_factors", scale_factors, 0, 1),
+        opt::check_range(kAlgorithm, "use_position", use_position, 0, 1),
+        opt::check_positive(kAlgorithm, "initial_bias_sigma", initial_bias_sigma),
+        opt::check_positive(kAlgorithm, "initial_scale_ppm", initial_scale_ppm)}) {
+    if (!error.empty()) return error;
+  }
+  return {};
+}
+
+nlohmann::json EkfRtsResult::to_json() const {
+  nlohmann::json j;
+  j["smoothed_estimate"] = estimate;
+  j["smoothed_std"] = std;
+  j["filtered_estimate"] = filtered_estimate;
+  j["filtered_std"] = filtered_std;
+  j["noise_used"] = {{"arw_deg_rth", noise_used.arw_deg_rth},
+                     {"vrw_mps_rth", noise_used.vrw_mps_rth},
+                     {"gnss_vel_sigma_mps", noise_used.gnss_vel_sigma_mps},
+                     {"gnss_pos_sigma_m", noise_used.gnss_pos_sigma_m}};
+  j["updates"] = updates;
+  j["states"] = states;
+  j["filter_wall_s"] = filter_wall_s;
+  j["smoother_wall_s"] = smoother_wall_s;
+  return j;
+}
+
+EkfRtsResult run_ekf_rts(const NavigationProblem& navigation, const EkfRtsParams& params,
+                         const SensorErrors& base) {
+  if (std::string error = params.validate(); !error.empty()) throw std::invalid_argument(error);
+  const auto t_start = std::chrono::steady_clock::now();
+  const Dataset& ds = navigation.dataset();
+  const EarthModel& earth = ds.meta.earth;
+  const bool scale = params.scale_factors == 1;
+  const int N = scale ? 21 : 15;
+  const int n_sensor = scale ? 12 : 6;
+  using Mat = Eigen::MatrixXd;
+  using Vec = Eigen::VectorXd;
+
+  // Noise.
+  const std::optional<NoiseLevels>& dn = ds.meta.noise;
+  NoiseLevels noise;
+  noise.arw_deg_rth = pick(params.arw_deg_rth, dn ? std::optional(dn->arw_deg_rth) : std::nullopt,
+                           kDefaultNoise.arw_deg_rth, kNoiseFloor.arw_deg_rth);
+  noise.vrw_mps_rth = pick(params.vrw_mps_rth, dn ? std::optional(dn->vrw_mps_rth) : std::nullopt,
+                           kDefaultNoise.vrw_mps_rth, kNoiseFloor.vrw_mps_rth);
+  noise.gnss_vel_sigma_mps =
+      pick(params.gnss_vel_sigma_mps, dn ? std::optional(dn->gnss_vel_sigma_mps) : std::nullopt,
+           kDefaultNoise.gnss_vel_sigma_mps, kNoiseFloor.gnss_vel_sigma_mps);
+  noise.gnss_pos_sigma_m =
+      pick(params.gnss_pos_sigma_m, dn ? std::optional(dn->gnss_pos_sigma_m) : std::nullopt,
+           kDefaultNoise.gnss_pos_sigma_m, kNoiseFloor.gnss_pos_sigma_m);
+  const double q_arw = std::pow(noise.arw_deg_rth * kPi / 180.0 / 60.0, 2);  // rad^2/s
+  const double q_vrw = std::pow(noise.vrw_mps_rth / 60.0, 2);                // (m/s)^2/s
+
+  // Sensor-error estimates (start: the base values), as SensorErrors for compensation.
+  SensorErrors est = base;
+  auto sensor_vector = [&]() {
+    Vec s(n_sensor);
+    s.segment<3>(0) = est.gyro.bias;
+    s.segment<3>(3) = est.accel.bias;
+    if (scale) {
+      s.segment<3>(6) = est.gyro.scale;
+      s.segment<3>(9) = est.accel.scale;
+    }
+    return s;
+  };
+
+  // Initial state and covariance.
+  const Eigen::Matrix3d C0 = navigation.initial_attitude(SensorErrors{});
+  NavState state = navigation.initial_state(C0);
+  const std::size_t k0 = navigation.nav_begin();
+  Mat P = Mat::Zero(N, N);
+  const double lat0 = state.lat_rad;
+  const double heading_sigma =
+      std::clamp(params.initial_bias_sigma * kSigmaGyroRadS /
+                     (earth.omega_ie_rad_s * std::max(std::cos(lat0), 0.1)),
+                 1e-3, 0.1);
+  const double tilt_sigma =
+      std::max(params.initial_bias_sigma * kSigmaAccelMps2 / 9.8 * 3.0, 1e-4);
+  P.block<3, 3>(kR, kR) = Eigen::Matrix3d::Identity() * std::pow(std::max(noise.gnss_pos_sigma_m, 0.1), 2);
+  P.block<3, 3>(kV, kV) = Eigen::Matrix3d::Identity() * std::pow(std::max(noise.gnss_vel_sigma_mps, 0.01), 2);
+  P.block<3, 3>(kPhi, kPhi) = Eigen::Vector3d(tilt_sigma * tilt_sigma, tilt_sigma * tilt_sigma,
+                                              heading_sigma * heading_sigma).asDiagonal();
+  P.block<3, 3>(kBg, kBg) =
+      Eigen::Matrix3d::Identity() * std::pow(params.initial_bias_sigma * kSigmaGyroRadS, 2);
+  P.block<3, 3>(kBa, kBa) =
+      Eigen::Matrix3d::Identity() * std::pow(params.initial_bias_sigma * kSigmaAccelMps2, 2);
+  if (scale) {
+    P.block<6, 6>(kSg, kSg) = Mat::Identity(6, 6) * std::pow(params.initial_scale_ppm * 1e-6, 2);
+  }
+
+  std::vector<UpdateRecord> records;
+  records.push_back({P, Mat::Identity(N, N), Mat(), Vec::Zero(N), sensor_vector()});
+  Mat Phi_interval = Mat::Identity(N, N);
+
+  // Strapdown from the navigation start; the increment ending there seeds coning/sculling.
+  auto compensated = [&](std::size_t k, const ImuCompensator& comp) {
+    ImuSample inc = ds.imu[k];
+    const double t_before = k >= 1 ? ds.imu[k - 1].t_s : inc.t_s - 1.0 / ds.meta.imu_rate_hz;
+    comp.compensate(inc.t_s, inc.t_s - t_before, inc.dtheta_b_rad, inc.dv_b_mps);
+    return inc;
+  };
+  auto compensator = std::make_unique<ImuCompensator>(est);
+  auto ins = std::make_unique<Strapdown>(earth, state, compensated(k0 - 1, *compensator));
+
+  Eigen::Vector3d sum_dv = Eigen::Vector3d::Zero(), sum_dtheta = Eigen::Vector3d::Zero();
+  double sum_dt = 0.0;
+  double t_next_update = state.t_s + params.update_interval_s;
+  const double t_gnss_end = ds.gnss.back().t_s;
+  int updates = 0;
+
+  auto propagate = [&](const NavState& s) {
+    if (sum_dt <= 0.0) return;
+    const Eigen::Vector3d f_b = sum_dv / sum_dt, w_b = sum_dtheta / sum_dt;
+    const Eigen::Matrix3d C = s.q_b_n.toRotationMatrix();
+    const Eigen::Vector3d f_n = C * f_b;
+    const double lat = s.lat_rad, h = s.h_m;
+    const double RM = earth.meridian_radius_m(lat) + h, RN = earth.prime_vertical_radius_m(lat) + h;
+    const Eigen::Vector3d w_ie = earth.omega_ie_n(lat);
+    const Eigen::Vector3d w_en = earth.omega_en_n(lat, h, s.v_eb_n);
+    const double g = earth.normal_gravity_mps2(lat, h);
+    Mat F = Mat::Zero(N, N);
+    F.block<3, 3>(kR, kV).setIdentity();
+    F.block<3, 3>(kV, kPhi) = skew(f_n);
+    F.block<3, 3>(kV, kV) = -skew(2.0 * w_ie + w_en);
+    F(kV + 2, kR + 2) = 2.0 * g / std::sqrt(RM * RN);
+    F.block<3, 3>(kV, kBa) = C;
+    F.block<3, 3>(kPhi, kPhi) = -skew(w_ie + w_en);
+    Eigen::Matrix3d dwen_dv = Eigen::Matrix3d::Zero();
+    dwen_dv(0, 1) = -1.0 / RM;
+    dwen_dv(1, 0) = 1.0 / RN;
+    dwen_dv(2, 0) = std::tan(lat) / RN;
+    F.block<3, 3>(kPhi, kV) = dwen_dv;
+    F.block<3, 3>(kPhi, kBg) = -C;
+    if (scale) {
+      F.block<3, 3>(kPhi, kSg) = -C * w_b.asDiagonal();
+      F.block<3, 3>(kV, kSa) = C * f_b.asDiagonal();
+    }
+    const Mat Fdt = F * sum_dt;
+    const Mat Phi = Mat::Identity(N, N) + Fdt + 0.5 * Fdt * Fdt;
+    P = Phi * P * Phi.transpose();
+    for (int i = 0; i < 3; ++i) {
+      P(kV + i, kV + i) += q_vrw * sum_dt;
+      P(kPhi + i, kPhi + i) += q_arw * sum_dt;
+    }
+    Phi_interval = Phi * Phi_interval;
+    sum_dv.setZero();
+    sum_dtheta.setZero();
+    sum_dt = 0.0;
+  };
+
+  const int n_meas = params.use_position == 1 ? 6 : 3;
+  double t_prop = state.t_s;
+  for (std::size_t k = k0; k < ds.imu.size(); ++k) {
+    const ImuSample inc = compensated(k, *compensator);
+    const double dt = inc.t_s - ins->state().t_s;
+    ins->step(inc);
+    sum_dv += inc.dv_b_mps;
+    sum_dtheta += inc.dtheta_b_rad;
+    sum_dt += dt;
+    const NavState& s = ins->state();
+    const bool update_due = s.t_s >= t_next_update - 1e-9 && s.t_s <= t_gnss_end + 1e-9;
+    if (s.t_s - t_prop >= params.propagation_interval_s - 1e-9 || update_due) {
+      propagate(s);
+      t_prop = s.t_s;
+    }
+    if (!update_due) continue;
+    t_next_update += params.update_interval_s;
+
+    // Measurement: INS minus GNSS (interpolated to the IMU epoch).
+    const GnssSample g = interpolate_gnss(ds.gnss, s.t_s);
+    const double RM = earth.meridian_radius_m(s.lat_rad) + s.h_m;
+    const double RN = earth.prime_vertical_radius_m(s.lat_rad) + s.h_m;
+    Vec z(n_meas);
+    Mat H = Mat::Zero(n_meas, N);
+    Vec r_diag(n_meas);
+    int row = 0;
+    if (n_meas == 6) {
+      z[0] = (s.lon_rad - g.lon_rad) * RN * std::cos(s.lat_rad);
+      z[1] = (s.lat_rad - g.lat_rad) * RM;
+      z[2] = s.h_m - g.h_m;
+      H.block<3, 3>(0, kR).setIdentity();
+      r_diag.head<3>().setConstant(noise.gnss_pos_sigma_m * noise.gnss_pos_sigma_m);
+      row = 3;
+    }
+    z.segment<3>(row) = s.v_eb_n - g.v_eb_n_mps;
+    H.block<3, 3>(row, kV).setIdentity();
+    r_diag.segment<3>(row).setConstant(noise.gnss_vel_sigma_mps * noise.gnss_vel_sigma_mps);
+
+    records.back().Phi_next = Phi_interval;
+    records.back().P_prior_next = P;
+    const Mat R = r_diag.asDiagonal();
+    const Mat S = H * P * H.transpose() + R;
+    const Mat K = P * H.transpose() * S.ldlt().solve(Mat::Identity(n_meas, n_meas));
+    const Vec dx = K * z;
+    const Mat IKH = Mat::Identity(N, N) - K * H;
+    P = IKH * P * IKH.transpose() + K * R * K.transpose();
+    P = 0.5 * (P + P.transpose());
+    ++updates;
+
+    // Feedback.
+    NavState c = s;
+    c.lat_rad -= dx[kR + 1] / RM;
+    c.lon_rad -= dx[kR + 0] / (RN * std::cos(s.lat_rad));
+    c.h_m -= dx[kR + 2];
+    c.v_eb_n -= dx.segment<3>(kV);
+    c.q_b_n = (quat_from_rotation_vector(dx.segment<3>(kPhi)) * s.q_b_n).normalized();
+    est.gyro.bias += dx.segment<3>(kBg);
+    est.accel.bias += dx.segment<3>(kBa);
+    if (scale) {
+      est.gyro.scale += dx.segment<3>(kSg);
+      est.accel.scale += dx.segment<3>(kSa);
+    }
+    compensator = std::make_unique<ImuCompensator>(est);
+    ins = std::make_unique<Strapdown>(earth, c, compensated(k, *compensator));
+    records.push_back({P, Mat::Identity(N, N), Mat(), dx, sensor_vector()});
+    Phi_interval.setIdentity();
+  }
+  if (updates == 0) throw std::invalid_argument("ekf-rts: no GNSS update after the alignment");
+  const auto t_filter = std::chrono::steady_clock::now();
+
+  // RTS backward pass (closed-loop form, see the top of the file).
+  const std::size_t last = records.size() - 1;
+  Vec e = Vec::Zero(N);
+  Mat P_smooth = records[last].P_post;
+  for (std::size_t k = last; k-- > 0;) {
+    const UpdateRecord& rec = records[k];
+    const UpdateRecord& next = records[k + 1];
+    // A = P_k Phi^T P_prior^-1  <=>  P_prior A^T = Phi P_k.
+    const Mat A = rec.P_prior_next.ldlt().solve(rec.Phi_next * rec.P_post).transpose();
+    e = A * (e + next.dx);
+    P_smooth = rec.P_post + A * (P_smooth - rec.P_prior_next) * A.transpose();
+  }
+  const auto t_end = std::chrono::steady_clock::now();
+
+  EkfRtsResult out;
+  const std::vector<std::string> names = sensor_names(scale);
+  const Vec s0 = records[0].sensor_est + e.segment(kBg, n_sensor);
+  const Vec sN = records[last].sensor_est;
+  for (int i = 0; i < n_sensor; ++i) {
+    const std::string& name = names[static_cast<std::size_t>(i)];
+    out.estimate[name] = s0[i];
+    out.std[name] = std::sqrt(std::max(P_smooth(kBg + i, kBg + i), 0.0));
+    out.filtered_estimate[name] = sN[i];
+    out.filtered_std[name] = std::sqrt(std::max(records[last].P_post(kBg + i, kBg + i), 0.0));
+  }
+  out.noise_used = noise;
+  out.updates = updates;
+  out.states = N;
+  out.filter_wall_s = std::chrono::duration<double>(t_filter - t_start).count();
+  out.smoother_wall_s = std::chrono::duration<double>(t_end - t_filter).count();
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+namespace {
+opt::RunConfig one_iteration(opt::RunConfig config) {
+  config.max_iterations = 1;
+  return config;
+}
+}  // namespace
+
+EkfRtsOptimizer::EkfRtsOptimizer(const opt::Bounds& bounds, const opt::RunConfig& config,
+                                 const EkfRtsParams& params)
+    : opt::Optimizer("EKF-RTS", bounds, one_iteration(config)), params_(params) {
+  if (std::string error = params_.validate(); !error.empty()) throw std::invalid_argument(error);
+}
+
+opt::ParameterList EkfRtsOptimizer::parameters() const {
+  opt::ParameterList list = params_.list();
+  if (done()) {
+    list.emplace_back("equivalent_ins_runs", equivalent_ins_runs_);
+    for (std::size_t k = 0; k < names_.size(); ++k)
+      list.emplace_back("std_sigma_" + names_[k], std_sigma_[static_cast<Eigen::Index>(k)]);
+  }
+  return list;
+}
+
+void EkfRtsOptimizer::bind(const opt::Problem& problem) {
+  if (bound_ == &problem) return;
+  if (bound_ != nullptr) throw std::logic_error("EKF-RTS: bound to a second problem");
+  const auto* ins = dynamic_cast<const InsIdentificationProblem*>(&problem);
+  if (ins == nullptr)
+    throw std::invalid_argument("ekf-rts runs on the INS identification problem only, not on '" +
+                                problem.name() + "'");
+  const ParameterMapping& mapping = ins->mapping();
+  EkfRtsParams p = params_;
+  bool needs_scale = false;
+  for (const EstimatedParameter& e : mapping.parameters())
+    if (e.name.find("_scale_") != std::string::npos) needs_scale = true;
+  if (needs_scale) p.scale_factors = 1;
+  ekf_ = run_ekf_rts(ins->navigation(), p, mapping.base());
+  const int n = mapping.dimension();
+  estimate_sigma_.resize(n);
+  std_sigma_.resize(n);
+  names_.clear();
+  for (int k = 0; k < n; ++k) {
+    const EstimatedParameter& e = mapping.parameters()[static_cast<std::size_t>(k)];
+    const auto it = ekf_->estimate.find(e.name);
+    if (it == ekf_->estimate.end())
+      throw std::invalid_argument("ekf-rts estimates gyro/accel biases (and scale factors), not '" +
+                                  e.name + "'");
+    estimate_sigma_[k] = it->second / e.sigma;
+    std_sigma_[k] = ekf_->std.at(e.name) / e.sigma;
+    names_.push_back(e.name);
+  }
+  x_ = clamp(mapping.from_sigma(estimate_sigma_));
+  bound_ = &problem;
+}
+
+void EkfRtsOptimizer::propose(std::vector<Eigen::VectorXd>& batch) {
+  if (bound_ == nullptr)
+    throw std::logic_error("EKF-RTS: not bound to a problem; drive it with opt::step / run / "
+                           "optimize");
+  batch.push_back(x_);
+  asked_ = std::chrono::steady_clock::now();
+}
+
+void EkfRtsOptimizer::accept(std::span<const Eigen::VectorXd>, std::span<const double>) {
+  // The wall time between ask() and tell() is the one evaluation of the estimate: the yardstick
+  // for the filter's cost in INS runs.
+  const double ins_run_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - asked_).count();
+  const double ekf_s = ekf_->filter_wall_s + ekf_->smoother_wall_s;
+  equivalent_ins_runs_ = ins_run_s > 0.0 ? ekf_s / ins_run_s : 0.0;
+}
+
+nlohmann::json EkfRtsOptimizer::report_json(const ParameterMapping& mapping) const {
+  nlohmann::json j = ekf_ ? ekf_->to_json() : nlohmann::json::object();
+  for (int k = 0; k < mapping.dimension() && k < std_sigma_.size(); ++k)
+    j["estimate_std_sigma"][mapping.parameters()[static_cast<std::size_t>(k)].name] = std_sigma_[k];
+  j["estimate_unclamped_sigma"] = nlohmann::json::object();
+  for (int k = 0; k < mapping.dimension() && k < estimate_sigma_.size(); ++k)
+    j["estimate_unclamped_sigma"][mapping.parameters()[static_cast<std::size_t>(k)].name] =
+        estimate_sigma_[k];
+  j["equivalent_ins_runs"] = equivalent_ins_runs_;
+  for (const auto& [name, value] : params_.list()) j["settings"][name] = value;
+  j["model"] = "loosely coupled error-state EKF (Groves 2013 ch. 14, psi/phi-angle, ENU), "
+               "closed-loop, RTS smoother";
+  return j;
+}
+
+void register_ekf_rts() {
+  opt::AlgorithmFactory factory;
+  factory.make = [](const opt::Bounds& bounds, const opt::RunConfig& config,
+                    const opt::ParameterMap& overrides) -> std::unique_ptr<opt::Optimizer> {
+    return std::make_unique<EkfRtsOptimizer>(bounds, config, EkfRtsParams::from_map(overrides));
+  };
+  factory.defaults = [] { return EkfRtsParams{}.list(); };
+  opt::register_algorithm("ekf-rts", std::move(factory));
+}
+
+}  // namespace insid

@@ -1,0 +1,124 @@
+#!/usr/bin/env python3
+"""Accuracy tables of issue 4 from campaign directories (results/accuracy/README.md).
+
+Usage: accuracy_table.py ROOT  -- ROOT holds one campaign directory per config in
+ROOT/configs/*.json (named like the config without .json). Prints markdown to stdout.
+
+Two questions, reported separately (DESIGN.md sec. 10):
+  * how well does the optimizer solve the problem: |estimate - data's own optimum| (sigma)
+    and the relative fitness gap (f - f_opt) / f_opt;
+  * how well can the biases be known from these data: |estimate - truth| (sigma), next to the
+    noise floor = spread of the data's optimum around the truth over noise seeds.
+"""
+import glob
+import json
+import math
+import os
+import statistics
+import sys
+
+
+def load(path):
+    with open(path) as f:
+        return json.load(f)
+
+
+def fmt(v):
+    if v is None or (isinstance(v, float) and math.isnan(v)):
+        return "–"
+    a = abs(v)
+    if a != 0 and (a < 1e-3 or a >= 1e4):
+        return f"{v:.2e}"
+    return f"{v:.3g}"
+
+
+def campaign_rows(cdir):
+    manifest = load(os.path.join(cdir, "manifest.json"))
+    cfg = manifest["config"]
+    params = [p["name"] for p in cfg["estimate"]]
+    rows = []
+    for sc in cfg["scenarios"]:
+        for alg in cfg["algorithms"]:
+            runs = []
+            for seed in cfg["seeds"]:
+                p = os.path.join(cdir, "runs", sc["name"], alg["label"], f"seed_{seed}.json")
+                if os.path.exists(p):
+                    runs.append(load(p))
+            if not runs:
+                continue
+            r = {"scenario": sc["name"], "alignment": cfg["alignment"], "algorithm": alg["label"],
+                 "runs": len(runs), "params": params}
+            for key in ("error_vs_optimum_sigma", "error_sigma"):
+                if key in runs[0]:
+                    r[key] = {p: ([abs(x[key][p]) for x in runs]) for p in params}
+            r["fitness"] = [x["result"]["fitness"] for x in runs]
+            r["gap_rel"] = [x.get("fitness_gap_relative", float("nan")) for x in runs]
+            r["evals"] = [x["result"]["evaluations"] for x in runs]
+            r["optimum_fitness"] = runs[0].get("optimum_fitness")
+            rows.append(r)
+    return rows
+
+
+def noise_floor(cdir):
+    """RMS over noise seeds of (data's optimum - truth), per parameter, sigma units."""
+    manifest = load(os.path.join(cdir, "manifest.json"))
+    cfg = manifest["config"]
+    params = [p["name"] for p in cfg["estimate"]]
+    diffs = {p: [] for p in params}
+    for sc in cfg["scenarios"]:
+        opt = load(os.path.join(cdir, "optimum", sc["name"] + ".json"))
+        run = load(os.path.join(cdir, "runs", sc["name"], cfg["algorithms"][0]["label"], "seed_1.json"))
+        for p in params:
+            diffs[p].append(opt["estimate_sigma"][p] - run["truth_sigma"][p])
+    return {p: math.sqrt(sum(d * d for d in v) / len(v)) for p, v in diffs.items()}, len(cfg["scenarios"]), cfg["alignment"]
+
+
+def main():
+    root = sys.argv[1] if len(sys.argv) > 1 else "results/accuracy"
+    out = []
+    floors = {}
+    for cfgpath in sorted(glob.glob(os.path.join(root, "configs", "noise-floor-*.json"))):
+        cdir = os.path.join(root, os.path.basename(cfgpath)[:-5])
+        if os.path.exists(os.path.join(cdir, "manifest.json")):
+            try:
+                fl, n, al = noise_floor(cdir)
+                floors[al] = (fl, n)
+            except (OSError, KeyError):
+                pass
+    for al, (fl, n) in sorted(floors.items()):
+        out.append(f"Noise floor (`rich`, `nav` grade, alignment `{al}`): RMS of (data's optimum − truth) "
+                   f"over {n} noise seeds, σ: " + ", ".join(f"{p} {fmt(v)}" for p, v in fl.items()) + "\n")
+    for cfgpath in sorted(glob.glob(os.path.join(root, "configs", "*.json"))):
+        name = os.path.basename(cfgpath)[:-5]
+        if name.startswith("noise-floor"):
+            continue
+        cdir = os.path.join(root, name)
+        if not os.path.exists(os.path.join(cdir, "manifest.json")):
+            continue
+        rows = campaign_rows(cdir)
+        if not rows:
+            continue
+        params = rows[0]["params"]
+        short = [p.replace("accel_bias_", "A").replace("gyro_bias_", "D") for p in params]
+        out.append(f"\n### `{rows[0]['scenario']}`, alignment `{rows[0]['alignment']}` "
+                   f"({rows[0]['runs']} seeds; data's optimum Eq. 15 = {fmt(rows[0]['optimum_fitness'])})\n")
+        head = ("| algorithm | " + " | ".join(f"{s} vs opt med / worst" for s in short) + " | " +
+                " | ".join(f"{s} vs truth med / worst" for s in short) +
+                " | final fitness (median) | gap to optimum (median, relative) | evaluations |")
+        out.append(head)
+        out.append("|" + "---|" * (2 + 2 * len(params) + 2 + 1 - 1))
+        for r in rows:
+            cells = [r["algorithm"]]
+            for key in ("error_vs_optimum_sigma", "error_sigma"):
+                for p in params:
+                    v = r.get(key, {}).get(p)
+                    cells.append(f"{fmt(statistics.median(v))} / {fmt(max(v))}" if v else "–")
+            cells.append(fmt(statistics.median(r["fitness"])))
+            cells.append(fmt(statistics.median(r["gap_rel"])))
+            cells.append(fmt(statistics.median(r["evals"])))
+            out.append("| " + " | ".join(cells) + " |")
+    print("\n".join(out))
+
+
+if __name__ == "__main__":
+    main()
