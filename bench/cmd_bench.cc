@@ -65,7 +65,7 @@ void add_bench_command(CLI::App& app) {
       "bench",
       "Run (or resume) a campaign: scenarios x algorithms x seeds of identification runs, "
       "written as JSON under --out (results/README.md), with summary statistics.");
-  cmd->add_option("--preset", args->preset, "campaign preset: paper-fig9 | quick");
+  cmd->add_option("--preset", args->preset, "campaign preset: paper-fig9 | quick | paper-plus-baselines");
   cmd->add_option("--config", args->config_path, "campaign JSON file (results/README.md)");
   cmd->add_option("--out", args->out, "results directory")->required();
   cmd->add_option("--seeds", args->seeds, "number of seeds (1..N), overriding the config");

@@ -18,6 +18,7 @@ int main(int argc, char** argv) {
   insid::cli::add_bench_command(app);
   insid::cli::add_sweep_command(app);
   insid::cli::add_simulate_command(app);
+  insid::cli::add_diagnose_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

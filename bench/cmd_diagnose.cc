@@ -1,0 +1,146 @@
+// insid diagnose: which catalogue effect explains what the base model leaves in the residuals
+// (issue 7, DESIGN.md sec. 9; method in diagnose/README.md).
+#include <cstdlib>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "bench/cli_util.h"
+#include "bench/commands.h"
+#include "core/dataset.h"
+#include "diagnose/diagnose.h"
+
+#ifndef INSID_SOURCE_DIR
+#define INSID_SOURCE_DIR "."
+#endif
+
+namespace insid::cli {
+namespace {
+
+struct DiagnoseArgs {
+  std::string data_dir;
+  std::vector<std::string> base;
+  std::vector<std::string> candidates;
+  int max_effects = 3;
+  std::uint64_t seed = 1;
+  std::string out;
+  std::string report;
+  std::string algorithm = "dvpio";
+  int iterations = 20;
+  int replicas_basis = 40;
+  int replicas_calibration = 80;
+  double alpha = 0.05;
+  double observable_max_sigma = 30.0;
+  std::string alignment = "per-candidate";
+  int threads = 0;
+  bool quiet = false;
+  bool no_plots = false;
+};
+
+std::string shell_quote(const std::string& s) {
+  std::string q = "'";
+  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+void run(const DiagnoseArgs& a) {
+  namespace fs = std::filesystem;
+  auto dataset = std::make_shared<const Dataset>(load_dataset(a.data_dir));
+  diagnose::DiagnoseOptions o;
+  for (const std::string& b : a.base) o.base.push_back(EstimatedParameter::parse(b));
+  o.candidates = a.candidates;
+  o.max_effects = a.max_effects;
+  o.seed = a.seed;
+  o.algorithm = a.algorithm;
+  o.optimizer_iterations = a.iterations;
+  o.replicas_basis = a.replicas_basis;
+  o.replicas_calibration = a.replicas_calibration;
+  o.alpha = a.alpha;
+  o.observable_max_sigma = a.observable_max_sigma;
+  o.alignment = alignment_mode_from_string(a.alignment);
+  o.threads = a.threads;
+  o.progress = !a.quiet;
+  diagnose::DiagnoseResult res = diagnose::run_diagnose(dataset, o);
+  res.report["data"] = a.data_dir;
+  write_json_output(a.out, res.report);
+  if (a.report.empty()) return;
+
+  const fs::path md_path = fs::absolute(a.report);
+  const fs::path dir = md_path.parent_path();
+  if (!dir.empty()) fs::create_directories(dir);
+  const std::string stem = md_path.stem().string();
+  const fs::path csv = dir / (stem + "_residuals.csv");
+  diagnose::write_series_csv(csv.string(), res.series);
+  // The JSON next to the report (the plots read it), unless --out already is there.
+  fs::path json_path = a.out.empty() || a.out == "-" ? dir / (stem + ".json") : fs::path(a.out);
+  if (a.out.empty() || a.out == "-") write_json_output(json_path.string(), res.report);
+
+  std::string prefix;
+  if (!a.no_plots) {
+    const char* env = std::getenv("INSID_SCRIPTS_DIR");
+    const fs::path script =
+        fs::path(env ? env : INSID_SOURCE_DIR "/scripts") / "diagnose_plots.py";
+    // Debian's python3 (with matplotlib) first; INSID_PYTHON overrides.
+    const char* py_env = std::getenv("INSID_PYTHON");
+    const std::string python =
+        py_env ? py_env : (fs::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3");
+    const std::string cmd = shell_quote(python) + " " + shell_quote(script.string()) + " --report " +
+                            shell_quote(json_path.string()) + " --series " +
+                            shell_quote(csv.string()) + " --prefix " +
+                            shell_quote((dir / stem).string());
+    if (fs::exists(script) && std::system(cmd.c_str()) == 0)
+      prefix = stem;
+    else
+      std::cerr << "insid diagnose: figures not made (" << script.string()
+                << " missing or failed); report.md has the tables only\n";
+  }
+  write_file_atomic(md_path, diagnose::report_markdown(res.report, prefix));
+}
+
+}  // namespace
+
+void add_diagnose_command(CLI::App& app) {
+  auto a = std::make_shared<DiagnoseArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "diagnose",
+      "Find the missing effect: fit the base model, score every catalogue effect on what the "
+      "base model cannot absorb (GLS against a noise model calibrated on noise replicas of the "
+      "same flight), add the most significant one, re-fit, repeat; report the gap to the noise "
+      "floor before and after. Method: diagnose/README.md.");
+  cmd->add_option("--data", a->data_dir, "dataset directory (insid-dataset/1)")->required();
+  cmd->add_option("--base", a->base,
+                  "base model NAME[:SIGMA[:LO:HI]] ...; default: the paper's four");
+  cmd->add_option("--candidates", a->candidates,
+                  "candidate effects NAME ... or 'all' (default: every catalogue effect not in "
+                  "the base)");
+  cmd->add_option("--max-effects", a->max_effects, "most effects added")->capture_default_str();
+  cmd->add_option("--seed", a->seed, "seed (optimizer, noise replicas)")->capture_default_str();
+  cmd->add_option("--out", a->out, "report JSON (default: stdout)");
+  cmd->add_option("--report", a->report,
+                  "report.md with figures (PNG next to it, via scripts/diagnose_plots.py)");
+  cmd->add_option("--algo", a->algorithm, "base-fit optimizer: ga | pso | pio | dvpio | none")
+      ->capture_default_str();
+  cmd->add_option("--iterations", a->iterations, "optimizer iterations for the base fit")
+      ->capture_default_str();
+  cmd->add_option("--replicas-basis", a->replicas_basis,
+                  "noise replicas building the working covariance")
+      ->capture_default_str();
+  cmd->add_option("--replicas-calibration", a->replicas_calibration,
+                  "noise replicas calibrating the statistics and threshold")
+      ->capture_default_str();
+  cmd->add_option("--alpha", a->alpha, "family-wise false-alarm rate per iteration")
+      ->capture_default_str();
+  cmd->add_option("--observable-max-sigma", a->observable_max_sigma,
+                  "a candidate whose minimum detectable size exceeds this many catalogue sigmas "
+                  "is reported not observable")
+      ->capture_default_str();
+  cmd->add_option("--alignment", a->alignment, "per-candidate | fixed")->capture_default_str();
+  cmd->add_option("--threads", a->threads, "OpenMP threads (0 = all)")->capture_default_str();
+  cmd->add_flag("--quiet", a->quiet, "no progress on stderr");
+  cmd->add_flag("--no-plots", a->no_plots, "report.md without figures");
+  cmd->callback([a] { run(*a); });
+}
+
+}  // namespace insid::cli

@@ -1,0 +1,787 @@
+#include "diagnose/diagnose.h"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <limits>
+#include <map>
+#include <numeric>
+#include <random>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Dense>
+#include <Eigen/QR>
+#include <boost/math/distributions/normal.hpp>
+#include <boost/math/distributions/students_t.hpp>
+#include <omp.h>
+
+#include "diagnose/advice.h"
+#include "diagnose/noise_model.h"
+#include "identification/identify.h"
+#include "identification/local_fit.h"
+#include "optimizers/registry.h"
+
+namespace insid::diagnose {
+namespace {
+
+using Mat = Eigen::MatrixXd;
+using Vec = Eigen::VectorXd;
+using json = nlohmann::json;
+
+Vec to_vec(const std::vector<double>& r) {
+  return Eigen::Map<const Vec>(r.data(), static_cast<Eigen::Index>(r.size()));
+}
+
+double eq15(const Vec& r) {
+  double s = 0.0;
+  for (Eigen::Index e = 0; e + 1 < r.size(); e += 2) s += std::hypot(r[e], r[e + 1]);
+  return s;
+}
+
+double hrms(const Vec& r) {
+  const double epochs = static_cast<double>(r.size() / 2);
+  return epochs > 0 ? std::sqrt(r.squaredNorm() / epochs) : 0.0;
+}
+
+// JSON-safe number (NaN/inf -> null).
+json num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
+std::uint64_t mix_seed(std::uint64_t seed, std::uint64_t k) {
+  std::uint64_t x = seed * 0x9e3779b97f4a7c15ULL + k + 0x632be59bd9b4e019ULL;
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
+  return x ^ (x >> 31);
+}
+
+class Progress {
+ public:
+  explicit Progress(bool on) : on_(on), t0_(std::chrono::steady_clock::now()) {}
+  void operator()(const std::string& what) const {
+    if (!on_) return;
+    const double s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
+    std::fprintf(stderr, "insid diagnose [%7.1f s] %s\n", s, what.c_str());
+  }
+
+ private:
+  bool on_;
+  std::chrono::steady_clock::time_point t0_;
+};
+
+// Working covariance Sigma_w = s2 I + U U^T (low rank from the basis replicas + diagonal).
+class WorkingMetric {
+ public:
+  WorkingMetric(Mat U, double s2) : U_(std::move(U)), s2_(s2) {
+    Mat inner = U_.transpose() * U_;
+    inner.diagonal().array() += s2_;
+    inner_.compute(inner);
+  }
+  // Sigma_w^{-1} V (Woodbury).
+  Mat inv(const Mat& V) const {
+    return (V - U_ * inner_.solve(U_.transpose() * V)) / s2_;
+  }
+  double s2() const { return s2_; }
+  int rank() const { return static_cast<int>(U_.cols()); }
+
+ private:
+  Mat U_;
+  double s2_;
+  Eigen::LDLT<Mat> inner_;
+};
+
+struct ModelFit {
+  std::vector<EstimatedParameter> params;
+  Eigen::VectorXd value_sigma;
+  SensorErrors errors;
+  Vec r;
+  Mat J;  // d r / d value_sigma (m/s per sigma)
+  double fitness = 0.0, rms = 0.0;
+  std::int64_t evaluations = 0;
+  int iterations = 0;
+};
+
+// LS Levenberg-Marquardt polish from `start_sigma`; then the Jacobian at the final point.
+ModelFit refit(const std::shared_ptr<const NavigationProblem>& nav,
+               const std::vector<EstimatedParameter>& params, const Vec& start_sigma,
+               const opt::EvaluatorOptions& evaluator) {
+  ParameterMapping mapping(params);
+  InsIdentificationProblem problem(nav, mapping, FitnessKind::kSumSquares, evaluator);
+  LocalFitOptions lo;
+  lo.eq15 = false;          // least squares: consistent with the linear noise statistics
+  lo.clamp_to_box = false;  // a hidden effect may be far outside the paper's box
+  lo.max_iterations = 40;
+  lo.step_sigma = 1e-3;
+  const LocalFitResult lf = local_fit(problem, mapping.from_sigma(start_sigma), lo);
+  ModelFit fit;
+  fit.params = params;
+  fit.value_sigma = lf.value_sigma;
+  fit.errors = mapping.to_errors(lf.x);
+  fit.r = to_vec(lf.residuals);
+  fit.J = lf.jacobian_sigma;
+  fit.fitness = eq15(fit.r);
+  fit.rms = hrms(fit.r);
+  fit.evaluations = lf.evaluations;
+  fit.iterations = lf.iterations;
+  return fit;
+}
+
+// Sensitivity columns (per catalogue sigma) of `names` at `errors`, forward differences with a
+// step of `step_sigma` catalogue sigmas, one full pipeline run each.
+Mat sensitivity_columns(const NavigationProblem& nav, const SensorErrors& errors, const Vec& r0,
+                        const std::vector<std::string>& names, double step_sigma, int threads) {
+  Mat C(r0.size(), static_cast<Eigen::Index>(names.size()));
+  std::vector<std::string> failures(names.size());
+#pragma omp parallel for schedule(dynamic) num_threads(threads)
+  for (int c = 0; c < static_cast<int>(names.size()); ++c) {
+    try {
+      SensorErrors e = errors;
+      const double h = step_sigma * effect_info(names[static_cast<std::size_t>(c)]).sigma;
+      add_effect(e, names[static_cast<std::size_t>(c)], h);
+      std::vector<double> rc;
+      nav.residuals(e, rc);
+      C.col(c) = (to_vec(rc) - r0) / step_sigma;
+    } catch (const std::exception& ex) {
+      failures[static_cast<std::size_t>(c)] = ex.what();
+    }
+  }
+  for (std::size_t c = 0; c < names.size(); ++c)
+    if (!failures[c].empty())
+      throw std::runtime_error("sensitivity of '" + names[c] + "': " + failures[c]);
+  return C;
+}
+
+// OLS projection residual of the columns of D on span(J): D - J (J^T J)^-1 J^T D.
+Mat ols_residual(const Mat& J, const Mat& D) {
+  const Eigen::ColPivHouseholderQR<Mat> qr(J);
+  return D - J * qr.solve(D);
+}
+
+struct Floor {
+  double fitness = 0, fitness_sd = 0, rms = 0, rms_sd = 0;
+  std::map<std::string, double> phase_rms;
+};
+
+Floor noise_floor(const Mat& J, const Mat& D, const std::vector<std::string>& epoch_phase) {
+  const Mat P = ols_residual(J, D);
+  Floor f;
+  const int M = static_cast<int>(D.cols());
+  std::vector<double> fs(static_cast<std::size_t>(M)), rs(static_cast<std::size_t>(M));
+  std::map<std::string, std::pair<double, double>> ph;  // sum sq, count
+  for (int m = 0; m < M; ++m) {
+    const Vec col = P.col(m);
+    fs[static_cast<std::size_t>(m)] = eq15(col);
+    rs[static_cast<std::size_t>(m)] = hrms(col);
+    for (std::size_t e = 0; e < epoch_phase.size(); ++e) {
+      auto& acc = ph[epoch_phase[e]];
+      acc.first += col[2 * e] * col[2 * e] + col[2 * e + 1] * col[2 * e + 1];
+      acc.second += 1.0;
+    }
+  }
+  auto mean_sd = [](const std::vector<double>& v, double& mean, double& sd) {
+    mean = std::accumulate(v.begin(), v.end(), 0.0) / static_cast<double>(v.size());
+    double s = 0.0;
+    for (double x : v) s += (x - mean) * (x - mean);
+    sd = v.size() > 1 ? std::sqrt(s / static_cast<double>(v.size() - 1)) : 0.0;
+  };
+  mean_sd(fs, f.fitness, f.fitness_sd);
+  mean_sd(rs, f.rms, f.rms_sd);
+  for (const auto& [name, acc] : ph) f.phase_rms[name] = std::sqrt(acc.first / acc.second);
+  return f;
+}
+
+struct CandidateStat {
+  std::string name;
+  double estimate_sigma = 0, sd_sigma = 0, z = 0, z_normal = 0, p_single = 1, p_family = 1;
+  double projected_share = 0, mde_sigma = 0;
+  bool observable = true, significant = false, exceeds = false;
+  std::vector<std::pair<std::string, double>> collinear;
+};
+
+struct IterationStats {
+  std::vector<CandidateStat> table;  // candidate order
+  double z_threshold = 0.0;
+  double in_sample_false_alarm = 0.0;
+  double omnibus_q = 0.0, omnibus_p = 1.0;
+};
+
+// Step 4-5 on one model fit.
+IterationStats score_candidates(const ModelFit& fit, const Mat& C,
+                                const std::vector<std::string>& names,
+                                const WorkingMetric& W, const Mat& D_cal,
+                                const DiagnoseOptions& opt, std::uint64_t seed) {
+  IterationStats out;
+  const int q = static_cast<int>(names.size());
+  const int MB = static_cast<int>(D_cal.cols());
+  const Mat& J = fit.J;
+  // GLS projection on the model's columns.
+  const Mat K = W.inv(J);
+  const Eigen::LDLT<Mat> G(J.transpose() * K);
+  const Mat Ct = C - J * G.solve(K.transpose() * C);  // projected columns
+  const Mat Wc = W.inv(Ct);                           // whitened (Sigma_w^-1) projected columns
+  const Mat WcRaw = W.inv(C);
+  Vec info(q), raw(q);
+  for (int c = 0; c < q; ++c) {
+    info[c] = Ct.col(c).dot(Wc.col(c));
+    raw[c] = C.col(c).dot(WcRaw.col(c));
+  }
+  // r + beta * col ~ noise: the effect's estimate is minus the GLS regression of r on col.
+  const Vec beta = -(Wc.transpose() * fit.r).cwiseQuotient(info);
+  Mat B = -(Wc.transpose() * D_cal);  // q x MB, the estimator on the noise replicas
+  for (int c = 0; c < q; ++c) B.row(c) /= info[c];
+  boost::math::students_t tdist(MB);
+  boost::math::normal ndist;
+  out.table.resize(static_cast<std::size_t>(q));
+  Mat Bz(MB, q);
+  for (int c = 0; c < q; ++c) {
+    CandidateStat& s = out.table[static_cast<std::size_t>(c)];
+    s.name = names[static_cast<std::size_t>(c)];
+    const double sd = std::sqrt(B.row(c).squaredNorm() / MB);
+    s.estimate_sigma = beta[c];
+    s.sd_sigma = sd;
+    s.z = sd > 0 ? beta[c] / sd : 0.0;
+    const double az = std::min(std::abs(s.z), 1e6);
+    const double tail = boost::math::cdf(boost::math::complement(tdist, az));
+    s.p_single = 2.0 * tail;
+    // Normal-equivalent |z| (sd estimated from MB replicas: t with MB dof).
+    s.z_normal = tail > 1e-300 ? boost::math::quantile(boost::math::complement(ndist, tail)) : 40.0;
+    s.projected_share = raw[c] > 0 ? std::sqrt(std::max(info[c], 0.0) / raw[c]) : 0.0;
+    for (int m = 0; m < MB; ++m) Bz(m, c) = sd > 0 ? B(c, m) / sd : 0.0;
+  }
+  // Family-wise null distribution of max |z|: Gaussian with the replicas' correlation, drawn as
+  // random combinations of the standardised replica statistics.
+  std::mt19937_64 rng(mix_seed(seed, 77));
+  std::normal_distribution<double> g01;
+  const int draws = std::max(opt.monte_carlo_draws, 1000);
+  std::vector<double> maxz(static_cast<std::size_t>(draws));
+  Vec g(MB);
+  const double inv_sqrt_mb = 1.0 / std::sqrt(static_cast<double>(MB));
+  for (int d = 0; d < draws; ++d) {
+    for (int m = 0; m < MB; ++m) g[m] = g01(rng);
+    maxz[static_cast<std::size_t>(d)] = (Bz.transpose() * g).cwiseAbs().maxCoeff() * inv_sqrt_mb;
+  }
+  std::sort(maxz.begin(), maxz.end());
+  const std::size_t qi =
+      std::min(maxz.size() - 1,
+               static_cast<std::size_t>(std::ceil((1.0 - opt.alpha) * static_cast<double>(draws))));
+  out.z_threshold = maxz[qi];
+  int fa = 0;
+  for (int m = 0; m < MB; ++m)
+    if (Bz.row(m).cwiseAbs().maxCoeff() > out.z_threshold) ++fa;
+  out.in_sample_false_alarm = static_cast<double>(fa) / MB;
+  const double z_power = 1.6448536269514722;  // 95 % power one-sided
+  for (auto& s : out.table) {
+    const auto it = std::lower_bound(maxz.begin(), maxz.end(), s.z_normal);
+    s.p_family = static_cast<double>(maxz.end() - it + 1) / (draws + 1);
+    s.mde_sigma = (out.z_threshold + z_power) * s.sd_sigma;
+    s.observable = s.mde_sigma <= opt.observable_max_sigma;
+    // A candidate this flight cannot observe at a plausible size is never named: exceeding the
+    // threshold then signals model mismatch, reported as unexplained structure instead.
+    s.exceeds = s.z_normal > out.z_threshold;
+    s.significant = s.exceeds && s.observable;
+  }
+  // Collinear partners: correlation of projected whitened columns.
+  for (int a = 0; a < q; ++a)
+    for (int b = 0; b < q; ++b) {
+      if (a == b || info[a] <= 0 || info[b] <= 0) continue;
+      const double corr = Wc.col(a).dot(Ct.col(b)) / std::sqrt(info[a] * info[b]);
+      if (std::abs(corr) > opt.collinear_threshold)
+        out.table[static_cast<std::size_t>(a)].collinear.emplace_back(names[static_cast<std::size_t>(b)], corr);
+    }
+  // Omnibus check for leftover structure: whitened energy of the GLS-projected residual, data
+  // against the calibration replicas.
+  auto q_stat = [&](const Mat& V) {
+    const Mat Vt = V - J * G.solve(K.transpose() * V);
+    const Mat WV = W.inv(Vt);
+    return Vec((Vt.array() * WV.array()).colwise().sum().transpose());
+  };
+  const Mat rmat = fit.r;
+  out.omnibus_q = q_stat(rmat)[0];
+  const Vec qr = q_stat(D_cal);
+  int ge = 0;
+  for (int m = 0; m < MB; ++m)
+    if (qr[m] >= out.omnibus_q) ++ge;
+  out.omnibus_p = static_cast<double>(ge + 1) / (MB + 1);
+  return out;
+}
+
+json stat_json(const CandidateStat& s) {
+  const double sig = effect_info(s.name).sigma;
+  json c = {{"effect", s.name},
+            {"statistic", num(s.z * s.z)},
+            {"z", num(s.z)},
+            {"p_value", num(s.p_single)},
+            {"p_family", num(s.p_family)},
+            {"estimate", num(s.estimate_sigma * sig)},
+            {"sd", num(s.sd_sigma * sig)},
+            {"estimate_sigma", num(s.estimate_sigma)},
+            {"sd_sigma", num(s.sd_sigma)},
+            {"unit", std::string(effect_info(s.name).unit)},
+            {"projected_share", num(s.projected_share)},
+            {"min_detectable_sigma", num(s.mde_sigma)},
+            {"observable", s.observable},
+            {"significant", s.significant}};
+  c["collinear"] = json::array();
+  for (const auto& [n, corr] : s.collinear)
+    c["collinear"].push_back({{"effect", n}, {"correlation", corr},
+                              {"separating_manoeuvre", separating_manoeuvre(s.name, n)}});
+  return c;
+}
+
+// Linearised LS sd of every model parameter from the replicas (sigma units).
+Vec parameter_sd(const Mat& J, const Mat& D) {
+  const Eigen::ColPivHouseholderQR<Mat> qr(J);
+  const Mat dtheta = qr.solve(D);  // p x M
+  return (dtheta.array().square().rowwise().sum() / static_cast<double>(D.cols())).sqrt();
+}
+
+json params_json(const ModelFit& fit, const Vec& sd_sigma) {
+  json arr = json::array();
+  for (std::size_t k = 0; k < fit.params.size(); ++k) {
+    const double sig = fit.params[k].sigma;
+    const auto i = static_cast<Eigen::Index>(k);
+    arr.push_back({{"name", fit.params[k].name},
+                   {"estimate", fit.value_sigma[i] * sig},
+                   {"sd", sd_sigma[i] * sig},
+                   {"estimate_sigma", fit.value_sigma[i]},
+                   {"sd_sigma", sd_sigma[i]},
+                   {"unit", std::string(effect_info(fit.params[k].name).unit)}});
+  }
+  return arr;
+}
+
+}  // namespace
+
+DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
+                            const DiagnoseOptions& options) {
+  const Progress progress(options.progress);
+  const int threads = options.threads > 0 ? options.threads : omp_get_max_threads();
+  NavigationOptions nav_options;
+  nav_options.alignment = options.alignment;
+  auto nav = std::make_shared<const NavigationProblem>(dataset, nav_options);
+  opt::EvaluatorOptions evaluator;
+  evaluator.parallelism = threads == 1 ? opt::Parallelism::kSerial : opt::Parallelism::kOpenMP;
+  evaluator.num_threads = threads;
+
+  std::vector<EstimatedParameter> base =
+      options.base.empty() ? EstimatedParameter::paper_four() : options.base;
+  std::set<std::string> in_model;
+  for (const auto& p : base) in_model.insert(p.name);
+  std::vector<std::string> candidates;
+  if (options.candidates.empty() ||
+      (options.candidates.size() == 1 && options.candidates[0] == "all")) {
+    for (const EffectInfo& e : effect_catalogue())
+      if (!in_model.count(std::string(e.name))) candidates.emplace_back(e.name);
+  } else {
+    for (const std::string& c : options.candidates) {
+      effect_info(c);  // throws on unknown names
+      if (in_model.count(c)) throw std::invalid_argument("candidate '" + c + "' is in the base model");
+      if (std::find(candidates.begin(), candidates.end(), c) == candidates.end())
+        candidates.push_back(c);
+    }
+  }
+  if (candidates.empty()) throw std::invalid_argument("no candidate effect to test");
+  if (options.replicas_basis < 2 || options.replicas_calibration < 10)
+    throw std::invalid_argument("need at least 2 basis and 10 calibration replicas");
+
+  json report;
+  report["format"] = "insid-diagnose/1";
+  report["build"] = build_info_json();
+  report["alignment"] = to_string(options.alignment);
+  report["seed"] = options.seed;
+  report["num_epochs"] = nav->num_epochs();
+  report["nav_start_t_s"] = nav->nav_start_t_s();
+
+  // 1. Base fit: optimizer, then the LS polish.
+  ModelFit fit;
+  {
+    ParameterMapping mapping(base);
+    Vec start = Vec::Zero(mapping.dimension());
+    json oj = {{"algorithm", options.algorithm}};
+    if (options.algorithm != "none") {
+      progress("base fit: " + options.algorithm + ", " +
+               std::to_string(options.optimizer_iterations) + " iterations");
+      InsIdentificationProblem problem(nav, mapping, FitnessKind::kEq15, evaluator);
+      opt::RunConfig config;
+      config.seed = options.seed;
+      config.max_iterations = options.optimizer_iterations;
+      config.initial_positions = {Vec::Zero(mapping.dimension())};  // box centre among them
+      const opt::Result res = opt::optimize(options.algorithm, problem, config);
+      start = mapping.to_sigma(res.best_x);
+      oj["iterations"] = res.iterations;
+      oj["evaluations"] = res.evaluations;
+      oj["best_fitness"] = res.best_f;
+    }
+    progress("base fit: least-squares Levenberg-Marquardt polish");
+    fit = refit(nav, base, start, evaluator);
+    oj["polish"] = {{"method", "levenberg-marquardt least squares"},
+                    {"iterations", fit.iterations},
+                    {"evaluations", fit.evaluations}};
+    report["base_fit_procedure"] = oj;
+  }
+  const ModelFit base_fit = fit;
+
+  // 2. Noise model: replicas of the flight with the data's noise levels.
+  NoiseEstimate noise = noise_levels_for(*dataset);
+  if (options.noise) {
+    noise.levels = *options.noise;
+    noise.source = "given";
+  }
+  const int MA = options.replicas_basis, MB = options.replicas_calibration, M = MA + MB;
+  progress("noise model: " + std::to_string(M) + " replicas (" + noise.source + ")");
+  const Eigen::Index n = fit.r.size();
+  Mat D(n, M);
+  {
+    std::vector<std::string> failures(static_cast<std::size_t>(M));
+#pragma omp parallel for schedule(dynamic) num_threads(threads)
+    for (int m = 0; m < M; ++m) {
+      try {
+        auto rep = std::make_shared<const Dataset>(
+            noise_replica(*dataset, noise.levels, mix_seed(options.seed, 1000 + m)));
+        const NavigationProblem rnav(rep, nav_options);
+        std::vector<double> r;
+        rnav.residuals(fit.errors, r);
+        D.col(m) = to_vec(r) - fit.r;
+      } catch (const std::exception& e) {
+        failures[static_cast<std::size_t>(m)] = e.what();
+      }
+    }
+    for (const auto& f : failures)
+      if (!f.empty()) throw std::runtime_error("noise replica: " + f);
+  }
+  const Mat D_basis = D.leftCols(MA) / std::sqrt(static_cast<double>(MA));
+  const Mat D_cal = D.rightCols(MB);
+  // Diagonal part: calibration replicas' mean square outside the basis span (out of sample).
+  double s2 = 0.0;
+  {
+    const Eigen::HouseholderQR<Mat> qr(D_basis);
+    const Mat Q = qr.householderQ() * Mat::Identity(n, MA);
+    const Mat left = D_cal - Q * (Q.transpose() * D_cal);
+    s2 = left.squaredNorm() / static_cast<double>(left.size());
+    s2 = std::max(s2, 1e-12);
+  }
+  const WorkingMetric W(D_basis, s2);
+  {
+    json nm = noise.to_json();
+    nm["replicas_basis"] = MA;
+    nm["replicas_calibration"] = MB;
+    nm["working_covariance"] = {{"low_rank", MA}, {"diagonal_sd_mps", std::sqrt(s2)}};
+    report["noise_model"] = nm;
+  }
+
+  // Epoch times and phases (data only).
+  ResidualSeries series;
+  {
+    const std::vector<std::string> gnss_phase = flight_phases(dataset->gnss);
+    const double t0 = nav->nav_start_t_s(), t_last = dataset->imu.back().t_s;
+    for (std::size_t i = 0; i < dataset->gnss.size(); ++i) {
+      const double t = dataset->gnss[i].t_s;
+      if (t > t0 + 1e-9 && t <= t_last + 1e-9) {
+        series.t_s.push_back(t);
+        series.phase.push_back(gnss_phase[i]);
+      }
+    }
+    if (static_cast<Eigen::Index>(2 * series.t_s.size()) != n)
+      throw std::logic_error("diagnose: epoch bookkeeping disagrees with the residual vector");
+  }
+
+  // Base parameters with sd from the same noise model.
+  {
+    const Vec sd = parameter_sd(fit.J, D);
+    report["base"] = {{"parameters", params_json(fit, sd)},
+                      {"fitness", fit.fitness},
+                      {"rms_mps", fit.rms}};
+  }
+
+  // 3-6. Iterate.
+  json iterations = json::array();
+  json found = json::array();
+  std::vector<std::string> remaining = candidates;
+  std::vector<std::string> found_names;
+  std::vector<std::string> not_observable;
+  json unexplained;
+  for (int it = 0;; ++it) {
+    progress("iteration " + std::to_string(it + 1) + ": sensitivities of " +
+             std::to_string(remaining.size()) + " candidates");
+    const Mat C = sensitivity_columns(*nav, fit.errors, fit.r, remaining, 1.0, threads);
+    progress("iteration " + std::to_string(it + 1) + ": scoring");
+    const IterationStats st =
+        score_candidates(fit, C, remaining, W, D_cal, options, mix_seed(options.seed, it));
+    json ij;
+    ij["iteration"] = it + 1;
+    for (const auto& p : fit.params) ij["model"].push_back(p.name);
+    ij["fitness"] = fit.fitness;
+    ij["rms_mps"] = fit.rms;
+    ij["threshold_z"] = st.z_threshold;
+    ij["family_alpha"] = options.alpha;
+    ij["replica_false_alarm_in_sample"] = st.in_sample_false_alarm;
+    ij["omnibus"] = {{"statistic", st.omnibus_q}, {"p_value", st.omnibus_p}};
+    std::vector<std::size_t> order(st.table.size());
+    std::iota(order.begin(), order.end(), 0);
+    std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+      return st.table[a].z_normal > st.table[b].z_normal;
+    });
+    ij["candidates"] = json::array();
+    for (std::size_t k : order) ij["candidates"].push_back(stat_json(st.table[k]));
+    if (it == 0)
+      for (const auto& s : st.table)
+        if (!s.observable) not_observable.push_back(s.name);
+
+    const CandidateStat* best = nullptr;
+    for (std::size_t k : order)
+      if (st.table[k].significant) {
+        best = &st.table[k];
+        break;
+      }
+    std::vector<std::string> exceeding_unobservable;
+    for (const auto& s : st.table)
+      if (s.exceeds && !s.observable) exceeding_unobservable.push_back(s.name);
+    if (!best || static_cast<int>(found_names.size()) >= options.max_effects) {
+      ij["choice"] = nullptr;
+      if (!best) {
+        ij["reason"] = "no candidate significant at the family-wise level";
+        unexplained = {{"omnibus_p_value", st.omnibus_p},
+                       {"exceeding_but_not_observable", exceeding_unobservable},
+                       {"structure_left",
+                        st.omnibus_p < options.alpha || !exceeding_unobservable.empty()},
+                       {"note", !exceeding_unobservable.empty()
+                                    ? "candidates the flight cannot observe at plausible sizes "
+                                      "exceed the threshold: model mismatch, not named"
+                                    : st.omnibus_p < options.alpha
+                                    ? "the residuals carry more structure than the noise "
+                                      "replicas, but no catalogue candidate explains it"
+                                    : "the residuals are consistent with the noise model"}};
+      } else {
+        ij["reason"] = "max_effects reached";
+        unexplained = {{"omnibus_p_value", st.omnibus_p},
+                       {"structure_left", true},
+                       {"note", "stopped at --max-effects with a significant candidate left: " +
+                                    best->name}};
+      }
+      iterations.push_back(ij);
+      break;
+    }
+    ij["choice"] = best->name;
+    progress("iteration " + std::to_string(it + 1) + ": " + best->name + " (z = " +
+             std::to_string(best->z) + ", threshold " + std::to_string(st.z_threshold) + ")");
+    json fj = {{"effect", best->name}, {"iteration", it + 1}};
+    fj["ambiguous_with"] = json::array();
+    fj["separating_manoeuvre"] = json::object();
+    for (const auto& [partner, corr] : best->collinear) {
+      fj["ambiguous_with"].push_back(partner);
+      fj["separating_manoeuvre"][partner] = separating_manoeuvre(best->name, partner);
+    }
+    const double sig = effect_info(best->name).sigma;
+    fj["estimate_at_detection"] = best->estimate_sigma * sig;
+    fj["z"] = best->z;
+    found.push_back(fj);
+    found_names.push_back(best->name);
+    iterations.push_back(ij);
+
+    // Add it and re-fit everything together.
+    EstimatedParameter added;
+    added.name = best->name;
+    added.sigma = sig;
+    const double span = std::max(50.0, 4.0 * std::abs(best->estimate_sigma) + 10.0);
+    added.lower_sigma = -span;
+    added.upper_sigma = span;
+    std::vector<EstimatedParameter> params = fit.params;
+    params.push_back(added);
+    Vec start(fit.value_sigma.size() + 1);
+    start << fit.value_sigma, best->estimate_sigma;
+    progress("re-fit with " + best->name);
+    fit = refit(nav, params, start, evaluator);
+    remaining.erase(std::find(remaining.begin(), remaining.end(), best->name));
+    if (remaining.empty()) break;
+  }
+
+  // Final estimates (SI) with sd from the noise model.
+  const Vec sd_final = parameter_sd(fit.J, D);
+  report["model"] = {{"parameters", params_json(fit, sd_final)},
+                     {"fitness", fit.fitness},
+                     {"rms_mps", fit.rms}};
+  for (auto& f : found) {
+    for (std::size_t k = 0; k < fit.params.size(); ++k)
+      if (fit.params[k].name == f["effect"].get<std::string>()) {
+        const auto i = static_cast<Eigen::Index>(k);
+        f["estimate"] = fit.value_sigma[i] * fit.params[k].sigma;
+        f["sd"] = sd_final[i] * fit.params[k].sigma;
+      }
+  }
+
+  // Gap against the noise floor.
+  const std::vector<std::string>& ph = series.phase;
+  const Floor floor_before = noise_floor(base_fit.J, D, ph);
+  const Floor floor_after = noise_floor(fit.J, D, ph);
+  auto floor_json = [](const Floor& f) {
+    return json{{"fitness", f.fitness}, {"fitness_sd", f.fitness_sd}, {"rms_mps", f.rms},
+                {"rms_sd_mps", f.rms_sd}};
+  };
+  report["noise_floor"] = floor_json(floor_after);
+  report["noise_floor"]["base_model"] = floor_json(floor_before);
+  report["noise_floor"]["method"] =
+      "mean over the noise replicas of Eq. 15 / horizontal RMS of their noise response after "
+      "refitting the model's parameters (linearised least squares)";
+  const double gap_before = base_fit.fitness - floor_after.fitness;
+  const double shrink = gap_before > 0 ? (base_fit.fitness - fit.fitness) / gap_before
+                                       : std::numeric_limits<double>::quiet_NaN();
+  const double rgap = base_fit.rms - floor_after.rms;
+  const double rms_shrink =
+      rgap > 0 ? (base_fit.rms - fit.rms) / rgap : std::numeric_limits<double>::quiet_NaN();
+  report["gap"] = {{"fitness_before", base_fit.fitness},
+                   {"fitness_after", fit.fitness},
+                   {"rms_before_mps", base_fit.rms},
+                   {"rms_after_mps", fit.rms},
+                   {"fitness_before_over_floor", base_fit.fitness / floor_after.fitness},
+                   {"fitness_after_over_floor", fit.fitness / floor_after.fitness},
+                   {"rms_before_over_floor", base_fit.rms / floor_after.rms},
+                   {"rms_after_over_floor", fit.rms / floor_after.rms},
+                   {"shrink", num(shrink)},
+                   {"rms_shrink", num(rms_shrink)},
+                   {"gap_before_in_floor_sd",
+                    floor_after.fitness_sd > 0 ? gap_before / floor_after.fitness_sd : 0.0}};
+  report["iterations"] = iterations;
+  report["found"] = found;
+  report["not_observable"] = not_observable;
+  report["unexplained"] = unexplained;
+
+  // Per-phase summary.
+  {
+    std::map<std::string, std::array<double, 3>> acc;  // sum sq before, after, count
+    for (std::size_t e = 0; e < ph.size(); ++e) {
+      auto& a = acc[ph[e]];
+      a[0] += base_fit.r[2 * e] * base_fit.r[2 * e] + base_fit.r[2 * e + 1] * base_fit.r[2 * e + 1];
+      a[1] += fit.r[2 * e] * fit.r[2 * e] + fit.r[2 * e + 1] * fit.r[2 * e + 1];
+      a[2] += 1.0;
+    }
+    json pj = json::array();
+    for (const std::string& name : phase_names()) {
+      const auto it = acc.find(name);
+      if (it == acc.end()) continue;
+      const auto& a = it->second;
+      pj.push_back({{"phase", name},
+                    {"epochs", static_cast<int>(a[2])},
+                    {"rms_before_mps", std::sqrt(a[0] / a[2])},
+                    {"rms_after_mps", std::sqrt(a[1] / a[2])},
+                    {"rms_floor_mps", floor_after.phase_rms.count(name)
+                                          ? floor_after.phase_rms.at(name)
+                                          : 0.0}});
+    }
+    report["phases"] = pj;
+  }
+
+  series.before.assign(base_fit.r.data(), base_fit.r.data() + base_fit.r.size());
+  series.after.assign(fit.r.data(), fit.r.data() + fit.r.size());
+  DiagnoseResult result;
+  result.report = std::move(report);
+  result.series = std::move(series);
+  result.found = found_names;
+  result.not_observable = not_observable;
+  result.shrink = shrink;
+  progress("done");
+  return result;
+}
+
+void write_series_csv(const std::string& path, const ResidualSeries& s) {
+  std::ofstream out(path);
+  if (!out) throw std::runtime_error("cannot write '" + path + "'");
+  out << "t_s,phase,dvE_before_mps,dvN_before_mps,dvE_after_mps,dvN_after_mps\n";
+  char buf[256];
+  for (std::size_t e = 0; e < s.t_s.size(); ++e) {
+    std::snprintf(buf, sizeof buf, "%.3f,%s,%.6g,%.6g,%.6g,%.6g\n", s.t_s[e], s.phase[e].c_str(),
+                  s.before[2 * e], s.before[2 * e + 1], s.after[2 * e], s.after[2 * e + 1]);
+    out << buf;
+  }
+  if (!out) throw std::runtime_error("error writing '" + path + "'");
+}
+
+std::string report_markdown(const json& r, const std::string& figure_prefix) {
+  std::ostringstream md;
+  auto g = [](const json& v, int prec = 4) {
+    if (!v.is_number()) return std::string("-");
+    std::ostringstream s;
+    s.precision(prec);
+    s << v.get<double>();
+    return s.str();
+  };
+  md << "# insid diagnose report\n\n";
+  md << "Alignment: " << r.value("alignment", "") << "; noise levels: "
+     << r["noise_model"]["source"].get<std::string>() << ".\n\n";
+  md << "## Base model\n\n| parameter | estimate (SI) | sd (SI) | estimate (sigma) | sd (sigma) |\n"
+        "|---|---|---|---|---|\n";
+  for (const auto& p : r["base"]["parameters"])
+    md << "| " << p["name"].get<std::string>() << " | " << g(p["estimate"]) << " | "
+       << g(p["sd"]) << " | " << g(p["estimate_sigma"], 3) << " | " << g(p["sd_sigma"], 3)
+       << " |\n";
+  md << "\nBase fit: Eq. 15 fitness " << g(r["base"]["fitness"], 6) << ", horizontal RMS "
+     << g(r["base"]["rms_mps"]) << " m/s.\n\n";
+  md << "## Found\n\n";
+  if (r["found"].empty()) md << "Nothing significant (family-wise 5 %).\n";
+  for (const auto& f : r["found"]) {
+    md << "- **" << f["effect"].get<std::string>() << "** = " << g(f["estimate"]) << " +- "
+       << g(f["sd"]) << " " << effect_info(f["effect"].get<std::string>()).unit
+       << " (iteration " << f["iteration"].get<int>() << ", z = " << g(f["z"], 3) << ")";
+    if (!f["ambiguous_with"].empty()) {
+      md << "; ambiguous with";
+      for (const auto& a : f["ambiguous_with"]) md << " " << a.get<std::string>();
+      md << ". Separating manoeuvre: "
+         << f["separating_manoeuvre"].begin().value().get<std::string>();
+    }
+    md << "\n";
+  }
+  md << "\nNot observable on this flight:";
+  if (r["not_observable"].empty()) md << " none";
+  for (const auto& n : r["not_observable"]) md << " " << n.get<std::string>();
+  md << "\n\nLeftover: " << r["unexplained"].value("note", std::string("-")) << " (omnibus p = "
+     << g(r["unexplained"]["omnibus_p_value"], 3) << ").\n\n";
+  const json& gp = r["gap"];
+  md << "## Gap\n\n| | before | after | noise floor |\n|---|---|---|---|\n";
+  md << "| Eq. 15 fitness | " << g(gp["fitness_before"], 6) << " | " << g(gp["fitness_after"], 6)
+     << " | " << g(r["noise_floor"]["fitness"], 6) << " +- " << g(r["noise_floor"]["fitness_sd"], 3)
+     << " |\n";
+  md << "| horizontal RMS (m/s) | " << g(gp["rms_before_mps"]) << " | " << g(gp["rms_after_mps"])
+     << " | " << g(r["noise_floor"]["rms_mps"]) << " |\n\n";
+  md << "Shrink (share of the fitness gap above the noise floor closed): " << g(gp["shrink"], 3)
+     << "; RMS shrink: " << g(gp["rms_shrink"], 3) << ".\n\n";
+  md << "## Phases\n\n| phase | epochs | RMS before | RMS after | RMS floor |\n|---|---|---|---|---|\n";
+  for (const auto& p : r["phases"])
+    md << "| " << p["phase"].get<std::string>() << " | " << p["epochs"].get<int>() << " | "
+       << g(p["rms_before_mps"]) << " | " << g(p["rms_after_mps"]) << " | "
+       << g(p["rms_floor_mps"]) << " |\n";
+  md << "\n## Iterations\n\n";
+  for (const auto& it : r["iterations"]) {
+    md << "### Iteration " << it["iteration"].get<int>() << " (threshold |z| > "
+       << g(it["threshold_z"], 3) << ", choice: "
+       << (it["choice"].is_null() ? std::string("none") : it["choice"].get<std::string>())
+       << ")\n\n| candidate | z | p family | estimate (sigma) | sd (sigma) | share not absorbed | "
+          "min detectable (sigma) | collinear |\n|---|---|---|---|---|---|---|---|\n";
+    int k = 0;
+    for (const auto& c : it["candidates"]) {
+      if (++k > 12) break;
+      md << "| " << c["effect"].get<std::string>() << " | " << g(c["z"], 3) << " | "
+         << g(c["p_family"], 3) << " | " << g(c["estimate_sigma"], 3) << " | "
+         << g(c["sd_sigma"], 3) << " | " << g(c["projected_share"], 2) << " | "
+         << g(c["min_detectable_sigma"], 3) << " | ";
+      for (const auto& p : c["collinear"]) md << p["effect"].get<std::string>() << " ";
+      md << "|\n";
+    }
+    md << "\n";
+  }
+  if (!figure_prefix.empty()) {
+    md << "## Figures\n\nResiduals before/after over time:\n\n![residuals](" << figure_prefix
+       << "_residuals.png)\n\nPer flight phase:\n\n![phases](" << figure_prefix
+       << "_phases.png)\n\nCandidate scores per iteration:\n\n![scores](" << figure_prefix
+       << "_scores.png)\n";
+  } else {
+    md << "Figures: run `python3 scripts/diagnose_plots.py REPORT.json` (needs matplotlib).\n";
+  }
+  return md.str();
+}
+
+}  // namespace insid::diagnose

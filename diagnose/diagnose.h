@@ -1,0 +1,80 @@
+// The discrepancy workflow (`insid diagnose`, issue 7, DESIGN.md sec. 9; method and choices in
+// diagnose/README.md):
+//   1. fit the base model (optimizer, then a least-squares Levenberg-Marquardt polish);
+//   2. noise model: M noise replicas of the same flight (diagnose/noise_model.h) give draws of
+//      the residuals' noise response; a low-rank + diagonal working covariance is built from
+//      one part of them, the other part calibrates every statistic;
+//   3. each candidate effect's sensitivity column by finite differences through the full
+//      pipeline (alignment + mechanization + GNSS comparison), step one catalogue sigma;
+//   4. generalised-least-squares estimate of each candidate after projecting out the model's
+//      own columns; z = estimate / sd (sd from the calibration replicas), family-wise p-values
+//      from the replicas' joint distribution (max |z| over the candidates);
+//   5. name the most significant one, its collinear partners with the separating manoeuvre, and
+//      the candidates this flight cannot observe;
+//   6. add it, re-fit everything, repeat; gap before/after against the noise floor.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "core/dataset.h"
+#include "core/fitness.h"
+#include "identification/ins_problem.h"
+
+namespace insid::diagnose {
+
+struct DiagnoseOptions {
+  std::vector<EstimatedParameter> base;  ///< default: the paper's four
+  std::vector<std::string> candidates;   ///< empty: every catalogue effect not in the base
+  int max_effects = 3;
+  std::uint64_t seed = 1;
+  AlignmentMode alignment = AlignmentMode::kPerCandidate;
+  std::string algorithm = "dvpio";       ///< optimizer for the base fit ("none": LM only)
+  int optimizer_iterations = 20;         ///< the optimizer's population is its preset's
+  int replicas_basis = 40;               ///< replicas building the working covariance
+  int replicas_calibration = 80;         ///< replicas calibrating the statistics
+  double alpha = 0.05;                   ///< family-wise false-alarm rate per iteration
+  double collinear_threshold = 0.95;     ///< |correlation| of projected whitened columns
+  double observable_max_sigma = 30.0;    ///< minimum detectable size above this (catalogue
+                                         ///< sigmas): not observable
+  int monte_carlo_draws = 20000;         ///< draws for the family-wise max-|z| distribution
+  int threads = 0;                       ///< OpenMP threads, 0 = default
+  bool progress = false;                 ///< human progress on stderr
+  /// Noise levels to use instead of meta.json / the estimate (e.g. a user's spec sheet).
+  std::optional<NoiseLevels> noise;
+};
+
+/// Residual time series kept for plots (GNSS epochs compared).
+struct ResidualSeries {
+  std::vector<double> t_s;
+  std::vector<std::string> phase;
+  std::vector<double> before;  ///< (dvE, dvN) interleaved, base fit
+  std::vector<double> after;   ///< final model
+};
+
+struct DiagnoseResult {
+  nlohmann::json report;  ///< the report.json contents
+  ResidualSeries series;
+  /// Names in `report["found"]` in order (convenience for tests).
+  std::vector<std::string> found;
+  std::vector<std::string> not_observable;
+  double shrink = 0.0;
+};
+
+DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
+                            const DiagnoseOptions& options);
+
+/// Write the residual series as CSV: t_s,phase,dvE_before,dvN_before,dvE_after,dvN_after.
+void write_series_csv(const std::string& path, const ResidualSeries& series);
+
+/// report.md text (tables; the figures come from scripts/diagnose_plots.py and are linked as
+/// PREFIX_residuals.png, PREFIX_phases.png, PREFIX_scores.png when `figure_prefix` is not empty).
+std::string report_markdown(const nlohmann::json& report, const std::string& figure_prefix);
+
+}  // namespace insid::diagnose

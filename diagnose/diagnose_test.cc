@@ -1,0 +1,185 @@
+// Quick subset of the hidden-effect tests of issue 7 (the full matrix: insid-diagnose-campaign,
+// results/diagnose/). Data: `rich` preset (nav-grade noise, the paper's four biases) with a
+// 1200 s flight plus hidden effects, written as measured-looking data (no `injected`, no
+// `noise` in the metadata), so diagnose must estimate the noise levels itself.
+#include <cmath>
+#include <iostream>
+#include <numbers>
+#include <ostream>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "diagnose/advice.h"
+#include "diagnose/diagnose.h"
+#include "diagnose/hidden_effects.h"
+#include "diagnose/noise_model.h"
+
+namespace insid::diagnose {
+namespace {
+
+constexpr double kDegH = std::numbers::pi / 180.0 / 3600.0;
+
+DiagnoseOptions quick_options(std::uint64_t seed) {
+  DiagnoseOptions o;
+  o.seed = seed;
+  o.optimizer_iterations = 4;
+  o.replicas_basis = 25;
+  o.replicas_calibration = 50;
+  o.max_effects = 3;
+  return o;
+}
+
+// One `found` entry names the effect or lists it as an ambiguous (collinear) partner.
+bool in_class(const nlohmann::json& f, const std::string& effect) {
+  if (f["effect"] == effect) return true;
+  for (const auto& a : f["ambiguous_with"])
+    if (a == effect) return true;
+  return false;
+}
+
+bool named_or_class(const nlohmann::json& found, const std::string& effect) {
+  for (const auto& f : found)
+    if (in_class(f, effect)) return true;
+  return false;
+}
+
+std::string found_names(const nlohmann::json& report) {
+  std::string s;
+  for (const auto& f : report["found"]) s += f["effect"].get<std::string>() + " ";
+  return s.empty() ? "(nothing)" : s;
+}
+
+TEST(NoiseModel, EstimatesNavGradeLevelsFromTheAlignmentWindow) {
+  auto ds = make_hidden_dataset({"rich", 300.0, 7, {}});
+  ASSERT_FALSE(ds->meta.noise.has_value());  // measured-looking data
+  const NoiseEstimate e = noise_levels_for(*ds);
+  EXPECT_NEAR(e.levels.arw_deg_rth, 0.002, 0.0002);
+  EXPECT_NEAR(e.levels.vrw_mps_rth, 0.001, 0.0001);
+  EXPECT_NEAR(e.levels.gnss_vel_sigma_mps, 0.01, 0.001);
+  EXPECT_NEAR(e.levels.gnss_pos_sigma_m, 0.02, 0.003);
+  EXPECT_NE(e.source.find("estimated"), std::string::npos);
+}
+
+TEST(NoiseModel, ReplicaIsDeterministicAndAddsDeclaredNoise) {
+  auto ds = make_hidden_dataset({"rich", 60.0, 7, {}, "none"});
+  NoiseLevels lv{0.002, 0.001, 0.01, 0.02};
+  const Dataset a = noise_replica(*ds, lv, 5), b = noise_replica(*ds, lv, 5);
+  EXPECT_EQ(a.imu[100].dtheta_b_rad, b.imu[100].dtheta_b_rad);
+  double s = 0;
+  for (std::size_t k = 0; k < a.gnss.size(); ++k) {
+    const double d = a.gnss[k].v_eb_n_mps.x() - ds->gnss[k].v_eb_n_mps.x();
+    s += d * d;
+  }
+  EXPECT_NEAR(std::sqrt(s / a.gnss.size()), 0.01, 0.0015);
+}
+
+TEST(Advice, SeparatingManoeuvres) {
+  EXPECT_NE(separating_manoeuvre("lever_arm_x", "gnss_latency").find("speed changes"),
+            std::string::npos);
+  EXPECT_NE(separating_manoeuvre("accel_bias_x", "accel_misalign_xz").find("heading reversals"),
+            std::string::npos);
+  EXPECT_NE(separating_manoeuvre("gyro_scale_z", "gyro_bias_z").find("turns in both directions"),
+            std::string::npos);
+  EXPECT_EQ(effect_kind("gyro_bias_drift_x"), "gyro_drift");
+}
+
+struct HiddenParam {
+  std::string effect;
+  double value;
+};
+void PrintTo(const HiddenParam& p, std::ostream* os) { *os << p.effect << "=" << p.value; }
+
+class HiddenSingle : public ::testing::TestWithParam<HiddenParam> {};
+
+// Each single hidden effect is named (or its collinear class is) and the Eq. 15 gap above the
+// noise floor shrinks by at least 80 %.
+TEST_P(HiddenSingle, NamedAndGapShrinks) {
+  const HiddenParam& p = GetParam();
+  auto ds = make_hidden_dataset({"rich", 1200.0, 11, {{p.effect, p.value}}});
+  const DiagnoseResult r = run_diagnose(ds, quick_options(11));
+  std::cout << "hidden " << p.effect << " = " << p.value << ": found " << found_names(r.report)
+            << "; gap " << r.report["gap"].dump() << "\n";
+  ASSERT_FALSE(r.report["found"].empty()) << p.effect;
+  EXPECT_TRUE(in_class(r.report["found"][0], p.effect))
+      << "hidden " << p.effect << ", found " << found_names(r.report);
+  const auto& f0 = r.report["found"][0];
+  if (f0["effect"] == p.effect) {
+    const double est = f0["estimate"], sd = f0["sd"];
+    EXPECT_NEAR(est, p.value, std::max(5.0 * sd, 0.2 * std::abs(p.value)));
+  }
+  ASSERT_TRUE(r.report["gap"]["shrink"].is_number());
+  EXPECT_GE(r.report["gap"]["shrink"].get<double>(), 0.8) << r.report["gap"].dump();
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Effects, HiddenSingle,
+    ::testing::Values(HiddenParam{"gnss_latency", 0.05}, HiddenParam{"lever_arm_z", 1.5},
+                      HiddenParam{"gyro_scale_z", 300e-6}, HiddenParam{"gyro_bias_z", 0.3 * kDegH},
+                      HiddenParam{"accel_scale_x", 2000e-6},
+                      HiddenParam{"gyro_misalign_xy", 200e-6}),
+    [](const ::testing::TestParamInfo<HiddenParam>& info) { return info.param.effect; });
+
+// Effect-free data: nothing named (family-wise 5 %: allow one of four seeds).
+TEST(HiddenNone, NothingFound) {
+  int with_found = 0;
+  for (std::uint64_t seed : {21u, 22u, 23u, 24u}) {
+    auto ds = make_hidden_dataset({"rich", 1200.0, seed, {}});
+    const DiagnoseResult r = run_diagnose(ds, quick_options(seed));
+    with_found += !r.found.empty();
+    EXPECT_TRUE(r.report["found"].is_array());
+    EXPECT_TRUE(r.report["noise_floor"]["fitness"].is_number());
+    // Without a hidden effect the base fit sits at the noise floor.
+    EXPECT_LT(r.report["gap"]["fitness_before_over_floor"].get<double>(), 1.6);
+  }
+  EXPECT_LE(with_found, 1);
+}
+
+// Two separable hidden effects: both found.
+TEST(HiddenPair, BothFound) {
+  auto ds = make_hidden_dataset({"rich", 1200.0, 31, {{"gnss_latency", 0.05},
+                                                       {"gyro_scale_z", 300e-6}}});
+  const DiagnoseResult r = run_diagnose(ds, quick_options(31));
+  EXPECT_TRUE(named_or_class(r.report["found"], "gnss_latency")) << found_names(r.report);
+  EXPECT_TRUE(named_or_class(r.report["found"], "gyro_scale_z")) << found_names(r.report);
+  EXPECT_GE(r.report["gap"]["shrink"].get<double>(), 0.8);
+}
+
+// A lever arm on a straight flight: reported not observable, not named.
+TEST(HiddenUnobservable, LeverArmOnStraightFlight) {
+  auto ds = make_hidden_dataset({"straight", 1200.0, 41, {{"lever_arm_y", 1.0}}});
+  const DiagnoseResult r = run_diagnose(ds, quick_options(41));
+  EXPECT_FALSE(named_or_class(r.report["found"], "lever_arm_y")) << found_names(r.report);
+  bool reported = false;
+  for (const auto& n : r.report["not_observable"]) reported = reported || n == "lever_arm_y";
+  EXPECT_TRUE(reported) << r.report["not_observable"].dump();
+}
+
+TEST(Report, JsonShapeAndMarkdown) {
+  auto ds = make_hidden_dataset({"rich", 600.0, 51, {{"gnss_latency", 0.05}}});
+  DiagnoseOptions o = quick_options(51);
+  o.candidates = {"gnss_latency", "lever_arm_x", "gyro_scale_z"};
+  o.algorithm = "none";
+  const DiagnoseResult r = run_diagnose(ds, o);
+  const auto& j = r.report;
+  for (const char* key : {"base", "noise_floor", "iterations", "found", "not_observable", "gap"})
+    EXPECT_TRUE(j.contains(key)) << key;
+  for (const char* key : {"fitness_before", "fitness_after", "rms_before_mps", "rms_after_mps",
+                          "shrink"})
+    EXPECT_TRUE(j["gap"].contains(key)) << key;
+  EXPECT_EQ(j["base"]["parameters"].size(), 4u);
+  EXPECT_GT(j["base"]["parameters"][0]["sd"].get<double>(), 0.0);
+  const auto& c0 = j["iterations"][0]["candidates"][0];
+  for (const char* key : {"effect", "statistic", "p_value", "estimate", "sd", "collinear"})
+    EXPECT_TRUE(c0.contains(key)) << key;
+  ASSERT_FALSE(j["found"].empty());
+  for (const char* key : {"effect", "ambiguous_with", "estimate", "sd"})
+    EXPECT_TRUE(j["found"][0].contains(key)) << key;
+  EXPECT_EQ(r.series.before.size(), 2 * r.series.t_s.size());
+  const std::string md = report_markdown(j, "x");
+  EXPECT_NE(md.find("x_residuals.png"), std::string::npos);
+  EXPECT_NE(md.find("## Gap"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace insid::diagnose
