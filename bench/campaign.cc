@@ -3,7 +3,7 @@
 #include <omp.h>
 #include <unistd.h>
 
-#include <atomic>
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <exception>
@@ -11,6 +11,7 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <limits>
 #include <mutex>
 #include <set>
 #include <sstream>
@@ -411,8 +412,9 @@ CampaignOutcome run_campaign(const CampaignConfig& config, const RunOptions& opt
     opt::EvaluatorOptions eval;
     eval.parallelism = opt::Parallelism::kOpenMP;
     eval.num_threads = threads;
-    st.problem = std::make_unique<InsIdentificationProblem>(st.navigation, mapping,
-                                                            FitnessKind::kEq15, eval);
+    st.problem = std::make_unique<InsIdentificationProblem>(
+        st.navigation, mapping, FitnessKind::kEq15, eval,
+        options.scalar_reference ? FitnessEvaluator::kScalar : FitnessEvaluator::kBatched);
     const fs::path opt_path = dir / "optimum" / (spec.name + ".json");
     bool have = false;
     if (fs::exists(opt_path)) {
@@ -439,67 +441,173 @@ CampaignOutcome run_campaign(const CampaignConfig& config, const RunOptions& opt
       fs::create_directories(opt_path.parent_path());
       write_file_atomic(opt_path, oj.dump(2) + "\n");
     }
-    // From here on each run evaluates serially; parallelism is across runs.
-    opt::EvaluatorOptions serial;
-    st.problem->set_evaluator(serial);
   }
 
   if (options.max_new_runs > 0 && pending.size() > static_cast<std::size_t>(options.max_new_runs))
     pending.resize(static_cast<std::size_t>(options.max_new_runs));
 
-  // Runs in parallel (one run per thread, serial evaluation inside: no oversubscription).
+  // Runs advance in lock-step (issue 6): the runs of a wave (consecutive pending runs of one
+  // scenario) ask for their next batch together, the batches are scored in one evaluate_batch
+  // call (the batched kernel spreads groups of candidates over the threads), and each run is
+  // told its slice. A run's result depends only on its own fitness values, which do not depend
+  // on how candidates are grouped, so results equal separate runs. A wave holds enough runs to
+  // fill every thread with several kernel groups per round, and at most about an eighth of the
+  // campaign, so that a killed campaign keeps the waves it finished; each run's file is written
+  // as soon as the run is done.
   std::mutex progress_mutex;
-  std::atomic<int> done{0};
+  int done = 0;
   std::vector<std::exception_ptr> errors(pending.size());
   const auto t_runs = std::chrono::steady_clock::now();
   const int n_pending = static_cast<int>(pending.size());
-#pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
-  for (int i = 0; i < n_pending; ++i) {
-    try {
-      const RunSpec& run = pending[static_cast<std::size_t>(i)];
-      const ScenarioSpec& scenario = config.scenarios[run.scenario];
+
+  auto run_config = [&](const RunSpec& run) {
+    opt::RunConfig rc;
+    rc.seed = run.seed;
+    rc.max_iterations = config.max_iterations;
+    rc.max_evaluations = config.max_evaluations;
+    rc.record_positions = static_cast<int>(
+        std::find(config.seeds.begin(), config.seeds.end(), run.seed) - config.seeds.begin()) <
+        config.record_positions_seeds;
+    return rc;
+  };
+  auto write_run = [&](const RunSpec& run, const opt::Result& result) {
+    const ScenarioSpec& scenario = config.scenarios[run.scenario];
+    const AlgorithmSpec& algo = config.algorithms[run.algorithm];
+    const ScenarioState& st = states[run.scenario];
+    nlohmann::json j;
+    j["schema"] = kRunSchema;
+    j["scenario"] = scenario.name;
+    j["algorithm"] = algo.label;
+    j["seed"] = run.seed;
+    j["parameters"] = nlohmann::json::array();
+    for (const EstimatedParameter& p : mapping.parameters()) j["parameters"].push_back(p.name);
+    j["result"] = optimizer_result_json(result, mapping);
+    const Eigen::VectorXd best_sigma = mapping.to_sigma(result.best_x);
+    add_estimate_json(j, mapping, best_sigma, st.dataset->meta.injected);
+    for (int k = 0; k < mapping.dimension(); ++k)
+      j["error_vs_optimum_sigma"][mapping.parameters()[static_cast<std::size_t>(k)].name] =
+          best_sigma[k] - st.optimum.value_sigma[k];
+    j["optimum_fitness"] = st.optimum.fitness;
+    j["fitness_gap"] = result.best_f - st.optimum.fitness;
+    j["fitness_gap_relative"] = (result.best_f - st.optimum.fitness) / st.optimum.fitness;
+    fs::create_directories(fs::path(run.path).parent_path());
+    write_file_atomic(run.path, j.dump(1) + "\n");
+    const int n_done = ++done;
+    if (!options.quiet) {
+      std::lock_guard<std::mutex> lock(progress_mutex);
+      const double elapsed =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - t_runs).count();
+      const double eta = elapsed / n_done * (n_pending - n_done);
+      std::cerr << "\rinsid bench: runs " << outcome.skipped_runs + n_done << "/"
+                << outcome.total_runs << " (" << scenario.name << " " << algo.label << " seed "
+                << run.seed << "), elapsed " << std::fixed << std::setprecision(0) << elapsed
+                << " s, ETA " << eta << " s   " << std::defaultfloat << std::flush;
+    }
+  };
+
+  // Candidates per round a wave aims for: three kernel groups of 16 per thread at least, an
+  // eighth of the campaign (at a typical population of 20) at most.
+  const std::size_t wave_target = std::max<std::size_t>(48 * static_cast<std::size_t>(threads),
+                                                        20 * pending.size() / 8);
+
+  struct Member {
+    std::size_t index;  // into pending
+    std::unique_ptr<opt::Optimizer> optimizer;
+    bool finished = false;
+  };
+  std::size_t next = 0;
+  while (next < pending.size()) {
+    // Form a wave.
+    std::vector<Member> wave;
+    std::size_t wave_candidates = 0;
+    const std::size_t scenario = pending[next].scenario;
+    while (next < pending.size() && pending[next].scenario == scenario &&
+           (wave.empty() || wave_candidates < wave_target)) {
+      const RunSpec& run = pending[next];
       const AlgorithmSpec& algo = config.algorithms[run.algorithm];
-      const ScenarioState& st = states[run.scenario];
-      opt::RunConfig rc;
-      rc.seed = run.seed;
-      rc.max_iterations = config.max_iterations;
-      rc.max_evaluations = config.max_evaluations;
-      rc.record_positions = static_cast<int>(
-          std::find(config.seeds.begin(), config.seeds.end(), run.seed) - config.seeds.begin()) <
-          config.record_positions_seeds;
-      const opt::Result result = opt::optimize(
-          algo.name, *st.problem, rc, opt::ParameterMap(algo.parameters.begin(), algo.parameters.end()));
-      nlohmann::json j;
-      j["schema"] = kRunSchema;
-      j["scenario"] = scenario.name;
-      j["algorithm"] = algo.label;
-      j["seed"] = run.seed;
-      j["parameters"] = nlohmann::json::array();
-      for (const EstimatedParameter& p : mapping.parameters()) j["parameters"].push_back(p.name);
-      j["result"] = optimizer_result_json(result, mapping);
-      const Eigen::VectorXd best_sigma = mapping.to_sigma(result.best_x);
-      add_estimate_json(j, mapping, best_sigma, st.dataset->meta.injected);
-      for (int k = 0; k < mapping.dimension(); ++k)
-        j["error_vs_optimum_sigma"][mapping.parameters()[static_cast<std::size_t>(k)].name] =
-            best_sigma[k] - st.optimum.value_sigma[k];
-      j["optimum_fitness"] = st.optimum.fitness;
-      j["fitness_gap"] = result.best_f - st.optimum.fitness;
-      j["fitness_gap_relative"] = (result.best_f - st.optimum.fitness) / st.optimum.fitness;
-      fs::create_directories(fs::path(run.path).parent_path());
-      write_file_atomic(run.path, j.dump(1) + "\n");
-      const int n_done = ++done;
-      if (!options.quiet) {
-        std::lock_guard<std::mutex> lock(progress_mutex);
-        const double elapsed =
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - t_runs).count();
-        const double eta = elapsed / n_done * (n_pending - n_done);
-        std::cerr << "\rinsid bench: runs " << outcome.skipped_runs + n_done << "/"
-                  << outcome.total_runs << " (" << scenario.name << " " << algo.label << " seed "
-                  << run.seed << "), elapsed " << std::fixed << std::setprecision(0) << elapsed
-                  << " s, ETA " << eta << " s   " << std::defaultfloat << std::flush;
+      try {
+        auto optimizer = opt::make_optimizer(
+            algo.name, states[scenario].problem->bounds(), run_config(run),
+            opt::ParameterMap(algo.parameters.begin(), algo.parameters.end()));
+        if (dynamic_cast<opt::ResidualConsumer*>(optimizer.get()) == nullptr &&
+            dynamic_cast<opt::ProblemConsumer*>(optimizer.get()) == nullptr)
+          wave_candidates += optimizer->ask().size();
+        wave.push_back({next, std::move(optimizer)});
+      } catch (...) {
+        errors[next] = std::current_exception();
       }
-    } catch (...) {
-      errors[static_cast<std::size_t>(i)] = std::current_exception();
+      ++next;
+    }
+    const InsIdentificationProblem& problem = *states[scenario].problem;
+
+    std::vector<Eigen::VectorXd> candidates;
+    std::vector<double> fitness;
+    std::vector<std::pair<Member*, std::size_t>> slices;  // member, batch size
+    for (;;) {
+      // One round: optimizers that need residuals or the problem take their own step (as in
+      // opt::run_together); the others share one batch.
+      candidates.clear();
+      slices.clear();
+      for (Member& m : wave) {
+        if (m.finished || errors[m.index]) continue;
+        try {
+          if (dynamic_cast<opt::ResidualConsumer*>(m.optimizer.get()) != nullptr ||
+              dynamic_cast<opt::ProblemConsumer*>(m.optimizer.get()) != nullptr) {
+            opt::step(*m.optimizer, problem);
+            continue;
+          }
+          const std::span<const Eigen::VectorXd> batch = m.optimizer->ask();
+          candidates.insert(candidates.end(), batch.begin(), batch.end());
+          slices.emplace_back(&m, batch.size());
+        } catch (...) {
+          errors[m.index] = std::current_exception();
+        }
+      }
+      if (!slices.empty()) {
+        fitness.assign(candidates.size(), std::numeric_limits<double>::quiet_NaN());
+        try {
+          problem.evaluate_batch(candidates, fitness);
+        } catch (...) {
+          // Find the run(s) whose candidates fail by scoring the slices one by one; the others
+          // carry on (their results do not depend on the grouping).
+          std::size_t offset = 0;
+          for (const auto& [member, size] : slices) {
+            try {
+              problem.evaluate_batch(std::span<const Eigen::VectorXd>(candidates).subspan(offset, size),
+                                     std::span<double>(fitness).subspan(offset, size));
+            } catch (...) {
+              errors[member->index] = std::current_exception();
+            }
+            offset += size;
+          }
+        }
+        std::size_t offset = 0;
+        for (const auto& [member, size] : slices) {
+          if (!errors[member->index]) {
+            try {
+              member->optimizer->tell(std::span<const double>(fitness).subspan(offset, size));
+            } catch (...) {
+              errors[member->index] = std::current_exception();
+            }
+          }
+          offset += size;
+        }
+      }
+      bool all_done = true;
+      for (Member& m : wave) {
+        if (m.finished || errors[m.index]) continue;
+        if (!m.optimizer->done()) {
+          all_done = false;
+          continue;
+        }
+        m.finished = true;
+        try {
+          write_run(pending[m.index], m.optimizer->result());
+        } catch (...) {
+          errors[m.index] = std::current_exception();
+        }
+      }
+      if (all_done) break;
     }
   }
   if (!options.quiet && n_pending > 0) std::cerr << "\n";
@@ -511,7 +619,7 @@ CampaignOutcome run_campaign(const CampaignConfig& config, const RunOptions& opt
       throw std::runtime_error("run " + pending[i].path + " failed: " + e.what());
     }
   }
-  outcome.new_runs = done.load();
+  outcome.new_runs = done;
   outcome.complete = outcome.skipped_runs + outcome.new_runs == outcome.total_runs;
   if (outcome.complete) {
     const nlohmann::json summary = summarize_campaign(options.out_dir, config);

@@ -68,6 +68,9 @@ struct RunOptions {
   bool quiet = false;
   /// Stop after this many newly finished runs (for interruption tests); 0 = no limit.
   int max_new_runs = 0;
+  /// Score with the scalar reference (NavigationProblem::fitness per candidate) instead of the
+  /// batched kernel, for comparisons; results agree within ~1e-12 relative.
+  bool scalar_reference = false;
 };
 
 struct CampaignOutcome {

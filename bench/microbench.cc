@@ -2,9 +2,11 @@
 // arrive, the optimizers' own overhead). Run: build/bench/insid-microbench
 //   --benchmark_out=results/perf/microbench.json --benchmark_out_format=json
 #include <memory>
+#include <vector>
 
 #include <benchmark/benchmark.h>
 
+#include "core/batch_fitness.h"
 #include "core/fitness.h"
 #include "core/test_support.h"
 
@@ -25,19 +27,65 @@ std::shared_ptr<const Dataset> one_hour_dataset() {
   return ds;
 }
 
+std::shared_ptr<const NavigationProblem> one_hour_problem() {
+  static const auto problem = std::make_shared<const NavigationProblem>(one_hour_dataset());
+  return problem;
+}
+
+// K candidates near the paper's errors (the paper's four parameters varied).
+std::vector<SensorErrors> candidates(int k) {
+  std::vector<SensorErrors> out(static_cast<std::size_t>(k));
+  for (int i = 0; i < k; ++i) {
+    const double u = (i + 0.5) / k - 0.5;
+    SensorErrors& c = out[static_cast<std::size_t>(i)];
+    c.accel.bias.x() = (-1.9 + u) * kSigmaAccelMps2;
+    c.accel.bias.y() = (1.4 - u) * kSigmaAccelMps2;
+    c.gyro.bias.x() = (2.1 + 0.5 * u) * kSigmaGyroRadS;
+    c.gyro.bias.y() = (-1.4 + 0.7 * u) * kSigmaGyroRadS;
+  }
+  return out;
+}
+
+// ns per candidate per IMU step from wall time (the batched runs use OpenMP threads).
+void set_counters(benchmark::State& state, double candidate_steps) {
+  state.counters["ns_per_candidate_step"] = benchmark::Counter(
+      candidate_steps * 1e-9,
+      benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  state.counters["steps"] = static_cast<double>(one_hour_problem()->num_steps());
+}
+
 // One full fitness evaluation (alignment + navigation + Eq. 15) with the scalar reference.
 void BM_FitnessScalar(benchmark::State& state) {
-  const NavigationProblem problem(one_hour_dataset());
+  const NavigationProblem& problem = *one_hour_problem();
   SensorErrors candidate;
   candidate.accel.bias.x() = -1.9 * kSigmaAccelMps2;
   candidate.gyro.bias.y() = -1.4 * kSigmaGyroRadS;
   for (auto _ : state) benchmark::DoNotOptimize(problem.fitness(candidate));
-  const double steps = static_cast<double>(problem.num_steps());
-  state.counters["ns_per_candidate_step"] = benchmark::Counter(
-      steps * 1e-9, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
-  state.counters["steps"] = steps;
+  set_counters(state, static_cast<double>(problem.num_steps()));
 }
-BENCHMARK(BM_FitnessScalar)->Unit(benchmark::kMillisecond)->MinTime(2.0);
+BENCHMARK(BM_FitnessScalar)->Unit(benchmark::kMillisecond)->MinTime(2.0)->UseRealTime();
+
+// K candidates with the batched kernel (core/batch_fitness.h), Eq. 15, on `threads` threads:
+// state.range(0) = K, state.range(1) = threads.
+void BM_FitnessBatched(benchmark::State& state) {
+  const int k = static_cast<int>(state.range(0));
+  const int threads = static_cast<int>(state.range(1));
+  const auto kernel = BatchFitness::shared(one_hour_problem());
+  const std::vector<SensorErrors> c = candidates(k);
+  std::vector<double> f;
+  for (auto _ : state) {
+    f = kernel->fitness(c, FitnessKind::kEq15, threads);
+    benchmark::DoNotOptimize(f.data());
+  }
+  set_counters(state, static_cast<double>(k) * static_cast<double>(one_hour_problem()->num_steps()));
+  state.counters["threads"] = threads;
+}
+BENCHMARK(BM_FitnessBatched)
+    ->ArgNames({"K", "threads"})
+    ->ArgsProduct({{8, 16, 24, 32}, {1, 2}})
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(2.0)
+    ->UseRealTime();
 
 }  // namespace
 }  // namespace insid

@@ -50,6 +50,13 @@ class NavigationProblem {
   std::size_t num_epochs() const { return epoch_gnss_index_.size(); }
   /// Number of navigation (IMU) steps in one run.
   std::size_t num_steps() const { return dataset_->imu.size() - nav_begin_; }
+  /// Precomputed, candidate-independent data (read by the batched kernel, core/batch_fitness.h):
+  /// height and vertical velocity references at every IMU epoch, the GNSS rows compared.
+  const std::vector<double>& height_reference_m() const { return h_ref_m_; }
+  const std::vector<double>& vertical_velocity_reference_mps() const { return vU_ref_mps_; }
+  const std::vector<std::size_t>& epoch_gnss_indices() const { return epoch_gnss_index_; }
+  /// Window sums of the alignment (count == 0 when align_s = 0).
+  const AlignmentWindow& alignment_window() const { return window_; }
 
   /// Initial attitude the candidate would get from alignment (per options).
   Eigen::Matrix3d initial_attitude(const SensorErrors& candidate) const;

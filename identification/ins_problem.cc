@@ -1,9 +1,14 @@
 #include "identification/ins_problem.h"
 
+#include <omp.h>
+
 #include <charconv>
 #include <cmath>
+#include <exception>
 #include <sstream>
 #include <stdexcept>
+
+#include "optimizers/parameters.h"
 
 namespace insid {
 namespace {
@@ -91,18 +96,30 @@ double ParameterMapping::sigma_per_unit(int j) const {
 
 InsIdentificationProblem::InsIdentificationProblem(
     std::shared_ptr<const NavigationProblem> navigation, ParameterMapping mapping,
-    FitnessKind kind, opt::EvaluatorOptions evaluator)
-    : opt::ScalarProblem(opt::Bounds::unit_box(mapping.dimension()), evaluator),
+    FitnessKind kind, opt::EvaluatorOptions evaluator, FitnessEvaluator implementation)
+    : opt::Problem(opt::Bounds::unit_box(mapping.dimension())),
       navigation_(std::move(navigation)),
+      kernel_(BatchFitness::shared(navigation_)),
       mapping_(std::move(mapping)),
-      kind_(kind) {}
+      kind_(kind),
+      options_(evaluator),
+      implementation_(implementation) {}
 
 double InsIdentificationProblem::fitness(const Eigen::VectorXd& x) const {
   return navigation_->fitness(mapping_.to_errors(x), kind_);
 }
 
+bool InsIdentificationProblem::uses_batched_kernel() const {
+  return implementation_ == FitnessEvaluator::kBatched && kernel_->supported();
+}
+
 int InsIdentificationProblem::residual_count() const {
   return static_cast<int>(2 * navigation_->num_epochs());
+}
+
+void InsIdentificationProblem::evaluate_batch(std::span<const Eigen::VectorXd> xs,
+                                              std::span<double> f_out) const {
+  evaluate(xs, f_out, {});
 }
 
 void InsIdentificationProblem::evaluate_residual_batch(std::span<const Eigen::VectorXd> xs,
@@ -111,18 +128,70 @@ void InsIdentificationProblem::evaluate_residual_batch(std::span<const Eigen::Ve
   if (r_out.size() != xs.size())
     throw std::invalid_argument("evaluate_residual_batch: " + std::to_string(xs.size()) +
                                 " candidates but " + std::to_string(r_out.size()) + " outputs");
-  // Candidate i writes only r_out[i]: safe under evaluate_each's OpenMP loop.
-  const Eigen::VectorXd* first = xs.data();
-  opt::evaluate_each(xs, f_out, evaluator(), [&](const Eigen::VectorXd& x) {
-    std::vector<double>& r = r_out[static_cast<std::size_t>(&x - first)];
-    navigation_->residuals(mapping_.to_errors(x), r);
-    double sum = 0.0;  // as NavigationProblem::fitness
-    for (std::size_t e = 0; e + 1 < r.size(); e += 2) {
-      const double d2 = r[e] * r[e] + r[e + 1] * r[e + 1];
-      sum += kind_ == FitnessKind::kEq15 ? std::sqrt(d2) : d2;
+  evaluate(xs, f_out, r_out);
+}
+
+void InsIdentificationProblem::evaluate(std::span<const Eigen::VectorXd> xs,
+                                        std::span<double> f_out,
+                                        std::span<std::vector<double>> r_out) const {
+  if (f_out.size() != xs.size())
+    throw std::invalid_argument("evaluate_batch: " + std::to_string(xs.size()) +
+                                " candidates but " + std::to_string(f_out.size()) +
+                                " output slots");
+  if (!uses_batched_kernel()) {
+    // The scalar reference, candidate by candidate (serially or OpenMP across candidates).
+    const Eigen::VectorXd* first = xs.data();
+    opt::evaluate_each(xs, f_out, options_, [&](const Eigen::VectorXd& x) {
+      if (r_out.empty()) return navigation_->fitness(mapping_.to_errors(x), kind_);
+      // Candidate i writes only r_out[i]: safe under evaluate_each's OpenMP loop.
+      std::vector<double>& r = r_out[static_cast<std::size_t>(&x - first)];
+      navigation_->residuals(mapping_.to_errors(x), r);
+      double sum = 0.0;  // as NavigationProblem::fitness
+      for (std::size_t e = 0; e + 1 < r.size(); e += 2) {
+        const double d2 = r[e] * r[e] + r[e + 1] * r[e + 1];
+        sum += kind_ == FitnessKind::kEq15 ? std::sqrt(d2) : d2;
+      }
+      return sum;
+    });
+    return;
+  }
+
+  std::vector<SensorErrors> candidates;
+  candidates.reserve(xs.size());
+  std::vector<std::exception_ptr> errors(xs.size());
+  for (std::size_t i = 0; i < xs.size(); ++i) {
+    try {
+      candidates.push_back(mapping_.to_errors(xs[i]));
+    } catch (...) {
+      errors[i] = std::current_exception();
+      candidates.push_back(mapping_.base());  // scored, then reported as failed
     }
-    return sum;
-  });
+  }
+  BatchFitness::Request request;
+  request.candidates = candidates;
+  request.fitness = f_out;
+  request.kind = kind_;
+  request.residuals = r_out;
+  request.threads = options_.parallelism == opt::Parallelism::kOpenMP
+                        ? (options_.num_threads > 0 ? options_.num_threads : omp_get_max_threads())
+                        : 1;
+  std::vector<std::exception_ptr> kernel_errors(xs.size());
+  request.errors = kernel_errors;
+  kernel_->evaluate(request);
+  for (std::size_t i = 0; i < xs.size(); ++i) {
+    const std::exception_ptr error = errors[i] ? errors[i] : kernel_errors[i];
+    if (!error) continue;
+    // As opt::evaluate_each: the lowest failing index, named, the original nested.
+    const std::string where = "fitness evaluation failed for candidate " + std::to_string(i) +
+                              " at x = " + opt::format_vector(xs[i]) + ": ";
+    try {
+      std::rethrow_exception(error);
+    } catch (const std::exception& e) {
+      std::throw_with_nested(opt::EvaluationError(where + e.what()));
+    } catch (...) {
+      std::throw_with_nested(opt::EvaluationError(where + "unknown exception"));
+    }
+  }
 }
 
 }  // namespace insid

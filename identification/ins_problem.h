@@ -4,11 +4,13 @@
 #pragma once
 
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
 #include <Eigen/Core>
 
+#include "core/batch_fitness.h"
 #include "core/fitness.h"
 #include "core/sensor_errors.h"
 #include "optimizers/problem.h"
@@ -50,12 +52,29 @@ class ParameterMapping {
   SensorErrors base_;
 };
 
-class InsIdentificationProblem final : public opt::ScalarProblem, public opt::ResidualProblem {
+/// Which implementation scores candidates (DESIGN.md sec. 8, issue 6).
+enum class FitnessEvaluator {
+  kBatched,  ///< the vectorised multi-candidate kernel (core/batch_fitness.h); default
+  kScalar,   ///< NavigationProblem::fitness per candidate (the reference), for comparison
+};
+
+class InsIdentificationProblem final : public opt::Problem, public opt::ResidualProblem {
  public:
+  /// `evaluator`: threads for a batch. With the batched kernel, kOpenMP spreads groups of
+  /// candidate vectors over num_threads threads (0 = the OpenMP default) and kSerial uses the
+  /// calling thread; with the scalar reference it is evaluate_each's per-candidate loop.
   InsIdentificationProblem(std::shared_ptr<const NavigationProblem> navigation,
                            ParameterMapping mapping, FitnessKind kind = FitnessKind::kEq15,
-                           opt::EvaluatorOptions evaluator = {});
-  double fitness(const Eigen::VectorXd& x) const override;
+                           opt::EvaluatorOptions evaluator = {},
+                           FitnessEvaluator implementation = FitnessEvaluator::kBatched);
+  /// Scores a batch with the batched kernel (falls back to the scalar reference when the data are
+  /// outside what the kernel covers, see BatchFitness::supported()). Results do not depend on the
+  /// thread count or on how the candidates are grouped; a candidate whose set-up fails (e.g.
+  /// alignment) is reported as opt::EvaluationError naming it, as evaluate_each does.
+  void evaluate_batch(std::span<const Eigen::VectorXd> xs,
+                      std::span<double> f_out) const override;
+  /// Fitness of one candidate with the scalar reference.
+  double fitness(const Eigen::VectorXd& x) const;
   /// Residual vector (dvE_t, dvN_t) of NavigationProblem::residuals, for the least-squares
   /// baselines ("lm"); one full INS run per point, the fitness of `kind` from the same run.
   int residual_count() const override;
@@ -66,10 +85,23 @@ class InsIdentificationProblem final : public opt::ScalarProblem, public opt::Re
   const ParameterMapping& mapping() const { return mapping_; }
   const NavigationProblem& navigation() const { return *navigation_; }
 
+  const opt::EvaluatorOptions& evaluator() const { return options_; }
+  void set_evaluator(const opt::EvaluatorOptions& options) { options_ = options; }
+  FitnessEvaluator implementation() const { return implementation_; }
+  void set_implementation(FitnessEvaluator implementation) { implementation_ = implementation; }
+  /// True when batches go through the batched kernel (kBatched and data supported).
+  bool uses_batched_kernel() const;
+
  private:
+  void evaluate(std::span<const Eigen::VectorXd> xs, std::span<double> f_out,
+                std::span<std::vector<double>> r_out) const;
+
   std::shared_ptr<const NavigationProblem> navigation_;
+  std::shared_ptr<const BatchFitness> kernel_;
   ParameterMapping mapping_;
   FitnessKind kind_;
+  opt::EvaluatorOptions options_;
+  FitnessEvaluator implementation_;
 };
 
 }  // namespace insid

@@ -1,0 +1,977 @@
+// Batched multi-candidate fitness kernel; see batch_fitness.h. Design notes (issue 6):
+//
+//  - Vectors are GCC vector extensions of 8 doubles (one zmm register with AVX-512; a portable
+//    build lowers them to narrower registers). A group advances N = 1..2 vectors together; every
+//    operation is written once per lane and applied to the N vectors back to back, so N
+//    independent dependency chains are interleaved in program order (3 vectors spill registers
+//    and run slower on this kernel). No operation mixes lanes, and the file is compiled with
+//    -ffp-contract=off with every fused multiply-add written out, so a lane's arithmetic does not
+//    depend on its neighbours, on N or on the thread count: results are bit-identical for any
+//    grouping.
+//  - Each step is split in two passes over blocks of 16 IMU steps: phase A (data and parameters
+//    only: compensation, sculling, coning, the body-rotation quaternion) into an L1-resident
+//    buffer, phase B (the recurrence: velocity, position, attitude, Eq. 15).
+//  - No libm call in the loop. sin/cos of each lane's latitude are exact every 32 steps (a
+//    shared reference latitude with libm sin/cos every 64 steps, the lane's offset from it through
+//    Taylor series to degree 9/10) and carried between by first-order updates in the step's
+//    latitude change (~3e-8 rad); curvature radii likewise (one square root per 32 steps). The
+//    other latitudes the reference evaluates (extrapolated mid-point, trapezoidal mid-points) are
+//    first-order expansions about the old latitude (~1e-16 relative: an Earth or transport rate
+//    off by that turns the attitude by < 1e-22 rad per step). The divisions 1/(R + h) are exact.
+//  - Rotation-vector quaternions: series of cos(x/2) and sin(x/2)/x (degree 6 for the body
+//    rotation, truncation < 2e-22 for |x| < 0.06 rad per step; degree 2 for the n-frame rotation).
+//  - What matters at 1e-12: the attitude and velocity integrate ~1e5 tiny increments into values
+//    whose ulp is far larger, so the rounding of those sums is biased by their arithmetic order.
+//    The quaternion products follow Eigen's SSE code as GCC 12 compiles the reference (which
+//    product of each pair is fused), the normalisation is q / RN(sqrt(|q|^2)) exactly (without the
+//    square root, see below), the velocity is summed (v + dv_sf) + dv_cor. A different but
+//    "equally exact" order drifts ~1e-17 rad per step from the reference, 1e-9 of the fitness
+//    after ten minutes. With it the kernel matches the reference to ~1e-12 relative (the reference
+//    compiled with -ffp-contract=off differs from itself by up to 3e-10 on the same data).
+//  - The shared height average (see phase B) and the other approximations change the fitness by
+//    less than 1e-11 relative; batch_fitness_test.cc checks 1e-9 on three scenarios.
+#include "core/batch_fitness.h"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <map>
+#include <mutex>
+#include <stdexcept>
+
+#include <Eigen/Geometry>
+
+namespace insid {
+
+namespace {
+
+constexpr int W = BatchFitness::kLanes;
+constexpr int kRefShift = 6;     // reference latitude every 64 IMU steps
+constexpr int kAnchorShift = 5;  // exact Earth terms every 32 IMU steps
+// Body rotation per IMU interval covered by the rotation-vector series to degree 6 (truncation
+// below 2e-22 there): 6 rad/s at 100 Hz.
+constexpr double kMaxStepRotation = 0.06;
+
+#define INSID_AI inline __attribute__((always_inline))
+
+using v8 = double __attribute__((vector_size(64)));
+using m8 = decltype(v8{} < v8{});
+
+INSID_AI v8 splat(double x) { return v8{x, x, x, x, x, x, x, x}; }
+
+// N vectors of 8 lanes, operated on back to back.
+template <int N>
+struct P {
+  v8 c[N];
+};
+template <int N>
+struct M {
+  m8 c[N];
+};
+
+#define INSID_BINOP(op)                                                     \
+  template <int N>                                                          \
+  INSID_AI P<N> operator op(const P<N>& a, const P<N>& b) {                 \
+    P<N> r;                                                                 \
+    for (int i = 0; i < N; ++i) r.c[i] = a.c[i] op b.c[i];                  \
+    return r;                                                               \
+  }                                                                         \
+  template <int N>                                                          \
+  INSID_AI P<N> operator op(const P<N>& a, double b) {                      \
+    P<N> r;                                                                 \
+    const v8 bb = splat(b);                                                 \
+    for (int i = 0; i < N; ++i) r.c[i] = a.c[i] op bb;                      \
+    return r;                                                               \
+  }                                                                         \
+  template <int N>                                                          \
+  INSID_AI P<N> operator op(double a, const P<N>& b) {                      \
+    P<N> r;                                                                 \
+    const v8 aa = splat(a);                                                 \
+    for (int i = 0; i < N; ++i) r.c[i] = aa op b.c[i];                      \
+    return r;                                                               \
+  }
+INSID_BINOP(+)
+INSID_BINOP(-)
+INSID_BINOP(*)
+INSID_BINOP(/)
+#undef INSID_BINOP
+
+template <int N>
+INSID_AI P<N> operator-(const P<N>& a) {
+  P<N> r;
+  for (int i = 0; i < N; ++i) r.c[i] = -a.c[i];
+  return r;
+}
+
+// Fused multiply-add, written out: the kernel is compiled with -ffp-contract=off so that the
+// compiler never decides on its own where to fuse (its choices could differ between the 1-, 2-
+// and 3-vector instantiations and break bit-identity across groupings).
+template <class T>
+struct Chains {
+  static constexpr int value = 0;
+};
+template <int N>
+struct Chains<P<N>> {
+  static constexpr int value = N;
+};
+template <int N>
+INSID_AI v8 part(const P<N>& a, int i) {
+  return a.c[i];
+}
+INSID_AI v8 part(double a, int) { return splat(a); }
+INSID_AI v8 fma8(v8 a, v8 b, v8 c) {
+#ifdef __FMA__
+  v8 r;
+  for (int j = 0; j < W; ++j) r[j] = __builtin_fma(a[j], b[j], c[j]);
+  return r;
+#else
+  return a * b + c;  // no FMA instruction: unfused, still the same for every lane
+#endif
+}
+/// a * b + c with one rounding (where the CPU has FMA).
+template <class A, class B, class C,
+          int N = std::max({Chains<A>::value, Chains<B>::value, Chains<C>::value})>
+INSID_AI P<N> fma(const A& a, const B& b, const C& c) {
+  P<N> r;
+  for (int i = 0; i < N; ++i) r.c[i] = fma8(part(a, i), part(b, i), part(c, i));
+  return r;
+}
+
+template <int N>
+INSID_AI P<N> bcast(double x) {
+  P<N> r;
+  for (int i = 0; i < N; ++i) r.c[i] = splat(x);
+  return r;
+}
+
+template <int N>
+INSID_AI P<N> vsqrt(const P<N>& a) {
+  P<N> r;
+  for (int i = 0; i < N; ++i)
+    for (int j = 0; j < W; ++j) r.c[i][j] = __builtin_sqrt(a.c[i][j]);
+  return r;
+}
+
+template <int N>
+INSID_AI P<N> blend(const M<N>& m, const P<N>& a, const P<N>& b) {
+  P<N> r;
+  for (int i = 0; i < N; ++i) r.c[i] = m.c[i] ? a.c[i] : b.c[i];
+  return r;
+}
+
+template <int N>
+INSID_AI double lane(const P<N>& a, int l) {
+  return a.c[l / W][l % W];
+}
+
+// One GNSS epoch compared: emitted at IMU index `step` (nav_begin - 1: before the first step,
+// clamped to the start; n_imu: after the last step, clamped to the end), interpolating the INS
+// velocity between the states at step - 1 and step with weight w.
+struct Event {
+  std::int64_t step;
+  double w;
+  double gE, gN;
+  std::int64_t epoch;
+};
+using EventList = std::vector<Event>;
+
+// The epochs and weights NavigationProblem::run uses for a given latency, in its order.
+EventList make_events(const NavigationProblem& nav, double latency) {
+  const Dataset& ds = nav.dataset();
+  const std::vector<std::size_t>& idx = nav.epoch_gnss_indices();
+  const std::size_t n_epochs = idx.size();
+  const std::size_t nb = nav.nav_begin();
+  EventList out;
+  out.reserve(n_epochs);
+  auto epoch_time = [&](std::size_t e) { return ds.gnss[idx[e]].t_s - latency; };
+  std::size_t e = 0;
+  auto push = [&](std::int64_t step, double w) {
+    const GnssSample& g = ds.gnss[idx[e]];
+    out.push_back({step, w, g.v_eb_n_mps.x(), g.v_eb_n_mps.y(), static_cast<std::int64_t>(e)});
+    ++e;
+  };
+  double t_prev = ds.imu[nb - 1].t_s;
+  while (e < n_epochs && epoch_time(e) <= t_prev) push(static_cast<std::int64_t>(nb) - 1, 0.0);
+  for (std::size_t k = nb; k < ds.imu.size(); ++k) {
+    const double t = ds.imu[k].t_s;
+    while (e < n_epochs && epoch_time(e) <= t) {
+      const double w = (epoch_time(e) - t_prev) / (t - t_prev);
+      push(static_cast<std::int64_t>(k), w);
+    }
+    t_prev = t;
+  }
+  while (e < n_epochs) push(static_cast<std::int64_t>(ds.imu.size()), 0.0);
+  return out;
+}
+
+// Everything one lane needs, set up in scalar code from the candidate (O(1) except the
+// events of a non-zero latency).
+struct LaneInit {
+  double Gi[9], Ai[9];  // inverse distortion matrices, row-major
+  bool general = false;  // distortion (scale, misalignment) or bias drift
+  double bg[3], dg[3], ba[3], da[3];
+  double lat, vE, vN;
+  double q[4];  // w, x, y, z
+  double dthp[3], dvp[3], omp[3];
+  double l[3];
+  bool lever = false;
+  double vantE, vantN;  // antenna velocity at the navigation start
+  double acc = 0.0;     // epochs clamped to the start, already summed
+  const EventList* events = nullptr;
+  std::size_t cursor = 0;  // first event not yet emitted
+  std::vector<double>* residuals = nullptr;
+};
+
+}  // namespace
+
+struct BatchFitness::Impl {
+  std::size_t nb = 0, n = 0;
+  std::vector<double> ref_lat, ref_sin, ref_cos;
+  EventList events0;  // latency 0
+  double h0 = 0.0, vz0 = 0.0;
+  std::size_t n_epochs = 0;
+};
+
+namespace {
+
+// Scalar set-up of one lane, following NavigationProblem::run line by line.
+void setup_lane(const NavigationProblem& nav, const SensorErrors& c, const EventList* events,
+                bool sum_squares, std::vector<double>* residuals, LaneInit& li) {
+  const Dataset& ds = nav.dataset();
+  const EarthModel& earth = ds.meta.earth;
+  const std::size_t nb = nav.nav_begin();
+  const ImuCompensator compensator(c);
+  const Eigen::Matrix3d C0 = nav.initial_attitude(c);
+  const NavState s0 = nav.initial_state(C0);
+
+  const Eigen::Matrix3d Gi = c.gyro.distortion().inverse();
+  const Eigen::Matrix3d Ai = c.accel.distortion().inverse();
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      li.Gi[3 * i + j] = Gi(i, j);
+      li.Ai[3 * i + j] = Ai(i, j);
+    }
+  li.general = !(Gi == Eigen::Matrix3d::Identity() && Ai == Eigen::Matrix3d::Identity()) ||
+               !c.gyro.bias_drift.isZero(0) || !c.accel.bias_drift.isZero(0);
+  for (int i = 0; i < 3; ++i) {
+    li.bg[i] = c.gyro.bias[i];
+    li.dg[i] = c.gyro.bias_drift[i];
+    li.ba[i] = c.accel.bias[i];
+    li.da[i] = c.accel.bias_drift[i];
+    li.l[i] = c.lever_arm_b_m[i];
+  }
+  li.lever = !c.lever_arm_b_m.isZero(0);
+  li.lat = s0.lat_rad;
+  li.vE = s0.v_eb_n.x();
+  li.vN = s0.v_eb_n.y();
+  li.q[0] = s0.q_b_n.w();
+  li.q[1] = s0.q_b_n.x();
+  li.q[2] = s0.q_b_n.y();
+  li.q[3] = s0.q_b_n.z();
+
+  ImuSample prev = ds.imu[nb - 1];
+  const double t_before =
+      nb >= 2 ? ds.imu[nb - 2].t_s : prev.t_s - 1.0 / ds.meta.imu_rate_hz;
+  compensator.compensate(prev.t_s, prev.t_s - t_before, prev.dtheta_b_rad, prev.dv_b_mps);
+  const Eigen::Vector3d omega_mid_prev = prev.dtheta_b_rad / (prev.t_s - t_before);
+  for (int i = 0; i < 3; ++i) {
+    li.dthp[i] = prev.dtheta_b_rad[i];
+    li.dvp[i] = prev.dv_b_mps[i];
+    li.omp[i] = omega_mid_prev[i];
+  }
+  Eigen::Vector3d v_ant = s0.v_eb_n;
+  if (li.lever) {
+    const Eigen::Vector3d& l_b = c.lever_arm_b_m;
+    const Eigen::Matrix3d C = s0.q_b_n.toRotationMatrix();
+    v_ant = s0.v_eb_n + C * omega_mid_prev.cross(l_b) -
+            earth.omega_ie_n(s0.lat_rad).cross(C * l_b);
+  }
+  li.vantE = v_ant.x();
+  li.vantN = v_ant.y();
+
+  li.events = events;
+  li.residuals = residuals;
+  li.acc = 0.0;
+  li.cursor = 0;
+  const auto start_step = static_cast<std::int64_t>(nb) - 1;
+  while (li.cursor < events->size() && (*events)[li.cursor].step == start_step) {
+    const Event& ev = (*events)[li.cursor++];
+    const double rE = li.vantE - ev.gE;
+    const double rN = li.vantN - ev.gN;
+    if (residuals) {
+      (*residuals)[2 * ev.epoch] = rE;
+      (*residuals)[2 * ev.epoch + 1] = rN;
+    }
+    const double d2 = rE * rE + rN * rN;
+    li.acc += sum_squares ? d2 : std::sqrt(d2);
+  }
+}
+
+// Cross product helper on packs.
+template <int N>
+struct V3 {
+  P<N> x, y, z;
+};
+template <int N>
+INSID_AI V3<N> cross(const P<N>& ax, const P<N>& ay, const P<N>& az, const P<N>& bx,
+                     const P<N>& by, const P<N>& bz) {
+  return {ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx};
+}
+
+// The kernel: N vectors of W lanes from `lanes` (N * W entries), whole navigation run.
+template <int N, bool kGeneral, bool kLever>
+void run_group(const NavigationProblem& nav, const BatchFitness::Impl& im,
+               LaneInit* const* lanes, bool sum_squares, double* acc_out) {
+  constexpr int L = N * W;
+  using PN = P<N>;
+  const Dataset& ds = nav.dataset();
+  const std::vector<ImuSample>& imu = ds.imu;
+  const std::vector<double>& href = nav.height_reference_m();
+  const std::vector<double>& vuref = nav.vertical_velocity_reference_mps();
+  const EarthModel& earth = ds.meta.earth;
+  const double a_m = earth.ellipsoid.a_m;
+  const double e2 = earth.ellipsoid.e2();
+  const double a1e2 = a_m * (1.0 - e2);
+  const double wie = earth.omega_ie_rad_s;
+  const std::size_t nb = im.nb, n = im.n;
+
+  auto gather = [&](auto get) {
+    PN r;
+    for (int l = 0; l < L; ++l) r.c[l / W][l % W] = get(*lanes[l]);
+    return r;
+  };
+  // Parameters.
+  PN bgx = gather([](const LaneInit& li) { return li.bg[0]; });
+  PN bgy = gather([](const LaneInit& li) { return li.bg[1]; });
+  PN bgz = gather([](const LaneInit& li) { return li.bg[2]; });
+  PN dgx = gather([](const LaneInit& li) { return li.dg[0]; });
+  PN dgy = gather([](const LaneInit& li) { return li.dg[1]; });
+  PN dgz = gather([](const LaneInit& li) { return li.dg[2]; });
+  PN bax = gather([](const LaneInit& li) { return li.ba[0]; });
+  PN bay = gather([](const LaneInit& li) { return li.ba[1]; });
+  PN baz = gather([](const LaneInit& li) { return li.ba[2]; });
+  PN dax = gather([](const LaneInit& li) { return li.da[0]; });
+  PN day = gather([](const LaneInit& li) { return li.da[1]; });
+  PN daz = gather([](const LaneInit& li) { return li.da[2]; });
+  PN Gi[9], Ai[9];
+  if constexpr (kGeneral) {
+    // Identity rows and columns give the same bits as the fast path (1 x + 0 y + 0 z = x).
+    for (int j = 0; j < 9; ++j) {
+      Gi[j] = gather([j](const LaneInit& li) { return li.Gi[j]; });
+      Ai[j] = gather([j](const LaneInit& li) { return li.Ai[j]; });
+    }
+  }
+  PN lx{}, ly{}, lz{};
+  if constexpr (kLever) {
+    lx = gather([](const LaneInit& li) { return li.l[0]; });
+    ly = gather([](const LaneInit& li) { return li.l[1]; });
+    lz = gather([](const LaneInit& li) { return li.l[2]; });
+  }
+  // State.
+  PN lat = gather([](const LaneInit& li) { return li.lat; });
+  PN em{};  // lat_mid - lat (0 at the first step: the previous state is the initial one)
+  PN vE = gather([](const LaneInit& li) { return li.vE; });
+  PN vN = gather([](const LaneInit& li) { return li.vN; });
+  PN vEp = vE, vNp = vN;
+  PN qw = gather([](const LaneInit& li) { return li.q[0]; });
+  PN qx = gather([](const LaneInit& li) { return li.q[1]; });
+  PN qy = gather([](const LaneInit& li) { return li.q[2]; });
+  PN qz = gather([](const LaneInit& li) { return li.q[3]; });
+  PN dthpx = gather([](const LaneInit& li) { return li.dthp[0]; });
+  PN dthpy = gather([](const LaneInit& li) { return li.dthp[1]; });
+  PN dthpz = gather([](const LaneInit& li) { return li.dthp[2]; });
+  PN dvpx = gather([](const LaneInit& li) { return li.dvp[0]; });
+  PN dvpy = gather([](const LaneInit& li) { return li.dvp[1]; });
+  PN dvpz = gather([](const LaneInit& li) { return li.dvp[2]; });
+  PN ompx{}, ompy{}, ompz{};
+  if constexpr (kLever) {
+    ompx = gather([](const LaneInit& li) { return li.omp[0]; });
+    ompy = gather([](const LaneInit& li) { return li.omp[1]; });
+    ompz = gather([](const LaneInit& li) { return li.omp[2]; });
+  }
+  PN vaEp = gather([](const LaneInit& li) { return li.vantE; });
+  PN vaNp = gather([](const LaneInit& li) { return li.vantN; });
+  PN acc = gather([](const LaneInit& li) { return li.acc; });
+
+  // GNSS epochs: one shared schedule when every lane has the same event list and position,
+  // else per-lane cursors with masked accumulation (same arithmetic per lane).
+  bool uniform = true;
+  for (int l = 1; l < L; ++l)
+    uniform = uniform && lanes[l]->events == lanes[0]->events &&
+              lanes[l]->cursor == lanes[0]->cursor;
+  std::vector<double>* res[L];
+  bool any_res = false;
+  for (int l = 0; l < L; ++l) {
+    res[l] = lanes[l]->residuals;
+    any_res = any_res || res[l] != nullptr;
+  }
+  const Event* uev = lanes[0]->events->data();
+  std::size_t ucur = lanes[0]->cursor;
+  const std::size_t uend = lanes[0]->events->size();
+  const Event* lev[L];
+  std::size_t lcur[L], lend[L];
+  for (int l = 0; l < L; ++l) {
+    lev[l] = lanes[l]->events->data();
+    lcur[l] = lanes[l]->cursor;
+    lend[l] = lanes[l]->events->size();
+  }
+  constexpr std::int64_t kNever = std::numeric_limits<std::int64_t>::max();
+  auto lane_next = [&](int l) { return lcur[l] < lend[l] ? lev[l][lcur[l]].step : kNever; };
+  auto next_event_step = [&]() {
+    if (uniform) return ucur < uend ? uev[ucur].step : kNever;
+    std::int64_t m = kNever;
+    for (int l = 0; l < L; ++l) m = std::min(m, lane_next(l));
+    return m;
+  };
+  std::int64_t next_step = next_event_step();
+
+  // Residual and Eq. 15 term of the INS antenna velocity interpolated to an epoch.
+  auto term = [&](const PN& vEnow, const PN& vNnow, const PN& w, const PN& gE, const PN& gN,
+                  PN& rE, PN& rN) __attribute__((always_inline)) {
+    rE = fma(w, vEnow - vaEp, vaEp) - gE;
+    rN = fma(w, vNnow - vaNp, vaNp) - gN;
+    const PN d2 = fma(rE, rE, rN * rN);
+    return sum_squares ? d2 : vsqrt(d2);
+  };
+  auto emit = [&](std::int64_t k, const PN& vEnow, const PN& vNnow) {
+    PN rE, rN;
+    if (uniform) {
+      while (ucur < uend && uev[ucur].step == k) {
+        const Event& ev = uev[ucur++];
+        acc = acc + term(vEnow, vNnow, bcast<N>(ev.w), bcast<N>(ev.gE), bcast<N>(ev.gN), rE,
+                         rN);
+        if (any_res)
+          for (int l = 0; l < L; ++l)
+            if (res[l]) {
+              (*res[l])[2 * ev.epoch] = lane(rE, l);
+              (*res[l])[2 * ev.epoch + 1] = lane(rN, l);
+            }
+      }
+      return;
+    }
+    for (;;) {
+      PN w{}, gE{}, gN{};
+      M<N> m{};
+      bool any = false;
+      for (int l = 0; l < L; ++l) {
+        if (lane_next(l) != k) continue;
+        const Event& ev = lev[l][lcur[l]];
+        w.c[l / W][l % W] = ev.w;
+        gE.c[l / W][l % W] = ev.gE;
+        gN.c[l / W][l % W] = ev.gN;
+        m.c[l / W][l % W] = -1;
+        any = true;
+      }
+      if (!any) break;
+      const PN t = term(vEnow, vNnow, w, gE, gN, rE, rN);
+      acc = blend(m, acc + t, acc);
+      for (int l = 0; l < L; ++l) {
+        if (!m.c[l / W][l % W]) continue;
+        const Event& ev = lev[l][lcur[l]++];
+        if (res[l]) {
+          (*res[l])[2 * ev.epoch] = lane(rE, l);
+          (*res[l])[2 * ev.epoch + 1] = lane(rN, l);
+        }
+      }
+    }
+  };
+
+  // Earth terms of each lane at its current latitude: exact (series about the reference, one
+  // square root and division) every 32 steps, carried between by first-order updates in the
+  // step's latitude change (~3e-8 rad; the dropped second-order terms sum to < 2e-14 relative
+  // over 32 steps). kk = (dRN/dlat)/RN = (dRM/dlat)/(3 RM) and the derivatives are held.
+  PN es{}, ec{}, eRN{}, eRM{}, edRN{}, edRM{}, ekk{}, ekk3{};
+  auto anchor = [&](std::size_t blk) __attribute__((always_inline)) {
+    const double lref = im.ref_lat[blk], sref = im.ref_sin[blk], cref = im.ref_cos[blk];
+    const PN d = lat - lref;
+    const PN z = d * d;
+    const PN sd = fma(
+        d * z, fma(z, fma(z, fma(z, 1.0 / 362880, -1.0 / 5040), 1.0 / 120), -1.0 / 6), d);
+    const PN cm1 =
+        z * fma(z, fma(z, fma(z, fma(z, -1.0 / 3628800, 1.0 / 40320), -1.0 / 720), 1.0 / 24),
+                -0.5);
+    es = sref + fma(sref, cm1, cref * sd);
+    ec = cref + fma(cref, cm1, -(sref * sd));
+    const PN rs = 1.0 / vsqrt(fma(-e2 * es, es, 1.0));  // 1 / sqrt(1 - e2 sin^2)
+    const PN rs2 = rs * rs;
+    eRN = a_m * rs;
+    eRM = a1e2 * (rs2 * rs);
+    ekk = e2 * (es * ec) * rs2;
+    ekk3 = 3.0 * ekk;
+    edRN = eRN * ekk;
+    edRM = eRM * ekk3;
+  };
+
+  // The step splits into a part that depends only on the data and the lane's parameters
+  // (compensation, sculling, coning, the body-rotation quaternion: phase A) and the recurrence
+  // (phase B). Phase A runs over a block of steps into a small buffer (L1-resident), so that
+  // phase B's long dependency chains are interleaved with fewer, independent operations and
+  // fewer registers are live.
+  constexpr int kBlock = 16;
+  static_assert(((1 << kAnchorShift) % kBlock) == 0, "anchors fall on block starts");
+  struct Pre {
+    PN fx, fy, fz, pw, px, py, pz, dthx, dthy, dthz;
+  };
+  Pre pre[kBlock];
+
+  double h_old = im.h0, h_pv = im.h0, vz_old = im.vz0, vz_pv = im.vz0;
+  constexpr double k12 = 1.0 / 12.0;
+  for (std::size_t k0 = nb; k0 < n; k0 += kBlock) {
+    const int kb = static_cast<int>(std::min<std::size_t>(kBlock, n - k0));
+
+    // --- Phase A.
+    for (int j = 0; j < kb; ++j) {
+      const std::size_t k = k0 + static_cast<std::size_t>(j);
+      const ImuSample& m = imu[k];
+      const double dt = m.t_s - imu[k - 1].t_s;
+      const double t_mid = m.t_s - 0.5 * dt;
+      // Compensation (ImuCompensator::compensate): m - (b + b_dot t_mid) dt, then D^-1.
+      // Without drift b + b_dot t_mid = b exactly, so both forms give the same bits.
+      PN gx, gy, gz, fx0, fy0, fz0;
+      if constexpr (kGeneral) {
+        gx = fma(-fma(dgx, t_mid, bgx), dt, m.dtheta_b_rad.x());
+        gy = fma(-fma(dgy, t_mid, bgy), dt, m.dtheta_b_rad.y());
+        gz = fma(-fma(dgz, t_mid, bgz), dt, m.dtheta_b_rad.z());
+        fx0 = fma(-fma(dax, t_mid, bax), dt, m.dv_b_mps.x());
+        fy0 = fma(-fma(day, t_mid, bay), dt, m.dv_b_mps.y());
+        fz0 = fma(-fma(daz, t_mid, baz), dt, m.dv_b_mps.z());
+      } else {
+        (void)t_mid;
+        gx = fma(-bgx, dt, m.dtheta_b_rad.x());
+        gy = fma(-bgy, dt, m.dtheta_b_rad.y());
+        gz = fma(-bgz, dt, m.dtheta_b_rad.z());
+        fx0 = fma(-bax, dt, m.dv_b_mps.x());
+        fy0 = fma(-bay, dt, m.dv_b_mps.y());
+        fz0 = fma(-baz, dt, m.dv_b_mps.z());
+      }
+      PN dthx, dthy, dthz, dvx, dvy, dvz;
+      if constexpr (kGeneral) {
+        dthx = fma(Gi[2], gz, fma(Gi[1], gy, Gi[0] * gx));
+        dthy = fma(Gi[5], gz, fma(Gi[4], gy, Gi[3] * gx));
+        dthz = fma(Gi[8], gz, fma(Gi[7], gy, Gi[6] * gx));
+        dvx = fma(Ai[2], fz0, fma(Ai[1], fy0, Ai[0] * fx0));
+        dvy = fma(Ai[5], fz0, fma(Ai[4], fy0, Ai[3] * fx0));
+        dvz = fma(Ai[8], fz0, fma(Ai[7], fy0, Ai[6] * fx0));
+      } else {
+        dthx = gx, dthy = gy, dthz = gz, dvx = fx0, dvy = fy0, dvz = fz0;
+      }
+      Pre& p = pre[j];
+      // Sculling and rotation (Savage two-sample): f = dv + dth x dv / 2 + (dthp x dv +
+      // dvp x dth) / 12 = dv + ((6 dth + dthp) x dv + dvp x dth) / 12.
+      const PN ax6 = fma(6.0, dthx, dthpx), ay6 = fma(6.0, dthy, dthpy),
+               az6 = fma(6.0, dthz, dthpz);
+      p.fx = fma(fma(ay6, dvz, fma(-az6, dvy, fma(dvpy, dthz, -(dvpz * dthy)))), k12, dvx);
+      p.fy = fma(fma(az6, dvx, fma(-ax6, dvz, fma(dvpz, dthx, -(dvpx * dthz)))), k12, dvy);
+      p.fz = fma(fma(ax6, dvy, fma(-ay6, dvx, fma(dvpx, dthy, -(dvpy * dthx)))), k12, dvz);
+      // Coning-corrected body rotation vector (Savage) and its quaternion: cos(x/2) and
+      // sin(x/2)/x to degree 6 (truncation < 2e-22 for |x| < 0.06 rad per step).
+      const PN phx = fma(fma(dthpy, dthz, -(dthpz * dthy)), k12, dthx);
+      const PN phy = fma(fma(dthpz, dthx, -(dthpx * dthz)), k12, dthy);
+      const PN phz = fma(fma(dthpx, dthy, -(dthpy * dthx)), k12, dthz);
+      const PN th2 = fma(phx, phx, fma(phy, phy, phz * phz));
+      p.pw = fma(th2, fma(th2, fma(th2, -1.0 / 46080, 1.0 / 384), -1.0 / 8), 1.0);
+      const PN kp = fma(th2, fma(th2, fma(th2, -1.0 / 645120, 1.0 / 3840), -1.0 / 48), 0.5);
+      p.px = kp * phx;
+      p.py = kp * phy;
+      p.pz = kp * phz;
+      if constexpr (kLever) {
+        p.dthx = dthx;
+        p.dthy = dthy;
+        p.dthz = dthz;
+      }
+      dthpx = dthx, dthpy = dthy, dthpz = dthz;
+      dvpx = dvx, dvpy = dvy, dvpz = dvz;
+    }
+
+    if (((k0 - nb) & ((std::size_t{1} << kAnchorShift) - 1)) == 0)
+      anchor((k0 - nb) >> kRefShift);
+
+    // --- Phase B.
+    for (int j = 0; j < kb; ++j) {
+      const std::size_t k = k0 + static_cast<std::size_t>(j);
+      const Pre& p = pre[j];
+      const double dt = imu[k].t_s - imu[k - 1].t_s;
+      const double h_mid = 1.5 * h_old - 0.5 * h_pv;
+      const double vz_mid = 1.5 * vz_old - 0.5 * vz_pv;
+      // Trapezoidal mid-height, shared: the reference's per-candidate h_avg differs by a
+      // quarter step of the candidate's unaided vertical velocity error (< 1e-4 m: 2e-11 of R,
+      // zero-mean).
+      const double h_avg = 0.5 * (h_old + (h_old + 0.5 * (vz_old + vuref[k]) * dt));
+      const double wdt = wie * dt;
+
+      // Extrapolated mid-point (Strapdown::update step 1): lat_mid = lat + em, |em| ~ 1e-8:
+      // first-order expansions about the old latitude (the dropped terms, ~1e-16 relative, turn
+      // the attitude by < 1e-22 rad per step).
+      const PN etn = es / ec;
+      const PN T1 = fma(etn, etn, 1.0);  // d tan / d lat
+      const PN s_m = fma(ec, em, es);
+      const PN c_m = fma(-es, em, ec);
+      const PN tan_m = fma(T1, em, etn);
+      // Rates are carried multiplied by dt (zeta = (omega_ie + omega_en) dt and the Coriolis
+      // increment): dt/(R + h) costs the same division as 1/(R + h).
+      const PN Adt = dt / (fma(edRM, em, eRM) + h_mid);  // dt/(RM(lat_mid) + h_mid)
+      const PN Bdt = dt / (fma(edRN, em, eRN) + h_mid);  // dt/(RN(lat_mid) + h_mid)
+      const PN vEm = fma(0.5, vE - vEp, vE);
+      const PN vNm = fma(0.5, vN - vNp, vN);
+      const PN zx = -(vNm * Adt);             // omega_en_x dt (omega_ie_x = 0)
+      const PN zen_y = vEm * Bdt;             // omega_en_y dt
+      const PN zen_z = zen_y * tan_m;         // omega_en_z dt
+      const PN zie_y = wdt * c_m, zie_z = wdt * s_m;  // omega_ie dt
+      const PN zy = zie_y + zen_y, zz = zie_z + zen_z;
+
+      // u = q f q* (old attitude): t = 2 qv x f, u = f + w t + qv x t.
+      const PN qx2 = qx + qx, qy2 = qy + qy, qz2 = qz + qz;
+      const PN tx = fma(qy2, p.fz, -(qz2 * p.fy));
+      const PN ty = fma(qz2, p.fx, -(qx2 * p.fz));
+      const PN tz = fma(qx2, p.fy, -(qy2 * p.fx));
+      const PN ux = fma(qw, tx, p.fx) + fma(qy, tz, -(qz * ty));
+      const PN uy = fma(qw, ty, p.fy) + fma(qz, tx, -(qx * tz));
+      const PN uz = fma(qw, tz, p.fz) + fma(qx, ty, -(qy * tx));
+      // (I - 0.5 skew(zeta)) u
+      const PN nx = fma(-0.5, fma(zy, uz, -(zz * uy)), ux);
+      const PN ny = fma(-0.5, fma(zz, ux, -(zx * uz)), uy);
+      // Coriolis: dv = -(2 omega_ie + omega_en) x v_mid dt (gravity is vertical only).
+      const PN ay = zy + zie_y, az = zz + zie_z;
+      const PN cx = fma(ay, vz_mid, -(az * vNm));
+      const PN cy = fma(az, vEm, -(zx * vz_mid));
+      // Summed in the reference's order: (v + dv_sf_n) + dv_gcor.
+      const PN vE_n = (vE + nx) - cx;
+      const PN vN_n = (vN + ny) - cy;
+
+      // Position (trapezoidal, two latitude iterations). 1/(R(lat + d) + h) =
+      // 1/(R + h) (1 - R' d/(R + h)) to first order (d ~ 1e-8, the next term ~1e-20); R'/(R + h)
+      // is taken as R'/R (relative error h/R in a 1e-10 correction).
+      //   x = v_avg_N dt/(RM(lat) + h_avg), first iteration's latitude increment;
+      //   lat_n - lat = x (1 - RM' (x/2)/(RM + h)) = x - (3 kk / 2) x^2.
+      const PN hC1 = dt * 0.5 / (eRM + h_avg);       // (dt/2)/(RM(lat) + h_avg)
+      const PN hE0 = dt * 0.5 / (eRN + h_avg);       // (dt/2)/(RN(lat) + h_avg)
+      const PN x = (vN + vN_n) * hC1;
+      const PN inc = fma(-0.5 * ekk3 * x, x, x);
+      const PN lat_n = lat + inc;
+      const PN dl = lat_n - lat;
+      const PN e = 0.5 * inc;                         // lat_avg2 - lat
+      const PN s2 = fma(ec, e, es);
+      const PN c2 = fma(-es, e, ec);
+      const PN tan2 = fma(T1, e, etn);
+
+      // Attitude: q(-zeta_mid) * q * q(phi), zeta_mid = (omega_ie + omega_en)(lat_avg2, h_avg,
+      // v_avg) dt; dt/(R(lat_avg2) + h_avg) = dt/(R + h_avg) (1 - kk' e).
+      const PN y = (vE + vE_n) * hE0;
+      const PN vEE = fma(-y, ekk * e, y);
+      const PN zmx = -fma(-x, ekk3 * e, x);
+      const PN zmy = fma(wdt, c2, vEE);
+      const PN zmz = fma(vEE, tan2, wdt * s2);
+      // cos(|z|/2) and sin(|z|/2)/|z| of the tiny n-frame rotation need |z|^2 only to ~1e-3
+      // relative (it enters as 1e-14 corrections): the mid-point rotation's, known early.
+      const PN th2z = fma(zx, zx, fma(zy, zy, zz * zz));
+      const PN qzw = fma(th2z, -1.0 / 8, 1.0);          // cos(x/2), |x| < 1e-5
+      const PN kz = fma(th2z, 1.0 / 48, -0.5);          // -sin(x/2)/x
+      const PN pzx = kz * zmx, pzy = kz * zmy, pzz = kz * zmz;
+      const PN pw = p.pw, ppx = p.px, ppy = p.py, ppz = p.pz;
+      // q(-zeta) * q * q(phi) in the reference's arithmetic order: Eigen's SSE quaternion
+      // product as GCC compiles it (t1 = ww*xy + yy*zw etc., the second product of each pair
+      // fused), then normalize(). The attitude integrates ~1e5 rotations far below its ulp;
+      // another grouping biases the rounding and the attitude drifts ~1e-17 rad per step away
+      // from the reference (1e-9 of the fitness after ten minutes).
+      const PN rx = fma(pzy, qz, qzw * qx) - fma(-pzx, qw, pzz * qy);
+      const PN ry = fma(pzy, qw, qzw * qy) + fma(-pzx, qz, pzz * qx);
+      const PN rz = fma(-pzy, qx, qzw * qz) + fma(pzx, qy, pzz * qw);
+      const PN rw = fma(-pzy, qy, qzw * qw) - fma(pzx, qx, pzz * qz);
+      const PN nqx = fma(ry, ppz, rw * ppx) - fma(-rx, pw, rz * ppy);
+      const PN nqy = fma(ry, pw, rw * ppy) + fma(-rx, ppz, rz * ppx);
+      const PN nqz = fma(-ry, ppx, rw * ppz) + fma(rx, ppy, rz * pw);
+      const PN nw = fma(-ry, ppy, rw * pw) - fma(rx, ppx, rz * ppz);
+      // normalize(), exactly as q / RN(sqrt(n2)) but without square root or division: n2 is
+      // within a few ulps of 1 (|n2 - 1| = k ulp), where RN(sqrt(1 + e)) = RN(1 + e/2 - e^2/8)
+      // is 1 + e/2 rounded with ties toward 1 - sign(e) (the e^2 term only breaks ties): one FMA
+      // with a multiplier nudged off 1/2. Then q / (1 + d) = RN(q - q d) (the q d^2 term only
+      // matters at exact midpoints). Valid for |n2 - 1| < 2^-32; the products keep
+      // |n2 - 1| < 1e-15.
+      const PN en = ((nqx * nqx + nqz * nqz) + (nqy * nqy + nw * nw)) - 1.0;
+      M<N> pos;
+      for (int i = 0; i < N; ++i) pos.c[i] = en.c[i] > 0.0;
+      const PN dn =
+          fma(en, blend(pos, bcast<N>(0.5 - 0x1p-21), bcast<N>(0.5 + 0x1p-21)), 1.0) - 1.0;
+      qw = fma(-nw, dn, nw);
+      qx = fma(-nqx, dn, nqx);
+      qy = fma(-nqy, dn, nqy);
+      qz = fma(-nqz, dn, nqz);
+
+      // Earth terms carried to the new latitude (first order in dl).
+      {
+        const PN s_old = es;
+        es = fma(ec, dl, s_old);
+        ec = fma(-s_old, dl, ec);
+        eRN = fma(edRN, dl, eRN);
+        eRM = fma(edRM, dl, eRM);
+      }
+
+      // State update (height and vertical velocity aided: shared).
+      em = e;  // next step's lat_mid - lat: 1.5 lat_n - 0.5 lat - lat_n
+      lat = lat_n;
+      vEp = vE;
+      vNp = vN;
+      vE = vE_n;
+      vN = vN_n;
+      h_pv = h_old;
+      h_old = href[k];
+      vz_pv = vz_old;
+      vz_old = vuref[k];
+
+      // Antenna velocity (lever arm) and the GNSS epochs of this step.
+      const auto kk64 = static_cast<std::int64_t>(k);
+      PN vaE = vE, vaN = vN;
+      if constexpr (kLever) {
+        const double inv_dt = 1.0 / dt;
+        const PN omx = p.dthx * inv_dt, omy = p.dthy * inv_dt, omz = p.dthz * inv_dt;
+        if (next_step <= kk64 + 1) {
+          const PN oex = 1.5 * omx - 0.5 * ompx;
+          const PN oey = 1.5 * omy - 0.5 * ompy;
+          const PN oez = 1.5 * omz - 0.5 * ompz;
+          const PN Tx = 2.0 * qx, Ty = 2.0 * qy, Tz = 2.0 * qz;
+          const PN Twx = Tx * qw, Twy = Ty * qw, Twz = Tz * qw;
+          const PN Txx = Tx * qx, Txy = Ty * qx, Txz = Tz * qx;
+          const PN Tyy = Ty * qy, Tyz = Tz * qy, Tzz = Tz * qz;
+          const PN C00 = 1.0 - (Tyy + Tzz), C01 = Txy - Twz, C02 = Txz + Twy;
+          const PN C10 = Txy + Twz, C11 = 1.0 - (Txx + Tzz), C12 = Tyz - Twx;
+          const PN C20 = Txz - Twy, C21 = Tyz + Twx, C22 = 1.0 - (Txx + Tyy);
+          const V3<N> wl = cross(oex, oey, oez, lx, ly, lz);
+          const PN bx = C00 * lx + C01 * ly + C02 * lz;
+          const PN by = C10 * lx + C11 * ly + C12 * lz;
+          const PN bz = C20 * lx + C21 * ly + C22 * lz;
+          const PN Oy = wie * ec, Oz = wie * es;  // Earth rate at the new latitude
+          vaE = vE + (C00 * wl.x + C01 * wl.y + C02 * wl.z) - (Oy * bz - Oz * by);
+          vaN = vN + (C10 * wl.x + C11 * wl.y + C12 * wl.z) - (Oz * bx);
+        }
+        ompx = omx, ompy = omy, ompz = omz;
+      }
+      if (next_step == kk64) {
+        if (uniform && !any_res) {
+          // The common case inline: every lane compares with the same epochs.
+          do {
+            const Event& ev = uev[ucur++];
+            PN rE, rN;
+            acc = acc + term(vaE, vaN, bcast<N>(ev.w), bcast<N>(ev.gE), bcast<N>(ev.gN), rE,
+                             rN);
+          } while (ucur < uend && uev[ucur].step == kk64);
+        } else {
+          emit(kk64, vaE, vaN);
+        }
+        next_step = next_event_step();
+      }
+      vaEp = vaE;
+      vaNp = vaN;
+    }
+  }
+  // Epochs past the end of the data (latency < 0): clamped to the last state.
+  if (next_step == static_cast<std::int64_t>(n)) emit(static_cast<std::int64_t>(n), vaEp, vaNp);
+
+  for (int l = 0; l < L; ++l) acc_out[l] = lane(acc, l);
+}
+
+using GroupFn = void (*)(const NavigationProblem&, const BatchFitness::Impl&, LaneInit* const*,
+                         bool, double*);
+
+template <int N>
+GroupFn pick(bool general, bool lever) {
+  if (general) return lever ? &run_group<N, true, true> : &run_group<N, true, false>;
+  return lever ? &run_group<N, false, true> : &run_group<N, false, false>;
+}
+
+GroupFn pick(int n_vectors, bool general, bool lever) {
+  switch (n_vectors) {
+    case 1: return pick<1>(general, lever);
+    default: return pick<2>(general, lever);
+  }
+}
+
+}  // namespace
+
+BatchFitness::BatchFitness(std::shared_ptr<const NavigationProblem> problem)
+    : problem_(std::move(problem)) {
+  if (!problem_) throw std::invalid_argument("BatchFitness: null problem");
+  const NavigationProblem& nav = *problem_;
+  const Dataset& ds = nav.dataset();
+  auto impl = std::make_shared<Impl>();
+  impl->nb = nav.nav_begin();
+  impl->n = ds.imu.size();
+  impl->n_epochs = nav.num_epochs();
+  if (nav.alignment_window().count == 0) reason_ = "no alignment window (align_s = 0)";
+  double max_rot = 0.0;
+  for (std::size_t k = impl->nb; k < impl->n && reason_.empty(); ++k) {
+    if (!(ds.imu[k].t_s > ds.imu[k - 1].t_s))
+      reason_ = "IMU time stamps not increasing at row " + std::to_string(k);
+    max_rot = std::max(max_rot, ds.imu[k].dtheta_b_rad.norm());
+  }
+  if (reason_.empty() && !(max_rot < kMaxStepRotation))
+    reason_ = "body rotation of " + std::to_string(max_rot) + " rad in one IMU interval (> " +
+              std::to_string(kMaxStepRotation) + ")";
+  if (reason_.empty()) {
+    const std::size_t steps = impl->n - impl->nb;
+    const std::size_t blocks = (steps >> kRefShift) + 1;
+    impl->ref_lat.resize(blocks);
+    impl->ref_sin.resize(blocks);
+    impl->ref_cos.resize(blocks);
+    for (std::size_t b = 0; b < blocks; ++b) {
+      const std::size_t k = std::min(impl->nb + (b << kRefShift), impl->n - 1);
+      const double lat = interpolate_gnss(ds.gnss, ds.imu[k].t_s).lat_rad;
+      impl->ref_lat[b] = lat;
+      impl->ref_sin[b] = std::sin(lat);
+      impl->ref_cos[b] = std::cos(lat);
+    }
+    impl->events0 = make_events(nav, 0.0);
+    const NavState s0 = nav.initial_state(Eigen::Matrix3d::Identity());
+    impl->h0 = s0.h_m;
+    impl->vz0 = s0.v_eb_n.z();
+  }
+  impl_ = std::move(impl);
+}
+
+std::shared_ptr<const BatchFitness> BatchFitness::shared(
+    const std::shared_ptr<const NavigationProblem>& problem) {
+  static std::mutex mutex;
+  static std::map<const NavigationProblem*, std::weak_ptr<const BatchFitness>> cache;
+  std::lock_guard<std::mutex> lock(mutex);
+  for (auto it = cache.begin(); it != cache.end();)
+    it = it->second.expired() ? cache.erase(it) : std::next(it);
+  // A live kernel holds its problem, so a live entry's address cannot have been reused.
+  if (auto it = cache.find(problem.get()); it != cache.end())
+    if (auto kernel = it->second.lock()) return kernel;
+  auto kernel = std::make_shared<const BatchFitness>(problem);
+  cache[problem.get()] = kernel;
+  return kernel;
+}
+
+std::vector<int> BatchFitness::plan_groups(int num_vectors, int threads) {
+  std::vector<int> groups;
+  if (num_vectors <= 0) return groups;
+  threads = std::max(threads, 1);
+  int g = (num_vectors + kMaxChains - 1) / kMaxChains;
+  if (threads > 1) {
+    g = std::max(g, std::min(num_vectors, threads));
+    g = std::min(num_vectors, ((g + threads - 1) / threads) * threads);
+  }
+  for (int i = 0; i < g; ++i) groups.push_back(num_vectors / g + (i < num_vectors % g ? 1 : 0));
+  return groups;
+}
+
+void BatchFitness::evaluate(const Request& request) const {
+  const int nv = static_cast<int>((request.candidates.size() + kLanes - 1) / kLanes);
+  evaluate_grouped(request, plan_groups(nv, request.threads));
+}
+
+std::vector<double> BatchFitness::fitness(std::span<const SensorErrors> candidates,
+                                          FitnessKind kind, int threads) const {
+  std::vector<double> f(candidates.size());
+  Request request;
+  request.candidates = candidates;
+  request.fitness = f;
+  request.kind = kind;
+  request.threads = threads;
+  evaluate(request);
+  return f;
+}
+
+void BatchFitness::evaluate_grouped(const Request& request, const std::vector<int>& groups) const {
+  if (!supported())
+    throw std::invalid_argument("batched fitness kernel: data not supported (" + reason_ + ")");
+  const std::size_t K = request.candidates.size();
+  if (request.fitness.size() != K)
+    throw std::invalid_argument("batched fitness: " + std::to_string(K) + " candidates but " +
+                                std::to_string(request.fitness.size()) + " fitness slots");
+  if (!request.residuals.empty() && request.residuals.size() != K)
+    throw std::invalid_argument("batched fitness: residual slots do not match the candidates");
+  if (!request.errors.empty() && request.errors.size() != K)
+    throw std::invalid_argument("batched fitness: error slots do not match the candidates");
+  int total = 0;
+  for (int g : groups) {
+    if (g < 1 || g > kMaxChains) throw std::invalid_argument("batched fitness: bad group size");
+    total += g;
+  }
+  if (static_cast<std::size_t>(total) * kLanes < K ||
+      static_cast<std::size_t>(total - (groups.empty() ? 0 : 1)) * kLanes >= K + kLanes)
+    throw std::invalid_argument("batched fitness: groups do not cover the candidates");
+  if (K == 0) return;
+
+  const NavigationProblem& nav = *problem_;
+  const Impl& im = *impl_;
+  const bool sum_squares = request.kind == FitnessKind::kSumSquares;
+  std::vector<std::exception_ptr> errors(K);
+  std::vector<std::size_t> first(groups.size());
+  for (std::size_t g = 1; g < groups.size(); ++g)
+    first[g] = first[g - 1] + static_cast<std::size_t>(groups[g - 1]) * kLanes;
+  for (std::size_t i = 0; i < K; ++i)
+    if (!request.residuals.empty()) request.residuals[i].assign(2 * im.n_epochs, 0.0);
+
+  const int n_groups = static_cast<int>(groups.size());
+  const int threads = std::max(1, std::min(request.threads, n_groups));
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads) if (threads > 1)
+  for (int g = 0; g < n_groups; ++g) {
+    const int nvec = groups[static_cast<std::size_t>(g)];
+    const int L = nvec * kLanes;
+    const std::size_t i0 = first[static_cast<std::size_t>(g)];
+    std::vector<LaneInit> inits(static_cast<std::size_t>(L));
+    std::vector<bool> ok(static_cast<std::size_t>(L), false);
+    std::map<double, EventList> latency_events;
+    int valid = -1;
+    bool general = false, lever = false;
+    for (int l = 0; l < L; ++l) {
+      const std::size_t i = i0 + static_cast<std::size_t>(l);
+      if (i >= K) break;
+      const SensorErrors& c = request.candidates[i];
+      try {
+        const EventList* events = &im.events0;
+        if (c.gnss_latency_s != 0.0) {
+          auto it = latency_events.find(c.gnss_latency_s);
+          if (it == latency_events.end())
+            it = latency_events.emplace(c.gnss_latency_s, make_events(nav, c.gnss_latency_s))
+                     .first;
+          events = &it->second;
+        }
+        setup_lane(nav, c, events, sum_squares,
+                   request.residuals.empty() ? nullptr : &request.residuals[i],
+                   inits[static_cast<std::size_t>(l)]);
+        ok[static_cast<std::size_t>(l)] = true;
+        if (valid < 0) valid = l;
+        general = general || inits[static_cast<std::size_t>(l)].general;
+        lever = lever || inits[static_cast<std::size_t>(l)].lever;
+      } catch (...) {
+        errors[i] = std::current_exception();
+      }
+    }
+    std::vector<double> acc(static_cast<std::size_t>(L), 0.0);
+    if (valid >= 0) {
+      // Padding and failed lanes run a copy of a valid lane, without residual output.
+      std::vector<LaneInit*> ptrs(static_cast<std::size_t>(L));
+      for (int l = 0; l < L; ++l) {
+        if (!ok[static_cast<std::size_t>(l)]) {
+          inits[static_cast<std::size_t>(l)] = inits[static_cast<std::size_t>(valid)];
+          inits[static_cast<std::size_t>(l)].residuals = nullptr;
+        }
+        ptrs[static_cast<std::size_t>(l)] = &inits[static_cast<std::size_t>(l)];
+      }
+      pick(nvec, general, lever)(nav, im, ptrs.data(), sum_squares, acc.data());
+    }
+    for (int l = 0; l < L; ++l) {
+      const std::size_t i = i0 + static_cast<std::size_t>(l);
+      if (i >= K) break;
+      request.fitness[i] = ok[static_cast<std::size_t>(l)]
+                               ? acc[static_cast<std::size_t>(l)]
+                               : std::numeric_limits<double>::quiet_NaN();
+    }
+  }
+
+  for (std::size_t i = 0; i < K; ++i) {
+    if (!errors[i]) continue;
+    if (!request.errors.empty()) {
+      request.errors[i] = errors[i];
+    } else {
+      std::rethrow_exception(errors[i]);
+    }
+  }
+}
+
+}  // namespace insid

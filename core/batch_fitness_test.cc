@@ -1,0 +1,233 @@
+// The batched kernel against the scalar reference (NavigationProblem::fitness / residuals) on
+// short simulated flights of the paper, rich and straight scenarios, for random candidates of the
+// general error model, every batch size 1..33 and 1 or 2 threads; and bit-for-bit invariance of
+// a candidate's result under any grouping, position in the batch and thread count.
+#include "core/batch_fitness.h"
+
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "scenarios/scenario.h"
+
+namespace insid {
+namespace {
+
+constexpr double kTolerance = 1e-9;  // relative, batched vs scalar
+
+std::shared_ptr<const NavigationProblem> scenario_problem(
+    const std::string& preset, AlignmentMode mode = AlignmentMode::kPerCandidate) {
+  static std::map<std::string, std::shared_ptr<const Dataset>> datasets;
+  auto& ds = datasets[preset];
+  if (!ds) {
+    scenarios::ScenarioConfig cfg = scenarios::preset_scenario(preset);
+    cfg.flight_s = 600.0;
+    ds = std::make_shared<const Dataset>(scenarios::simulate(cfg));
+  }
+  return std::make_shared<const NavigationProblem>(ds, NavigationOptions{mode});
+}
+
+// Random candidates in the paper's box, every few of them with the other catalogue effects:
+// bias drift, scale factors, misalignments, lever arm, GNSS latency (both signs).
+std::vector<SensorErrors> random_candidates(int n, unsigned seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(-4.0, 4.0);
+  std::vector<SensorErrors> out;
+  for (int i = 0; i < n; ++i) {
+    SensorErrors c;
+    c.accel.bias.x() = u(rng) * kSigmaAccelMps2;
+    c.accel.bias.y() = u(rng) * kSigmaAccelMps2;
+    c.gyro.bias.x() = u(rng) * kSigmaGyroRadS;
+    c.gyro.bias.y() = u(rng) * kSigmaGyroRadS;
+    const int kind = i % 6;
+    if (kind == 1 || kind == 5) {
+      c.gyro.bias.z() = u(rng) * kSigmaGyroRadS;
+      c.accel.bias.z() = u(rng) * kSigmaAccelMps2;
+      for (int j = 0; j < 3; ++j) {
+        c.gyro.bias_drift[j] = u(rng) * kSigmaGyroRadS / 3600.0;
+        c.accel.bias_drift[j] = u(rng) * kSigmaAccelMps2 / 3600.0;
+      }
+    }
+    if (kind == 2 || kind == 5) {
+      for (int j = 0; j < 3; ++j) {
+        c.gyro.scale[j] = u(rng) * 1e-4;
+        c.accel.scale[j] = u(rng) * 1e-4;
+        for (int k = 0; k < 3; ++k)
+          if (j != k) {
+            c.gyro.misalign(j, k) = u(rng) * 1e-4;
+            c.accel.misalign(j, k) = u(rng) * 1e-4;
+          }
+      }
+    }
+    if (kind == 3 || kind == 5)
+      for (int j = 0; j < 3; ++j) c.lever_arm_b_m[j] = u(rng) * 0.1;
+    if (kind == 4 || kind == 5) c.gnss_latency_s = u(rng) * 0.01;  // up to 4 IMU steps, +-
+    out.push_back(c);
+  }
+  return out;
+}
+
+double relative_difference(double a, double b) {
+  return std::abs(a - b) / std::max(std::abs(b), 1e-300);
+}
+
+std::vector<double> batched(const BatchFitness& kernel, std::span<const SensorErrors> c,
+                            int threads, FitnessKind kind = FitnessKind::kEq15) {
+  return kernel.fitness(c, kind, threads);
+}
+
+class BatchVsScalar : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(BatchVsScalar, EveryBatchSizeAndThreadCountMatchesTheReference) {
+  // GIVEN a short flight of the scenario and 33 random candidates of the general model
+  const auto nav = scenario_problem(GetParam());
+  const BatchFitness kernel(nav);
+  ASSERT_TRUE(kernel.supported()) << kernel.unsupported_reason();
+  const std::vector<SensorErrors> pool = random_candidates(33, 7);
+  std::vector<double> reference;
+  for (const SensorErrors& c : pool) reference.push_back(nav->fitness(c));
+
+  // WHEN every prefix of 1..33 candidates is scored with 1 and 2 threads
+  // THEN each equals the scalar reference within 1e-9 relative and is bit-identical to the
+  // same candidate's result in every other batch.
+  std::vector<double> first;
+  double worst = 0.0;
+  for (int K = 1; K <= 33; ++K)
+    for (int threads : {1, 2}) {
+      const std::vector<double> f =
+          batched(kernel, std::span<const SensorErrors>(pool).first(K), threads);
+      if (first.empty()) first.assign(33, std::nan(""));
+      for (int i = 0; i < K; ++i) {
+        const double rel = relative_difference(f[i], reference[i]);
+        worst = std::max(worst, rel);
+        EXPECT_LE(rel, kTolerance) << "K=" << K << " threads=" << threads << " candidate " << i
+                                   << ": " << f[i] << " vs " << reference[i];
+        if (std::isnan(first[i])) first[i] = f[i];
+        EXPECT_EQ(f[i], first[i]) << "K=" << K << " threads=" << threads << " candidate " << i;
+      }
+    }
+  std::cout << GetParam() << ": worst relative difference " << worst << "\n";
+}
+
+TEST_P(BatchVsScalar, ResidualsAndSumOfSquaresMatchTheReference) {
+  const auto nav = scenario_problem(GetParam());
+  const BatchFitness kernel(nav);
+  const std::vector<SensorErrors> pool = random_candidates(12, 11);
+  std::vector<std::vector<double>> r(pool.size());
+  std::vector<double> f(pool.size());
+  BatchFitness::Request request;
+  request.candidates = pool;
+  request.fitness = f;
+  request.kind = FitnessKind::kSumSquares;
+  request.residuals = r;
+  kernel.evaluate(request);
+  for (std::size_t i = 0; i < pool.size(); ++i) {
+    std::vector<double> ref;
+    nav->residuals(pool[i], ref);
+    ASSERT_EQ(r[i].size(), ref.size());
+    double scale = 0.0, diff = 0.0;
+    for (std::size_t j = 0; j < ref.size(); ++j) {
+      scale = std::max(scale, std::abs(ref[j]));
+      diff = std::max(diff, std::abs(r[i][j] - ref[j]));
+    }
+    EXPECT_LE(diff, 1e-9 * scale) << "candidate " << i;
+    EXPECT_LE(relative_difference(f[i], nav->fitness(pool[i], FitnessKind::kSumSquares)),
+              kTolerance)
+        << "candidate " << i;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Scenarios, BatchVsScalar,
+                         ::testing::Values("paper", "rich", "straight"));
+
+TEST(BatchFitness, FixedAlignmentMatchesTheReference) {
+  const auto nav = scenario_problem("rich", AlignmentMode::kFixed);
+  const BatchFitness kernel(nav);
+  const std::vector<SensorErrors> pool = random_candidates(10, 3);
+  const std::vector<double> f = batched(kernel, pool, 2);
+  for (std::size_t i = 0; i < pool.size(); ++i)
+    EXPECT_LE(relative_difference(f[i], nav->fitness(pool[i])), kTolerance) << i;
+}
+
+TEST(BatchFitness, ResultsDoNotDependOnGroupingOrderOrThreads) {
+  // GIVEN 40 candidates of all kinds (mixed latencies make per-lane epoch schedules)
+  const auto nav = scenario_problem("rich");
+  const BatchFitness kernel(nav);
+  const std::vector<SensorErrors> pool = random_candidates(40, 5);
+  const std::vector<double> base = batched(kernel, pool, 1);
+  // WHEN they are scored in other groupings, in reverse order, or only the latency-free ones
+  for (const std::vector<int>& groups :
+       {std::vector<int>{1, 1, 1, 1, 1}, {2, 2, 1}, {1, 2, 2}, {2, 1, 2}}) {
+    std::vector<double> f(pool.size());
+    BatchFitness::Request request;
+    request.candidates = pool;
+    request.fitness = f;
+    request.threads = 2;
+    kernel.evaluate_grouped(request, groups);
+    for (std::size_t i = 0; i < pool.size(); ++i) EXPECT_EQ(f[i], base[i]) << i;
+  }
+  std::vector<SensorErrors> reversed(pool.rbegin(), pool.rend());
+  const std::vector<double> fr = batched(kernel, reversed, 2);
+  for (std::size_t i = 0; i < pool.size(); ++i) EXPECT_EQ(fr[pool.size() - 1 - i], base[i]) << i;
+  std::vector<SensorErrors> no_latency;
+  std::vector<double> expected;
+  for (std::size_t i = 0; i < pool.size(); ++i)
+    if (pool[i].gnss_latency_s == 0.0) {
+      no_latency.push_back(pool[i]);
+      expected.push_back(base[i]);
+    }
+  const std::vector<double> fn = batched(kernel, no_latency, 1);
+  // THEN every candidate's fitness is bit-identical
+  for (std::size_t i = 0; i < fn.size(); ++i) EXPECT_EQ(fn[i], expected[i]) << i;
+}
+
+TEST(BatchFitness, GroupPlanCoversTheVectors) {
+  for (int threads = 1; threads <= 4; ++threads)
+    for (int nv = 1; nv <= 40; ++nv) {
+      const std::vector<int> g = BatchFitness::plan_groups(nv, threads);
+      int total = 0;
+      for (int s : g) {
+        EXPECT_GE(s, 1);
+        EXPECT_LE(s, BatchFitness::kMaxChains);
+        total += s;
+      }
+      EXPECT_EQ(total, nv);
+      if (nv >= threads) {
+        EXPECT_GE(static_cast<int>(g.size()), threads);
+      }
+    }
+}
+
+TEST(BatchFitness, AFailingCandidateIsReportedAndTheOthersScored) {
+  const auto nav = scenario_problem("straight");
+  const BatchFitness kernel(nav);
+  std::vector<SensorErrors> pool = random_candidates(9, 2);
+  pool[4].accel.scale = Eigen::Vector3d::Constant(-1.0);  // singular: alignment throws
+  std::vector<double> f(pool.size());
+  std::vector<std::exception_ptr> errors(pool.size());
+  BatchFitness::Request request;
+  request.candidates = pool;
+  request.fitness = f;
+  request.errors = errors;
+  kernel.evaluate(request);
+  for (std::size_t i = 0; i < pool.size(); ++i) {
+    if (i == 4) {
+      EXPECT_TRUE(errors[i]);
+      EXPECT_TRUE(std::isnan(f[i]));
+    } else {
+      EXPECT_FALSE(errors[i]) << i;
+      EXPECT_LE(relative_difference(f[i], nav->fitness(pool[i])), kTolerance) << i;
+    }
+  }
+  request.errors = {};
+  EXPECT_THROW(kernel.evaluate(request), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace insid
