@@ -9,6 +9,7 @@
 #include "core/batch_fitness.h"
 #include "core/fitness.h"
 #include "core/test_support.h"
+#include "optimizers/registry.h"
 
 namespace insid {
 namespace {
@@ -86,6 +87,37 @@ BENCHMARK(BM_FitnessBatched)
     ->Unit(benchmark::kMillisecond)
     ->MinTime(2.0)
     ->UseRealTime();
+
+
+// The optimizers' own cost per generation (ask + tell), fitness excluded: a 4-D problem whose
+// fitness is a precomputed constant-time sphere, Table 4 settings. Shows the harness's overhead
+// next to the fitness cost above (one paper-flight fitness evaluation is ~6 ms batched).
+void BM_OptimizerGeneration(benchmark::State& state, const char* algorithm) {
+  std::int64_t generations = 0;
+  for (auto _ : state) {
+    state.PauseTiming();
+    opt::RunConfig config;
+    config.seed = 7;
+    config.max_iterations = 40;
+    auto optimizer = opt::make_optimizer(algorithm, opt::Bounds::unit_box(4), config);
+    std::vector<double> f;
+    state.ResumeTiming();
+    while (!optimizer->done()) {
+      const auto batch = optimizer->ask();
+      f.resize(batch.size());
+      for (std::size_t i = 0; i < batch.size(); ++i) f[i] = batch[i].squaredNorm();
+      optimizer->tell(f);
+      ++generations;
+    }
+  }
+  state.counters["ns_per_generation"] = benchmark::Counter(
+      static_cast<double>(generations) * 1e-9,
+      benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+}
+BENCHMARK_CAPTURE(BM_OptimizerGeneration, ga, "ga");
+BENCHMARK_CAPTURE(BM_OptimizerGeneration, pso, "pso");
+BENCHMARK_CAPTURE(BM_OptimizerGeneration, pio, "pio");
+BENCHMARK_CAPTURE(BM_OptimizerGeneration, dvpio, "dvpio");
 
 }  // namespace
 }  // namespace insid
