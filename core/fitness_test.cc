@@ -20,15 +20,7 @@ std::shared_ptr<Dataset> static_dataset(const SensorErrors& errors, double durat
       testing::make_static_dataset(earth, kLat, kLon, 50.0, att, duration_s, 600.0, errors));
 }
 
-SensorErrors paper_errors() {
-  // The paper's Sec. 3.2 injection [-2, 1.5, 2, -1.5] sigma (DESIGN.md sec. 2).
-  SensorErrors e;
-  e.accel.bias.x() = -2.0 * kSigmaAccelMps2;
-  e.accel.bias.y() = 1.5 * kSigmaAccelMps2;
-  e.gyro.bias.x() = 2.0 * kSigmaGyroRadS;
-  e.gyro.bias.y() = -1.5 * kSigmaGyroRadS;
-  return e;
-}
+using testing::paper_errors;
 
 TEST(Fitness, ZeroForAPerfectMatch) {
   for (AlignmentMode mode : {AlignmentMode::kPerCandidate, AlignmentMode::kFixed}) {

@@ -10,6 +10,16 @@
 
 namespace insid::testing {
 
+/// The paper's Sec. 3.2 injection [-2, 1.5, 2, -1.5] sigma (DESIGN.md sec. 2).
+inline SensorErrors paper_errors() {
+  SensorErrors e;
+  e.accel.bias.x() = -2.0 * kSigmaAccelMps2;
+  e.accel.bias.y() = 1.5 * kSigmaAccelMps2;
+  e.gyro.bias.x() = 2.0 * kSigmaGyroRadS;
+  e.gyro.bias.y() = -1.5 * kSigmaGyroRadS;
+  return e;
+}
+
 /// A stationary IMU at (lat, lon, h) with attitude `att`, exact Earth-rate and gravity
 /// increments at imu_rate_hz, `errors` applied; GNSS (zero velocity, true position) at
 /// gnss_rate_hz. align_s of the duration is the alignment window.

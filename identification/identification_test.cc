@@ -14,14 +14,7 @@ namespace {
 
 constexpr double kLat = 40.068 * kDegToRad;
 
-SensorErrors paper_errors() {
-  SensorErrors e;
-  e.accel.bias.x() = -2.0 * kSigmaAccelMps2;
-  e.accel.bias.y() = 1.5 * kSigmaAccelMps2;
-  e.gyro.bias.x() = 2.0 * kSigmaGyroRadS;
-  e.gyro.bias.y() = -1.5 * kSigmaGyroRadS;
-  return e;
-}
+using testing::paper_errors;
 
 // Static data whose biases switch on after the alignment window, navigated with a fixed
 // (recorded-data) alignment: the attitude is then the true one and all four biases show in the
