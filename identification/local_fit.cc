@@ -1,6 +1,7 @@
 #include "identification/local_fit.h"
 
 #include <cmath>
+#include <span>
 
 #include <Eigen/Cholesky>
 
@@ -36,7 +37,11 @@ std::vector<double> eq15_weights(const std::vector<double>& r) {
 
 void residuals_at(const InsIdentificationProblem& problem, const Eigen::VectorXd& x,
                   std::vector<double>& r) {
-  problem.navigation().residuals(problem.mapping().to_errors(x), r);
+  // Through the problem's residual path: the batched kernel when it covers the data (equal to
+  // NavigationProblem::residuals within ~1e-12 relative, issue 6), else the scalar reference.
+  double f = 0.0;
+  problem.evaluate_residual_batch(std::span<const Eigen::VectorXd>(&x, 1),
+                                  std::span<std::vector<double>>(&r, 1), std::span<double>(&f, 1));
 }
 
 LocalFitResult local_fit(const InsIdentificationProblem& problem, const Eigen::VectorXd& x0,
@@ -63,18 +68,26 @@ LocalFitResult local_fit(const InsIdentificationProblem& problem, const Eigen::V
   const std::size_t m = r.size();
   Eigen::MatrixXd J(static_cast<Eigen::Index>(m), n);
   std::vector<double> r_step;
+  std::vector<Eigen::VectorXd> x_columns(static_cast<std::size_t>(n));
+  std::vector<std::vector<double>> r_columns(static_cast<std::size_t>(n));
+  std::vector<double> f_columns(static_cast<std::size_t>(n));
   for (int it = 0; it < options.max_iterations; ++it) {
     out.iterations = it + 1;
-    // Forward-difference Jacobian in sigma units (one full INS run per column).
+    // Forward-difference Jacobian in sigma units (one full INS run per column); the n columns
+    // are scored as one batch, so the batched kernel runs them side by side.
+    Eigen::VectorXd h = Eigen::VectorXd::Constant(n, options.step_sigma);
     for (int j = 0; j < n; ++j) {
+      if (options.clamp_to_box && s[j] + h[j] > s_hi[j]) h[j] = -h[j];
       Eigen::VectorXd s_step = s;
-      double h = options.step_sigma;
-      if (options.clamp_to_box && s_step[j] + h > s_hi[j]) h = -h;
-      s_step[j] += h;
-      residuals_at(problem, mapping.from_sigma(s_step), r_step);
-      ++out.evaluations;
+      s_step[j] += h[j];
+      x_columns[static_cast<std::size_t>(j)] = mapping.from_sigma(s_step);
+    }
+    problem.evaluate_residual_batch(x_columns, r_columns, f_columns);
+    out.evaluations += n;
+    for (int j = 0; j < n; ++j) {
+      const std::vector<double>& r_col = r_columns[static_cast<std::size_t>(j)];
       for (std::size_t i = 0; i < m; ++i)
-        J(static_cast<Eigen::Index>(i), j) = (r_step[i] - r[i]) / h;
+        J(static_cast<Eigen::Index>(i), j) = (r_col[i] - r[i]) / h[j];
     }
     std::vector<double> w(m, 1.0);
     if (options.eq15) {
