@@ -12,12 +12,13 @@
 #include <iomanip>
 #include <iostream>
 #include <limits>
-#include <mutex>
+#include <map>
 #include <set>
 #include <sstream>
 #include <stdexcept>
 #include <thread>
 
+#include "bench/cluster.h"
 #include "identification/identify.h"
 #include "identification/ins_problem.h"
 #include "optimizers/registry.h"
@@ -333,15 +334,87 @@ std::string run_file(const std::string& out_dir, const std::string& scenario,
       .string();
 }
 
-CampaignOutcome run_campaign(const CampaignConfig& config, const RunOptions& options) {
-  const auto t_start = std::chrono::steady_clock::now();
+Shard Shard::parse(const std::string& text) {
+  const auto slash = text.find('/');
+  auto number = [&](const std::string& part) {
+    if (part.empty() || part.size() > 6 ||
+        part.find_first_not_of("0123456789") != std::string::npos)
+      throw std::invalid_argument("--shard '" + text + "': expected i/N with whole numbers, e.g. 2/8");
+    return std::stoi(part);
+  };
+  if (slash == std::string::npos)
+    throw std::invalid_argument("--shard '" + text + "': expected i/N, e.g. 2/8");
+  Shard shard;
+  shard.index = number(text.substr(0, slash));
+  shard.count = number(text.substr(slash + 1));
+  if (shard.count < 1)
+    throw std::invalid_argument("--shard '" + text + "': the number of shards N must be >= 1");
+  if (shard.index < 1 || shard.index > shard.count)
+    throw std::invalid_argument("--shard '" + text + "': shard index " + std::to_string(shard.index) +
+                                " is out of range; it must be in 1.." + std::to_string(shard.count));
+  return shard;
+}
+
+CampaignConfig config_from_manifest(const nlohmann::json& manifest, const std::string& origin) {
+  if (!manifest.is_object() || !manifest.contains("config"))
+    throw std::runtime_error(origin + ": not a campaign manifest (no \"config\")");
+  if (manifest.value("schema", "") != kManifestSchema)
+    throw std::runtime_error(origin + ": schema is '" + manifest.value("schema", "") +
+                             "', expected '" + kManifestSchema + "'");
+  // The manifest holds the resolved config (CampaignConfig::to_json): the estimated parameters
+  // as objects, which parse_campaign takes as NAME:SIGMA:LO:HI specs.
+  nlohmann::json j = manifest.at("config");
+  nlohmann::json specs = nlohmann::json::array();
+  for (const nlohmann::json& p : j.value("estimate", nlohmann::json::array())) {
+    std::ostringstream spec;
+    spec << std::setprecision(17) << p.at("name").get<std::string>() << ":"
+         << p.at("sigma").get<double>() << ":" << p.at("lower_sigma").get<double>() << ":"
+         << p.at("upper_sigma").get<double>();
+    specs.push_back(spec.str());
+  }
+  j["estimate"] = specs;
+  const CampaignConfig config = parse_campaign(j, origin + " config");
+  const std::string diff = first_difference(manifest.at("config"), config.to_json());
+  if (!diff.empty())
+    throw std::runtime_error(origin + ": the config does not read back identically (first "
+                             "difference at " + diff + ")");
+  return config;
+}
+
+namespace {
+
+// One run of the campaign's run list.
+struct RunSpec {
+  std::size_t scenario, algorithm;
+  std::uint64_t seed;
+  std::string path;
+};
+
+// The deterministic run list: scenarios, then algorithms, then seeds, in config order. Shards
+// and MPI units are positions in this list, so every split does the same runs.
+std::vector<RunSpec> run_list(const CampaignConfig& config, const std::string& out_dir) {
+  std::vector<RunSpec> runs;
+  for (std::size_t s = 0; s < config.scenarios.size(); ++s)
+    for (std::size_t a = 0; a < config.algorithms.size(); ++a)
+      for (std::uint64_t seed : config.seeds)
+        runs.push_back({s, a, seed,
+                        run_file(out_dir, config.scenarios[s].name, config.algorithms[a].label, seed)});
+  return runs;
+}
+
+bool run_is_done(const CampaignConfig& config, const RunSpec& run) {
+  return run_file_is_complete(run.path, config.scenarios[run.scenario].name,
+                              config.algorithms[run.algorithm].label, run.seed);
+}
+
+// Check out_dir's manifest against `config` (a different campaign is refused unless
+// force_new) and write the manifest. Returns the number of shards the directory is split into
+// (0 when unknown): this launch's, or the one recorded by earlier shards of the same campaign.
+int prepare_directory(const nlohmann::json& config_json, const RunOptions& options, int threads) {
   const fs::path dir(options.out_dir);
   fs::create_directories(dir);
-  const nlohmann::json config_json = config.to_json();
-  const int threads = options.threads > 0 ? options.threads : omp_get_max_threads();
-
-  // Manifest: a different campaign's directory is refused unless --force-new.
   const fs::path manifest_path = dir / "manifest.json";
+  int shard_count = options.shard.count;
   if (fs::exists(manifest_path)) {
     nlohmann::json old;
     try {
@@ -361,6 +434,8 @@ CampaignOutcome run_campaign(const CampaignConfig& config, const RunOptions& opt
       fs::remove_all(dir / "runs");
       fs::remove_all(dir / "optimum");
       fs::remove(dir / "summary.json");
+    } else if (shard_count == 0) {
+      shard_count = old.value("shards", 0);
     }
   }
   nlohmann::json manifest;
@@ -369,177 +444,187 @@ CampaignOutcome run_campaign(const CampaignConfig& config, const RunOptions& opt
   manifest["host"] = host_name();
   manifest["cores"] = std::thread::hardware_concurrency();
   manifest["threads"] = threads;
+  if (shard_count > 0) manifest["shards"] = shard_count;
+  if (options.cluster != nullptr) manifest["mpi_ranks"] = options.cluster->size();
   manifest["config"] = config_json;
+  for (const auto& item : options.manifest_extra.items()) manifest[item.key()] = item.value();
   write_file_atomic(manifest_path, manifest.dump(2) + "\n");
+  return shard_count;
+}
 
-  // Scenarios: datasets, navigation problems, the data's own optimum (stored once).
-  const ParameterMapping mapping(estimated_parameters(config));
+// What a process does about a scenario's optimum file when it is absent.
+enum class OptimumSource {
+  kCompute,  // find it and write it (single process, shards, the first MPI rank of a scenario)
+  kWait,     // another MPI rank is finding it: wait for its file when a run needs it
+};
+
+// Runs lists of runs of one campaign in lock-step waves, preparing scenarios on first use.
+class WaveRunner {
+ public:
+  WaveRunner(const CampaignConfig& config, const RunOptions& options, int threads,
+             const std::vector<RunSpec>& runs, int skipped_runs, int runs_to_do)
+      : config_(config),
+        options_(options),
+        threads_(threads),
+        runs_(runs),
+        mapping_(estimated_parameters(config)),
+        states_(config.scenarios.size()),
+        skipped_runs_(skipped_runs),
+        runs_to_do_(runs_to_do),
+        t_start_(std::chrono::steady_clock::now()) {}
+
+  // Run `ids` (positions in the run list), waves of consecutive runs of one scenario of about
+  // `wave_target` candidates per round.
+  void run(const std::vector<std::size_t>& ids, std::size_t wave_target, OptimumSource source) {
+    std::size_t next = 0;
+    while (next < ids.size()) {
+      const std::size_t scenario = runs_[ids[next]].scenario;
+      prepare(scenario, source);
+      std::vector<Member> wave;
+      std::size_t wave_candidates = 0;
+      while (next < ids.size() && runs_[ids[next]].scenario == scenario &&
+             (wave.empty() || wave_candidates < wave_target)) {
+        add_member(ids[next], wave, wave_candidates);
+        ++next;
+      }
+      run_wave(wave, *states_[scenario].problem);
+    }
+  }
+
+  int new_runs() const { return done_; }
+
+  // The first failed run's error ("" when none failed).
+  std::string first_error() const {
+    for (const auto& [id, error] : errors_) {
+      try {
+        std::rethrow_exception(error);
+      } catch (const std::exception& e) {
+        return "run " + runs_[id].path + " failed: " + e.what();
+      }
+    }
+    return "";
+  }
+
+ private:
   struct ScenarioState {
     std::shared_ptr<const Dataset> dataset;
     std::shared_ptr<const NavigationProblem> navigation;
     std::unique_ptr<InsIdentificationProblem> problem;
-    ReferenceOptimum optimum;
+    std::optional<ReferenceOptimum> optimum;
   };
-  std::vector<ScenarioState> states(config.scenarios.size());
-
-  struct RunSpec {
-    std::size_t scenario, algorithm;
-    std::uint64_t seed;
-    std::string path;
-  };
-  std::vector<RunSpec> pending;
-  CampaignOutcome outcome;
-  for (std::size_t s = 0; s < config.scenarios.size(); ++s)
-    for (std::size_t a = 0; a < config.algorithms.size(); ++a)
-      for (std::uint64_t seed : config.seeds) {
-        ++outcome.total_runs;
-        const std::string path =
-            run_file(options.out_dir, config.scenarios[s].name, config.algorithms[a].label, seed);
-        if (run_file_is_complete(path, config.scenarios[s].name, config.algorithms[a].label, seed))
-          ++outcome.skipped_runs;
-        else
-          pending.push_back({s, a, seed, path});
-      }
-  std::set<std::size_t> needed;
-  for (const RunSpec& r : pending) needed.insert(r.scenario);
-  for (std::size_t s : needed) {
-    const ScenarioSpec& spec = config.scenarios[s];
-    if (!options.quiet) std::cerr << "insid bench: preparing scenario " << spec.name << "\n";
-    ScenarioState& st = states[s];
-    st.dataset = scenario_dataset(spec);
-    st.navigation = std::make_shared<const NavigationProblem>(
-        st.dataset, NavigationOptions{config.alignment});
-    opt::EvaluatorOptions eval;
-    eval.parallelism = opt::Parallelism::kOpenMP;
-    eval.num_threads = threads;
-    st.problem = std::make_unique<InsIdentificationProblem>(
-        st.navigation, mapping, FitnessKind::kEq15, eval,
-        options.scalar_reference ? FitnessEvaluator::kScalar : FitnessEvaluator::kBatched);
-    const fs::path opt_path = dir / "optimum" / (spec.name + ".json");
-    bool have = false;
-    if (fs::exists(opt_path)) {
-      try {
-        const nlohmann::json oj = read_json_file(opt_path);
-        st.optimum.fitness = oj.at("fitness").get<double>();
-        st.optimum.evaluations = oj.at("evaluations").get<std::int64_t>();
-        st.optimum.starts = oj.at("starts").get<int>();
-        st.optimum.value_sigma.resize(mapping.dimension());
-        for (int k = 0; k < mapping.dimension(); ++k)
-          st.optimum.value_sigma[k] =
-              oj.at("estimate_sigma").at(mapping.parameters()[static_cast<std::size_t>(k)].name);
-        have = true;
-      } catch (const std::exception&) {
-        have = false;
-      }
-    }
-    if (!have) {
-      if (!options.quiet)
-        std::cerr << "insid bench: finding the data's own optimum of " << spec.name << "\n";
-      st.optimum = find_reference_optimum(*st.problem);
-      nlohmann::json oj = st.optimum.to_json(mapping);
-      oj["scenario"] = spec.name;
-      fs::create_directories(opt_path.parent_path());
-      write_file_atomic(opt_path, oj.dump(2) + "\n");
-    }
-  }
-
-  if (options.max_new_runs > 0 && pending.size() > static_cast<std::size_t>(options.max_new_runs))
-    pending.resize(static_cast<std::size_t>(options.max_new_runs));
-
-  // Runs advance in lock-step (issue 6): the runs of a wave (consecutive pending runs of one
-  // scenario) ask for their next batch together, the batches are scored in one evaluate_batch
-  // call (the batched kernel spreads groups of candidates over the threads), and each run is
-  // told its slice. A run's result depends only on its own fitness values, which do not depend
-  // on how candidates are grouped, so results equal separate runs. A wave holds enough runs to
-  // fill every thread with several kernel groups per round, and at most about an eighth of the
-  // campaign, so that a killed campaign keeps the waves it finished; each run's file is written
-  // as soon as the run is done.
-  std::mutex progress_mutex;
-  int done = 0;
-  std::vector<std::exception_ptr> errors(pending.size());
-  const auto t_runs = std::chrono::steady_clock::now();
-  const int n_pending = static_cast<int>(pending.size());
-
-  auto run_config = [&](const RunSpec& run) {
-    opt::RunConfig rc;
-    rc.seed = run.seed;
-    rc.max_iterations = config.max_iterations;
-    rc.max_evaluations = config.max_evaluations;
-    rc.record_positions = static_cast<int>(
-        std::find(config.seeds.begin(), config.seeds.end(), run.seed) - config.seeds.begin()) <
-        config.record_positions_seeds;
-    return rc;
-  };
-  auto write_run = [&](const RunSpec& run, const opt::Result& result) {
-    const ScenarioSpec& scenario = config.scenarios[run.scenario];
-    const AlgorithmSpec& algo = config.algorithms[run.algorithm];
-    const ScenarioState& st = states[run.scenario];
-    nlohmann::json j;
-    j["schema"] = kRunSchema;
-    j["scenario"] = scenario.name;
-    j["algorithm"] = algo.label;
-    j["seed"] = run.seed;
-    j["parameters"] = nlohmann::json::array();
-    for (const EstimatedParameter& p : mapping.parameters()) j["parameters"].push_back(p.name);
-    j["result"] = optimizer_result_json(result, mapping);
-    const Eigen::VectorXd best_sigma = mapping.to_sigma(result.best_x);
-    add_estimate_json(j, mapping, best_sigma, st.dataset->meta.injected);
-    for (int k = 0; k < mapping.dimension(); ++k)
-      j["error_vs_optimum_sigma"][mapping.parameters()[static_cast<std::size_t>(k)].name] =
-          best_sigma[k] - st.optimum.value_sigma[k];
-    j["optimum_fitness"] = st.optimum.fitness;
-    j["fitness_gap"] = result.best_f - st.optimum.fitness;
-    j["fitness_gap_relative"] = (result.best_f - st.optimum.fitness) / st.optimum.fitness;
-    fs::create_directories(fs::path(run.path).parent_path());
-    write_file_atomic(run.path, j.dump(1) + "\n");
-    const int n_done = ++done;
-    if (!options.quiet) {
-      std::lock_guard<std::mutex> lock(progress_mutex);
-      const double elapsed =
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - t_runs).count();
-      const double eta = elapsed / n_done * (n_pending - n_done);
-      std::cerr << "\rinsid bench: runs " << outcome.skipped_runs + n_done << "/"
-                << outcome.total_runs << " (" << scenario.name << " " << algo.label << " seed "
-                << run.seed << "), elapsed " << std::fixed << std::setprecision(0) << elapsed
-                << " s, ETA " << eta << " s   " << std::defaultfloat << std::flush;
-    }
-  };
-
-  // Candidates per round a wave aims for: three kernel groups of 16 per thread at least, an
-  // eighth of the campaign (at a typical population of 20) at most.
-  const std::size_t wave_target = std::max<std::size_t>(48 * static_cast<std::size_t>(threads),
-                                                        20 * pending.size() / 8);
-
   struct Member {
-    std::size_t index;  // into pending
+    std::size_t id;  // position in the run list
     std::unique_ptr<opt::Optimizer> optimizer;
     bool finished = false;
   };
-  std::size_t next = 0;
-  while (next < pending.size()) {
-    // Form a wave.
-    std::vector<Member> wave;
-    std::size_t wave_candidates = 0;
-    const std::size_t scenario = pending[next].scenario;
-    while (next < pending.size() && pending[next].scenario == scenario &&
-           (wave.empty() || wave_candidates < wave_target)) {
-      const RunSpec& run = pending[next];
-      const AlgorithmSpec& algo = config.algorithms[run.algorithm];
-      try {
-        auto optimizer = opt::make_optimizer(
-            algo.name, states[scenario].problem->bounds(), run_config(run),
-            opt::ParameterMap(algo.parameters.begin(), algo.parameters.end()));
-        if (dynamic_cast<opt::ResidualConsumer*>(optimizer.get()) == nullptr &&
-            dynamic_cast<opt::ProblemConsumer*>(optimizer.get()) == nullptr)
-          wave_candidates += optimizer->ask().size();
-        wave.push_back({next, std::move(optimizer)});
-      } catch (...) {
-        errors[next] = std::current_exception();
-      }
-      ++next;
-    }
-    const InsIdentificationProblem& problem = *states[scenario].problem;
 
+  fs::path optimum_path(std::size_t s) const {
+    return fs::path(options_.out_dir) / "optimum" / (config_.scenarios[s].name + ".json");
+  }
+
+  std::optional<ReferenceOptimum> read_optimum(std::size_t s) const {
+    const fs::path path = optimum_path(s);
+    std::error_code ec;
+    if (!fs::exists(path, ec)) return std::nullopt;
+    try {
+      const nlohmann::json oj = read_json_file(path);
+      ReferenceOptimum optimum;
+      optimum.fitness = oj.at("fitness").get<double>();
+      optimum.evaluations = oj.at("evaluations").get<std::int64_t>();
+      optimum.starts = oj.at("starts").get<int>();
+      optimum.value_sigma.resize(mapping_.dimension());
+      for (int k = 0; k < mapping_.dimension(); ++k)
+        optimum.value_sigma[k] =
+            oj.at("estimate_sigma").at(mapping_.parameters()[static_cast<std::size_t>(k)].name);
+      return optimum;
+    } catch (const std::exception&) {
+      return std::nullopt;  // damaged: find it again
+    }
+  }
+
+  // Dataset, problem and (unless another rank finds it) the data's own optimum of scenario s.
+  void prepare(std::size_t s, OptimumSource source) {
+    const ScenarioSpec& spec = config_.scenarios[s];
+    ScenarioState& st = states_[s];
+    if (!st.problem) {
+      if (!options_.quiet) std::cerr << "insid bench: preparing scenario " << spec.name << "\n";
+      st.dataset = scenario_dataset(spec);
+      st.navigation = std::make_shared<const NavigationProblem>(
+          st.dataset, NavigationOptions{config_.alignment});
+      opt::EvaluatorOptions eval;
+      eval.parallelism = opt::Parallelism::kOpenMP;
+      eval.num_threads = threads_;
+      st.problem = std::make_unique<InsIdentificationProblem>(
+          st.navigation, mapping_, FitnessKind::kEq15, eval,
+          options_.scalar_reference ? FitnessEvaluator::kScalar : FitnessEvaluator::kBatched);
+    }
+    if (st.optimum) return;
+    st.optimum = read_optimum(s);
+    if (st.optimum || source == OptimumSource::kWait) return;
+    if (!options_.quiet)
+      std::cerr << "insid bench: finding the data's own optimum of " << spec.name << "\n";
+    // Deterministic: shards that find it at the same time write the same file (atomically).
+    st.optimum = find_reference_optimum(*st.problem);
+    nlohmann::json oj = st.optimum->to_json(mapping_);
+    oj["scenario"] = spec.name;
+    fs::create_directories(optimum_path(s).parent_path());
+    write_file_atomic(optimum_path(s), oj.dump(2) + "\n");
+  }
+
+  // The optimum of scenario s, waiting for the MPI rank that finds it when it is not there yet.
+  const ReferenceOptimum& optimum(std::size_t s) {
+    ScenarioState& st = states_[s];
+    bool said = false;
+    while (!st.optimum) {
+      st.optimum = read_optimum(s);
+      if (st.optimum) break;
+      if (!said && !options_.quiet)
+        std::cerr << "insid bench: waiting for another rank to write " << optimum_path(s) << "\n";
+      said = true;
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    return *st.optimum;
+  }
+
+  opt::RunConfig run_config(const RunSpec& run) const {
+    opt::RunConfig rc;
+    rc.seed = run.seed;
+    rc.max_iterations = config_.max_iterations;
+    rc.max_evaluations = config_.max_evaluations;
+    rc.record_positions = static_cast<int>(
+        std::find(config_.seeds.begin(), config_.seeds.end(), run.seed) - config_.seeds.begin()) <
+        config_.record_positions_seeds;
+    return rc;
+  }
+
+  static bool takes_own_step(const opt::Optimizer& optimizer) {
+    return dynamic_cast<const opt::ResidualConsumer*>(&optimizer) != nullptr ||
+           dynamic_cast<const opt::ProblemConsumer*>(&optimizer) != nullptr;
+  }
+
+  void add_member(std::size_t id, std::vector<Member>& wave, std::size_t& wave_candidates) {
+    const RunSpec& run = runs_[id];
+    const AlgorithmSpec& algo = config_.algorithms[run.algorithm];
+    try {
+      auto optimizer = opt::make_optimizer(
+          algo.name, states_[run.scenario].problem->bounds(), run_config(run),
+          opt::ParameterMap(algo.parameters.begin(), algo.parameters.end()));
+      if (!takes_own_step(*optimizer)) wave_candidates += optimizer->ask().size();
+      wave.push_back({id, std::move(optimizer)});
+    } catch (...) {
+      errors_[id] = std::current_exception();
+    }
+  }
+
+  bool failed(std::size_t id) const { return errors_.count(id) > 0; }
+
+  // Runs advance in lock-step (issue 6): the runs of a wave ask for their next batch together,
+  // the batches are scored in one evaluate_batch call (the batched kernel spreads groups of
+  // candidates over the threads), and each run is told its slice. A run's result depends only
+  // on its own fitness values, which do not depend on how candidates are grouped, so results
+  // equal separate runs, whatever the waves, shards or ranks. Each run's file is written as
+  // soon as the run is done.
+  void run_wave(std::vector<Member>& wave, const InsIdentificationProblem& problem) {
     std::vector<Eigen::VectorXd> candidates;
     std::vector<double> fitness;
     std::vector<std::pair<Member*, std::size_t>> slices;  // member, batch size
@@ -549,10 +634,9 @@ CampaignOutcome run_campaign(const CampaignConfig& config, const RunOptions& opt
       candidates.clear();
       slices.clear();
       for (Member& m : wave) {
-        if (m.finished || errors[m.index]) continue;
+        if (m.finished || failed(m.id)) continue;
         try {
-          if (dynamic_cast<opt::ResidualConsumer*>(m.optimizer.get()) != nullptr ||
-              dynamic_cast<opt::ProblemConsumer*>(m.optimizer.get()) != nullptr) {
+          if (takes_own_step(*m.optimizer)) {
             opt::step(*m.optimizer, problem);
             continue;
           }
@@ -560,7 +644,7 @@ CampaignOutcome run_campaign(const CampaignConfig& config, const RunOptions& opt
           candidates.insert(candidates.end(), batch.begin(), batch.end());
           slices.emplace_back(&m, batch.size());
         } catch (...) {
-          errors[m.index] = std::current_exception();
+          errors_[m.id] = std::current_exception();
         }
       }
       if (!slices.empty()) {
@@ -576,18 +660,18 @@ CampaignOutcome run_campaign(const CampaignConfig& config, const RunOptions& opt
               problem.evaluate_batch(std::span<const Eigen::VectorXd>(candidates).subspan(offset, size),
                                      std::span<double>(fitness).subspan(offset, size));
             } catch (...) {
-              errors[member->index] = std::current_exception();
+              errors_[member->id] = std::current_exception();
             }
             offset += size;
           }
         }
         std::size_t offset = 0;
         for (const auto& [member, size] : slices) {
-          if (!errors[member->index]) {
+          if (!failed(member->id)) {
             try {
               member->optimizer->tell(std::span<const double>(fitness).subspan(offset, size));
             } catch (...) {
-              errors[member->index] = std::current_exception();
+              errors_[member->id] = std::current_exception();
             }
           }
           offset += size;
@@ -595,35 +679,231 @@ CampaignOutcome run_campaign(const CampaignConfig& config, const RunOptions& opt
       }
       bool all_done = true;
       for (Member& m : wave) {
-        if (m.finished || errors[m.index]) continue;
+        if (m.finished || failed(m.id)) continue;
         if (!m.optimizer->done()) {
           all_done = false;
           continue;
         }
         m.finished = true;
         try {
-          write_run(pending[m.index], m.optimizer->result());
+          write_run(runs_[m.id], m.optimizer->result());
         } catch (...) {
-          errors[m.index] = std::current_exception();
+          errors_[m.id] = std::current_exception();
         }
       }
       if (all_done) break;
     }
   }
-  if (!options.quiet && n_pending > 0) std::cerr << "\n";
-  for (std::size_t i = 0; i < errors.size(); ++i) {
-    if (!errors[i]) continue;
-    try {
-      std::rethrow_exception(errors[i]);
-    } catch (const std::exception& e) {
-      throw std::runtime_error("run " + pending[i].path + " failed: " + e.what());
+
+  void write_run(const RunSpec& run, const opt::Result& result) {
+    const ScenarioSpec& scenario = config_.scenarios[run.scenario];
+    const AlgorithmSpec& algo = config_.algorithms[run.algorithm];
+    const ReferenceOptimum& opt = optimum(run.scenario);
+    nlohmann::json j;
+    j["schema"] = kRunSchema;
+    j["scenario"] = scenario.name;
+    j["algorithm"] = algo.label;
+    j["seed"] = run.seed;
+    j["parameters"] = nlohmann::json::array();
+    for (const EstimatedParameter& p : mapping_.parameters()) j["parameters"].push_back(p.name);
+    j["result"] = optimizer_result_json(result, mapping_);
+    const Eigen::VectorXd best_sigma = mapping_.to_sigma(result.best_x);
+    add_estimate_json(j, mapping_, best_sigma, states_[run.scenario].dataset->meta.injected);
+    for (int k = 0; k < mapping_.dimension(); ++k)
+      j["error_vs_optimum_sigma"][mapping_.parameters()[static_cast<std::size_t>(k)].name] =
+          best_sigma[k] - opt.value_sigma[k];
+    j["optimum_fitness"] = opt.fitness;
+    j["fitness_gap"] = result.best_f - opt.fitness;
+    j["fitness_gap_relative"] = (result.best_f - opt.fitness) / opt.fitness;
+    fs::create_directories(fs::path(run.path).parent_path());
+    write_file_atomic(run.path, j.dump(1) + "\n");
+    const int n_done = ++done_;
+    if (!options_.quiet) {
+      const double elapsed =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start_).count();
+      const double eta = elapsed / n_done * (runs_to_do_ - n_done);
+      std::cerr << std::fixed << std::setprecision(0);
+      if (options_.cluster == nullptr)
+        std::cerr << "\rinsid bench: runs " << skipped_runs_ + n_done << "/" << runs_.size()
+                  << " (" << scenario.name << " " << algo.label << " seed " << run.seed
+                  << "), elapsed " << elapsed << " s, ETA " << eta << " s   ";
+      else  // rank 0 sees only its own runs
+        std::cerr << "\rinsid bench: rank 0 finished " << n_done << " runs (" << scenario.name
+                  << " " << algo.label << " seed " << run.seed << "), elapsed " << elapsed
+                  << " s   ";
+      std::cerr << std::defaultfloat << std::flush;
     }
   }
-  outcome.new_runs = done;
-  outcome.complete = outcome.skipped_runs + outcome.new_runs == outcome.total_runs;
-  if (outcome.complete) {
-    const nlohmann::json summary = summarize_campaign(options.out_dir, config);
-    write_file_atomic(dir / "summary.json", summary.dump(1) + "\n");
+
+  const CampaignConfig& config_;
+  const RunOptions& options_;
+  const int threads_;
+  const std::vector<RunSpec>& runs_;
+  const ParameterMapping mapping_;
+  std::vector<ScenarioState> states_;
+  std::map<std::size_t, std::exception_ptr> errors_;  // by position in the run list
+  int done_ = 0;
+  const int skipped_runs_, runs_to_do_;
+  const std::chrono::steady_clock::time_point t_start_;
+};
+
+// Candidates per round a wave aims for: three kernel groups of 16 per thread at least, an
+// eighth of the runs to do (at a typical population of 20) at most, so that a killed campaign
+// keeps the waves it finished.
+std::size_t wave_target(int threads, std::size_t runs_to_do) {
+  return std::max<std::size_t>(48 * static_cast<std::size_t>(threads), 20 * runs_to_do / 8);
+}
+
+// MPI work units: consecutive runs of one scenario (so that they share a lock-step wave), about
+// four per thread to keep the batched kernel's groups full, but small enough that every rank
+// gets about four units, so that a rank finishing early can take over work. A unit's first
+// number is 1 when the rank that gets it should find its scenario's missing optimum: units are
+// dealt in order, so the first unit of a scenario reaches its rank before any other unit of it
+// and no rank waits for an optimum that nobody finds. The other numbers are run positions.
+std::vector<WorkUnit> make_units(const CampaignConfig& config, const std::vector<RunSpec>& runs,
+                                 const std::vector<std::size_t>& pending, int threads, int ranks,
+                                 const std::string& out_dir) {
+  const std::size_t per_rank = (pending.size() + 4 * static_cast<std::size_t>(ranks) - 1) /
+                               (4 * static_cast<std::size_t>(ranks));
+  const std::size_t unit_runs =
+      std::clamp<std::size_t>(per_rank, 1, 4 * static_cast<std::size_t>(threads));
+  std::vector<WorkUnit> units;
+  std::set<std::size_t> scenarios_seen;
+  for (std::size_t i = 0; i < pending.size();) {
+    const std::size_t scenario = runs[pending[i]].scenario;
+    const bool first = scenarios_seen.insert(scenario).second;
+    const fs::path optimum =
+        fs::path(out_dir) / "optimum" / (config.scenarios[scenario].name + ".json");
+    WorkUnit unit{first && !fs::exists(optimum) ? 1 : 0};
+    while (i < pending.size() && runs[pending[i]].scenario == scenario && unit.size() <= unit_runs)
+      unit.push_back(static_cast<std::int64_t>(pending[i++]));
+    units.push_back(std::move(unit));
+  }
+  return units;
+}
+
+}  // namespace
+
+std::string missing_runs_report(const std::string& out_dir, const CampaignConfig& config,
+                                int shard_count) {
+  const std::vector<RunSpec> runs = run_list(config, out_dir);
+  std::map<int, std::vector<std::string>> missing_by_shard;  // shard 0 when unknown
+  std::size_t missing = 0;
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    if (run_is_done(config, runs[i])) continue;
+    ++missing;
+    const int shard = shard_count > 0 ? static_cast<int>(i % static_cast<std::size_t>(shard_count)) + 1 : 0;
+    missing_by_shard[shard].push_back(fs::relative(runs[i].path, out_dir).string());
+  }
+  if (missing == 0) return "";
+  std::ostringstream report;
+  report << missing << " of " << runs.size() << " runs missing in " << out_dir;
+  for (const auto& [shard, files] : missing_by_shard) {
+    report << "\n  ";
+    if (shard > 0) report << "shard " << shard << "/" << shard_count << " (" << files.size() << "): ";
+    for (std::size_t k = 0; k < files.size(); ++k) {
+      if (k == 8) {
+        report << " ... and " << files.size() - k << " more";
+        break;
+      }
+      report << (k ? ", " : "") << files[k];
+    }
+  }
+  return report.str();
+}
+
+CampaignOutcome run_campaign(const CampaignConfig& config, const RunOptions& options) {
+  const auto t_start = std::chrono::steady_clock::now();
+  const fs::path dir(options.out_dir);
+  const nlohmann::json config_json = config.to_json();
+  const int threads = options.threads > 0 ? options.threads : omp_get_max_threads();
+  Cluster* cluster = options.cluster != nullptr && options.cluster->size() > 1 ? options.cluster : nullptr;
+  const bool root = cluster == nullptr || cluster->rank() == 0;
+  if (cluster != nullptr && options.shard.active())
+    throw std::invalid_argument("--shard cannot be combined with an MPI launch (the ranks share the work already)");
+  if (options.force_new && options.shard.active())
+    throw std::invalid_argument("--force-new cannot be combined with --shard (it would delete the other shards' runs)");
+
+  // The manifest: rank 0 checks and writes it; every rank fails with its message (no rank is
+  // left waiting for the others).
+  std::string directory_error;
+  int shard_count = 0;
+  if (root) {
+    try {
+      shard_count = prepare_directory(config_json, options, threads);
+    } catch (const std::exception& e) {
+      directory_error = e.what();
+    }
+  }
+  if (cluster != nullptr) directory_error = cluster->broadcast(directory_error);
+  if (!directory_error.empty()) throw std::runtime_error(directory_error);
+
+  const std::vector<RunSpec> runs = run_list(config, options.out_dir);
+  CampaignOutcome outcome;
+  outcome.total_runs = static_cast<int>(runs.size());
+  outcome.writes_results = root;
+  std::vector<std::size_t> pending;  // positions in the run list this invocation should do
+  if (root) {
+    for (std::size_t i = 0; i < runs.size(); ++i) {
+      if (!options.shard.contains(i)) continue;
+      if (run_is_done(config, runs[i]))
+        ++outcome.skipped_runs;
+      else
+        pending.push_back(i);
+    }
+    if (options.max_new_runs > 0 && pending.size() > static_cast<std::size_t>(options.max_new_runs))
+      pending.resize(static_cast<std::size_t>(options.max_new_runs));
+  }
+
+  RunOptions rank_options = options;
+  if (cluster != nullptr && cluster->rank() != 0) rank_options.quiet = true;  // rank 0 reports
+  std::string run_error;
+  if (cluster == nullptr) {
+    WaveRunner runner(config, rank_options, threads, runs, outcome.skipped_runs,
+                      static_cast<int>(pending.size()));
+    runner.run(pending, wave_target(threads, pending.size()), OptimumSource::kCompute);
+    outcome.new_runs = runner.new_runs();
+    run_error = runner.first_error();
+  } else {
+    outcome.skipped_runs = static_cast<int>(cluster->sum(outcome.skipped_runs));
+    const std::vector<WorkUnit> units =
+        root ? make_units(config, runs, pending, threads, cluster->size(), options.out_dir)
+             : std::vector<WorkUnit>{};
+    WaveRunner runner(config, rank_options, threads, runs, outcome.skipped_runs,
+                      static_cast<int>(cluster->sum(static_cast<std::int64_t>(pending.size()))));
+    cluster->deal(units, [&](const WorkUnit& unit) {
+      const std::vector<std::size_t> ids(unit.begin() + 1, unit.end());
+      // The unit is one wave: its runs are scored together.
+      runner.run(ids, std::numeric_limits<std::size_t>::max(),
+                 unit.front() == 1 ? OptimumSource::kCompute : OptimumSource::kWait);
+    });
+    for (std::int64_t n : cluster->gather(runner.new_runs())) {
+      outcome.new_runs_per_rank.push_back(static_cast<int>(n));
+      outcome.new_runs += static_cast<int>(n);
+    }
+    // Every rank learns whether any failed; each reports its own error, or points to the others.
+    run_error = runner.first_error();
+    if (cluster->sum(run_error.empty() ? 0 : 1) > 0 && run_error.empty())
+      run_error = "a run failed on another MPI rank (see its message)";
+  }
+  if (!options.quiet && root && outcome.new_runs > 0) std::cerr << "\n";
+  if (!run_error.empty()) throw std::runtime_error(run_error);
+
+  // Complete when every run is there, whichever process or launch wrote it.
+  if (root) {
+    outcome.complete = outcome.skipped_runs + outcome.new_runs == outcome.total_runs;
+    if (!outcome.complete || options.shard.active() || cluster != nullptr) {
+      outcome.missing_report = missing_runs_report(options.out_dir, config, shard_count);
+      outcome.complete = outcome.missing_report.empty();
+    }
+    if (outcome.complete) {
+      const nlohmann::json summary = summarize_campaign(options.out_dir, config);
+      write_file_atomic(dir / "summary.json", summary.dump(1) + "\n");
+    }
+  }
+  if (cluster != nullptr) {
+    outcome.missing_report = cluster->broadcast(outcome.missing_report);
+    outcome.complete = outcome.missing_report.empty();
   }
   outcome.wall_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();

@@ -2,7 +2,9 @@
 // (results/README.md documents the schema). Runs are independent and deterministic: a run's
 // result depends only on its scenario, algorithm, parameters, budgets and seed, never on the
 // thread count or on which runs were done before. Every file is written atomically; a rerun on
-// the same directory skips finished runs and redoes the ones cut off.
+// the same directory skips finished runs and redoes the ones cut off. A campaign can be split
+// over the ranks of an MPI launch (RunOptions::cluster) or over separately started shards
+// (RunOptions::shard) into the same directory; the run files do not depend on the split.
 #pragma once
 
 #include <cstdint>
@@ -18,6 +20,8 @@
 #include "core/fitness.h"
 
 namespace insid::campaign {
+
+class Cluster;  // bench/cluster.h
 
 struct ScenarioSpec {
   std::string name;
@@ -61,6 +65,21 @@ std::vector<std::string> preset_campaign_names();
 /// Seeds 1..n.
 std::vector<std::uint64_t> seed_range(int n);
 
+/// A deterministic slice of a campaign, for batch schedulers without MPI (`--shard i/N`):
+/// shard i of N does the runs whose position in the campaign's run list (scenario, algorithm,
+/// seed in config order, counted from 0) has remainder i-1 when divided by N.
+struct Shard {
+  int index = 0;  ///< 1..count
+  int count = 0;  ///< 0: not sharded
+  bool active() const { return count > 0; }
+  bool contains(std::size_t run_position) const {
+    return !active() || static_cast<int>(run_position % static_cast<std::size_t>(count)) == index - 1;
+  }
+  std::string to_string() const { return std::to_string(index) + "/" + std::to_string(count); }
+  /// "i/N" with 1 <= i <= N; errors name the value.
+  static Shard parse(const std::string& text);
+};
+
 struct RunOptions {
   std::string out_dir;
   int threads = 0;          ///< 0 = OpenMP default
@@ -71,6 +90,12 @@ struct RunOptions {
   /// Score with the scalar reference (NavigationProblem::fitness per candidate) instead of the
   /// batched kernel, for comparisons; results agree within ~1e-12 relative.
   bool scalar_reference = false;
+  /// Do only this slice of the runs (any process may then write the summary, once complete).
+  Shard shard;
+  /// Share the runs with the other ranks of an MPI launch (nullptr: this process alone).
+  Cluster* cluster = nullptr;
+  /// Extra keys for manifest.json (a sweep stores its own settings there for `insid merge`).
+  nlohmann::json manifest_extra = nlohmann::json::object();
 };
 
 struct CampaignOutcome {
@@ -79,12 +104,28 @@ struct CampaignOutcome {
   int new_runs = 0;
   bool complete = false;  ///< every run present (summary written)
   double wall_s = 0.0;
+  /// Whether this process writes the campaign-wide files (summary, sweep tables): false on the
+  /// MPI ranks other than 0. Counts above are the whole launch's on every rank.
+  bool writes_results = true;
+  /// New runs done by each MPI rank (empty without MPI).
+  std::vector<int> new_runs_per_rank;
+  /// When incomplete: which runs are missing, grouped by shard when shards are known.
+  std::string missing_report;
 };
 
 /// Run (or resume) a campaign into options.out_dir; writes manifest, runs, optimum files and,
 /// once complete, summary.json. Throws std::runtime_error with a clear message on a config
 /// mismatch with an existing manifest (unless force_new) or on I/O errors.
 CampaignOutcome run_campaign(const CampaignConfig& config, const RunOptions& options);
+
+/// The campaign recorded in a manifest.json (its "config"), checked to round-trip exactly.
+CampaignConfig config_from_manifest(const nlohmann::json& manifest, const std::string& origin);
+
+/// Which run files of `config` are missing from `out_dir` (or damaged), as a readable report:
+/// "N of M runs missing" and the files, grouped by shard when `shard_count` > 0. Empty when
+/// every run is present.
+std::string missing_runs_report(const std::string& out_dir, const CampaignConfig& config,
+                                int shard_count);
 
 /// Build summary.json from the run files of a complete campaign directory.
 nlohmann::json summarize_campaign(const std::string& out_dir, const CampaignConfig& config);

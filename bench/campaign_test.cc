@@ -70,6 +70,22 @@ void expect_fields(const nlohmann::json& j, const std::vector<std::pair<std::str
 
 CampaignConfig small_config() { return parse_campaign(nlohmann::json::parse(kConfig), "test"); }
 
+// For the kill test: long enough (4 x 6 runs of 20 iterations on a longer flight) that the
+// campaign cannot finish between the poll that sees the first runs and the kill, even though a
+// lock-step wave finishes several runs at once.
+const char* kKillConfig = R"({
+  "name": "test-kill",
+  "scenarios": [{"name": "rich-short", "preset": "rich", "flight_s": 600, "grade": "nav",
+                 "data_seed": 3}],
+  "algorithms": [{"label": "PSO", "name": "pso"},
+                 {"label": "DVPIO", "name": "dvpio", "parameters": {"dist_threshold": 0.1}},
+                 {"label": "GA", "name": "ga"},
+                 {"label": "PIO", "name": "pio"}],
+  "seeds": 6,
+  "max_iterations": 20
+})";
+constexpr int kKillRuns = 24;
+
 TEST(Campaign, FilesFollowTheDocumentedSchema) {
   const fs::path dir = fresh_dir("schema");
   RunOptions options;
@@ -143,7 +159,7 @@ TEST(Campaign, KilledCampaignResumesWithoutTouchingFinishedRuns) {
   const fs::path ref = fresh_dir("kill-ref");
   fs::create_directories(dir);
   const fs::path config_path = dir.string() + ".json";
-  std::ofstream(config_path) << kConfig;
+  std::ofstream(config_path) << kKillConfig;
   const pid_t pid = fork();
   ASSERT_GE(pid, 0);
   if (pid == 0) {
@@ -162,13 +178,13 @@ TEST(Campaign, KilledCampaignResumesWithoutTouchingFinishedRuns) {
   };
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(240);
   while (count_runs() < 2 && std::chrono::steady_clock::now() < deadline)
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
   kill(pid, SIGKILL);
   int status = 0;
   waitpid(pid, &status, 0);
   const int finished_before = count_runs();
   ASSERT_GE(finished_before, 2);
-  ASSERT_LT(finished_before, 8) << "the campaign finished before it could be killed";
+  ASSERT_LT(finished_before, kKillRuns) << "the campaign finished before it could be killed";
   std::map<fs::path, std::pair<std::string, fs::file_time_type>> before;
   for (const auto& e : fs::recursive_directory_iterator(runs))
     if (e.path().extension() == ".json")
@@ -178,13 +194,14 @@ TEST(Campaign, KilledCampaignResumesWithoutTouchingFinishedRuns) {
   RunOptions options;
   options.out_dir = dir.string();
   options.quiet = true;
-  const CampaignOutcome resumed = run_campaign(small_config(), options);
+  const CampaignConfig config = parse_campaign(nlohmann::json::parse(kKillConfig), "test");
+  const CampaignOutcome resumed = run_campaign(config, options);
 
   // THEN finished runs are skipped and untouched, the rest done, and every run equals an
   // uninterrupted campaign's (wall times aside).
   EXPECT_TRUE(resumed.complete);
   EXPECT_EQ(resumed.skipped_runs, finished_before);
-  EXPECT_EQ(resumed.new_runs, 8 - finished_before);
+  EXPECT_EQ(resumed.new_runs, kKillRuns - finished_before);
   for (const auto& [path, old] : before) {
     EXPECT_EQ(bytes(path), old.first) << path;
     EXPECT_EQ(fs::last_write_time(path), old.second) << path;
@@ -193,9 +210,9 @@ TEST(Campaign, KilledCampaignResumesWithoutTouchingFinishedRuns) {
   ref_options.out_dir = ref.string();
   ref_options.quiet = true;
   ref_options.threads = 2;
-  ASSERT_TRUE(run_campaign(small_config(), ref_options).complete);
-  for (const char* label : {"PSO", "DVPIO"})
-    for (std::uint64_t seed = 1; seed <= 4; ++seed) {
+  ASSERT_TRUE(run_campaign(config, ref_options).complete);
+  for (const char* label : {"PSO", "DVPIO", "GA", "PIO"})
+    for (std::uint64_t seed = 1; seed <= 6; ++seed) {
       nlohmann::json a = read(run_file(dir.string(), "rich-short", label, seed));
       nlohmann::json b = read(run_file(ref.string(), "rich-short", label, seed));
       a["result"].erase("wall_s");

@@ -38,4 +38,10 @@ void write_json_output(const std::string& path, const nlohmann::json& j) {
   write_file_atomic(path, text);
 }
 
+std::string sum_terms(const std::vector<int>& counts) {
+  std::string text;
+  for (int n : counts) text += (text.empty() ? "" : " + ") + std::to_string(n);
+  return text;
+}
+
 }  // namespace insid::cli

@@ -8,6 +8,8 @@
 #include <nlohmann/json.hpp>
 
 #include "bench/campaign.h"
+#include "bench/cli_util.h"
+#include "bench/cluster.h"
 #include "bench/commands.h"
 
 namespace insid::cli {
@@ -22,9 +24,12 @@ struct BenchArgs {
   bool force_new = false;
   int max_new_runs = 0;
   double flight_s = 0.0;
+  std::string shard;
 };
 
 void run_bench(const BenchArgs& args) {
+  // Joined first, so that every rank of an MPI launch sees the same errors below.
+  const std::unique_ptr<campaign::Cluster> cluster = campaign::join_mpi_launch();
   if (args.preset.empty() == args.config_path.empty())
     throw std::invalid_argument("give exactly one of --preset and --config");
   campaign::CampaignConfig config;
@@ -49,12 +54,26 @@ void run_bench(const BenchArgs& args) {
   options.threads = args.threads;
   options.force_new = args.force_new;
   options.max_new_runs = args.max_new_runs;
+  if (!args.shard.empty()) options.shard = campaign::Shard::parse(args.shard);
+  options.cluster = cluster.get();
   const campaign::CampaignOutcome outcome = campaign::run_campaign(config, options);
-  std::cerr << "insid bench: " << outcome.new_runs << " new runs, " << outcome.skipped_runs
-            << " already done, of " << outcome.total_runs << "; " << static_cast<long>(std::lround(outcome.wall_s)) << " s"
-            << (outcome.complete ? "; summary written to " + args.out + "/summary.json"
-                                 : "; incomplete: rerun the same command to continue")
-            << "\n";
+  if (!outcome.writes_results) return;  // MPI rank 0 reports for the launch
+  std::cerr << "insid bench: " << outcome.new_runs << " new runs"
+            << (options.shard.active() ? " (shard " + options.shard.to_string() + ")" : "")
+            << (cluster ? " on " + std::to_string(cluster->size()) + " MPI ranks (" +
+                              cli::sum_terms(outcome.new_runs_per_rank) + ")"
+                        : "")
+            << ", "
+            << outcome.skipped_runs << " already done, of " << outcome.total_runs << "; "
+            << static_cast<long>(std::lround(outcome.wall_s)) << " s";
+  if (outcome.complete)
+    std::cerr << "; summary written to " + args.out + "/summary.json\n";
+  else
+    std::cerr << "; incomplete: " << outcome.missing_report
+              << "\nRerun the same command to continue"
+              << (options.shard.active() ? " (or run the other shards, then insid merge " + args.out + ")"
+                                         : "")
+              << ".\n";
 }
 
 }  // namespace
@@ -76,6 +95,9 @@ void add_bench_command(CLI::App& app) {
                 "discard results of a different campaign found in --out");
   cmd->add_option("--max-new-runs", args->max_new_runs,
                   "stop after this many new runs (the rest on the next invocation)");
+  cmd->add_option("--shard", args->shard,
+                  "do only slice i of N of the runs (i/N, 1 <= i <= N; for batch-scheduler "
+                  "arrays): runs whose position in the run list modulo N is i-1");
   cmd->callback([args] { run_bench(*args); });
 }
 

@@ -4,6 +4,8 @@
 #include <string>
 #include <vector>
 
+#include "bench/cli_util.h"
+#include "bench/cluster.h"
 #include "bench/commands.h"
 #include "bench/sweep.h"
 
@@ -25,9 +27,11 @@ struct SweepArgs {
   std::string out;
   int threads = 0;
   bool force_new = false;
+  std::string shard;
 };
 
 void run(const SweepArgs& args) {
+  const std::unique_ptr<campaign::Cluster> cluster = campaign::join_mpi_launch();
   campaign::SweepConfig sweep;
   sweep.algorithm = args.algorithm;
   for (const std::string& g : args.grid) sweep.axes.push_back(campaign::SweepAxis::parse(g));
@@ -49,13 +53,26 @@ void run(const SweepArgs& args) {
   options.out_dir = args.out;
   options.threads = args.threads;
   options.force_new = args.force_new;
+  if (!args.shard.empty()) options.shard = campaign::Shard::parse(args.shard);
+  options.cluster = cluster.get();
   const auto outcome = campaign::run_sweep(sweep, options);
+  if (!outcome.writes_results) return;  // MPI rank 0 reports for the launch
   std::cerr << "insid sweep: " << campaign::sweep_settings(sweep).size() << " settings x "
-            << sweep.seeds.size() << " seeds; " << outcome.new_runs << " new runs, "
-            << outcome.skipped_runs << " already done"
-            << (outcome.complete ? "; wrote " + args.out + "/sweep.json and sweep.csv"
-                                 : "; incomplete: rerun the same command to continue")
-            << "\n";
+            << sweep.seeds.size() << " seeds; " << outcome.new_runs << " new runs"
+            << (options.shard.active() ? " (shard " + options.shard.to_string() + ")" : "")
+            << (cluster ? " on " + std::to_string(cluster->size()) + " MPI ranks (" +
+                              cli::sum_terms(outcome.new_runs_per_rank) + ")"
+                        : "")
+            << ", "
+            << outcome.skipped_runs << " already done";
+  if (outcome.complete)
+    std::cerr << "; wrote " + args.out + "/sweep.json and sweep.csv\n";
+  else
+    std::cerr << "; incomplete: " << outcome.missing_report
+              << "\nRerun the same command to continue"
+              << (options.shard.active() ? " (or run the other shards, then insid merge " + args.out + ")"
+                                         : "")
+              << ".\n";
 }
 
 }  // namespace
@@ -87,6 +104,8 @@ void add_sweep_command(CLI::App& app) {
   cmd->add_option("--out", args->out, "results directory")->required();
   cmd->add_option("--threads", args->threads, "threads (0 = all cores)");
   cmd->add_flag("--force-new", args->force_new, "discard a different campaign's results in --out");
+  cmd->add_option("--shard", args->shard,
+                  "do only slice i of N of the runs (i/N; see insid bench --shard)");
   cmd->callback([args] { run(*args); });
 }
 

@@ -17,6 +17,7 @@ int main(int argc, char** argv) {
   insid::cli::add_identify_command(app);
   insid::cli::add_bench_command(app);
   insid::cli::add_sweep_command(app);
+  insid::cli::add_merge_command(app);
   insid::cli::add_simulate_command(app);
   insid::cli::add_diagnose_command(app);
   try {

@@ -134,11 +134,58 @@ CampaignConfig sweep_campaign(const SweepConfig& sweep) {
   return parse_campaign(j, "sweep");
 }
 
+nlohmann::json sweep_to_manifest(const SweepConfig& sweep) {
+  nlohmann::json j;
+  j["algorithm"] = sweep.algorithm;
+  j["axes"] = nlohmann::json::array();
+  for (const SweepAxis& a : sweep.axes)
+    j["axes"].push_back({{"key", a.key}, {"values", a.values}, {"lo", a.lo}, {"hi", a.hi}});
+  j["random_settings"] = sweep.random_settings;
+  j["random_seed"] = sweep.random_seed;
+  j["scenario"] = sweep.scenario.name;
+  j["seeds"] = sweep.seeds;
+  return j;
+}
+
+SweepConfig sweep_from_manifest(const nlohmann::json& j, const std::string& origin) {
+  try {
+    SweepConfig sweep;
+    sweep.algorithm = j.at("algorithm").get<std::string>();
+    for (const nlohmann::json& a : j.at("axes")) {
+      SweepAxis axis;
+      axis.key = a.at("key").get<std::string>();
+      axis.values = a.at("values").get<std::vector<double>>();
+      axis.lo = a.at("lo").get<double>();
+      axis.hi = a.at("hi").get<double>();
+      sweep.axes.push_back(axis);
+    }
+    sweep.random_settings = j.at("random_settings").get<int>();
+    sweep.random_seed = j.at("random_seed").get<std::uint64_t>();
+    sweep.scenario.name = j.at("scenario").get<std::string>();
+    sweep.seeds = j.at("seeds").get<std::vector<std::uint64_t>>();
+    return sweep;
+  } catch (const nlohmann::json::exception& e) {
+    throw std::runtime_error(origin + ": unreadable \"sweep\" entry (" + e.what() + ")");
+  }
+}
+
 CampaignOutcome run_sweep(const SweepConfig& sweep, const RunOptions& options) {
   const CampaignConfig campaign = sweep_campaign(sweep);
-  const CampaignOutcome outcome = run_campaign(campaign, options);
-  if (!outcome.complete) return outcome;
+  RunOptions sweep_options = options;
+  sweep_options.manifest_extra["sweep"] = sweep_to_manifest(sweep);
+  const CampaignOutcome outcome = run_campaign(campaign, sweep_options);
+  if (outcome.complete && outcome.writes_results)
+    write_sweep_results(sweep, campaign, options.out_dir);
+  return outcome;
+}
+
+void write_sweep_results(const SweepConfig& sweep, const CampaignConfig& campaign,
+                         const std::string& out_dir) {
   const auto settings = sweep_settings(sweep);
+  if (settings.size() != campaign.algorithms.size())
+    throw std::runtime_error(out_dir + ": the sweep has " + std::to_string(settings.size()) +
+                             " settings but its campaign " +
+                             std::to_string(campaign.algorithms.size()) + " algorithms");
   nlohmann::json out;
   out["schema"] = "insid-sweep/1";
   out["algorithm"] = sweep.algorithm;
@@ -156,7 +203,7 @@ CampaignOutcome run_sweep(const SweepConfig& sweep, const RunOptions& options) {
     const AlgorithmSpec& algo = campaign.algorithms[i];
     std::vector<double> finals, errors;
     for (std::uint64_t seed : campaign.seeds) {
-      std::ifstream in(run_file(options.out_dir, sweep.scenario.name, algo.label, seed));
+      std::ifstream in(run_file(out_dir, sweep.scenario.name, algo.label, seed));
       nlohmann::json r;
       in >> r;
       finals.push_back(r["result"]["fitness"].get<double>());
@@ -184,9 +231,31 @@ CampaignOutcome run_sweep(const SweepConfig& sweep, const RunOptions& options) {
   std::sort(ranking.begin(), ranking.end());
   for (std::size_t r = 0; r < std::min<std::size_t>(5, ranking.size()); ++r)
     out["best"].push_back(out["settings"][ranking[r].second]);
-  write_file_atomic(fs::path(options.out_dir) / "sweep.json", out.dump(1) + "\n");
-  write_file_atomic(fs::path(options.out_dir) / "sweep.csv", csv.str());
-  return outcome;
+  write_file_atomic(fs::path(out_dir) / "sweep.json", out.dump(1) + "\n");
+  write_file_atomic(fs::path(out_dir) / "sweep.csv", csv.str());
+}
+
+int merge_results(const std::string& dir) {
+  const fs::path manifest_path = fs::path(dir) / "manifest.json";
+  std::ifstream in(manifest_path);
+  if (!in)
+    throw std::runtime_error("cannot read " + manifest_path.string() +
+                             ": not a campaign directory (run insid bench or sweep there first)");
+  nlohmann::json manifest;
+  try {
+    in >> manifest;
+  } catch (const nlohmann::json::parse_error& e) {
+    throw std::runtime_error(manifest_path.string() + ": invalid JSON: " + e.what());
+  }
+  const CampaignConfig campaign = config_from_manifest(manifest, manifest_path.string());
+  const std::string missing = missing_runs_report(dir, campaign, manifest.value("shards", 0));
+  if (!missing.empty()) throw std::runtime_error("cannot merge: " + missing);
+  write_file_atomic(fs::path(dir) / "summary.json", summarize_campaign(dir, campaign).dump(1) + "\n");
+  if (manifest.contains("sweep"))
+    write_sweep_results(sweep_from_manifest(manifest.at("sweep"), manifest_path.string()),
+                        campaign, dir);
+  return static_cast<int>(campaign.scenarios.size() * campaign.algorithms.size() *
+                          campaign.seeds.size());
 }
 
 }  // namespace insid::campaign

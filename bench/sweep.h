@@ -41,7 +41,23 @@ std::vector<std::map<std::string, double>> sweep_settings(const SweepConfig& swe
 CampaignConfig sweep_campaign(const SweepConfig& sweep);
 
 /// Run (or resume) a sweep into options.out_dir; when complete, write sweep.json and
-/// sweep.csv there. Returns the campaign outcome.
+/// sweep.csv there. Returns the campaign outcome. The sweep's own settings are stored in the
+/// manifest ("sweep") so that `insid merge` can write the tables of a sharded sweep.
 CampaignOutcome run_sweep(const SweepConfig& sweep, const RunOptions& options);
+
+/// sweep.json and sweep.csv of a complete sweep directory.
+void write_sweep_results(const SweepConfig& sweep, const CampaignConfig& campaign,
+                         const std::string& out_dir);
+
+/// The manifest's "sweep" entry and back (what write_sweep_results needs: algorithm, axes,
+/// random settings, scenario name, seeds).
+nlohmann::json sweep_to_manifest(const SweepConfig& sweep);
+SweepConfig sweep_from_manifest(const nlohmann::json& j, const std::string& origin);
+
+/// `insid merge DIR`: once every run of the campaign (or sweep) in DIR is present, whoever
+/// wrote it (shards, MPI ranks, single runs), write summary.json (and a sweep's sweep.json,
+/// sweep.csv). Throws std::runtime_error listing the missing runs, by shard when the
+/// manifest records shards, otherwise. Returns the number of runs.
+int merge_results(const std::string& dir);
 
 }  // namespace insid::campaign

@@ -5,6 +5,7 @@ set -euo pipefail
 packages=(build-essential cmake git libeigen3-dev nlohmann-json3-dev libcli11-dev
           libbenchmark-dev libgtest-dev libboost-dev
           libpagmo-dev libceres-dev libnlopt-cxx-dev
+          libopenmpi-dev openmpi-bin
           python3 python3-numpy python3-scipy python3-matplotlib)
 missing=()
 for p in "${packages[@]}"; do
