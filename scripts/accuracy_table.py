@@ -14,6 +14,7 @@ import glob
 import json
 import math
 import os
+import re
 import statistics
 import sys
 
@@ -60,7 +61,8 @@ def campaign_rows(cdir):
 
 
 def noise_floor(cdir):
-    """RMS over noise seeds of (data's optimum - truth), per parameter, sigma units."""
+    """Data's optimum minus truth over noise seeds, per parameter, sigma units: mean (a bias
+    common to all seeds), sample SD (the spread noise causes) and RMS."""
     manifest = load(os.path.join(cdir, "manifest.json"))
     cfg = manifest["config"]
     params = [p["name"] for p in cfg["estimate"]]
@@ -70,7 +72,67 @@ def noise_floor(cdir):
         run = load(os.path.join(cdir, "runs", sc["name"], cfg["algorithms"][0]["label"], "seed_1.json"))
         for p in params:
             diffs[p].append(opt["estimate_sigma"][p] - run["truth_sigma"][p])
-    return {p: math.sqrt(sum(d * d for d in v) / len(v)) for p, v in diffs.items()}, len(cfg["scenarios"]), cfg["alignment"]
+    stats = {}
+    for p, v in diffs.items():
+        stats[p] = {"mean": statistics.fmean(v),
+                    "sd": statistics.stdev(v) if len(v) > 1 else float("nan"),
+                    "rms": math.sqrt(sum(d * d for d in v) / len(v)),
+                    "max_abs": max(abs(d) for d in v)}
+    return stats, len(cfg["scenarios"]), cfg["alignment"]
+
+
+LADDER = re.compile(r"^ladder-(?P<scenario>.+)-E(?P<budget>[0-9]+)$")
+
+
+def ladder_rows(root):
+    """Budget ladder (configs/ladder-<scenario>-E<evaluations>.json) plus, as its first rung,
+    the Table 4 campaign <scenario>-per-candidate (40 iterations): from the summaries only."""
+    rungs = []
+    for cfgpath in glob.glob(os.path.join(root, "configs", "ladder-*.json")):
+        m = LADDER.match(os.path.basename(cfgpath)[:-5])
+        if m:
+            rungs.append((m["scenario"], os.path.join(root, os.path.basename(cfgpath)[:-5])))
+    for scenario in sorted({sc for sc, _ in rungs}):
+        rungs.append((scenario, os.path.join(root, scenario + "-per-candidate")))
+    rows = []
+    for scenario, cdir in rungs:
+        path = os.path.join(cdir, "summary.json")
+        if not os.path.exists(path):
+            continue
+        algos = load(path)["scenarios"][scenario]["algorithms"]
+        for label, a in algos.items():
+            params = list(a["error_vs_optimum_sigma"].keys())
+            success = {t["target"]["value"]: t["rate"] for t in a["success"]
+                       if t["target"]["kind"] == "max_abs_error_vs_optimum_sigma"}
+            rows.append({"scenario": scenario, "algorithm": label,
+                         "evaluations": a["evaluations"]["median"],
+                         "median_abs": {p: a["error_vs_optimum_sigma"][p]["median_abs"] for p in params},
+                         "max_abs": {p: a["error_vs_optimum_sigma"][p]["max_abs"] for p in params},
+                         "within_0.1": success.get(0.1), "runs": a["runs"],
+                         "fitness": a["final_fitness"]["median"]})
+    rows.sort(key=lambda r: (r["scenario"], r["algorithm"], r["evaluations"]))
+    return rows
+
+
+def ladder_table(root):
+    rows = ladder_rows(root)
+    if not rows:
+        return []
+    params = list(rows[0]["median_abs"].keys())
+    short = [p.replace("accel_bias_", "A").replace("gyro_bias_", "D") for p in params]
+    out = ["\n### Budget ladder, alignment `per-candidate`: |error vs the data's optimum| (σ), "
+           "median / worst over seeds\n",
+           "| scenario | algorithm | evaluations | " + " | ".join(short) +
+           " | runs with every parameter ≤ 0.1 σ | final fitness (median) |",
+           "|" + "---|" * (3 + len(params) + 2)]
+    for r in rows:
+        cells = [f"`{r['scenario']}`", r["algorithm"], fmt(r["evaluations"])]
+        cells += [f"{fmt(r['median_abs'][p])} / {fmt(r['max_abs'][p])}" for p in params]
+        w = r["within_0.1"]
+        cells.append("–" if w is None else f"{round(w * r['runs'])} / {r['runs']}")
+        cells.append(fmt(r["fitness"]))
+        out.append("| " + " | ".join(cells) + " |")
+    return out
 
 
 def main():
@@ -86,11 +148,16 @@ def main():
             except (OSError, KeyError):
                 pass
     for al, (fl, n) in sorted(floors.items()):
-        out.append(f"Noise floor (`rich`, `nav` grade, alignment `{al}`): RMS of (data's optimum − truth) "
-                   f"over {n} noise seeds, σ: " + ", ".join(f"{p} {fmt(v)}" for p, v in fl.items()) + "\n")
+        out.append(f"\n### Noise floor (`rich`, `nav` grade, alignment `{al}`): data's optimum − truth "
+                   f"over {n} noise seeds (σ)\n")
+        out.append("| parameter | mean | SD | RMS | max \\|·\\| |")
+        out.append("|---|---|---|---|---|")
+        for p, st in fl.items():
+            out.append(f"| {p} | {fmt(st['mean'])} | {fmt(st['sd'])} | {fmt(st['rms'])} | {fmt(st['max_abs'])} |")
+    out += ladder_table(root)
     for cfgpath in sorted(glob.glob(os.path.join(root, "configs", "*.json"))):
         name = os.path.basename(cfgpath)[:-5]
-        if name.startswith("noise-floor"):
+        if name.startswith("noise-floor") or name.startswith("ladder-"):
             continue
         cdir = os.path.join(root, name)
         if not os.path.exists(os.path.join(cdir, "manifest.json")):
