@@ -713,10 +713,20 @@ void write_whole_file(const fs::path& path, const std::string& contents) {
 }
 
 // Unique sibling name: "<name><tag><pid>-<n>".
+// Unique among processes sharing a file system: host name, process id and a counter (ranks
+// of an MPI job on different hosts can have the same pid and write into one results tree).
 fs::path sibling(const fs::path& target, const char* tag) {
   static std::atomic<unsigned> counter{0};
+  static const std::string host = [] {
+    std::array<char, 256> name{};
+    if (::gethostname(name.data(), name.size() - 1) != 0 || name[0] == '\0') return std::string("host");
+    std::string h(name.data());
+    for (char& c : h)
+      if (c == '/' || c == '\\') c = '_';
+    return h;
+  }();
   return target.parent_path() /
-         (target.filename().string() + tag + std::to_string(::getpid()) + "-" +
+         (target.filename().string() + tag + host + "-" + std::to_string(::getpid()) + "-" +
           std::to_string(counter.fetch_add(1)));
 }
 

@@ -373,6 +373,7 @@ opt::ParameterList EkfRtsOptimizer::parameters() const {
   opt::ParameterList list = params_.list();
   if (done()) {
     list.emplace_back("equivalent_ins_runs", equivalent_ins_runs_);
+    if (ekf_) list.emplace_back("filter_smoother_wall_s", ekf_->filter_wall_s + ekf_->smoother_wall_s);
     for (std::size_t k = 0; k < names_.size(); ++k)
       list.emplace_back("std_sigma_" + names_[k], std_sigma_[static_cast<Eigen::Index>(k)]);
   }
@@ -382,6 +383,7 @@ opt::ParameterList EkfRtsOptimizer::parameters() const {
 void EkfRtsOptimizer::bind(const opt::Problem& problem) {
   if (bound_ == &problem) return;
   if (bound_ != nullptr) throw std::logic_error("EKF-RTS: bound to a second problem");
+  start_clock();  // the filter and smoother pass below is this run's main work
   const auto* ins = dynamic_cast<const InsIdentificationProblem*>(&problem);
   if (ins == nullptr)
     throw std::invalid_argument("ekf-rts runs on the INS identification problem only, not on '" +

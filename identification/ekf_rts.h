@@ -71,7 +71,8 @@ EkfRtsResult run_ekf_rts(const NavigationProblem& navigation, const EkfRtsParams
 /// its own estimate (clamped to the box), so the result has the Eq. 15 fitness of the estimate;
 /// the run ends after that one iteration. parameters() lists the settings and, after the run,
 /// `equivalent_ins_runs` (filter + smoother wall time over the wall time of that one
-/// evaluation) and `std_sigma_<name>` of every estimated parameter.
+/// evaluation), `filter_smoother_wall_s` and `std_sigma_<name>` of every estimated parameter.
+/// The run's wall clock starts at bind(), so Result::wall_time_s includes the filter pass.
 class EkfRtsOptimizer final : public opt::Optimizer, public opt::ProblemConsumer {
  public:
   EkfRtsOptimizer(const opt::Bounds& bounds, const opt::RunConfig& config,

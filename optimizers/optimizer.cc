@@ -86,7 +86,7 @@ Eigen::VectorXd Optimizer::clamp(const Eigen::VectorXd& x) const {
 std::span<const Eigen::VectorXd> Optimizer::ask() {
   if (done()) throw std::logic_error(name() + ": ask() after the run has ended");
   if (pending_) return batch_;
-  if (!start_) start_ = std::chrono::steady_clock::now();
+  start_clock();
 
   batch_.clear();
   propose(batch_);
@@ -167,6 +167,10 @@ void Optimizer::record_iteration(std::span<const double> fitness) {
     record.fitness.assign(fitness.begin(), fitness.end());
   }
   result_.history.push_back(std::move(record));
+}
+
+void Optimizer::start_clock() {
+  if (!start_) start_ = std::chrono::steady_clock::now();
 }
 
 void Optimizer::finish(Termination termination) {

@@ -150,6 +150,9 @@ class Optimizer {
   std::vector<Eigen::VectorXd> initial_population(int population);
   /// x clamped to the box.
   Eigen::VectorXd clamp(const Eigen::VectorXd& x) const;
+  /// Starts the run's wall clock now (it otherwise starts at the first ask()): for work done
+  /// before the first batch, e.g. a Kalman filter pass in ProblemConsumer::bind.
+  void start_clock();
 
  private:
   void record_iteration(std::span<const double> fitness);
