@@ -10,10 +10,12 @@
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <iterator>
 #include <iostream>
 #include <limits>
 #include <map>
 #include <set>
+#include <span>
 #include <sstream>
 #include <stdexcept>
 #include <thread>
@@ -597,9 +599,13 @@ class WaveRunner {
     return rc;
   }
 
+  // Kalman-type baselines see the problem and score their own candidates.
   static bool takes_own_step(const opt::Optimizer& optimizer) {
-    return dynamic_cast<const opt::ResidualConsumer*>(&optimizer) != nullptr ||
-           dynamic_cast<const opt::ProblemConsumer*>(&optimizer) != nullptr;
+    return dynamic_cast<const opt::ProblemConsumer*>(&optimizer) != nullptr;
+  }
+  // Least-squares baselines need the residual vectors of their candidates.
+  static opt::ResidualConsumer* residual_consumer(opt::Optimizer& optimizer) {
+    return dynamic_cast<opt::ResidualConsumer*>(&optimizer);
   }
 
   void add_member(std::size_t id, std::vector<Member>& wave, std::size_t& wave_candidates) {
@@ -609,7 +615,8 @@ class WaveRunner {
       auto optimizer = opt::make_optimizer(
           algo.name, states_[run.scenario].problem->bounds(), run_config(run),
           opt::ParameterMap(algo.parameters.begin(), algo.parameters.end()));
-      if (!takes_own_step(*optimizer)) wave_candidates += optimizer->ask().size();
+      if (!takes_own_step(*optimizer) && residual_consumer(*optimizer) == nullptr)
+        wave_candidates += optimizer->ask().size();
       wave.push_back({id, std::move(optimizer)});
     } catch (...) {
       errors_[id] = std::current_exception();
@@ -618,21 +625,85 @@ class WaveRunner {
 
   bool failed(std::size_t id) const { return errors_.count(id) > 0; }
 
+  // The candidates of one round that are scored together, and the runs they belong to.
+  struct Batch {
+    std::vector<Eigen::VectorXd> candidates;
+    std::vector<std::pair<Member*, std::size_t>> slices;  // member, its batch size
+    void clear() {
+      candidates.clear();
+      slices.clear();
+    }
+    void add(Member* member, std::span<const Eigen::VectorXd> xs) {
+      candidates.insert(candidates.end(), xs.begin(), xs.end());
+      slices.emplace_back(member, xs.size());
+    }
+  };
+
+  // Scores a round's batch (with the residual vectors when `with_residuals`) and tells each run
+  // its slice. When the batch fails, the slices are scored one by one to find the run(s) at
+  // fault; the others carry on (their results do not depend on the grouping).
+  void score(Batch& batch, const InsIdentificationProblem& problem, bool with_residuals) {
+    if (batch.slices.empty()) return;
+    const std::size_t n = batch.candidates.size();
+    std::vector<double> fitness(n, std::numeric_limits<double>::quiet_NaN());
+    std::vector<std::vector<double>> residuals(with_residuals ? n : 0);
+    auto evaluate = [&](std::size_t offset, std::size_t size) {
+      const auto xs = std::span<const Eigen::VectorXd>(batch.candidates).subspan(offset, size);
+      const auto f = std::span<double>(fitness).subspan(offset, size);
+      if (with_residuals)
+        problem.evaluate_residual_batch(
+            xs, std::span<std::vector<double>>(residuals).subspan(offset, size), f);
+      else
+        problem.evaluate_batch(xs, f);
+    };
+    try {
+      evaluate(0, n);
+    } catch (...) {
+      std::size_t offset = 0;
+      for (const auto& [member, size] : batch.slices) {
+        try {
+          evaluate(offset, size);
+        } catch (...) {
+          errors_[member->id] = std::current_exception();
+        }
+        offset += size;
+      }
+    }
+    std::size_t offset = 0;
+    for (const auto& [member, size] : batch.slices) {
+      if (!failed(member->id)) {
+        try {
+          if (with_residuals) {
+            const auto first = residuals.begin() + static_cast<std::ptrdiff_t>(offset);
+            residual_consumer(*member->optimizer)
+                ->set_residuals(std::vector<std::vector<double>>(
+                    std::make_move_iterator(first),
+                    std::make_move_iterator(first + static_cast<std::ptrdiff_t>(size))));
+          }
+          member->optimizer->tell(std::span<const double>(fitness).subspan(offset, size));
+        } catch (...) {
+          errors_[member->id] = std::current_exception();
+        }
+      }
+      offset += size;
+    }
+  }
+
   // Runs advance in lock-step (issue 6): the runs of a wave ask for their next batch together,
   // the batches are scored in one evaluate_batch call (the batched kernel spreads groups of
-  // candidates over the threads), and each run is told its slice. A run's result depends only
+  // candidates over the threads; least-squares runs' residual batches likewise), and each run
+  // is told its slice. A run's result depends only
   // on its own fitness values, which do not depend on how candidates are grouped, so results
   // equal separate runs, whatever the waves, shards or ranks. Each run's file is written as
   // soon as the run is done.
   void run_wave(std::vector<Member>& wave, const InsIdentificationProblem& problem) {
-    std::vector<Eigen::VectorXd> candidates;
-    std::vector<double> fitness;
-    std::vector<std::pair<Member*, std::size_t>> slices;  // member, batch size
+    Batch plain, residual;  // fitness-only candidates; candidates whose residuals are needed
     for (;;) {
-      // One round: optimizers that need residuals or the problem take their own step (as in
-      // opt::run_together); the others share one batch.
-      candidates.clear();
-      slices.clear();
+      // One round: Kalman-type optimizers take their own step (opt::step); the others ask for
+      // their next batch, and all fitness-only batches are scored in one evaluate_batch call,
+      // all least-squares batches in one evaluate_residual_batch call.
+      plain.clear();
+      residual.clear();
       for (Member& m : wave) {
         if (m.finished || failed(m.id)) continue;
         try {
@@ -640,43 +711,14 @@ class WaveRunner {
             opt::step(*m.optimizer, problem);
             continue;
           }
-          const std::span<const Eigen::VectorXd> batch = m.optimizer->ask();
-          candidates.insert(candidates.end(), batch.begin(), batch.end());
-          slices.emplace_back(&m, batch.size());
+          Batch& batch = residual_consumer(*m.optimizer) != nullptr ? residual : plain;
+          batch.add(&m, m.optimizer->ask());
         } catch (...) {
           errors_[m.id] = std::current_exception();
         }
       }
-      if (!slices.empty()) {
-        fitness.assign(candidates.size(), std::numeric_limits<double>::quiet_NaN());
-        try {
-          problem.evaluate_batch(candidates, fitness);
-        } catch (...) {
-          // Find the run(s) whose candidates fail by scoring the slices one by one; the others
-          // carry on (their results do not depend on the grouping).
-          std::size_t offset = 0;
-          for (const auto& [member, size] : slices) {
-            try {
-              problem.evaluate_batch(std::span<const Eigen::VectorXd>(candidates).subspan(offset, size),
-                                     std::span<double>(fitness).subspan(offset, size));
-            } catch (...) {
-              errors_[member->id] = std::current_exception();
-            }
-            offset += size;
-          }
-        }
-        std::size_t offset = 0;
-        for (const auto& [member, size] : slices) {
-          if (!failed(member->id)) {
-            try {
-              member->optimizer->tell(std::span<const double>(fitness).subspan(offset, size));
-            } catch (...) {
-              errors_[member->id] = std::current_exception();
-            }
-          }
-          offset += size;
-        }
-      }
+      score(plain, problem, false);
+      score(residual, problem, true);
       bool all_done = true;
       for (Member& m : wave) {
         if (m.finished || failed(m.id)) continue;

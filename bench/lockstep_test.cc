@@ -72,5 +72,51 @@ TEST(Lockstep, BatchedCampaignEqualsScalarAndDoesNotDependOnThreads) {
   fs::remove_all(scalar);
 }
 
+TEST(Lockstep, LeastSquaresRunsScoredTogetherEqualRunsDoneAlone) {
+  // GIVEN a campaign of Levenberg-Marquardt runs (residual vectors) and BOBYQA runs, done once
+  // in one wave (all LM residual batches in one evaluate_residual_batch call per round) and
+  // once one run per invocation (--max-new-runs 1: each run alone in its wave)
+  const char* config_text = R"({
+    "name": "test-lockstep-lsq",
+    "scenarios": [{"name": "rich-short", "preset": "rich", "flight_s": 300, "grade": "nav",
+                   "data_seed": 5}],
+    "algorithms": [{"label": "LM", "name": "lm"}, {"label": "BOBYQA", "name": "bobyqa"}],
+    "seeds": 3,
+    "max_iterations": 0,
+    "max_evaluations": 60
+  })";
+  const CampaignConfig config = parse_campaign(nlohmann::json::parse(config_text), "test");
+  auto dir_for = [](const std::string& name) {
+    const fs::path dir = fs::temp_directory_path() /
+                         ("insid-lockstep-" + name + "-" + std::to_string(getpid()));
+    fs::remove_all(dir);
+    return dir;
+  };
+  const fs::path together = dir_for("lsq-together");
+  const fs::path alone = dir_for("lsq-alone");
+  RunOptions options;
+  options.threads = 2;
+  options.quiet = true;
+  options.out_dir = together.string();
+  ASSERT_TRUE(run_campaign(config, options).complete);
+  options.out_dir = alone.string();
+  options.max_new_runs = 1;
+  int invocations = 0;
+  while (!run_campaign(config, options).complete) ASSERT_LT(++invocations, 10);
+  EXPECT_EQ(invocations, 5);  // six runs, one per invocation
+  // THEN every run file is the same but for the wall time
+  for (const char* label : {"LM", "BOBYQA"})
+    for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+      nlohmann::json a = read(run_file(together.string(), "rich-short", label, seed));
+      nlohmann::json b = read(run_file(alone.string(), "rich-short", label, seed));
+      a["result"].erase("wall_s");
+      b["result"].erase("wall_s");
+      EXPECT_EQ(a, b) << label << " seed " << seed;
+      EXPECT_EQ(a["result"]["evaluations"], 60) << label << " seed " << seed;
+    }
+  fs::remove_all(together);
+  fs::remove_all(alone);
+}
+
 }  // namespace
 }  // namespace insid::campaign

@@ -852,6 +852,9 @@ def verdict_paragraph(c, scenario, pairs, alpha):
     s = []
     if mb == ms:
         s.append(f"{best} and {second} share the lowest median final fitness ({fmt(mb)}).")
+    elif mb > 0 and ms > 0 and ms / mb < 1.01:
+        s.append(f"{best} has the lowest median final fitness ({mb:.6g}); the runner-up "
+                 f"{second} is within {fmt(100 * (ms / mb - 1))} % of it ({ms:.6g}).")
     elif mb > 0 and ms > 0:
         s.append(f"{best} has the lowest median final fitness ({fmt(mb)}); the runner-up "
                  f"{second} has a median {fmt(ms / mb)} times higher ({fmt(ms)}).")
