@@ -435,8 +435,13 @@ def run_scenario(run, fallback):
 
 
 def colors_for(labels):
-    cmap = plt.get_cmap("tab10")
-    return {lab: cmap(i % 10) for i, lab in enumerate(labels)}
+    # Distinct colours for up to 20 algorithms (tab10's ten, then tab20's lighter shades).
+    if len(labels) <= 10:
+        cmap = plt.get_cmap("tab10")
+        return {lab: cmap(i) for i, lab in enumerate(labels)}
+    cmap = plt.get_cmap("tab20")
+    order = list(range(0, 20, 2)) + list(range(1, 20, 2))
+    return {lab: cmap(order[i % 20]) for i, lab in enumerate(labels)}
 
 
 def plot_convergence(c, scenario, axis, path, dpi):
@@ -450,8 +455,16 @@ def plot_convergence(c, scenario, axis, path, dpi):
         if curve is None:
             continue
         x, med, q1, q3 = curve
-        ax.plot(x, med, color=colors[lab], lw=1.6, label=f"{lab} (n={c.n_runs(scenario, lab)})")
-        ax.fill_between(x, q1, q3, color=colors[lab], alpha=0.2, lw=0)
+        if len(x) == 1:
+            # A one-pass method (the EKF-RTS): one point, on the evaluation axis at its cost in
+            # INS runs (its evaluation plus its filter pass), so it is comparable to the curves.
+            x_point = c.median_cost(scenario, lab) if axis == "evaluations" else x[0]
+            ax.plot([x_point], med, color=colors[lab], marker="*", ms=11, ls="none",
+                    label=f"{lab} (n={c.n_runs(scenario, lab)}, one pass"
+                          + (", at its cost)" if axis == "evaluations" else ")"))
+        else:
+            ax.plot(x, med, color=colors[lab], lw=1.6, label=f"{lab} (n={c.n_runs(scenario, lab)})")
+            ax.fill_between(x, q1, q3, color=colors[lab], alpha=0.2, lw=0)
         all_y.append(np.concatenate([med, q1, q3]))
         drawn += 1
     if drawn == 0:
@@ -467,7 +480,7 @@ def plot_convergence(c, scenario, axis, path, dpi):
     ax.set_ylabel("best-so-far fitness")
     ax.set_title(f"{scenario}: best-so-far fitness, median and IQR over seeds", fontsize=10)
     ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=7 if drawn > 6 else 8, ncol=2 if drawn > 6 else 1)
     fig.tight_layout()
     save(fig, path, dpi)
     return True
