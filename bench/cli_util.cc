@@ -38,10 +38,26 @@ void write_json_output(const std::string& path, const nlohmann::json& j) {
   write_file_atomic(path, text);
 }
 
-std::string sum_terms(const std::vector<int>& counts) {
+std::string split_description(const campaign::RunOptions& options,
+                              const campaign::CampaignOutcome& outcome) {
   std::string text;
-  for (int n : counts) text += (text.empty() ? "" : " + ") + std::to_string(n);
+  if (options.shard.active()) text += " (shard " + options.shard.to_string() + ")";
+  if (options.cluster != nullptr) {
+    std::string per_rank;
+    for (int n : outcome.new_runs_per_rank)
+      per_rank += (per_rank.empty() ? "" : " + ") + std::to_string(n);
+    text += " on " + std::to_string(options.cluster->size()) + " MPI ranks (" + per_rank + ")";
+  }
   return text;
+}
+
+std::string incomplete_message(const campaign::RunOptions& options,
+                               const campaign::CampaignOutcome& outcome) {
+  return "; incomplete: " + outcome.missing_report + "\nRerun the same command to continue" +
+         (options.shard.active()
+              ? " (or run the other shards, then insid merge " + options.out_dir + ")"
+              : "") +
+         ".\n";
 }
 
 }  // namespace insid::cli

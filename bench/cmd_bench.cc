@@ -59,21 +59,14 @@ void run_bench(const BenchArgs& args) {
   const campaign::CampaignOutcome outcome = campaign::run_campaign(config, options);
   if (!outcome.writes_results) return;  // MPI rank 0 reports for the launch
   std::cerr << "insid bench: " << outcome.new_runs << " new runs"
-            << (options.shard.active() ? " (shard " + options.shard.to_string() + ")" : "")
-            << (cluster ? " on " + std::to_string(cluster->size()) + " MPI ranks (" +
-                              cli::sum_terms(outcome.new_runs_per_rank) + ")"
-                        : "")
+            << cli::split_description(options, outcome)
             << ", "
             << outcome.skipped_runs << " already done, of " << outcome.total_runs << "; "
             << static_cast<long>(std::lround(outcome.wall_s)) << " s";
   if (outcome.complete)
     std::cerr << "; summary written to " + args.out + "/summary.json\n";
   else
-    std::cerr << "; incomplete: " << outcome.missing_report
-              << "\nRerun the same command to continue"
-              << (options.shard.active() ? " (or run the other shards, then insid merge " + args.out + ")"
-                                         : "")
-              << ".\n";
+    std::cerr << cli::incomplete_message(options, outcome);
 }
 
 }  // namespace

@@ -59,20 +59,13 @@ void run(const SweepArgs& args) {
   if (!outcome.writes_results) return;  // MPI rank 0 reports for the launch
   std::cerr << "insid sweep: " << campaign::sweep_settings(sweep).size() << " settings x "
             << sweep.seeds.size() << " seeds; " << outcome.new_runs << " new runs"
-            << (options.shard.active() ? " (shard " + options.shard.to_string() + ")" : "")
-            << (cluster ? " on " + std::to_string(cluster->size()) + " MPI ranks (" +
-                              cli::sum_terms(outcome.new_runs_per_rank) + ")"
-                        : "")
+            << cli::split_description(options, outcome)
             << ", "
             << outcome.skipped_runs << " already done";
   if (outcome.complete)
     std::cerr << "; wrote " + args.out + "/sweep.json and sweep.csv\n";
   else
-    std::cerr << "; incomplete: " << outcome.missing_report
-              << "\nRerun the same command to continue"
-              << (options.shard.active() ? " (or run the other shards, then insid merge " + args.out + ")"
-                                         : "")
-              << ".\n";
+    std::cerr << cli::incomplete_message(options, outcome);
 }
 
 }  // namespace
