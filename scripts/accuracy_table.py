@@ -99,7 +99,14 @@ def ladder_rows(root):
         path = os.path.join(cdir, "summary.json")
         if not os.path.exists(path):
             continue
-        algos = load(path)["scenarios"][scenario]["algorithms"]
+        summary_scenario = load(path)["scenarios"][scenario]
+        algos = summary_scenario["algorithms"]
+        # Two-sided Mann-Whitney on the final fitness, DVPIO against PIO at the same budget.
+        vs_pio = None
+        for pair in summary_scenario.get("pairwise", []):
+            if {pair["a"], pair["b"]} == {"DVPIO", "PIO"}:
+                a12_pio_higher = pair["a12"] if pair["a"] == "PIO" else 1.0 - pair["a12"]
+                vs_pio = (pair["p"], a12_pio_higher)
         for label, a in algos.items():
             params = list(a["error_vs_optimum_sigma"].keys())
             success = {t["target"]["value"]: t["rate"] for t in a["success"]
@@ -109,6 +116,7 @@ def ladder_rows(root):
                          "median_abs": {p: a["error_vs_optimum_sigma"][p]["median_abs"] for p in params},
                          "max_abs": {p: a["error_vs_optimum_sigma"][p]["max_abs"] for p in params},
                          "within_0.1": success.get(0.1), "runs": a["runs"],
+                         "vs_pio": vs_pio if label == "DVPIO" else None,
                          "fitness": a["final_fitness"]["median"]})
     rows.sort(key=lambda r: (r["scenario"], r["algorithm"], r["evaluations"]))
     return rows
@@ -123,15 +131,19 @@ def ladder_table(root):
     out = ["\n### Budget ladder, alignment `per-candidate`: |error vs the data's optimum| (σ), "
            "median / worst over seeds\n",
            "| scenario | algorithm | evaluations | " + " | ".join(short) +
-           " | runs with every parameter ≤ 0.1 σ | final fitness (median) |",
-           "|" + "---|" * (3 + len(params) + 2)]
+           " | runs with every parameter ≤ 0.1 σ | final fitness (median) | DVPIO vs PIO: p, A12 |",
+           "|" + "---|" * (3 + len(params) + 3)]
     for r in rows:
-        cells = [f"`{r['scenario']}`", r["algorithm"], fmt(r["evaluations"])]
+        cells = [f"`{r['scenario']}`", r["algorithm"], f"{r['evaluations']:.0f}"]
         cells += [f"{fmt(r['median_abs'][p])} / {fmt(r['max_abs'][p])}" for p in params]
         w = r["within_0.1"]
         cells.append("–" if w is None else f"{round(w * r['runs'])} / {r['runs']}")
         cells.append(fmt(r["fitness"]))
+        v = r["vs_pio"]
+        cells.append("–" if v is None else f"{fmt(v[0])}, {fmt(v[1])}")
         out.append("| " + " | ".join(cells) + " |")
+    out.append("\nLast column: two-sided Mann-Whitney p on the final fitness (no correction: one "
+               "pair per budget) and A12 = P(PIO ends higher than DVPIO).")
     return out
 
 
