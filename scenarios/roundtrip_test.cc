@@ -2,9 +2,11 @@
 // (45 min after a 10 min alignment) navigated by NavigationProblem::run must stay within
 // 1e-4 m/s horizontal velocity and 0.5 m horizontal position of the truth, with the true
 // initial attitude and with the attitude aligned from the data.
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <optional>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -20,6 +22,8 @@ struct RoundTrip {
   double max_att = 0;      // rad
   double max_resid = 0;    // m/s, INS minus GNSS at GNSS epochs
   std::size_t steps = 0;
+  std::vector<double> resid;    // (dvE, dvN) per compared GNSS epoch
+  std::vector<double> epoch_t;  // GNSS tag of each compared epoch (s)
 };
 
 const Dataset& rich_clean() {
@@ -42,7 +46,8 @@ RoundTrip navigate(const Dataset& ds, const SensorErrors& candidate, bool true_a
   RoundTrip r;
   const EarthModel& E = ds.meta.earth;
   std::size_t k = k0;
-  std::vector<double> resid;
+  std::vector<double>& resid = r.resid;
+  for (std::size_t i : problem.epoch_gnss_indices()) r.epoch_t.push_back(ds.gnss[i].t_s);
   problem.run(candidate, C0, [&](const NavState& s) {
     const TruthSample& t = ds.truth[k++];
     EXPECT_NEAR(s.t_s, t.t_s, 1e-9);
@@ -95,11 +100,56 @@ TEST(RoundTrip, ExactCandidateCompensatesInjectedErrors) {
   const Dataset ds = simulate(c);
   const RoundTrip exact = navigate(ds, c.injected, false);
   EXPECT_LT(exact.max_dv_h, 1e-4);
-  // The residual limit is looser than the navigation error: measured 6.2e-4 m/s, almost all of
-  // it from lever_arm_z (2.8e-4 m/s alone) during the roll-in/roll-out of the bank turns, where
-  // the antenna velocity uses omega_ib_b extrapolated from the last two IMU increments. Not yet
-  // explained further; the bound keeps a 3x margin over the measured value.
-  EXPECT_LT(exact.max_resid, 2e-3);
+  // The residual is larger than the navigation error only at GNSS epochs just after a kink of
+  // the roll rate. The trajectory channels are C1 (trajectory.h): roll = atan(Vh r / g) with a
+  // raised-cosine turn rate r (ramp_s = 3 s) has a continuous rate but a step dJ in roll
+  // acceleration at every ramp end: dJ = 0.5 (pi / 3 s)^2 tan(bank) = 0.316 rad/s^2 at the wings-
+  // level end of a 30 deg bank ramp, cos^2(bank) of that (0.237) at the banked end, 0.633 at an
+  // S-turn reversal. The antenna velocity needs omega_ib_b AT the epoch, which the INS
+  // extrapolates as 1.5 w_k - 0.5 w_{k-1} from the last two increments' mean rates: exact for a
+  // linearly varying rate, but a kink s seconds before the epoch t_k leaves
+  //   omega error = dJ (0.75 s^2 / dt - s)                            (0 <= s < dt)
+  //               = dJ (0.5 u - 0.25 dt - u^2 / (4 dt)),  u = s - dt   (dt <= s < 2 dt),
+  // at most dJ dt / 3 (s = 2 dt / 3), times the lever arm across the rate (|l_z| for roll).
+  // Measured (rich, 1200 s, noise-free): the worst epoch, tag 1475.00 s (t = 1474.98 s after the
+  // 0.02 s latency), lies s = 6.05 ms after an S-turn reversal with dJ = +0.633 rad/s^2:
+  // predicted omega_x error -2.092e-3 rad/s, measured -2.092e-3 (every kink epoch agrees to 4
+  // digits), x 0.3 m = 6.3e-4 m/s; the residual there is 6.2e-4 m/s. The same epoch with the true
+  // omega_ib_b gives 3.0e-5 m/s, the INS velocity error there. Not a modelling error: 100 Hz
+  // increments carry only interval means, so no estimator from them resolves a kink inside the
+  // last interval or two (the two-sided (w_k + w_{k+1}) / 2 still errs up to dJ dt / 4), and
+  // real rate data have such kinks too. The truth (antenna_solution) agrees with the INS
+  // formula to 1e-14 m/s once the velocity is resolved in the antenna's own ENU frame; the
+  // INS's IMU-ENU resolution differs by |l_h| v / R <= 2.6e-6 m/s. The height aiding with the
+  // antenna's height (0.3 m off) does not couple into the horizontal residual (max |dv_h| moves
+  // by < 2e-6 m/s).
+  // Bound: the worst case over any epoch phase, dJ_max dt / 3 |l_z| = 6.3e-4 m/s plus the
+  // navigation error (< 1e-4 m/s).
+  EXPECT_LT(exact.max_resid, 1e-3);
+  // Away from the kinks (no channel breakpoint within the two IMU intervals before the epoch)
+  // the residual is at the navigation-error level: measured 6.7e-5 m/s (5.2e-5 with
+  // lever_arm_z alone, 6.8e-5 with lever_arm_x alone). Checked to fail: the INS taking the last
+  // mean rate w_k instead of the extrapolation gives 1.04e-3 m/s here (and overall).
+  {
+    const std::vector<double> bps = plan_scenario(c).trajectory.breakpoints();
+    const double dt = 1.0 / c.imu_rate_hz;
+    double max_far = 0.0;
+    std::size_t n_far = 0;
+    for (std::size_t e = 0; e < exact.epoch_t.size(); ++e) {
+      const double t = exact.epoch_t[e] - c.injected.gnss_latency_s;
+      const bool near_kink = std::any_of(bps.begin(), bps.end(), [&](double b) {
+        return t - b > 0.0 && t - b < 2.0 * dt + 1e-9;
+      });
+      if (near_kink) continue;
+      ++n_far;
+      max_far = std::max(
+          {max_far, std::fabs(exact.resid[2 * e]), std::fabs(exact.resid[2 * e + 1])});
+    }
+    EXPECT_GT(n_far, exact.epoch_t.size() * 9 / 10);
+    EXPECT_LT(max_far, 2e-4);
+    std::printf("exact candidate: max residual away from trajectory kinks %.3g m/s (%zu of %zu "
+                "epochs)\n", max_far, n_far, exact.epoch_t.size());
+  }
   // ... and without the GNSS-side effects / uncompensated the data are far off.
   SensorErrors imu_only = c.injected;
   imu_only.lever_arm_b_m.setZero();
