@@ -529,16 +529,7 @@ class WaveRunner {
     std::error_code ec;
     if (!fs::exists(path, ec)) return std::nullopt;
     try {
-      const nlohmann::json oj = read_json_file(path);
-      ReferenceOptimum optimum;
-      optimum.fitness = oj.at("fitness").get<double>();
-      optimum.evaluations = oj.at("evaluations").get<std::int64_t>();
-      optimum.starts = oj.at("starts").get<int>();
-      optimum.value_sigma.resize(mapping_.dimension());
-      for (int k = 0; k < mapping_.dimension(); ++k)
-        optimum.value_sigma[k] =
-            oj.at("estimate_sigma").at(mapping_.parameters()[static_cast<std::size_t>(k)].name);
-      return optimum;
+      return ReferenceOptimum::from_json(read_json_file(path), mapping_);
     } catch (const std::exception&) {
       return std::nullopt;  // damaged: find it again
     }

@@ -25,6 +25,19 @@ nlohmann::json ReferenceOptimum::to_json(const ParameterMapping& mapping) const 
   return j;
 }
 
+ReferenceOptimum ReferenceOptimum::from_json(const nlohmann::json& j,
+                                             const ParameterMapping& mapping) {
+  ReferenceOptimum optimum;
+  optimum.fitness = j.at("fitness").get<double>();
+  optimum.evaluations = j.at("evaluations").get<std::int64_t>();
+  optimum.starts = j.at("starts").get<int>();
+  optimum.value_sigma.resize(mapping.dimension());
+  for (int k = 0; k < mapping.dimension(); ++k)
+    optimum.value_sigma[k] =
+        j.at("estimate_sigma").at(mapping.parameters()[static_cast<std::size_t>(k)].name).get<double>();
+  return optimum;
+}
+
 ReferenceOptimum find_reference_optimum(const InsIdentificationProblem& problem, int starts,
                                         std::uint64_t seed) {
   const int n = problem.dimension();
@@ -79,16 +92,11 @@ ReferenceOptimum cached_reference_optimum(const std::string& data_dir,
     }
   }
   if (cache.is_object() && cache.contains(key)) {
-    const nlohmann::json& e = cache[key];
-    ReferenceOptimum opt;
-    opt.fitness = e.at("fitness").get<double>();
-    opt.evaluations = e.at("evaluations").get<std::int64_t>();
-    opt.starts = e.at("starts").get<int>();
-    opt.value_sigma.resize(problem.dimension());
-    for (int k = 0; k < problem.dimension(); ++k)
-      opt.value_sigma[k] =
-          e.at("estimate_sigma").at(problem.mapping().parameters()[static_cast<std::size_t>(k)].name);
-    return opt;
+    try {
+      return ReferenceOptimum::from_json(cache[key], problem.mapping());
+    } catch (const nlohmann::json::exception&) {
+      // a damaged entry is recomputed (and overwritten below)
+    }
   }
   std::cerr << "insid: finding the data's own optimum (multi-start local fit, cached in "
             << path.string() << ")\n";

@@ -27,6 +27,8 @@ struct ReferenceOptimum {
   std::int64_t evaluations = 0;
   int starts = 0;
   nlohmann::json to_json(const ParameterMapping& mapping) const;
+  /// Inverse of to_json; throws nlohmann::json::exception on a missing or mistyped field.
+  static ReferenceOptimum from_json(const nlohmann::json& j, const ParameterMapping& mapping);
 };
 
 /// Multi-start local fit from the box centre and `starts - 1` seeded random points.
