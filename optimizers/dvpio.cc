@@ -30,6 +30,11 @@
 //      older = +1, newer = -1:  d_p = d_n = 0.5 d_n
 //    then clamp to [d_min, d_max]. The first probe of a dimension (only one T exists) leaves d
 //    unchanged, so the first two premature iterations both use d_initial.
+//  - Variant `shrink_without_gain` = 1 (not the paper's; default 0): when neither probe of
+//    dimension j beats the X_gbest they were placed around, both d of j are halved (clamped at
+//    d_min) and j's T history restarts, instead of Eq. 14. It removes the lock of the Eq. 14
+//    reading (README.md), at the price of shrinking a dimension whose optimum lies just beyond
+//    a probe that was too long.
 //  - History: each record carries premature, the d used by the batch's probes (the current d
 //    when not premature) and the batch's T flags (0 for dimensions not probed).
 #include "optimizers/dvpio.h"
@@ -55,6 +60,8 @@ std::span<const ParameterField<DvpioParams>> DvpioParams::fields() {
       {"d_initial", &DvpioParams::d_initial, "initial dimension-vector size d (problem units)"},
       {"d_min", &DvpioParams::d_min, "lower clamp of d (problem units)"},
       {"d_max", &DvpioParams::d_max, "upper clamp of d (problem units)"},
+      {"shrink_without_gain", &DvpioParams::shrink_without_gain,
+       "1: halve a dimension's d when neither probe beats X_gbest (insid variant, not Eq. 14)"},
   };
   return kFields;
 }
@@ -64,6 +71,7 @@ std::string DvpioParams::validate() const {
        {check_at_least(kAlgorithm, "population", population, 2),
         check_range(kAlgorithm, "R", R, 0.0, 1.0), check_range(kAlgorithm, "C", C, 0.0, 4.0),
         check_range(kAlgorithm, "per_dimension_rand", per_dimension_rand, 0.0, 1.0),
+        check_range(kAlgorithm, "shrink_without_gain", shrink_without_gain, 0.0, 1.0),
         check_at_least(kAlgorithm, "dist_threshold", dist_threshold, 0.0),
         check_positive(kAlgorithm, "d_min", d_min), check_positive(kAlgorithm, "d_max", d_max)}) {
     if (!error.empty()) return error;
@@ -121,6 +129,7 @@ void DvpioOptimizer::propose_premature() {
   const int count = static_cast<int>(x_.size());
   probe_positive_.assign(n, -1);
   probe_negative_.assign(n, -1);
+  batch_gbest_f_ = best_f();
 
   // Step 5: natural selection, worst (largest fitness) first.
   std::vector<int> order(count);
@@ -188,6 +197,15 @@ void DvpioOptimizer::accept(std::span<const Eigen::VectorXd> batch,
       const double f_negative = fitness[probe_negative_[j]];
       const int flag = f_negative <= f_positive ? -1 : +1;  // Eq. 13
       batch_flags_[j] = flag;
+      if (params_.shrink_without_gain != 0 && f_positive >= batch_gbest_f_ &&
+          f_negative >= batch_gbest_f_) {
+        // Variant: no gain on either side, so X_gbest is within d of a local minimum along j
+        // (as compass search reasons): halve both d, restart j's T history.
+        d_positive_[j] = std::max(0.5 * d_positive_[j], params_.d_min);
+        d_negative_[j] = std::max(0.5 * d_negative_[j], params_.d_min);
+        last_flag_[j] = 0;
+        continue;
+      }
       if (last_flag_[j] != 0) adapt_d(j, last_flag_[j], flag);
       last_flag_[j] = flag;
     }

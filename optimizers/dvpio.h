@@ -31,6 +31,11 @@ struct DvpioParams {
   double d_initial = 0.0125;    ///< initial d_jp = d_jn (problem units; 0.05 sigma in the INS box)
   double d_min = 1e-6;          ///< lower clamp of d (problem units)
   double d_max = 0.5;           ///< upper clamp of d (problem units)
+  /// 0 (default): Eq. 14 exactly as DESIGN.md sec. 2 reads it. 1: an insid variant, not the
+  /// paper's: when neither probe of dimension j beats the X_gbest they were placed around, both
+  /// d of j are halved and j's T history restarts, instead of Eq. 14 (which compares the two
+  /// probes only, and can lock d at (d_max/2, d_max): optimizers/README.md).
+  int shrink_without_gain = 0;
 
   static std::span<const ParameterField<DvpioParams>> fields();
   std::string validate() const;
@@ -75,6 +80,7 @@ class DvpioOptimizer final : public Optimizer {
   Eigen::VectorXd batch_d_positive_, batch_d_negative_;
   std::vector<int> batch_flags_;               ///< T_j of this batch, 0 = not probed
   std::vector<int> probe_positive_, probe_negative_;  ///< pigeon probing +d / -d per dim, or -1
+  double batch_gbest_f_ = 0.0;    ///< f(X_gbest) the probes were placed around
 };
 
 }  // namespace insid::opt

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <string>
 #include <vector>
 
@@ -99,6 +100,65 @@ TEST(Dvpio, ProbesFlagsAndDAdaptationFollowEq10To14) {
     EXPECT_EQ(record.best_fitness, expected[g].best_f);
   }
   EXPECT_TRUE(same(result.best_x, Eigen::Vector2d(-0.5, 3.0 / 64)));
+}
+
+TEST(Dvpio, ShrinkWithoutGainVariantHalvesDWhereNeitherProbeGainsAndUnlocks) {
+  // GIVEN the constructed case above, where Eq. 14 locks dim 0 at (d_max/2, d_max), run with
+  // the insid variant shrink_without_gain = 1
+  const FunctionProblem problem(Bounds::unit_box(2), quadratic);
+  RunConfig config;
+  config.max_iterations = 12;
+  config.record_positions = true;
+  config.initial_positions = {Eigen::Vector2d(0, 0), Eigen::Vector2d(0.75, 0.75),
+                              Eigen::Vector2d(0.75, -0.75), Eigen::Vector2d(-0.75, 0.75)};
+  DvpioParams params;
+  params.population = 4;
+  params.dist_threshold = 1.0;
+  params.d_initial = 0.125;
+  params.d_min = 1.0 / 64;
+  params.d_max = 0.375;
+  params.shrink_without_gain = 1;
+  DvpioOptimizer optimizer(problem.bounds(), config, params);
+  const Result& result = run(optimizer, problem);
+  ASSERT_EQ(result.history.size(), 12u);
+
+  // THEN after every premature batch in which neither probe of dimension j beat the X_gbest
+  // they were placed around, the next batch probes j with both d halved (clamped at d_min)
+  Eigen::Vector2d centre = result.history[0].positions[0];  // X_gbest after iteration 1
+  double centre_f = result.history[0].best_fitness;
+  int shrinks = 0;
+  for (std::size_t k = 1; k + 1 < result.history.size(); ++k) {
+    const IterationRecord& batch = result.history[k];
+    const IterationRecord& next = result.history[k + 1];
+    ASSERT_TRUE(batch.premature);
+    for (int j = 0; j < 2; ++j) {
+      double f_plus = -1.0, f_minus = -1.0;
+      for (std::size_t i = 0; i < batch.positions.size(); ++i) {
+        const Eigen::VectorXd& x = batch.positions[i];
+        if (x[1 - j] != centre[1 - j] || x[j] == centre[j]) continue;  // not a probe of j
+        (x[j] > centre[j] ? f_plus : f_minus) = batch.fitness[i];
+      }
+      ASSERT_GE(f_plus, 0.0) << "iteration " << k + 1 << " dim " << j;
+      ASSERT_GE(f_minus, 0.0) << "iteration " << k + 1 << " dim " << j;
+      if (f_plus >= centre_f && f_minus >= centre_f) {
+        ++shrinks;
+        EXPECT_EQ(next.d_positive[j], std::max(0.5 * batch.d_positive[j], params.d_min))
+            << "iteration " << k + 2 << " dim " << j;
+        EXPECT_EQ(next.d_negative[j], std::max(0.5 * batch.d_negative[j], params.d_min))
+            << "iteration " << k + 2 << " dim " << j;
+      }
+    }
+    for (std::size_t i = 0; i < batch.positions.size(); ++i)
+      if (batch.fitness[i] < centre_f) {
+        centre_f = batch.fitness[i];
+        centre = batch.positions[i];
+      }
+  }
+  EXPECT_GE(shrinks, 2);
+  // AND dim 0 is not locked: the run ends below the binding reading's locked 65/4096
+  EXPECT_LT(result.best_f, 65.0 / 4096);
+  std::printf("[ measured ] shrink_without_gain: %d shrinks, best f %.6g (Eq. 14 locks at %.6g)\n",
+              shrinks, result.best_f, 65.0 / 4096);
 }
 
 TEST(Dvpio, PrematureSwitchHappensBelowThresholdAndIsSticky) {

@@ -147,6 +147,45 @@ def ladder_table(root):
     return out
 
 
+def variant_table(root):
+    """configs/variant-*.json: DVPIO against an insid variant of it, from the summaries."""
+    out = []
+    for cfgpath in sorted(glob.glob(os.path.join(root, "configs", "variant-*.json"))):
+        cdir = os.path.join(root, os.path.basename(cfgpath)[:-5])
+        path = os.path.join(cdir, "summary.json")
+        if not os.path.exists(path):
+            continue
+        summary = load(path)
+        cfg = load(os.path.join(cdir, "manifest.json"))["config"]
+        budget = (f"{cfg['max_evaluations']} evaluations" if cfg["max_evaluations"]
+                  else f"{cfg['max_iterations']} iterations")
+        for scenario, sc in summary["scenarios"].items():
+            labels = list(sc["algorithms"].keys())
+            params = list(sc["algorithms"][labels[0]]["error_vs_optimum_sigma"].keys())
+            short = [p.replace("accel_bias_", "A").replace("gyro_bias_", "D") for p in params]
+            out.append(f"\n### Variant `{os.path.basename(cdir)}`: `{scenario}`, {budget}, "
+                       f"{sc['algorithms'][labels[0]]['runs']} seeds; |error vs the data's optimum| "
+                       "(σ), median / worst\n")
+            out.append("| algorithm | " + " | ".join(short) +
+                       " | runs with every parameter ≤ 0.1 σ | final fitness median [q1, q3] |")
+            out.append("|" + "---|" * (len(params) + 3))
+            for label in labels:
+                a = sc["algorithms"][label]
+                success = {t["target"]["value"]: t["rate"] for t in a["success"]
+                           if t["target"]["kind"] == "max_abs_error_vs_optimum_sigma"}
+                ff = a["final_fitness"]
+                cells = [label] + [f"{fmt(a['error_vs_optimum_sigma'][p]['median_abs'])} / "
+                                   f"{fmt(a['error_vs_optimum_sigma'][p]['max_abs'])}" for p in params]
+                cells.append(f"{round(success.get(0.1, float('nan')) * a['runs'])} / {a['runs']}")
+                cells.append(f"{fmt(ff['median'])} [{fmt(ff['q1'])}, {fmt(ff['q3'])}]")
+                out.append("| " + " | ".join(cells) + " |")
+            for pair in sc.get("pairwise", []):
+                out.append(f"\nTwo-sided Mann-Whitney on the final fitness, {pair['a']} vs "
+                           f"{pair['b']}: p = {fmt(pair['p'])}, A12 = P({pair['a']} ends higher) = "
+                           f"{fmt(pair['a12'])}.")
+    return out
+
+
 def main():
     root = sys.argv[1] if len(sys.argv) > 1 else "results/accuracy"
     out = []
@@ -167,9 +206,10 @@ def main():
         for p, st in fl.items():
             out.append(f"| {p} | {fmt(st['mean'])} | {fmt(st['sd'])} | {fmt(st['rms'])} | {fmt(st['max_abs'])} |")
     out += ladder_table(root)
+    out += variant_table(root)
     for cfgpath in sorted(glob.glob(os.path.join(root, "configs", "*.json"))):
         name = os.path.basename(cfgpath)[:-5]
-        if name.startswith("noise-floor") or name.startswith("ladder-"):
+        if name.startswith(("noise-floor", "ladder-", "variant-")):
             continue
         cdir = os.path.join(root, name)
         if not os.path.exists(os.path.join(cdir, "manifest.json")):
