@@ -135,6 +135,43 @@ std::string first_difference(const nlohmann::json& a, const nlohmann::json& b,
   return a == b ? "" : path;
 }
 
+// A manifest written before an algorithm gained a parameter lacks that parameter. New
+// parameters default to the old behaviour (e.g. DVPIO's shrink_without_gain = 0), so where the
+// new config has such a parameter at its default the campaigns are the same: the old config
+// gets it added before the two are compared, and such directories can still be resumed and
+// merged. A parameter away from its default is a difference as before.
+nlohmann::json with_added_defaults(nlohmann::json old_config, const nlohmann::json& new_config) {
+  const nlohmann::json* new_algorithms =
+      new_config.is_object() && new_config.contains("algorithms") ? &new_config["algorithms"]
+                                                                   : nullptr;
+  if (!old_config.is_object() || new_algorithms == nullptr || !new_algorithms->is_array() ||
+      !old_config.contains("algorithms") || !old_config["algorithms"].is_array() ||
+      old_config["algorithms"].size() != new_algorithms->size())
+    return old_config;
+  for (std::size_t i = 0; i < new_algorithms->size(); ++i) {
+    nlohmann::json& old_algorithm = old_config["algorithms"][i];
+    const nlohmann::json& new_algorithm = (*new_algorithms)[i];
+    if (!old_algorithm.is_object() || !new_algorithm.is_object() ||
+        old_algorithm.value("name", "") != new_algorithm.value("name", "") ||
+        !old_algorithm.contains("parameters") || !old_algorithm["parameters"].is_object() ||
+        !new_algorithm.contains("parameters") || !new_algorithm["parameters"].is_object())
+      continue;
+    opt::ParameterList defaults;
+    try {
+      defaults = opt::default_parameters(new_algorithm["name"].get<std::string>());
+    } catch (const std::exception&) {
+      continue;
+    }
+    nlohmann::json& old_parameters = old_algorithm["parameters"];
+    const nlohmann::json& new_parameters = new_algorithm["parameters"];
+    for (const auto& [key, value] : defaults)
+      if (!old_parameters.contains(key) && new_parameters.contains(key) &&
+          new_parameters[key].is_number() && new_parameters[key].get<double>() == value)
+        old_parameters[key] = value;
+  }
+  return old_config;
+}
+
 std::vector<EstimatedParameter> estimated_parameters(const CampaignConfig& config) {
   std::vector<EstimatedParameter> params;
   for (const std::string& e : config.estimate) params.push_back(EstimatedParameter::parse(e));
@@ -376,7 +413,9 @@ CampaignConfig config_from_manifest(const nlohmann::json& manifest, const std::s
   }
   j["estimate"] = specs;
   const CampaignConfig config = parse_campaign(j, origin + " config");
-  const std::string diff = first_difference(manifest.at("config"), config.to_json());
+  const nlohmann::json config_json = config.to_json();
+  const std::string diff =
+      first_difference(with_added_defaults(manifest.at("config"), config_json), config_json);
   if (!diff.empty())
     throw std::runtime_error(origin + ": the config does not read back identically (first "
                              "difference at " + diff + ")");
@@ -425,7 +464,8 @@ int prepare_directory(const nlohmann::json& config_json, const RunOptions& optio
       throw std::runtime_error(manifest_path.string() + ": unreadable manifest (" + e.what() +
                                "); use --force-new to start over");
     }
-    const std::string diff = first_difference(old.value("config", nlohmann::json()), config_json);
+    const std::string diff = first_difference(
+        with_added_defaults(old.value("config", nlohmann::json()), config_json), config_json);
     if (!diff.empty()) {
       if (!options.force_new)
         throw std::runtime_error(

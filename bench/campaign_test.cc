@@ -153,6 +153,39 @@ TEST(Campaign, DifferentConfigIsRefusedUnlessForceNew) {
   fs::remove_all(dir);
 }
 
+TEST(Campaign, ManifestWithoutANewDefaultParameterStillResumes) {
+  // GIVEN a directory whose manifest was written before DVPIO had shrink_without_gain
+  const fs::path dir = fresh_dir("added-default");
+  RunOptions options;
+  options.out_dir = dir.string();
+  options.quiet = true;
+  options.max_new_runs = 2;
+  run_campaign(small_config(), options);
+  nlohmann::json manifest = read(dir / "manifest.json");
+  nlohmann::json& dvpio = manifest["config"]["algorithms"][1];
+  ASSERT_EQ(dvpio["name"], "dvpio");
+  ASSERT_EQ(dvpio["parameters"].erase("shrink_without_gain"), 1u);
+  std::ofstream(dir / "manifest.json") << manifest.dump(2);
+  // THEN the same campaign resumes (the parameter is at its default: same results)...
+  options.max_new_runs = 0;
+  const CampaignOutcome outcome = run_campaign(small_config(), options);
+  EXPECT_EQ(outcome.skipped_runs, 2);
+  EXPECT_TRUE(outcome.complete);
+  // ...and merges; but the variant switched on is a different campaign
+  std::ofstream(dir / "manifest.json") << manifest.dump(2);
+  EXPECT_NO_THROW(merge_results(dir.string()));
+  std::ofstream(dir / "manifest.json") << manifest.dump(2);
+  CampaignConfig variant = small_config();
+  variant.algorithms[1].parameters["shrink_without_gain"] = 1;
+  try {
+    run_campaign(variant, options);
+    FAIL() << "a config with the variant switched on was accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("shrink_without_gain"), std::string::npos) << e.what();
+  }
+  fs::remove_all(dir);
+}
+
 TEST(Campaign, KilledCampaignResumesWithoutTouchingFinishedRuns) {
   // GIVEN a campaign process killed (SIGKILL) after some runs finished
   const fs::path dir = fresh_dir("kill");
