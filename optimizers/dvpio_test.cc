@@ -32,22 +32,33 @@ struct Generation {
   double best_f;
 };
 
-TEST(Dvpio, ProbesFlagsAndDAdaptationFollowEq10To14) {
-  // GIVEN 4 pigeons in 2-D (2n = 4: every pigeon is a probe, no random moves), a fixed initial
-  // population, dist_threshold 1 (premature right after the initial population: Dist = 0.80),
-  // d_initial 1/8, d in [1/64, 3/8].
-  const FunctionProblem problem(Bounds::unit_box(2), quadratic);
+// The constructed case: 4 pigeons in 2-D (2n = 4: every pigeon is a probe, no random moves), a
+// fixed initial population, dist_threshold 1 (premature right after the initial population:
+// Dist = 0.80), d_initial 1/8, d in [1/64, 3/8].
+RunConfig constructed_config(int iterations) {
   RunConfig config;
-  config.max_iterations = 8;
+  config.max_iterations = iterations;
   config.record_positions = true;
   config.initial_positions = {Eigen::Vector2d(0, 0), Eigen::Vector2d(0.75, 0.75),
                               Eigen::Vector2d(0.75, -0.75), Eigen::Vector2d(-0.75, 0.75)};
+  return config;
+}
+
+DvpioParams constructed_params() {
   DvpioParams params;
   params.population = 4;
   params.dist_threshold = 1.0;
   params.d_initial = 0.125;
   params.d_min = 1.0 / 64;
   params.d_max = 0.375;
+  return params;
+}
+
+TEST(Dvpio, ProbesFlagsAndDAdaptationFollowEq10To14) {
+  // GIVEN the constructed case with the binding Eq. 14 reading
+  const FunctionProblem problem(Bounds::unit_box(2), quadratic);
+  const RunConfig config = constructed_config(8);
+  const DvpioParams params = constructed_params();
   DvpioOptimizer optimizer(problem.bounds(), config, params);
   const Result& result = run(optimizer, problem);
 
@@ -103,20 +114,11 @@ TEST(Dvpio, ProbesFlagsAndDAdaptationFollowEq10To14) {
 }
 
 TEST(Dvpio, ShrinkWithoutGainVariantHalvesDWhereNeitherProbeGainsAndUnlocks) {
-  // GIVEN the constructed case above, where Eq. 14 locks dim 0 at (d_max/2, d_max), run with
-  // the insid variant shrink_without_gain = 1
+  // GIVEN the constructed case, where Eq. 14 locks dim 0 at (d_max/2, d_max), run with the
+  // insid variant shrink_without_gain = 1
   const FunctionProblem problem(Bounds::unit_box(2), quadratic);
-  RunConfig config;
-  config.max_iterations = 12;
-  config.record_positions = true;
-  config.initial_positions = {Eigen::Vector2d(0, 0), Eigen::Vector2d(0.75, 0.75),
-                              Eigen::Vector2d(0.75, -0.75), Eigen::Vector2d(-0.75, 0.75)};
-  DvpioParams params;
-  params.population = 4;
-  params.dist_threshold = 1.0;
-  params.d_initial = 0.125;
-  params.d_min = 1.0 / 64;
-  params.d_max = 0.375;
+  const RunConfig config = constructed_config(12);
+  DvpioParams params = constructed_params();
   params.shrink_without_gain = 1;
   DvpioOptimizer optimizer(problem.bounds(), config, params);
   const Result& result = run(optimizer, problem);
