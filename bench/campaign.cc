@@ -172,6 +172,12 @@ nlohmann::json with_added_defaults(nlohmann::json old_config, const nlohmann::js
   return old_config;
 }
 
+// Where an existing directory's config first differs from `new_config` ("" when the same
+// campaign); what resume, shards, MPI launches and merge compare.
+std::string config_difference(const nlohmann::json& old_config, const nlohmann::json& new_config) {
+  return first_difference(with_added_defaults(old_config, new_config), new_config);
+}
+
 std::vector<EstimatedParameter> estimated_parameters(const CampaignConfig& config) {
   std::vector<EstimatedParameter> params;
   for (const std::string& e : config.estimate) params.push_back(EstimatedParameter::parse(e));
@@ -414,8 +420,7 @@ CampaignConfig config_from_manifest(const nlohmann::json& manifest, const std::s
   j["estimate"] = specs;
   const CampaignConfig config = parse_campaign(j, origin + " config");
   const nlohmann::json config_json = config.to_json();
-  const std::string diff =
-      first_difference(with_added_defaults(manifest.at("config"), config_json), config_json);
+  const std::string diff = config_difference(manifest.at("config"), config_json);
   if (!diff.empty())
     throw std::runtime_error(origin + ": the config does not read back identically (first "
                              "difference at " + diff + ")");
@@ -464,8 +469,7 @@ int prepare_directory(const nlohmann::json& config_json, const RunOptions& optio
       throw std::runtime_error(manifest_path.string() + ": unreadable manifest (" + e.what() +
                                "); use --force-new to start over");
     }
-    const std::string diff = first_difference(
-        with_added_defaults(old.value("config", nlohmann::json()), config_json), config_json);
+    const std::string diff = config_difference(old.value("config", nlohmann::json()), config_json);
     if (!diff.empty()) {
       if (!options.force_new)
         throw std::runtime_error(

@@ -84,9 +84,28 @@ def noise_floor(cdir):
 LADDER = re.compile(r"^ladder-(?P<scenario>.+)-E(?P<budget>[0-9]+)$")
 
 
+def short_names(params):
+    return [p.replace("accel_bias_", "A").replace("gyro_bias_", "D") for p in params]
+
+
+def error_vs_optimum_cells(algo, params):
+    """'median / worst' |error vs optimum| per parameter from one algorithm's summary."""
+    errors = algo["error_vs_optimum_sigma"]
+    return [f"{fmt(errors[p]['median_abs'])} / {fmt(errors[p]['max_abs'])}" for p in params]
+
+
+def runs_within_cell(algo, target_sigma):
+    """'k / n' runs with every parameter within target_sigma of the optimum, or '–'."""
+    for t in algo["success"]:
+        if t["target"]["kind"] == "max_abs_error_vs_optimum_sigma" and t["target"]["value"] == target_sigma:
+            return f"{round(t['rate'] * algo['runs'])} / {algo['runs']}"
+    return "–"
+
+
 def ladder_rows(root):
     """Budget ladder (configs/ladder-<scenario>-E<evaluations>.json) plus, as its first rung,
-    the Table 4 campaign <scenario>-per-candidate (40 iterations): from the summaries only."""
+    the Table 4 campaign <scenario>-per-candidate (40 iterations): from the summaries only.
+    Rows: (scenario, algorithm label, its summary, (p, A12) of DVPIO vs PIO on DVPIO's row)."""
     rungs = []
     for cfgpath in glob.glob(os.path.join(root, "configs", "ladder-*.json")):
         m = LADDER.match(os.path.basename(cfgpath)[:-5])
@@ -100,25 +119,15 @@ def ladder_rows(root):
         if not os.path.exists(path):
             continue
         summary_scenario = load(path)["scenarios"][scenario]
-        algos = summary_scenario["algorithms"]
         # Two-sided Mann-Whitney on the final fitness, DVPIO against PIO at the same budget.
         vs_pio = None
         for pair in summary_scenario.get("pairwise", []):
             if {pair["a"], pair["b"]} == {"DVPIO", "PIO"}:
                 a12_pio_higher = pair["a12"] if pair["a"] == "PIO" else 1.0 - pair["a12"]
                 vs_pio = (pair["p"], a12_pio_higher)
-        for label, a in algos.items():
-            params = list(a["error_vs_optimum_sigma"].keys())
-            success = {t["target"]["value"]: t["rate"] for t in a["success"]
-                       if t["target"]["kind"] == "max_abs_error_vs_optimum_sigma"}
-            rows.append({"scenario": scenario, "algorithm": label,
-                         "evaluations": a["evaluations"]["median"],
-                         "median_abs": {p: a["error_vs_optimum_sigma"][p]["median_abs"] for p in params},
-                         "max_abs": {p: a["error_vs_optimum_sigma"][p]["max_abs"] for p in params},
-                         "within_0.1": success.get(0.1), "runs": a["runs"],
-                         "vs_pio": vs_pio if label == "DVPIO" else None,
-                         "fitness": a["final_fitness"]["median"]})
-    rows.sort(key=lambda r: (r["scenario"], r["algorithm"], r["evaluations"]))
+        for label, algo in summary_scenario["algorithms"].items():
+            rows.append((scenario, label, algo, vs_pio if label == "DVPIO" else None))
+    rows.sort(key=lambda r: (r[0], r[1], r[2]["evaluations"]["median"]))
     return rows
 
 
@@ -126,21 +135,18 @@ def ladder_table(root):
     rows = ladder_rows(root)
     if not rows:
         return []
-    params = list(rows[0]["median_abs"].keys())
-    short = [p.replace("accel_bias_", "A").replace("gyro_bias_", "D") for p in params]
+    params = list(rows[0][2]["error_vs_optimum_sigma"].keys())
     out = ["\n### Budget ladder, alignment `per-candidate`: |error vs the data's optimum| (σ), "
            "median / worst over seeds\n",
-           "| scenario | algorithm | evaluations | " + " | ".join(short) +
+           "| scenario | algorithm | evaluations | " + " | ".join(short_names(params)) +
            " | runs with every parameter ≤ 0.1 σ | final fitness (median) | DVPIO vs PIO: p, A12 |",
            "|" + "---|" * (3 + len(params) + 3)]
-    for r in rows:
-        cells = [f"`{r['scenario']}`", r["algorithm"], f"{r['evaluations']:.0f}"]
-        cells += [f"{fmt(r['median_abs'][p])} / {fmt(r['max_abs'][p])}" for p in params]
-        w = r["within_0.1"]
-        cells.append("–" if w is None else f"{round(w * r['runs'])} / {r['runs']}")
-        cells.append(fmt(r["fitness"]))
-        v = r["vs_pio"]
-        cells.append("–" if v is None else f"{fmt(v[0])}, {fmt(v[1])}")
+    for scenario, label, algo, vs_pio in rows:
+        cells = [f"`{scenario}`", label, f"{algo['evaluations']['median']:.0f}"]
+        cells += error_vs_optimum_cells(algo, params)
+        cells.append(runs_within_cell(algo, 0.1))
+        cells.append(fmt(algo["final_fitness"]["median"]))
+        cells.append("–" if vs_pio is None else f"{fmt(vs_pio[0])}, {fmt(vs_pio[1])}")
         out.append("| " + " | ".join(cells) + " |")
     out.append("\nLast column: two-sided Mann-Whitney p on the final fitness (no correction: one "
                "pair per budget) and A12 = P(PIO ends higher than DVPIO).")
@@ -162,21 +168,17 @@ def variant_table(root):
         for scenario, sc in summary["scenarios"].items():
             labels = list(sc["algorithms"].keys())
             params = list(sc["algorithms"][labels[0]]["error_vs_optimum_sigma"].keys())
-            short = [p.replace("accel_bias_", "A").replace("gyro_bias_", "D") for p in params]
             out.append(f"\n### Variant `{os.path.basename(cdir)}`: `{scenario}`, {budget}, "
                        f"{sc['algorithms'][labels[0]]['runs']} seeds; |error vs the data's optimum| "
                        "(σ), median / worst\n")
-            out.append("| algorithm | " + " | ".join(short) +
+            out.append("| algorithm | " + " | ".join(short_names(params)) +
                        " | runs with every parameter ≤ 0.1 σ | final fitness median [q1, q3] |")
             out.append("|" + "---|" * (len(params) + 3))
             for label in labels:
-                a = sc["algorithms"][label]
-                success = {t["target"]["value"]: t["rate"] for t in a["success"]
-                           if t["target"]["kind"] == "max_abs_error_vs_optimum_sigma"}
-                ff = a["final_fitness"]
-                cells = [label] + [f"{fmt(a['error_vs_optimum_sigma'][p]['median_abs'])} / "
-                                   f"{fmt(a['error_vs_optimum_sigma'][p]['max_abs'])}" for p in params]
-                cells.append(f"{round(success.get(0.1, float('nan')) * a['runs'])} / {a['runs']}")
+                algo = sc["algorithms"][label]
+                ff = algo["final_fitness"]
+                cells = [label] + error_vs_optimum_cells(algo, params)
+                cells.append(runs_within_cell(algo, 0.1))
                 cells.append(f"{fmt(ff['median'])} [{fmt(ff['q1'])}, {fmt(ff['q3'])}]")
                 out.append("| " + " | ".join(cells) + " |")
             for pair in sc.get("pairwise", []):
@@ -218,7 +220,7 @@ def main():
         if not rows:
             continue
         params = rows[0]["params"]
-        short = [p.replace("accel_bias_", "A").replace("gyro_bias_", "D") for p in params]
+        short = short_names(params)
         out.append(f"\n### `{rows[0]['scenario']}`, alignment `{rows[0]['alignment']}` "
                    f"({rows[0]['runs']} seeds; data's optimum Eq. 15 = {fmt(rows[0]['optimum_fitness'])})\n")
         head = ("| algorithm | " + " | ".join(f"{s} vs opt med / worst" for s in short) + " | " +
