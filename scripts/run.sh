@@ -12,7 +12,7 @@ scripts/install-deps.sh
 scripts/build.sh
 out=results/run/paper-fig9
 mkdir -p "$out"
-build/bench/insid bench --preset paper-fig9 --out "$out" "$@"
+build/cli/insid bench --preset paper-fig9 --out "$out" "$@"
 /usr/bin/python3 scripts/campaign_report.py "$out"
 echo "insid: report in $out/report.md" >&2
 sed -n '/^### Result$/,/^### Statistics/p' "$out/report.md" | head -n 40

@@ -4,10 +4,10 @@
 #include <string>
 #include <vector>
 
-#include "bench/cli_util.h"
 #include "bench/cluster.h"
-#include "bench/commands.h"
 #include "bench/sweep.h"
+#include "cli/cli_util.h"
+#include "cli/commands.h"
 
 namespace insid::cli {
 namespace {

@@ -3,8 +3,8 @@
 #include <memory>
 #include <string>
 
-#include "bench/commands.h"
 #include "bench/sweep.h"
+#include "cli/commands.h"
 
 namespace insid::cli {
 

@@ -4,7 +4,7 @@
 
 #include <CLI/CLI.hpp>
 
-#include "bench/commands.h"
+#include "cli/commands.h"
 #include "identification/ekf_rts.h"
 
 int main(int argc, char** argv) {

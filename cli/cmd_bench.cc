@@ -8,9 +8,9 @@
 #include <nlohmann/json.hpp>
 
 #include "bench/campaign.h"
-#include "bench/cli_util.h"
 #include "bench/cluster.h"
-#include "bench/commands.h"
+#include "cli/cli_util.h"
+#include "cli/commands.h"
 
 namespace insid::cli {
 namespace {

@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "bench/cli_util.h"
-#include "bench/commands.h"
+#include "cli/cli_util.h"
+#include "cli/commands.h"
 #include "core/dataset.h"
 #include "diagnose/diagnose.h"
 

@@ -1,4 +1,4 @@
-#include "bench/cli_util.h"
+#include "cli/cli_util.h"
 
 #include <charconv>
 #include <cmath>

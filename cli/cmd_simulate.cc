@@ -10,8 +10,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "bench/cli_util.h"
-#include "bench/commands.h"
+#include "cli/cli_util.h"
+#include "cli/commands.h"
 #include "core/dataset.h"
 #include "scenarios/scenario.h"
 
