@@ -29,6 +29,7 @@ struct SimulateArgs {
   bool no_injected = false;
   bool clean = false;
   bool print_config = false;
+  bool force = false;
 };
 
 void run_simulate(const SimulateArgs& args) {
@@ -50,6 +51,7 @@ void run_simulate(const SimulateArgs& args) {
     return;
   }
   if (args.out.empty()) throw std::invalid_argument("--out DIR is required");
+  dataset_destination(args.out, args.force);  // refuse a directory before the work, not after
 
   std::fprintf(stderr,
                "insid simulate: '%s', %.0f s alignment + %.0f s flight, IMU %g Hz (%zu rows), "
@@ -59,17 +61,10 @@ void run_simulate(const SimulateArgs& args) {
                static_cast<unsigned long long>(cfg.seed));
   const auto t0 = std::chrono::steady_clock::now();
   const Dataset ds = sc::simulate(cfg, plan, !args.no_injected);
-  write_dataset(args.out, ds);  // atomic: nothing half-written on failure
-  if (args.no_injected) {
-    try {
-      write_file_atomic(std::filesystem::path(args.out) / "answer.json",
-                        sc::answer_json(cfg).dump(2) + "\n");
-    } catch (...) {
-      std::error_code ec;
-      std::filesystem::remove_all(args.out, ec);
-      throw;
-    }
-  }
+  DatasetWriteOptions write_options;
+  write_options.into_foreign_directory = args.force;
+  if (args.no_injected) write_options.extra_files["answer.json"] = sc::answer_json(cfg).dump(2) + "\n";
+  write_dataset(args.out, ds, write_options);  // atomic: nothing half-written on failure
   std::fprintf(stderr, "insid simulate: wrote %s in %.1f s\n", args.out.c_str(),
                std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
 }
@@ -87,7 +82,11 @@ void add_simulate_command(CLI::App& app) {
       "and noise, and write an insid-dataset/1 directory. Scenario keys: scenarios/README.md.");
   cmd->add_option("--preset", args->preset, "built-in scenario: " + presets);
   cmd->add_option("--config", args->config, "scenario JSON file");
-  cmd->add_option("--out", args->out, "output dataset directory (replaced atomically)");
+  cmd->add_option("--out", args->out,
+                  "output dataset directory: new, empty or an insid dataset (replaced atomically)");
+  cmd->add_flag("--force", args->force,
+                "write into a --out directory that holds other files: add the dataset's files, "
+                "keep everything else");
   cmd->add_option("--seed", args->seed, "random seed (default: the scenario's, else 1)");
   cmd->add_option("--grade", args->grade,
                   "noise grade nav|mems|paper|none (replaces the scenario's noise block)");

@@ -13,7 +13,9 @@
 //   written in [0, 360) deg (load keeps whatever the file says).
 // - write_dataset validates first (it never writes a dataset load_dataset would reject),
 //   creates missing parent directories, writes to a sibling temporary directory and renames it
-//   into place; on failure it removes everything it created.
+//   into place; on failure it removes everything it created. It replaces only a directory that
+//   holds nothing but an insid dataset (core/output_dir.h); with --force it adds its files to
+//   any other directory and deletes nothing.
 // - Latitudes must lie strictly inside (-90, 90) deg: the ENU mechanization is singular at the
 //   poles.
 #include "core/dataset.h"
@@ -36,6 +38,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/output_dir.h"
 #include "core/sensor_errors.h"
 
 namespace insid {
@@ -740,6 +743,35 @@ fs::path normalized_target(const fs::path& dir) {
   return p;
 }
 
+// --force into a directory that holds other things: each of the dataset's files is written to a
+// temporary in `dir` and renamed over its name; nothing else in `dir` is touched. A format file
+// the new dataset does not have (truth.csv, answer.json) is refused rather than deleted.
+void write_dataset_files_into(const fs::path& dir, const std::map<std::string, std::string>& files,
+                              const std::string& where) {
+  std::error_code ec;
+  for (const std::string& name : {std::string(kTruthFile), std::string("answer.json")}) {
+    if (!files.count(name) && fs::exists(fs::symlink_status(dir / name, ec)))
+      fail(where + ": it holds '" + name + "', which the new dataset does not have and insid "
+           "will not delete; remove it yourself or choose another directory");
+  }
+  for (const auto& [name, contents] : files) {
+    const fs::path tmp = sibling(dir / name, ".tmp-");
+    try {
+      write_whole_file(tmp, contents);
+    } catch (const std::exception& e) {
+      std::error_code ignored;
+      fs::remove(tmp, ignored);
+      fail(where + ": " + e.what());
+    }
+    fs::rename(tmp, dir / name, ec);
+    if (ec) {
+      std::error_code ignored;
+      fs::remove(tmp, ignored);
+      fail(where + ": cannot rename '" + tmp.string() + "' into place: " + ec.message());
+    }
+  }
+}
+
 }  // namespace
 
 // ------------------------------------------------------------------------------------------
@@ -814,27 +846,89 @@ Dataset load_dataset(const fs::path& dir) {
 
 void validate_dataset(const Dataset& dataset) { Validator{""}.run(dataset); }
 
-void write_dataset(const fs::path& dir, const Dataset& dataset) {
+const std::vector<std::string>& dataset_directory_entries() {
+  static const std::vector<std::string> entries = {
+      std::string(kMetaFile), std::string(kImuFile),     std::string(kGnssFile),
+      std::string(kTruthFile), "answer.json",             "insid-optimum-cache.json",
+      "provenance.json"};
+  return entries;
+}
+
+namespace {
+
+// True when `dir` holds nothing but an insid dataset's entries, its meta.json (when present)
+// declaring the format. Throws DatasetError when it holds something else, unless `force`.
+bool holds_only_a_dataset(const fs::path& dir, const std::string& where, bool force) {
+  const OutputKind kind{"an insid dataset", dataset_directory_entries()};
+  try {
+    require_own_or_empty(dir, kind, "give --force to add the dataset's files and keep the rest");
+  } catch (const std::runtime_error& e) {
+    if (force) return false;
+    fail(where + ": " + e.what());
+  }
+  std::error_code ec;
+  if (!fs::exists(dir / kMetaFile, ec)) return true;
+  bool is_ours = false;
+  try {
+    const json meta = json::parse(read_whole_file(dir / kMetaFile, where));
+    is_ours = meta.is_object() && meta.value("format", "") == kFormat;
+  } catch (const std::exception&) {
+    is_ours = false;
+  }
+  if (!is_ours && !force)
+    fail(where + ": its meta.json is not an " + std::string(kFormat) +
+         " dataset's; choose a new or empty directory, or give --force to add the dataset's "
+         "files and keep the rest");
+  return is_ours;
+}
+
+}  // namespace
+
+DatasetDestination dataset_destination(const fs::path& dir, bool into_foreign_directory) {
+  const std::string where = "cannot write dataset '" + dir.string() + "'";
+  const fs::path target = normalized_target(dir);
+  if (!target.has_filename() || target.filename() == "." || target.filename() == "..")
+    fail(where + ": not a usable directory name");
+  std::error_code ec;
+  const fs::file_status st = fs::symlink_status(target, ec);
+  if (!fs::exists(st)) return DatasetDestination::kReplace;
+  if (!fs::is_directory(st)) fail(where + ": the path exists and is not a directory");
+  const bool force = into_foreign_directory;
+  const bool replaceable = holds_only_a_dataset(target, where, force);
+  const bool holds_cwd = contains_working_directory(target);
+  if (holds_cwd && !force)
+    fail(where + ": it is the current directory or contains it; give another directory, or "
+                 "--force to add the dataset's files there");
+  return replaceable && !holds_cwd ? DatasetDestination::kReplace : DatasetDestination::kAddFiles;
+}
+
+void write_dataset(const fs::path& dir, const Dataset& dataset, const DatasetWriteOptions& options) {
   const std::string where = "cannot write dataset '" + dir.string() + "'";
   try {
     Validator{""}.run(dataset);
   } catch (const DatasetError& e) {
     fail(where + ": invalid dataset: " + e.what());
   }
+  for (const auto& [name, contents] : options.extra_files) {
+    const auto& own = dataset_directory_entries();
+    if (std::find(own.begin(), own.end(), name) == own.end() || name == kMetaFile ||
+        name == kImuFile || name == kGnssFile || name == kTruthFile)
+      fail(where + ": '" + name + "' is not an extra file a dataset directory may hold");
+  }
 
   // Everything in memory first: nothing touches the disk until the data are known good.
-  const std::string meta = meta_text(dataset.meta);
-  const std::string imu = imu_text(dataset.imu);
-  const std::string gnss = gnss_text(dataset.gnss);
-  const std::string truth = dataset.truth.empty() ? std::string() : truth_text(dataset.truth);
+  std::map<std::string, std::string> files = options.extra_files;
+  files[std::string(kMetaFile)] = meta_text(dataset.meta);
+  files[std::string(kImuFile)] = imu_text(dataset.imu);
+  files[std::string(kGnssFile)] = gnss_text(dataset.gnss);
+  if (!dataset.truth.empty()) files[std::string(kTruthFile)] = truth_text(dataset.truth);
 
   const fs::path target = normalized_target(dir);
-  if (!target.has_filename() || target.filename() == "." || target.filename() == "..")
-    fail(where + ": not a usable directory name");
+  if (dataset_destination(dir, options.into_foreign_directory) == DatasetDestination::kAddFiles) {
+    write_dataset_files_into(target, files, where);
+    return;
+  }
   std::error_code ec;
-  const fs::file_status st = fs::symlink_status(target, ec);
-  if (fs::exists(st) && !fs::is_directory(st))
-    fail(where + ": the path exists and is not a directory");
 
   // Create missing parents; remember the topmost one created, to remove it on failure.
   const fs::path parent = target.parent_path();
@@ -861,17 +955,14 @@ void write_dataset(const fs::path& dir, const Dataset& dataset) {
          (ec ? ec.message() : std::string("it already exists")));
   }
   try {
-    write_whole_file(tmp / kMetaFile, meta);
-    write_whole_file(tmp / kImuFile, imu);
-    write_whole_file(tmp / kGnssFile, gnss);
-    if (!dataset.truth.empty()) write_whole_file(tmp / kTruthFile, truth);
+    for (const auto& [name, contents] : files) write_whole_file(tmp / name, contents);
   } catch (const std::exception& e) {
     cleanup();
     fail(where + ": " + e.what());
   }
 
   if (fs::exists(fs::symlink_status(target, ec))) {
-    // Move the old one aside, put the new one in place, then delete the old one.
+    // Move the old dataset aside, put the new one in place, then delete the old one.
     const fs::path old = sibling(target, ".old-");
     fs::rename(target, old, ec);
     if (ec) {
@@ -887,7 +978,7 @@ void write_dataset(const fs::path& dir, const Dataset& dataset) {
       fail(where + ": cannot rename '" + tmp.string() + "' into place: " + ec.message());
     }
     std::error_code ignored;
-    fs::remove_all(old, ignored);  // the new dataset is in place; a leftover is only clutter
+    fs::remove_all(old, ignored);  // held only an insid dataset (checked above)
   } else {
     fs::rename(tmp, target, ec);
     if (ec) {

@@ -76,10 +76,37 @@ class DatasetError : public std::runtime_error {
 /// Load and validate a dataset directory. Throws DatasetError.
 Dataset load_dataset(const std::filesystem::path& dir);
 
-/// Write a dataset directory atomically: everything goes to a sibling temporary directory that
-/// is renamed into place only when complete (an existing `dir` is replaced). Throws
-/// DatasetError on I/O failure, leaving no partial directory behind.
-void write_dataset(const std::filesystem::path& dir, const Dataset& dataset);
+struct DatasetWriteOptions {
+  /// Write into an existing directory that holds other things than an insid dataset (the
+  /// command line's --force): the dataset's files are added (each replaced atomically), the
+  /// directory's other files are kept. Without it such a directory is refused.
+  bool into_foreign_directory = false;
+  /// More files written together with the dataset (plain file name -> contents), e.g.
+  /// simulate's answer.json.
+  std::map<std::string, std::string> extra_files;
+};
+
+/// Names insid writes into a dataset directory (the format's files, simulate's answer.json,
+/// identify's optimum cache, import's provenance record).
+const std::vector<std::string>& dataset_directory_entries();
+
+enum class DatasetDestination {
+  kReplace,   ///< absent, empty or an insid dataset: (re)placed atomically as a whole
+  kAddFiles,  ///< into_foreign_directory: the dataset's files are added, the rest is kept
+};
+
+/// What write_dataset would do with `dir`, checked before any work (simulate calls it before
+/// simulating). Throws DatasetError when `dir` is refused (the rules below).
+DatasetDestination dataset_destination(const std::filesystem::path& dir,
+                                       bool into_foreign_directory);
+
+/// Write a dataset directory. An absent or empty `dir`, or one holding only an insid dataset,
+/// is replaced atomically: everything goes to a sibling temporary directory that is renamed
+/// into place only when complete. A directory holding anything else, or the current directory
+/// (or a parent of it), is refused unless `options.into_foreign_directory`. Throws
+/// DatasetError on refusal or I/O failure, leaving no partial directory behind.
+void write_dataset(const std::filesystem::path& dir, const Dataset& dataset,
+                   const DatasetWriteOptions& options = {});
 
 /// Semantic checks on an in-memory dataset (also run by load_dataset): strictly increasing
 /// times, constant IMU rate within tolerance, GNSS covering the flight, finite values.

@@ -603,9 +603,10 @@ TEST_F(DatasetTest, WriteRefusesAnInvalidDatasetAndWritesNothing) {
 
 TEST_F(DatasetTest, WriteOverAnExistingDatasetReplacesIt) {
   write_valid(true);
-  write_text(dir_ / "stale.txt", "old");
+  write_text(dir_ / "insid-optimum-cache.json", "{}");
   const Dataset fresh = make_dataset(false, false, true, 2001);
   write_dataset(dir_, fresh);
+  // The old truth.csv and the cache went with the old dataset (both are insid's own).
   EXPECT_EQ(entries(dir_), (std::vector<std::string>{"gnss.csv", "imu.csv", "meta.json"}));
   expect_identical(fresh, load_dataset(dir_));
   EXPECT_EQ(entries(root_), std::vector<std::string>{"ds"});
@@ -614,6 +615,71 @@ TEST_F(DatasetTest, WriteOverAnExistingDatasetReplacesIt) {
   EXPECT_EQ(entries(root_), std::vector<std::string>{"ds"});
   write_dataset(root_ / "a" / "b" / "ds", fresh);
   expect_identical(fresh, load_dataset(root_ / "a" / "b" / "ds"));
+}
+
+TEST_F(DatasetTest, WriteNeverDeletesFilesItDidNotWrite) {
+  const Dataset fresh = make_dataset(false, false, true, 2001);
+  // A user's project directory: refused, untouched.
+  const fs::path proj = root_ / "proj";
+  fs::create_directories(proj / "src");
+  write_text(proj / "src" / "code.c", "int main;");
+  try {
+    write_dataset(proj, fresh);
+    FAIL() << "no error";
+  } catch (const DatasetError& e) {
+    EXPECT_CONTAINS(e.what(), "is not empty and not an insid dataset: it holds 'src'");
+    EXPECT_CONTAINS(e.what(), "--force");
+  }
+  EXPECT_EQ(entries(proj), std::vector<std::string>{"src"});
+  EXPECT_EQ(read_text(proj / "src" / "code.c"), "int main;");
+  // A dataset directory with a user's note in it: refused too (the note would go).
+  write_valid(true);
+  write_text(dir_ / "notes.txt", "mine");
+  EXPECT_THROW(write_dataset(dir_, fresh), DatasetError);
+  EXPECT_EQ(read_text(dir_ / "notes.txt"), "mine");
+  // A meta.json of another format is not an insid dataset.
+  const fs::path other = root_ / "other";
+  fs::create_directories(other);
+  write_text(other / "meta.json", R"({"format": "somebody-else/2"})");
+  EXPECT_THROW(write_dataset(other, fresh), DatasetError);
+  EXPECT_EQ(read_text(other / "meta.json"), R"({"format": "somebody-else/2"})");
+
+  // --force adds the dataset's files and keeps the rest.
+  DatasetWriteOptions force;
+  force.into_foreign_directory = true;
+  write_dataset(proj, fresh, force);
+  EXPECT_EQ(entries(proj), (std::vector<std::string>{"gnss.csv", "imu.csv", "meta.json", "src"}));
+  EXPECT_EQ(read_text(proj / "src" / "code.c"), "int main;");
+  expect_identical(fresh, load_dataset(proj));
+  // ... but refuses to leave a stale truth.csv beside a dataset that has none.
+  write_dataset(dir_, make_dataset(true, false, true, 2001), force);
+  EXPECT_TRUE(fs::exists(dir_ / "truth.csv"));
+  try {
+    write_dataset(dir_, fresh, force);
+    FAIL() << "no error";
+  } catch (const DatasetError& e) {
+    EXPECT_CONTAINS(e.what(), "it holds 'truth.csv'");
+  }
+  EXPECT_EQ(read_text(dir_ / "notes.txt"), "mine");
+}
+
+TEST_F(DatasetTest, WriteRefusesTheWorkingDirectoryAndItsParents) {
+  write_valid(false);  // the working directory is an insid dataset
+  const fs::path cwd = fs::current_path();
+  fs::current_path(dir_);
+  const Dataset fresh = make_dataset(false, false, true, 2001);
+  for (const fs::path& target : {fs::path("."), fs::path(".."), dir_}) {
+    try {
+      write_dataset(target, fresh);
+      ADD_FAILURE() << "no error for " << target;
+    } catch (const DatasetError& e) {
+      EXPECT_TRUE(std::string(e.what()).find("current directory") != std::string::npos ||
+                  std::string(e.what()).find("not empty") != std::string::npos)
+          << e.what();
+    }
+  }
+  EXPECT_TRUE(fs::exists(dir_ / "imu.csv"));
+  fs::current_path(cwd);
 }
 
 TEST_F(DatasetTest, WriteFileAtomicWritesReplacesAndFailsCleanly) {
