@@ -21,6 +21,7 @@
 #include <thread>
 
 #include "bench/cluster.h"
+#include "core/output_dir.h"
 #include "identification/identify.h"
 #include "identification/ins_problem.h"
 #include "optimizers/registry.h"
@@ -375,7 +376,14 @@ std::shared_ptr<const Dataset> scenario_dataset(const ScenarioSpec& spec) {
 
 std::string run_file(const std::string& out_dir, const std::string& scenario,
                      const std::string& label, std::uint64_t seed) {
-  return (fs::path(out_dir) / "runs" / scenario / label / ("seed_" + std::to_string(seed) + ".json"))
+  return (fs::path(out_dir) / "runs" / checked_path_component(scenario, "scenario name") /
+          checked_path_component(label, "algorithm label") /
+          ("seed_" + std::to_string(seed) + ".json"))
+      .string();
+}
+
+std::string optimum_file(const std::string& out_dir, const std::string& scenario) {
+  return (fs::path(out_dir) / "optimum" / (checked_path_component(scenario, "scenario name") + ".json"))
       .string();
 }
 
@@ -453,13 +461,48 @@ bool run_is_done(const CampaignConfig& config, const RunSpec& run) {
                               config.algorithms[run.algorithm].label, run.seed);
 }
 
+// What insid writes at the top of a campaign directory (bench, sweep, the report script).
+const OutputKind kCampaignKind{
+    "an insid campaign directory",
+    {"manifest.json", "runs", "optimum", "summary.json", "sweep.json", "sweep.csv", "report.md",
+     "figures", FileLock::kRunLockName}};
+
 // Check out_dir's manifest against `config` (a different campaign is refused unless
-// force_new) and write the manifest. Returns the number of shards the directory is split into
-// (0 when unknown): this launch's, or the one recorded by earlier shards of the same campaign.
-int prepare_directory(const nlohmann::json& config_json, const RunOptions& options, int threads) {
+// force_new) and write the manifest, under the directory's locks (core/output_dir.h): the
+// directory itself gates the check-and-write, `.insid-lock` is held shared by every process
+// running this campaign for as long as it runs, and alone by one that starts a new campaign
+// there (which therefore fails while another campaign runs). Temporary files left by killed
+// processes are removed when no other process runs. Returns the run lock, to hold until the
+// campaign ends, and the number of shards the directory is split into (0 when unknown): this
+// launch's, or the one recorded by earlier shards of the same campaign.
+struct DirectoryClaim {
+  std::unique_ptr<FileLock> run_lock;
+  int shard_count = 0;
+};
+
+DirectoryClaim prepare_directory(const nlohmann::json& config_json, const RunOptions& options,
+                                 int threads) {
   const fs::path dir(options.out_dir);
-  fs::create_directories(dir);
   const fs::path manifest_path = dir / "manifest.json";
+  std::error_code ec;
+  if (!fs::exists(manifest_path, ec) && !options.into_foreign_directory)
+    require_own_or_empty(dir, kCampaignKind,
+                         "give --force to add the campaign's files and keep the rest");
+  fs::create_directories(dir);
+  FileLock gate(dir);
+  gate.lock(FileLock::Mode::kExclusive);
+  DirectoryClaim claim;
+  claim.run_lock = std::make_unique<FileLock>(dir / FileLock::kRunLockName);
+  const bool alone = claim.run_lock->try_lock(FileLock::Mode::kExclusive);
+  if (alone) {
+    const int removed = remove_stale_temporaries(dir);
+    if (removed > 0 && !options.quiet)
+      std::cerr << "insid: removed " << removed << " temporary file(s) left by an interrupted run in "
+                << options.out_dir << "\n";
+  }
+  const std::string in_use =
+      options.out_dir + " is in use by another insid process running a campaign there now; "
+      "wait for it to finish, or choose another --out";
   int shard_count = options.shard.count;
   if (fs::exists(manifest_path)) {
     nlohmann::json old;
@@ -477,12 +520,15 @@ int prepare_directory(const nlohmann::json& config_json, const RunOptions& optio
             old.value("config", nlohmann::json::object()).value("name", "?") +
             "'; first difference at " + diff +
             "). Use --force-new to discard them, or choose another --out.");
+      if (!alone) throw std::runtime_error(in_use);
       fs::remove_all(dir / "runs");
       fs::remove_all(dir / "optimum");
       fs::remove(dir / "summary.json");
     } else if (shard_count == 0) {
       shard_count = old.value("shards", 0);
     }
+  } else if (!alone) {
+    throw std::runtime_error(in_use);
   }
   nlohmann::json manifest;
   manifest["schema"] = kManifestSchema;
@@ -495,7 +541,9 @@ int prepare_directory(const nlohmann::json& config_json, const RunOptions& optio
   manifest["config"] = config_json;
   for (const auto& item : options.manifest_extra.items()) manifest[item.key()] = item.value();
   write_file_atomic(manifest_path, manifest.dump(2) + "\n");
-  return shard_count;
+  claim.run_lock->lock(FileLock::Mode::kShared);  // a conversion; safe: we hold the gate
+  claim.shard_count = shard_count;
+  return claim;
 }
 
 // What a process does about a scenario's optimum file when it is absent.
@@ -565,7 +613,7 @@ class WaveRunner {
   };
 
   fs::path optimum_path(std::size_t s) const {
-    return fs::path(options_.out_dir) / "optimum" / (config_.scenarios[s].name + ".json");
+    return optimum_file(options_.out_dir, config_.scenarios[s].name);
   }
 
   std::optional<ReferenceOptimum> read_optimum(std::size_t s) const {
@@ -849,8 +897,7 @@ std::vector<WorkUnit> make_units(const CampaignConfig& config, const std::vector
   for (std::size_t i = 0; i < pending.size();) {
     const std::size_t scenario = runs[pending[i]].scenario;
     const bool first = scenarios_seen.insert(scenario).second;
-    const fs::path optimum =
-        fs::path(out_dir) / "optimum" / (config.scenarios[scenario].name + ".json");
+    const fs::path optimum = optimum_file(out_dir, config.scenarios[scenario].name);
     WorkUnit unit{first && !fs::exists(optimum) ? 1 : 0};
     while (i < pending.size() && runs[pending[i]].scenario == scenario && unit.size() <= unit_runs)
       unit.push_back(static_cast<std::int64_t>(pending[i++]));
@@ -901,21 +948,26 @@ CampaignOutcome run_campaign(const CampaignConfig& config, const RunOptions& opt
   if (options.force_new && options.shard.active())
     throw std::invalid_argument("--force-new cannot be combined with --shard (it would delete the other shards' runs)");
 
+  // Every path of the campaign first (a config name that cannot be a path is refused before
+  // anything is written).
+  const std::vector<RunSpec> runs = run_list(config, options.out_dir);
+  for (std::size_t s = 0; s < config.scenarios.size(); ++s) optimum_file(options.out_dir, config.scenarios[s].name);
+
   // The manifest: rank 0 checks and writes it; every rank fails with its message (no rank is
   // left waiting for the others).
   std::string directory_error;
-  int shard_count = 0;
+  DirectoryClaim claim;  // held until the campaign returns
   if (root) {
     try {
-      shard_count = prepare_directory(config_json, options, threads);
+      claim = prepare_directory(config_json, options, threads);
     } catch (const std::exception& e) {
       directory_error = e.what();
     }
   }
   if (cluster != nullptr) directory_error = cluster->broadcast(directory_error);
   if (!directory_error.empty()) throw std::runtime_error(directory_error);
+  const int shard_count = claim.shard_count;
 
-  const std::vector<RunSpec> runs = run_list(config, options.out_dir);
   CampaignOutcome outcome;
   outcome.total_runs = static_cast<int>(runs.size());
   outcome.writes_results = root;

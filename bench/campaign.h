@@ -84,6 +84,8 @@ struct RunOptions {
   std::string out_dir;
   int threads = 0;          ///< 0 = OpenMP default
   bool force_new = false;   ///< discard a different campaign's results in out_dir
+  /// Write into an out_dir that holds other files than a campaign's (kept; --force).
+  bool into_foreign_directory = false;
   bool quiet = false;
   /// Stop after this many newly finished runs (for interruption tests); 0 = no limit.
   int max_new_runs = 0;
@@ -130,9 +132,13 @@ std::string missing_runs_report(const std::string& out_dir, const CampaignConfig
 /// Build summary.json from the run files of a complete campaign directory.
 nlohmann::json summarize_campaign(const std::string& out_dir, const CampaignConfig& config);
 
-/// Path of one run's file: DIR/runs/<scenario>/<label>/seed_<k>.json.
+/// Path of one run's file: DIR/runs/<scenario>/<label>/seed_<k>.json. The scenario name and
+/// label must be plain names (checked_path_component, core/output_dir.h): no write leaves DIR.
 std::string run_file(const std::string& out_dir, const std::string& scenario,
                      const std::string& label, std::uint64_t seed);
+
+/// Path of a scenario's optimum file: DIR/optimum/<scenario>.json (the same check).
+std::string optimum_file(const std::string& out_dir, const std::string& scenario);
 
 /// Dataset of a scenario spec (simulated deterministically or loaded).
 std::shared_ptr<const Dataset> scenario_dataset(const ScenarioSpec& spec);

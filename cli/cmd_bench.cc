@@ -22,6 +22,7 @@ struct BenchArgs {
   int seeds = 0;
   int threads = 0;
   bool force_new = false;
+  bool force = false;
   int max_new_runs = 0;
   double flight_s = 0.0;
   std::string shard;
@@ -53,6 +54,7 @@ void run_bench(const BenchArgs& args) {
   options.out_dir = args.out;
   options.threads = args.threads;
   options.force_new = args.force_new;
+  options.into_foreign_directory = args.force;
   options.max_new_runs = args.max_new_runs;
   if (!args.shard.empty()) options.shard = campaign::Shard::parse(args.shard);
   options.cluster = cluster.get();
@@ -84,6 +86,9 @@ void add_bench_command(CLI::App& app) {
   cmd->add_option("--threads", args->threads, "threads (0 = all cores)")->capture_default_str();
   cmd->add_option("--flight-s", args->flight_s,
                   "override every simulated scenario's flight length after alignment (s)");
+  cmd->add_flag("--force", args->force,
+                "write into a --out directory that holds other files than a campaign's (they are "
+                "kept)");
   cmd->add_flag("--force-new", args->force_new,
                 "discard results of a different campaign found in --out");
   cmd->add_option("--max-new-runs", args->max_new_runs,

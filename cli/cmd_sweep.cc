@@ -27,6 +27,7 @@ struct SweepArgs {
   std::string out;
   int threads = 0;
   bool force_new = false;
+  bool force = false;
   std::string shard;
 };
 
@@ -53,6 +54,7 @@ void run(const SweepArgs& args) {
   options.out_dir = args.out;
   options.threads = args.threads;
   options.force_new = args.force_new;
+  options.into_foreign_directory = args.force;
   if (!args.shard.empty()) options.shard = campaign::Shard::parse(args.shard);
   options.cluster = cluster.get();
   const auto outcome = campaign::run_sweep(sweep, options);
@@ -96,6 +98,9 @@ void add_sweep_command(CLI::App& app) {
   cmd->add_option("--alignment", args->alignment, "per-candidate | fixed")->capture_default_str();
   cmd->add_option("--out", args->out, "results directory")->required();
   cmd->add_option("--threads", args->threads, "threads (0 = all cores)");
+  cmd->add_flag("--force", args->force,
+                "write into a --out directory that holds other files than a campaign's (they are "
+                "kept)");
   cmd->add_flag("--force-new", args->force_new, "discard a different campaign's results in --out");
   cmd->add_option("--shard", args->shard,
                   "do only slice i of N of the runs (i/N; see insid bench --shard)");

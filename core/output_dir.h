@@ -52,6 +52,8 @@ int remove_stale_temporaries(const std::filesystem::path& dir);
 class FileLock {
  public:
   enum class Mode { kShared, kExclusive };
+  /// The file a campaign directory's run lock lives in.
+  static constexpr const char* kRunLockName = ".insid-lock";
 
   /// Opens `path` (a directory, or a regular file, created when absent); takes no lock yet.
   /// Throws std::runtime_error naming the path.

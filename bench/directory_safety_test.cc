@@ -1,0 +1,146 @@
+// Campaign directories: insid never writes into another program's directory, never outside
+// --out, never lets two campaigns share one directory, and cleans its own leftovers.
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "bench/campaign.h"
+#include "core/output_dir.h"
+
+namespace insid::campaign {
+namespace {
+namespace fs = std::filesystem;
+
+const char* kConfig = R"({
+  "name": "safety",
+  "scenarios": [{"name": "short", "preset": "rich", "flight_s": 120, "grade": "nav",
+                 "data_seed": 3}],
+  "algorithms": [{"label": "PSO", "name": "pso"}],
+  "seeds": 2,
+  "max_iterations": 2
+})";
+
+CampaignConfig config() { return parse_campaign(nlohmann::json::parse(kConfig), "test"); }
+
+fs::path fresh_dir(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() /
+                       ("insid-safety-test-" + name + "-" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  return dir;
+}
+
+std::string text(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+RunOptions options_for(const fs::path& dir) {
+  RunOptions options;
+  options.out_dir = dir.string();
+  options.quiet = true;
+  return options;
+}
+
+std::string error_of(const CampaignConfig& c, const RunOptions& options) {
+  try {
+    run_campaign(c, options);
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(DirectorySafety, ForeignDirectoryIsRefusedAndKeptUnlessForce) {
+  const fs::path dir = fresh_dir("foreign");
+  fs::create_directories(dir / "src");
+  std::ofstream(dir / "src" / "code.c") << "int main;";
+  const std::string error = error_of(config(), options_for(dir));
+  EXPECT_NE(error.find("not an insid campaign directory: it holds 'src'"), std::string::npos)
+      << error;
+  EXPECT_NE(error.find("--force"), std::string::npos) << error;
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator()), 1);
+  RunOptions force = options_for(dir);
+  force.into_foreign_directory = true;
+  EXPECT_TRUE(run_campaign(config(), force).complete);
+  EXPECT_EQ(text(dir / "src" / "code.c"), "int main;");
+  // Now a campaign directory: the same campaign resumes without --force.
+  EXPECT_TRUE(run_campaign(config(), options_for(dir)).complete);
+  fs::remove_all(dir);
+}
+
+TEST(DirectorySafety, ConfigNamesThatAreNotPlainNamesAreRefusedBeforeAnyWrite) {
+  const fs::path base = fresh_dir("names");
+  fs::create_directories(base);
+  const fs::path dir = base / "a" / "out";
+  for (const std::string& name : {"../../escape_scn", "", ".", "..", "x/y", "sp ace", "/abs"}) {
+    for (const bool is_label : {false, true}) {
+      CampaignConfig c = config();
+      (is_label ? c.algorithms[0].label : c.scenarios[0].name) = name;
+      const std::string error = error_of(c, options_for(dir));
+      EXPECT_NE(error.find(std::string(is_label ? "algorithm label" : "scenario name") + " '" +
+                           name + "' cannot be used"),
+                std::string::npos)
+          << name << ": " << error;
+      EXPECT_FALSE(fs::exists(base / "a")) << name;  // nothing written, inside or outside
+      EXPECT_FALSE(fs::exists(base / "escape_scn")) << name;
+    }
+  }
+  fs::remove_all(base);
+}
+
+TEST(DirectorySafety, AnotherCampaignCannotStartWhileOneRuns) {
+  const fs::path dir = fresh_dir("lock");
+  ASSERT_TRUE(run_campaign(config(), options_for(dir)).complete);
+  const std::string run_bytes = text(run_file(dir.string(), "short", "PSO", 1));
+  // A campaign running there holds the run lock shared (as run_campaign does).
+  FileLock running(dir / FileLock::kRunLockName);
+  ASSERT_TRUE(running.try_lock(FileLock::Mode::kShared));
+  CampaignConfig other = config();
+  other.name = "other";
+  RunOptions force_new = options_for(dir);
+  force_new.force_new = true;
+  const std::string error = error_of(other, force_new);
+  EXPECT_NE(error.find("is in use by another insid process"), std::string::npos) << error;
+  EXPECT_EQ(text(run_file(dir.string(), "short", "PSO", 1)), run_bytes);
+  // The same campaign may join (shards of one campaign share the directory).
+  EXPECT_TRUE(run_campaign(config(), options_for(dir)).complete);
+  // Into a fresh directory whose first campaign has not written its manifest yet.
+  const fs::path empty = fresh_dir("lock-empty");
+  fs::create_directories(empty);
+  FileLock starting(empty / FileLock::kRunLockName);
+  ASSERT_TRUE(starting.try_lock(FileLock::Mode::kExclusive));
+  EXPECT_NE(error_of(config(), options_for(empty)).find("is in use"), std::string::npos);
+  running.unlock();
+  starting.unlock();
+  EXPECT_TRUE(run_campaign(other, force_new).complete);
+  fs::remove_all(dir);
+  fs::remove_all(empty);
+}
+
+TEST(DirectorySafety, RerunRemovesTemporariesLeftByAKill) {
+  const fs::path dir = fresh_dir("tmp");
+  ASSERT_TRUE(run_campaign(config(), options_for(dir)).complete);
+  const fs::path run = run_file(dir.string(), "short", "PSO", 1);
+  const std::vector<fs::path> leftovers = {
+      run.string() + ".tmp-somehost-12345-0", dir / "optimum" / "short.json.tmp-h-1-7",
+      dir / "summary.json.tmp-node-17-3"};
+  for (const fs::path& p : leftovers) std::ofstream(p) << text(run);
+  const fs::path users = dir / "runs" / "short" / "PSO" / "notes.tmp-list";  // not insid's pattern
+  std::ofstream(users) << "mine";
+  ASSERT_TRUE(run_campaign(config(), options_for(dir)).complete);
+  for (const fs::path& p : leftovers) EXPECT_FALSE(fs::exists(p)) << p;
+  EXPECT_TRUE(fs::exists(users));
+  EXPECT_TRUE(fs::exists(run));
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace insid::campaign
