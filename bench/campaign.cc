@@ -480,8 +480,19 @@ struct DirectoryClaim {
   int shard_count = 0;
 };
 
-DirectoryClaim prepare_directory(const nlohmann::json& config_json, const RunOptions& options,
+// The contents of the scenarios read from data directories (scenario name -> dataset_digest):
+// a campaign over data that changed since its runs is a different campaign.
+nlohmann::json data_digests(const CampaignConfig& config) {
+  nlohmann::json digests = nlohmann::json::object();
+  for (const ScenarioSpec& s : config.scenarios)
+    if (!s.data_dir.empty()) digests[s.name] = dataset_digest(s.data_dir);
+  return digests;
+}
+
+DirectoryClaim prepare_directory(const CampaignConfig& config, const RunOptions& options,
                                  int threads) {
+  const nlohmann::json config_json = config.to_json();
+  const nlohmann::json digests = data_digests(config);
   const fs::path dir(options.out_dir);
   const fs::path manifest_path = dir / "manifest.json";
   std::error_code ec;
@@ -512,7 +523,9 @@ DirectoryClaim prepare_directory(const nlohmann::json& config_json, const RunOpt
       throw std::runtime_error(manifest_path.string() + ": unreadable manifest (" + e.what() +
                                "); use --force-new to start over");
     }
-    const std::string diff = config_difference(old.value("config", nlohmann::json()), config_json);
+    std::string diff = config_difference(old.value("config", nlohmann::json()), config_json);
+    if (diff.empty() && old.contains("data_sha256") && old["data_sha256"] != digests)
+      diff = "data_sha256 (a scenario's data files changed since its runs)";
     if (!diff.empty()) {
       if (!options.force_new)
         throw std::runtime_error(
@@ -539,6 +552,7 @@ DirectoryClaim prepare_directory(const nlohmann::json& config_json, const RunOpt
   if (shard_count > 0) manifest["shards"] = shard_count;
   if (options.cluster != nullptr) manifest["mpi_ranks"] = options.cluster->size();
   manifest["config"] = config_json;
+  if (!digests.empty()) manifest["data_sha256"] = digests;
   for (const auto& item : options.manifest_extra.items()) manifest[item.key()] = item.value();
   write_file_atomic(manifest_path, manifest.dump(2) + "\n");
   claim.run_lock->lock(FileLock::Mode::kShared);  // a conversion; safe: we hold the gate
@@ -939,7 +953,6 @@ std::string missing_runs_report(const std::string& out_dir, const CampaignConfig
 CampaignOutcome run_campaign(const CampaignConfig& config, const RunOptions& options) {
   const auto t_start = std::chrono::steady_clock::now();
   const fs::path dir(options.out_dir);
-  const nlohmann::json config_json = config.to_json();
   const int threads = options.threads > 0 ? options.threads : omp_get_max_threads();
   Cluster* cluster = options.cluster != nullptr && options.cluster->size() > 1 ? options.cluster : nullptr;
   const bool root = cluster == nullptr || cluster->rank() == 0;
@@ -959,7 +972,7 @@ CampaignOutcome run_campaign(const CampaignConfig& config, const RunOptions& opt
   DirectoryClaim claim;  // held until the campaign returns
   if (root) {
     try {
-      claim = prepare_directory(config_json, options, threads);
+      claim = prepare_directory(config, options, threads);
     } catch (const std::exception& e) {
       directory_error = e.what();
     }

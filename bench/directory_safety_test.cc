@@ -11,7 +11,9 @@
 #include <nlohmann/json.hpp>
 
 #include "bench/campaign.h"
+#include "core/dataset.h"
 #include "core/output_dir.h"
+#include "scenarios/scenario.h"
 
 namespace insid::campaign {
 namespace {
@@ -140,6 +142,28 @@ TEST(DirectorySafety, RerunRemovesTemporariesLeftByAKill) {
   EXPECT_TRUE(fs::exists(users));
   EXPECT_TRUE(fs::exists(run));
   fs::remove_all(dir);
+}
+
+TEST(DirectorySafety, CampaignOverDataThatChangedIsADifferentCampaign) {
+  const fs::path data = fresh_dir("data");
+  const fs::path dir = fresh_dir("data-campaign");
+  scenarios::ScenarioConfig flight = scenarios::preset_scenario("rich");
+  flight.flight_s = 120;
+  write_dataset(data, scenarios::simulate(flight));
+  CampaignConfig c = config();
+  c.scenarios[0].preset.clear();
+  c.scenarios[0].data_dir = data.string();
+  ASSERT_TRUE(run_campaign(c, options_for(dir)).complete);
+  EXPECT_TRUE(run_campaign(c, options_for(dir)).complete);  // same data: resumes
+  flight.seed += 1;  // other noise, same file names
+  write_dataset(data, scenarios::simulate(flight));
+  const std::string error = error_of(c, options_for(dir));
+  EXPECT_NE(error.find("data_sha256"), std::string::npos) << error;
+  RunOptions force_new = options_for(dir);
+  force_new.force_new = true;
+  EXPECT_TRUE(run_campaign(c, force_new).complete);
+  fs::remove_all(dir);
+  fs::remove_all(data);
 }
 
 }  // namespace

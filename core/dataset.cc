@@ -38,6 +38,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/digest.h"
 #include "core/output_dir.h"
 #include "core/sensor_errors.h"
 
@@ -1007,6 +1008,18 @@ void write_file_atomic(const fs::path& path, const std::string& contents) {
     throw std::runtime_error("cannot write '" + path.string() + "': cannot rename '" +
                              tmp.string() + "' into place: " + ec.message());
   }
+}
+
+std::string dataset_digest(const fs::path& dir) {
+  std::string listing;
+  for (const std::string_view name : {kMetaFile, kImuFile, kGnssFile}) {
+    try {
+      listing += std::string(name) + ":" + sha256_file_hex(dir / name) + "\n";
+    } catch (const std::runtime_error& e) {
+      fail(dir.string() + ": " + e.what());
+    }
+  }
+  return sha256_hex(listing);
 }
 
 }  // namespace insid

@@ -116,4 +116,9 @@ void validate_dataset(const Dataset& dataset);
 /// Write a file atomically (temp file + rename). Throws std::runtime_error on failure.
 void write_file_atomic(const std::filesystem::path& path, const std::string& contents);
 
+/// SHA-256 over the files of a dataset directory that determine every result computed from it
+/// (meta.json, imu.csv, gnss.csv; truth.csv and other files do not enter): the key of caches
+/// kept about the data. Throws DatasetError naming an unreadable file.
+std::string dataset_digest(const std::filesystem::path& dir);
+
 }  // namespace insid

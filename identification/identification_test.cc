@@ -1,4 +1,7 @@
+#include <unistd.h>
+
 #include <cmath>
+#include <filesystem>
 #include <memory>
 
 #include <gtest/gtest.h>
@@ -70,6 +73,44 @@ TEST(Identification, LocalFitFindsTheInjectedBiasesOnNoiseFreeData) {
   EXPECT_LT((fit.value_sigma - truth).cwiseAbs().maxCoeff(), 1e-3) << fit.value_sigma.transpose();
   EXPECT_LT(fit.evaluations, 200);
   EXPECT_LT(fit.fitness, 1e-3 * problem.fitness(Eigen::VectorXd::Zero(4)));
+}
+
+// Static data with biases `scale` x the paper's after the alignment window, in `dir`.
+std::shared_ptr<const NavigationProblem> write_static_data(const std::filesystem::path& dir,
+                                                           double scale) {
+  Dataset ds = testing::make_static_dataset(EarthModel::paper(kLat, 50.0), kLat, 2.0, 50.0,
+                                            {0.0, 0.0, 0.7}, 900.0, 300.0);
+  SensorErrors errors = paper_errors();
+  errors.gyro.bias *= scale;
+  errors.accel.bias *= scale;
+  for (ImuSample& s : ds.imu)
+    if (s.t_s > 300.0 + 1e-9) apply_imu_errors(errors, 0.0, 0.01, s.dtheta_b_rad, s.dv_b_mps);
+  write_dataset(dir, ds);
+  return std::make_shared<const NavigationProblem>(
+      std::make_shared<const Dataset>(load_dataset(dir)), NavigationOptions{AlignmentMode::kFixed});
+}
+
+TEST(Identification, OptimumCacheFollowsTheDataNotTheDirectory) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
+                                    ("insid-cache-test-" + std::to_string(getpid()));
+  std::filesystem::remove_all(dir);
+  const ParameterMapping mapping(EstimatedParameter::paper_four());
+  const InsIdentificationProblem first(write_static_data(dir, 1.0), mapping);
+  const ReferenceOptimum a = cached_reference_optimum(dir.string(), first);
+  ASSERT_TRUE(std::filesystem::exists(dir / "insid-optimum-cache.json"));
+  EXPECT_EQ(cached_reference_optimum(dir.string(), first).fitness, a.fitness);  // from the cache
+  // The data in the directory are replaced by a flight with other biases (the cache stays).
+  std::filesystem::copy_file(dir / "insid-optimum-cache.json", dir.string() + "-cache.json");
+  const InsIdentificationProblem second(write_static_data(dir, 0.5), mapping);
+  std::filesystem::copy_file(dir.string() + "-cache.json", dir / "insid-optimum-cache.json");
+  const ReferenceOptimum b = cached_reference_optimum(dir.string(), second);
+  const ReferenceOptimum fresh = find_reference_optimum(second);
+  EXPECT_EQ(b.fitness, fresh.fitness);
+  EXPECT_EQ(b.value_sigma, fresh.value_sigma);
+  EXPECT_GT((b.value_sigma - a.value_sigma).cwiseAbs().maxCoeff(), 0.5)
+      << a.value_sigma.transpose() << " vs " << b.value_sigma.transpose();
+  std::filesystem::remove_all(dir);
+  std::filesystem::remove(dir.string() + "-cache.json");
 }
 
 TEST(Identification, SerialAndOpenMpEvaluationAgreeBitForBit) {

@@ -63,9 +63,12 @@ ReferenceOptimum find_reference_optimum(const InsIdentificationProblem& problem,
 
 namespace {
 
-std::string cache_key(const InsIdentificationProblem& problem) {
+// Everything that determines the optimum: the data's contents (a dataset replaced in the same
+// directory gets a new key), the alignment, the estimated parameters and the fixed effects.
+std::string cache_key(const std::string& data_dir, const InsIdentificationProblem& problem) {
   std::ostringstream key;
-  key << "alignment=" << to_string(problem.navigation().options().alignment);
+  key << "data_sha256=" << dataset_digest(data_dir);
+  key << ";alignment=" << to_string(problem.navigation().options().alignment);
   for (const EstimatedParameter& p : problem.mapping().parameters())
     key << ";" << p.name << ":" << opt::format_number(p.sigma) << ":"
         << opt::format_number(p.lower_sigma) << ":" << opt::format_number(p.upper_sigma);
@@ -79,7 +82,7 @@ std::string cache_key(const InsIdentificationProblem& problem) {
 ReferenceOptimum cached_reference_optimum(const std::string& data_dir,
                                           const InsIdentificationProblem& problem) {
   const std::filesystem::path path = std::filesystem::path(data_dir) / "insid-optimum-cache.json";
-  const std::string key = cache_key(problem);
+  const std::string key = cache_key(data_dir, problem);
   nlohmann::json cache = nlohmann::json::object();
   {
     std::ifstream in(path);

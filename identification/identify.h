@@ -36,7 +36,8 @@ ReferenceOptimum find_reference_optimum(const InsIdentificationProblem& problem,
                                         std::uint64_t seed = 12345);
 
 /// Cached reference optimum in `<data_dir>/insid-optimum-cache.json` (extra files in a dataset
-/// directory are ignored by the format), keyed by estimated parameters, alignment and fitness.
+/// directory are ignored by the format), keyed by the data files' SHA-256 (dataset_digest),
+/// estimated parameters, alignment and fixed effects.
 /// Computed and stored when missing; a read-only directory only costs the recomputation.
 ReferenceOptimum cached_reference_optimum(const std::string& data_dir,
                                           const InsIdentificationProblem& problem);

@@ -3,7 +3,7 @@
 # Only missing packages are installed; nothing happens when all are present.
 set -euo pipefail
 packages=(build-essential cmake git libeigen3-dev nlohmann-json3-dev libcli11-dev
-          libbenchmark-dev libgtest-dev libboost-dev
+          libbenchmark-dev libgtest-dev libboost-dev libssl-dev
           libpagmo-dev libceres-dev libnlopt-cxx-dev
           libopenmpi-dev openmpi-bin
           python3 python3-numpy python3-scipy python3-matplotlib)
