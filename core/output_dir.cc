@@ -7,7 +7,6 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
-#include <regex>
 #include <stdexcept>
 #include <system_error>
 
@@ -19,8 +18,18 @@ namespace fs = std::filesystem;
 // Temporary names of insid's atomic writes: "<name>.tmp-<host>-<pid>-<counter>"
 // (core/dataset.cc, sibling()).
 bool is_temporary_name(const std::string& name) {
-  static const std::regex pattern(R"(.+\.tmp-.+-[0-9]+-[0-9]+)");
-  return std::regex_match(name, pattern);
+  const std::size_t tag = name.find(".tmp-");
+  if (tag == std::string::npos || tag == 0) return false;
+  // "-<pid>-<counter>" at the end, after a non-empty host.
+  std::size_t end = name.size();
+  for (int number = 0; number < 2; ++number) {
+    const std::size_t dash = name.find_last_of('-', end - 1);
+    if (dash == std::string::npos || dash + 1 >= end || dash <= tag + 4) return false;
+    for (std::size_t i = dash + 1; i < end; ++i)
+      if (name[i] < '0' || name[i] > '9') return false;
+    end = dash;
+  }
+  return end > tag + 5;  // the host part is not empty
 }
 
 bool is_own_entry(const std::string& name, const OutputKind& kind) {

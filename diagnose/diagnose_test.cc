@@ -118,7 +118,7 @@ INSTANTIATE_TEST_SUITE_P(
                       HiddenParam{"gyro_scale_z", 300e-6}, HiddenParam{"gyro_bias_z", 0.3 * kDegH},
                       HiddenParam{"accel_scale_x", 2000e-6},
                       HiddenParam{"gyro_misalign_xy", 200e-6}),
-    [](const ::testing::TestParamInfo<HiddenParam>& info) { return info.param.effect; });
+    [](const ::testing::TestParamInfo<HiddenParam>& param_info) { return param_info.param.effect; });
 
 // Effect-free data: nothing named (family-wise 5 %: allow one of four seeds).
 TEST(HiddenNone, NothingFound) {
