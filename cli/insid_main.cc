@@ -3,15 +3,25 @@
 #include <iostream>
 
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 
 #include "cli/commands.h"
 #include "identification/ekf_rts.h"
+#include "identification/identify.h"
 
 int main(int argc, char** argv) {
   CLI::App app{
       "insid: identify INS sensor errors from navigation data, and benchmark the optimizers "
       "(GA, PSO, PIO, DVPIO) that do it."};
   app.require_subcommand(1);
+  const nlohmann::json build = insid::build_info_json();
+  app.set_version_flag(
+      "--version",
+      "insid " + build.value("version", "?") + "\n  git revision: " + build.value("git_revision", "?") +
+          "\n  build type:   " + build.value("build_type", "?") +
+          "\n  compiler:     " + build.value("compiler", "?") +
+          "\n  CPU path:     " + build.value("cpu_path", "?"),
+      "print the version, git revision, build type, compiler and CPU path, and exit");
   insid::register_ekf_rts();  // "ekf-rts" in the optimizer registry (identification/)
   insid::cli::add_navigate_command(app);
   insid::cli::add_identify_command(app);

@@ -8,6 +8,15 @@
 
 #include "optimizers/random.h"
 
+#ifndef INSID_VERSION
+#define INSID_VERSION "unknown"
+#endif
+#ifndef INSID_BUILD_TYPE
+#define INSID_BUILD_TYPE "unknown"
+#endif
+#ifndef INSID_CPU_PATH
+#define INSID_CPU_PATH "unknown"
+#endif
 #ifndef INSID_GIT_REVISION
 #define INSID_GIT_REVISION "unknown"
 #endif
@@ -179,7 +188,10 @@ void add_estimate_json(nlohmann::json& out, const ParameterMapping& mapping,
 
 nlohmann::json build_info_json() {
   nlohmann::json j;
+  j["version"] = INSID_VERSION;
   j["git_revision"] = INSID_GIT_REVISION;
+  j["build_type"] = INSID_BUILD_TYPE;
+  j["cpu_path"] = INSID_CPU_PATH;
 #if defined(__clang__)
   j["compiler"] = std::string("clang ") + __clang_version__;
 #elif defined(__GNUC__)

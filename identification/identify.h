@@ -53,7 +53,8 @@ void add_estimate_json(nlohmann::json& out, const ParameterMapping& mapping,
                        const Eigen::VectorXd& value_sigma,
                        const std::optional<std::map<std::string, double>>& injected);
 
-/// Compiler, flags, git revision: the build that produced a result.
+/// Version, git revision, build type, compiler, CPU path (instruction set targeted): the build
+/// that produced a result. `insid --version` prints it.
 nlohmann::json build_info_json();
 
 }  // namespace insid
