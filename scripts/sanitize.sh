@@ -5,6 +5,7 @@
 # scripts/lsan-suppressions.txt: only leaks whose whole stack is inside Open MPI's own
 # libraries (allocations made by MPI_Init that Open MPI frees at exit only partially); see the
 # file. Extra arguments go to ctest (e.g. -R Dataset).
+# The tests that launch the insid binary pass the sanitizer options on through the environment.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/install-deps.sh
