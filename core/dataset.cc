@@ -419,6 +419,32 @@ struct Validator {
       fail(at(file, index, column) + "expected a finite number, got " + num_text(v));
   }
 
+  // |v| <= bound, else "<file> line, column: <what> <v> <unit> is beyond the plausibility
+  // bound <bound> <unit> (<why>)".
+  void bounded(std::string_view file, std::size_t index, std::string_view column, double v,
+               double bound, std::string_view what, std::string_view unit,
+               std::string_view why) const {
+    if (!(std::fabs(v) <= bound))
+      fail(at(file, index, column) + std::string(what) + " " + num_text(v) + " " +
+           std::string(unit) + " is beyond the plausibility bound " + num_text(bound) + " " +
+           std::string(unit) + " (" + std::string(why) + ")");
+  }
+
+  // Longitude, height and velocity of a GNSS or truth row.
+  void position_velocity(std::string_view file, std::size_t index, double lon_rad, double h_m,
+                         const Eigen::Vector3d& v_eb_n_mps) const {
+    using B = PlausibilityBounds;
+    bounded(file, index, "lon_deg", lon_rad * kRadToDeg, B::kMaxLonAbs_deg, "longitude", "deg",
+            "longitudes lie in [-180, 360] deg");
+    if (!(h_m >= B::kMinHeight_m && h_m <= B::kMaxHeight_m))
+      fail(at(file, index, "h_m") + "height " + num_text(h_m) + " m is outside the plausible [" +
+           num_text(B::kMinHeight_m) + ", " + num_text(B::kMaxHeight_m) + "] m");
+    static constexpr std::string_view kVel[3] = {"vE_mps", "vN_mps", "vU_mps"};
+    for (int k = 0; k < 3; ++k)
+      bounded(file, index, kVel[k], v_eb_n_mps[k], B::kMaxSpeed_mps, "velocity", "m/s",
+              "faster than any drone or aircraft insid is for");
+  }
+
   void latitude(std::string_view file, std::size_t index, double lat_rad) const {
     if (!(std::fabs(lat_rad) < kPi / 2))
       fail(at(file, index, "lat_deg") + "latitude " + num_text(lat_rad * kRadToDeg) +
@@ -501,6 +527,20 @@ struct Validator {
     }
     times(kImuFile, ds.imu);
     const double dt_nominal = 1.0 / m.imu_rate_hz;
+    {
+      using B = PlausibilityBounds;
+      // Increments over one nominal step (the step check below holds each within 1 %).
+      const double max_dtheta = B::kMaxAngularRate_deg_s * kDegToRad * dt_nominal * 1.01;
+      const double max_dv = B::kMaxSpecificForce_g * 9.80665 * dt_nominal * 1.01;
+      for (std::size_t i = 0; i < ds.imu.size(); ++i) {
+        for (int k = 0; k < 3; ++k)
+          bounded(kImuFile, i, kImuColumns[1 + k], ds.imu[i].dtheta_b_rad[k], max_dtheta,
+                  "angle increment", "rad", "2000 deg/s over one step of 1/imu_rate_hz");
+        for (int k = 0; k < 3; ++k)
+          bounded(kImuFile, i, kImuColumns[4 + k], ds.imu[i].dv_b_mps[k], max_dv,
+                  "velocity increment", "m/s", "50 g over one step of 1/imu_rate_hz");
+      }
+    }
     for (std::size_t i = 1; i < ds.imu.size(); ++i) {
       const double dt = ds.imu[i].t_s - ds.imu[i - 1].t_s;
       if (!(std::fabs(dt - dt_nominal) <= kImuRateTolerance * dt_nominal))
@@ -528,8 +568,32 @@ struct Validator {
       finite(kGnssFile, i, "h_m", s.h_m);
       for (int k = 0; k < 3; ++k) finite(kGnssFile, i, kGnssColumns[4 + k], s.v_eb_n_mps[k]);
       latitude(kGnssFile, i, s.lat_rad);
+      position_velocity(kGnssFile, i, s.lon_rad, s.h_m, s.v_eb_n_mps);
     }
     times(kGnssFile, ds.gnss);
+    {
+      // The declared rate against the data's median step, and the longest outage.
+      using B = PlausibilityBounds;
+      std::vector<double> steps;
+      steps.reserve(ds.gnss.size() - 1);
+      for (std::size_t i = 1; i < ds.gnss.size(); ++i) steps.push_back(ds.gnss[i].t_s - ds.gnss[i - 1].t_s);
+      std::vector<double> sorted = steps;
+      std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+      const double median_step = sorted[sorted.size() / 2];
+      const double declared_step = 1.0 / m.gnss_rate_hz;
+      const double max_gap = std::max(B::kMaxGnssGap_s, 20.0 * declared_step);
+      for (std::size_t i = 0; i < steps.size(); ++i)
+        if (!(steps[i] <= max_gap))
+          fail(at(kGnssFile, i + 1, "t_s") + "GNSS gap of " + num_text(steps[i]) + " s from line " +
+               std::to_string(i + 2) + " (t = " + num_text(ds.gnss[i].t_s) + " s) to line " +
+               std::to_string(i + 3) + " (t = " + num_text(ds.gnss[i + 1].t_s) +
+               " s) is longer than the allowed " + num_text(max_gap) +
+               " s (the larger of 10 s and 20 GNSS periods)");
+      if (!(std::fabs(median_step - declared_step) <= B::kRateTolerance * declared_step))
+        meta_fail("field \"gnss_rate_hz\" = " + num_text(m.gnss_rate_hz) + " Hz does not match " +
+                  "gnss.csv, whose median step " + num_text(median_step) + " s is a rate of " +
+                  num_text(1.0 / median_step) + " Hz (allowed: within 10 %)");
+    }
     const double nav_start = imu_t0 + m.align_s;
     if (!(ds.gnss.front().t_s <= nav_start))
       fail(at(kGnssFile, 0, "t_s") + "GNSS does not cover the start of navigation: the first " +
@@ -561,6 +625,7 @@ struct Validator {
                             s.attitude.yaw_rad};
       for (int k = 0; k < 10; ++k) finite(kTruthFile, i, kTruthColumns[k], v[k]);
       latitude(kTruthFile, i, s.lat_rad);
+      position_velocity(kTruthFile, i, s.lon_rad, s.h_m, s.v_eb_n_mps);
     }
     times(kTruthFile, ds.truth);
   }

@@ -66,6 +66,19 @@ struct Dataset {
   std::vector<TruthSample> truth;  ///< empty when truth.csv is absent
 };
 
+/// Plausibility bounds checked at load (generous: beyond them no real IMU, GNSS receiver or
+/// drone produces a value; a value beyond them is a corrupted file, not a flight).
+struct PlausibilityBounds {
+  static constexpr double kMaxAngularRate_deg_s = 2000.0;  ///< fastest MEMS gyro range
+  static constexpr double kMaxSpecificForce_g = 50.0;      ///< beyond shock-rated accelerometers
+  static constexpr double kMinHeight_m = -1000.0;          ///< below any land (ellipsoidal)
+  static constexpr double kMaxHeight_m = 100000.0;         ///< the edge of space
+  static constexpr double kMaxLonAbs_deg = 360.0;          ///< [-180, 180] or [0, 360)
+  static constexpr double kMaxSpeed_mps = 1000.0;          ///< per velocity component
+  static constexpr double kRateTolerance = 0.10;  ///< declared GNSS rate vs the median step
+  static constexpr double kMaxGnssGap_s = 10.0;   ///< longest GNSS outage (or 20 GNSS periods)
+};
+
 /// Any malformed dataset input. The message names the file, line and field, and what was
 /// expected, e.g. "imu.csv line 12, column dv_x_mps: expected a finite number, got 'nan'".
 class DatasetError : public std::runtime_error {

@@ -1,0 +1,280 @@
+// The malformed-dataset battery: one valid simulated dataset, mutated one way per case (a bad
+// number in every column of every file, values beyond the plausibility bounds, broken headers
+// and lines, declared rates that the data contradict, gaps, cut files). Every case must be
+// refused with a DatasetError whose message names the file, the line (or meta.json field) and
+// what was expected.
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "core/dataset.h"
+#include "scenarios/scenario.h"
+
+namespace insid {
+namespace {
+namespace fs = std::filesystem;
+
+std::string read_text(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+void write_text(const fs::path& p, const std::string& text) {
+  std::ofstream(p, std::ios::binary | std::ios::trunc) << text;
+}
+
+std::vector<std::string> split(const std::string& text, char sep) {
+  std::vector<std::string> parts;
+  std::string part;
+  std::istringstream in(text);
+  while (std::getline(in, part, sep)) parts.push_back(part);
+  if (!text.empty() && text.back() == sep) parts.push_back("");
+  return parts;
+}
+
+std::string join(const std::vector<std::string>& parts, char sep) {
+  std::string out;
+  for (std::size_t i = 0; i < parts.size(); ++i) out += (i ? std::string(1, sep) : "") + parts[i];
+  return out;
+}
+
+// Replace field `column` (0-based) of `line` (1-based, the header is line 1).
+void set_field(const fs::path& file, int line, int column, const std::string& value) {
+  std::vector<std::string> lines = split(read_text(file), '\n');
+  std::vector<std::string> fields = split(lines.at(static_cast<std::size_t>(line - 1)), ',');
+  fields.at(static_cast<std::size_t>(column)) = value;
+  lines[static_cast<std::size_t>(line - 1)] = join(fields, ',');
+  write_text(file, join(lines, '\n'));
+}
+
+void edit_lines(const fs::path& file, const std::function<void(std::vector<std::string>&)>& edit) {
+  std::vector<std::string> lines = split(read_text(file), '\n');
+  edit(lines);
+  write_text(file, join(lines, '\n'));
+}
+
+struct Case {
+  std::string name;
+  std::function<void(const fs::path&)> mutate;
+  std::vector<std::string> expected;  // substrings of the error message
+};
+
+const std::vector<std::string> kImuColumns = {"t_s",      "dtheta_x_rad", "dtheta_y_rad",
+                                              "dtheta_z_rad", "dv_x_mps", "dv_y_mps",
+                                              "dv_z_mps"};
+const std::vector<std::string> kGnssColumns = {"t_s", "lat_deg", "lon_deg", "h_m",
+                                               "vE_mps", "vN_mps", "vU_mps"};
+const std::vector<std::string> kTruthColumns = {"t_s",    "lat_deg", "lon_deg",  "h_m",
+                                                "vE_mps", "vN_mps",  "vU_mps",   "roll_deg",
+                                                "pitch_deg", "yaw_deg"};
+
+std::vector<Case> make_cases() {
+  std::vector<Case> cases;
+  // Text that is not a finite number, in every column of every file.
+  const std::vector<std::pair<std::string, std::string>> not_numbers = {
+      {"nan", "nan"}, {"inf", "inf"}, {"word", "abc"}, {"empty", ""}, {"overflow", "1e999"}};
+  const std::vector<std::pair<std::string, const std::vector<std::string>*>> files = {
+      {"imu.csv", &kImuColumns}, {"gnss.csv", &kGnssColumns}, {"truth.csv", &kTruthColumns}};
+  for (const auto& [file, columns] : files) {
+    for (std::size_t c = 0; c < columns->size(); ++c) {
+      for (const auto& [label, text] : not_numbers) {
+        const std::string f = file;
+        const int col = static_cast<int>(c);
+        const std::string value = text;
+        cases.push_back({f.substr(0, f.find('.')) + "_" + (*columns)[c] + "_" + label,
+                         [f, col, value](const fs::path& d) { set_field(d / f, 7, col, value); },
+                         {f + " line 7", (*columns)[c]}});
+      }
+    }
+  }
+  // Beyond the plausibility bounds (one IMU value of 1e300; a deletion that turns -0.0979
+  // into -9.8e15; positions off the Earth; impossible speeds).
+  for (int c = 1; c <= 6; ++c) {
+    for (const std::string value : {"1e300", "-9.8e15", "1e6"}) {
+      cases.push_back({"imu_" + kImuColumns[static_cast<std::size_t>(c)] + "_" + value,
+                       [c, value](const fs::path& d) { set_field(d / "imu.csv", 30, c, value); },
+                       {"imu.csv line 30", kImuColumns[static_cast<std::size_t>(c)],
+                        "plausibility bound"}});
+    }
+  }
+  for (const std::string file : {"gnss.csv", "truth.csv"}) {
+    const std::vector<std::tuple<std::string, int, std::string, std::string>> off_earth = {
+        {"lon_big", 2, "1e6", "plausibility bound"},     {"lon_low", 2, "-400", "plausibility bound"},
+        {"height_high", 3, "1e12", "plausible"},          {"height_low", 3, "-5000", "plausible"},
+        {"vE_fast", 4, "1e200", "plausibility bound"},    {"vN_fast", 5, "-2000", "plausibility bound"},
+        {"vU_fast", 6, "1e4", "plausibility bound"},      {"lat_pole", 1, "90", "strictly within"},
+        {"lat_beyond", 1, "-123", "strictly within"}};
+    for (const auto& [label, col, value, why] : off_earth) {
+      const std::vector<std::string>& columns = file == "gnss.csv" ? kGnssColumns : kTruthColumns;
+      cases.push_back({file.substr(0, file.find('.')) + "_" + label,
+                       [file, col, value](const fs::path& d) { set_field(d / file, 12, col, value); },
+                       {file + " line 12", columns[static_cast<std::size_t>(col)], why}});
+    }
+  }
+  // Times: repeated, backwards, an IMU step off the declared rate, a GNSS gap.
+  for (const std::string file : {"imu.csv", "gnss.csv", "truth.csv"}) {
+    cases.push_back({file.substr(0, file.find('.')) + "_time_repeats",
+                     [file](const fs::path& d) {
+                       edit_lines(d / file, [](std::vector<std::string>& l) {
+                         auto f = split(l[9], ',');
+                         f[0] = split(l[8], ',')[0];
+                         l[9] = join(f, ',');
+                       });
+                     },
+                     {file + " line 10", "t_s", "repeats"}});
+    cases.push_back({file.substr(0, file.find('.')) + "_time_backwards",
+                     [file](const fs::path& d) { set_field(d / file, 10, 0, "-1"); },
+                     {file + " line 10", "t_s", "strictly increasing"}});
+  }
+  cases.push_back({"imu_step_jump",
+                   [](const fs::path& d) {
+                     edit_lines(d / "imu.csv", [](std::vector<std::string>& l) { l.erase(l.begin() + 40); });
+                   },
+                   {"imu.csv line 41", "t_s", "IMU step"}});
+  cases.push_back({"gnss_gap_90s",
+                   [](const fs::path& d) {
+                     edit_lines(d / "gnss.csv", [](std::vector<std::string>& l) {
+                       l.erase(l.begin() + 50, l.begin() + 50 + 900);
+                     });
+                   },
+                   {"gnss.csv line 51", "GNSS gap of 90"}});
+  cases.push_back({"gnss_two_rows",
+                   [](const fs::path& d) {
+                     edit_lines(d / "gnss.csv", [](std::vector<std::string>& l) {
+                       l.erase(l.begin() + 2, l.end() - 2);
+                     });
+                   },
+                   {"gnss.csv line 3", "GNSS gap"}});
+  cases.push_back({"gnss_ends_early",
+                   [](const fs::path& d) {
+                     edit_lines(d / "gnss.csv", [](std::vector<std::string>& l) {
+                       l.erase(l.end() - 40, l.end() - 1);
+                     });
+                   },
+                   {"gnss.csv line", "does not cover the end"}});
+  // Declared rates the data contradict.
+  for (const std::string rate : {"1", "1e-9", "11.5", "100"}) {
+    cases.push_back({"gnss_rate_" + rate,
+                     [rate](const fs::path& d) {
+                       std::string meta = read_text(d / "meta.json");
+                       const auto at = meta.find("\"gnss_rate_hz\"");
+                       const auto colon = meta.find(':', at);
+                       const auto end = meta.find_first_of(",}", colon);
+                       write_text(d / "meta.json", meta.substr(0, colon + 1) + " " + rate + meta.substr(end));
+                     },
+                     {"meta.json", "gnss_rate_hz"}});
+  }
+  for (const std::string rate : {"50", "101.5", "0", "-100"}) {
+    cases.push_back({"imu_rate_" + rate,
+                     [rate](const fs::path& d) {
+                       std::string meta = read_text(d / "meta.json");
+                       const auto at = meta.find("\"imu_rate_hz\"");
+                       const auto colon = meta.find(':', at);
+                       const auto end = meta.find_first_of(",}", colon);
+                       write_text(d / "meta.json", meta.substr(0, colon + 1) + " " + rate + meta.substr(end));
+                     },
+                     {rate == "0" || rate == "-100" ? "meta.json" : "imu.csv", rate == "0" || rate == "-100" ? "imu_rate_hz" : "IMU step"}});
+  }
+  // Headers and line structure.
+  for (const std::string file : {"imu.csv", "gnss.csv", "truth.csv"}) {
+    const std::string stem = file.substr(0, file.find('.'));
+    cases.push_back({stem + "_header_renamed",
+                     [file](const fs::path& d) { set_field(d / file, 1, 1, "speed"); },
+                     {file, "header"}});
+    cases.push_back({stem + "_header_missing_column",
+                     [file](const fs::path& d) {
+                       edit_lines(d / file, [](std::vector<std::string>& l) {
+                         auto f = split(l[0], ',');
+                         f.pop_back();
+                         l[0] = join(f, ',');
+                       });
+                     },
+                     {file, "header"}});
+    cases.push_back({stem + "_short_line",
+                     [file](const fs::path& d) {
+                       edit_lines(d / file, [](std::vector<std::string>& l) {
+                         auto f = split(l[19], ',');
+                         f.pop_back();
+                         l[19] = join(f, ',');
+                       });
+                     },
+                     {file + " line 20"}});
+    cases.push_back({stem + "_long_line",
+                     [file](const fs::path& d) {
+                       edit_lines(d / file, [](std::vector<std::string>& l) { l[19] += ",1"; });
+                     },
+                     {file + " line 20"}});
+    cases.push_back({stem + "_blank_line_inside",
+                     [file](const fs::path& d) {
+                       edit_lines(d / file, [](std::vector<std::string>& l) { l[19] = ""; });
+                     },
+                     {file + " line 20"}});
+  }
+  for (const std::string file : {"imu.csv", "gnss.csv", "meta.json"}) {
+    cases.push_back({file.substr(0, file.find('.')) + "_missing",
+                     [file](const fs::path& d) { fs::remove(d / file); },
+                     {file}});
+    cases.push_back({file.substr(0, file.find('.')) + "_empty",
+                     [file](const fs::path& d) { write_text(d / file, ""); },
+                     {file}});
+  }
+  return cases;
+}
+
+class DatasetBattery : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    valid_ = new fs::path(fs::temp_directory_path() /
+                          ("insid-battery-valid-" + std::to_string(getpid())));
+    fs::remove_all(*valid_);
+    scenarios::ScenarioConfig flight = scenarios::preset_scenario("straight");
+    flight.align_s = 20.0;
+    flight.flight_s = 100.0;
+    write_dataset(*valid_, scenarios::simulate(flight));
+  }
+  static void TearDownTestSuite() {
+    fs::remove_all(*valid_);
+    delete valid_;
+  }
+  static fs::path* valid_;
+};
+fs::path* DatasetBattery::valid_ = nullptr;
+
+TEST_F(DatasetBattery, EveryMalformedCaseIsRefusedWithFileLineAndExpectation) {
+  ASSERT_NO_THROW(load_dataset(*valid_));
+  const std::vector<Case> cases = make_cases();
+  EXPECT_GE(cases.size(), 100u);
+  const fs::path work = valid_->string() + "-case";
+  int refused = 0;
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    fs::remove_all(work);
+    fs::copy(*valid_, work);
+    c.mutate(work);
+    try {
+      load_dataset(work);
+      ADD_FAILURE() << c.name << ": accepted";
+    } catch (const DatasetError& e) {
+      ++refused;
+      for (const std::string& part : c.expected)
+        EXPECT_NE(std::string(e.what()).find(part), std::string::npos)
+            << c.name << ": message lacks '" << part << "': " << e.what();
+    } catch (const std::exception& e) {
+      ADD_FAILURE() << c.name << ": not a DatasetError: " << e.what();
+    }
+  }
+  fs::remove_all(work);
+  std::printf("[ measured ] %d of %zu malformed datasets refused\n", refused, cases.size());
+}
+
+}  // namespace
+}  // namespace insid
