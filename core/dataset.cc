@@ -129,7 +129,8 @@ std::string os_error(int err) { return std::strerror(err); }
 
 // Whole file into memory. `where` names it in messages.
 std::string read_whole_file(const fs::path& path, const std::string& where) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  // O_NONBLOCK: opening a FIFO must not wait for a writer (it is refused below).
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);
   if (fd < 0) fail(where + ": cannot open: " + os_error(errno));
   struct stat st {};
   if (::fstat(fd, &st) != 0) {
@@ -139,7 +140,9 @@ std::string read_whole_file(const fs::path& path, const std::string& where) {
   }
   if (!S_ISREG(st.st_mode)) {
     ::close(fd);
-    fail(where + ": not a regular file");
+    fail(where + ": not a regular file (" +
+         (S_ISFIFO(st.st_mode) ? "a FIFO" : S_ISDIR(st.st_mode) ? "a directory" : "a special file") +
+         "); a dataset's files must be regular files");
   }
   std::string data;
   data.resize(static_cast<std::size_t>(st.st_size));
@@ -853,12 +856,25 @@ Dataset load_dataset(const fs::path& dir) {
     fail("'" + dir.string() + "' is not a directory (an " + std::string(kFormat) +
          " dataset is a directory with imu.csv, gnss.csv, meta.json and optional truth.csv)");
 
-  auto require_file = [&](std::string_view name) {
+  // Present (true), absent (false), or an error: a dangling link or a link loop is not
+  // "missing", it is broken.
+  auto present = [&](std::string_view name) {
     const fs::path p = dir / name;
-    if (!fs::exists(p, ec))
+    std::error_code status_ec;
+    const fs::file_status st = fs::status(p, status_ec);
+    if (fs::exists(st)) return true;
+    if (fs::is_symlink(fs::symlink_status(p, ec)))
+      fail(prefix + std::string(name) + ": a symbolic link that does not resolve (" +
+           (status_ec ? status_ec.message() : std::string("its target is missing")) + ")");
+    if (status_ec && status_ec != std::errc::no_such_file_or_directory)
+      fail(prefix + std::string(name) + ": " + status_ec.message());
+    return false;
+  };
+  auto require_file = [&](std::string_view name) {
+    if (!present(name))
       fail(prefix + "missing file " + std::string(name) + " (required by " +
            std::string(kFormat) + ")");
-    return p;
+    return dir / name;
   };
 
   Dataset ds;
@@ -889,7 +905,7 @@ Dataset load_dataset(const fs::path& dir) {
       s.v_eb_n_mps = {v[4], v[5], v[6]};
     });
   }
-  if (const fs::path p = dir / kTruthFile; fs::exists(p, ec)) {
+  if (const fs::path p = dir / kTruthFile; present(kTruthFile)) {
     const std::string text = read_whole_file(p, prefix + std::string(kTruthFile));
     ds.truth.reserve(static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n')) + 1);
     parse_csv(text, kTruthColumns, CsvWhere{prefix, kTruthFile},

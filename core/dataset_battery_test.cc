@@ -3,6 +3,7 @@
 // and lines, declared rates that the data contradict, gaps, cut files). Every case must be
 // refused with a DatasetError whose message names the file, the line (or meta.json field) and
 // what was expected.
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <filesystem>
@@ -227,6 +228,31 @@ std::vector<Case> make_cases() {
                      [file](const fs::path& d) { write_text(d / file, ""); },
                      {file}});
   }
+  // Special files: a FIFO must not hang the loader, broken links are not "missing".
+  cases.push_back({"imu_fifo",
+                   [](const fs::path& d) {
+                     fs::remove(d / "imu.csv");
+                     ASSERT_EQ(::mkfifo((d / "imu.csv").c_str(), 0644), 0);
+                   },
+                   {"imu.csv", "not a regular file (a FIFO)"}});
+  cases.push_back({"imu_symlink_loop",
+                   [](const fs::path& d) {
+                     fs::remove(d / "imu.csv");
+                     fs::create_symlink("imu.csv", d / "imu.csv");
+                   },
+                   {"imu.csv", "symbolic link that does not resolve"}});
+  cases.push_back({"truth_dangling_link",
+                   [](const fs::path& d) {
+                     fs::remove(d / "truth.csv");
+                     fs::create_symlink("elsewhere.csv", d / "truth.csv");
+                   },
+                   {"truth.csv", "symbolic link that does not resolve"}});
+  cases.push_back({"gnss_is_a_directory",
+                   [](const fs::path& d) {
+                     fs::remove(d / "gnss.csv");
+                     fs::create_directory(d / "gnss.csv");
+                   },
+                   {"gnss.csv", "not a regular file"}});
   return cases;
 }
 
