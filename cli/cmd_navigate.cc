@@ -1,4 +1,5 @@
 // insid navigate: alignment + pure-INS navigation over a dataset, with optional compensation.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
@@ -15,6 +16,7 @@
 #include "core/dataset.h"
 #include "core/fitness.h"
 #include "core/rotation.h"
+#include "optimizers/parameters.h"
 
 namespace insid::cli {
 namespace {
@@ -40,6 +42,36 @@ Eigen::Matrix3d truth_attitude_at(const Dataset& ds, double t_s) {
   return C_b_n_from_euler(ds.meta.initial.attitude);
 }
 
+// A navigation that went non-finite is an error, never a result: name the first state that
+// did, the IMU line it came from, and the compensation applied.
+void require_finite_navigation(const Dataset& ds, const std::string& data_dir,
+                               const SensorErrors& candidate, const std::vector<NavState>& states,
+                               const std::vector<double>& r) {
+  auto finite_state = [](const NavState& s) {
+    return std::isfinite(s.lat_rad) && std::isfinite(s.lon_rad) && std::isfinite(s.h_m) &&
+           s.v_eb_n.allFinite() && s.q_b_n.coeffs().allFinite();
+  };
+  std::string compensation;
+  for (const auto& [name, value] : nonzero_effects(candidate))
+    compensation += (compensation.empty() ? " with --compensate " : ", ") + name + "=" +
+                    opt::format_number(value);
+  for (const NavState& s : states) {
+    if (finite_state(s)) continue;
+    const auto it = std::lower_bound(ds.imu.begin(), ds.imu.end(), s.t_s - 1e-9,
+                                     [](const ImuSample& a, double t) { return a.t_s < t; });
+    const std::size_t line = static_cast<std::size_t>(it - ds.imu.begin()) + 2;
+    throw std::runtime_error(data_dir + ": the navigation" + compensation +
+                             " became non-finite at t = " + opt::format_number(s.t_s) +
+                             " s (after imu.csv line " + std::to_string(line) +
+                             "); no result is written");
+  }
+  for (std::size_t k = 0; k < r.size(); ++k)
+    if (!std::isfinite(r[k]))
+      throw std::runtime_error(data_dir + ": the velocity residual at GNSS epoch " +
+                               std::to_string(k / 2) + compensation +
+                               " is non-finite; no result is written");
+}
+
 void run_navigate(const NavigateArgs& args) {
   auto dataset = std::make_shared<const Dataset>(load_dataset(args.data_dir));
   const SensorErrors candidate =
@@ -59,6 +91,7 @@ void run_navigate(const NavigateArgs& args) {
   states.reserve(problem.num_steps());
   std::vector<double> r;
   problem.run(candidate, C_b_n_override, [&](const NavState& s) { states.push_back(s); }, r);
+  require_finite_navigation(*dataset, args.data_dir, candidate, states, r);
 
   double fitness = 0.0, sum_sq = 0.0, max_dvh = 0.0;
   for (std::size_t e = 0; e < problem.num_epochs(); ++e) {
@@ -78,9 +111,10 @@ void run_navigate(const NavigateArgs& args) {
   summary["sum_squares"] = sum_sq;
   summary["rms_dvh_mps"] = std::sqrt(sum_sq / static_cast<double>(problem.num_epochs()));
   summary["max_dvh_mps"] = max_dvh;
-  const EulerAngles att0 = euler_from_C_b_n(states.empty() ? Eigen::Matrix3d::Identity()
-                                                           : C_b_n_override.value_or(
-                                                                 problem.initial_attitude(candidate)));
+  // The override first: without it (align_s = 0) the alignment must not even be tried.
+  const EulerAngles att0 = euler_from_C_b_n(
+      states.empty() ? Eigen::Matrix3d::Identity()
+                     : (C_b_n_override ? *C_b_n_override : problem.initial_attitude(candidate)));
   summary["initial_attitude_deg"] = {{"roll", att0.roll_rad * kRadToDeg},
                                      {"pitch", att0.pitch_rad * kRadToDeg},
                                      {"yaw", wrap_two_pi(att0.yaw_rad) * kRadToDeg}};

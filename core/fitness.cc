@@ -2,7 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
+#include <sstream>
 #include <stdexcept>
+#include <string>
 
 namespace insid {
 
@@ -45,12 +48,12 @@ NavigationProblem::NavigationProblem(std::shared_ptr<const Dataset> dataset,
   const double dt_nominal = 1.0 / ds.meta.imu_rate_hz;
   const auto n_align = static_cast<std::size_t>(std::llround(ds.meta.align_s * ds.meta.imu_rate_hz));
   if (n_align + 1 >= ds.imu.size())
-    throw std::invalid_argument("NavigationProblem: align_s = " + std::to_string(ds.meta.align_s) +
+    throw std::invalid_argument("NavigationProblem: align_s = " + seconds_text(ds.meta.align_s) +
                                 " s leaves no IMU data to navigate");
   nav_begin_ = std::max<std::size_t>(n_align, 1);
   if (n_align > 0) {
     window_ = AlignmentWindow::from_imu(ds.imu, 0, n_align, ds.imu.front().t_s - dt_nominal);
-    C_b_n_fixed_ = align_window(window_, ImuCompensator(SensorErrors{}));
+    C_b_n_fixed_ = aligned(SensorErrors{});
   }
 
   // Height and vertical-velocity reference at every IMU epoch (GNSS, linear interpolation).
@@ -87,12 +90,36 @@ NavigationProblem::NavigationProblem(std::shared_ptr<const Dataset> dataset,
 
 double NavigationProblem::nav_start_t_s() const { return dataset_->imu[nav_begin_ - 1].t_s; }
 
+std::string NavigationProblem::seconds_text(double value) {
+  std::ostringstream text;
+  text << std::setprecision(12) << value;
+  return text.str();
+}
+
 Eigen::Matrix3d NavigationProblem::initial_attitude(const SensorErrors& candidate) const {
   if (window_.count == 0)
     throw std::invalid_argument(
-        "dataset has align_s = 0: no alignment possible; give the initial attitude (truth)");
+        "dataset has align_s = " + seconds_text(dataset_->meta.align_s) +
+        " s, less than one IMU step: no alignment possible; give the initial attitude (truth)");
   if (options_.alignment == AlignmentMode::kFixed) return C_b_n_fixed_;
-  return align_window(window_, ImuCompensator(candidate));
+  return aligned(candidate);
+}
+
+// Coarse alignment on the window, its failures named with the window's lines and the
+// candidate's compensation (a huge value there, or in the data, makes the levelling fail).
+Eigen::Matrix3d NavigationProblem::aligned(const SensorErrors& candidate) const {
+  try {
+    return align_window(window_, ImuCompensator(candidate));
+  } catch (const std::exception& e) {
+    std::string compensation;
+    for (const auto& [name, value] : nonzero_effects(candidate))
+      compensation += (compensation.empty() ? "" : ", ") + name + "=" + seconds_text(value);
+    throw std::invalid_argument(
+        "alignment on imu.csv lines 2-" + std::to_string(window_.count + 1) + " (align_s = " +
+        seconds_text(dataset_->meta.align_s) + " s)" +
+        (compensation.empty() ? std::string() : " compensated with " + compensation) + ": " +
+        e.what());
+  }
 }
 
 NavState NavigationProblem::initial_state(const Eigen::Matrix3d& C_b_n) const {

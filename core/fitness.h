@@ -75,6 +75,8 @@ class NavigationProblem {
            const std::function<void(const NavState&)>& on_step, std::vector<double>& r) const;
 
  private:
+  Eigen::Matrix3d aligned(const SensorErrors& candidate) const;
+  static std::string seconds_text(double value);
   std::shared_ptr<const Dataset> dataset_;
   NavigationOptions options_;
   std::size_t nav_begin_ = 0;
