@@ -52,6 +52,22 @@ class Reader {
     if (!v.is_number()) throw std::invalid_argument(where_ + ": \"" + key + "\" must be a number");
     return v.get<double>();
   }
+  const nlohmann::json& array(const std::string& key) {
+    const nlohmann::json& v = at(key);
+    if (!v.is_array())
+      throw std::invalid_argument(where_ + ": \"" + key + "\" must be an array, got " +
+                                  v.type_name() + " " + v.dump());
+    return v;
+  }
+  // An array of `type` ("string" or "number") items.
+  const nlohmann::json& array_of(const std::string& key, const std::string& type) {
+    const nlohmann::json& v = array(key);
+    for (std::size_t k = 0; k < v.size(); ++k)
+      if ((type == "string" && !v[k].is_string()) || (type == "number" && !v[k].is_number()))
+        throw std::invalid_argument(where_ + ": \"" + key + "\"[" + std::to_string(k) +
+                                    "] must be a " + type + ", got " + v[k].dump());
+    return v;
+  }
   std::string string(const std::string& key) {
     const nlohmann::json& v = at(key);
     if (!v.is_string()) throw std::invalid_argument(where_ + ": \"" + key + "\" must be a string");
@@ -234,7 +250,7 @@ CampaignConfig parse_campaign(const nlohmann::json& j, const std::string& origin
   Reader r(j, origin);
   CampaignConfig c;
   if (r.has("name")) c.name = r.string("name");
-  for (std::size_t i = 0; i < r.at("scenarios").size(); ++i) {
+  for (std::size_t i = 0; i < r.array("scenarios").size(); ++i) {
     const std::string where = origin + ": scenarios[" + std::to_string(i) + "]";
     Reader s(j.at("scenarios")[i], where);
     ScenarioSpec spec;
@@ -257,7 +273,7 @@ CampaignConfig parse_campaign(const nlohmann::json& j, const std::string& origin
     s.finish({"name", "preset", "data", "flight_s", "grade", "data_seed", "set"});
     c.scenarios.push_back(spec);
   }
-  for (std::size_t i = 0; i < r.at("algorithms").size(); ++i) {
+  for (std::size_t i = 0; i < r.array("algorithms").size(); ++i) {
     const std::string where = origin + ": algorithms[" + std::to_string(i) + "]";
     Reader a(j.at("algorithms")[i], where);
     AlgorithmSpec spec;
@@ -275,9 +291,18 @@ CampaignConfig parse_campaign(const nlohmann::json& j, const std::string& origin
   if (r.has("seeds")) {
     const nlohmann::json& s = r.at("seeds");
     if (s.is_number()) {
-      c.seeds = seed_range(whole(s.get<double>(), origin + ": seeds"));
+      const int count = whole(s.get<double>(), origin + ": seeds");
+      if (count > 100000)
+        throw std::invalid_argument(origin + ": seeds = " + std::to_string(count) +
+                                    " is beyond the limit of 100000");
+      c.seeds = seed_range(count);
     } else if (s.is_array()) {
-      for (const auto& v : s) c.seeds.push_back(static_cast<std::uint64_t>(whole(v.get<double>(), origin + ": seeds[]")));
+      for (std::size_t k = 0; k < s.size(); ++k) {
+        const std::string key = origin + ": seeds[" + std::to_string(k) + "]";
+        if (!s[k].is_number())
+          throw std::invalid_argument(key + " must be a whole number, got " + s[k].dump());
+        c.seeds.push_back(static_cast<std::uint64_t>(whole(s[k].get<double>(), key)));
+      }
     } else {
       throw std::invalid_argument(origin + ": \"seeds\" must be a count or a list of seeds");
     }
@@ -288,10 +313,10 @@ CampaignConfig parse_campaign(const nlohmann::json& j, const std::string& origin
   if (r.has("max_evaluations")) c.max_evaluations = whole(r.number("max_evaluations"), origin + ": max_evaluations");
   if (r.has("alignment")) c.alignment = alignment_mode_from_string(r.string("alignment"));
   if (r.has("estimate"))
-    for (const auto& e : r.at("estimate")) c.estimate.push_back(e.get<std::string>());
+    for (const auto& e : r.array_of("estimate", "string")) c.estimate.push_back(e.get<std::string>());
   if (r.has("record_positions_seeds")) c.record_positions_seeds = whole(r.number("record_positions_seeds"), origin + ": record_positions_seeds");
-  if (r.has("target_error_sigma")) c.target_error_sigma = r.at("target_error_sigma").get<std::vector<double>>();
-  if (r.has("target_fitness_gap")) c.target_fitness_gap = r.at("target_fitness_gap").get<std::vector<double>>();
+  if (r.has("target_error_sigma")) c.target_error_sigma = r.array_of("target_error_sigma", "number").get<std::vector<double>>();
+  if (r.has("target_fitness_gap")) c.target_fitness_gap = r.array_of("target_fitness_gap", "number").get<std::vector<double>>();
   r.finish({"name", "scenarios", "algorithms", "seeds", "max_iterations", "max_evaluations",
             "alignment", "estimate", "record_positions_seeds", "target_error_sigma",
             "target_fitness_gap"});
@@ -299,6 +324,17 @@ CampaignConfig parse_campaign(const nlohmann::json& j, const std::string& origin
   if (c.scenarios.empty()) throw std::invalid_argument(origin + ": no scenario");
   if (c.algorithms.empty()) throw std::invalid_argument(origin + ": no algorithm");
   if (c.seeds.empty()) throw std::invalid_argument(origin + ": no seed");
+  constexpr std::size_t kMaxSeeds = 100000;  // each seed is a run file per algorithm
+  if (c.seeds.size() > kMaxSeeds)
+    throw std::invalid_argument(origin + ": " + std::to_string(c.seeds.size()) +
+                                " seeds is beyond the limit of " + std::to_string(kMaxSeeds));
+  {
+    std::set<std::uint64_t> seen;
+    for (std::uint64_t seed : c.seeds)
+      if (!seen.insert(seed).second)
+        throw std::invalid_argument(origin + ": seed " + std::to_string(seed) +
+                                    " is listed twice in \"seeds\"");
+  }
   if (c.max_iterations == 0 && c.max_evaluations == 0)
     throw std::invalid_argument(origin + ": give max_iterations or max_evaluations (> 0)");
   std::set<std::string> labels, names;

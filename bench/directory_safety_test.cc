@@ -82,7 +82,7 @@ TEST(DirectorySafety, ConfigNamesThatAreNotPlainNamesAreRefusedBeforeAnyWrite) {
   const fs::path base = fresh_dir("names");
   fs::create_directories(base);
   const fs::path dir = base / "a" / "out";
-  for (const std::string& name : {"../../escape_scn", "", ".", "..", "x/y", "sp ace", "/abs"}) {
+  for (const std::string name : {"../../escape_scn", "", ".", "..", "x/y", "sp ace", "/abs"}) {
     for (const bool is_label : {false, true}) {
       CampaignConfig c = config();
       (is_label ? c.algorithms[0].label : c.scenarios[0].name) = name;

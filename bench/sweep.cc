@@ -85,6 +85,11 @@ SweepAxis SweepAxis::parse(const std::string& text) {
 std::vector<std::map<std::string, double>> sweep_settings(const SweepConfig& sweep) {
   std::vector<std::map<std::string, double>> settings;
   if (sweep.axes.empty()) throw std::invalid_argument("sweep: give at least one --grid");
+  for (std::size_t i = 0; i < sweep.axes.size(); ++i)
+    for (std::size_t j = 0; j < i; ++j)
+      if (sweep.axes[i].key == sweep.axes[j].key)
+        throw std::invalid_argument("--grid: key '" + sweep.axes[i].key +
+                                    "' given twice; give each parameter one --grid");
   if (sweep.random_settings > 0) {
     opt::Rng rng(sweep.random_seed);
     for (int i = 0; i < sweep.random_settings; ++i) {

@@ -1,11 +1,14 @@
 #include "cli/cli_util.h"
 
 #include <charconv>
+#include <cstdint>
+#include <system_error>
 #include <cmath>
 #include <iostream>
 #include <stdexcept>
 
 #include "core/dataset.h"
+#include "optimizers/parameters.h"
 
 namespace insid::cli {
 
@@ -58,6 +61,68 @@ std::string incomplete_message(const campaign::RunOptions& options,
               ? " (or run the other shards, then insid merge " + options.out_dir + ")"
               : "") +
          ".\n";
+}
+
+CLI::Validator whole_in(long long low, long long high) {
+  return CLI::Validator(
+      [low, high](std::string& text) -> std::string {
+        long long value = 0;
+        const char* end = text.data() + text.size();
+        const auto [ptr, ec] = std::from_chars(text.data(), end, value);
+        if (ec != std::errc() || ptr != end)
+          return "expected a whole number in [" + std::to_string(low) + ", " +
+                 std::to_string(high) + "], got '" + text + "'";
+        if (value < low || value > high)
+          return "value " + text + " is outside the allowed [" + std::to_string(low) + ", " +
+                 std::to_string(high) + "]";
+        return "";
+      },
+      "INT in [" + std::to_string(low) + ", " + std::to_string(high) + "]");
+}
+
+CLI::Validator seed_value() {
+  return CLI::Validator(
+      [](std::string& text) -> std::string {
+        std::uint64_t value = 0;
+        const char* end = text.data() + text.size();
+        const auto [ptr, ec] = std::from_chars(text.data(), end, value);
+        if (text.empty() || text.front() == '-' || text.front() == '+' || ec != std::errc() ||
+            ptr != end)
+          return "expected a seed, a whole number in [0, 18446744073709551615], got '" + text + "'";
+        return "";
+      },
+      "SEED");
+}
+
+CLI::Validator number_in(double low, double high) {
+  return CLI::Validator(
+      [low, high](std::string& text) -> std::string {
+        double value = 0.0;
+        const char* end = text.data() + text.size();
+        const auto [ptr, ec] = std::from_chars(text.data(), end, value);
+        if (ec != std::errc() || ptr != end || !std::isfinite(value))
+          return "expected a finite number, got '" + text + "'";
+        if (!(value >= low && value <= high))
+          return "value " + text + " is outside the allowed [" + opt::format_number(low) + ", " +
+                 opt::format_number(high) + "]";
+        return "";
+      },
+      "NUMBER in [" + opt::format_number(low) + ", " + opt::format_number(high) + "]");
+}
+
+CLI::Validator positive_seconds(double high) {
+  return CLI::Validator(
+      [high](std::string& text) -> std::string {
+        double value = 0.0;
+        const char* end = text.data() + text.size();
+        const auto [ptr, ec] = std::from_chars(text.data(), end, value);
+        if (ec != std::errc() || ptr != end || !std::isfinite(value))
+          return "expected a finite number of seconds, got '" + text + "'";
+        if (!(value > 0.0 && value <= high))
+          return "value " + text + " s is outside the allowed (0, " + opt::format_number(high) + "] s";
+        return "";
+      },
+      "SECONDS");
 }
 
 }  // namespace insid::cli

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
 #include "bench/campaign.h"
@@ -12,6 +13,25 @@
 #include "core/sensor_errors.h"
 
 namespace insid::cli {
+
+// Validators for numeric options (CLI11 checks the text before converting it; a failed check
+// exits with "--option: <why>" naming the value). Limits are stated in the messages.
+
+/// A whole number in [low, high] ("-1" for an option that counts is refused, not wrapped).
+CLI::Validator whole_in(long long low, long long high);
+/// A finite number in [low, high] (CLI::Range lets NaN through).
+CLI::Validator number_in(double low, double high);
+/// A seed: digits only, at most 2^64 - 1 (no sign, no wrap-around, no fraction).
+CLI::Validator seed_value();
+/// A finite number of seconds in (0, high].
+CLI::Validator positive_seconds(double high);
+
+/// Largest seed count of a campaign or sweep (each seed is a run file per algorithm).
+inline constexpr long long kMaxSeeds = 100000;
+/// Longest simulated flight (s): a day at 100 Hz is 8.6 million IMU rows, ~0.6 GB in memory.
+inline constexpr double kMaxFlightS = 86400.0;
+/// Most threads.
+inline constexpr long long kMaxThreads = 4096;
 
 /// Parse "NAME=VALUE" items (catalogue names, SI values). `option` names the flag in errors.
 std::map<std::string, double> parse_effect_assignments(const std::vector<std::string>& items,

@@ -82,17 +82,21 @@ void add_bench_command(CLI::App& app) {
   cmd->add_option("--preset", args->preset, "campaign preset: paper-fig9 | quick | paper-plus-baselines");
   cmd->add_option("--config", args->config_path, "campaign JSON file (results/README.md)");
   cmd->add_option("--out", args->out, "results directory")->required();
-  cmd->add_option("--seeds", args->seeds, "number of seeds (1..N), overriding the config");
-  cmd->add_option("--threads", args->threads, "threads (0 = all cores)")->capture_default_str();
+  cmd->add_option("--seeds", args->seeds, "number of seeds (1..N), overriding the config")
+      ->check(whole_in(1, kMaxSeeds));
+  cmd->add_option("--threads", args->threads, "threads (0 = all cores)")->capture_default_str()
+      ->check(whole_in(0, kMaxThreads));
   cmd->add_option("--flight-s", args->flight_s,
-                  "override every simulated scenario's flight length after alignment (s)");
+                  "override every simulated scenario's flight length after alignment (s)")
+      ->check(positive_seconds(kMaxFlightS));
   cmd->add_flag("--force", args->force,
                 "write into a --out directory that holds other files than a campaign's (they are "
                 "kept)");
   cmd->add_flag("--force-new", args->force_new,
                 "discard results of a different campaign found in --out");
   cmd->add_option("--max-new-runs", args->max_new_runs,
-                  "stop after this many new runs (the rest on the next invocation)");
+                  "stop after this many new runs (the rest on the next invocation)")
+      ->check(whole_in(1, 1000000000));
   cmd->add_option("--shard", args->shard,
                   "do only slice i of N of the runs (i/N, 1 <= i <= N; for batch-scheduler "
                   "arrays): runs whose position in the run list modulo N is i-1");

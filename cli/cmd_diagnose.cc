@@ -115,29 +115,37 @@ void add_diagnose_command(CLI::App& app) {
   cmd->add_option("--candidates", a->candidates,
                   "candidate effects NAME ... or 'all' (default: every catalogue effect not in "
                   "the base)");
-  cmd->add_option("--max-effects", a->max_effects, "most effects added")->capture_default_str();
-  cmd->add_option("--seed", a->seed, "seed (optimizer, noise replicas)")->capture_default_str();
+  cmd->add_option("--max-effects", a->max_effects, "most effects added")->capture_default_str()
+      ->check(whole_in(1, 100));
+  cmd->add_option("--seed", a->seed, "seed (optimizer, noise replicas)")->capture_default_str()
+      ->check(seed_value());
   cmd->add_option("--out", a->out, "report JSON (default: stdout)");
   cmd->add_option("--report", a->report,
                   "report.md with figures (PNG next to it, via scripts/diagnose_plots.py)");
   cmd->add_option("--algo", a->algorithm, "base-fit optimizer: ga | pso | pio | dvpio | none")
       ->capture_default_str();
   cmd->add_option("--iterations", a->iterations, "optimizer iterations for the base fit")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(whole_in(1, 10000000));
   cmd->add_option("--replicas-basis", a->replicas_basis,
                   "noise replicas building the working covariance")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(whole_in(2, 100000));
   cmd->add_option("--replicas-calibration", a->replicas_calibration,
                   "noise replicas calibrating the statistics and threshold")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(whole_in(2, 100000));
   cmd->add_option("--alpha", a->alpha, "family-wise false-alarm rate per iteration")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(number_in(1e-9, 0.5));
   cmd->add_option("--observable-max-sigma", a->observable_max_sigma,
                   "a candidate whose minimum detectable size exceeds this many catalogue sigmas "
                   "is reported not observable")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(number_in(1e-9, 1e9));
   cmd->add_option("--alignment", a->alignment, "per-candidate | fixed")->capture_default_str();
-  cmd->add_option("--threads", a->threads, "OpenMP threads (0 = all)")->capture_default_str();
+  cmd->add_option("--threads", a->threads, "OpenMP threads (0 = all)")->capture_default_str()
+      ->check(whole_in(0, kMaxThreads));
   cmd->add_flag("--quiet", a->quiet, "no progress on stderr");
   cmd->add_flag("--no-plots", a->no_plots, "report.md without figures");
   cmd->callback([a] { run(*a); });

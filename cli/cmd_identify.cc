@@ -146,14 +146,18 @@ void add_identify_command(CLI::App& app) {
                   "KEY=VALUE algorithm parameter (see optimizers/README.md); distances "
                   "d_initial, d_min, d_max, dist_threshold are in the normalised box, or in "
                   "sigma units with the suffix _sigma (d_initial_sigma=0.05)");
-  cmd->add_option("--seed", args->seed, "random seed")->capture_default_str();
+  cmd->add_option("--seed", args->seed, "random seed")->capture_default_str()
+      ->check(seed_value());
   cmd->add_option("--iterations", args->iterations, "iteration budget (0 = none)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(whole_in(0, 10000000));
   cmd->add_option("--evaluations", args->evaluations, "evaluation budget (0 = none)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(whole_in(0, 1000000000));
   cmd->add_option("--alignment", args->alignment, "per-candidate | fixed")->capture_default_str();
   cmd->add_option("--threads", args->threads, "OpenMP threads (0 = all, 1 = serial)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(whole_in(0, kMaxThreads));
   cmd->add_flag("--no-reference-optimum", args->no_reference,
                 "skip the data's own optimum (multi-start local fit, cached in the dataset dir)");
   cmd->add_flag("--positions", args->positions, "record every particle's position per iteration");

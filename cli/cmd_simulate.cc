@@ -87,11 +87,13 @@ void add_simulate_command(CLI::App& app) {
   cmd->add_flag("--force", args->force,
                 "write into a --out directory that holds other files: add the dataset's files, "
                 "keep everything else");
-  cmd->add_option("--seed", args->seed, "random seed (default: the scenario's, else 1)");
+  cmd->add_option("--seed", args->seed, "random seed (default: the scenario's, else 1)")
+      ->check(seed_value());
   cmd->add_option("--grade", args->grade,
                   "noise grade nav|mems|paper|none (replaces the scenario's noise block)");
   cmd->add_option("--flight-s", args->flight_s,
-                  "flight after the alignment (s); the scenario's 'repeat' segments fill it");
+                  "flight after the alignment (s); the scenario's 'repeat' segments fill it")
+      ->check(positive_seconds(kMaxFlightS));
   cmd->add_option("--set", args->set,
                   "NAME=VALUE: inject a catalogue error (SI units) on top of the scenario's; "
                   "repeatable");

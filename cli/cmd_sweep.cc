@@ -87,17 +87,23 @@ void add_sweep_command(CLI::App& app) {
                   "(d0_sigma=0.01:0.2:5, dist_threshold_sigma=...)")
       ->required();
   cmd->add_option("--random", args->random,
-                  "draw this many random settings in the grid ranges instead of the full grid");
-  cmd->add_option("--seeds", args->seeds, "seeds per setting (1..N)")->capture_default_str();
+                  "draw this many random settings in the grid ranges instead of the full grid")
+      ->check(whole_in(1, kMaxSeeds));
+  cmd->add_option("--seeds", args->seeds, "seeds per setting (1..N)")->capture_default_str()
+      ->check(whole_in(1, kMaxSeeds));
   cmd->add_option("--preset", args->preset, "scenario preset to simulate")->capture_default_str();
   cmd->add_option("--data", args->data_dir, "use this dataset instead of a preset");
-  cmd->add_option("--flight-s", args->flight_s, "flight length after alignment (s) for the preset");
+  cmd->add_option("--flight-s", args->flight_s, "flight length after alignment (s) for the preset")
+      ->check(positive_seconds(kMaxFlightS));
   cmd->add_option("--grade", args->grade, "noise grade for the preset (nav, mems, paper, none)");
-  cmd->add_option("--iterations", args->iterations, "iteration budget")->capture_default_str();
-  cmd->add_option("--evaluations", args->evaluations, "evaluation budget (0 = none)");
+  cmd->add_option("--iterations", args->iterations, "iteration budget")->capture_default_str()
+      ->check(whole_in(0, 10000000));
+  cmd->add_option("--evaluations", args->evaluations, "evaluation budget (0 = none)")
+      ->check(whole_in(0, 1000000000));
   cmd->add_option("--alignment", args->alignment, "per-candidate | fixed")->capture_default_str();
   cmd->add_option("--out", args->out, "results directory")->required();
-  cmd->add_option("--threads", args->threads, "threads (0 = all cores)");
+  cmd->add_option("--threads", args->threads, "threads (0 = all cores)")
+      ->check(whole_in(0, kMaxThreads));
   cmd->add_flag("--force", args->force,
                 "write into a --out directory that holds other files than a campaign's (they are "
                 "kept)");

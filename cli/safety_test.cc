@@ -10,6 +10,8 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -126,6 +128,134 @@ TEST_F(CliSafety, ZeroAlignmentWindowWorksWithTruthAndIsNamedWithoutIt) {
   EXPECT_EQ(truth.status, 0) << truth.output;
   EXPECT_NE(text(summary).find("\"fitness\": "), std::string::npos);
   EXPECT_EQ(text(summary).find("null"), std::string::npos) << text(summary);
+}
+
+// The command-line and config battery: every bad value is refused before any work, with a
+// non-zero exit and a message naming the option (or config key) and the value.
+struct BadInput {
+  std::string args;                   // after "insid"
+  std::vector<std::string> expected;  // substrings of the output
+};
+
+std::vector<BadInput> option_cases(const std::string& data) {
+  std::vector<BadInput> cases;
+  // Every numeric option of every subcommand, with values of the wrong kind or range.
+  struct Option {
+    std::string command, option;
+    std::vector<std::string> bad;
+  };
+  const std::vector<std::string> counts = {"-1", "nan", "abc", "1.5", "1e999"};
+  const std::vector<std::string> seconds = {"-5", "0", "nan", "inf", "abc", "1e9"};
+  const std::vector<std::string> seeds = {"-1", "18446744073709551616", "1.5", "abc", "+3", "0x10"};
+  const std::string sim = "simulate --preset straight --out " + data + "-never";
+  const std::string bench = "bench --preset quick --out " + data + "-never";
+  const std::string sweep = "sweep --algo pio --grid R=0.1:0.3:3 --out " + data + "-never";
+  const std::string ident = "identify --algo pso --data " + data;
+  const std::string diag = "diagnose --data " + data;
+  const std::vector<Option> options = {
+      {sim, "--flight-s", seconds},        {sim, "--seed", seeds},
+      {bench, "--seeds", {"0", "-1", "1000000000", "abc", "2.5"}},
+      {bench, "--threads", {"-1", "5000", "abc"}},
+      {bench, "--flight-s", seconds},      {bench, "--max-new-runs", {"-1", "0", "abc"}},
+      {sweep, "--random", {"0", "-1", "abc"}},
+      {sweep, "--seeds", {"0", "-3", "1000000000"}},
+      {sweep, "--iterations", counts},     {sweep, "--evaluations", counts},
+      {sweep, "--threads", {"-1", "abc"}}, {sweep, "--flight-s", seconds},
+      {ident, "--seed", seeds},            {ident, "--iterations", counts},
+      {ident, "--evaluations", counts},    {ident, "--threads", {"-1", "nan"}},
+      {diag, "--seed", seeds},             {diag, "--max-effects", {"0", "-1", "abc"}},
+      {diag, "--iterations", {"0", "-1"}}, {diag, "--replicas-basis", {"1", "-1", "abc"}},
+      {diag, "--replicas-calibration", {"0", "abc"}},
+      {diag, "--alpha", {"nan", "0", "0.9", "abc"}},
+      {diag, "--observable-max-sigma", {"nan", "-1", "inf"}},
+      {diag, "--threads", {"-1", "abc"}}};
+  for (const Option& o : options)
+    for (const std::string& value : o.bad)
+      cases.push_back({o.command + " " + o.option + " " + value, {o.option, value}});
+  // Values inside --param, --grid, --set, --compensate.
+  cases.push_back({ident + " --param population=1e9", {"population", "1e+09", "limit"}});
+  cases.push_back({ident + " --param population=2.5", {"population", "integer"}});
+  cases.push_back({ident + " --param nosuch=1", {"nosuch", "valid parameters"}});
+  cases.push_back({sweep + " --grid R=0.1:0.2:2", {"--grid", "'R'", "twice"}});
+  cases.push_back({sim + " --set gyro_bias_x=abc", {"--set", "gyro_bias_x"}});
+  cases.push_back({sim + " --set nosuch=1", {"nosuch"}});
+  cases.push_back({"navigate --data " + data + " --compensate accel_bias_x", {"--compensate", "NAME=VALUE"}});
+  return cases;
+}
+
+// Campaign configs with a wrong type, value or name: (config text, expected substrings).
+std::vector<std::pair<std::string, std::vector<std::string>>> config_cases() {
+  const std::string scenario = R"({"name": "s", "preset": "rich", "flight_s": 60})";
+  const std::string algo = R"({"label": "P", "name": "pso"})";
+  auto config = [&](const std::string& scenarios, const std::string& algorithms,
+                    const std::string& rest) {
+    return "{\"scenarios\": " + scenarios + ", \"algorithms\": " + algorithms +
+           ", \"max_iterations\": 2" + rest + "}";
+  };
+  const std::string s1 = "[" + scenario + "]", a1 = "[" + algo + "]";
+  return {
+      {config(s1, "\"pso\"", ""), {"\"algorithms\" must be an array", "\"pso\""}},
+      {config("\"rich\"", a1, ""), {"\"scenarios\" must be an array"}},
+      {config(s1, a1, R"(, "seeds": [1, "two", 3])"), {"seeds[1]", "\"two\""}},
+      {config(s1, a1, R"(, "seeds": [1, 1, 2])"), {"seed 1", "twice"}},
+      {config(s1, a1, R"(, "seeds": [1.5])"), {"seeds[0]", "whole number"}},
+      {config(s1, a1, R"(, "seeds": [-1])"), {"seeds[0]", "whole number"}},
+      {config(s1, a1, R"(, "seeds": 1000000000)"), {"seeds", "limit"}},
+      {config(s1, a1, R"(, "seeds": 0)"), {"no seed"}},
+      {config(s1, a1, R"(, "seeds": "31")"), {"seeds", "count or a list"}},
+      {config(s1, a1, R"(, "estimate": [3])"), {"\"estimate\"[0] must be a string"}},
+      {config(s1, a1, R"(, "estimate": "gyro_bias_x")"), {"\"estimate\" must be an array"}},
+      {config(s1, a1, R"(, "target_error_sigma": ["a"])"), {"target_error_sigma"}},
+      {config(s1, a1, R"(, "max_evaluations": -5)"), {"max_evaluations"}},
+      {config(s1, a1, R"(, "nosuch": 1)"), {"unknown key \"nosuch\""}},
+      {config(s1, a1, R"(, "alignment": "sideways")"), {"sideways"}},
+      {config(R"([{"name": "../../escape_scn", "preset": "rich"}])", a1, ""), {"scenario name '../../escape_scn'"}},
+      {config(R"([{"name": "", "preset": "rich"}])", a1, ""), {"scenario name ''"}},
+      {config(R"([{"name": "a b", "preset": "rich"}])", a1, ""), {"scenario name 'a b'"}},
+      {config(s1, R"([{"label": "..", "name": "pso"}])", ""), {"algorithm label '..'"}},
+      {config(s1, R"([{"label": "x/y", "name": "pso"}])", ""), {"algorithm label 'x/y'"}},
+      {config(s1, R"([{"name": "nosuch"}])", ""), {"nosuch"}},
+      {config(s1, R"([{"name": "pso", "parameters": {"w": "high"}}])", ""), {"parameters.w", "number"}},
+      {config(s1, R"([{"name": "pso", "parameters": {"population": 1e9}}])", ""), {"population", "limit"}},
+      {config(s1, R"([{"name": "pso"}, {"name": "pso"}])", ""), {"label 'pso' used twice"}},
+      {config(R"([{"name": "s", "preset": "rich"}, {"name": "s", "preset": "paper"}])", a1, ""), {"scenario name 's' used twice"}},
+      {config(R"([{"name": "s"}])", a1, ""), {"exactly one of \"preset\" and \"data\""}},
+      {config(R"([{"name": "s", "preset": "rich", "flight_s": "long"}])", a1, ""), {"flight_s", "number"}},
+      {config(R"([{"name": "s", "preset": "rich", "data_seed": 1.5}])", a1, ""), {"data_seed"}},
+      {config(R"([{"name": "s", "preset": "rich", "set": {"gyro_bias_x": "big"}}])", a1, ""), {"gyro_bias_x", "number"}},
+      {config(R"([{"name": "s", "preset": "rich", "set": {"nosuch": 1}}])", a1, ""), {"nosuch"}},
+      {"[1, 2]", {"expected a JSON object"}},
+      {"{\"scenarios\": [", {"config"}},
+  };
+}
+
+TEST_F(CliSafety, EveryBadOptionOrConfigValueIsRefusedUpFrontAndNamed) {
+  const std::vector<BadInput> options = option_cases(data_.string());
+  const auto configs = config_cases();
+  int refused = 0;
+  for (const BadInput& c : options) {
+    const Outcome o = insid(c.args);
+    EXPECT_NE(o.status, 0) << c.args << "\n" << o.output;
+    refused += o.status != 0;
+    for (const std::string& part : c.expected)
+      EXPECT_NE(o.output.find(part), std::string::npos)
+          << c.args << ": output lacks '" << part << "':\n" << o.output;
+  }
+  for (std::size_t k = 0; k < configs.size(); ++k) {
+    const fs::path file = root_ / ("config" + std::to_string(k) + ".json");
+    std::ofstream(file) << configs[k].first;
+    const fs::path out = root_ / ("campaign" + std::to_string(k));
+    const Outcome o = insid("bench --config " + file.string() + " --out " + out.string());
+    EXPECT_NE(o.status, 0) << configs[k].first << "\n" << o.output;
+    refused += o.status != 0;
+    for (const std::string& part : configs[k].second)
+      EXPECT_NE(o.output.find(part), std::string::npos)
+          << configs[k].first << ": output lacks '" << part << "':\n" << o.output;
+    EXPECT_FALSE(fs::exists(out)) << configs[k].first << ": wrote " << out;
+  }
+  EXPECT_FALSE(fs::exists(data_.string() + "-never"));
+  std::printf("[ measured ] %d of %zu bad command lines and configs refused\n", refused,
+              options.size() + configs.size());
 }
 
 }  // namespace

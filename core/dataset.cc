@@ -861,8 +861,8 @@ Dataset load_dataset(const fs::path& dir) {
   auto present = [&](std::string_view name) {
     const fs::path p = dir / name;
     std::error_code status_ec;
-    const fs::file_status st = fs::status(p, status_ec);
-    if (fs::exists(st)) return true;
+    const fs::file_status file_st = fs::status(p, status_ec);
+    if (fs::exists(file_st)) return true;
     if (fs::is_symlink(fs::symlink_status(p, ec)))
       fail(prefix + std::string(name) + ": a symbolic link that does not resolve (" +
            (status_ec ? status_ec.message() : std::string("its target is missing")) + ")");

@@ -74,9 +74,13 @@ std::string parameter_names(const Params&) {
   return names;
 }
 
+/// Largest magnitude of an integer parameter: population sizes and counts beyond it would
+/// exhaust memory (a population of 1e9 points) long before they could help.
+inline constexpr int kMaxIntegerParameter = 1'000'000;
+
 /// Sets one parameter by name; throws std::invalid_argument naming the algorithm, the key and
-/// the valid keys (unknown key) or the value (integer parameter given a fraction). Does not
-/// validate ranges: call validate() after all overrides.
+/// the valid keys (unknown key) or the value (integer parameter given a fraction, or beyond
+/// kMaxIntegerParameter). Does not validate ranges: call validate() after all overrides.
 template <class Params>
 void set_parameter(Params& params, std::string_view name, double value) {
   for (const ParameterField<Params>& field : Params::fields()) {
@@ -84,11 +88,16 @@ void set_parameter(Params& params, std::string_view name, double value) {
     if (auto* member = std::get_if<double Params::*>(&field.member)) {
       params.**member = value;
     } else {
-      const bool whole = std::isfinite(value) && std::floor(value) == value &&
-                         std::abs(value) <= std::numeric_limits<int>::max();
+      const bool whole = std::isfinite(value) && std::floor(value) == value;
       if (!whole) {
         throw std::invalid_argument(std::string(Params::kAlgorithm) + ": " + std::string(name) +
                                     " must be an integer, got " + format_number(value));
+      }
+      if (std::abs(value) > kMaxIntegerParameter) {
+        throw std::invalid_argument(std::string(Params::kAlgorithm) + ": " + std::string(name) +
+                                    " = " + format_number(value) + " is beyond the limit of " +
+                                    format_number(kMaxIntegerParameter) +
+                                    " (sizes beyond it would exhaust memory)");
       }
       params.*std::get<int Params::*>(field.member) = static_cast<int>(value);
     }
