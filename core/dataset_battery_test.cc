@@ -63,6 +63,15 @@ void edit_lines(const fs::path& file, const std::function<void(std::vector<std::
   write_text(file, join(lines, '\n'));
 }
 
+// Replace the value of a top-level number in meta.json by `text`.
+void set_meta_number(const fs::path& dir, const std::string& key, const std::string& text) {
+  std::string meta = read_text(dir / "meta.json");
+  const auto at = meta.find("\"" + key + "\"");
+  const auto colon = meta.find(':', at);
+  const auto end = meta.find_first_of(",}", colon);
+  write_text(dir / "meta.json", meta.substr(0, colon + 1) + " " + text + meta.substr(end));
+}
+
 struct Case {
   std::string name;
   std::function<void(const fs::path&)> mutate;
@@ -165,24 +174,12 @@ std::vector<Case> make_cases() {
   // Declared rates the data contradict.
   for (const std::string rate : {"1", "1e-9", "11.5", "100"}) {
     cases.push_back({"gnss_rate_" + rate,
-                     [rate](const fs::path& d) {
-                       std::string meta = read_text(d / "meta.json");
-                       const auto at = meta.find("\"gnss_rate_hz\"");
-                       const auto colon = meta.find(':', at);
-                       const auto end = meta.find_first_of(",}", colon);
-                       write_text(d / "meta.json", meta.substr(0, colon + 1) + " " + rate + meta.substr(end));
-                     },
+                     [rate](const fs::path& d) { set_meta_number(d, "gnss_rate_hz", rate); },
                      {"meta.json", "gnss_rate_hz"}});
   }
   for (const std::string rate : {"50", "101.5", "0", "-100"}) {
     cases.push_back({"imu_rate_" + rate,
-                     [rate](const fs::path& d) {
-                       std::string meta = read_text(d / "meta.json");
-                       const auto at = meta.find("\"imu_rate_hz\"");
-                       const auto colon = meta.find(':', at);
-                       const auto end = meta.find_first_of(",}", colon);
-                       write_text(d / "meta.json", meta.substr(0, colon + 1) + " " + rate + meta.substr(end));
-                     },
+                     [rate](const fs::path& d) { set_meta_number(d, "imu_rate_hz", rate); },
                      {rate == "0" || rate == "-100" ? "meta.json" : "imu.csv", rate == "0" || rate == "-100" ? "imu_rate_hz" : "IMU step"}});
   }
   // Headers and line structure.
