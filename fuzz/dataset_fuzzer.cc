@@ -1,0 +1,56 @@
+// libFuzzer target for the dataset reader (core/dataset.h): the input's first byte picks the
+// file it replaces in a small valid dataset (imu.csv, gnss.csv, truth.csv or meta.json), the
+// rest is that file's contents. load_dataset must either load the dataset or throw
+// DatasetError; any other exception, a crash or a sanitizer report is a finding.
+#include <unistd.h>
+
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "core/dataset.h"
+#include "core/test_support.h"
+
+namespace {
+namespace fs = std::filesystem;
+
+const fs::path& valid_dataset() {
+  static const fs::path dir = [] {
+    const fs::path d = fs::temp_directory_path() / ("insid-dataset-fuzz-" + std::to_string(getpid()));
+    fs::remove_all(d);
+    constexpr double kLat = 0.6;
+    insid::Dataset ds = insid::testing::make_static_dataset(
+        insid::EarthModel::paper(kLat, 50.0), kLat, 2.0, 50.0, {0.0, 0.0, 0.7}, 3.0, 1.0, {},
+        100.0, 10.0);
+    ds.truth.clear();
+    insid::write_dataset(d, ds);
+    return d;
+  }();
+  return dir;
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  if (size == 0) return 0;
+  static const char* kFiles[] = {"imu.csv", "gnss.csv", "truth.csv", "meta.json"};
+  const fs::path work = valid_dataset().string() + "-case";
+  fs::remove_all(work);
+  fs::copy(valid_dataset(), work);
+  {
+    std::ofstream out(work / kFiles[data[0] % 4], std::ios::binary | std::ios::trunc);
+    out.write(reinterpret_cast<const char*>(data + 1), static_cast<std::streamsize>(size - 1));
+  }
+  try {
+    insid::load_dataset(work);
+  } catch (const insid::DatasetError&) {
+    // refused with a message: fine
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "finding: not a DatasetError: %s\n", e.what());
+    std::abort();
+  }
+  return 0;
+}

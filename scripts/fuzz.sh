@@ -1,0 +1,45 @@
+#!/usr/bin/env bash
+# Fuzz insid's readers with libFuzzer (clang, AddressSanitizer + UBSan): builds fuzz/ into
+# ./build-fuzz, seeds each target's corpus, runs each for SECONDS (default 60), and prints the
+# executions and findings per target. Findings (crash-*, leak-*, timeout-*) stay in
+# build-fuzz/findings/<target>/. Usage: scripts/fuzz.sh [SECONDS]
+set -euo pipefail
+cd "$(dirname "$0")/.."
+seconds="${1:-60}"
+command -v clang++ >/dev/null || { echo "insid fuzz: needs clang++ (apt-get install clang libclang-rt-dev)" >&2; exit 1; }
+CC=clang CXX=clang++ cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DINSID_FUZZ=ON \
+  -DINSID_BUILD_TESTS=OFF -DINSID_BUILD_BENCHMARKS=OFF -DINSID_WITH_MPI=OFF >&2
+targets=(insid_dataset_fuzzer)
+cmake --build build-fuzz -j"$(nproc)" --target "${targets[@]}" >&2
+
+# Seed corpus: a valid dataset's files, each behind the byte that selects it.
+seed_dir=build-fuzz/seed-dataset
+rm -rf "$seed_dir" build-fuzz/corpus build-fuzz/findings
+# (from the main build's insid when there is one; libFuzzer also starts from an empty corpus)
+if [ -x build/cli/insid ]; then
+  build/cli/insid simulate --preset straight --flight-s 2 --out "$seed_dir" >/dev/null 2>&1 || true
+fi
+mkdir -p build-fuzz/corpus/insid_dataset_fuzzer
+i=0
+for f in imu.csv gnss.csv truth.csv meta.json; do
+  if [ -f "$seed_dir/$f" ]; then
+    { printf "\\x0$i"; head -c 20000 "$seed_dir/$f"; } > "build-fuzz/corpus/insid_dataset_fuzzer/seed-$f"
+  fi
+  i=$((i + 1))
+done
+
+status=0
+for t in "${targets[@]}"; do
+  mkdir -p "build-fuzz/findings/$t"
+  log="build-fuzz/findings/$t.log"
+  set +e
+  "build-fuzz/fuzz/$t" "build-fuzz/corpus/$t" -max_total_time="$seconds" -timeout=10 \
+     -rss_limit_mb=4096 -artifact_prefix="build-fuzz/findings/$t/" > "$log" 2>&1
+  rc=$?
+  set -e
+  runs=$(grep -oE "Done [0-9]+ runs" "$log" | grep -oE "[0-9]+" || echo "?")
+  findings=$(find "build-fuzz/findings/$t" -type f | wc -l)
+  echo "insid fuzz: $t: $runs executions in ${seconds} s, $findings finding(s) (exit $rc; log $log)"
+  [ "$findings" -eq 0 ] && [ "$rc" -eq 0 ] || status=1
+done
+exit $status
