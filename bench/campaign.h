@@ -11,6 +11,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -113,6 +114,14 @@ struct CampaignOutcome {
   std::vector<int> new_runs_per_rank;
   /// When incomplete: which runs are missing, grouped by shard when shards are known.
   std::string missing_report;
+};
+
+/// An error every MPI rank has already printed ("insid: error: ..."): the command line exits
+/// non-zero without printing it again. (mpiexec ends the whole job at the first non-zero
+/// exit, so each rank reports, then all meet, then all exit.)
+class ReportedError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
 };
 
 /// Run (or resume) a campaign into options.out_dir; writes manifest, runs, optimum files and,

@@ -5,6 +5,7 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include "bench/campaign.h"
 #include "cli/commands.h"
 #include "identification/ekf_rts.h"
 #include "identification/identify.h"
@@ -34,6 +35,8 @@ int main(int argc, char** argv) {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
+  } catch (const insid::campaign::ReportedError&) {
+    return 1;  // printed by every MPI rank already
   } catch (const std::exception& e) {
     std::cerr << "insid: error: " << e.what() << '\n';
     return 1;

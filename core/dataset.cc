@@ -32,6 +32,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <fstream>
 #include <sstream>
 #include <string_view>
 #include <system_error>
@@ -1073,6 +1074,19 @@ void write_dataset(const fs::path& dir, const Dataset& dataset, const DatasetWri
 void write_file_atomic(const fs::path& path, const std::string& contents) {
   if (!path.has_filename())
     throw std::runtime_error("cannot write '" + path.string() + "': not a file name");
+  // A character device or FIFO (/dev/null, /dev/stdout, a pipe) is written to, never replaced
+  // by a rename (which would put a regular file in place of /dev/null).
+  std::error_code status_ec;
+  const fs::file_status st = fs::status(path, status_ec);
+  if (fs::is_character_file(st) || fs::is_fifo(st)) {
+    std::ofstream out(path, std::ios::binary);
+    out << contents;
+    out.flush();
+    if (!out) throw std::runtime_error("cannot write '" + path.string() + "'");
+    return;
+  }
+  if (fs::exists(st) && !fs::is_regular_file(st))
+    throw std::runtime_error("cannot write '" + path.string() + "': it exists and is not a regular file");
   const fs::path tmp = sibling(path, ".tmp-");
   try {
     write_whole_file(tmp, contents);

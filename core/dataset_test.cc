@@ -1,5 +1,7 @@
 #include "core/dataset.h"
 
+#include <sys/stat.h>
+#include <sys/sysmacros.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -699,6 +701,17 @@ TEST_F(DatasetTest, WriteFileAtomicWritesReplacesAndFailsCleanly) {
   fs::create_directory(root_ / "adir");
   EXPECT_THROW(write_file_atomic(root_ / "adir", "x"), std::runtime_error);  // a directory
   EXPECT_EQ(entries(root_), (std::vector<std::string>{"adir", "out.json"}));
+}
+
+TEST_F(DatasetTest, WriteFileAtomicWritesIntoADeviceWithoutReplacingIt) {
+  // `--summary /dev/null` must not put a regular file in place of /dev/null. The test uses its
+  // own node of the same device (1, 3), so a regression cannot break the machine's /dev/null.
+  const fs::path null_device = root_ / "null";
+  if (::mknod(null_device.c_str(), S_IFCHR | 0666, makedev(1, 3)) != 0)
+    GTEST_SKIP() << "cannot create a device node here (needs root)";
+  write_file_atomic(null_device, "{}\n");
+  EXPECT_TRUE(fs::is_character_file(null_device));
+  EXPECT_EQ(entries(root_), std::vector<std::string>{"null"});  // no temporary left
 }
 
 // Manual timing (not run by default): one hour at 100 Hz.
