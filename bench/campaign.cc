@@ -21,6 +21,7 @@
 #include <thread>
 
 #include "bench/cluster.h"
+#include "core/json_reader.h"
 #include "core/output_dir.h"
 #include "identification/identify.h"
 #include "identification/ins_problem.h"
@@ -103,28 +104,91 @@ std::string host_name() {
   return buffer;
 }
 
-nlohmann::json read_json_file(const fs::path& path) {
-  std::ifstream in(path);
-  if (!in) throw std::runtime_error("cannot read " + path.string());
-  nlohmann::json j;
-  in >> j;
+// Why a run record cannot be used ("" when it can): it names this run under the current schema
+// and every number the summary and the sweep read is a finite number.
+std::string run_record_problem(const nlohmann::json& j, const std::string& scenario,
+                               const std::string& label, std::uint64_t seed) {
+  if (!j.is_object()) return "the top level is " + std::string(j.type_name()) + ", not an object";
+  const auto text_field = [&](const char* key, const std::string& want) -> std::string {
+    const auto it = j.find(key);
+    if (it == j.end() || !it->is_string()) return std::string("field \"") + key + "\" is not a string";
+    if (it->get<std::string>() != want)
+      return std::string("field \"") + key + "\" is \"" + it->get<std::string>() + "\", expected \"" +
+             want + "\"";
+    return "";
+  };
+  for (const auto& [key, want] : {std::pair<const char*, std::string>{"schema", kRunSchema},
+                                  {"scenario", scenario},
+                                  {"algorithm", label}})
+    if (std::string p = text_field(key, want); !p.empty()) return p;
+  if (!j.contains("seed") || !j["seed"].is_number_unsigned() || j["seed"].get<std::uint64_t>() != seed)
+    return "field \"seed\" is not " + std::to_string(seed);
+  const auto finite = [](const nlohmann::json& v) {
+    return v.is_number() && std::isfinite(v.get<double>());
+  };
+  const auto number_problem = [&](const nlohmann::json& obj, const std::string& path,
+                                  const char* key) -> std::string {
+    if (!obj.is_object() || !obj.contains(key)) return "field \"" + path + key + "\" is missing";
+    if (!finite(obj[key]))
+      return "field \"" + path + key + "\" must be a finite number, got " +
+             (obj[key].is_number() ? obj[key].dump() : std::string(obj[key].type_name()));
+    return "";
+  };
+  if (!j.contains("result") || !j["result"].is_object()) return "field \"result\" is not an object";
+  const nlohmann::json& result = j["result"];
+  for (const char* key : {"fitness", "wall_s", "evaluations"})
+    if (std::string p = number_problem(result, "result.", key); !p.empty()) return p;
+  if (std::string p = number_problem(j, "", "optimum_fitness"); !p.empty()) return p;
+  const auto history = result.find("history");
+  if (history == result.end() || !history->is_array() || history->empty())
+    return "field \"result.history\" is not a non-empty array";
+  for (std::size_t i = 0; i < history->size(); ++i)
+    if (std::string p = number_problem((*history)[i], "result.history[" + std::to_string(i) + "].",
+                                       "best_fitness");
+        !p.empty())
+      return p;
+  const auto trace = result.find("best_per_evaluation");
+  if (trace == result.end() || !trace->is_array() || trace->empty())
+    return "field \"result.best_per_evaluation\" is not a non-empty array";
+  for (std::size_t i = 0; i < trace->size(); ++i)
+    if (!finite((*trace)[i]))
+      return "field \"result.best_per_evaluation[" + std::to_string(i) + "]\" is not a finite number";
+  for (const char* block : {"error_sigma", "error_vs_optimum_sigma"}) {
+    if (!j.contains(block)) {
+      if (std::string(block) == "error_vs_optimum_sigma") return "field \"error_vs_optimum_sigma\" is missing";
+      continue;
+    }
+    if (!j[block].is_object()) return std::string("field \"") + block + "\" is not an object";
+    for (const auto& item : j[block].items())
+      if (!finite(item.value()))
+        return std::string("field \"") + block + "." + item.key() + "\" is not a finite number";
+  }
+  return "";
+}
+
+}  // namespace
+
+nlohmann::json read_run_record(const fs::path& path, const std::string& scenario,
+                               const std::string& label, std::uint64_t seed) {
+  nlohmann::json j = read_json_file(path);
+  if (std::string problem = run_record_problem(j, scenario, label, seed); !problem.empty())
+    throw std::runtime_error(path.string() + ": " + problem);
   return j;
 }
 
-// A finished run file is valid when it parses and names this run.
-bool run_file_is_complete(const fs::path& path, const std::string& scenario,
-                          const std::string& label, std::uint64_t seed) {
+std::string run_file_problem(const fs::path& path, const std::string& scenario,
+                             const std::string& label, std::uint64_t seed) {
   std::error_code ec;
-  if (!fs::is_regular_file(path, ec)) return false;
+  if (!fs::exists(path, ec)) return "missing";
   try {
-    const nlohmann::json j = read_json_file(path);
-    return j.value("schema", "") == kRunSchema && j.value("scenario", "") == scenario &&
-           j.value("algorithm", "") == label && j.value("seed", std::uint64_t{0}) == seed &&
-           j.contains("result");
-  } catch (const std::exception&) {
-    return false;  // truncated or damaged: redo
+    read_run_record(path, scenario, label, seed);
+    return "";
+  } catch (const std::exception& e) {
+    return e.what();  // truncated, not JSON, a key given twice, unreadable, not this run's
   }
 }
+
+namespace {
 
 std::string first_difference(const nlohmann::json& a, const nlohmann::json& b,
                              const std::string& path = "config") {
@@ -492,9 +556,9 @@ std::vector<RunSpec> run_list(const CampaignConfig& config, const std::string& o
   return runs;
 }
 
-bool run_is_done(const CampaignConfig& config, const RunSpec& run) {
-  return run_file_is_complete(run.path, config.scenarios[run.scenario].name,
-                              config.algorithms[run.algorithm].label, run.seed);
+std::string run_problem(const CampaignConfig& config, const RunSpec& run) {
+  return run_file_problem(run.path, config.scenarios[run.scenario].name,
+                          config.algorithms[run.algorithm].label, run.seed);
 }
 
 // What insid writes at the top of a campaign directory (bench, sweep, the report script).
@@ -964,10 +1028,12 @@ std::string missing_runs_report(const std::string& out_dir, const CampaignConfig
   std::map<int, std::vector<std::string>> missing_by_shard;  // shard 0 when unknown
   std::size_t missing = 0;
   for (std::size_t i = 0; i < runs.size(); ++i) {
-    if (run_is_done(config, runs[i])) continue;
+    const std::string problem = run_problem(config, runs[i]);
+    if (problem.empty()) continue;
     ++missing;
     const int shard = shard_count > 0 ? static_cast<int>(i % static_cast<std::size_t>(shard_count)) + 1 : 0;
-    missing_by_shard[shard].push_back(fs::relative(runs[i].path, out_dir).string());
+    missing_by_shard[shard].push_back(fs::relative(runs[i].path, out_dir).string() +
+                                      (problem == "missing" ? "" : " (damaged: " + problem + ")"));
   }
   if (missing == 0) return "";
   std::ostringstream report;
@@ -1029,10 +1095,14 @@ CampaignOutcome run_campaign(const CampaignConfig& config, const RunOptions& opt
   if (root) {
     for (std::size_t i = 0; i < runs.size(); ++i) {
       if (!options.shard.contains(i)) continue;
-      if (run_is_done(config, runs[i]))
+      const std::string problem = run_problem(config, runs[i]);
+      if (problem.empty()) {
         ++outcome.skipped_runs;
-      else
-        pending.push_back(i);
+        continue;
+      }
+      if (problem != "missing" && !options.quiet)
+        std::cerr << "insid bench: redoing a damaged run file: " << problem << "\n";
+      pending.push_back(i);
     }
     if (options.max_new_runs > 0 && pending.size() > static_cast<std::size_t>(options.max_new_runs))
       pending.resize(static_cast<std::size_t>(options.max_new_runs));

@@ -8,6 +8,7 @@
 #pragma once
 
 #include <cstdint>
+#include <filesystem>
 #include <map>
 #include <memory>
 #include <optional>
@@ -145,6 +146,18 @@ nlohmann::json summarize_campaign(const std::string& out_dir, const CampaignConf
 /// label must be plain names (checked_path_component, core/output_dir.h): no write leaves DIR.
 std::string run_file(const std::string& out_dir, const std::string& scenario,
                      const std::string& label, std::uint64_t seed);
+
+/// Why a run file's record cannot be used ("" when it can; "missing" when there is no file):
+/// it must name this scenario, label and seed under the current schema, and every number the
+/// summary reads (result.fitness, wall_s, evaluations, history, best_per_evaluation,
+/// optimum_fitness, the error blocks) must be a finite number. Campaigns redo such runs.
+std::string run_file_problem(const std::filesystem::path& path, const std::string& scenario,
+                             const std::string& label, std::uint64_t seed);
+
+/// The run file's record; throws std::runtime_error naming the file and the field that makes it
+/// unusable (see run_file_problem).
+nlohmann::json read_run_record(const std::filesystem::path& path, const std::string& scenario,
+                               const std::string& label, std::uint64_t seed);
 
 /// Path of a scenario's optimum file: DIR/optimum/<scenario>.json (the same check).
 std::string optimum_file(const std::string& out_dir, const std::string& scenario);

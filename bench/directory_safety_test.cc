@@ -166,5 +166,33 @@ TEST(DirectorySafety, CampaignOverDataThatChangedIsADifferentCampaign) {
   fs::remove_all(data);
 }
 
+TEST(DirectorySafety, DamagedRunFileIsNamedAndRedone) {
+  const fs::path dir = fresh_dir("damaged-run");
+  ASSERT_TRUE(run_campaign(config(), options_for(dir)).complete);
+  const fs::path run = run_file(dir.string(), "short", "PSO", 1);
+  nlohmann::json record = nlohmann::json::parse(text(run));
+  const double fitness = record["result"]["fitness"].get<double>();
+  record["result"]["fitness"] = "0.5";  // a string where a number was written
+  std::ofstream(run) << record.dump(1);
+  const std::string problem = run_file_problem(run, "short", "PSO", 1);
+  EXPECT_NE(problem.find(run.string() + ": field \"result.fitness\" must be a finite number, got string"),
+            std::string::npos)
+      << problem;
+  EXPECT_THROW(read_run_record(run, "short", "PSO", 1), std::runtime_error);
+  // A key given twice is damage too (the strict reader), and so is another run's record.
+  std::ofstream(run) << "{\"schema\": \"insid-run/1\", \"schema\": \"insid-run/1\"}";
+  EXPECT_NE(run_file_problem(run, "short", "PSO", 1).find("appears twice"), std::string::npos);
+  EXPECT_NE(run_file_problem(run_file(dir.string(), "short", "PSO", 2), "short", "PSO", 1)
+                .find("field \"seed\" is not 1"),
+            std::string::npos);
+  // The rerun redoes exactly the damaged run and gets its fitness back (same seed).
+  const CampaignOutcome again = run_campaign(config(), options_for(dir));
+  EXPECT_TRUE(again.complete);
+  EXPECT_EQ(again.new_runs, 1);
+  EXPECT_EQ(run_file_problem(run, "short", "PSO", 1), "");
+  EXPECT_EQ(nlohmann::json::parse(text(run))["result"]["fitness"].get<double>(), fitness);
+  fs::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace insid::campaign

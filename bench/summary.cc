@@ -73,11 +73,7 @@ nlohmann::json summarize_campaign(const std::string& out_dir, const CampaignConf
       std::vector<nlohmann::json> runs;
       for (std::uint64_t seed : config.seeds) {
         const std::string path = run_file(out_dir, scenario.name, algo.label, seed);
-        std::ifstream in(path);
-        if (!in) throw std::runtime_error("summary: missing run file " + path);
-        nlohmann::json j;
-        in >> j;
-        runs.push_back(std::move(j));
+        runs.push_back(read_run_record(path, scenario.name, algo.label, seed));
       }
       nlohmann::json aj;
       aj["runs"] = runs.size();

@@ -10,6 +10,7 @@
 
 #include "bench/stats.h"
 #include "core/dataset.h"
+#include "core/json_reader.h"
 #include "identification/ins_problem.h"
 #include "optimizers/random.h"
 
@@ -208,9 +209,9 @@ void write_sweep_results(const SweepConfig& sweep, const CampaignConfig& campaig
     const AlgorithmSpec& algo = campaign.algorithms[i];
     std::vector<double> finals, errors;
     for (std::uint64_t seed : campaign.seeds) {
-      std::ifstream in(run_file(out_dir, sweep.scenario.name, algo.label, seed));
-      nlohmann::json r;
-      in >> r;
+      const nlohmann::json r =
+          read_run_record(run_file(out_dir, sweep.scenario.name, algo.label, seed),
+                          sweep.scenario.name, algo.label, seed);
       finals.push_back(r["result"]["fitness"].get<double>());
       double sq = 0.0;
       for (const auto& item : r["error_vs_optimum_sigma"].items())
@@ -242,16 +243,11 @@ void write_sweep_results(const SweepConfig& sweep, const CampaignConfig& campaig
 
 int merge_results(const std::string& dir) {
   const fs::path manifest_path = fs::path(dir) / "manifest.json";
-  std::ifstream in(manifest_path);
-  if (!in)
+  std::error_code ec;
+  if (!fs::is_regular_file(manifest_path, ec))
     throw std::runtime_error("cannot read " + manifest_path.string() +
                              ": not a campaign directory (run insid bench or sweep there first)");
-  nlohmann::json manifest;
-  try {
-    in >> manifest;
-  } catch (const nlohmann::json::parse_error& e) {
-    throw std::runtime_error(manifest_path.string() + ": invalid JSON: " + e.what());
-  }
+  const nlohmann::json manifest = read_json_file(manifest_path);
   const CampaignConfig campaign = config_from_manifest(manifest, manifest_path.string());
   const std::string missing = missing_runs_report(dir, campaign, manifest.value("shards", 0));
   if (!missing.empty()) throw std::runtime_error("cannot merge: " + missing);

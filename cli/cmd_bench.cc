@@ -11,6 +11,7 @@
 #include "bench/cluster.h"
 #include "cli/cli_util.h"
 #include "cli/commands.h"
+#include "core/json_reader.h"
 
 namespace insid::cli {
 namespace {
@@ -37,13 +38,11 @@ void run_bench(const BenchArgs& args) {
   if (!args.preset.empty()) {
     config = campaign::preset_campaign(args.preset);
   } else {
-    std::ifstream in(args.config_path);
-    if (!in) throw std::invalid_argument("--config: cannot read " + args.config_path);
     nlohmann::json j;
     try {
-      in >> j;
-    } catch (const nlohmann::json::parse_error& e) {
-      throw std::invalid_argument(args.config_path + ": invalid JSON: " + e.what());
+      j = read_json_file(args.config_path, "--config " + args.config_path);
+    } catch (const std::runtime_error& e) {
+      throw std::invalid_argument(e.what());
     }
     config = campaign::parse_campaign(j, args.config_path);
   }

@@ -40,6 +40,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/digest.h"
+#include "core/json_reader.h"
 #include "core/output_dir.h"
 #include "core/sensor_errors.h"
 
@@ -288,6 +289,30 @@ void parse_csv(const std::string& text, const std::array<std::string_view, N>& c
   }
 }
 
+// What write_dataset records of each data file in meta.json ("files"), and load_dataset checks:
+// the number of data rows (catches a file cut or extended at a line boundary) and the SHA-256 of
+// its values as parsed (IEEE-754 bits, Sha256::update_doubles), which catches any changed value
+// while a line-ending conversion, a BOM or blank padding (which change no value) do not count.
+struct RecordedFile {
+  std::size_t rows = 0;
+  std::string sha256;
+};
+
+// parse_csv that also returns the file's RecordedFile (rows and digest of the values).
+template <std::size_t N, class OnRow>
+RecordedFile parse_csv_recorded(const std::string& text, const std::array<std::string_view, N>& cols,
+                                const CsvWhere& where, OnRow&& on_row) {
+  RecordedFile record;
+  Sha256 sha;
+  parse_csv(text, cols, where, [&](const double* values, std::size_t line) {
+    sha.update_doubles(values, N);
+    ++record.rows;
+    on_row(values, line);
+  });
+  record.sha256 = sha.hex();
+  return record;
+}
+
 // ------------------------------------------------------------------------------------------
 // meta.json
 
@@ -332,15 +357,17 @@ struct MetaReader {
   }
 };
 
-DatasetMeta parse_meta(const std::string& text, const std::string& dir_prefix) {
+// `files` receives the "files" block (the data files' rows and digests) when meta.json has one.
+DatasetMeta parse_meta(const std::string& text, const std::string& dir_prefix,
+                       std::map<std::string, RecordedFile>& files) {
   const MetaReader r{dir_prefix + std::string(kMetaFile) + ": "};
   if (all_whitespace(text.data(), text.data() + text.size()))
     r.fail_at("empty file, expected a JSON object");
   json j;
   try {
-    j = json::parse(text);
-  } catch (const json::exception& e) {
-    r.fail_at(std::string("not valid JSON: ") + e.what());
+    j = parse_json_strict(text, dir_prefix + std::string(kMetaFile));
+  } catch (const std::runtime_error& e) {
+    fail(e.what());  // syntax error with line and column, or a key given twice
   }
   if (!j.is_object())
     r.fail_at("the top level must be a JSON object, got " + std::string(j.type_name()));
@@ -401,7 +428,41 @@ DatasetMeta parse_meta(const std::string& text, const std::string& dir_prefix) {
     n.gnss_pos_sigma_m = r.number(*noise, "gnss_pos_sigma_m", "noise");
     m.noise = n;
   }
+  if (const json* recorded = r.find(j, "files"); recorded && !recorded->is_null()) {
+    r.object(*recorded, "files");
+    for (const auto& [name, record] : recorded->items()) {
+      const std::string path = "files." + name;
+      if (name != kImuFile && name != kGnssFile && name != kTruthFile)
+        r.fail_at("field \"" + path + "\": not a data file of a dataset (imu.csv, gnss.csv, truth.csv)");
+      r.object(record, path);
+      const double rows = r.number(record, "rows", path);
+      if (rows < 0 || rows != std::floor(rows))
+        r.fail_at("field \"" + path + ".rows\" must be a whole number >= 0, got " + num_text(rows));
+      const json& digest = r.require(record, "sha256", path + ".sha256");
+      if (!digest.is_string() || digest.get<std::string>().size() != 64 ||
+          digest.get<std::string>().find_first_not_of("0123456789abcdef") != std::string::npos)
+        r.fail_at("field \"" + path + ".sha256\" must be 64 lowercase hex digits");
+      files[name] = {static_cast<std::size_t>(rows), digest.get<std::string>()};
+    }
+  }
   return m;
+}
+
+// A data file against what meta.json recorded when insid wrote it (after every other check, so
+// that a malformed value is reported as such first).
+void check_recorded(const std::map<std::string, RecordedFile>& files, std::string_view name,
+                    const RecordedFile& found, const std::string& prefix) {
+  const auto it = files.find(std::string(name));
+  if (it == files.end()) return;
+  const std::string where = prefix + std::string(name) + ": ";
+  const std::string undo = "; if the change is intended, remove \"files\" from meta.json";
+  if (found.rows != it->second.rows)
+    fail(where + "holds " + std::to_string(found.rows) + " data rows, but meta.json (files." +
+         std::string(name) + ".rows) records " + std::to_string(it->second.rows) +
+         " written by insid: the file was cut or extended since" + undo);
+  if (found.sha256 != it->second.sha256)
+    fail(where + "its values differ from those whose SHA-256 meta.json (files." + std::string(name) +
+         ".sha256) records: the file was edited since insid wrote it" + undo);
 }
 
 // ------------------------------------------------------------------------------------------
@@ -724,7 +785,7 @@ std::string truth_text(const std::vector<TruthSample>& truth) {
   return s;
 }
 
-std::string meta_text(const DatasetMeta& m) {
+std::string meta_text(const DatasetMeta& m, const std::map<std::string, RecordedFile>& files) {
   nlohmann::ordered_json j;
   j["format"] = kFormat;
   j["imu_rate_hz"] = m.imu_rate_hz;
@@ -756,6 +817,8 @@ std::string meta_text(const DatasetMeta& m) {
                   {"gnss_vel_sigma_mps", m.noise->gnss_vel_sigma_mps},
                   {"gnss_pos_sigma_m", m.noise->gnss_pos_sigma_m}};
   }
+  for (const auto& [name, record] : files)
+    j["files"][name] = {{"rows", record.rows}, {"sha256", record.sha256}};
   return j.dump(2) + "\n";
 }
 
@@ -879,14 +942,17 @@ Dataset load_dataset(const fs::path& dir) {
   };
 
   Dataset ds;
+  std::map<std::string, RecordedFile> recorded;
   ds.meta = parse_meta(
-      read_whole_file(require_file(kMetaFile), prefix + std::string(kMetaFile)), prefix);
+      read_whole_file(require_file(kMetaFile), prefix + std::string(kMetaFile)), prefix, recorded);
+  std::map<std::string, RecordedFile> found;  // checked against `recorded` at the end
 
   {
     const std::string text =
         read_whole_file(require_file(kImuFile), prefix + std::string(kImuFile));
     ds.imu.reserve(static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n')) + 1);
-    parse_csv(text, kImuColumns, CsvWhere{prefix, kImuFile}, [&](const double* v, std::size_t) {
+    found[std::string(kImuFile)] =
+        parse_csv_recorded(text, kImuColumns, CsvWhere{prefix, kImuFile}, [&](const double* v, std::size_t) {
       ImuSample& s = ds.imu.emplace_back();
       s.t_s = v[0];
       s.dtheta_b_rad = {v[1], v[2], v[3]};
@@ -897,7 +963,8 @@ Dataset load_dataset(const fs::path& dir) {
     const std::string text =
         read_whole_file(require_file(kGnssFile), prefix + std::string(kGnssFile));
     ds.gnss.reserve(static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n')) + 1);
-    parse_csv(text, kGnssColumns, CsvWhere{prefix, kGnssFile}, [&](const double* v, std::size_t) {
+    found[std::string(kGnssFile)] =
+        parse_csv_recorded(text, kGnssColumns, CsvWhere{prefix, kGnssFile}, [&](const double* v, std::size_t) {
       GnssSample& s = ds.gnss.emplace_back();
       s.t_s = v[0];
       s.lat_rad = v[1] * kDegToRad;
@@ -907,9 +974,10 @@ Dataset load_dataset(const fs::path& dir) {
     });
   }
   if (const fs::path p = dir / kTruthFile; present(kTruthFile)) {
-    const std::string text = read_whole_file(p, prefix + std::string(kTruthFile));
+    const std::string text =
+        read_whole_file(p, prefix + std::string(kTruthFile));
     ds.truth.reserve(static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n')) + 1);
-    parse_csv(text, kTruthColumns, CsvWhere{prefix, kTruthFile},
+    found[std::string(kTruthFile)] = parse_csv_recorded(text, kTruthColumns, CsvWhere{prefix, kTruthFile},
               [&](const double* v, std::size_t) {
                 TruthSample& s = ds.truth.emplace_back();
                 s.t_s = v[0];
@@ -924,6 +992,7 @@ Dataset load_dataset(const fs::path& dir) {
   }
 
   Validator{prefix}.run(ds);
+  for (const auto& [name, record] : found) check_recorded(recorded, name, record, prefix);
   return ds;
 }
 
@@ -953,7 +1022,7 @@ bool holds_only_a_dataset(const fs::path& dir, const std::string& where, bool fo
   if (!fs::exists(dir / kMetaFile, ec)) return true;
   bool is_ours = false;
   try {
-    const json meta = json::parse(read_whole_file(dir / kMetaFile, where));
+    const json meta = parse_json_strict(read_whole_file(dir / kMetaFile, where), where);
     is_ours = meta.is_object() && meta.value("format", "") == kFormat;
   } catch (const std::exception&) {
     is_ours = false;
@@ -985,6 +1054,19 @@ DatasetDestination dataset_destination(const fs::path& dir, bool into_foreign_di
   return replaceable && !holds_cwd ? DatasetDestination::kReplace : DatasetDestination::kAddFiles;
 }
 
+namespace {
+
+// The RecordedFile of CSV text insid has just written (parsed back: the values a loader will see).
+RecordedFile record_of(const std::string& name, const std::string& text) {
+  const CsvWhere where{"", name};
+  const auto nothing = [](const double*, std::size_t) {};
+  if (name == kImuFile) return parse_csv_recorded(text, kImuColumns, where, nothing);
+  if (name == kGnssFile) return parse_csv_recorded(text, kGnssColumns, where, nothing);
+  return parse_csv_recorded(text, kTruthColumns, where, nothing);
+}
+
+}  // namespace
+
 void write_dataset(const fs::path& dir, const Dataset& dataset, const DatasetWriteOptions& options) {
   const std::string where = "cannot write dataset '" + dir.string() + "'";
   try {
@@ -1001,10 +1083,14 @@ void write_dataset(const fs::path& dir, const Dataset& dataset, const DatasetWri
 
   // Everything in memory first: nothing touches the disk until the data are known good.
   std::map<std::string, std::string> files = options.extra_files;
-  files[std::string(kMetaFile)] = meta_text(dataset.meta);
   files[std::string(kImuFile)] = imu_text(dataset.imu);
   files[std::string(kGnssFile)] = gnss_text(dataset.gnss);
   if (!dataset.truth.empty()) files[std::string(kTruthFile)] = truth_text(dataset.truth);
+  std::map<std::string, RecordedFile> records;
+  for (const std::string_view name : {kImuFile, kGnssFile, kTruthFile})
+    if (const auto it = files.find(std::string(name)); it != files.end())
+      records[it->first] = record_of(it->first, it->second);
+  files[std::string(kMetaFile)] = meta_text(dataset.meta, records);
 
   const fs::path target = normalized_target(dir);
   if (dataset_destination(dir, options.into_foreign_directory) == DatasetDestination::kAddFiles) {

@@ -16,6 +16,7 @@
 #include <string>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "core/rotation.h"
 
@@ -202,6 +203,15 @@ class DatasetTest : public ::testing::Test {
     write_dataset(dir_, make_dataset(with_truth, true, true));
   }
 
+  // Drop the "files" record from dir_'s meta.json: the dataset becomes one made by hand, whose
+  // data files may be edited (tests that edit data on purpose to reach another check use this).
+  void forget_recorded_files() {
+    nlohmann::json meta = nlohmann::json::parse(read_text(dir_ / "meta.json"));
+    ASSERT_TRUE(meta.contains("files"));
+    meta.erase("files");
+    write_text(dir_ / "meta.json", meta.dump(2));
+  }
+
   // Load dir_, expecting a DatasetError; return its message.
   std::string load_error() {
     try {
@@ -304,6 +314,46 @@ TEST_F(DatasetTest, ToleratesBomTrailingBlanksPaddingExtraFilesAndUnknownMetaKey
   meta.insert(meta.find('{') + 1, "\"comment\": \"made by hand\", \"extra\": [1, 2],");
   write_text(dir_ / "meta.json", meta);
   expect_identical(expected, load_dataset(dir_));
+}
+
+TEST_F(DatasetTest, RecordedRowsAndDigestCatchCutsAndEditsOfWhatInsidWrote) {
+  write_valid();
+  const nlohmann::json meta = nlohmann::json::parse(read_text(dir_ / "meta.json"));
+  ASSERT_EQ(meta["files"]["imu.csv"]["rows"].get<std::size_t>(), load_dataset(dir_).imu.size());
+  const std::string imu = read_text(dir_ / "imu.csv");
+
+  // Cut at a line boundary: every other check passes (a shorter flight), the count does not.
+  auto lines = split_lines(imu);
+  const std::size_t rows = lines.size() - 1;
+  lines.resize(lines.size() - 5);
+  write_text(dir_ / "imu.csv", join_lines(lines));
+  std::string msg = load_error();
+  EXPECT_CONTAINS(msg, "imu.csv: holds " + std::to_string(rows - 5) + " data rows");
+  EXPECT_CONTAINS(msg, "files.imu.csv.rows) records " + std::to_string(rows));
+
+  // One value changed in its last digit: rows agree, the digest does not.
+  lines = split_lines(imu);
+  std::string& row = lines[7];
+  const auto last = row.find_last_of("0123456789");
+  row[last] = row[last] == '1' ? '2' : '1';
+  write_text(dir_ / "gnss.csv", read_text(dir_ / "gnss.csv"));  // untouched
+  write_text(dir_ / "imu.csv", join_lines(lines));
+  msg = load_error();
+  EXPECT_CONTAINS(msg, "imu.csv: its values differ");
+  EXPECT_CONTAINS(msg, "files.imu.csv.sha256");
+
+  // The same file with the record removed is accepted as a hand-made dataset.
+  forget_recorded_files();
+  EXPECT_NO_THROW(load_dataset(dir_));
+}
+
+TEST_F(DatasetTest, MetaKeyGivenTwiceIsAnError) {
+  write_valid();
+  std::string meta = read_text(dir_ / "meta.json");
+  meta.insert(meta.find('{') + 1, "\"align_s\": 5,");
+  write_text(dir_ / "meta.json", meta);
+  const std::string msg = load_error();
+  EXPECT_CONTAINS(msg, "meta.json: key \"align_s\" appears twice in the top-level object");
 }
 
 // ---- malformed input: one test each ---------------------------------------------------------
@@ -507,6 +557,7 @@ TEST_F(DatasetTest, GnssNotCoveringTheStartIsAnError) {
 
 TEST_F(DatasetTest, GnssNotCoveringTheEndIsAnError) {
   write_valid(false);
+  forget_recorded_files();
   auto lines = split_lines(read_text(dir_ / "gnss.csv"));
   lines.resize(lines.size() - 1);  // last GNSS at 29.9 s, IMU to 30 s: still covered
   write_text(dir_ / "gnss.csv", join_lines(lines));

@@ -3,44 +3,47 @@
 #include <openssl/evp.h>
 
 #include <array>
+#include <bit>
+#include <cstdint>
 #include <cstdio>
 #include <fstream>
 #include <memory>
 #include <stdexcept>
 
 namespace insid {
-namespace {
+Sha256::Sha256() : ctx_(EVP_MD_CTX_new(), &EVP_MD_CTX_free) {
+  if (!ctx_ || EVP_DigestInit_ex(ctx_.get(), EVP_sha256(), nullptr) != 1)
+    throw std::runtime_error("SHA-256: OpenSSL could not start a digest");
+}
 
-class Sha256 {
- public:
-  Sha256() : ctx_(EVP_MD_CTX_new(), &EVP_MD_CTX_free) {
-    if (!ctx_ || EVP_DigestInit_ex(ctx_.get(), EVP_sha256(), nullptr) != 1)
-      throw std::runtime_error("SHA-256: OpenSSL could not start a digest");
-  }
-  void update(const char* data, std::size_t size) {
-    if (EVP_DigestUpdate(ctx_.get(), data, size) != 1)
-      throw std::runtime_error("SHA-256: OpenSSL digest update failed");
-  }
-  std::string hex() {
-    std::array<unsigned char, EVP_MAX_MD_SIZE> md{};
-    unsigned int size = 0;
-    if (EVP_DigestFinal_ex(ctx_.get(), md.data(), &size) != 1)
-      throw std::runtime_error("SHA-256: OpenSSL digest final failed");
-    std::string out;
-    out.reserve(2 * size);
-    for (unsigned int i = 0; i < size; ++i) {
-      std::array<char, 3> byte{};
-      std::snprintf(byte.data(), byte.size(), "%02x", md[i]);
-      out += byte.data();
-    }
-    return out;
-  }
+void Sha256::update(const char* data, std::size_t size) {
+  if (EVP_DigestUpdate(ctx_.get(), data, size) != 1)
+    throw std::runtime_error("SHA-256: OpenSSL digest update failed");
+}
 
- private:
-  std::unique_ptr<EVP_MD_CTX, decltype(&EVP_MD_CTX_free)> ctx_;
-};
+void Sha256::update_doubles(const double* values, std::size_t count) {
+  std::array<char, 8> le{};
+  for (std::size_t i = 0; i < count; ++i) {
+    const auto bits = std::bit_cast<std::uint64_t>(values[i]);
+    for (int k = 0; k < 8; ++k) le[static_cast<std::size_t>(k)] = static_cast<char>((bits >> (8 * k)) & 0xff);
+    update(le.data(), le.size());
+  }
+}
 
-}  // namespace
+std::string Sha256::hex() {
+  std::array<unsigned char, EVP_MAX_MD_SIZE> md{};
+  unsigned int size = 0;
+  if (EVP_DigestFinal_ex(ctx_.get(), md.data(), &size) != 1)
+    throw std::runtime_error("SHA-256: OpenSSL digest final failed");
+  std::string out;
+  out.reserve(2 * size);
+  for (unsigned int i = 0; i < size; ++i) {
+    std::array<char, 3> byte{};
+    std::snprintf(byte.data(), byte.size(), "%02x", md[i]);
+    out += byte.data();
+  }
+  return out;
+}
 
 std::string sha256_hex(std::string_view bytes) {
   Sha256 sha;

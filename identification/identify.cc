@@ -6,6 +6,7 @@
 #include <iostream>
 #include <sstream>
 
+#include "core/json_reader.h"
 #include "optimizers/random.h"
 
 #ifndef INSID_VERSION
@@ -93,14 +94,12 @@ ReferenceOptimum cached_reference_optimum(const std::string& data_dir,
   const std::filesystem::path path = std::filesystem::path(data_dir) / "insid-optimum-cache.json";
   const std::string key = cache_key(data_dir, problem);
   nlohmann::json cache = nlohmann::json::object();
-  {
-    std::ifstream in(path);
-    if (in) {
-      try {
-        in >> cache;
-      } catch (const std::exception&) {
-        cache = nlohmann::json::object();  // a damaged cache is recomputed
-      }
+  std::error_code ec;
+  if (std::filesystem::is_regular_file(path, ec)) {
+    try {
+      cache = read_json_file(path);
+    } catch (const std::exception&) {
+      cache = nlohmann::json::object();  // a damaged cache is recomputed
     }
   }
   if (cache.is_object() && cache.contains(key)) {

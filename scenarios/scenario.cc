@@ -8,6 +8,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "core/json_reader.h"
 #include "scenarios/presets.h"
 #include "scenarios/synthesis.h"
 
@@ -322,13 +323,11 @@ ScenarioConfig parse_scenario(const json& j, const std::string& origin) {
 }
 
 ScenarioConfig load_scenario_file(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  if (!in) throw std::invalid_argument("cannot open scenario file '" + path.string() + "'");
   json j;
   try {
-    j = json::parse(in);
-  } catch (const json::parse_error& e) {
-    throw std::invalid_argument(path.string() + ": not valid JSON: " + e.what());
+    j = read_json_file(path);
+  } catch (const std::runtime_error& e) {
+    throw std::invalid_argument(e.what());
   }
   return parse_scenario(j, path.string());
 }
@@ -341,7 +340,7 @@ std::vector<std::string> preset_names() {
 
 ScenarioConfig preset_scenario(std::string_view name) {
   for (const auto& [n, text] : preset_texts())
-    if (n == name) return parse_scenario(json::parse(text), "preset '" + n + "'");
+    if (n == name) return parse_scenario(parse_json_strict(text, "preset '" + n + "'"), "preset '" + n + "'");
   std::string list;
   for (const auto& n : preset_names()) list += (list.empty() ? "" : ", ") + n;
   throw std::invalid_argument("unknown preset '" + std::string(name) + "' (valid: " + list + ")");
