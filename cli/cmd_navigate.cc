@@ -44,32 +44,27 @@ Eigen::Matrix3d truth_attitude_at(const Dataset& ds, double t_s) {
 
 // A navigation that went non-finite is an error, never a result: name the first state that
 // did, the IMU line it came from, and the compensation applied.
-void require_finite_navigation(const Dataset& ds, const std::string& data_dir,
-                               const SensorErrors& candidate, const std::vector<NavState>& states,
-                               const std::vector<double>& r) {
-  auto finite_state = [](const NavState& s) {
-    return std::isfinite(s.lat_rad) && std::isfinite(s.lon_rad) && std::isfinite(s.h_m) &&
-           s.v_eb_n.allFinite() && s.q_b_n.coeffs().allFinite();
-  };
+void require_finite_navigation(const NavigationProblem& problem, const std::string& data_dir,
+                               const SensorErrors& candidate,
+                               const std::optional<Eigen::Matrix3d>& C_b_n_override,
+                               const std::vector<NavState>& states, const std::vector<double>& r) {
+  const bool finite =
+      std::all_of(states.begin(), states.end(),
+                  [](const NavState& s) {
+                    return std::isfinite(s.lat_rad) && std::isfinite(s.lon_rad) &&
+                           std::isfinite(s.h_m) && s.v_eb_n.allFinite() &&
+                           s.q_b_n.coeffs().allFinite();
+                  }) &&
+      std::all_of(r.begin(), r.end(), [](double v) { return std::isfinite(v); });
+  if (finite) return;
   std::string compensation;
   for (const auto& [name, value] : nonzero_effects(candidate))
-    compensation += (compensation.empty() ? " with --compensate " : ", ") + name + "=" +
+    compensation += (compensation.empty() ? "with --compensate " : ", ") + name + "=" +
                     opt::format_number(value);
-  for (const NavState& s : states) {
-    if (finite_state(s)) continue;
-    const auto it = std::lower_bound(ds.imu.begin(), ds.imu.end(), s.t_s - 1e-9,
-                                     [](const ImuSample& a, double t) { return a.t_s < t; });
-    const std::size_t line = static_cast<std::size_t>(it - ds.imu.begin()) + 2;
-    throw std::runtime_error(data_dir + ": the navigation" + compensation +
-                             " became non-finite at t = " + opt::format_number(s.t_s) +
-                             " s (after imu.csv line " + std::to_string(line) +
-                             "); no result is written");
-  }
-  for (std::size_t k = 0; k < r.size(); ++k)
-    if (!std::isfinite(r[k]))
-      throw std::runtime_error(data_dir + ": the velocity residual at GNSS epoch " +
-                               std::to_string(k / 2) + compensation +
-                               " is non-finite; no result is written");
+  if (!compensation.empty()) compensation += ", ";
+  throw std::runtime_error(data_dir + ": " + compensation +
+                           problem.non_finite_report(candidate, C_b_n_override) +
+                           "; no result is written");
 }
 
 void run_navigate(const NavigateArgs& args) {
@@ -91,7 +86,7 @@ void run_navigate(const NavigateArgs& args) {
   states.reserve(problem.num_steps());
   std::vector<double> r;
   problem.run(candidate, C_b_n_override, [&](const NavState& s) { states.push_back(s); }, r);
-  require_finite_navigation(*dataset, args.data_dir, candidate, states, r);
+  require_finite_navigation(problem, args.data_dir, candidate, C_b_n_override, states, r);
 
   double fitness = 0.0, sum_sq = 0.0, max_dvh = 0.0;
   for (std::size_t e = 0; e < problem.num_epochs(); ++e) {

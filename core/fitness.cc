@@ -150,6 +150,36 @@ void NavigationProblem::residuals(const SensorErrors& candidate, std::vector<dou
   run(candidate, std::nullopt, {}, r);
 }
 
+std::string NavigationProblem::non_finite_report(
+    const SensorErrors& candidate, const std::optional<Eigen::Matrix3d>& C_b_n_override) const {
+  const auto finite_state = [](const NavState& s) {
+    return std::isfinite(s.t_s) && std::isfinite(s.lat_rad) && std::isfinite(s.lon_rad) &&
+           std::isfinite(s.h_m) && s.v_eb_n.allFinite() && s.q_b_n.coeffs().allFinite();
+  };
+  std::size_t steps = 0;
+  std::optional<std::size_t> first_bad_imu;  // index into dataset().imu
+  double t_bad_s = 0.0;
+  std::vector<double> r;
+  try {
+    run(candidate, C_b_n_override, [&](const NavState& s) {
+      ++steps;
+      if (first_bad_imu || finite_state(s)) return;
+      first_bad_imu = nav_begin_ + steps - 1;
+      t_bad_s = dataset_->imu[*first_bad_imu].t_s;
+    }, r);
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  if (first_bad_imu)
+    return "the navigation became non-finite at t = " + seconds_text(t_bad_s) +
+           " s (the step to imu.csv line " + std::to_string(*first_bad_imu + 2) + ")";
+  for (std::size_t k = 0; k < r.size(); ++k)
+    if (!std::isfinite(r[k]))
+      return "the velocity residual at GNSS epoch " + std::to_string(k / 2) + " (gnss.csv line " +
+             std::to_string(epoch_gnss_index_[k / 2] + 2) + ") is non-finite";
+  return "";
+}
+
 void NavigationProblem::run(const SensorErrors& candidate,
                             const std::optional<Eigen::Matrix3d>& C_b_n_override,
                             const std::function<void(const NavState&)>& on_step,

@@ -68,6 +68,12 @@ class NavigationProblem {
   /// Residuals r = (dvE_0, dvN_0, dvE_1, dvN_1, ...), INS minus GNSS (m/s), size 2*num_epochs.
   void residuals(const SensorErrors& candidate, std::vector<double>& r) const;
 
+  /// Why a candidate's run is not finite, "" when it is (one full run; for error messages):
+  /// "the navigation became non-finite at t = 12.3 s (the step to imu.csv line 1235)", the first
+  /// non-finite residual's GNSS epoch and gnss.csv line, or the set-up error (e.g. alignment).
+  std::string non_finite_report(const SensorErrors& candidate,
+                                const std::optional<Eigen::Matrix3d>& C_b_n_override = {}) const;
+
   /// Full run with callbacks (for `insid navigate` and diagnostics). `C_b_n_override` replaces
   /// the aligned initial attitude (e.g. truth). `on_step` sees the state after every IMU step.
   /// Returns the residual vector as `residuals` does.

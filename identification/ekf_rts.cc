@@ -410,6 +410,16 @@ void EkfRtsOptimizer::bind(const opt::Problem& problem) {
     names_.push_back(e.name);
   }
   x_ = clamp(mapping.from_sigma(estimate_sigma_));
+  // The cost yardstick: one full INS run of the estimate with the scalar reference on this
+  // thread. Unlike the evaluation the optimizer later asks for (a batch that a campaign may share
+  // with other members, on however many threads it has), it does not depend on the thread count
+  // or on what runs beside it, so equivalent_ins_runs compares like with like (issue 20).
+  const auto t0 = std::chrono::steady_clock::now();
+  (void)ins->navigation().fitness(mapping.to_errors(x_));
+  const double ins_run_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double ekf_s = ekf_->filter_wall_s + ekf_->smoother_wall_s;
+  equivalent_ins_runs_ = ins_run_s > 0.0 ? ekf_s / ins_run_s : 0.0;
   bound_ = &problem;
 }
 
@@ -418,17 +428,9 @@ void EkfRtsOptimizer::propose(std::vector<Eigen::VectorXd>& batch) {
     throw std::logic_error("EKF-RTS: not bound to a problem; drive it with opt::step / run / "
                            "optimize");
   batch.push_back(x_);
-  asked_ = std::chrono::steady_clock::now();
 }
 
-void EkfRtsOptimizer::accept(std::span<const Eigen::VectorXd>, std::span<const double>) {
-  // The wall time between ask() and tell() is the one evaluation of the estimate: the yardstick
-  // for the filter's cost in INS runs.
-  const double ins_run_s =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - asked_).count();
-  const double ekf_s = ekf_->filter_wall_s + ekf_->smoother_wall_s;
-  equivalent_ins_runs_ = ins_run_s > 0.0 ? ekf_s / ins_run_s : 0.0;
-}
+void EkfRtsOptimizer::accept(std::span<const Eigen::VectorXd>, std::span<const double>) {}
 
 nlohmann::json EkfRtsOptimizer::report_json(const ParameterMapping& mapping) const {
   nlohmann::json j = ekf_ ? ekf_->to_json() : nlohmann::json::object();

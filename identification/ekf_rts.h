@@ -70,9 +70,11 @@ EkfRtsResult run_ekf_rts(const NavigationProblem& navigation, const EkfRtsParams
 /// runs on the InsIdentificationProblem it is bound to, then asks for exactly one evaluation,
 /// its own estimate (clamped to the box), so the result has the Eq. 15 fitness of the estimate;
 /// the run ends after that one iteration. parameters() lists the settings and, after the run,
-/// `equivalent_ins_runs` (filter + smoother wall time over the wall time of that one
-/// evaluation), `filter_smoother_wall_s` and `std_sigma_<name>` of every estimated parameter.
-/// The run's wall clock starts at bind(), so Result::wall_time_s includes the filter pass.
+/// `equivalent_ins_runs` (filter + smoother wall time over the wall time of one scalar INS run
+/// of the estimate on the calling thread, timed in bind(): independent of the thread count and
+/// of a campaign's lock-step batches), `filter_smoother_wall_s` and `std_sigma_<name>` of every
+/// estimated parameter. The run's wall clock starts at bind(), so Result::wall_time_s includes
+/// the filter pass and the yardstick run.
 class EkfRtsOptimizer final : public opt::Optimizer, public opt::ProblemConsumer {
  public:
   EkfRtsOptimizer(const opt::Bounds& bounds, const opt::RunConfig& config,
@@ -100,7 +102,6 @@ class EkfRtsOptimizer final : public opt::Optimizer, public opt::ProblemConsumer
   std::vector<std::string> names_;
   Eigen::VectorXd x_, estimate_sigma_, std_sigma_;
   double equivalent_ins_runs_ = 0.0;
-  std::chrono::steady_clock::time_point asked_;
 };
 
 /// Registers "ekf-rts" with the optimizer registry (idempotent). Call before make_optimizer /

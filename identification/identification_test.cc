@@ -113,6 +113,28 @@ TEST(Identification, OptimumCacheFollowsTheDataNotTheDirectory) {
   std::filesystem::remove(dir.string() + "-cache.json");
 }
 
+TEST(Identification, NonFiniteFitnessNamesTheCandidateInSiAndWhereItsNavigationBroke) {
+  // One sigma of 1e200 m/s^2: the candidate at the box corner overflows; both evaluators refuse.
+  const ParameterMapping m({EstimatedParameter::parse("accel_bias_x:1e200"),
+                            EstimatedParameter::parse("gyro_bias_y")});
+  const std::vector<Eigen::VectorXd> xs = {Eigen::Vector2d(0.0, 0.1), Eigen::Vector2d(1.0, 0.5)};
+  for (const FitnessEvaluator implementation : {FitnessEvaluator::kBatched, FitnessEvaluator::kScalar}) {
+    const InsIdentificationProblem problem(static_problem(), m, FitnessKind::kEq15, {},
+                                           implementation);
+    std::vector<double> f(2);
+    try {
+      problem.evaluate_batch(xs, f);
+      ADD_FAILURE() << "no error for an overflowing candidate";
+    } catch (const opt::NonFiniteFitnessError& e) {
+      const std::string msg = e.what();
+      EXPECT_NE(msg.find("of candidate 1 (accel_bias_x = 4e+200 (4 sigma), gyro_bias_y = "),
+                std::string::npos)
+          << msg;
+      EXPECT_NE(msg.find("non-finite"), std::string::npos) << msg;
+    }
+  }
+}
+
 TEST(Identification, SerialAndOpenMpEvaluationAgreeBitForBit) {
   const ParameterMapping m(EstimatedParameter::paper_four());
   opt::EvaluatorOptions serial, parallel;

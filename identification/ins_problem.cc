@@ -131,9 +131,42 @@ void InsIdentificationProblem::evaluate_residual_batch(std::span<const Eigen::Ve
   evaluate(xs, f_out, r_out);
 }
 
+void InsIdentificationProblem::require_finite(std::span<const Eigen::VectorXd> xs,
+                                              std::span<const double> f) const {
+  for (std::size_t i = 0; i < f.size(); ++i) {
+    if (std::isfinite(f[i])) continue;
+    // Name the candidate in the user's terms (SI and sigma) and where its navigation broke.
+    const Eigen::VectorXd sigma = mapping_.to_sigma(xs[i]);
+    std::string values;
+    for (int k = 0; k < mapping_.dimension(); ++k) {
+      const EstimatedParameter& p = mapping_.parameters()[static_cast<std::size_t>(k)];
+      values += (k == 0 ? "" : ", ") + p.name + " = " + opt::format_number(sigma[k] * p.sigma) +
+                " (" + opt::format_number(sigma[k]) + " sigma)";
+    }
+    std::string why;
+    try {
+      why = navigation_->non_finite_report(mapping_.to_errors(xs[i]));
+    } catch (const std::exception& e) {
+      why = e.what();
+    }
+    throw opt::NonFiniteFitnessError("fitness " + opt::format_number(f[i]) + " of candidate " +
+                                     std::to_string(i) + " (" + values + "): " +
+                                     (why.empty() ? "its navigation stays finite; the sum of the "
+                                                    "residuals overflowed"
+                                                  : why));
+  }
+}
+
 void InsIdentificationProblem::evaluate(std::span<const Eigen::VectorXd> xs,
                                         std::span<double> f_out,
                                         std::span<std::vector<double>> r_out) const {
+  score(xs, f_out, r_out);
+  require_finite(xs, f_out);
+}
+
+void InsIdentificationProblem::score(std::span<const Eigen::VectorXd> xs,
+                                     std::span<double> f_out,
+                                     std::span<std::vector<double>> r_out) const {
   if (f_out.size() != xs.size())
     throw std::invalid_argument("evaluate_batch: " + std::to_string(xs.size()) +
                                 " candidates but " + std::to_string(f_out.size()) +

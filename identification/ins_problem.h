@@ -93,8 +93,14 @@ class InsIdentificationProblem final : public opt::Problem, public opt::Residual
   bool uses_batched_kernel() const;
 
  private:
+  // Scores (score) and then refuses a non-finite fitness (require_finite): NonFiniteFitnessError
+  // naming the candidate's parameters in SI and sigma and the IMU or GNSS line where its
+  // navigation became non-finite.
   void evaluate(std::span<const Eigen::VectorXd> xs, std::span<double> f_out,
                 std::span<std::vector<double>> r_out) const;
+  void score(std::span<const Eigen::VectorXd> xs, std::span<double> f_out,
+             std::span<std::vector<double>> r_out) const;
+  void require_finite(std::span<const Eigen::VectorXd> xs, std::span<const double> f) const;
 
   std::shared_ptr<const NavigationProblem> navigation_;
   std::shared_ptr<const BatchFitness> kernel_;
