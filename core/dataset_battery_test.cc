@@ -182,6 +182,30 @@ std::vector<Case> make_cases() {
                      [rate](const fs::path& d) { set_meta_number(d, "imu_rate_hz", rate); },
                      {rate == "0" || rate == "-100" ? "meta.json" : "imu.csv", rate == "0" || rate == "-100" ? "imu_rate_hz" : "IMU step"}});
   }
+  // meta.json: a number beyond double (found by the fuzzer), a key given twice.
+  cases.push_back({"meta_number_overflow",
+                   [](const fs::path& d) { set_meta_number(d, "align_s", "7.2e0824"); },
+                   {"meta.json", "not valid JSON", "number overflow"}});
+  cases.push_back({"meta_duplicate_key",
+                   [](const fs::path& d) {
+                     std::string meta = read_text(d / "meta.json");
+                     meta.insert(meta.find('{') + 1, "\"imu_rate_hz\": 100,");
+                     write_text(d / "meta.json", meta);
+                   },
+                   {"meta.json", "key \"imu_rate_hz\" appears twice"}});
+  // A data file cut at a line boundary, or one value edited: the rows and digest insid recorded.
+  cases.push_back({"imu_cut_at_line_boundary",
+                   [](const fs::path& d) {
+                     edit_lines(d / "imu.csv", [](std::vector<std::string>& l) { l.resize(l.size() - 3); });
+                   },
+                   {"imu.csv: holds", "files.imu.csv.rows"}});
+  cases.push_back({"gnss_value_edited",
+                   [](const fs::path& d) {
+                     edit_lines(d / "gnss.csv", [](std::vector<std::string>& l) {
+                       l[5].back() = l[5].back() == '1' ? '2' : '1';
+                     });
+                   },
+                   {"gnss.csv: its values differ", "files.gnss.csv.sha256"}});
   // Headers and line structure.
   for (const std::string file : {"imu.csv", "gnss.csv", "truth.csv"}) {
     const std::string stem = file.substr(0, file.find('.'));

@@ -69,7 +69,9 @@ json parse_json_strict(std::string_view text, const std::string& where) {
   };
   try {
     return json::parse(text.begin(), text.end(), check);
-  } catch (const json::parse_error& e) {
+  } catch (const json::exception& e) {
+    // parse_error (syntax) and out_of_range (a number beyond double, e.g. 1e999), with nlohmann's
+    // line and column where it gives them.
     throw std::runtime_error(where + ": not valid JSON: " + e.what());
   }
 }

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Fuzz insid's readers with libFuzzer (clang, AddressSanitizer + UBSan): builds fuzz/ into
+# Fuzz insid's readers (dataset; JSON configs) with libFuzzer (clang, AddressSanitizer + UBSan): builds fuzz/ into
 # ./build-fuzz, seeds each target's corpus, runs each for SECONDS (default 60), and prints the
 # executions and findings per target. Findings (crash-*, leak-*, timeout-*) stay in
 # build-fuzz/findings/<target>/. Usage: scripts/fuzz.sh [SECONDS]
@@ -9,7 +9,7 @@ seconds="${1:-60}"
 command -v clang++ >/dev/null || { echo "insid fuzz: needs clang++ (apt-get install clang libclang-rt-dev)" >&2; exit 1; }
 CC=clang CXX=clang++ cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DINSID_FUZZ=ON \
   -DINSID_BUILD_TESTS=OFF -DINSID_BUILD_BENCHMARKS=OFF -DINSID_WITH_MPI=OFF >&2
-targets=(insid_dataset_fuzzer)
+targets=(insid_dataset_fuzzer insid_config_fuzzer)
 cmake --build build-fuzz -j"$(nproc)" --target "${targets[@]}" >&2
 
 # Seed corpus: a valid dataset's files, each behind the byte that selects it.
@@ -26,6 +26,21 @@ for f in imu.csv gnss.csv truth.csv meta.json; do
     { printf "\\x0$i"; head -c 20000 "$seed_dir/$f"; } > "build-fuzz/corpus/insid_dataset_fuzzer/seed-$f"
   fi
   i=$((i + 1))
+done
+
+# Config seeds: byte 0 = a campaign config, byte 1 = a scenario file (the presets).
+mkdir -p build-fuzz/corpus/insid_config_fuzzer
+{ printf "\\x00"; cat <<'JSON'
+{"name": "seed", "seeds": [1, 2], "max_iterations": 3,
+ "scenarios": [{"name": "s", "preset": "rich", "flight_s": 120, "grade": "nav", "data_seed": 3,
+                "set": {"gyro_bias_x": 1e-7}}],
+ "algorithms": [{"label": "PSO", "name": "pso", "parameters": {"population": 20}},
+                {"label": "DVPIO", "name": "dvpio"}],
+ "estimate": ["accel_bias_x", "gyro_bias_y:1e-7:-3:3"]}
+JSON
+} > build-fuzz/corpus/insid_config_fuzzer/seed-campaign.json
+for f in scenarios/presets/*.json; do
+  { printf "\\x01"; cat "$f"; } > "build-fuzz/corpus/insid_config_fuzzer/seed-$(basename "$f")"
 done
 
 status=0
