@@ -26,6 +26,7 @@
 #include "diagnose/noise_model.h"
 #include "identification/identify.h"
 #include "identification/local_fit.h"
+#include "optimizers/parameters.h"
 #include "optimizers/registry.h"
 
 namespace insid::diagnose {
@@ -258,7 +259,7 @@ IterationStats score_candidates(const ModelFit& fit, const Mat& C,
   // random combinations of the standardised replica statistics.
   std::mt19937_64 rng(mix_seed(seed, 77));
   std::normal_distribution<double> g01;
-  const int draws = std::max(opt.monte_carlo_draws, 1000);
+  const int draws = opt.monte_carlo_draws;  // >= 1000 (validate)
   std::vector<double> maxz(static_cast<std::size_t>(draws));
   Vec g(MB);
   const double inv_sqrt_mb = 1.0 / std::sqrt(static_cast<double>(MB));
@@ -358,8 +359,35 @@ json params_json(const ModelFit& fit, const Vec& sd_sigma) {
 
 }  // namespace
 
+std::string DiagnoseOptions::validate() const {
+  const auto whole = [](const char* field, long long value, long long lo, long long hi) {
+    if (value >= lo && value <= hi) return std::string();
+    return std::string("DiagnoseOptions.") + field + " = " + std::to_string(value) +
+           ": must be a whole number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
+  };
+  const auto real = [](const char* field, double value, double lo, double hi) {
+    if (std::isfinite(value) && value >= lo && value <= hi) return std::string();
+    return std::string("DiagnoseOptions.") + field + " = " + opt::format_number(value) +
+           ": must be a finite number in [" + opt::format_number(lo) + ", " +
+           opt::format_number(hi) + "]";
+  };
+  for (const std::string& error :
+       {whole("max_effects", max_effects, 0, 100),
+        whole("optimizer_iterations", optimizer_iterations, 1, 10000000),
+        whole("replicas_basis", replicas_basis, 2, 100000),
+        whole("replicas_calibration", replicas_calibration, 2, 100000),
+        whole("monte_carlo_draws", monte_carlo_draws, 1000, 10000000),
+        whole("threads", threads, 0, 4096), real("alpha", alpha, 1e-9, 0.5),
+        real("collinear_threshold", collinear_threshold, 1e-9, 1.0),
+        real("observable_max_sigma", observable_max_sigma, 1e-9, 1e9)})
+    if (!error.empty()) return error;
+  return "";
+}
+
 DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
                             const DiagnoseOptions& options) {
+  if (const std::string error = options.validate(); !error.empty())
+    throw std::invalid_argument(error);
   const Progress progress(options.progress);
   const int threads = options.threads > 0 ? options.threads : omp_get_max_threads();
   NavigationOptions nav_options;

@@ -48,6 +48,10 @@ struct DiagnoseOptions {
   bool progress = false;                 ///< human progress on stderr
   /// Noise levels to use instead of meta.json / the estimate (e.g. a user's spec sheet).
   std::optional<NoiseLevels> noise;
+
+  /// "" when every field is usable, else a message naming the first bad field, its value and
+  /// the allowed range (run_diagnose throws std::invalid_argument with it; nothing is clamped).
+  std::string validate() const;
 };
 
 /// Residual time series kept for plots (GNSS epochs compared).

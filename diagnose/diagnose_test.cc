@@ -50,6 +50,24 @@ std::string found_names(const nlohmann::json& report) {
   return s.empty() ? "(nothing)" : s;
 }
 
+TEST(Options, EveryBadFieldIsNamedNothingIsClamped) {
+  EXPECT_EQ(DiagnoseOptions{}.validate(), "");
+  const auto error = [](auto edit) {
+    DiagnoseOptions o;
+    edit(o);
+    return o.validate();
+  };
+  EXPECT_EQ(error([](DiagnoseOptions& o) { o.monte_carlo_draws = 10; }),
+            "DiagnoseOptions.monte_carlo_draws = 10: must be a whole number in [1000, 10000000]");
+  EXPECT_NE(error([](DiagnoseOptions& o) { o.alpha = std::nan(""); }).find("DiagnoseOptions.alpha = nan"),
+            std::string::npos);
+  EXPECT_NE(error([](DiagnoseOptions& o) { o.replicas_basis = 1; }).find("replicas_basis = 1"),
+            std::string::npos);
+  EXPECT_NE(error([](DiagnoseOptions& o) { o.collinear_threshold = 1.5; }).find("collinear_threshold"),
+            std::string::npos);
+  EXPECT_NE(error([](DiagnoseOptions& o) { o.threads = -1; }).find("threads = -1"), std::string::npos);
+}
+
 TEST(NoiseModel, EstimatesNavGradeLevelsFromTheAlignmentWindow) {
   auto ds = make_hidden_dataset({"rich", 300.0, 7, {}});
   ASSERT_FALSE(ds->meta.noise.has_value());  // measured-looking data
