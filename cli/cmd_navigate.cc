@@ -39,6 +39,10 @@ Eigen::Matrix3d truth_attitude_at(const Dataset& ds, double t_s) {
       if (std::abs(s.t_s - t_s) < std::abs(best->t_s - t_s)) best = &s;
     return C_b_n_from_euler(best->attitude);
   }
+  if (!ds.meta.initial_attitude_known)
+    throw std::invalid_argument(
+        "--initial-attitude truth: this dataset has no truth.csv and its meta.json gives no "
+        "initial attitude (measured data); use --initial-attitude align");
   return C_b_n_from_euler(ds.meta.initial.attitude);
 }
 

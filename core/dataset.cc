@@ -51,6 +51,7 @@ namespace fs = std::filesystem;
 using json = nlohmann::json;
 
 constexpr std::string_view kFormat = "insid-dataset/1";
+constexpr std::string_view kFormat2 = "insid-dataset/2";
 constexpr std::string_view kImuFile = "imu.csv";
 constexpr std::string_view kGnssFile = "gnss.csv";
 constexpr std::string_view kTruthFile = "truth.csv";
@@ -375,11 +376,12 @@ DatasetMeta parse_meta(const std::string& text, const std::string& dir_prefix,
   const json& format = r.require(j, "format", "format");
   if (!format.is_string())
     r.fail_at("field \"format\" must be a string, got " + std::string(format.type_name()));
-  if (format.get<std::string>() != kFormat)
-    r.fail_at("field \"format\" must be \"" + std::string(kFormat) + "\", got \"" +
-              format.get<std::string>() + "\"");
+  if (format.get<std::string>() != kFormat && format.get<std::string>() != kFormat2)
+    r.fail_at("field \"format\" must be \"" + std::string(kFormat) + "\" or \"" +
+              std::string(kFormat2) + "\", got \"" + format.get<std::string>() + "\"");
 
   DatasetMeta m;
+  m.format = format.get<std::string>() == kFormat ? DatasetFormat::kV1 : DatasetFormat::kV2;
   m.imu_rate_hz = r.number(j, "imu_rate_hz", "");
   m.gnss_rate_hz = r.number(j, "gnss_rate_hz", "");
   const json& earth = r.object(r.require(j, "earth", "earth"), "earth");
@@ -396,9 +398,20 @@ DatasetMeta parse_meta(const std::string& text, const std::string& dir_prefix,
   m.initial.h_m = r.number(ini, "h_m", "initial");
   m.initial.v_eb_n_mps = {r.number(ini, "vE_mps", "initial"), r.number(ini, "vN_mps", "initial"),
                           r.number(ini, "vU_mps", "initial")};
-  m.initial.attitude.roll_rad = r.number(ini, "roll_deg", "initial") * kDegToRad;
-  m.initial.attitude.pitch_rad = r.number(ini, "pitch_deg", "initial") * kDegToRad;
-  m.initial.attitude.yaw_rad = r.number(ini, "yaw_deg", "initial") * kDegToRad;
+  // insid-dataset/2: an unknown initial attitude is written as roll/pitch/yaw null.
+  const bool attitude_null = m.format == DatasetFormat::kV2 && r.find(ini, "roll_deg") &&
+                             r.find(ini, "roll_deg")->is_null();
+  if (attitude_null) {
+    for (const char* key : {"pitch_deg", "yaw_deg"})
+      if (!r.find(ini, key) || !r.find(ini, key)->is_null())
+        r.fail_at(std::string("field \"initial.") + key +
+                  "\" must be null like initial.roll_deg (an unknown attitude is unknown whole)");
+    m.initial_attitude_known = false;
+  } else {
+    m.initial.attitude.roll_rad = r.number(ini, "roll_deg", "initial") * kDegToRad;
+    m.initial.attitude.pitch_rad = r.number(ini, "pitch_deg", "initial") * kDegToRad;
+    m.initial.attitude.yaw_rad = r.number(ini, "yaw_deg", "initial") * kDegToRad;
+  }
 
   // Optional parts: absent or null means "not given".
   if (const json* inj = r.find(j, "injected"); inj && !inj->is_null()) {
@@ -552,9 +565,11 @@ struct Validator {
         {"vE_mps", ini.v_eb_n_mps.x()},
         {"vN_mps", ini.v_eb_n_mps.y()},
         {"vU_mps", ini.v_eb_n_mps.z()},
-        {"roll_deg", ini.attitude.roll_rad},
-        {"pitch_deg", ini.attitude.pitch_rad},
-        {"yaw_deg", ini.attitude.yaw_rad}};
+        {"roll_deg", m.initial_attitude_known ? ini.attitude.roll_rad : 0.0},
+        {"pitch_deg", m.initial_attitude_known ? ini.attitude.pitch_rad : 0.0},
+        {"yaw_deg", m.initial_attitude_known ? ini.attitude.yaw_rad : 0.0}};
+    if (!m.initial_attitude_known && m.format == DatasetFormat::kV1)
+      meta_fail("an unknown initial attitude needs format insid-dataset/2");
     for (const auto& [name, v] : initial_fields) meta_number(std::string("initial.") + name, v);
     if (!(std::fabs(ini.lat_rad) < kPi / 2))
       meta_fail("field \"initial.lat_deg\" = " + num_text(ini.lat_rad * kRadToDeg) +
@@ -592,21 +607,47 @@ struct Validator {
     }
     times(kImuFile, ds.imu);
     const double dt_nominal = 1.0 / m.imu_rate_hz;
+    const bool v1 = m.format == DatasetFormat::kV1;
     {
       using B = PlausibilityBounds;
-      // Increments over one nominal step (the step check below holds each within 1 %).
-      const double max_dtheta = B::kMaxAngularRate_deg_s * kDegToRad * dt_nominal * 1.01;
-      const double max_dv = B::kMaxSpecificForce_g * 9.80665 * dt_nominal * 1.01;
+      // /1: increments over one nominal step (the step check below holds each within 1 %);
+      // /2: over the row's own step (the nominal one for the first row).
       for (std::size_t i = 0; i < ds.imu.size(); ++i) {
+        const double dt = v1 || i == 0 ? dt_nominal : std::max(ds.imu[i].t_s - ds.imu[i - 1].t_s, dt_nominal);
+        const double max_dtheta = B::kMaxAngularRate_deg_s * kDegToRad * dt * 1.01;
+        const double max_dv = B::kMaxSpecificForce_g * 9.80665 * dt * 1.01;
+        const char* step = v1 ? "one step of 1/imu_rate_hz" : "the row's step";
         for (int k = 0; k < 3; ++k)
           bounded(kImuFile, i, kImuColumns[1 + k], ds.imu[i].dtheta_b_rad[k], max_dtheta,
-                  "angle increment", "rad", "2000 deg/s over one step of 1/imu_rate_hz");
+                  "angle increment", "rad", std::string("2000 deg/s over ") + step);
         for (int k = 0; k < 3; ++k)
           bounded(kImuFile, i, kImuColumns[4 + k], ds.imu[i].dv_b_mps[k], max_dv,
-                  "velocity increment", "m/s", "50 g over one step of 1/imu_rate_hz");
+                  "velocity increment", "m/s", std::string("50 g over ") + step);
       }
     }
-    for (std::size_t i = 1; i < ds.imu.size(); ++i) {
+    if (!v1) {
+      // Measured timing: any positive step up to kMaxImuStep_s; the declared rate must be the
+      // data's (median step within 10 %).
+      using B = PlausibilityBounds;
+      std::vector<double> steps;
+      steps.reserve(ds.imu.size());
+      for (std::size_t i = 1; i < ds.imu.size(); ++i) {
+        const double dt = ds.imu[i].t_s - ds.imu[i - 1].t_s;
+        if (dt > B::kMaxImuStep_s)
+          fail(at(kImuFile, i, "t_s") + "IMU gap of " + num_text(dt) + " s from line " +
+               std::to_string(i + 1) + " (t = " + num_text(ds.imu[i - 1].t_s) +
+               ") is longer than the " + num_text(B::kMaxImuStep_s) +
+               " s insid integrates across; cut the data there");
+        steps.push_back(dt);
+      }
+      std::nth_element(steps.begin(), steps.begin() + static_cast<std::ptrdiff_t>(steps.size() / 2), steps.end());
+      const double median = steps[steps.size() / 2];
+      if (!(std::fabs(median - dt_nominal) <= B::kImuRateTolerance2 * dt_nominal))
+        meta_fail("field \"imu_rate_hz\" = " + num_text(m.imu_rate_hz) +
+                  " Hz disagrees with the median IMU step " + num_text(median) + " s (" +
+                  num_text(1.0 / median) + " Hz) by more than 10 %");
+    }
+    for (std::size_t i = 1; v1 && i < ds.imu.size(); ++i) {
       const double dt = ds.imu[i].t_s - ds.imu[i - 1].t_s;
       if (!(std::fabs(dt - dt_nominal) <= kImuRateTolerance * dt_nominal))
         fail(at(kImuFile, i, "t_s") + "IMU step " + num_text(dt) + " s from line " +
@@ -787,7 +828,7 @@ std::string truth_text(const std::vector<TruthSample>& truth) {
 
 std::string meta_text(const DatasetMeta& m, const std::map<std::string, RecordedFile>& files) {
   nlohmann::ordered_json j;
-  j["format"] = kFormat;
+  j["format"] = m.format == DatasetFormat::kV1 ? kFormat : kFormat2;
   j["imu_rate_hz"] = m.imu_rate_hz;
   j["gnss_rate_hz"] = m.gnss_rate_hz;
   j["earth"] = {{"a_m", m.earth.ellipsoid.a_m},
@@ -806,6 +847,8 @@ std::string meta_text(const DatasetMeta& m, const std::map<std::string, Recorded
                   {"roll_deg", degrees_for(i.attitude.roll_rad)},
                   {"pitch_deg", degrees_for(i.attitude.pitch_rad)},
                   {"yaw_deg", yaw_degrees_for(i.attitude.yaw_rad)}};
+  if (!m.initial_attitude_known)
+    for (const char* key : {"roll_deg", "pitch_deg", "yaw_deg"}) j["initial"][key] = nullptr;
   if (m.injected) {
     nlohmann::ordered_json inj = nlohmann::ordered_json::object();
     for (const auto& [name, v] : *m.injected) inj[name] = v;
@@ -998,6 +1041,16 @@ Dataset load_dataset(const fs::path& dir) {
 
 void validate_dataset(const Dataset& dataset) { Validator{""}.run(dataset); }
 
+std::vector<ImuGap> imu_gaps(const Dataset& dataset) {
+  std::vector<ImuGap> gaps;
+  const double limit = PlausibilityBounds::kImuGapSteps / dataset.meta.imu_rate_hz;
+  for (std::size_t i = 1; i < dataset.imu.size(); ++i) {
+    const double dt = dataset.imu[i].t_s - dataset.imu[i - 1].t_s;
+    if (dt > limit) gaps.push_back({i + 2, dataset.imu[i].t_s, dt});
+  }
+  return gaps;
+}
+
 const std::vector<std::string>& dataset_directory_entries() {
   static const std::vector<std::string> entries = {
       std::string(kMetaFile), std::string(kImuFile),     std::string(kGnssFile),
@@ -1023,7 +1076,8 @@ bool holds_only_a_dataset(const fs::path& dir, const std::string& where, bool fo
   bool is_ours = false;
   try {
     const json meta = parse_json_strict(read_whole_file(dir / kMetaFile, where), where);
-    is_ours = meta.is_object() && meta.value("format", "") == kFormat;
+    is_ours = meta.is_object() &&
+              (meta.value("format", "") == kFormat || meta.value("format", "") == kFormat2);
   } catch (const std::exception&) {
     is_ours = false;
   }

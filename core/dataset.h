@@ -49,12 +49,21 @@ struct NoiseLevels {
   double gnss_pos_sigma_m = 0.0;    ///< GNSS position white noise (m)
 };
 
+/// insid-dataset/1 (simulated data: IMU steps within 1 % of 1/imu_rate_hz, alignment window of
+/// round(align_s * imu_rate_hz) rows, initial attitude given) or insid-dataset/2 (measured data,
+/// what `insid import` writes: each IMU row's own interval is used, steps may jitter; alignment
+/// window = the rows within align_s of the first; the initial attitude may be unknown). One
+/// place that lists every difference: README.md, "Dataset formats".
+enum class DatasetFormat { kV1 = 1, kV2 = 2 };
+
 struct DatasetMeta {
-  double imu_rate_hz = 100.0;
+  DatasetFormat format = DatasetFormat::kV1;
+  double imu_rate_hz = 100.0;  ///< /1: the rate; /2: nominal (within 10 % of the median step)
   double gnss_rate_hz = 10.0;
   EarthModel earth;
   double align_s = 600.0;  ///< static alignment window at the start of the data (s)
   TruthSample initial;     ///< state at the start of the data (initial.t_s)
+  bool initial_attitude_known = true;  ///< /2 only may say false (roll/pitch/yaw null)
   std::optional<std::map<std::string, double>> injected;  ///< catalogue name -> SI value
   std::optional<NoiseLevels> noise;
 };
@@ -77,7 +86,21 @@ struct PlausibilityBounds {
   static constexpr double kMaxSpeed_mps = 1000.0;          ///< per velocity component
   static constexpr double kRateTolerance = 0.10;  ///< declared GNSS rate vs the median step
   static constexpr double kMaxGnssGap_s = 10.0;   ///< longest GNSS outage (or 20 GNSS periods)
+  // insid-dataset/2 (jittery IMU stamps):
+  static constexpr double kImuRateTolerance2 = 0.10;  ///< declared IMU rate vs the median step
+  static constexpr double kMaxImuStep_s = 1.0;        ///< longest IMU step (a longer one: refused)
+  static constexpr double kImuGapSteps = 3.0;  ///< a step above this many nominal steps is a gap
 };
+
+/// A stretch without IMU samples longer than kImuGapSteps nominal steps (insid-dataset/2).
+struct ImuGap {
+  std::size_t line = 0;  ///< imu.csv line of the row after the gap
+  double t_s = 0.0;      ///< its time
+  double dt_s = 0.0;     ///< the step
+};
+
+/// The IMU gaps of a dataset (reported by import and by navigate; an insid-dataset/1 has none).
+std::vector<ImuGap> imu_gaps(const Dataset& dataset);
 
 /// Any malformed dataset input. The message names the file, line and field, and what was
 /// expected, e.g. "imu.csv line 12, column dv_x_mps: expected a finite number, got 'nan'".

@@ -514,10 +514,54 @@ TEST_F(DatasetTest, WrongTypeInMetaIsAnError) {
 TEST_F(DatasetTest, WrongFormatIsAnError) {
   write_valid();
   std::string meta = read_text(dir_ / "meta.json");
-  meta.replace(meta.find("insid-dataset/1"), 15, "insid-dataset/2");
+  meta.replace(meta.find("insid-dataset/1"), 15, "insid-dataset/3");
   write_text(dir_ / "meta.json", meta);
-  EXPECT_CONTAINS(load_error(), "meta.json: field \"format\" must be \"insid-dataset/1\", "
-                                      "got \"insid-dataset/2\"");
+  EXPECT_CONTAINS(load_error(), "meta.json: field \"format\" must be \"insid-dataset/1\" or "
+                                "\"insid-dataset/2\", got \"insid-dataset/3\"");
+}
+
+// insid-dataset/2: measured timing. Jittery steps load; the declared rate must match the median
+// step; a step beyond 1 s is refused; gaps are listed; an unknown initial attitude is null.
+TEST_F(DatasetTest, Version2AcceptsJitteryStepsAndListsGaps) {
+  Dataset ds = make_dataset(false, false, false);
+  ds.meta.format = DatasetFormat::kV2;
+  ds.meta.initial_attitude_known = false;
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> jitter(-0.3, 0.3);
+  const double dt = 1.0 / ds.meta.imu_rate_hz;
+  for (std::size_t i = 1; i + 1 < ds.imu.size(); ++i) ds.imu[i].t_s += jitter(rng) * 0.5 * dt;
+  ds.imu.erase(ds.imu.begin() + 50, ds.imu.begin() + 55);  // a gap of 6 steps
+  write_dataset(dir_, ds);
+  const std::string meta = read_text(dir_ / "meta.json");
+  EXPECT_CONTAINS(meta, "\"format\": \"insid-dataset/2\"");
+  EXPECT_CONTAINS(meta, "\"roll_deg\": null");
+  const Dataset back = load_dataset(dir_);
+  EXPECT_FALSE(back.meta.initial_attitude_known);
+  const std::vector<ImuGap> gaps = imu_gaps(back);
+  ASSERT_EQ(gaps.size(), 1u);
+  EXPECT_EQ(gaps[0].line, 52u);  // row index 50 (after the gap) is on line 52
+  EXPECT_NEAR(gaps[0].dt_s, 6 * dt, 0.4 * dt);
+  // The same data as /1 are refused by the 1 % step rule.
+  ds.meta.format = DatasetFormat::kV1;
+  ds.meta.initial_attitude_known = true;
+  EXPECT_THROW(validate_dataset(ds), DatasetError);
+  // A declared rate the median step contradicts, and a step beyond 1 s.
+  ds.meta.format = DatasetFormat::kV2;
+  ds.meta.imu_rate_hz *= 1.2;
+  try {
+    validate_dataset(ds);
+    ADD_FAILURE();
+  } catch (const DatasetError& e) {
+    EXPECT_CONTAINS(std::string(e.what()), "disagrees with the median IMU step");
+  }
+  ds.meta.imu_rate_hz /= 1.2;
+  for (std::size_t i = 100; i < ds.imu.size(); ++i) ds.imu[i].t_s += 1.5;
+  try {
+    validate_dataset(ds);
+    ADD_FAILURE();
+  } catch (const DatasetError& e) {
+    EXPECT_CONTAINS(std::string(e.what()), "imu.csv line 102, column t_s: IMU gap of");
+  }
 }
 
 TEST_F(DatasetTest, UnknownInjectedEffectIsAnError) {
