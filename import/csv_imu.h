@@ -1,0 +1,64 @@
+// IMU samples from a logger's CSV file, read with a user's mapping spec (`insid import csv`):
+// which column holds what, the units, the time scale, and the sensor-to-body mounting.
+#pragma once
+
+#include <cstddef>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace insid::import {
+
+/// How to read an IMU CSV file. Parse the command-line strings with parse_columns/parse_units,
+/// then validate() (called by read_csv_imu).
+struct CsvImuSpec {
+  /// One role per CSV column, in order: t, ax, ay, az, gx, gy, gz, or "-" (ignored). Each of
+  /// the seven roles exactly once.
+  std::vector<std::string> columns;
+  std::string time_unit = "s";    ///< s | ms | us
+  std::string accel_unit = "m/s^2";  ///< g (9.80665 m/s^2) | g-local (local normal gravity) |
+                                     ///< m/s^2 | m/s (velocity increments)
+  std::string gyro_unit = "rad/s";   ///< rad/s | deg/s | rad | deg (the last two: increments)
+  /// gpst-unix: GPST seconds since 1970 (no leap seconds); gps-sow: GPST seconds of week (with
+  /// gps_week, or the week of the GNSS file's first epoch).
+  std::string time_scale = "gpst-unix";
+  std::optional<int> gps_week;
+  double time_offset_s = 0.0;  ///< added to every IMU time (a known IMU clock offset)
+  /// v_b = Rx(R) Ry(P) Rz(Y) v_s with the passive elementary rotations (the matrix roll, pitch,
+  /// yaw give for C_n^b): a vector measured in sensor axes expressed in body FRD axes.
+  Eigen::Vector3d mounting_rpy_deg = Eigen::Vector3d::Zero();
+
+  /// "t,ax,ay,az,gx,gy,gz,-,-" -> columns. Throws std::invalid_argument naming a bad role.
+  static std::vector<std::string> parse_columns(const std::string& text);
+  /// "s,g,rad/s" (time, accelerometer, gyro) -> the three units. Throws naming a bad unit.
+  void parse_units(const std::string& text);
+  /// "" or the first problem, naming the field and what is allowed.
+  std::string validate() const;
+  bool accel_is_increment() const { return accel_unit == "m/s"; }
+  bool gyro_is_increment() const { return gyro_unit == "rad" || gyro_unit == "deg"; }
+};
+
+/// C_s^b of the mounting: v_b = C_s_b * v_s.
+Eigen::Matrix3d mounting_matrix(const Eigen::Vector3d& rpy_deg);
+
+/// Rows of the CSV as read, converted to SI in body axes (mounting applied); time on the GPST
+/// seconds-since-1970 scale when the spec's scale is gps-sow (with the week), with the offset.
+struct CsvImu {
+  std::vector<double> t_gpst_unix_s;
+  std::vector<Eigen::Vector3d> accel_b;  ///< m/s^2 or m/s (increments), per accel_is_increment
+  std::vector<Eigen::Vector3d> gyro_b;   ///< rad/s or rad (increments), per gyro_is_increment
+  std::vector<std::size_t> line;         ///< source line of each row
+  bool accel_in_g_local = false;         ///< accel_b is in units of local gravity still
+  bool accel_is_increment = false;
+  bool gyro_is_increment = false;
+};
+
+/// Reads `path` with `spec` (comma separated; an optional header line is skipped when its
+/// first field is not a number; blank lines ignored). `gnss_week` is used for gps-sow when the
+/// spec gives none. Throws std::runtime_error naming file, line and column.
+CsvImu read_csv_imu(const std::string& text, const std::string& where, const CsvImuSpec& spec,
+                    std::optional<int> gnss_week);
+
+}  // namespace insid::import

@@ -1,0 +1,194 @@
+#include "import/importer.h"
+
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+
+#include "core/earth.h"
+#include "core/fitness.h"
+
+namespace insid::import {
+namespace {
+
+constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
+
+std::string num(double v, int precision = 6) {
+  std::ostringstream s;
+  s << std::setprecision(precision) << v;
+  return s.str();
+}
+
+double median(std::vector<double> v) {
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
+}  // namespace
+
+std::string AssembleOptions::validate() const {
+  if (gnss_quality.empty()) return "--gnss-quality: give at least one RTKLIB quality flag (1-6)";
+  for (int q : gnss_quality)
+    if (q < 1 || q > 7) return "--gnss-quality: flag " + std::to_string(q) + " is not in 1-7";
+  if (align_s && !(std::isfinite(*align_s) && *align_s >= 0.0 && *align_s <= 86400.0))
+    return "--align-s " + num(*align_s) + ": must be a finite number of seconds in [0, 86400]";
+  if (!(std::isfinite(static_speed_mps) && static_speed_mps > 0.0 && static_speed_mps <= 10.0))
+    return "--static-speed " + num(static_speed_mps) + ": must be in (0, 10] m/s";
+  return "";
+}
+
+Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
+                           const AssembleOptions& options) {
+  if (const std::string e = options.validate(); !e.empty()) throw std::invalid_argument(e);
+  Assembled out;
+  nlohmann::json& prov = out.provenance;
+
+  // GNSS epochs of an accepted quality.
+  std::vector<GnssEpoch> kept;
+  std::map<int, int> dropped;
+  for (const GnssEpoch& e : gnss.epochs) {
+    if (options.gnss_quality.count(e.quality))
+      kept.push_back(e);
+    else
+      ++dropped[e.quality];
+  }
+  int dropped_total = 0;
+  for (const auto& [q, n] : dropped) {
+    dropped_total += n;
+    prov["gnss"]["dropped_by_quality"][std::to_string(q)] = n;
+  }
+  if (dropped_total > 0)
+    out.notes.push_back("dropped " + std::to_string(dropped_total) + " of " +
+                        std::to_string(gnss.epochs.size()) + " GNSS epochs whose quality flag is "
+                        "not accepted (--gnss-quality)");
+  if (kept.size() < 2)
+    throw std::runtime_error("only " + std::to_string(kept.size()) +
+                             " GNSS epochs have an accepted quality flag (--gnss-quality); need at least 2");
+
+  // The common span.
+  const double tg0 = kept.front().t_gpst_unix_s, tg1 = kept.back().t_gpst_unix_s;
+  const double ti0 = imu.t_gpst_unix_s.front(), ti1 = imu.t_gpst_unix_s.back();
+  if (!(ti0 < tg1 && tg0 < ti1))
+    throw std::runtime_error("the GNSS solution (GPST " + num(tg0, 13) + " to " + num(tg1, 13) +
+                             " s since 1970) does not overlap the IMU data (" + num(ti0, 13) +
+                             " to " + num(ti1, 13) + " s); check --imu-time, --gps-week and "
+                             "--imu-time-offset-s");
+  // IMU rows k in [first, last] with a previous row (its interval start) and inside the span.
+  std::size_t first = 1;
+  while (first < imu.t_gpst_unix_s.size() && imu.t_gpst_unix_s[first] < tg0) ++first;
+  std::size_t last = imu.t_gpst_unix_s.size() - 1;
+  while (last > first && imu.t_gpst_unix_s[last] > tg1) --last;
+  if (last < first + 2) throw std::runtime_error("fewer than 3 IMU rows inside the GNSS span");
+  const double t_origin = std::floor(imu.t_gpst_unix_s[first]);
+  prov["time_origin_gpst_unix_s"] = t_origin;
+
+  // Increments over each row's own interval.
+  double g_local = 1.0;
+  if (imu.accel_in_g_local) {
+    g_local = EarthModel::wgs84().normal_gravity_mps2(kept.front().lat_deg * kDegToRad, kept.front().h_m);
+    prov["imu"]["g_local_mps2"] = g_local;
+  }
+  Dataset& ds = out.dataset;
+  std::vector<double> steps;
+  for (std::size_t k = first; k <= last; ++k) {
+    const double dt = imu.t_gpst_unix_s[k] - imu.t_gpst_unix_s[k - 1];
+    ImuSample s;
+    s.t_s = imu.t_gpst_unix_s[k] - t_origin;
+    // The rule is per sensor: a rate is integrated (trapezoid), an increment passes through.
+    const auto increment = [&](const std::vector<Eigen::Vector3d>& v, bool is_increment, double scale) {
+      if (is_increment) return Eigen::Vector3d(v[k] * scale);
+      return Eigen::Vector3d(0.5 * (v[k - 1] + v[k]) * scale * dt);
+    };
+    s.dtheta_b_rad = increment(imu.gyro_b, imu.gyro_is_increment, 1.0);
+    s.dv_b_mps = increment(imu.accel_b, imu.accel_is_increment, g_local);
+    ds.imu.push_back(s);
+    if (k > first) steps.push_back(dt);
+  }
+  prov["imu"]["rows_read"] = imu.t_gpst_unix_s.size();
+  prov["imu"]["rows_used"] = ds.imu.size();
+  prov["imu"]["first_line_used"] = imu.line[first];
+  prov["imu"]["last_line_used"] = imu.line[last];
+  prov["imu"]["integration"] = imu.gyro_is_increment && imu.accel_is_increment
+                                   ? "increments as given"
+                                   : "rates integrated over each row's own interval by the "
+                                     "trapezoidal rule, (w[k-1] + w[k]) / 2 * (t[k] - t[k-1])";
+  const double dt_median = median(steps);
+  prov["imu"]["step_s"] = {{"median", dt_median},
+                           {"min", *std::min_element(steps.begin(), steps.end())},
+                           {"max", *std::max_element(steps.begin(), steps.end())}};
+
+  // GNSS rows inside the IMU span (ENU velocity).
+  std::vector<double> gsteps, sd_v;
+  for (const GnssEpoch& e : kept) {
+    const double t = e.t_gpst_unix_s - t_origin;
+    if (t < ds.imu.front().t_s - 1e-9 || t > ds.imu.back().t_s + 1e-9) continue;
+    GnssSample g;
+    g.t_s = t;
+    g.lat_rad = e.lat_deg * kDegToRad;
+    g.lon_rad = e.lon_deg * kDegToRad;
+    g.h_m = e.h_m;
+    g.v_eb_n_mps = {e.v_e_mps, e.v_n_mps, e.v_u_mps};
+    if (!ds.gnss.empty()) gsteps.push_back(t - ds.gnss.back().t_s);
+    ds.gnss.push_back(g);
+    sd_v.push_back(std::hypot(e.sd_vn_mps, e.sd_ve_mps));
+  }
+  if (ds.gnss.size() < 2)
+    throw std::runtime_error("fewer than 2 GNSS epochs inside the IMU span");
+  prov["gnss"]["epochs_read"] = gnss.epochs.size();
+  prov["gnss"]["epochs_used"] = ds.gnss.size();
+  prov["gnss"]["format"] = gnss.format;
+  prov["gnss"]["accepted_quality"] = options.gnss_quality;
+  prov["gnss"]["median_horizontal_velocity_sd_mps"] = median(sd_v);
+  prov["gnss"]["weighting"] = "none: every kept epoch counts equally in the fitness";
+
+  DatasetMeta& m = ds.meta;
+  m.format = DatasetFormat::kV2;
+  m.earth = EarthModel::wgs84();
+  m.imu_rate_hz = 1.0 / dt_median;
+  m.gnss_rate_hz = 1.0 / median(gsteps);
+  // The static window: up to 1 s before the GNSS first shows motion.
+  if (options.align_s) {
+    m.align_s = *options.align_s;
+    prov["alignment_window"] = {{"align_s", m.align_s}, {"how", "given (--align-s)"}};
+  } else {
+    double t_moving = ds.gnss.back().t_s;
+    for (const GnssSample& g : ds.gnss)
+      if (std::hypot(g.v_eb_n_mps.x(), g.v_eb_n_mps.y()) > options.static_speed_mps) {
+        t_moving = g.t_s;
+        break;
+      }
+    m.align_s = std::floor((t_moving - 1.0 - ds.imu.front().t_s) * 10.0) / 10.0;
+    if (m.align_s < 1.0)
+      throw std::runtime_error("no static start found: the GNSS horizontal speed exceeds " +
+                               num(options.static_speed_mps) + " m/s within " +
+                               num(t_moving - ds.imu.front().t_s) +
+                               " s of the first IMU row; give the static window with --align-s");
+    prov["alignment_window"] = {
+        {"align_s", m.align_s},
+        {"how", "from the first IMU row to 1 s before the first GNSS epoch with horizontal speed "
+                "above " + num(options.static_speed_mps) + " m/s"}};
+  }
+  out.notes.push_back("static alignment window: the first " + num(m.align_s) + " s");
+  const GnssSample g0 = interpolate_gnss(ds.gnss, ds.imu.front().t_s);
+  m.initial.t_s = ds.imu.front().t_s;
+  m.initial.lat_rad = g0.lat_rad;
+  m.initial.lon_rad = g0.lon_rad;
+  m.initial.h_m = g0.h_m;
+  m.initial.v_eb_n_mps = g0.v_eb_n_mps;
+  m.initial_attitude_known = false;
+
+  const std::vector<ImuGap> gaps = imu_gaps(ds);
+  for (const ImuGap& gap : gaps) {
+    prov["imu"]["gaps"].push_back({{"t_s", gap.t_s}, {"dt_s", gap.dt_s}});
+    if (out.notes.size() < 12)
+      out.notes.push_back("IMU gap of " + num(gap.dt_s) + " s before t = " + num(gap.t_s) +
+                          " s (" + num(gap.dt_s / dt_median, 3) + " median steps)");
+  }
+  if (gaps.empty()) prov["imu"]["gaps"] = nlohmann::json::array();
+  validate_dataset(ds);
+  return out;
+}
+
+}  // namespace insid::import
