@@ -21,6 +21,8 @@
 #include "import/csv_imu.h"
 #include "import/gnss_solution.h"
 #include "import/importer.h"
+#include "import/kf_gins.h"
+#include "core/output_dir.h"
 
 namespace insid::cli {
 namespace {
@@ -69,12 +71,46 @@ std::vector<double> parse_number_list(const std::string& text, const char* optio
   }
 }
 
+// An RTKLIB .pos or a KF-GINS GNSS text file, told apart by content.
+import::GnssSolution read_gnss_by_content(const std::string& text, const std::string& path,
+                                          std::optional<int> gps_week) {
+  if (import::looks_like_rtklib_pos(text)) return import::parse_rtklib_pos(text, path);
+  if (import::looks_like_kf_gins_gnss(text)) return import::parse_kf_gins_gnss(text, path, gps_week);
+  throw std::invalid_argument("--gnss " + path +
+                              ": neither an RTKLIB solution (a '%' header naming latitude(deg)) "
+                              "nor a KF-GINS GNSS file (7 or 13 numbers per line)");
+}
+
 nlohmann::json source_json(const std::string& role, const std::string& path, const std::string& text) {
   return {{"role", role},
           {"path", path},
           {"file_name", fs::path(path).filename().string()},
           {"bytes", text.size()},
           {"sha256", sha256_hex(text)}};
+}
+
+// Provenance, the atomic write, and the user's summary: common to every import format.
+void finish_import(const std::string& command, import::Assembled result, nlohmann::json options,
+                   nlohmann::json sources, const std::string& out, bool force,
+                   std::chrono::steady_clock::time_point t0) {
+  nlohmann::json& prov = result.provenance;
+  prov["format"] = "insid-provenance/1";
+  prov["command"] = command;
+  prov["insid"] = build_info_json();
+  prov["sources"] = std::move(sources);
+  prov["options"] = std::move(options);
+  DatasetWriteOptions write_options;
+  write_options.into_foreign_directory = force;
+  write_options.extra_files["provenance.json"] = prov.dump(2) + "\n";
+  write_dataset(out, result.dataset, write_options);
+  for (const std::string& note : result.notes) std::cerr << "insid import: " << note << "\n";
+  const Dataset& ds = result.dataset;
+  std::fprintf(stderr,
+               "insid import: wrote %s (insid-dataset/2): %zu IMU rows (median %.4g Hz), %zu GNSS "
+               "epochs (%.3g Hz), %.1f s, in %.2f s\n",
+               out.c_str(), ds.imu.size(), ds.meta.imu_rate_hz, ds.gnss.size(),
+               ds.meta.gnss_rate_hz, ds.imu.back().t_s - ds.imu.front().t_s,
+               std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
 }
 
 void run_import_csv(const ImportCsvArgs& args) {
@@ -100,44 +136,93 @@ void run_import_csv(const ImportCsvArgs& args) {
 
   const auto t0 = std::chrono::steady_clock::now();
   const std::string gnss_text = read_text(args.gnss, "--gnss");
-  if (!import::looks_like_rtklib_pos(gnss_text))
-    throw std::invalid_argument("--gnss " + args.gnss +
-                                ": not an RTKLIB solution file (no '%' header naming "
-                                "latitude(deg)); the csv import reads RTKLIB .pos solutions");
-  const import::GnssSolution gnss = import::parse_rtklib_pos(gnss_text, args.gnss);
+  const import::GnssSolution gnss = read_gnss_by_content(gnss_text, args.gnss, args.gps_week);
   const std::optional<int> gnss_week = static_cast<int>(
       (gnss.epochs.front().t_gpst_unix_s - import::kGpsEpochGpstUnix_s) / import::kSecondsPerWeek);
   const std::string imu_text = read_text(args.imu, "--imu");
   const import::CsvImu imu = import::read_csv_imu(imu_text, args.imu, spec, gnss_week);
   import::Assembled result = import::assemble_dataset(imu, gnss, options);
 
-  nlohmann::json& prov = result.provenance;
-  prov["format"] = "insid-provenance/1";
-  prov["command"] = "insid import csv";
-  prov["insid"] = build_info_json();
-  prov["sources"] = {source_json("imu", args.imu, imu_text), source_json("gnss", args.gnss, gnss_text)};
-  prov["options"] = {{"columns", spec.columns},
-                     {"units", {{"time", spec.time_unit}, {"accel", spec.accel_unit}, {"gyro", spec.gyro_unit}}},
-                     {"imu_time", spec.time_scale},
-                     {"gps_week", args.gps_week ? nlohmann::json(*args.gps_week) : nlohmann::json(nullptr)},
-                     {"imu_time_offset_s", spec.time_offset_s},
-                     {"mounting_rpy_deg", {spec.mounting_rpy_deg.x(), spec.mounting_rpy_deg.y(), spec.mounting_rpy_deg.z()}},
-                     {"mounting", "v_b = Rx(R) Ry(P) Rz(Y) v_s, applied at import"},
-                     {"gnss_quality", args.gnss_quality},
-                     {"align_s", args.align_s ? nlohmann::json(*args.align_s) : nlohmann::json(nullptr)},
-                     {"static_speed_mps", args.static_speed_mps}};
-  DatasetWriteOptions write_options;
-  write_options.into_foreign_directory = args.force;
-  write_options.extra_files["provenance.json"] = prov.dump(2) + "\n";
-  write_dataset(args.out, result.dataset, write_options);
-  for (const std::string& note : result.notes) std::cerr << "insid import: " << note << "\n";
-  const Dataset& ds = result.dataset;
+  nlohmann::json recorded_options = {
+      {"columns", spec.columns},
+      {"units", {{"time", spec.time_unit}, {"accel", spec.accel_unit}, {"gyro", spec.gyro_unit}}},
+      {"imu_time", spec.time_scale},
+      {"gps_week", args.gps_week ? nlohmann::json(*args.gps_week) : nlohmann::json(nullptr)},
+      {"imu_time_offset_s", spec.time_offset_s},
+      {"mounting_rpy_deg", {spec.mounting_rpy_deg.x(), spec.mounting_rpy_deg.y(), spec.mounting_rpy_deg.z()}},
+      {"mounting", "v_b = Rx(R) Ry(P) Rz(Y) v_s, applied at import"},
+      {"gnss_quality", args.gnss_quality},
+      {"align_s", args.align_s ? nlohmann::json(*args.align_s) : nlohmann::json(nullptr)},
+      {"static_speed_mps", args.static_speed_mps}};
+  finish_import("insid import csv", std::move(result), std::move(recorded_options),
+                {source_json("imu", args.imu, imu_text), source_json("gnss", args.gnss, gnss_text)},
+                args.out, args.force, t0);
+}
+
+struct ImportKfGinsArgs {
+  std::string imu, gnss, out;
+  std::optional<int> gps_week;
+  std::optional<double> align_s;
+  double static_speed_mps = 0.2;
+  bool force = false;
+};
+
+void run_import_kf_gins(const ImportKfGinsArgs& args) {
+  dataset_destination(args.out, args.force);
+  import::AssembleOptions options;
+  options.align_s = args.align_s;
+  options.static_speed_mps = args.static_speed_mps;
+  if (const std::string e = options.validate(); !e.empty()) throw std::invalid_argument(e);
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::string gnss_text = read_text(args.gnss, "--gnss");
+  const import::GnssSolution gnss = read_gnss_by_content(gnss_text, args.gnss, args.gps_week);
+  const std::string imu_text = read_text(args.imu, "--imu");
+  const import::CsvImu imu = import::parse_kf_gins_imu(imu_text, args.imu, args.gps_week);
+  import::Assembled result = import::assemble_dataset(imu, gnss, options);
+  if (gnss.format.find("derived") != std::string::npos)
+    result.notes.push_back("GNSS velocity derived from positions by central differences (the "
+                           "file has no velocity columns); see README, insid import kf-gins");
+  nlohmann::json opts = {
+      {"gps_week", args.gps_week ? nlohmann::json(*args.gps_week) : nlohmann::json(nullptr)},
+      {"align_s", args.align_s ? nlohmann::json(*args.align_s) : nlohmann::json(nullptr)},
+      {"static_speed_mps", args.static_speed_mps},
+      {"axes", "body forward-right-down as KF-GINS defines its IMU file (no mounting applied)"}};
+  finish_import("insid import kf-gins", std::move(result), std::move(opts),
+                {source_json("imu", args.imu, imu_text), source_json("gnss", args.gnss, gnss_text)},
+                args.out, args.force, t0);
+}
+
+struct ExportArgs {
+  std::string to, data, out;
+  double sow_offset_s = 0.0;
+  std::optional<double> pos_std_m, vel_std_mps;
+  bool force = false;
+};
+
+void run_export(const ExportArgs& args) {
+  if (args.to != "kf-gins") throw std::invalid_argument("--to: only kf-gins is supported");
+  const OutputKind kind{"a KF-GINS export", {"imu.txt", "gnss.txt"}};
+  if (contains_working_directory(args.out))
+    throw std::invalid_argument("--out " + args.out + ": the current directory or a parent of it");
+  if (!args.force)
+    require_own_or_empty(args.out, kind, "give --force to add imu.txt and gnss.txt there");
+  const Dataset ds = load_dataset(args.data);
+  // Standard deviations: given, else the dataset's declared GNSS noise, else stated defaults.
+  const double pos_std = args.pos_std_m ? *args.pos_std_m
+                         : ds.meta.noise && ds.meta.noise->gnss_pos_sigma_m > 0 ? ds.meta.noise->gnss_pos_sigma_m
+                                                                             : 0.05;
+  const double vel_std = args.vel_std_mps ? *args.vel_std_mps
+                         : ds.meta.noise && ds.meta.noise->gnss_vel_sigma_mps > 0 ? ds.meta.noise->gnss_vel_sigma_mps
+                                                                                : 0.05;
+  std::filesystem::create_directories(args.out);
+  write_file_atomic(fs::path(args.out) / "imu.txt", import::kf_gins_imu_text(ds, args.sow_offset_s));
+  write_file_atomic(fs::path(args.out) / "gnss.txt",
+                    import::kf_gins_gnss_text(ds, args.sow_offset_s, pos_std, vel_std));
   std::fprintf(stderr,
-               "insid import: wrote %s (insid-dataset/2): %zu IMU rows (median %.4g Hz), %zu GNSS "
-               "epochs (%.3g Hz), %.1f s, in %.2f s\n",
-               args.out.c_str(), ds.imu.size(), ds.meta.imu_rate_hz, ds.gnss.size(),
-               ds.meta.gnss_rate_hz, ds.imu.back().t_s - ds.imu.front().t_s,
-               std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+               "insid export: wrote %s/imu.txt (%zu rows, FRD increments) and gnss.txt (%zu rows, 13 "
+               "columns: position, velocity NED, std %.3g m and %.3g m/s); times = t_s + %g s of "
+               "week\n",
+               args.out.c_str(), ds.imu.size(), ds.gnss.size(), pos_std, vel_std, args.sow_offset_s);
 }
 
 }  // namespace
@@ -184,6 +269,43 @@ void add_import_command(CLI::App& app) {
   csv->add_option("--out", a->out, "output dataset directory (new, empty or an insid dataset)")->required();
   csv->add_flag("--force", a->force, "write into a --out directory that holds other files");
   csv->callback([a] { run_import_csv(*a); });
+
+  auto k = std::make_shared<ImportKfGinsArgs>();
+  CLI::App* kf = cmd->add_subcommand(
+      "kf-gins",
+      "KF-GINS text files: IMU (SOW, dtheta xyz rad, dvel xyz m/s, FRD) and GNSS (7 columns, "
+      "velocity then derived from positions; or 13 with velocity), or an RTKLIB .pos as --gnss");
+  kf->add_option("--imu", k->imu, "KF-GINS IMU text file")->required();
+  kf->add_option("--gnss", k->gnss, "KF-GINS GNSS text file or RTKLIB .pos")->required();
+  kf->add_option("--gps-week", k->gps_week, "GPS week of the seconds-of-week times (recorded; default 0)")
+      ->check(whole_in(0, 100000));
+  kf->add_option("--align-s", k->align_s,
+                 "static alignment window (s); default: until 1 s before the GNSS shows motion")
+      ->check(number_in(0, 86400));
+  kf->add_option("--static-speed", k->static_speed_mps, "GNSS speed (m/s) counted as motion")
+      ->check(number_in(1e-6, 10));
+  kf->add_option("--out", k->out, "output dataset directory")->required();
+  kf->add_flag("--force", k->force, "write into a --out directory that holds other files");
+  kf->callback([k] { run_import_kf_gins(*k); });
+}
+
+void add_export_command(CLI::App& app) {
+  auto a = std::make_shared<ExportArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "export", "Write an insid dataset in another program's layout (KF-GINS: imu.txt, gnss.txt)");
+  cmd->add_option("--to", a->to, "target layout: kf-gins")->required();
+  cmd->add_option("--data", a->data, "dataset directory")->required();
+  cmd->add_option("--out", a->out, "output directory (new, empty, or a previous export)")->required();
+  cmd->add_option("--sow-offset-s", a->sow_offset_s, "added to t_s to give KF-GINS's seconds of week")
+      ->check(number_in(0, 604800));
+  cmd->add_option("--pos-std-m", a->pos_std_m,
+                  "GNSS position std written (default: the dataset's noise block, else 0.05)")
+      ->check(number_in(1e-9, 1e6));
+  cmd->add_option("--vel-std-mps", a->vel_std_mps,
+                  "GNSS velocity std written (default: the dataset's noise block, else 0.05)")
+      ->check(number_in(1e-9, 1e6));
+  cmd->add_flag("--force", a->force, "write into a --out directory that holds other files");
+  cmd->callback([a] { run_export(*a); });
 }
 
 }  // namespace insid::cli

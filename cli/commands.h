@@ -20,6 +20,7 @@ void add_simulate_command(CLI::App& app);
 void add_diagnose_command(CLI::App& app);
 void add_merge_command(CLI::App& app);
 void add_import_command(CLI::App& app);
+void add_export_command(CLI::App& app);
 
 /// `--param KEY=VALUE` items; keys ending in _sigma are distances in sigma units, converted
 /// to the normalised box of `mapping`.

@@ -32,6 +32,7 @@ int main(int argc, char** argv) {
   insid::cli::add_simulate_command(app);
   insid::cli::add_diagnose_command(app);
   insid::cli::add_import_command(app);
+  insid::cli::add_export_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,6 +1,7 @@
 // insid import (issue 13): the RTKLIB .pos reader, the mapped IMU CSV reader, the mounting
 // convention, the assembly into an insid-dataset/2, and the shared rtklib-walk recording.
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -14,6 +15,8 @@
 #include "import/csv_imu.h"
 #include "import/gnss_solution.h"
 #include "import/importer.h"
+#include "import/kf_gins.h"
+#include "scenarios/scenario.h"
 
 namespace insid::import {
 namespace {
@@ -142,6 +145,75 @@ TEST(CsvImu, SpecAndRowErrorsAreNamed) {
   EXPECT_NEAR(imu.t_gpst_unix_s[1] - imu.t_gpst_unix_s[0], 0.006, 1e-12);
   EXPECT_DOUBLE_EQ(imu.accel_b[0].z(), 9.80665);
   EXPECT_EQ(imu.line[0], 2u);
+}
+
+// simulate -> export (KF-GINS text) -> import: the same navigation as the original dataset.
+// Bound: 17 significant digits write every double exactly, so what differs is the degree <->
+// radian conversions of latitude/longitude (an ulp), the alignment window's start taken from the
+// stamps instead of 1/imu_rate_hz, and the GNSS epoch at t = 0 (before the first IMU row, dropped
+// by the import; it only entered the height reference of alignment rows): relative 1e-9.
+TEST(KfGins, ExportImportRoundTripNavigatesAsTheOriginal) {
+  scenarios::ScenarioConfig cfg = scenarios::preset_scenario("straight");
+  cfg.flight_s = 120.0;
+  cfg.align_s = 60.0;
+  Dataset original = scenarios::simulate(cfg);
+  original.meta.earth = EarthModel::wgs84();  // the KF-GINS layout carries no Earth model
+  const std::string imu_text = kf_gins_imu_text(original, 1000.0);
+  const std::string gnss_text = kf_gins_gnss_text(original, 1000.0, 0.02, 0.03);
+  ASSERT_TRUE(looks_like_kf_gins_gnss(gnss_text));
+  const GnssSolution gnss = parse_kf_gins_gnss(gnss_text, "gnss.txt", 2381);
+  EXPECT_EQ(gnss.format, "kf-gins (position and velocity, 13 columns)");
+  EXPECT_DOUBLE_EQ(gnss.epochs[3].sd_ve_mps, 0.03);
+  const CsvImu imu = parse_kf_gins_imu(imu_text, "imu.txt", 2381);
+  AssembleOptions options;
+  options.align_s = original.meta.align_s;
+  const Assembled back = assemble_dataset(imu, gnss, options);
+  EXPECT_EQ(back.dataset.imu.size(), original.imu.size());
+  EXPECT_EQ(back.dataset.gnss.size(), original.gnss.size() - 1);  // t = 0 precedes the IMU
+  const SensorErrors none;
+  SensorErrors biased;
+  biased.accel.bias = {2e-4, -1e-4, 0.0};
+  biased.gyro.bias = {1e-7, 2e-7, 0.0};
+  for (const SensorErrors& candidate : {none, biased}) {
+    const double f0 = NavigationProblem(std::make_shared<const Dataset>(original)).fitness(candidate);
+    const double f1 = NavigationProblem(std::make_shared<const Dataset>(back.dataset)).fitness(candidate);
+    EXPECT_NEAR(f1, f0, 1e-9 * f0) << f0 << " vs " << f1;
+  }
+  // Time: seconds of week 1000 + t_s in week 2381, origin at the whole second.
+  EXPECT_DOUBLE_EQ(back.provenance["time_origin_gpst_unix_s"].get<double>(),
+                   kGpsEpochGpstUnix_s + 2381 * kSecondsPerWeek + 1000.0);
+}
+
+TEST(KfGins, PositionOnlyGnssGetsCentralDifferenceVelocities) {
+  // A straight line at 10 m/s north, 1 Hz: the derived north velocity is exact (no jerk).
+  std::string text;
+  const double lat0 = 30.5, R_N = EarthModel::wgs84().meridian_radius_m(lat0 * 3.14159265358979323846 / 180.0) + 20.0;
+  for (int k = 0; k < 5; ++k) {
+    char line[200];
+    std::snprintf(line, sizeof line, "%d %.12f 114.0 20.0 0.01 0.01 0.02\n", 100 + k,
+                  lat0 + k * 10.0 / R_N * 180.0 / 3.14159265358979323846);
+    text += line;
+  }
+  const GnssSolution g = parse_kf_gins_gnss(text, "gnss.txt", std::nullopt);
+  EXPECT_NE(g.format.find("velocity derived by central differences"), std::string::npos);
+  for (const GnssEpoch& e : g.epochs) {
+    EXPECT_NEAR(e.v_n_mps, 10.0, 1e-3);  // the radius varies by ~1e-5 over 40 m
+    EXPECT_NEAR(e.v_e_mps, 0.0, 1e-9);
+  }
+  const auto error = [](const std::string& t) {
+    try {
+      parse_kf_gins_gnss(t, "gnss.txt", std::nullopt);
+    } catch (const std::runtime_error& e) {
+      return std::string(e.what());
+    }
+    return std::string("(accepted)");
+  };
+  EXPECT_NE(error(text + "105 30.5 114.0 20.0 0.01\n").find("gnss.txt line 6: 5 fields, expected 7 or 13"),
+            std::string::npos);
+  EXPECT_NE(error(text + "103 30.5 114.0 20.0 0.01 0.01 0.02\n").find("line 6, column 1: time 103 does not increase"),
+            std::string::npos);
+  EXPECT_NE(error(text + "106 30.5 11x4.0 20.0 0.01 0.01 0.02\n").find("line 6, column 3: expected a finite number"),
+            std::string::npos);
 }
 
 // The shared MEMS walk (rtklib-walk): imports as documented, and the static start's gyro means in

@@ -75,8 +75,10 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
                              " s since 1970) does not overlap the IMU data (" + num(ti0, 13) +
                              " to " + num(ti1, 13) + " s); check --imu-time, --gps-week and "
                              "--imu-time-offset-s");
-  // IMU rows k in [first, last] with a previous row (its interval start) and inside the span.
-  std::size_t first = 1;
+  // IMU rows k in [first, last] inside the span; rates need the previous row (the interval's
+  // start), increments do not.
+  const bool increments = imu.gyro_is_increment && imu.accel_is_increment;
+  std::size_t first = increments ? 0 : 1;
   while (first < imu.t_gpst_unix_s.size() && imu.t_gpst_unix_s[first] < tg0) ++first;
   std::size_t last = imu.t_gpst_unix_s.size() - 1;
   while (last > first && imu.t_gpst_unix_s[last] > tg1) --last;
@@ -93,12 +95,13 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
   Dataset& ds = out.dataset;
   std::vector<double> steps;
   for (std::size_t k = first; k <= last; ++k) {
-    const double dt = imu.t_gpst_unix_s[k] - imu.t_gpst_unix_s[k - 1];
+    const double dt = k > 0 ? imu.t_gpst_unix_s[k] - imu.t_gpst_unix_s[k - 1] : 0.0;
     ImuSample s;
     s.t_s = imu.t_gpst_unix_s[k] - t_origin;
     // The rule is per sensor: a rate is integrated (trapezoid), an increment passes through.
     const auto increment = [&](const std::vector<Eigen::Vector3d>& v, bool is_increment, double scale) {
       if (is_increment) return Eigen::Vector3d(v[k] * scale);
+      if (k == 0) throw std::logic_error("a rate needs the previous row");
       return Eigen::Vector3d(0.5 * (v[k - 1] + v[k]) * scale * dt);
     };
     s.dtheta_b_rad = increment(imu.gyro_b, imu.gyro_is_increment, 1.0);
@@ -110,7 +113,7 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
   prov["imu"]["rows_used"] = ds.imu.size();
   prov["imu"]["first_line_used"] = imu.line[first];
   prov["imu"]["last_line_used"] = imu.line[last];
-  prov["imu"]["integration"] = imu.gyro_is_increment && imu.accel_is_increment
+  prov["imu"]["integration"] = increments
                                    ? "increments as given"
                                    : "rates integrated over each row's own interval by the "
                                      "trapezoidal rule, (w[k-1] + w[k]) / 2 * (t[k] - t[k-1])";
