@@ -9,7 +9,7 @@ seconds="${1:-60}"
 command -v clang++ >/dev/null || { echo "insid fuzz: needs clang++ (apt-get install clang libclang-rt-dev)" >&2; exit 1; }
 CC=clang CXX=clang++ cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DINSID_FUZZ=ON \
   -DINSID_BUILD_TESTS=OFF -DINSID_BUILD_BENCHMARKS=OFF -DINSID_WITH_MPI=OFF >&2
-targets=(insid_dataset_fuzzer insid_config_fuzzer)
+targets=(insid_dataset_fuzzer insid_config_fuzzer insid_import_fuzzer)
 cmake --build build-fuzz -j"$(nproc)" --target "${targets[@]}" >&2
 
 # Seed corpus: a valid dataset's files, each behind the byte that selects it.
@@ -42,6 +42,21 @@ JSON
 for f in scenarios/presets/*.json; do
   { printf "\\x01"; cat "$f"; } > "build-fuzz/corpus/insid_config_fuzzer/seed-$(basename "$f")"
 done
+
+# Import seeds: a .pos (byte 0), KF-GINS GNSS (1) and IMU (2), a mapped CSV (3), assembly (4).
+mkdir -p build-fuzz/corpus/insid_import_fuzzer
+walk=../shared/data/rtklib-walk
+if [ -f "$walk/gnss_1730_sf.pos" ]; then
+  { printf "\\x00"; head -c 6000 "$walk/gnss_1730_sf.pos"; } > build-fuzz/corpus/insid_import_fuzzer/seed-pos
+fi
+{ printf "\\x01"; for k in 0 1 2 3 4; do echo "10$k 40.1 -105.1 1600 0.01 0.01 0.02"; done; } \
+  > build-fuzz/corpus/insid_import_fuzzer/seed-kf-gnss
+{ printf "\\x02"; for k in 0 1 2 3 4 5; do echo "100.0$k 1e-5 -2e-5 3e-6 0.001 -0.002 -0.098"; done; } \
+  > build-fuzz/corpus/insid_import_fuzzer/seed-kf-imu
+{ printf "\\x03"; echo "t,ax,ay,az,gx,gy,gz,m"; for k in 0 6 12 19; do echo "100$k,0.01,0,1.01,0.1,-0.2,0.3,0"; done; } \
+  > build-fuzz/corpus/insid_import_fuzzer/seed-csv
+{ printf "\\x04"; for k in $(seq 100 2 160); do echo "$((k / 10)).$((k % 10))00 1e-5 -2e-5 3e-6 0.001 -0.002 -0.098"; done; } \
+  > build-fuzz/corpus/insid_import_fuzzer/seed-assemble
 
 status=0
 for t in "${targets[@]}"; do

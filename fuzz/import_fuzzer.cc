@@ -1,0 +1,68 @@
+// libFuzzer target for the import readers (import/): the input's first byte picks the reader —
+// RTKLIB .pos, KF-GINS GNSS, KF-GINS IMU, or a mapped IMU CSV (t,ax,ay,az,gx,gy,gz,- in
+// ms, g, deg/s with a mounting rotation) — the rest is the file. Byte 4 assembles a dataset from
+// a KF-GINS IMU text and a fixed valid GNSS solution. Readers must accept the text or throw
+// std::runtime_error / std::invalid_argument with a message; anything else is a finding.
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <stdexcept>
+#include <string>
+
+#include "import/csv_imu.h"
+#include "import/gnss_solution.h"
+#include "import/importer.h"
+#include "import/kf_gins.h"
+
+namespace {
+
+const insid::import::GnssSolution& fixed_gnss() {
+  static const insid::import::GnssSolution g = [] {
+    std::string text;
+    for (int k = 0; k < 40; ++k)
+      text += std::to_string(100 + k * 0.25) + " 40.1 -105.1 1600 0.01 0.01 0.02 0 0 0 0.05 0.05 0.05\n";
+    return insid::import::parse_kf_gins_gnss(text, "gnss.txt", 2381);
+  }();
+  return g;
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  if (size == 0) return 0;
+  const std::string text(reinterpret_cast<const char*>(data + 1), size - 1);
+  namespace im = insid::import;
+  try {
+    switch (data[0] % 5) {
+      case 0:
+        im::parse_rtklib_pos(text, "fuzz.pos");
+        break;
+      case 1:
+        im::parse_kf_gins_gnss(text, "gnss.txt", 2381);
+        break;
+      case 2:
+        im::parse_kf_gins_imu(text, "imu.txt", 2381);
+        break;
+      case 3: {
+        im::CsvImuSpec spec;
+        spec.columns = im::CsvImuSpec::parse_columns("t,ax,ay,az,gx,gy,gz,-");
+        spec.parse_units("ms,g,deg/s");
+        spec.mounting_rpy_deg = {180.0, 0.0, -90.0};
+        im::read_csv_imu(text, "imu.csv", spec, 2381);
+        break;
+      }
+      default: {
+        im::AssembleOptions options;
+        options.align_s = 1.0;
+        im::assemble_dataset(im::parse_kf_gins_imu(text, "imu.txt", 2381), fixed_gnss(), options);
+        break;
+      }
+    }
+  } catch (const std::invalid_argument&) {
+  } catch (const std::runtime_error&) {  // includes DatasetError
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "finding: neither invalid_argument nor runtime_error: %s\n", e.what());
+    std::abort();
+  }
+  return 0;
+}
