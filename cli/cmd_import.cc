@@ -138,7 +138,8 @@ void run_import_csv(const ImportCsvArgs& args) {
   const std::string gnss_text = read_text(args.gnss, "--gnss");
   const import::GnssSolution gnss = read_gnss_by_content(gnss_text, args.gnss, args.gps_week);
   const std::optional<int> gnss_week = static_cast<int>(
-      (gnss.epochs.front().t_gpst_unix_s - import::kGpsEpochGpstUnix_s) / import::kSecondsPerWeek);
+      static_cast<double>(gnss.epochs.front().t_gpst_unix_s - import::kGpsEpochGpstUnix_s) /
+      import::kSecondsPerWeek);
   const std::string imu_text = read_text(args.imu, "--imu");
   const import::CsvImu imu = import::read_csv_imu(imu_text, args.imu, spec, gnss_week);
   import::Assembled result = import::assemble_dataset(imu, gnss, options);

@@ -46,24 +46,30 @@ NavigationProblem::NavigationProblem(std::shared_ptr<const Dataset> dataset,
   if (ds.imu.size() < 3 || ds.gnss.size() < 2)
     throw std::invalid_argument("NavigationProblem: need at least 3 IMU and 2 GNSS samples");
   const double dt_nominal = 1.0 / ds.meta.imu_rate_hz;
-  // The alignment window: /1, round(align_s * imu_rate_hz) rows of the constant rate; /2
-  // (measured timing), the rows within align_s of the first row's interval start (its interval
-  // taken as long as the next one).
-  std::size_t n_align = 0;
+  // The alignment window: /1, the first round(align_s * imu_rate_hz) rows of the constant rate
+  // (the first row's interval is 1/imu_rate_hz long); /2 (measured timing), the rows after the
+  // first within align_s of the first row's time: the first row only marks the start, since
+  // its own interval is unknown (taking it as long as the next step biases the window means).
+  std::size_t window_begin = 0, n_align = 0;
   double t_window_start = ds.imu.front().t_s - dt_nominal;
   if (ds.meta.format == DatasetFormat::kV1) {
     n_align = static_cast<std::size_t>(std::llround(ds.meta.align_s * ds.meta.imu_rate_hz));
   } else if (ds.meta.align_s > 0.0) {
-    t_window_start = ds.imu.front().t_s - (ds.imu[1].t_s - ds.imu[0].t_s);
+    window_begin = 1;
+    t_window_start = ds.imu.front().t_s;
+    n_align = 1;
     while (n_align < ds.imu.size() && ds.imu[n_align].t_s - t_window_start <= ds.meta.align_s + 1e-9)
       ++n_align;
+    if (n_align < 2)
+      throw std::invalid_argument("NavigationProblem: align_s = " + seconds_text(ds.meta.align_s) +
+                                  " s holds no IMU step after the first row");
   }
   if (n_align + 1 >= ds.imu.size())
     throw std::invalid_argument("NavigationProblem: align_s = " + seconds_text(ds.meta.align_s) +
                                 " s leaves no IMU data to navigate");
   nav_begin_ = std::max<std::size_t>(n_align, 1);
   if (n_align > 0) {
-    window_ = AlignmentWindow::from_imu(ds.imu, 0, n_align, t_window_start);
+    window_ = AlignmentWindow::from_imu(ds.imu, window_begin, n_align, t_window_start);
     C_b_n_fixed_ = aligned(SensorErrors{});
   }
 

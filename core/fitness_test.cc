@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <memory>
+#include <random>
 
 #include <gtest/gtest.h>
 
@@ -31,6 +32,48 @@ TEST(Fitness, ZeroForAPerfectMatch) {
   const NavigationProblem problem(static_dataset(paper_errors()));
   EXPECT_LT(problem.fitness(paper_errors()), 1e-9 * static_cast<double>(problem.num_epochs()));
   EXPECT_GT(problem.fitness({}), 1e-2);
+}
+
+// Issue 13: IMU steps with +-30 % random jitter (insid-dataset/2: each row's own interval).
+// Static data with exact increments over each jittered interval: compensated with the true
+// errors the navigation is as exact as at a constant rate (the same bound as above), and
+// uncompensated its fitness matches the constant-rate one (the same physics sampled otherwise).
+TEST(Fitness, JitteredImuStepsNavigateLikeAConstantRate) {
+  const EarthModel earth = EarthModel::paper(kLat, 50.0);
+  const EulerAngles att{0.5 * kDegToRad, -1.0 * kDegToRad, 75.0 * kDegToRad};
+  const SensorErrors errors = paper_errors();
+  const auto constant = static_dataset(errors);
+  auto jittered = std::make_shared<Dataset>(*constant);
+  jittered->meta.format = DatasetFormat::kV2;
+  const Eigen::Matrix3d C_n_b = C_b_n_from_euler(att).transpose();
+  const Eigen::Vector3d omega_ib_b = C_n_b * earth.omega_ie_n(kLat);
+  const Eigen::Vector3d f_ib_b = C_n_b * (-earth.gravity_n(kLat, 50.0));
+  std::mt19937_64 rng(13);
+  std::uniform_real_distribution<double> u(-0.3, 0.3);
+  jittered->imu.clear();
+  double t = 0.0;
+  const double dt_nominal = 0.01, t_end = constant->imu.back().t_s;
+  while (t < t_end) {  // to the constant-rate data's end (the last GNSS epoch stays compared)
+    const double dt = dt_nominal * (1.0 + u(rng));
+    t += dt;
+    ImuSample s;
+    s.t_s = t;
+    s.dtheta_b_rad = omega_ib_b * dt;
+    s.dv_b_mps = f_ib_b * dt;
+    apply_imu_errors(errors, s.t_s, dt, s.dtheta_b_rad, s.dv_b_mps);
+    jittered->imu.push_back(s);
+  }
+  validate_dataset(*jittered);
+  const NavigationProblem a(constant), b(jittered);
+  EXPECT_LT(b.fitness(errors), 1e-9 * static_cast<double>(b.num_epochs()));
+  EXPECT_NEAR(b.fitness({}), a.fitness({}), 1e-3 * a.fitness({}));
+  // Fixed alignment (the window aligned once, without errors): the same result as well.
+  const NavigationProblem a_fixed(constant, {AlignmentMode::kFixed}),
+      b_fixed(jittered, {AlignmentMode::kFixed});
+  EXPECT_NEAR(b_fixed.fitness(errors), a_fixed.fitness(errors), 1e-3 * a_fixed.fitness(errors));
+  // The same rows declared /1 are refused (the 1 % rule), so the test is about /2.
+  jittered->meta.format = DatasetFormat::kV1;
+  EXPECT_THROW(validate_dataset(*jittered), DatasetError);
 }
 
 TEST(Fitness, HandComputedConstructedCase) {

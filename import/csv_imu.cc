@@ -123,7 +123,7 @@ CsvImu read_csv_imu(const std::string& text, const std::string& where, const Csv
   const double t_scale = spec.time_unit == "s" ? 1.0 : spec.time_unit == "ms" ? 1e-3 : 1e-6;
   const double g_scale = spec.gyro_unit == "deg/s" || spec.gyro_unit == "deg" ? kDegToRad : 1.0;
   const double a_scale = spec.accel_unit == "g" ? 9.80665 : 1.0;  // g-local: applied later
-  double t_base = 0.0;
+  GpstTime t_base = 0.0L;
   if (spec.time_scale == "gps-sow") {
     const std::optional<int> week = spec.gps_week ? spec.gps_week : gnss_week;
     if (!week)
@@ -160,7 +160,13 @@ CsvImu read_csv_imu(const std::string& text, const std::string& where, const Csv
                                  "): expected a finite number, got '" + f + "'");
       return v;
     };
-    const double t = t_base + value("t") * t_scale + spec.time_offset_s;
+    (void)value("t");  // checked as a double, read in extended precision:
+    GpstTime t_raw = 0.0L;
+    {
+      const std::string f = trim(fields[index.at("t")]);
+      std::from_chars(f.data(), f.data() + f.size(), t_raw);
+    }
+    const GpstTime t = t_base + t_raw * static_cast<GpstTime>(t_scale) + spec.time_offset_s;
     if (!out.t_gpst_unix_s.empty() && !(t > out.t_gpst_unix_s.back()))
       throw std::runtime_error(at + ", column " + std::to_string(index.at("t") + 1) +
                                " (t): time does not increase after line " +

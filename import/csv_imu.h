@@ -9,6 +9,8 @@
 
 #include <Eigen/Core>
 
+#include "import/gnss_solution.h"
+
 namespace insid::import {
 
 /// How to read an IMU CSV file. Parse the command-line strings with parse_columns/parse_units,
@@ -46,7 +48,7 @@ Eigen::Matrix3d mounting_matrix(const Eigen::Vector3d& rpy_deg);
 /// Rows of the CSV as read, converted to SI in body axes (mounting applied); time on the GPST
 /// seconds-since-1970 scale when the spec's scale is gps-sow (with the week), with the offset.
 struct CsvImu {
-  std::vector<double> t_gpst_unix_s;
+  std::vector<GpstTime> t_gpst_unix_s;
   std::vector<Eigen::Vector3d> accel_b;  ///< m/s^2 or m/s (increments), per accel_is_increment
   std::vector<Eigen::Vector3d> gyro_b;   ///< rad/s or rad (increments), per gyro_is_increment
   std::vector<std::size_t> line;         ///< source line of each row

@@ -41,10 +41,19 @@ long long days_from_civil(long long y, unsigned m, unsigned d) {
   return era * 146097 + static_cast<long long>(doe) - 719468;
 }
 
+// A time field in extended precision.
+GpstTime parse_time_value(std::string_view token, const std::string& at) {
+  GpstTime v = 0.0L;
+  const auto [end, ec] = std::from_chars(token.data(), token.data() + token.size(), v);
+  if (ec != std::errc() || end != token.data() + token.size() || !std::isfinite(v))
+    throw std::runtime_error(at + ": expected a finite number, got '" + std::string(token) + "'");
+  return v;
+}
+
 // "2025/08/28" "17:30:39.749" -> seconds since 1970 on the same (GPST) scale.
-double date_time_seconds(std::string_view date, std::string_view time, const std::string& at) {
+GpstTime date_time_seconds(std::string_view date, std::string_view time, const std::string& at) {
   int y = 0, mo = 0, d = 0, h = 0, mi = 0;
-  double s = 0.0;
+  long double s = 0.0L;
   char sep1 = 0, sep2 = 0, sep3 = 0, sep4 = 0;
   std::istringstream ds{std::string(date)}, ts{std::string(time)};
   if (!(ds >> y >> sep1 >> mo >> sep2 >> d) || sep1 != '/' || sep2 != '/' || !ds.eof() ||
@@ -53,8 +62,8 @@ double date_time_seconds(std::string_view date, std::string_view time, const std
   if (!(ts >> h >> sep3 >> mi >> sep4 >> s) || sep3 != ':' || sep4 != ':' || h < 0 || h > 23 ||
       mi < 0 || mi > 59 || !(s >= 0.0 && s < 61.0))
     throw std::runtime_error(at + ": expected a GPST time hh:mm:ss.sss, got '" + std::string(time) + "'");
-  return static_cast<double>(days_from_civil(y, static_cast<unsigned>(mo), static_cast<unsigned>(d))) *
-             86400.0 + h * 3600.0 + mi * 60.0 + s;
+  return static_cast<GpstTime>(days_from_civil(y, static_cast<unsigned>(mo), static_cast<unsigned>(d))) *
+             86400.0L + h * 3600.0L + mi * 60.0L + s;
 }
 
 }  // namespace
@@ -142,7 +151,8 @@ GnssSolution parse_rtklib_pos(const std::string& text, const std::string& where)
       const double tow = number(tokens[1], at + ", column tow");
       if (week < 0 || week != std::floor(week) || tow < 0 || tow >= kSecondsPerWeek)
         throw std::runtime_error(at + ": expected GPS week (whole, >= 0) and TOW in [0, 604800) s");
-      e.t_gpst_unix_s = kGpsEpochGpstUnix_s + week * kSecondsPerWeek + tow;
+      e.t_gpst_unix_s = kGpsEpochGpstUnix_s + static_cast<GpstTime>(week) * kSecondsPerWeek +
+                        parse_time_value(tokens[1], at + ", column tow");
     } else {
       e.t_gpst_unix_s = date_time_seconds(tokens[0], tokens[1], at);
     }

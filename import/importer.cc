@@ -68,13 +68,15 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
                              " GNSS epochs have an accepted quality flag (--gnss-quality); need at least 2");
 
   // The common span.
-  const double tg0 = kept.front().t_gpst_unix_s, tg1 = kept.back().t_gpst_unix_s;
-  const double ti0 = imu.t_gpst_unix_s.front(), ti1 = imu.t_gpst_unix_s.back();
+  const GpstTime tg0 = kept.front().t_gpst_unix_s, tg1 = kept.back().t_gpst_unix_s;
+  const GpstTime ti0 = imu.t_gpst_unix_s.front(), ti1 = imu.t_gpst_unix_s.back();
   if (!(ti0 < tg1 && tg0 < ti1))
-    throw std::runtime_error("the GNSS solution (GPST " + num(tg0, 13) + " to " + num(tg1, 13) +
-                             " s since 1970) does not overlap the IMU data (" + num(ti0, 13) +
-                             " to " + num(ti1, 13) + " s); check --imu-time, --gps-week and "
-                             "--imu-time-offset-s");
+    throw std::runtime_error("the GNSS solution (GPST " + num(static_cast<double>(tg0), 13) +
+                             " to " + num(static_cast<double>(tg1), 13) +
+                             " s since 1970) does not overlap the IMU data (" +
+                             num(static_cast<double>(ti0), 13) + " to " +
+                             num(static_cast<double>(ti1), 13) +
+                             " s); check --imu-time, --gps-week and --imu-time-offset-s");
   // IMU rows k in [first, last] inside the span; rates need the previous row (the interval's
   // start), increments do not.
   const bool increments = imu.gyro_is_increment && imu.accel_is_increment;
@@ -83,8 +85,8 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
   std::size_t last = imu.t_gpst_unix_s.size() - 1;
   while (last > first && imu.t_gpst_unix_s[last] > tg1) --last;
   if (last < first + 2) throw std::runtime_error("fewer than 3 IMU rows inside the GNSS span");
-  const double t_origin = std::floor(imu.t_gpst_unix_s[first]);
-  prov["time_origin_gpst_unix_s"] = t_origin;
+  const GpstTime t_origin = std::floor(imu.t_gpst_unix_s[first]);
+  prov["time_origin_gpst_unix_s"] = static_cast<double>(t_origin);  // a whole second: exact
 
   // Increments over each row's own interval.
   double g_local = 1.0;
@@ -95,9 +97,9 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
   Dataset& ds = out.dataset;
   std::vector<double> steps;
   for (std::size_t k = first; k <= last; ++k) {
-    const double dt = k > 0 ? imu.t_gpst_unix_s[k] - imu.t_gpst_unix_s[k - 1] : 0.0;
+    const double dt = k > 0 ? static_cast<double>(imu.t_gpst_unix_s[k] - imu.t_gpst_unix_s[k - 1]) : 0.0;
     ImuSample s;
-    s.t_s = imu.t_gpst_unix_s[k] - t_origin;
+    s.t_s = static_cast<double>(imu.t_gpst_unix_s[k] - t_origin);
     // The rule is per sensor: a rate is integrated (trapezoid), an increment passes through.
     const auto increment = [&](const std::vector<Eigen::Vector3d>& v, bool is_increment, double scale) {
       if (is_increment) return Eigen::Vector3d(v[k] * scale);
@@ -125,7 +127,7 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
   // GNSS rows inside the IMU span (ENU velocity).
   std::vector<double> gsteps, sd_v;
   for (const GnssEpoch& e : kept) {
-    const double t = e.t_gpst_unix_s - t_origin;
+    const double t = static_cast<double>(e.t_gpst_unix_s - t_origin);
     if (t < ds.imu.front().t_s - 1e-9 || t > ds.imu.back().t_s + 1e-9) continue;
     GnssSample g;
     g.t_s = t;

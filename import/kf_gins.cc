@@ -69,7 +69,7 @@ void parse_rows(const std::string& text, const std::string& where, std::vector<s
   }
 }
 
-double week_base(std::optional<int> gps_week) {
+GpstTime week_base(std::optional<int> gps_week) {
   return kGpsEpochGpstUnix_s + (gps_week ? *gps_week : 0) * kSecondsPerWeek;
 }
 
@@ -92,12 +92,12 @@ CsvImu parse_kf_gins_imu(const std::string& text, const std::string& where, std:
   CsvImu out;
   out.accel_is_increment = true;
   out.gyro_is_increment = true;
-  const double base = week_base(gps_week);
+  const GpstTime base = week_base(gps_week);
   parse_rows(text, where, {7, 8}, [&](const std::vector<double>& v, std::size_t line) {
     if (v[0] < 0.0 || v[0] >= kSecondsPerWeek + 86400.0)
       throw std::runtime_error(where + " line " + std::to_string(line) +
                                ", column 1: GPS seconds of week " + g17(v[0]) + " outside [0, 691200)");
-    out.t_gpst_unix_s.push_back(base + v[0]);
+    out.t_gpst_unix_s.push_back(base + static_cast<GpstTime>(v[0]));
     out.gyro_b.emplace_back(v[1], v[2], v[3]);
     out.accel_b.emplace_back(v[4], v[5], v[6]);
     out.line.push_back(line);
@@ -122,7 +122,7 @@ bool looks_like_kf_gins_gnss(const std::string& text) {
 GnssSolution parse_kf_gins_gnss(const std::string& text, const std::string& where,
                                 std::optional<int> gps_week) {
   GnssSolution out;
-  const double base = week_base(gps_week);
+  const GpstTime base = week_base(gps_week);
   std::size_t columns = 0;
   parse_rows(text, where, {7, 13}, [&](const std::vector<double>& v, std::size_t line) {
     const std::string at = where + " line " + std::to_string(line);
@@ -135,7 +135,7 @@ GnssSolution parse_kf_gins_gnss(const std::string& text, const std::string& wher
                                " deg outside (-90, 90) / [-360, 360]");
     GnssEpoch e;
     e.line = line;
-    e.t_gpst_unix_s = base + v[0];
+    e.t_gpst_unix_s = base + static_cast<GpstTime>(v[0]);
     e.lat_deg = v[1];
     e.lon_deg = v[2];
     e.h_m = v[3];
@@ -165,7 +165,7 @@ GnssSolution parse_kf_gins_gnss(const std::string& text, const std::string& wher
     const std::size_t a = k == 0 ? 0 : k - 1;
     const std::size_t b = k + 1 == ep.size() ? k : k + 1;
     const double lat = ep[k].lat_deg * kDegToRad;
-    const double dt = ep[b].t_gpst_unix_s - ep[a].t_gpst_unix_s;
+    const double dt = static_cast<double>(ep[b].t_gpst_unix_s - ep[a].t_gpst_unix_s);
     const double R_N = earth.meridian_radius_m(lat) + ep[k].h_m;
     const double R_E = earth.prime_vertical_radius_m(lat) + ep[k].h_m;
     v_neu[k] = {(ep[b].lat_deg - ep[a].lat_deg) * kDegToRad * R_N / dt,
