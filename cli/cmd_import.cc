@@ -22,6 +22,8 @@
 #include "import/gnss_solution.h"
 #include "import/importer.h"
 #include "import/kf_gins.h"
+#include "import/ulog.h"
+#include "import/ulog_import.h"
 #include "core/output_dir.h"
 
 namespace insid::cli {
@@ -193,6 +195,44 @@ void run_import_kf_gins(const ImportKfGinsArgs& args) {
                 args.out, args.force, t0);
 }
 
+struct ImportUlogArgs {
+  std::string log, out;
+  import::UlogImportOptions ulog;
+  std::optional<double> align_s;
+  double static_speed_mps = 0.2;
+  bool force = false;
+};
+
+void run_import_ulog(const ImportUlogArgs& args) {
+  dataset_destination(args.out, args.force);
+  if (const std::string e = args.ulog.validate(); !e.empty()) throw std::invalid_argument(e);
+  import::AssembleOptions options;
+  options.gnss_quality = {1};  // the fix-type selection is made by extract_ulog
+  options.align_s = args.align_s;
+  options.static_speed_mps = args.static_speed_mps;
+  if (const std::string e = options.validate(); !e.empty()) throw std::invalid_argument(e);
+  const auto t0 = std::chrono::steady_clock::now();
+  std::string bytes = read_text(args.log, "LOG");
+  const nlohmann::json source = source_json("ulog", args.log, bytes);
+  const import::UlogFile log = import::UlogFile::parse(std::move(bytes), args.log);
+  import::UlogSeries series = import::extract_ulog(log, args.log, args.ulog);
+  import::Assembled result = import::assemble_dataset(series.imu, series.gnss, options);
+  // The ULog clock is PX4's boot clock, not GPST: name the origin accordingly.
+  nlohmann::json& prov = result.provenance;
+  prov["time_origin_boot_s"] = prov["time_origin_gpst_unix_s"];
+  prov.erase("time_origin_gpst_unix_s");
+  prov.update(series.provenance, true);
+  result.notes.insert(result.notes.begin(), series.notes.begin(), series.notes.end());
+  nlohmann::json opts = {{"imu_topic", args.ulog.imu_topic.empty() ? "auto" : args.ulog.imu_topic},
+                         {"imu_instance", args.ulog.imu_instance},
+                         {"gnss_instance", args.ulog.gnss_instance},
+                         {"min_fix_type", args.ulog.min_fix_type},
+                         {"align_s", args.align_s ? nlohmann::json(*args.align_s) : nlohmann::json(nullptr)},
+                         {"static_speed_mps", args.static_speed_mps}};
+  finish_import("insid import ulog", std::move(result), std::move(opts), {source}, args.out,
+                args.force, t0);
+}
+
 struct ExportArgs {
   std::string to, data, out;
   double sow_offset_s = 0.0;
@@ -288,6 +328,28 @@ void add_import_command(CLI::App& app) {
   kf->add_option("--out", k->out, "output dataset directory")->required();
   kf->add_flag("--force", k->force, "write into a --out directory that holds other files");
   kf->callback([k] { run_import_kf_gins(*k); });
+
+  auto u = std::make_shared<ImportUlogArgs>();
+  CLI::App* ul = cmd->add_subcommand(
+      "ulog",
+      "a PX4 flight log (.ulg): IMU from vehicle_imu (increments) or sensor_combined, GNSS from "
+      "vehicle_gps_position or sensor_gps, layouts read from the file's own formats");
+  ul->add_option("log", u->log, "the .ulg file")->required();
+  ul->add_option("--imu-topic", u->ulog.imu_topic, "vehicle_imu | sensor_combined (default: the one with more samples)");
+  ul->add_option("--imu-instance", u->ulog.imu_instance, "multi-instance IMU topic: which one (default 0)")
+      ->check(whole_in(0, 255));
+  ul->add_option("--gnss-instance", u->ulog.gnss_instance, "which GNSS instance (default 0)")->check(whole_in(0, 255));
+  ul->add_option("--min-fix-type", u->ulog.min_fix_type,
+                 "PX4 fix_type kept: 3 = 3D (default), 4 = DGPS, 5 = RTK float, 6 = RTK fixed")
+      ->check(whole_in(0, 8));
+  ul->add_option("--align-s", u->align_s,
+                 "static alignment window (s); default: until 1 s before the GNSS shows motion")
+      ->check(number_in(0, 86400));
+  ul->add_option("--static-speed", u->static_speed_mps, "GNSS speed (m/s) counted as motion")
+      ->check(number_in(1e-6, 10));
+  ul->add_option("--out", u->out, "output dataset directory")->required();
+  ul->add_flag("--force", u->force, "write into a --out directory that holds other files");
+  ul->callback([u] { run_import_ulog(*u); });
 }
 
 void add_export_command(CLI::App& app) {

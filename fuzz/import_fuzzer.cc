@@ -1,5 +1,5 @@
 // libFuzzer target for the import readers (import/): the input's first byte picks the reader —
-// RTKLIB .pos, KF-GINS GNSS, KF-GINS IMU, or a mapped IMU CSV (t,ax,ay,az,gx,gy,gz,- in
+// RTKLIB .pos, KF-GINS GNSS, KF-GINS IMU, a mapped IMU CSV, a PX4 ULog (byte 5) (t,ax,ay,az,gx,gy,gz,- in
 // ms, g, deg/s with a mounting rotation) — the rest is the file. Byte 4 assembles a dataset from
 // a KF-GINS IMU text and a fixed valid GNSS solution. Readers must accept the text or throw
 // std::runtime_error / std::invalid_argument with a message; anything else is a finding.
@@ -13,6 +13,8 @@
 #include "import/gnss_solution.h"
 #include "import/importer.h"
 #include "import/kf_gins.h"
+#include "import/ulog.h"
+#include "import/ulog_import.h"
 
 namespace {
 
@@ -33,7 +35,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const std::string text(reinterpret_cast<const char*>(data + 1), size - 1);
   namespace im = insid::import;
   try {
-    switch (data[0] % 5) {
+    switch (data[0] % 6) {
       case 0:
         im::parse_rtklib_pos(text, "fuzz.pos");
         break;
@@ -49,6 +51,13 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         spec.parse_units("ms,g,deg/s");
         spec.mounting_rpy_deg = {180.0, 0.0, -90.0};
         im::read_csv_imu(text, "imu.csv", spec, 2381);
+        break;
+      }
+      case 5: {
+        const im::UlogFile log = im::UlogFile::parse(text, "fuzz.ulg");
+        for (const char* topic : {"vehicle_imu", "sensor_combined", "vehicle_gps_position", "sensor_gps"})
+          for (const auto& [instance, n] : log.instances(topic)) (void)n, (void)instance;
+        im::extract_ulog(log, "fuzz.ulg", im::UlogImportOptions{});
         break;
       }
       default: {

@@ -58,6 +58,13 @@ fi
 { printf "\\x04"; for k in $(seq 100 2 160); do echo "$((k / 10)).$((k % 10))00 1e-5 -2e-5 3e-6 0.001 -0.002 -0.098"; done; } \
   > build-fuzz/corpus/insid_import_fuzzer/seed-assemble
 
+# ULog seeds (byte 5): the head of each shared PX4 log (formats, subscriptions, first data).
+for f in ../shared/data/px4-ulog/sample_log_small.ulg ../shared/data/px4-ulog/sample_px4_events.ulg; do
+  if [ -f "$f" ]; then
+    { printf "\\x05"; head -c 60000 "$f"; } > "build-fuzz/corpus/insid_import_fuzzer/seed-$(basename "$f")"
+  fi
+done
+
 status=0
 for t in "${targets[@]}"; do
   mkdir -p "build-fuzz/findings/$t"
