@@ -141,6 +141,20 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
   }
   if (ds.gnss.size() < 2)
     throw std::runtime_error("fewer than 2 GNSS epochs inside the IMU span");
+  // GNSS outages: steps longer than 3 median periods (longer than the dataset allows are refused
+  // by the dataset checks, naming the line).
+  {
+    const double period = median(gsteps);
+    nlohmann::json outages = nlohmann::json::array();
+    for (std::size_t k = 1; k < ds.gnss.size(); ++k) {
+      const double gap = ds.gnss[k].t_s - ds.gnss[k - 1].t_s;
+      if (gap <= 3.0 * period) continue;
+      outages.push_back({{"after_t_s", ds.gnss[k - 1].t_s}, {"gap_s", gap}});
+      if (outages.size() <= 5)
+        out.notes.push_back("GNSS outage of " + num(gap) + " s after t = " + num(ds.gnss[k - 1].t_s) + " s");
+    }
+    prov["gnss"]["outages"] = outages;
+  }
   prov["gnss"]["epochs_read"] = gnss.epochs.size();
   prov["gnss"]["epochs_used"] = ds.gnss.size();
   prov["gnss"]["format"] = gnss.format;
