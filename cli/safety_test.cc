@@ -260,4 +260,63 @@ TEST_F(CliSafety, EveryBadOptionOrConfigValueIsRefusedUpFrontAndNamed) {
               options.size() + configs.size());
 }
 
+// import/export: an export -> import round trip through the binary; a user directory as --out
+// is refused and kept; bad specs and files are named; a failed import writes nothing.
+TEST_F(CliSafety, ImportAndExportRefuseBadInputAndNeverHalfWrite) {
+  const fs::path kf = root_ / "kf", back = root_ / "back";
+  Outcome o = insid("export --to kf-gins --data " + data_.string() + " --out " + kf.string());
+  ASSERT_EQ(o.status, 0) << o.output;
+  o = insid("import kf-gins --imu " + (kf / "imu.txt").string() + " --gnss " + (kf / "gnss.txt").string() +
+            " --align-s 600 --out " + back.string());
+  ASSERT_EQ(o.status, 0) << o.output;
+  EXPECT_NE(text(back / "meta.json").find("insid-dataset/2"), std::string::npos);
+  EXPECT_NE(text(back / "provenance.json").find("\"sha256\""), std::string::npos);
+  o = insid("navigate --data " + back.string() + " --summary " + (root_ / "s.json").string() +
+            " --out " + (root_ / "n.csv").string());
+  EXPECT_EQ(o.status, 0) << o.output;
+
+  // A user directory as --out: refused, kept.
+  const fs::path proj = root_ / "proj";
+  fs::create_directories(proj);
+  std::ofstream(proj / "notes.txt") << "mine";
+  o = insid("import kf-gins --imu " + (kf / "imu.txt").string() + " --gnss " + (kf / "gnss.txt").string() +
+            " --out " + proj.string());
+  EXPECT_NE(o.status, 0);
+  EXPECT_NE(o.output.find("it holds 'notes.txt'"), std::string::npos) << o.output;
+  o = insid("export --to kf-gins --data " + data_.string() + " --out " + proj.string());
+  EXPECT_NE(o.status, 0);
+  EXPECT_EQ(text(proj / "notes.txt"), "mine");
+  EXPECT_FALSE(fs::exists(proj / "imu.txt"));
+
+  // Bad spec values and files: named, nothing written.
+  const fs::path out = root_ / "never";
+  o = insid("import csv --imu " + (kf / "imu.txt").string() + " --columns t,ax,ay,az,gx,gy,gq --units s,g,rad/s --gnss " +
+            (kf / "gnss.txt").string() + " --out " + out.string());
+  EXPECT_NE(o.status, 0);
+  EXPECT_NE(o.output.find("--columns: unknown role 'gq'"), std::string::npos) << o.output;
+  o = insid("import csv --imu " + (kf / "imu.txt").string() + " --columns t,ax,ay,az,gx,gy,gz --units s,furlong,rad/s --gnss " +
+            (kf / "gnss.txt").string() + " --out " + out.string());
+  EXPECT_NE(o.output.find("accelerometer unit 'furlong'"), std::string::npos) << o.output;
+  o = insid("import kf-gins --imu " + (kf / "gnss.txt").string() + " --gnss " + (kf / "gnss.txt").string() +
+            " --out " + out.string());
+  EXPECT_NE(o.status, 0);
+  EXPECT_NE(o.output.find("gnss.txt line 1: 13 fields, expected 7 or 8"), std::string::npos) << o.output;
+  // GNSS of another week than the IMU: no overlap, named.
+  std::string shifted;
+  {
+    std::istringstream in(text(kf / "gnss.txt"));
+    std::string line;
+    while (std::getline(in, line)) {
+      const auto space = line.find(' ');
+      shifted += std::to_string(std::stod(line.substr(0, space)) + 5000.0) + line.substr(space) + "\n";
+    }
+  }
+  std::ofstream(root_ / "late.txt") << shifted;
+  o = insid("import kf-gins --imu " + (kf / "imu.txt").string() + " --gnss " + (root_ / "late.txt").string() +
+            " --out " + out.string());
+  EXPECT_NE(o.status, 0);
+  EXPECT_NE(o.output.find("does not overlap the IMU data"), std::string::npos) << o.output;
+  EXPECT_FALSE(fs::exists(out));
+}
+
 }  // namespace
