@@ -2,7 +2,8 @@
 # Fuzz insid's readers (dataset; JSON configs) with libFuzzer (clang, AddressSanitizer + UBSan): builds fuzz/ into
 # ./build-fuzz, seeds each target's corpus, runs each for SECONDS (default 60), and prints the
 # executions and findings per target. Findings (crash-*, leak-*, timeout-*) stay in
-# build-fuzz/findings/<target>/. Usage: scripts/fuzz.sh [SECONDS]
+# build-fuzz/findings/<target>/. Usage: scripts/fuzz.sh [SECONDS [TARGET ...]] (default: all
+# targets, 60 s each).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds="${1:-60}"
@@ -10,6 +11,7 @@ command -v clang++ >/dev/null || { echo "insid fuzz: needs clang++ (apt-get inst
 CC=clang CXX=clang++ cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DINSID_FUZZ=ON \
   -DINSID_BUILD_TESTS=OFF -DINSID_BUILD_BENCHMARKS=OFF -DINSID_WITH_MPI=OFF >&2
 targets=(insid_dataset_fuzzer insid_config_fuzzer insid_import_fuzzer)
+if [ $# -gt 1 ]; then targets=("${@:2}"); fi
 cmake --build build-fuzz -j"$(nproc)" --target "${targets[@]}" >&2
 
 # Seed corpus: a valid dataset's files, each behind the byte that selects it.
