@@ -31,7 +31,7 @@ namespace {
 namespace fs = std::filesystem;
 
 struct ImportCsvArgs {
-  std::string imu, gnss, columns, units, imu_time = "gpst-unix", mounting, out;
+  std::string imu, gnss, columns, units, imu_time = "gpst-unix", rate_samples = "point", mounting, out;
   std::optional<int> gps_week;
   double time_offset_s = 0.0;
   std::vector<int> gnss_quality = {1, 2};
@@ -121,6 +121,7 @@ void run_import_csv(const ImportCsvArgs& args) {
   spec.columns = import::CsvImuSpec::parse_columns(args.columns);
   spec.parse_units(args.units);
   spec.time_scale = args.imu_time;
+  spec.rate_samples = args.rate_samples;
   spec.gps_week = args.gps_week;
   spec.time_offset_s = args.time_offset_s;
   if (!args.mounting.empty()) {
@@ -150,6 +151,7 @@ void run_import_csv(const ImportCsvArgs& args) {
       {"columns", spec.columns},
       {"units", {{"time", spec.time_unit}, {"accel", spec.accel_unit}, {"gyro", spec.gyro_unit}}},
       {"imu_time", spec.time_scale},
+      {"rate_samples", spec.rate_samples},
       {"gps_week", args.gps_week ? nlohmann::json(*args.gps_week) : nlohmann::json(nullptr)},
       {"imu_time_offset_s", spec.time_offset_s},
       {"mounting_rpy_deg", {spec.mounting_rpy_deg.x(), spec.mounting_rpy_deg.y(), spec.mounting_rpy_deg.z()}},
@@ -291,6 +293,10 @@ void add_import_command(CLI::App& app) {
       ->required();
   csv->add_option("--gnss", a->gnss, "GNSS solution: RTKLIB .pos (llh, GPST, with velocity)")->required();
   csv->add_option("--imu-time", a->imu_time, "IMU time scale: gpst-unix | gps-sow")->capture_default_str();
+  csv->add_option("--rate-samples", a->rate_samples,
+                  "rate rows are point (the rate at each stamp: trapezoid) | interval-mean (the "
+                  "mean over the step each row closes: times the step)")
+      ->capture_default_str();
   csv->add_option("--gps-week", a->gps_week, "GPS week for --imu-time gps-sow (default: the GNSS file's)")
       ->check(whole_in(0, 100000));
   csv->add_option("--imu-time-offset-s", a->time_offset_s, "added to every IMU time (s)")

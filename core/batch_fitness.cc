@@ -518,7 +518,11 @@ void run_group(const NavigationProblem& nav, const BatchFitness::Impl& im,
   Pre pre[kBlock];
 
   double h_old = im.h0, h_pv = im.h0, vz_old = im.vz0, vz_pv = im.vz0;
-  constexpr double k12 = 1.0 / 12.0;
+  // Interval of the increment before row k (the seed's before the first navigated row), for the
+  // two-sample weights (core/mechanization.h, two_sample_divisor).
+  auto previous_dt = [&](std::size_t k) {
+    return k >= 2 ? imu[k - 1].t_s - imu[k - 2].t_s : 1.0 / ds.meta.imu_rate_hz;
+  };
   for (std::size_t k0 = nb; k0 < n; k0 += kBlock) {
     const int kb = static_cast<int>(std::min<std::size_t>(kBlock, n - k0));
 
@@ -560,9 +564,11 @@ void run_group(const NavigationProblem& nav, const BatchFitness::Impl& im,
       }
       Pre& p = pre[j];
       // Sculling and rotation (Savage two-sample): f = dv + dth x dv / 2 + (dthp x dv +
-      // dvp x dth) / 12 = dv + ((6 dth + dthp) x dv + dvp x dth) / 12.
-      const PN ax6 = fma(6.0, dthx, dthpx), ay6 = fma(6.0, dthy, dthpy),
-               az6 = fma(6.0, dthz, dthpz);
+      // dvp x dth) / D = dv + ((D/2 dth + dthp) x dv + dvp x dth) / D, D = 12 for equal steps.
+      const double divisor = two_sample_divisor(previous_dt(k), dt);
+      const double k12 = 1.0 / divisor;
+      const PN ax6 = fma(0.5 * divisor, dthx, dthpx), ay6 = fma(0.5 * divisor, dthy, dthpy),
+               az6 = fma(0.5 * divisor, dthz, dthpz);
       p.fx = fma(fma(ay6, dvz, fma(-az6, dvy, fma(dvpy, dthz, -(dvpz * dthy)))), k12, dvx);
       p.fy = fma(fma(az6, dvx, fma(-ax6, dvz, fma(dvpz, dthx, -(dvpx * dthz)))), k12, dvy);
       p.fz = fma(fma(ax6, dvy, fma(-ay6, dvx, fma(dvpx, dthy, -(dvpy * dthx)))), k12, dvz);

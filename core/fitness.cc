@@ -212,7 +212,7 @@ void NavigationProblem::run(const SensorErrors& candidate,
   const double t_before =
       nav_begin_ >= 2 ? ds.imu[nav_begin_ - 2].t_s : prev.t_s - 1.0 / ds.meta.imu_rate_hz;
   compensator.compensate(prev.t_s, prev.t_s - t_before, prev.dtheta_b_rad, prev.dv_b_mps);
-  Strapdown ins(earth, initial_state(C_b_n0), prev);
+  Strapdown ins(earth, initial_state(C_b_n0), prev, prev.t_s - t_before);
 
   // INS velocity at the GNSS antenna (lever arm, DESIGN.md sec. 4):
   //   v_ant_n = v_eb_n + C_b_n (omega_ib_b x l_b) - omega_ie_n x (C_b_n l_b),

@@ -6,8 +6,10 @@
 
 namespace insid {
 
-Strapdown::Strapdown(const EarthModel& earth, const NavState& initial, const ImuSample& previous)
-    : earth_(earth), state_(initial), prev_state_(initial), prev_inc_(previous) {}
+Strapdown::Strapdown(const EarthModel& earth, const NavState& initial, const ImuSample& previous,
+                     double previous_dt_s)
+    : earth_(earth), state_(initial), prev_state_(initial), prev_inc_(previous),
+      prev_dt_s_(previous_dt_s) {}
 
 void Strapdown::step(const ImuSample& inc) { update(inc); }
 
@@ -34,9 +36,11 @@ void Strapdown::update(const ImuSample& inc) {
   const Eigen::Vector3d omega_en_n = earth_.omega_en_n(lat_mid, h_mid, v_mid);
   const Eigen::Vector3d zeta_n = (omega_ie_n + omega_en_n) * dt;  // n-frame rotation over dt
 
-  // Rotation and two-sample sculling corrections (Savage 2000, Eq. 7.2.2.2-22 form).
+  // Rotation and two-sample sculling corrections (Savage 2000, Eq. 7.2.2.2-22 form; divisor 12
+  // for equal steps, the measured steps' own otherwise: two_sample_divisor).
+  const double two_sample = two_sample_divisor(prev_dt_s_, dt);
   const Eigen::Vector3d dv_rot_b = 0.5 * dtheta.cross(dv);
-  const Eigen::Vector3d dv_scul_b = (dtheta_prev.cross(dv) + dv_prev.cross(dtheta)) / 12.0;
+  const Eigen::Vector3d dv_scul_b = (dtheta_prev.cross(dv) + dv_prev.cross(dtheta)) / two_sample;
   const Eigen::Vector3d dv_sf_b = dv + dv_rot_b + dv_scul_b;
   const Eigen::Matrix3d C_b_n_old = old.q_b_n.toRotationMatrix();
   const Eigen::Vector3d dv_sf_n =
@@ -63,7 +67,7 @@ void Strapdown::update(const ImuSample& inc) {
 
   // --- 3. Attitude (Eq. 3): q_b_n(k) = q_n(k-1)_n(k) * q_b_n(k-1) * q_b(k)_b(k-1).
   // Body rotation vector with the two-sample coning correction (Savage Eq. 7.1.1.1-11).
-  const Eigen::Vector3d phi_b = dtheta + dtheta_prev.cross(dtheta) / 12.0;
+  const Eigen::Vector3d phi_b = dtheta + dtheta_prev.cross(dtheta) / two_sample;
   // n-frame rotation over the step at the true mid-point.
   const Eigen::Vector3d v_mid2 = v_avg;
   const Eigen::Vector3d zeta_mid_n =
@@ -74,6 +78,7 @@ void Strapdown::update(const ImuSample& inc) {
   omega_ib_b_ = dt > 0 ? Eigen::Vector3d(dtheta / dt) : Eigen::Vector3d::Zero();
   prev_state_ = old;
   prev_inc_ = inc;
+  prev_dt_s_ = dt;
   state_ = next;
 }
 

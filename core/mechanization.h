@@ -12,6 +12,8 @@
 // paper takes height from an altimeter; DESIGN.md sec. 2 "Vertical channel").
 #pragma once
 
+#include <cmath>
+
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
@@ -30,11 +32,24 @@ struct NavState {
   Eigen::Quaterniond q_b_n = Eigen::Quaterniond::Identity();
 };
 
+/// Divisor of the two-sample coning and sculling cross products (Savage 2000, Eq. 7.1.1.1-11 and
+/// 7.2.2.2-22) for a step of `dt_s` after one of `dt_prev_s`: with rates linear over both steps
+/// the corrections are (dtheta_prev x dtheta) h^2 / (6 h_prev (h_prev + h)) (and likewise for
+/// sculling), so the divisor is 6 h_prev (h_prev + h) / h^2: 12 for equal steps. Steps that agree
+/// to 1e-9 (stamps k / rate in floating point differ in the last bits, not in timing) give
+/// exactly 12, so constant-rate data navigate bit for bit as with the fixed 1/12.
+inline double two_sample_divisor(double dt_prev_s, double dt_s) {
+  if (!(dt_prev_s > 0.0) || std::fabs(dt_prev_s - dt_s) <= 1e-9 * dt_s) return 12.0;
+  return 6.0 * dt_prev_s * (dt_prev_s + dt_s) / (dt_s * dt_s);
+}
+
 class Strapdown {
  public:
   /// `previous` is the (compensated) increment that ends at initial.t_s; it seeds the
-  /// two-sample coning/sculling corrections (pass zero increments when unknown).
-  Strapdown(const EarthModel& earth, const NavState& initial, const ImuSample& previous);
+  /// two-sample coning/sculling corrections (pass zero increments when unknown). `previous_dt_s`
+  /// is its interval (0: unknown, taken as long as the first step).
+  Strapdown(const EarthModel& earth, const NavState& initial, const ImuSample& previous,
+            double previous_dt_s = 0.0);
 
   /// Free-inertial step with a compensated increment ending at inc.t_s.
   void step(const ImuSample& inc);
@@ -52,6 +67,7 @@ class Strapdown {
   NavState state_;
   NavState prev_state_;  // state one step before state_, for mid-point extrapolation
   ImuSample prev_inc_;
+  double prev_dt_s_ = 0.0;  // interval of prev_inc_ (s); 0 = unknown
   Eigen::Vector3d omega_ib_b_ = Eigen::Vector3d::Zero();
 };
 

@@ -104,6 +104,10 @@ std::string CsvImuSpec::validate() const {
   if (time_scale != "gpst-unix" && time_scale != "gps-sow")
     return "--imu-time '" + time_scale +
            "': must be gpst-unix or gps-sow (relative times cannot be paired with GNSS)";
+  if (rate_samples != "point" && rate_samples != "interval-mean")
+    return "--rate-samples '" + rate_samples +
+           "': must be point (the rate at each stamp) or interval-mean (the mean over the step "
+           "each row closes)";
   if (gps_week && (*gps_week < 0 || *gps_week > 100000))
     return "--gps-week " + std::to_string(*gps_week) + ": must be a GPS week number >= 0";
   if (!std::isfinite(time_offset_s) || std::fabs(time_offset_s) > 86400.0)
@@ -137,6 +141,7 @@ CsvImu read_csv_imu(const std::string& text, const std::string& where, const Csv
   out.accel_in_g_local = spec.accel_unit == "g-local";
   out.accel_is_increment = spec.accel_is_increment();
   out.gyro_is_increment = spec.gyro_is_increment();
+  out.rates_are_interval_means = spec.rate_samples == "interval-mean";
   std::size_t pos = 0, line_no = 0;
   while (pos < text.size()) {
     const std::size_t nl = text.find('\n', pos);

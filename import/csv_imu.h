@@ -28,6 +28,10 @@ struct CsvImuSpec {
   std::string time_scale = "gpst-unix";
   std::optional<int> gps_week;
   double time_offset_s = 0.0;  ///< added to every IMU time (a known IMU clock offset)
+  /// What a rate row holds: "point" (the rate at the row's stamp, e.g. a low-passed sensor
+  /// output; integrated by the trapezoid over the row's own step) or "interval-mean" (the mean
+  /// over the interval the row closes, e.g. PX4's sensor_combined; times the row's own step).
+  std::string rate_samples = "point";
   /// v_b = Rx(R) Ry(P) Rz(Y) v_s with the passive elementary rotations (the matrix roll, pitch,
   /// yaw give for C_n^b): a vector measured in sensor axes expressed in body FRD axes.
   Eigen::Vector3d mounting_rpy_deg = Eigen::Vector3d::Zero();
@@ -55,6 +59,7 @@ struct CsvImu {
   bool accel_in_g_local = false;         ///< accel_b is in units of local gravity still
   bool accel_is_increment = false;
   bool gyro_is_increment = false;
+  bool rates_are_interval_means = false;  ///< spec.rate_samples == "interval-mean"
 };
 
 /// Reads `path` with `spec` (comma separated; an optional header line is skipped when its

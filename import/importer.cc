@@ -104,6 +104,7 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
     const auto increment = [&](const std::vector<Eigen::Vector3d>& v, bool is_increment, double scale) {
       if (is_increment) return Eigen::Vector3d(v[k] * scale);
       if (k == 0) throw std::logic_error("a rate needs the previous row");
+      if (imu.rates_are_interval_means) return Eigen::Vector3d(v[k] * scale * dt);
       return Eigen::Vector3d(0.5 * (v[k - 1] + v[k]) * scale * dt);
     };
     s.dtheta_b_rad = increment(imu.gyro_b, imu.gyro_is_increment, 1.0);
@@ -115,10 +116,12 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
   prov["imu"]["rows_used"] = ds.imu.size();
   prov["imu"]["first_line_used"] = imu.line[first];
   prov["imu"]["last_line_used"] = imu.line[last];
-  prov["imu"]["integration"] = increments
-                                   ? "increments as given"
-                                   : "rates integrated over each row's own interval by the "
-                                     "trapezoidal rule, (w[k-1] + w[k]) / 2 * (t[k] - t[k-1])";
+  prov["imu"]["integration"] =
+      increments ? "increments as given"
+      : imu.rates_are_interval_means
+          ? "rates as means over each row's own interval, w[k] * (t[k] - t[k-1])"
+          : "rates integrated over each row's own interval by the trapezoidal rule, "
+            "(w[k-1] + w[k]) / 2 * (t[k] - t[k-1])";
   const double dt_median = median(steps);
   prov["imu"]["step_s"] = {{"median", dt_median},
                            {"min", *std::min_element(steps.begin(), steps.end())},
