@@ -4,11 +4,8 @@
 #include <chrono>
 #include <exception>
 #include <filesystem>
-#include <iterator>
-#include <limits>
 #include <map>
 #include <optional>
-#include <span>
 #include <thread>
 #include <utility>
 
@@ -74,7 +71,6 @@ struct LockstepRunner::Impl {
   struct Member {
     std::size_t id;  // position in the run list
     std::unique_ptr<opt::Optimizer> optimizer;
-    bool finished = false;
   };
 
   fs::path optimum_path(std::size_t s) const {
@@ -170,118 +166,22 @@ struct LockstepRunner::Impl {
     }
   }
 
-  bool failed(std::size_t id) const { return errors_.count(id) > 0; }
-
-  // The candidates of one round that are scored together, and the runs they belong to.
-  struct Batch {
-    std::vector<Eigen::VectorXd> candidates;
-    std::vector<std::pair<Member*, std::size_t>> slices;  // member, its batch size
-    void clear() {
-      candidates.clear();
-      slices.clear();
-    }
-    void add(Member* member, std::span<const Eigen::VectorXd> xs) {
-      candidates.insert(candidates.end(), xs.begin(), xs.end());
-      slices.emplace_back(member, xs.size());
-    }
-  };
-
-  // Scores a round's batch (with the residual vectors when `with_residuals`) and tells each run
-  // its slice. When the batch fails, the slices are scored one by one to find the run(s) at
-  // fault; the others carry on (their results do not depend on the grouping).
-  void score(Batch& batch, const InsIdentificationProblem& problem, bool with_residuals) {
-    if (batch.slices.empty()) return;
-    const std::size_t n = batch.candidates.size();
-    std::vector<double> fitness(n, std::numeric_limits<double>::quiet_NaN());
-    std::vector<std::vector<double>> residuals(with_residuals ? n : 0);
-    auto evaluate = [&](std::size_t offset, std::size_t size) {
-      const auto xs = std::span<const Eigen::VectorXd>(batch.candidates).subspan(offset, size);
-      const auto f = std::span<double>(fitness).subspan(offset, size);
-      if (with_residuals)
-        problem.evaluate_residual_batch(
-            xs, std::span<std::vector<double>>(residuals).subspan(offset, size), f);
-      else
-        problem.evaluate_batch(xs, f);
-    };
-    try {
-      evaluate(0, n);
-    } catch (...) {
-      std::size_t offset = 0;
-      for (const auto& [member, size] : batch.slices) {
-        try {
-          evaluate(offset, size);
-        } catch (...) {
-          errors_[member->id] = std::current_exception();
-        }
-        offset += size;
-      }
-    }
-    std::size_t offset = 0;
-    for (const auto& [member, size] : batch.slices) {
-      if (!failed(member->id)) {
-        try {
-          if (with_residuals) {
-            const auto first = residuals.begin() + static_cast<std::ptrdiff_t>(offset);
-            residual_consumer(*member->optimizer)
-                ->set_residuals(std::vector<std::vector<double>>(
-                    std::make_move_iterator(first),
-                    std::make_move_iterator(first + static_cast<std::ptrdiff_t>(size))));
-          }
-          member->optimizer->tell(std::span<const double>(fitness).subspan(offset, size));
-        } catch (...) {
-          errors_[member->id] = std::current_exception();
-        }
-      }
-      offset += size;
-    }
-  }
-
-  // Runs advance in lock-step (issue 6): the runs of a wave ask for their next batch together,
-  // the batches are scored in one evaluate_batch call (the batched kernel spreads groups of
-  // candidates over the threads; least-squares runs' residual batches likewise), and each run
-  // is told its slice. A run's result depends only
-  // on its own fitness values, which do not depend on how candidates are grouped, so results
-  // equal separate runs, whatever the waves, shards or ranks. Each run's file is written as
-  // soon as the run is done.
+  // Runs advance in lock-step (issue 6) through opt::run_together: the runs of a wave ask for
+  // their next batch together, the batches are scored in one evaluate_batch call (the batched
+  // kernel spreads groups of candidates over the threads; least-squares runs' residual batches
+  // likewise, in one evaluate_residual_batch call), and each run is told its slice. A run's
+  // result depends only on its own fitness values, which do not depend on how candidates are
+  // grouped, so results equal separate runs, whatever the waves, shards or ranks. Each run's
+  // file is written as soon as the run is done; a failed run is recorded, the others go on.
   void run_wave(std::vector<Member>& wave, const InsIdentificationProblem& problem) {
-    Batch plain, residual;  // fitness-only candidates; candidates whose residuals are needed
-    for (;;) {
-      // One round: Kalman-type optimizers take their own step (opt::step); the others ask for
-      // their next batch, and all fitness-only batches are scored in one evaluate_batch call,
-      // all least-squares batches in one evaluate_residual_batch call.
-      plain.clear();
-      residual.clear();
-      for (Member& m : wave) {
-        if (m.finished || failed(m.id)) continue;
-        try {
-          if (takes_own_step(*m.optimizer)) {
-            opt::step(*m.optimizer, problem);
-            continue;
-          }
-          Batch& batch = residual_consumer(*m.optimizer) != nullptr ? residual : plain;
-          batch.add(&m, m.optimizer->ask());
-        } catch (...) {
-          errors_[m.id] = std::current_exception();
-        }
-      }
-      score(plain, problem, false);
-      score(residual, problem, true);
-      bool all_done = true;
-      for (Member& m : wave) {
-        if (m.finished || failed(m.id)) continue;
-        if (!m.optimizer->done()) {
-          all_done = false;
-          continue;
-        }
-        m.finished = true;
-        try {
-          write_run(runs_[m.id], m.optimizer->result());
-        } catch (...) {
-          errors_[m.id] = std::current_exception();
-        }
-      }
-      if (all_done) break;
-    }
+    std::vector<opt::Optimizer*> optimizers;
+    for (Member& m : wave) optimizers.push_back(m.optimizer.get());
+    opt::TogetherHooks hooks;
+    hooks.finished = [&](std::size_t i) {
+      write_run(runs_[wave[i].id], wave[i].optimizer->result());
+    };
+    hooks.failed = [&](std::size_t i, std::exception_ptr error) { errors_[wave[i].id] = error; };
+    opt::run_together(optimizers, problem, hooks);
   }
 
   void write_run(const RunSpec& run, const opt::Result& result) {
