@@ -196,14 +196,7 @@ struct LockstepRunner::Impl {
     j["parameters"] = nlohmann::json::array();
     for (const EstimatedParameter& p : mapping_.parameters()) j["parameters"].push_back(p.name);
     j["result"] = optimizer_result_json(result, mapping_);
-    const Eigen::VectorXd best_sigma = mapping_.to_sigma(result.best_x);
-    add_estimate_json(j, mapping_, best_sigma, states_[run.scenario].dataset->meta.injected);
-    for (int k = 0; k < mapping_.dimension(); ++k)
-      j["error_vs_optimum_sigma"][mapping_.parameters()[static_cast<std::size_t>(k)].name] =
-          best_sigma[k] - opt.value_sigma[k];
-    j["optimum_fitness"] = opt.fitness;
-    j["fitness_gap"] = result.best_f - opt.fitness;
-    j["fitness_gap_relative"] = (result.best_f - opt.fitness) / opt.fitness;
+    add_run_assessment_json(j, result, mapping_, states_[run.scenario].dataset->meta.injected, &opt);
     fs::create_directories(fs::path(run.path).parent_path());
     write_file_atomic(run.path, j.dump(1) + "\n");
     const int n_done = ++done_;
