@@ -5,6 +5,10 @@
 // the same directory skips finished runs and redoes the ones cut off. A campaign can be split
 // over the ranks of an MPI launch (RunOptions::cluster) or over separately started shards
 // (RunOptions::shard) into the same directory; the run files do not depend on the split.
+//
+// This header is the orchestration (directory and manifest, the run list, shards, MPI units,
+// completeness, the summary); the config types, reader, presets and shards are in
+// bench/campaign_config.h, the lock-step runner that does the runs in bench/lockstep_runner.h.
 #pragma once
 
 #include <cstdint>
@@ -18,69 +22,12 @@
 
 #include <nlohmann/json.hpp>
 
-#include "core/dataset.h"
-#include "core/fitness.h"
+#include "bench/campaign_config.h"
+#include "bench/lockstep_runner.h"
 
 namespace insid::campaign {
 
 class Cluster;  // bench/cluster.h
-
-struct ScenarioSpec {
-  std::string name;
-  std::string preset;          ///< simulate this preset (or...)
-  std::string data_dir;        ///< ...load this dataset directory
-  std::optional<double> flight_s;
-  std::optional<std::string> grade;
-  std::uint64_t data_seed = 1;
-  std::map<std::string, double> set;  ///< extra injected effects (SI), on top of the preset's
-};
-
-struct AlgorithmSpec {
-  std::string label;  ///< unique within the campaign (directory name)
-  std::string name;   ///< ga | pso | pio | dvpio
-  std::map<std::string, double> parameters;  ///< overrides (see `insid identify --param`)
-};
-
-struct CampaignConfig {
-  std::string name = "custom";
-  std::vector<ScenarioSpec> scenarios;
-  std::vector<AlgorithmSpec> algorithms;
-  std::vector<std::uint64_t> seeds;
-  int max_iterations = 40;
-  std::int64_t max_evaluations = 0;
-  AlignmentMode alignment = AlignmentMode::kPerCandidate;
-  std::vector<std::string> estimate;  ///< --estimate specs; empty = the paper's four
-  int record_positions_seeds = 1;     ///< record particle positions for the first k seeds
-  std::vector<double> target_error_sigma = {1.0, 0.3, 0.1};   ///< max |error vs optimum|
-  std::vector<double> target_fitness_gap = {1.0, 0.1, 0.01};  ///< (f - f_opt) / f_opt
-
-  /// Resolved config as JSON (the manifest's "config"; also what resume compares).
-  nlohmann::json to_json() const;
-};
-
-/// Parse a campaign JSON (documented keys; unknown keys rejected, naming the key and `origin`).
-CampaignConfig parse_campaign(const nlohmann::json& j, const std::string& origin);
-/// Presets: "paper-fig9" (the paper scenario, Table 4 GA/PSO/PIO/DVPIO), "quick" (a short
-/// flight for tests and a quick look).
-CampaignConfig preset_campaign(const std::string& name);
-std::vector<std::string> preset_campaign_names();
-/// Seeds 1..n.
-std::vector<std::uint64_t> seed_range(int n);
-
-/// A deterministic slice of a campaign, for batch schedulers without MPI (`--shard i/N`):
-/// shard i of N does the runs whose position in the campaign's run list (scenario, algorithm,
-/// seed in config order, counted from 0) has remainder i-1 when divided by N.
-struct Shard {
-  int index = 0;  ///< 1..count
-  int count = 0;  ///< 0: not sharded
-  bool active() const { return count > 0; }
-  bool contains(std::size_t run_position) const {
-    return !active() || static_cast<int>(run_position % static_cast<std::size_t>(count)) == index - 1;
-  }
-  std::string to_string() const { return std::to_string(index) + "/" + std::to_string(count); }
-  /// "i/N" with 1 <= i <= N; errors name the value.
-  static Shard parse(const std::string& text);
-};
 
 struct RunOptions {
   std::string out_dir;
@@ -88,6 +35,9 @@ struct RunOptions {
   bool force_new = false;   ///< discard a different campaign's results in out_dir
   /// Write into an out_dir that holds other files than a campaign's (kept; --force).
   bool into_foreign_directory = false;
+  /// Where progress goes (scenario preparation, each finished run, ...); empty: nowhere.
+  ProgressCallback progress;
+  /// No progress at all, even with a callback.
   bool quiet = false;
   /// Stop after this many newly finished runs (for interruption tests); 0 = no limit.
   int max_new_runs = 0;
@@ -130,9 +80,6 @@ class ReportedError : public std::runtime_error {
 /// mismatch with an existing manifest (unless force_new) or on I/O errors.
 CampaignOutcome run_campaign(const CampaignConfig& config, const RunOptions& options);
 
-/// The campaign recorded in a manifest.json (its "config"), checked to round-trip exactly.
-CampaignConfig config_from_manifest(const nlohmann::json& manifest, const std::string& origin);
-
 /// Which run files of `config` are missing from `out_dir` (or damaged), as a readable report:
 /// "N of M runs missing" and the files, grouped by shard when `shard_count` > 0. Empty when
 /// every run is present.
@@ -141,11 +88,6 @@ std::string missing_runs_report(const std::string& out_dir, const CampaignConfig
 
 /// Build summary.json from the run files of a complete campaign directory.
 nlohmann::json summarize_campaign(const std::string& out_dir, const CampaignConfig& config);
-
-/// Path of one run's file: DIR/runs/<scenario>/<label>/seed_<k>.json. The scenario name and
-/// label must be plain names (checked_path_component, core/output_dir.h): no write leaves DIR.
-std::string run_file(const std::string& out_dir, const std::string& scenario,
-                     const std::string& label, std::uint64_t seed);
 
 /// Why a run file's record cannot be used ("" when it can; "missing" when there is no file):
 /// it must name this scenario, label and seed under the current schema, and every number the
@@ -158,11 +100,5 @@ std::string run_file_problem(const std::filesystem::path& path, const std::strin
 /// unusable (see run_file_problem).
 nlohmann::json read_run_record(const std::filesystem::path& path, const std::string& scenario,
                                const std::string& label, std::uint64_t seed);
-
-/// Path of a scenario's optimum file: DIR/optimum/<scenario>.json (the same check).
-std::string optimum_file(const std::string& out_dir, const std::string& scenario);
-
-/// Dataset of a scenario spec (simulated deterministically or loaded).
-std::shared_ptr<const Dataset> scenario_dataset(const ScenarioSpec& spec);
 
 }  // namespace insid::campaign

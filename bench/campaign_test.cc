@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -307,6 +308,43 @@ TEST(Campaign, SweepWritesPerSettingStatistics) {
   EXPECT_LE(lo, med);
   EXPECT_GE(hi, med);
   EXPECT_TRUE(fs::exists(dir / "sweep.csv"));
+  fs::remove_all(dir);
+}
+
+TEST(Campaign, RunFileAndIdentifyRecordTheSameAssessment) {
+  // GIVEN a dataset directory, a one-run campaign over it and `insid identify` on it with the
+  // same algorithm, seed and budget
+  const fs::path dir = fresh_dir("record");
+  fs::create_directories(dir);
+  const fs::path data = dir / "data";
+  const fs::path identified = dir / "identify.json";
+  const std::string insid = INSID_BINARY;
+  ASSERT_EQ(std::system((insid + " simulate --preset rich --flight-s 300 --grade nav --seed 3 --out " +
+                         data.string() + " 2>/dev/null").c_str()), 0);
+  const nlohmann::json config_json = {
+      {"name", "record"},
+      {"scenarios", {{{"name", "data"}, {"data", data.string()}}}},
+      {"algorithms", {{{"label", "DVPIO"}, {"name", "dvpio"}}}},
+      {"seeds", {2}},
+      {"max_iterations", 5}};
+  RunOptions options;
+  options.out_dir = (dir / "campaign").string();
+  options.quiet = true;
+  ASSERT_TRUE(run_campaign(parse_campaign(config_json, "test"), options).complete);
+  ASSERT_EQ(std::system((insid + " identify --data " + data.string() +
+                         " --algo dvpio --seed 2 --iterations 5 --out " + identified.string() +
+                         " 2>/dev/null").c_str()), 0);
+  const nlohmann::json run = read(run_file(options.out_dir, "data", "DVPIO", 2));
+  const nlohmann::json id = read(identified);
+  // THEN both carry every assessment field (results/README.md), with the same values
+  for (const char* key : {"estimate", "estimate_sigma", "truth_sigma", "error_sigma",
+                          "error_vs_optimum_sigma", "optimum_fitness", "fitness_gap",
+                          "fitness_gap_relative"}) {
+    ASSERT_TRUE(run.contains(key)) << "run file lacks " << key;
+    ASSERT_TRUE(id.contains(key)) << "identify result lacks " << key;
+    EXPECT_EQ(run[key], id[key]) << key;
+  }
+  EXPECT_EQ(run["result"]["fitness"], id["fitness"]);
   fs::remove_all(dir);
 }
 

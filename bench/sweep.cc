@@ -36,18 +36,13 @@ std::vector<std::string> split(const std::string& s, char sep) {
 }
 
 // Setting values in the optimizer's units: keys ending in _sigma are distances in sigma units,
-// converted through the (common) box width of the estimated parameters; "d0" is d_initial.
+// converted through the (common) box width of the estimated parameters
+// (ParameterMapping::algorithm_parameter_in_box); "d0" is d_initial.
 std::map<std::string, double> optimizer_parameters(const std::map<std::string, double>& setting) {
   const ParameterMapping mapping(EstimatedParameter::paper_four());
   std::map<std::string, double> out;
   for (const auto& [key_in, value_in] : setting) {
-    std::string key = key_in;
-    double value = value_in;
-    const std::string suffix = "_sigma";
-    if (key.size() > suffix.size() && key.ends_with(suffix)) {
-      key.erase(key.size() - suffix.size());
-      value /= mapping.sigma_per_unit(0);
-    }
+    auto [key, value] = mapping.algorithm_parameter_in_box(key_in, value_in);
     if (key == "d0") key = "d_initial";
     out[key] = value;
   }

@@ -4,6 +4,8 @@
 #include <cstdint>
 #include <system_error>
 #include <cmath>
+#include <filesystem>
+#include <iomanip>
 #include <iostream>
 #include <stdexcept>
 
@@ -30,6 +32,46 @@ std::map<std::string, double> parse_effect_assignments(const std::vector<std::st
     out[name] = value;
   }
   return out;
+}
+
+campaign::ProgressCallback campaign_progress_printer() {
+  using Kind = campaign::ProgressEvent::Kind;
+  return [](const campaign::ProgressEvent& e) {
+    switch (e.kind) {
+      case Kind::kRemovedTemporaries:
+        std::cerr << "insid: removed " << e.count
+                  << " temporary file(s) left by an interrupted run in " << e.path << "\n";
+        break;
+      case Kind::kRedoingDamagedRun:
+        std::cerr << "insid bench: redoing a damaged run file: " << e.detail << "\n";
+        break;
+      case Kind::kPreparingScenario:
+        std::cerr << "insid bench: preparing scenario " << e.scenario << "\n";
+        break;
+      case Kind::kFindingOptimum:
+        std::cerr << "insid bench: finding the data's own optimum of " << e.scenario << "\n";
+        break;
+      case Kind::kWaitingForOptimum:
+        std::cerr << "insid bench: waiting for another rank to write "
+                  << std::filesystem::path(e.path) << "\n";
+        break;
+      case Kind::kRunFinished:
+        std::cerr << std::fixed << std::setprecision(0);
+        if (!e.mpi_rank)
+          std::cerr << "\rinsid bench: runs " << e.runs_present << "/" << e.runs_total << " ("
+                    << e.scenario << " " << e.algorithm << " seed " << e.seed << "), elapsed "
+                    << e.elapsed_s << " s, ETA " << e.eta_s << " s   ";
+        else  // rank 0 sees only its own runs
+          std::cerr << "\rinsid bench: rank 0 finished " << e.new_runs << " runs (" << e.scenario
+                    << " " << e.algorithm << " seed " << e.seed << "), elapsed " << e.elapsed_s
+                    << " s   ";
+        std::cerr << std::defaultfloat << std::flush;
+        break;
+      case Kind::kRunsEnded:
+        std::cerr << "\n";
+        break;
+    }
+  };
 }
 
 void write_json_output(const std::string& path, const nlohmann::json& j) {

@@ -47,6 +47,10 @@ std::string split_description(const campaign::RunOptions& options,
 std::string incomplete_message(const campaign::RunOptions& options,
                                const campaign::CampaignOutcome& outcome);
 
+/// Prints a campaign's progress (bench, sweep) to stderr: scenario preparation, the optimum,
+/// and one updating line of finished runs with elapsed time and ETA.
+campaign::ProgressCallback campaign_progress_printer();
+
 /// Write JSON to `path` atomically, or to stdout when path is empty or "-".
 void write_json_output(const std::string& path, const nlohmann::json& j);
 

@@ -57,6 +57,7 @@ void run_bench(const BenchArgs& args) {
   options.max_new_runs = args.max_new_runs;
   if (!args.shard.empty()) options.shard = campaign::Shard::parse(args.shard);
   options.cluster = cluster.get();
+  options.progress = campaign_progress_printer();
   const campaign::CampaignOutcome outcome = campaign::run_campaign(config, options);
   if (!outcome.writes_results) return;  // MPI rank 0 reports for the launch
   std::cerr << "insid bench: " << outcome.new_runs << " new runs"

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -83,16 +84,12 @@ void run_identify(const IdentifyArgs& args) {
   for (const EstimatedParameter& p : estimated)
     out["estimated"].push_back({{"name", p.name}, {"sigma", p.sigma},
                                 {"lower_sigma", p.lower_sigma}, {"upper_sigma", p.upper_sigma}});
-  const Eigen::VectorXd best_sigma = mapping.to_sigma(result.best_x);
-  add_estimate_json(out, mapping, best_sigma, dataset->meta.injected);
+  std::optional<ReferenceOptimum> ref;
   if (!args.no_reference) {
-    const ReferenceOptimum ref = cached_reference_optimum(args.data_dir, problem);
-    out["reference_optimum"] = ref.to_json(mapping);
-    for (int k = 0; k < mapping.dimension(); ++k)
-      out["error_vs_optimum_sigma"][estimated[static_cast<std::size_t>(k)].name] =
-          best_sigma[k] - ref.value_sigma[k];
-    out["fitness_gap"] = result.best_f - ref.fitness;
+    ref = cached_reference_optimum(args.data_dir, problem);
+    out["reference_optimum"] = ref->to_json(mapping);
   }
+  add_run_assessment_json(out, result, mapping, dataset->meta.injected, ref ? &*ref : nullptr);
   write_json_output(args.out, out);
 }
 
@@ -105,7 +102,7 @@ opt::ParameterMap parse_algorithm_params(const std::vector<std::string>& items,
     const auto eq = item.find('=');
     if (eq == std::string::npos || eq == 0)
       throw std::invalid_argument("--param: expected KEY=VALUE, got '" + item + "'");
-    std::string key = item.substr(0, eq);
+    const std::string key = item.substr(0, eq);
     const std::string text = item.substr(eq + 1);
     double value = 0.0;
     const auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
@@ -113,18 +110,12 @@ opt::ParameterMap parse_algorithm_params(const std::vector<std::string>& items,
       throw std::invalid_argument("--param " + key + ": expected a finite number, got '" + text + "'");
     // Distances given in sigma units (e.g. d_initial_sigma=0.05) are converted to the
     // optimizer's normalised box.
-    const std::string suffix = "_sigma";
-    if (key.size() > suffix.size() && key.ends_with(suffix)) {
-      key.erase(key.size() - suffix.size());
-      const double unit = mapping.sigma_per_unit(0);
-      for (int k = 1; k < mapping.dimension(); ++k)
-        if (mapping.sigma_per_unit(k) != unit)
-          throw std::invalid_argument("--param " + key + suffix +
-                                      ": the estimated parameters have boxes of different "
-                                      "widths; give " + key + " in normalised units");
-      value /= unit;
+    try {
+      const auto [box_key, box_value] = mapping.algorithm_parameter_in_box(key, value);
+      overrides[box_key] = box_value;  // a key given twice: the last one counts
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(std::string("--param ") + e.what());
     }
-    overrides[key] = value;
   }
   return overrides;
 }

@@ -57,6 +57,7 @@ void run(const SweepArgs& args) {
   options.into_foreign_directory = args.force;
   if (!args.shard.empty()) options.shard = campaign::Shard::parse(args.shard);
   options.cluster = cluster.get();
+  options.progress = campaign_progress_printer();
   const auto outcome = campaign::run_sweep(sweep, options);
   if (!outcome.writes_results) return;  // MPI rank 0 reports for the launch
   std::cerr << "insid sweep: " << campaign::sweep_settings(sweep).size() << " settings x "

@@ -185,6 +185,21 @@ void add_estimate_json(nlohmann::json& out, const ParameterMapping& mapping,
   }
 }
 
+void add_run_assessment_json(nlohmann::json& out, const opt::Result& result,
+                             const ParameterMapping& mapping,
+                             const std::optional<std::map<std::string, double>>& injected,
+                             const ReferenceOptimum* optimum) {
+  const Eigen::VectorXd best_sigma = mapping.to_sigma(result.best_x);
+  add_estimate_json(out, mapping, best_sigma, injected);
+  if (optimum == nullptr) return;
+  for (int k = 0; k < mapping.dimension(); ++k)
+    out["error_vs_optimum_sigma"][mapping.parameters()[static_cast<std::size_t>(k)].name] =
+        best_sigma[k] - optimum->value_sigma[k];
+  out["optimum_fitness"] = optimum->fitness;
+  out["fitness_gap"] = result.best_f - optimum->fitness;
+  out["fitness_gap_relative"] = (result.best_f - optimum->fitness) / optimum->fitness;
+}
+
 nlohmann::json build_info_json() {
   nlohmann::json j;
   j["version"] = INSID_VERSION;

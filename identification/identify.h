@@ -53,6 +53,16 @@ void add_estimate_json(nlohmann::json& out, const ParameterMapping& mapping,
                        const Eigen::VectorXd& value_sigma,
                        const std::optional<std::map<std::string, double>>& injected);
 
+/// The assessment of a run's best point, the part of the record that `insid identify` and
+/// campaign run files share (results/README.md), built here for both: add_estimate_json's
+/// blocks for result.best_x and, when the data's own optimum is known,
+/// "error_vs_optimum_sigma" (estimate minus optimum, sigma units), "optimum_fitness",
+/// "fitness_gap" (f - f_opt) and "fitness_gap_relative" ((f - f_opt) / f_opt).
+void add_run_assessment_json(nlohmann::json& out, const opt::Result& result,
+                             const ParameterMapping& mapping,
+                             const std::optional<std::map<std::string, double>>& injected,
+                             const ReferenceOptimum* optimum);
+
 /// Version, git revision, build type, compiler, CPU path (instruction set targeted): the build
 /// that produced a result. `insid --version` prints it.
 nlohmann::json build_info_json();

@@ -94,6 +94,20 @@ double ParameterMapping::sigma_per_unit(int j) const {
   return 0.5 * (p.upper_sigma - p.lower_sigma);
 }
 
+std::pair<std::string, double> ParameterMapping::algorithm_parameter_in_box(std::string key,
+                                                                           double value) const {
+  const std::string suffix = "_sigma";
+  if (key.size() <= suffix.size() || !key.ends_with(suffix)) return {std::move(key), value};
+  key.erase(key.size() - suffix.size());
+  const double unit = sigma_per_unit(0);
+  for (int k = 1; k < dimension(); ++k)
+    if (sigma_per_unit(k) != unit)
+      throw std::invalid_argument(key + suffix +
+                                  ": the estimated parameters have boxes of different widths; "
+                                  "give " + key + " in normalised units");
+  return {std::move(key), value / unit};
+}
+
 InsIdentificationProblem::InsIdentificationProblem(
     std::shared_ptr<const NavigationProblem> navigation, ParameterMapping mapping,
     FitnessKind kind, opt::EvaluatorOptions evaluator, FitnessEvaluator implementation)

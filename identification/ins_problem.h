@@ -6,6 +6,7 @@
 #include <memory>
 #include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -46,6 +47,12 @@ class ParameterMapping {
   SensorErrors to_errors(const Eigen::VectorXd& x) const;
   /// Sigma-unit distance that one normalised unit spans in dimension j.
   double sigma_per_unit(int j) const;
+  /// An algorithm parameter as the optimizer takes it: a key ending in `_sigma` is a distance in
+  /// sigma units (DVPIO's `d_initial_sigma=0.05`), returned without the suffix and divided by
+  /// the sigma span of one normalised unit; any other key comes back unchanged. Throws
+  /// std::invalid_argument naming the key when the estimated parameters' boxes differ in
+  /// width (no common unit).
+  std::pair<std::string, double> algorithm_parameter_in_box(std::string key, double value) const;
 
  private:
   std::vector<EstimatedParameter> parameters_;

@@ -176,6 +176,58 @@ TEST(Baselines, SameSeedSameRunAndRunTogetherEqualsSeparateRuns) {
   }
 }
 
+// Counts the calls (not the candidates) of each kind of batch evaluation.
+class CallCountingProblem final : public Problem, public ResidualProblem {
+ public:
+  explicit CallCountingProblem(const LeastSquaresProblem& inner)
+      : Problem(inner.bounds()), inner_(inner) {}
+  int residual_count() const override { return inner_.residual_count(); }
+  void evaluate_batch(std::span<const Eigen::VectorXd> xs, std::span<double> f) const override {
+    ++fitness_calls;
+    inner_.evaluate_batch(xs, f);
+  }
+  void evaluate_residual_batch(std::span<const Eigen::VectorXd> xs,
+                               std::span<std::vector<double>> r,
+                               std::span<double> f) const override {
+    ++residual_calls;
+    inner_.evaluate_residual_batch(xs, r, f);
+  }
+  mutable int fitness_calls = 0, residual_calls = 0;
+
+ private:
+  const LeastSquaresProblem& inner_;
+};
+
+TEST(Baselines, RunTogetherScoresTheLeastSquaresRunsOfARoundInOneResidualCall) {
+  // GIVEN three Levenberg-Marquardt runs (residual vectors) and a BOBYQA run in lock-step
+  const LeastSquaresProblem rosenbrock(4, true);
+  const CallCountingProblem problem(rosenbrock);
+  const std::vector<std::pair<std::string, RunConfig>> specs = {
+      {"lm", budget(60, 1)}, {"lm", budget(90, 2)}, {"lm", budget(40, 3)},
+      {"bobyqa", budget(50, 4)}};
+  std::vector<std::unique_ptr<Optimizer>> owned;
+  std::vector<Optimizer*> raw;
+  for (const auto& [name, config] : specs) {
+    owned.push_back(make_optimizer(name, rosenbrock.bounds(), config));
+    raw.push_back(owned.back().get());
+  }
+  // WHEN advanced together
+  run_together(raw, problem);
+  // THEN each round's LM batches went to one evaluate_residual_batch call (as many calls as the
+  // longest LM run has iterations), BOBYQA's to evaluate_batch, one call per iteration
+  int longest_lm = 0;
+  for (std::size_t i = 0; i < 3; ++i) longest_lm = std::max(longest_lm, raw[i]->result().iterations);
+  EXPECT_EQ(problem.residual_calls, longest_lm);
+  EXPECT_LT(longest_lm, raw[0]->result().iterations + raw[1]->result().iterations +
+                            raw[2]->result().iterations);
+  EXPECT_EQ(problem.fitness_calls, raw[3]->result().iterations);
+  // AND every run equals its separate run
+  for (std::size_t i = 0; i < specs.size(); ++i) {
+    SCOPED_TRACE(specs[i].first + " run " + std::to_string(i));
+    expect_same_run(raw[i]->result(), optimize(specs[i].first, rosenbrock, specs[i].second));
+  }
+}
+
 // Documented accuracy (optimizers/README.md): median best fitness of 11 seeds at a fixed budget.
 double median_best(const std::string& name, const Problem& problem, std::int64_t evaluations) {
   std::vector<double> best;

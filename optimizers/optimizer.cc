@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <stdexcept>
 #include <utility>
 
@@ -220,39 +221,138 @@ const Result& run(Optimizer& optimizer, const Problem& problem) {
   return optimizer.result();
 }
 
-void run_together(std::span<Optimizer* const> optimizers, const Problem& problem) {
-  for (const Optimizer* optimizer : optimizers) check_same_box(*optimizer, problem);
+namespace {
+
+// The candidates of one lock-step round that are scored together, and whose they are.
+struct SharedBatch {
   std::vector<Eigen::VectorXd> candidates;
-  std::vector<double> fitness;
-  std::vector<std::pair<Optimizer*, std::size_t>> slices;  // optimizer, batch size
-  for (;;) {
+  std::vector<std::pair<std::size_t, std::size_t>> slices;  // optimizer index, its batch size
+  void clear() {
     candidates.clear();
     slices.clear();
-    for (Optimizer* optimizer : optimizers) {
-      if (optimizer->done()) continue;
-      // Optimizers that need residuals (or the problem) take their own rounds.
-      if (dynamic_cast<ResidualConsumer*>(optimizer) != nullptr ||
-          dynamic_cast<ProblemConsumer*>(optimizer) != nullptr) {
-        step(*optimizer, problem);
-        continue;
+  }
+  void add(std::size_t i, std::span<const Eigen::VectorXd> xs) {
+    candidates.insert(candidates.end(), xs.begin(), xs.end());
+    slices.emplace_back(i, xs.size());
+  }
+};
+
+}  // namespace
+
+void run_together(std::span<Optimizer* const> optimizers, const Problem& problem,
+                  const TogetherHooks& hooks) {
+  for (const Optimizer* optimizer : optimizers) check_same_box(*optimizer, problem);
+  const auto* residual_problem = dynamic_cast<const ResidualProblem*>(&problem);
+  // Finished or failed: no longer advanced. Optimizers done on entry are not reported.
+  std::vector<char> stopped(optimizers.size());
+  for (std::size_t i = 0; i < optimizers.size(); ++i) stopped[i] = optimizers[i]->done();
+  // Called inside a catch block: hands the exception to the hook, or rethrows it.
+  const auto fail = [&](std::size_t i) {
+    if (!hooks.failed) throw;
+    stopped[i] = 1;
+    hooks.failed(i, std::current_exception());
+  };
+
+  // Scores a round's batch (with the residual vectors when `with_residuals`) and tells each
+  // optimizer its slice. When the batch fails and failures are isolated, the slices are scored
+  // one by one to find the optimizer(s) at fault; the others carry on.
+  std::vector<double> fitness;
+  std::vector<std::vector<double>> residuals;
+  const auto score = [&](const SharedBatch& batch, bool with_residuals) {
+    if (batch.slices.empty()) return;
+    const std::size_t n = batch.candidates.size();
+    // NaN-filled: a problem that leaves a slot unwritten is caught by tell().
+    fitness.assign(n, std::numeric_limits<double>::quiet_NaN());
+    residuals.assign(with_residuals ? n : 0, {});
+    const auto evaluate = [&](std::size_t offset, std::size_t size) {
+      const auto xs = std::span<const Eigen::VectorXd>(batch.candidates).subspan(offset, size);
+      const auto f = std::span<double>(fitness).subspan(offset, size);
+      if (with_residuals) {
+        residual_problem->evaluate_residual_batch(
+            xs, std::span<std::vector<double>>(residuals).subspan(offset, size), f);
+      } else {
+        problem.evaluate_batch(xs, f);
       }
-      const std::span<const Eigen::VectorXd> batch = optimizer->ask();
-      candidates.insert(candidates.end(), batch.begin(), batch.end());
-      slices.emplace_back(optimizer, batch.size());
+    };
+    try {
+      evaluate(0, n);
+    } catch (...) {
+      if (!hooks.failed) throw;
+      std::size_t offset = 0;
+      for (const auto& [i, size] : batch.slices) {
+        try {
+          evaluate(offset, size);
+        } catch (...) {
+          fail(i);
+        }
+        offset += size;
+      }
     }
-    if (slices.empty()) {
-      bool all_done = true;
-      for (const Optimizer* optimizer : optimizers) all_done = all_done && optimizer->done();
-      if (all_done) return;
-      continue;
-    }
-    fitness.assign(candidates.size(), std::numeric_limits<double>::quiet_NaN());
-    problem.evaluate_batch(candidates, fitness);
     std::size_t offset = 0;
-    for (const auto& [optimizer, size] : slices) {
-      optimizer->tell(std::span<const double>(fitness).subspan(offset, size));
+    for (const auto& [i, size] : batch.slices) {
+      if (!stopped[i]) {
+        try {
+          if (with_residuals) {
+            const auto first = residuals.begin() + static_cast<std::ptrdiff_t>(offset);
+            dynamic_cast<ResidualConsumer&>(*optimizers[i])
+                .set_residuals(std::vector<std::vector<double>>(
+                    std::make_move_iterator(first),
+                    std::make_move_iterator(first + static_cast<std::ptrdiff_t>(size))));
+          }
+          optimizers[i]->tell(std::span<const double>(fitness).subspan(offset, size));
+        } catch (...) {
+          fail(i);
+        }
+      }
       offset += size;
     }
+  };
+
+  SharedBatch plain, least_squares;  // fitness-only candidates; candidates whose residuals count
+  for (;;) {
+    // One round: ProblemConsumers take their own step; the others ask for their next batch, all
+    // fitness-only batches are scored in one evaluate_batch call, all residual batches in one
+    // evaluate_residual_batch call.
+    plain.clear();
+    least_squares.clear();
+    for (std::size_t i = 0; i < optimizers.size(); ++i) {
+      if (stopped[i]) continue;
+      Optimizer& optimizer = *optimizers[i];
+      try {
+        if (dynamic_cast<ProblemConsumer*>(&optimizer) != nullptr) {
+          step(optimizer, problem);
+        } else if (dynamic_cast<ResidualConsumer*>(&optimizer) != nullptr) {
+          if (residual_problem == nullptr) {
+            throw std::invalid_argument(optimizer.name() + " needs residual vectors; problem '" +
+                                        problem.name() + "' has none");
+          }
+          least_squares.add(i, optimizer.ask());
+        } else {
+          plain.add(i, optimizer.ask());
+        }
+      } catch (...) {
+        fail(i);
+      }
+    }
+    score(plain, false);
+    score(least_squares, true);
+    bool all_stopped = true;
+    for (std::size_t i = 0; i < optimizers.size(); ++i) {
+      if (stopped[i]) continue;
+      if (!optimizers[i]->done()) {
+        all_stopped = false;
+        continue;
+      }
+      stopped[i] = 1;
+      if (hooks.finished) {
+        try {
+          hooks.finished(i);
+        } catch (...) {
+          fail(i);
+        }
+      }
+    }
+    if (all_stopped) return;
   }
 }
 

@@ -10,7 +10,8 @@
 //   const Result& result = optimizer->result();
 //
 // run() is that loop; run_together() advances several optimizers generation by generation and
-// scores all their candidates in one evaluate_batch() call (a campaign's shared batch).
+// scores all their candidates in one evaluate_batch() call (a campaign's shared batch; the one
+// lock-step driver of insid, used by campaigns through its hooks).
 //
 // Iterations. One iteration = one batch asked and told. Iteration 1 evaluates the initial
 // population, so the paper's "10 particles, 40 iterations" is 40 batches of 10 = 400
@@ -26,6 +27,8 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <exception>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <optional>
@@ -209,8 +212,26 @@ inline double euclidean_distance(const Eigen::VectorXd& a, const Eigen::VectorXd
 /// problem's box differs from the optimizer's.
 const Result& run(Optimizer& optimizer, const Problem& problem);
 
-/// Advances every optimizer one iteration at a time, scoring the candidates of all unfinished
-/// ones in a single problem.evaluate_batch() call per round. Results equal separate run()s.
-void run_together(std::span<Optimizer* const> optimizers, const Problem& problem);
+/// What a caller of run_together() hears about each optimizer (by its index in the span).
+struct TogetherHooks {
+  /// Called once when optimizers[i] has finished, in the round it finished (index order within
+  /// a round), e.g. to write its result while the others go on.
+  std::function<void(std::size_t i)> finished;
+  /// When set, an exception from optimizers[i]'s ask, evaluation, tell (or from `finished(i)`)
+  /// is handed here and only that optimizer stops; the others go on. When a shared batch
+  /// evaluation throws, its slices are evaluated again one by one to find the optimizers at
+  /// fault. When unset, the exception propagates out of run_together().
+  std::function<void(std::size_t i, std::exception_ptr error)> failed;
+};
+
+/// Advances every optimizer one iteration at a time (lock-step). Per round, the candidates of all
+/// unfinished optimizers are scored in a single problem.evaluate_batch() call, those of the
+/// ResidualConsumers in a single ResidualProblem::evaluate_residual_batch() call; a
+/// ProblemConsumer takes its own step(). Each optimizer is told its slice. A run's result
+/// depends only on its own fitness values, so results equal separate run()s whatever the
+/// grouping. Throws std::invalid_argument when a box differs from the problem's; an optimizer
+/// that needs residuals on a problem without them fails (see hooks.failed).
+void run_together(std::span<Optimizer* const> optimizers, const Problem& problem,
+                  const TogetherHooks& hooks = {});
 
 }  // namespace insid::opt

@@ -213,6 +213,72 @@ TEST(AskTell, RunRejectsAProblemWithAnotherBox) {
   EXPECT_THROW(run(*optimizer, *problem), std::invalid_argument);
 }
 
+// The sphere, except that evaluating the box's upper corner throws: a run started there (its
+// initial_positions) fails, random candidates never hit it exactly.
+class ThrowsAtTheCorner final : public Problem {
+ public:
+  explicit ThrowsAtTheCorner(const Problem& inner) : Problem(inner.bounds()), inner_(inner) {}
+  void evaluate_batch(std::span<const Eigen::VectorXd> xs, std::span<double> f) const override {
+    for (const Eigen::VectorXd& x : xs)
+      if (x == bounds().upper) throw std::runtime_error("the corner was evaluated");
+    inner_.evaluate_batch(xs, f);
+  }
+
+ private:
+  const Problem& inner_;
+};
+
+TEST(RunTogether, IsolatesAFailedRunAndReportsEachRunInTheRoundItFinishes) {
+  // GIVEN four PSO runs in lock-step on a problem that throws on one run's first batch, and
+  // budgets of 5, 8, 8 and 3 iterations
+  const auto sphere = make_benchmark("sphere", 3, {Parallelism::kOpenMP, 2});
+  const ThrowsAtTheCorner problem(*sphere);
+  std::vector<RunConfig> configs = {config_with(1, 5), config_with(2, 8), config_with(3, 8),
+                                    config_with(4, 3)};
+  configs[1].initial_positions = {problem.bounds().upper};
+  const auto make_runs = [&](std::vector<std::unique_ptr<Optimizer>>& owners) {
+    std::vector<Optimizer*> raw;
+    for (const RunConfig& config : configs) {
+      owners.push_back(make_optimizer("pso", problem.bounds(), config));
+      raw.push_back(owners.back().get());
+    }
+    return raw;
+  };
+  std::vector<std::unique_ptr<Optimizer>> owners;
+  const std::vector<Optimizer*> runs = make_runs(owners);
+  std::vector<std::size_t> finished_order, failed;
+  std::string failure;
+  TogetherHooks hooks;
+  hooks.finished = [&](std::size_t i) {
+    ASSERT_TRUE(runs[i]->done());
+    finished_order.push_back(i);
+    // in the round it finished: the longest run (8 iterations) is exactly as far
+    EXPECT_EQ(runs[2]->result().iterations, runs[i]->result().iterations) << "run " << i;
+  };
+  hooks.failed = [&](std::size_t i, std::exception_ptr error) {
+    failed.push_back(i);
+    try {
+      std::rethrow_exception(error);
+    } catch (const std::exception& e) {
+      failure = e.what();
+    }
+  };
+  // WHEN they are run together with hooks
+  run_together(runs, problem, hooks);
+  // THEN only the poisoned run failed, with the problem's error
+  EXPECT_EQ(failed, std::vector<std::size_t>{1});
+  EXPECT_EQ(failure, "the corner was evaluated");
+  // AND every other run was reported once, shortest first, and equals its separate run
+  EXPECT_EQ(finished_order, (std::vector<std::size_t>{3, 0, 2}));
+  for (std::size_t i : {0, 2, 3}) {
+    SCOPED_TRACE("run " + std::to_string(i));
+    expect_same_run(runs[i]->result(), optimize("pso", *sphere, configs[i]));
+  }
+  // AND without the failed hook the error propagates
+  std::vector<std::unique_ptr<Optimizer>> owners_again;
+  EXPECT_THROW(run_together(make_runs(owners_again), problem), std::runtime_error);
+}
+
 TEST(Pio, LandmarkScheduleHalvesThePopulation) {
   // Paper preset: 40 iterations, landmark_fraction 0.25 -> 30 map-and-compass (initial
   // included), then 10 landmark iterations with 5, 3, 2, 2, ... pigeons.

@@ -1,0 +1,414 @@
+#include "bench/campaign_config.h"
+
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <set>
+#include <filesystem>
+#include <sstream>
+#include <stdexcept>
+
+#include "core/output_dir.h"
+#include "optimizers/registry.h"
+
+namespace insid::campaign {
+namespace fs = std::filesystem;
+
+namespace {
+
+// Strict JSON object reader: every key must be consumed, unknown keys are errors.
+class Reader {
+ public:
+  Reader(const nlohmann::json& j, std::string where) : j_(j), where_(std::move(where)) {
+    if (!j_.is_object()) throw std::invalid_argument(where_ + ": expected a JSON object");
+  }
+  bool has(const std::string& key) const { return j_.contains(key); }
+  const nlohmann::json& at(const std::string& key) {
+    used_.insert(key);
+    if (!j_.contains(key)) throw std::invalid_argument(where_ + ": missing key \"" + key + "\"");
+    return j_.at(key);
+  }
+  double number(const std::string& key) {
+    const nlohmann::json& v = at(key);
+    if (!v.is_number()) throw std::invalid_argument(where_ + ": \"" + key + "\" must be a number");
+    return v.get<double>();
+  }
+  const nlohmann::json& array(const std::string& key) {
+    const nlohmann::json& v = at(key);
+    if (!v.is_array())
+      throw std::invalid_argument(where_ + ": \"" + key + "\" must be an array, got " +
+                                  v.type_name() + " " + v.dump());
+    return v;
+  }
+  // An array of `type` ("string" or "number") items.
+  const nlohmann::json& array_of(const std::string& key, const std::string& type) {
+    const nlohmann::json& v = array(key);
+    for (std::size_t k = 0; k < v.size(); ++k)
+      if ((type == "string" && !v[k].is_string()) || (type == "number" && !v[k].is_number()))
+        throw std::invalid_argument(where_ + ": \"" + key + "\"[" + std::to_string(k) +
+                                    "] must be a " + type + ", got " + v[k].dump());
+    return v;
+  }
+  std::string string(const std::string& key) {
+    const nlohmann::json& v = at(key);
+    if (!v.is_string()) throw std::invalid_argument(where_ + ": \"" + key + "\" must be a string");
+    return v.get<std::string>();
+  }
+  void finish(const std::vector<std::string>& allowed) const {
+    for (const auto& item : j_.items()) {
+      if (std::find(allowed.begin(), allowed.end(), item.key()) == allowed.end()) {
+        std::string list;
+        for (const std::string& a : allowed) list += (list.empty() ? "" : ", ") + a;
+        throw std::invalid_argument(where_ + ": unknown key \"" + item.key() +
+                                    "\"; valid keys: " + list);
+      }
+    }
+  }
+
+ private:
+  const nlohmann::json& j_;
+  std::string where_;
+  std::set<std::string> used_;
+};
+
+int whole(double v, const std::string& what) {
+  if (v != std::floor(v) || v < 0 || v > 1e9)
+    throw std::invalid_argument(what + " must be a non-negative whole number, got " +
+                                std::to_string(v));
+  return static_cast<int>(v);
+}
+
+std::string first_difference(const nlohmann::json& a, const nlohmann::json& b,
+                             const std::string& path = "config") {
+  if (a.is_number() && b.is_number())  // 0 read back from a file is unsigned, ours signed
+    return a.get<double>() == b.get<double>() ? "" : path;
+  if (a.type() != b.type()) return path;
+  if (a.is_object()) {
+    for (const auto& item : a.items()) {
+      if (!b.contains(item.key())) return path + "." + item.key();
+      const std::string d = first_difference(item.value(), b.at(item.key()), path + "." + item.key());
+      if (!d.empty()) return d;
+    }
+    for (const auto& item : b.items())
+      if (!a.contains(item.key())) return path + "." + item.key();
+    return "";
+  }
+  if (a.is_array()) {
+    if (a.size() != b.size()) return path + " (length)";
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      const std::string d = first_difference(a[i], b[i], path + "[" + std::to_string(i) + "]");
+      if (!d.empty()) return d;
+    }
+    return "";
+  }
+  return a == b ? "" : path;
+}
+
+// A manifest written before an algorithm gained a parameter lacks that parameter. New
+// parameters default to the old behaviour (e.g. DVPIO's shrink_without_gain = 0), so where the
+// new config has such a parameter at its default the campaigns are the same: the old config
+// gets it added before the two are compared, and such directories can still be resumed and
+// merged. A parameter away from its default is a difference as before.
+nlohmann::json with_added_defaults(nlohmann::json old_config, const nlohmann::json& new_config) {
+  const nlohmann::json* new_algorithms =
+      new_config.is_object() && new_config.contains("algorithms") ? &new_config["algorithms"]
+                                                                   : nullptr;
+  if (!old_config.is_object() || new_algorithms == nullptr || !new_algorithms->is_array() ||
+      !old_config.contains("algorithms") || !old_config["algorithms"].is_array() ||
+      old_config["algorithms"].size() != new_algorithms->size())
+    return old_config;
+  for (std::size_t i = 0; i < new_algorithms->size(); ++i) {
+    nlohmann::json& old_algorithm = old_config["algorithms"][i];
+    const nlohmann::json& new_algorithm = (*new_algorithms)[i];
+    if (!old_algorithm.is_object() || !new_algorithm.is_object() ||
+        old_algorithm.value("name", "") != new_algorithm.value("name", "") ||
+        !old_algorithm.contains("parameters") || !old_algorithm["parameters"].is_object() ||
+        !new_algorithm.contains("parameters") || !new_algorithm["parameters"].is_object())
+      continue;
+    opt::ParameterList defaults;
+    try {
+      defaults = opt::default_parameters(new_algorithm["name"].get<std::string>());
+    } catch (const std::exception&) {
+      continue;
+    }
+    nlohmann::json& old_parameters = old_algorithm["parameters"];
+    const nlohmann::json& new_parameters = new_algorithm["parameters"];
+    for (const auto& [key, value] : defaults)
+      if (!old_parameters.contains(key) && new_parameters.contains(key) &&
+          new_parameters[key].is_number() && new_parameters[key].get<double>() == value)
+        old_parameters[key] = value;
+  }
+  return old_config;
+}
+
+}  // namespace
+
+std::string config_difference(const nlohmann::json& old_config, const nlohmann::json& new_config) {
+  return first_difference(with_added_defaults(old_config, new_config), new_config);
+}
+
+std::vector<EstimatedParameter> estimated_parameters(const CampaignConfig& config) {
+  std::vector<EstimatedParameter> params;
+  for (const std::string& e : config.estimate) params.push_back(EstimatedParameter::parse(e));
+  if (params.empty()) params = EstimatedParameter::paper_four();
+  return params;
+}
+
+std::vector<std::uint64_t> seed_range(int n) {
+  std::vector<std::uint64_t> seeds;
+  for (int i = 1; i <= n; ++i) seeds.push_back(static_cast<std::uint64_t>(i));
+  return seeds;
+}
+
+nlohmann::json CampaignConfig::to_json() const {
+  nlohmann::json j;
+  j["name"] = name;
+  j["scenarios"] = nlohmann::json::array();
+  for (const ScenarioSpec& s : scenarios) {
+    nlohmann::json sj;
+    sj["name"] = s.name;
+    if (!s.preset.empty()) sj["preset"] = s.preset;
+    if (!s.data_dir.empty()) sj["data"] = s.data_dir;
+    if (s.flight_s) sj["flight_s"] = *s.flight_s;
+    if (s.grade) sj["grade"] = *s.grade;
+    sj["data_seed"] = s.data_seed;
+    sj["set"] = s.set;
+    j["scenarios"].push_back(sj);
+  }
+  j["algorithms"] = nlohmann::json::array();
+  for (const AlgorithmSpec& a : algorithms) {
+    nlohmann::json params = nlohmann::json::object();
+    for (const auto& [k, v] : opt::default_parameters(a.name)) params[k] = v;
+    for (const auto& [k, v] : a.parameters) params[k] = v;
+    j["algorithms"].push_back({{"label", a.label}, {"name", a.name}, {"parameters", params}});
+  }
+  j["seeds"] = seeds;
+  j["max_iterations"] = max_iterations;
+  j["max_evaluations"] = max_evaluations;
+  j["alignment"] = insid::to_string(alignment);
+  j["estimate"] = nlohmann::json::array();
+  for (const EstimatedParameter& p : estimated_parameters(*this))
+    j["estimate"].push_back({{"name", p.name}, {"sigma", p.sigma},
+                             {"lower_sigma", p.lower_sigma}, {"upper_sigma", p.upper_sigma}});
+  j["record_positions_seeds"] = record_positions_seeds;
+  j["target_error_sigma"] = target_error_sigma;
+  j["target_fitness_gap"] = target_fitness_gap;
+  return j;
+}
+
+CampaignConfig parse_campaign(const nlohmann::json& j, const std::string& origin) {
+  Reader r(j, origin);
+  CampaignConfig c;
+  if (r.has("name")) c.name = r.string("name");
+  for (std::size_t i = 0; i < r.array("scenarios").size(); ++i) {
+    const std::string where = origin + ": scenarios[" + std::to_string(i) + "]";
+    Reader s(j.at("scenarios")[i], where);
+    ScenarioSpec spec;
+    spec.name = s.string("name");
+    if (s.has("preset")) spec.preset = s.string("preset");
+    if (s.has("data")) spec.data_dir = s.string("data");
+    if (spec.preset.empty() == spec.data_dir.empty())
+      throw std::invalid_argument(where + ": give exactly one of \"preset\" and \"data\"");
+    if (s.has("flight_s")) spec.flight_s = s.number("flight_s");
+    if (s.has("grade")) spec.grade = s.string("grade");
+    if (s.has("data_seed")) spec.data_seed = static_cast<std::uint64_t>(whole(s.number("data_seed"), where + ".data_seed"));
+    if (s.has("set")) {
+      for (const auto& item : s.at("set").items()) {
+        effect_info(item.key());
+        if (!item.value().is_number())
+          throw std::invalid_argument(where + ".set." + item.key() + " must be a number (SI)");
+        spec.set[item.key()] = item.value().get<double>();
+      }
+    }
+    s.finish({"name", "preset", "data", "flight_s", "grade", "data_seed", "set"});
+    c.scenarios.push_back(spec);
+  }
+  for (std::size_t i = 0; i < r.array("algorithms").size(); ++i) {
+    const std::string where = origin + ": algorithms[" + std::to_string(i) + "]";
+    Reader a(j.at("algorithms")[i], where);
+    AlgorithmSpec spec;
+    spec.name = a.string("name");
+    spec.label = a.has("label") ? a.string("label") : spec.name;
+    if (a.has("parameters"))
+      for (const auto& item : a.at("parameters").items()) {
+        if (!item.value().is_number())
+          throw std::invalid_argument(where + ".parameters." + item.key() + " must be a number");
+        spec.parameters[item.key()] = item.value().get<double>();
+      }
+    a.finish({"name", "label", "parameters"});
+    c.algorithms.push_back(spec);
+  }
+  if (r.has("seeds")) {
+    const nlohmann::json& s = r.at("seeds");
+    if (s.is_number()) {
+      const int count = whole(s.get<double>(), origin + ": seeds");
+      if (count > 100000)
+        throw std::invalid_argument(origin + ": seeds = " + std::to_string(count) +
+                                    " is beyond the limit of 100000");
+      c.seeds = seed_range(count);
+    } else if (s.is_array()) {
+      for (std::size_t k = 0; k < s.size(); ++k) {
+        const std::string key = origin + ": seeds[" + std::to_string(k) + "]";
+        if (!s[k].is_number())
+          throw std::invalid_argument(key + " must be a whole number, got " + s[k].dump());
+        c.seeds.push_back(static_cast<std::uint64_t>(whole(s[k].get<double>(), key)));
+      }
+    } else {
+      throw std::invalid_argument(origin + ": \"seeds\" must be a count or a list of seeds");
+    }
+  } else {
+    c.seeds = seed_range(31);
+  }
+  if (r.has("max_iterations")) c.max_iterations = whole(r.number("max_iterations"), origin + ": max_iterations");
+  if (r.has("max_evaluations")) c.max_evaluations = whole(r.number("max_evaluations"), origin + ": max_evaluations");
+  if (r.has("alignment")) c.alignment = alignment_mode_from_string(r.string("alignment"));
+  if (r.has("estimate"))
+    for (const auto& e : r.array_of("estimate", "string")) c.estimate.push_back(e.get<std::string>());
+  if (r.has("record_positions_seeds")) c.record_positions_seeds = whole(r.number("record_positions_seeds"), origin + ": record_positions_seeds");
+  if (r.has("target_error_sigma")) c.target_error_sigma = r.array_of("target_error_sigma", "number").get<std::vector<double>>();
+  if (r.has("target_fitness_gap")) c.target_fitness_gap = r.array_of("target_fitness_gap", "number").get<std::vector<double>>();
+  r.finish({"name", "scenarios", "algorithms", "seeds", "max_iterations", "max_evaluations",
+            "alignment", "estimate", "record_positions_seeds", "target_error_sigma",
+            "target_fitness_gap"});
+  // Validation with the value named.
+  if (c.scenarios.empty()) throw std::invalid_argument(origin + ": no scenario");
+  if (c.algorithms.empty()) throw std::invalid_argument(origin + ": no algorithm");
+  if (c.seeds.empty()) throw std::invalid_argument(origin + ": no seed");
+  constexpr std::size_t kMaxSeeds = 100000;  // each seed is a run file per algorithm
+  if (c.seeds.size() > kMaxSeeds)
+    throw std::invalid_argument(origin + ": " + std::to_string(c.seeds.size()) +
+                                " seeds is beyond the limit of " + std::to_string(kMaxSeeds));
+  {
+    std::set<std::uint64_t> seen;
+    for (std::uint64_t seed : c.seeds)
+      if (!seen.insert(seed).second)
+        throw std::invalid_argument(origin + ": seed " + std::to_string(seed) +
+                                    " is listed twice in \"seeds\"");
+  }
+  if (c.max_iterations == 0 && c.max_evaluations == 0)
+    throw std::invalid_argument(origin + ": give max_iterations or max_evaluations (> 0)");
+  std::set<std::string> labels, names;
+  for (const AlgorithmSpec& a : c.algorithms) {
+    if (!labels.insert(a.label).second)
+      throw std::invalid_argument(origin + ": algorithm label '" + a.label + "' used twice");
+    opt::RunConfig probe;
+    opt::make_optimizer(a.name, opt::Bounds::unit_box(4), probe,
+                        opt::ParameterMap(a.parameters.begin(), a.parameters.end()));
+  }
+  for (const ScenarioSpec& s : c.scenarios)
+    if (!names.insert(s.name).second)
+      throw std::invalid_argument(origin + ": scenario name '" + s.name + "' used twice");
+  estimated_parameters(c);
+  return c;
+}
+
+std::vector<std::string> preset_campaign_names() {
+  return {"paper-fig9", "quick", "paper-plus-baselines"};
+}
+
+CampaignConfig preset_campaign(const std::string& name) {
+  nlohmann::json j;
+  const nlohmann::json table4 = nlohmann::json::array({
+      {{"label", "GA"}, {"name", "ga"}},
+      {{"label", "PSO"}, {"name", "pso"}},
+      {{"label", "PIO"}, {"name", "pio"}},
+      {{"label", "DVPIO"}, {"name", "dvpio"}},
+  });
+  if (name == "paper-fig9") {
+    // The paper scenario and the four algorithms with Table 4 settings (DESIGN.md sec. 2).
+    j = {{"name", "paper-fig9"},
+         {"scenarios", {{{"name", "paper"}, {"preset", "paper"}}}},
+         {"algorithms", table4},
+         {"seeds", 31},
+         {"max_iterations", 40}};
+  } else if (name == "quick") {
+    // A short rich flight at 10 Hz GNSS: minutes, for a quick look and the tests.
+    j = {{"name", "quick"},
+         {"scenarios", {{{"name", "rich-short"}, {"preset", "rich"}, {"flight_s", 900}}}},
+         {"algorithms", table4},
+         {"seeds", 3},
+         {"max_iterations", 10}};
+  } else if (name == "paper-plus-baselines") {
+    // Issue 8: the paper's four and the reference baselines at an equal budget of 400
+    // evaluations (the paper's 10 x 40), on the paper and rich scenarios; the EKF-RTS makes one
+    // pass plus one evaluation of its estimate (its cost in INS runs is in its parameters).
+    nlohmann::json algorithms = table4;
+    for (const auto& [label, algo] : std::vector<std::pair<std::string, std::string>>{
+             {"CMA-ES", "cmaes"}, {"DE", "de"}, {"compass", "compass"}, {"LM", "lm"},
+             {"BOBYQA", "bobyqa"}, {"Nelder-Mead", "neldermead"}, {"EKF-RTS", "ekf-rts"}})
+      algorithms.push_back({{"label", label}, {"name", algo}});
+    j = {{"name", "paper-plus-baselines"},
+         {"scenarios", {{{"name", "paper"}, {"preset", "paper"}}, {{"name", "rich"}, {"preset", "rich"}}}},
+         {"algorithms", algorithms},
+         {"seeds", 31},
+         {"max_iterations", 0},
+         {"max_evaluations", 400}};
+  } else {
+    throw std::invalid_argument("unknown campaign preset '" + name +
+                                "'; valid presets: paper-fig9, quick, paper-plus-baselines");
+  }
+  return parse_campaign(j, "preset " + name);
+}
+
+std::string run_file(const std::string& out_dir, const std::string& scenario,
+                     const std::string& label, std::uint64_t seed) {
+  return (fs::path(out_dir) / "runs" / checked_path_component(scenario, "scenario name") /
+          checked_path_component(label, "algorithm label") /
+          ("seed_" + std::to_string(seed) + ".json"))
+      .string();
+}
+
+std::string optimum_file(const std::string& out_dir, const std::string& scenario) {
+  return (fs::path(out_dir) / "optimum" / (checked_path_component(scenario, "scenario name") + ".json"))
+      .string();
+}
+
+Shard Shard::parse(const std::string& text) {
+  const auto slash = text.find('/');
+  auto number = [&](const std::string& part) {
+    if (part.empty() || part.size() > 6 ||
+        part.find_first_not_of("0123456789") != std::string::npos)
+      throw std::invalid_argument("--shard '" + text + "': expected i/N with whole numbers, e.g. 2/8");
+    return std::stoi(part);
+  };
+  if (slash == std::string::npos)
+    throw std::invalid_argument("--shard '" + text + "': expected i/N, e.g. 2/8");
+  Shard shard;
+  shard.index = number(text.substr(0, slash));
+  shard.count = number(text.substr(slash + 1));
+  if (shard.count < 1)
+    throw std::invalid_argument("--shard '" + text + "': the number of shards N must be >= 1");
+  if (shard.index < 1 || shard.index > shard.count)
+    throw std::invalid_argument("--shard '" + text + "': shard index " + std::to_string(shard.index) +
+                                " is out of range; it must be in 1.." + std::to_string(shard.count));
+  return shard;
+}
+
+CampaignConfig config_from_manifest(const nlohmann::json& manifest, const std::string& origin) {
+  if (!manifest.is_object() || !manifest.contains("config"))
+    throw std::runtime_error(origin + ": not a campaign manifest (no \"config\")");
+  if (manifest.value("schema", "") != kManifestSchema)
+    throw std::runtime_error(origin + ": schema is '" + manifest.value("schema", "") +
+                             "', expected '" + kManifestSchema + "'");
+  // The manifest holds the resolved config (CampaignConfig::to_json): the estimated parameters
+  // as objects, which parse_campaign takes as NAME:SIGMA:LO:HI specs.
+  nlohmann::json j = manifest.at("config");
+  nlohmann::json specs = nlohmann::json::array();
+  for (const nlohmann::json& p : j.value("estimate", nlohmann::json::array())) {
+    std::ostringstream spec;
+    spec << std::setprecision(17) << p.at("name").get<std::string>() << ":"
+         << p.at("sigma").get<double>() << ":" << p.at("lower_sigma").get<double>() << ":"
+         << p.at("upper_sigma").get<double>();
+    specs.push_back(spec.str());
+  }
+  j["estimate"] = specs;
+  const CampaignConfig config = parse_campaign(j, origin + " config");
+  const nlohmann::json config_json = config.to_json();
+  const std::string diff = config_difference(manifest.at("config"), config_json);
+  if (!diff.empty())
+    throw std::runtime_error(origin + ": the config does not read back identically (first "
+                             "difference at " + diff + ")");
+  return config;
+}
+
+}  // namespace insid::campaign

@@ -1,0 +1,101 @@
+// A campaign's configuration: scenarios x algorithms x seeds and the budgets, read from JSON
+// (results/README.md documents the keys) or a preset, written back as the manifest's resolved
+// "config", compared with an existing directory's (config_difference), and split into shards.
+// Nothing here runs anything: bench/lockstep_runner.h runs, bench/campaign.h orchestrates.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "core/fitness.h"
+#include "identification/ins_problem.h"
+
+namespace insid::campaign {
+
+/// Schemas of a campaign directory's manifest.json and run files.
+inline constexpr const char* kManifestSchema = "insid-campaign/1";
+inline constexpr const char* kRunSchema = "insid-run/1";
+
+struct ScenarioSpec {
+  std::string name;
+  std::string preset;          ///< simulate this preset (or...)
+  std::string data_dir;        ///< ...load this dataset directory
+  std::optional<double> flight_s;
+  std::optional<std::string> grade;
+  std::uint64_t data_seed = 1;
+  std::map<std::string, double> set;  ///< extra injected effects (SI), on top of the preset's
+};
+
+struct AlgorithmSpec {
+  std::string label;  ///< unique within the campaign (directory name)
+  std::string name;   ///< ga | pso | pio | dvpio
+  std::map<std::string, double> parameters;  ///< overrides (see `insid identify --param`)
+};
+
+struct CampaignConfig {
+  std::string name = "custom";
+  std::vector<ScenarioSpec> scenarios;
+  std::vector<AlgorithmSpec> algorithms;
+  std::vector<std::uint64_t> seeds;
+  int max_iterations = 40;
+  std::int64_t max_evaluations = 0;
+  AlignmentMode alignment = AlignmentMode::kPerCandidate;
+  std::vector<std::string> estimate;  ///< --estimate specs; empty = the paper's four
+  int record_positions_seeds = 1;     ///< record particle positions for the first k seeds
+  std::vector<double> target_error_sigma = {1.0, 0.3, 0.1};   ///< max |error vs optimum|
+  std::vector<double> target_fitness_gap = {1.0, 0.1, 0.01};  ///< (f - f_opt) / f_opt
+
+  /// Resolved config as JSON (the manifest's "config"; also what resume compares).
+  nlohmann::json to_json() const;
+};
+
+/// Parse a campaign JSON (documented keys; unknown keys rejected, naming the key and `origin`).
+CampaignConfig parse_campaign(const nlohmann::json& j, const std::string& origin);
+/// Presets: "paper-fig9" (the paper scenario, Table 4 GA/PSO/PIO/DVPIO), "quick" (a short
+/// flight for tests and a quick look).
+CampaignConfig preset_campaign(const std::string& name);
+std::vector<std::string> preset_campaign_names();
+/// Seeds 1..n.
+std::vector<std::uint64_t> seed_range(int n);
+
+/// The estimated parameters of a campaign (its --estimate specs, or the paper's four).
+std::vector<EstimatedParameter> estimated_parameters(const CampaignConfig& config);
+
+/// Where an existing directory's resolved config first differs from `new_config` ("" when it
+/// is the same campaign; else a path such as "config.algorithms[1].parameters.R"): what
+/// resume, shards, MPI launches and merge compare. Parameters an algorithm gained since the
+/// old config was written count as the same when the new config has them at their defaults.
+std::string config_difference(const nlohmann::json& old_config, const nlohmann::json& new_config);
+
+/// The campaign recorded in a manifest.json (its "config"), checked to round-trip exactly.
+CampaignConfig config_from_manifest(const nlohmann::json& manifest, const std::string& origin);
+
+/// Path of one run's file: DIR/runs/<scenario>/<label>/seed_<k>.json. The scenario name and
+/// label must be plain names (checked_path_component, core/output_dir.h): no write leaves DIR.
+std::string run_file(const std::string& out_dir, const std::string& scenario,
+                     const std::string& label, std::uint64_t seed);
+
+/// Path of a scenario's optimum file: DIR/optimum/<scenario>.json (the same check).
+std::string optimum_file(const std::string& out_dir, const std::string& scenario);
+
+/// A deterministic slice of a campaign, for batch schedulers without MPI (`--shard i/N`):
+/// shard i of N does the runs whose position in the campaign's run list (scenario, algorithm,
+/// seed in config order, counted from 0) has remainder i-1 when divided by N.
+struct Shard {
+  int index = 0;  ///< 1..count
+  int count = 0;  ///< 0: not sharded
+  bool active() const { return count > 0; }
+  bool contains(std::size_t run_position) const {
+    return !active() || static_cast<int>(run_position % static_cast<std::size_t>(count)) == index - 1;
+  }
+  std::string to_string() const { return std::to_string(index) + "/" + std::to_string(count); }
+  /// "i/N" with 1 <= i <= N; errors name the value.
+  static Shard parse(const std::string& text);
+};
+
+}  // namespace insid::campaign
