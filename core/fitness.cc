@@ -152,15 +152,19 @@ NavState NavigationProblem::initial_state(const Eigen::Matrix3d& C_b_n) const {
   return s;
 }
 
-double NavigationProblem::fitness(const SensorErrors& candidate, FitnessKind kind) const {
-  std::vector<double> r;
-  residuals(candidate, r);
+double fitness_from_residuals(std::span<const double> r, FitnessKind kind) {
   double sum = 0.0;
   for (std::size_t e = 0; e + 1 < r.size(); e += 2) {
     const double d2 = r[e] * r[e] + r[e + 1] * r[e + 1];
     sum += kind == FitnessKind::kEq15 ? std::sqrt(d2) : d2;  // Eq. 15
   }
   return sum;
+}
+
+double NavigationProblem::fitness(const SensorErrors& candidate, FitnessKind kind) const {
+  std::vector<double> r;
+  residuals(candidate, r);
+  return fitness_from_residuals(r, kind);
 }
 
 void NavigationProblem::residuals(const SensorErrors& candidate, std::vector<double>& r) const {

@@ -8,6 +8,7 @@
 #include <functional>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -29,6 +30,12 @@ std::string to_string(AlignmentMode mode);
 AlignmentMode alignment_mode_from_string(const std::string& text);
 
 enum class FitnessKind { kEq15, kSumSquares };
+
+/// The fitness of a residual vector r = (dvE_0, dvN_0, dvE_1, dvN_1, ...) (m/s), as
+/// NavigationProblem::residuals orders it: Eq. 15, sum_t sqrt(dvE_t^2 + dvN_t^2), or the sum of
+/// squares. The one implementation of the sum (NavigationProblem::fitness and the
+/// identification problem's residual path both call it, so their results are bit-identical).
+double fitness_from_residuals(std::span<const double> r, FitnessKind kind = FitnessKind::kEq15);
 
 struct NavigationOptions {
   AlignmentMode alignment = AlignmentMode::kPerCandidate;

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <memory>
 #include <random>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -93,6 +94,20 @@ TEST(Fitness, HandComputedConstructedCase) {
   EXPECT_NEAR(r[0], -0.3, 1e-8);
   EXPECT_NEAR(r[1], 0.4, 1e-8);
   EXPECT_NEAR(r[199], 0.4, 1e-8);
+}
+
+TEST(Fitness, OneSumOfResidualsForEq15AndSumOfSquares) {
+  // Hand-computed: epochs (3, 4) and (0, -1) m/s: Eq. 15 = 5 + 1, sum of squares = 25 + 1.
+  const std::vector<double> r = {3.0, 4.0, 0.0, -1.0};
+  EXPECT_EQ(fitness_from_residuals(r), 6.0);
+  EXPECT_EQ(fitness_from_residuals(r, FitnessKind::kSumSquares), 26.0);
+  EXPECT_EQ(fitness_from_residuals(std::vector<double>{}), 0.0);
+  // NavigationProblem::fitness is this sum of its residuals, bit for bit.
+  const NavigationProblem problem(static_dataset(paper_errors(), 700.0));
+  std::vector<double> residuals;
+  problem.residuals({}, residuals);
+  for (FitnessKind kind : {FitnessKind::kEq15, FitnessKind::kSumSquares})
+    EXPECT_EQ(problem.fitness({}, kind), fitness_from_residuals(residuals, kind));
 }
 
 TEST(Fitness, PerCandidateAlignmentDiffersFromFixed) {
