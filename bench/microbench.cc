@@ -1,7 +1,9 @@
 // insid-microbench: Google Benchmark micro-benchmarks of the fitness kernel (and, as they
 // arrive, the optimizers' own overhead). Run: build/bench/insid-microbench
 //   --benchmark_out=results/perf/microbench.json --benchmark_out_format=json
+#include <map>
 #include <memory>
+#include <mutex>
 #include <vector>
 
 #include <benchmark/benchmark.h>
@@ -88,6 +90,45 @@ BENCHMARK(BM_FitnessBatched)
     ->MinTime(2.0)
     ->UseRealTime();
 
+// The windowed fitness (issue 14) next to the one-run fitness in the same run: the same hour of
+// data and candidates, state.range(2) = W in seconds (0 = one run). The restarts (one per W of
+// data, shared by all lanes) must keep the kernel's lock-step speed.
+std::shared_ptr<const NavigationProblem> one_hour_problem_windowed(int window_s) {
+  static std::mutex mutex;
+  static std::map<int, std::shared_ptr<const NavigationProblem>> problems;
+  std::lock_guard<std::mutex> lock(mutex);
+  auto& problem = problems[window_s];
+  if (!problem) {
+    NavigationOptions options;
+    options.window_s = window_s;
+    problem = std::make_shared<const NavigationProblem>(one_hour_dataset(), options);
+  }
+  return problem;
+}
+
+void BM_FitnessBatchedWindowed(benchmark::State& state) {
+  const int k = static_cast<int>(state.range(0));
+  const int threads = static_cast<int>(state.range(1));
+  const auto problem = one_hour_problem_windowed(static_cast<int>(state.range(2)));
+  const auto kernel = BatchFitness::shared(problem);
+  const std::vector<SensorErrors> c = candidates(k);
+  std::vector<double> f;
+  for (auto _ : state) {
+    f = kernel->fitness(c, FitnessKind::kEq15, threads);
+    benchmark::DoNotOptimize(f.data());
+  }
+  set_counters(state, static_cast<double>(k) * static_cast<double>(problem->num_steps()));
+  state.counters["threads"] = threads;
+  state.counters["windows"] = static_cast<double>(problem->num_windows());
+}
+BENCHMARK(BM_FitnessBatchedWindowed)
+    ->ArgNames({"K", "threads", "W"})
+    ->ArgsProduct({{16, 32}, {1, 2}, {0, 10, 60}})
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(0.5)
+    ->Repetitions(5)
+    ->ReportAggregatesOnly(true)
+    ->UseRealTime();
 
 // The optimizers' own cost per generation (ask + tell), fitness excluded: a 4-D problem whose
 // fitness is a precomputed constant-time sphere, Table 4 settings. Shows the harness's overhead

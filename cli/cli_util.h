@@ -32,6 +32,13 @@ inline constexpr long long kMaxSeeds = 100000;
 inline constexpr double kMaxFlightS = 86400.0;
 /// Most threads.
 inline constexpr long long kMaxThreads = 4096;
+/// Longest fitness window (s) for --window-s (a day of flight; longer = one run anyway).
+inline constexpr double kMaxWindowS = 1e9;
+/// --window-s help, shared by navigate, identify and diagnose.
+inline constexpr const char* kWindowHelp =
+    "windowed fitness: restart the INS from the GNSS position and velocity every W seconds "
+    "after the navigation start, attitude carried on, Eq. 15 summed over the windows (0 = one "
+    "pure-INS run over the whole flight, the paper's; W must be at least one GNSS period)";
 
 /// Parse "NAME=VALUE" items (catalogue names, SI values). `option` names the flag in errors.
 std::map<std::string, double> parse_effect_assignments(const std::vector<std::string>& items,

@@ -34,6 +34,7 @@ struct DiagnoseArgs {
   double alpha = 0.05;
   double observable_max_sigma = 30.0;
   std::string alignment = "per-candidate";
+  double window_s = 0.0;
   int threads = 0;
   bool quiet = false;
   bool no_plots = false;
@@ -60,6 +61,7 @@ void run(const DiagnoseArgs& a) {
   o.alpha = a.alpha;
   o.observable_max_sigma = a.observable_max_sigma;
   o.alignment = alignment_mode_from_string(a.alignment);
+  o.window_s = a.window_s;
   o.threads = a.threads;
   o.progress = !a.quiet;
   diagnose::DiagnoseResult res = diagnose::run_diagnose(dataset, o);
@@ -144,6 +146,9 @@ void add_diagnose_command(CLI::App& app) {
       ->capture_default_str()
       ->check(number_in(1e-9, 1e9));
   cmd->add_option("--alignment", a->alignment, "per-candidate | fixed")->capture_default_str();
+  cmd->add_option("--window-s", a->window_s, kWindowHelp)
+      ->capture_default_str()
+      ->check(number_in(0.0, kMaxWindowS));
   cmd->add_option("--threads", a->threads, "OpenMP threads (0 = all)")->capture_default_str()
       ->check(whole_in(0, kMaxThreads));
   cmd->add_flag("--quiet", a->quiet, "no progress on stderr");

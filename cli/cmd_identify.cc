@@ -32,6 +32,7 @@ struct IdentifyArgs {
   int iterations = 40;
   std::int64_t evaluations = 0;
   std::string alignment = "per-candidate";
+  double window_s = 0.0;
   int threads = 0;
   bool no_reference = false;
   bool positions = false;
@@ -42,6 +43,7 @@ void run_identify(const IdentifyArgs& args) {
   auto dataset = std::make_shared<const Dataset>(load_dataset(args.data_dir));
   NavigationOptions nav_options;
   nav_options.alignment = alignment_mode_from_string(args.alignment);
+  nav_options.window_s = args.window_s;
   auto navigation = std::make_shared<const NavigationProblem>(dataset, nav_options);
 
   std::vector<EstimatedParameter> estimated;
@@ -80,6 +82,7 @@ void run_identify(const IdentifyArgs& args) {
   out["build"] = build_info_json();
   out["data"] = args.data_dir;
   out["alignment"] = to_string(nav_options.alignment);
+  out["window_s"] = nav_options.window_s;
   out["fitness_kind"] = "eq15";
   for (const EstimatedParameter& p : estimated)
     out["estimated"].push_back({{"name", p.name}, {"sigma", p.sigma},
@@ -146,6 +149,9 @@ void add_identify_command(CLI::App& app) {
       ->capture_default_str()
       ->check(whole_in(0, 1000000000));
   cmd->add_option("--alignment", args->alignment, "per-candidate | fixed")->capture_default_str();
+  cmd->add_option("--window-s", args->window_s, kWindowHelp)
+      ->capture_default_str()
+      ->check(number_in(0.0, kMaxWindowS));
   cmd->add_option("--threads", args->threads, "OpenMP threads (0 = all, 1 = serial)")
       ->capture_default_str()
       ->check(whole_in(0, kMaxThreads));

@@ -26,6 +26,7 @@ struct NavigateArgs {
   std::vector<std::string> compensate;
   std::string initial_attitude = "align";
   std::string alignment = "per-candidate";
+  double window_s = 0.0;
   std::string out_csv;
   std::string summary_path;
 };
@@ -77,6 +78,7 @@ void run_navigate(const NavigateArgs& args) {
       errors_from_map(parse_effect_assignments(args.compensate, "--compensate"));
   NavigationOptions options;
   options.alignment = alignment_mode_from_string(args.alignment);
+  options.window_s = args.window_s;
   const NavigationProblem problem(dataset, options);
 
   std::optional<Eigen::Matrix3d> C_b_n_override;
@@ -102,6 +104,8 @@ void run_navigate(const NavigateArgs& args) {
   nlohmann::json summary;
   summary["data"] = args.data_dir;
   summary["alignment"] = to_string(options.alignment);
+  summary["window_s"] = options.window_s;
+  summary["windows"] = problem.num_windows();
   summary["initial_attitude"] = args.initial_attitude;
   summary["compensate"] = nonzero_effects(candidate);
   summary["nav_start_t_s"] = problem.nav_start_t_s();
@@ -175,6 +179,9 @@ void add_navigate_command(CLI::App& app) {
                   "align (from the data) | truth (truth.csv or meta.json initial)")
       ->capture_default_str();
   cmd->add_option("--alignment", args->alignment, "per-candidate | fixed")->capture_default_str();
+  cmd->add_option("--window-s", args->window_s, kWindowHelp)
+      ->capture_default_str()
+      ->check(number_in(0.0, kMaxWindowS));
   cmd->add_option("--out", args->out_csv, "navigation solution CSV (truth.csv columns)");
   cmd->add_option("--summary", args->summary_path, "summary JSON file (default: stdout)");
   cmd->callback([args] { run_navigate(*args); });

@@ -170,7 +170,10 @@ std::vector<BadInput> option_cases(const std::string& data) {
       {diag, "--replicas-calibration", {"0", "abc"}},
       {diag, "--alpha", {"nan", "0", "0.9", "abc"}},
       {diag, "--observable-max-sigma", {"nan", "-1", "inf"}},
-      {diag, "--threads", {"-1", "abc"}}};
+      {diag, "--threads", {"-1", "abc"}},
+      {"navigate --data " + data, "--window-s", {"-1", "nan", "inf", "abc"}},
+      {ident, "--window-s", {"-1", "nan", "abc"}},
+      {diag, "--window-s", {"-2", "inf"}}};
   for (const Option& o : options)
     for (const std::string& value : o.bad)
       cases.push_back({o.command + " " + o.option + " " + value, {o.option, value}});
@@ -182,6 +185,9 @@ std::vector<BadInput> option_cases(const std::string& data) {
   cases.push_back({sim + " --set gyro_bias_x=abc", {"--set", "gyro_bias_x"}});
   cases.push_back({sim + " --set nosuch=1", {"nosuch"}});
   cases.push_back({"navigate --data " + data + " --compensate accel_bias_x", {"--compensate", "NAME=VALUE"}});
+  // A window shorter than one GNSS period (10 Hz here) is refused by the problem, named.
+  cases.push_back({"navigate --data " + data + " --window-s 0.05",
+                   {"window_s = 0.05 s is shorter than one GNSS period (0.1 s"}});
   return cases;
 }
 
@@ -258,6 +264,25 @@ TEST_F(CliSafety, EveryBadOptionOrConfigValueIsRefusedUpFrontAndNamed) {
   EXPECT_FALSE(fs::exists(data_.string() + "-never"));
   std::printf("[ measured ] %d of %zu bad command lines and configs refused\n", refused,
               options.size() + configs.size());
+}
+
+// --window-s is recorded in navigate's summary and identify's result (issue 14).
+TEST_F(CliSafety, WindowLengthIsRecordedInEveryResult) {
+  const fs::path summary = root_ / "s.json", result = root_ / "r.json";
+  Outcome o = insid("navigate --data " + data_.string() + " --window-s 5 --summary " +
+                    summary.string());
+  ASSERT_EQ(o.status, 0) << o.output;
+  // 20 s flight after the 600 s alignment: restarts at 605, 610, 615 s.
+  EXPECT_NE(text(summary).find("\"window_s\": 5.0"), std::string::npos) << text(summary);
+  EXPECT_NE(text(summary).find("\"windows\": 4"), std::string::npos) << text(summary);
+  o = insid("navigate --data " + data_.string() + " --summary " + summary.string());
+  ASSERT_EQ(o.status, 0) << o.output;
+  EXPECT_NE(text(summary).find("\"window_s\": 0.0"), std::string::npos) << text(summary);
+  EXPECT_NE(text(summary).find("\"windows\": 1"), std::string::npos) << text(summary);
+  o = insid("identify --algo pso --iterations 1 --no-reference-optimum --data " + data_.string() +
+            " --window-s 5 --out " + result.string());
+  ASSERT_EQ(o.status, 0) << o.output;
+  EXPECT_NE(text(result).find("\"window_s\": 5.0"), std::string::npos);
 }
 
 // import/export: an export -> import round trip through the binary; a user directory as --out

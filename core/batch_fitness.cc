@@ -523,6 +523,11 @@ void run_group(const NavigationProblem& nav, const BatchFitness::Impl& im,
   auto previous_dt = [&](std::size_t k) {
     return k >= 2 ? imu[k - 1].t_s - imu[k - 2].t_s : 1.0 / ds.meta.imu_rate_hz;
   };
+  // Windowed fitness: the restarts, shared by all lanes (IMU epochs fixed by the problem).
+  const std::vector<WindowRestart>& restarts = nav.window_restarts();
+  std::size_t restart_cursor = 0;
+  std::int64_t next_restart =
+      restarts.empty() ? kNever : static_cast<std::int64_t>(restarts[0].imu_index);
   for (std::size_t k0 = nb; k0 < n; k0 += kBlock) {
     const int kb = static_cast<int>(std::min<std::size_t>(kBlock, n - k0));
 
@@ -729,28 +734,35 @@ void run_group(const NavigationProblem& nav, const BatchFitness::Impl& im,
 
       // Antenna velocity (lever arm) and the GNSS epochs of this step.
       const auto kk64 = static_cast<std::int64_t>(k);
+      const bool restart_here = kk64 == next_restart;
       PN vaE = vE, vaN = vN;
+      PN oex{}, oey{}, oez{};
+      // v_ant_n = v_eb_n + C_b_n (omega_ib_b x l_b) - omega_ie_n x (C_b_n l_b) of the lanes'
+      // current state, omega_ib_b extrapolated to the epoch (oex, oey, oez).
+      auto antenna = [&](PN& outE, PN& outN) __attribute__((always_inline)) {
+        const PN Tx = 2.0 * qx, Ty = 2.0 * qy, Tz = 2.0 * qz;
+        const PN Twx = Tx * qw, Twy = Ty * qw, Twz = Tz * qw;
+        const PN Txx = Tx * qx, Txy = Ty * qx, Txz = Tz * qx;
+        const PN Tyy = Ty * qy, Tyz = Tz * qy, Tzz = Tz * qz;
+        const PN C00 = 1.0 - (Tyy + Tzz), C01 = Txy - Twz, C02 = Txz + Twy;
+        const PN C10 = Txy + Twz, C11 = 1.0 - (Txx + Tzz), C12 = Tyz - Twx;
+        const PN C20 = Txz - Twy, C21 = Tyz + Twx, C22 = 1.0 - (Txx + Tyy);
+        const V3<N> wl = cross(oex, oey, oez, lx, ly, lz);
+        const PN bx = C00 * lx + C01 * ly + C02 * lz;
+        const PN by = C10 * lx + C11 * ly + C12 * lz;
+        const PN bz = C20 * lx + C21 * ly + C22 * lz;
+        const PN Oy = wie * ec, Oz = wie * es;  // Earth rate at the current latitude
+        outE = vE + (C00 * wl.x + C01 * wl.y + C02 * wl.z) - (Oy * bz - Oz * by);
+        outN = vN + (C10 * wl.x + C11 * wl.y + C12 * wl.z) - (Oz * bx);
+      };
       if constexpr (kLever) {
         const double inv_dt = 1.0 / dt;
         const PN omx = p.dthx * inv_dt, omy = p.dthy * inv_dt, omz = p.dthz * inv_dt;
-        if (next_step <= kk64 + 1) {
-          const PN oex = 1.5 * omx - 0.5 * ompx;
-          const PN oey = 1.5 * omy - 0.5 * ompy;
-          const PN oez = 1.5 * omz - 0.5 * ompz;
-          const PN Tx = 2.0 * qx, Ty = 2.0 * qy, Tz = 2.0 * qz;
-          const PN Twx = Tx * qw, Twy = Ty * qw, Twz = Tz * qw;
-          const PN Txx = Tx * qx, Txy = Ty * qx, Txz = Tz * qx;
-          const PN Tyy = Ty * qy, Tyz = Tz * qy, Tzz = Tz * qz;
-          const PN C00 = 1.0 - (Tyy + Tzz), C01 = Txy - Twz, C02 = Txz + Twy;
-          const PN C10 = Txy + Twz, C11 = 1.0 - (Txx + Tzz), C12 = Tyz - Twx;
-          const PN C20 = Txz - Twy, C21 = Tyz + Twx, C22 = 1.0 - (Txx + Tyy);
-          const V3<N> wl = cross(oex, oey, oez, lx, ly, lz);
-          const PN bx = C00 * lx + C01 * ly + C02 * lz;
-          const PN by = C10 * lx + C11 * ly + C12 * lz;
-          const PN bz = C20 * lx + C21 * ly + C22 * lz;
-          const PN Oy = wie * ec, Oz = wie * es;  // Earth rate at the new latitude
-          vaE = vE + (C00 * wl.x + C01 * wl.y + C02 * wl.z) - (Oy * bz - Oz * by);
-          vaN = vN + (C10 * wl.x + C11 * wl.y + C12 * wl.z) - (Oz * bx);
+        if (next_step <= kk64 + 1 || restart_here) {
+          oex = 1.5 * omx - 0.5 * ompx;
+          oey = 1.5 * omy - 0.5 * ompy;
+          oez = 1.5 * omz - 0.5 * ompz;
+          antenna(vaE, vaN);
         }
         ompx = omx, ompy = omy, ompz = omz;
       }
@@ -767,6 +779,29 @@ void run_group(const NavigationProblem& nav, const BatchFitness::Impl& im,
           emit(kk64, vaE, vaN);
         }
         next_step = next_event_step();
+      }
+      if (restart_here) {
+        // Windowed fitness (core/fitness.h): the epochs up to this step closed the window; the
+        // lanes restart as NavigationProblem::run does, from the GNSS solution at this epoch
+        // (shared by all lanes), attitude and coning/sculling memory carried on, previous state
+        // = restart state (no mid-point extrapolation: em = 0, vEp = vE, h_pv = h_old), Earth
+        // terms exact at the new latitude.
+        const WindowRestart& restart = restarts[restart_cursor++];
+        next_restart = restart_cursor < restarts.size()
+                           ? static_cast<std::int64_t>(restarts[restart_cursor].imu_index)
+                           : kNever;
+        lat = bcast<N>(restart.lat_rad);
+        vE = bcast<N>(restart.vE_mps);
+        vN = bcast<N>(restart.vN_mps);
+        vEp = vE;
+        vNp = vN;
+        em = bcast<N>(0.0);
+        h_pv = h_old;
+        vz_pv = vz_old;
+        anchor((k - nb) >> kRefShift);
+        vaE = vE;
+        vaN = vN;
+        if constexpr (kLever) antenna(vaE, vaN);
       }
       vaEp = vaE;
       vaNp = vaN;

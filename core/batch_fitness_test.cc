@@ -23,7 +23,8 @@ namespace {
 constexpr double kTolerance = 1e-9;  // relative, batched vs scalar
 
 std::shared_ptr<const NavigationProblem> scenario_problem(
-    const std::string& preset, AlignmentMode mode = AlignmentMode::kPerCandidate) {
+    const std::string& preset, AlignmentMode mode = AlignmentMode::kPerCandidate,
+    double window_s = 0.0) {
   static std::map<std::string, std::shared_ptr<const Dataset>> datasets;
   auto& ds = datasets[preset];
   if (!ds && preset == "rich-jittered") {
@@ -59,7 +60,10 @@ std::shared_ptr<const NavigationProblem> scenario_problem(
     cfg.flight_s = 600.0;
     ds = std::make_shared<const Dataset>(scenarios::simulate(cfg));
   }
-  return std::make_shared<const NavigationProblem>(ds, NavigationOptions{mode});
+  NavigationOptions options;
+  options.alignment = mode;
+  options.window_s = window_s;
+  return std::make_shared<const NavigationProblem>(ds, options);
 }
 
 // Random candidates in the paper's box, every few of them with the other catalogue effects:
@@ -261,6 +265,108 @@ TEST(BatchFitness, AFailingCandidateIsReportedAndTheOthersScored) {
   }
   request.errors = {};
   EXPECT_THROW(kernel.evaluate(request), std::invalid_argument);
+}
+
+// ----- windowed fitness (issue 14) --------------------------------------------------------------
+
+// The random candidates plus a few far outside the paper's box (MEMS-like: 0.5 deg/s gyro,
+// 20 mg accelerometer biases), whose one-run navigation drifts by kilometres: their restarts
+// jump far, so a restart that the kernel does differently from the reference shows.
+std::vector<SensorErrors> windowed_candidates(int n, unsigned seed) {
+  std::vector<SensorErrors> out = random_candidates(n, seed);
+  std::mt19937_64 rng(seed + 1);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (std::size_t i = 0; i < out.size(); i += 4) {
+    out[i].gyro.bias.x() = u(rng) * 0.5 * kDegToRad;
+    out[i].gyro.bias.y() = u(rng) * 0.5 * kDegToRad;
+    out[i].accel.bias.x() = u(rng) * 0.2;
+    out[i].accel.bias.y() = u(rng) * 0.2;
+  }
+  return out;
+}
+
+TEST(BatchFitnessWindowed, KernelMatchesTheReferenceForSeveralWindowsAndBatchSizes) {
+  // GIVEN the rich flight (turns, 10 Hz GNSS) and windows from one GNSS period to longer than
+  // the flight; candidates of every kind (lever arm, latency of both signs, distortion) and a
+  // few MEMS-sized ones
+  const std::vector<SensorErrors> pool = windowed_candidates(33, 17);
+  for (double window_s : {0.1, 7.3, 60.0, 1e4}) {
+    const auto nav = scenario_problem("rich", AlignmentMode::kPerCandidate, window_s);
+    if (window_s < 1e3) {
+      ASSERT_GE(nav->window_restarts().size(), 600.0 / window_s - 2) << window_s;
+    } else {
+      ASSERT_TRUE(nav->window_restarts().empty());
+    }
+    const BatchFitness kernel(nav);
+    ASSERT_TRUE(kernel.supported()) << kernel.unsupported_reason();
+    std::vector<double> reference;
+    for (const SensorErrors& c : pool) reference.push_back(nav->fitness(c));
+    // WHEN batches of K = 1, 8, 13, 33 are scored on 1 and 2 threads
+    // THEN every candidate matches the scalar reference within the kernel's tolerance and is
+    // bit-identical across batch sizes and threads
+    double worst = 0.0;
+    for (int K : {1, 8, 13, 33})
+      for (int threads : {1, 2}) {
+        const std::vector<double> f =
+            batched(kernel, std::span<const SensorErrors>(pool).first(K), threads);
+        for (int i = 0; i < K; ++i) {
+          const double rel = relative_difference(f[i], reference[i]);
+          worst = std::max(worst, rel);
+          EXPECT_LE(rel, kTolerance) << "W=" << window_s << " K=" << K << " threads=" << threads
+                                     << " candidate " << i << ": " << f[i] << " vs "
+                                     << reference[i];
+          if (K == 33 && threads == 2) {
+            const std::vector<double> one = batched(kernel, std::span<const SensorErrors>(pool).subspan(i, 1), 1);
+            EXPECT_EQ(f[i], one[0]) << "W=" << window_s << " candidate " << i;
+          }
+        }
+      }
+    std::cout << "rich, window_s = " << window_s << ": " << nav->num_windows()
+              << " windows, worst relative difference " << worst << "\n";
+  }
+}
+
+TEST(BatchFitnessWindowed, ResidualsAndSumOfSquaresMatchTheReference) {
+  const std::vector<SensorErrors> pool = windowed_candidates(12, 23);
+  for (const char* preset : {"paper", "straight"}) {
+    const auto nav = scenario_problem(preset, AlignmentMode::kPerCandidate, 20.0);
+    ASSERT_GE(nav->window_restarts().size(), 25u);
+    const BatchFitness kernel(nav);
+    std::vector<std::vector<double>> r(pool.size());
+    std::vector<double> f(pool.size());
+    BatchFitness::Request request;
+    request.candidates = pool;
+    request.fitness = f;
+    request.kind = FitnessKind::kSumSquares;
+    request.residuals = r;
+    kernel.evaluate(request);
+    for (std::size_t i = 0; i < pool.size(); ++i) {
+      std::vector<double> ref;
+      nav->residuals(pool[i], ref);
+      ASSERT_EQ(r[i].size(), ref.size());
+      double scale = 0.0, diff = 0.0;
+      for (std::size_t j = 0; j < ref.size(); ++j) {
+        scale = std::max(scale, std::abs(ref[j]));
+        diff = std::max(diff, std::abs(r[i][j] - ref[j]));
+      }
+      EXPECT_LE(diff, 1e-9 * scale) << preset << " candidate " << i;
+      EXPECT_LE(relative_difference(f[i], nav->fitness(pool[i], FitnessKind::kSumSquares)),
+                kTolerance)
+          << preset << " candidate " << i;
+    }
+  }
+}
+
+TEST(BatchFitnessWindowed, NoRestartIsTheOneRunKernelBitForBit) {
+  // W = 0 and W longer than the flight: the same kernel results, bit for bit.
+  const std::vector<SensorErrors> pool = windowed_candidates(16, 29);
+  const BatchFitness zero(scenario_problem("rich", AlignmentMode::kPerCandidate, 0.0));
+  const BatchFitness longer(scenario_problem("rich", AlignmentMode::kPerCandidate, 5000.0));
+  EXPECT_EQ(batched(zero, pool, 2), batched(longer, pool, 2));
+  // and a window inside the flight changes them (the restarts are really done)
+  const BatchFitness inside(scenario_problem("rich", AlignmentMode::kPerCandidate, 100.0));
+  const std::vector<double> a = batched(zero, pool, 2), b = batched(inside, pool, 2);
+  for (std::size_t i = 0; i < pool.size(); ++i) EXPECT_NE(a[i], b[i]) << i;
 }
 
 }  // namespace

@@ -20,6 +20,16 @@ AlignmentMode alignment_mode_from_string(const std::string& text) {
                               "'");
 }
 
+void NavigationOptions::validate() const {
+  if (!std::isfinite(window_s) || window_s < 0.0) {
+    std::ostringstream text;
+    text << std::setprecision(12) << window_s;
+    throw std::invalid_argument("window_s = " + text.str() +
+                                " s: expected a finite number of seconds >= 0 (0 = one pure-INS "
+                                "run over the whole flight)");
+  }
+}
+
 GnssSample interpolate_gnss(const std::vector<GnssSample>& gnss, double t_s) {
   if (gnss.empty()) throw std::invalid_argument("interpolate_gnss: no GNSS data");
   if (t_s <= gnss.front().t_s) return gnss.front();
@@ -41,6 +51,7 @@ GnssSample interpolate_gnss(const std::vector<GnssSample>& gnss, double t_s) {
 NavigationProblem::NavigationProblem(std::shared_ptr<const Dataset> dataset,
                                      NavigationOptions options)
     : dataset_(std::move(dataset)), options_(options) {
+  options_.validate();
   if (!dataset_) throw std::invalid_argument("NavigationProblem: null dataset");
   const Dataset& ds = *dataset_;
   if (ds.imu.size() < 3 || ds.gnss.size() < 2)
@@ -103,6 +114,31 @@ NavigationProblem::NavigationProblem(std::shared_ptr<const Dataset> dataset,
   }
   if (epoch_gnss_index_.empty())
     throw std::invalid_argument("NavigationProblem: no GNSS epoch after the alignment window");
+
+  // Windowed fitness: the restart epochs (core/fitness.h, "Windowed fitness").
+  const double window_s = options_.window_s;
+  if (window_s > 0.0) {
+    const double gnss_period_s = 1.0 / ds.meta.gnss_rate_hz;
+    if (window_s < gnss_period_s - kTimeTol)
+      throw std::invalid_argument(
+          "window_s = " + seconds_text(window_s) + " s is shorter than one GNSS period (" +
+          seconds_text(gnss_period_s) + " s at gnss_rate_hz = " +
+          seconds_text(ds.meta.gnss_rate_hz) +
+          "): windows would hold no GNSS epoch; give window_s >= " + seconds_text(gnss_period_s) +
+          " s, or 0 for one run over the whole flight");
+    std::size_t k = nav_begin_ - 1;
+    for (double window = 1.0;; window += 1.0) {
+      const double t_nominal = t_nav0 + window * window_s;
+      if (!(t_nominal < t_last - kTimeTol)) break;  // no restart at or after the last epoch
+      const std::size_t k_before = k;
+      while (k + 1 < ds.imu.size() && ds.imu[k].t_s < t_nominal - kTimeTol) ++k;
+      if (k + 1 >= ds.imu.size()) break;
+      if (k == k_before) continue;  // this epoch is restarted at already
+      const GnssSample g = interpolate_gnss(ds.gnss, ds.imu[k].t_s);
+      restarts_.push_back({k, ds.imu[k].t_s, g.lat_rad, g.lon_rad, g.v_eb_n_mps.x(),
+                           g.v_eb_n_mps.y()});
+    }
+  }
 }
 
 double NavigationProblem::nav_start_t_s() const { return dataset_->imu[nav_begin_ - 1].t_s; }
@@ -152,15 +188,19 @@ NavState NavigationProblem::initial_state(const Eigen::Matrix3d& C_b_n) const {
   return s;
 }
 
-double NavigationProblem::fitness(const SensorErrors& candidate, FitnessKind kind) const {
-  std::vector<double> r;
-  residuals(candidate, r);
+double fitness_from_residuals(std::span<const double> r, FitnessKind kind) {
   double sum = 0.0;
   for (std::size_t e = 0; e + 1 < r.size(); e += 2) {
     const double d2 = r[e] * r[e] + r[e + 1] * r[e + 1];
     sum += kind == FitnessKind::kEq15 ? std::sqrt(d2) : d2;  // Eq. 15
   }
   return sum;
+}
+
+double NavigationProblem::fitness(const SensorErrors& candidate, FitnessKind kind) const {
+  std::vector<double> r;
+  residuals(candidate, r);
+  return fitness_from_residuals(r, kind);
 }
 
 void NavigationProblem::residuals(const SensorErrors& candidate, std::vector<double>& r) const {
@@ -244,6 +284,7 @@ void NavigationProblem::run(const SensorErrors& candidate,
   Eigen::Vector3d v_prev = antenna_velocity(ins.state(), omega_mid_prev);
   while (e < n_epochs && epoch_time(e) <= t_prev) emit(v_prev);  // clamped to the start
 
+  std::size_t next_restart = 0;  // windowed fitness: the next restart in restarts_
   for (std::size_t k = nav_begin_; k < ds.imu.size(); ++k) {
     ImuSample inc = ds.imu[k];
     compensator.compensate(inc.t_s, inc.t_s - ds.imu[k - 1].t_s, inc.dtheta_b_rad, inc.dv_b_mps);
@@ -251,7 +292,7 @@ void NavigationProblem::run(const SensorErrors& candidate,
     const NavState& s = ins.state();
     const Eigen::Vector3d omega_at_epoch = 1.5 * ins.omega_ib_b() - 0.5 * omega_mid_prev;
     omega_mid_prev = ins.omega_ib_b();
-    const Eigen::Vector3d v_now = antenna_velocity(s, omega_at_epoch);
+    Eigen::Vector3d v_now = antenna_velocity(s, omega_at_epoch);
     // INS velocity linearly interpolated to GNSS epochs inside (t_prev, t_k].
     while (e < n_epochs && epoch_time(e) <= s.t_s) {
       const double w = (epoch_time(e) - t_prev) / (s.t_s - t_prev);
@@ -259,6 +300,19 @@ void NavigationProblem::run(const SensorErrors& candidate,
     }
     if (on_step) on_step(s);
     t_prev = s.t_s;
+    if (next_restart < restarts_.size() && restarts_[next_restart].imu_index == k) {
+      // Windowed fitness: the epochs up to t_k closed the window; restart as at the navigation
+      // start (GNSS position and horizontal velocity, aided h and vU, attitude carried on, this
+      // compensated increment as the coning/sculling memory, previous state = restart state).
+      const WindowRestart& restart = restarts_[next_restart++];
+      NavState s0 = s;
+      s0.lat_rad = restart.lat_rad;
+      s0.lon_rad = restart.lon_rad;
+      s0.v_eb_n.x() = restart.vE_mps;
+      s0.v_eb_n.y() = restart.vN_mps;
+      ins = Strapdown(earth, s0, inc);
+      v_now = antenna_velocity(ins.state(), omega_at_epoch);
+    }
     v_prev = v_now;
   }
   while (e < n_epochs) emit(v_prev);  // epochs past the data end (latency > 0): clamped

@@ -3,11 +3,33 @@
 // the INS velocity with the GNSS velocity at GNSS epochs after the alignment window.
 //   fitness (Eq. 15) = sum_t sqrt(dvE_t^2 + dvN_t^2),
 // also offered: the sum of squares and the residual vector (dvE_t, dvN_t).
+//
+// Windowed fitness (issue 14; NavigationOptions::window_s = W > 0). On data whose pure-INS run
+// diverges within minutes (MEMS), the INS is restarted from the GNSS solution every W seconds so
+// that each residual holds only what the candidate's errors build in one window:
+//   - Restart j = 1, 2, ... happens after the IMU step k_j: the first IMU epoch at or after the
+//     nominal time t0 + j W (t0 = nav_start_t_s(), 1e-9 s tolerance), for every nominal time
+//     before the last IMU epoch (no restart after the last step). Nominal times that fall on an
+//     IMU epoch already restarted at are skipped, so every k_j is distinct and increasing.
+//   - The state after step k_j is replaced as at the navigation start: latitude, longitude and
+//     (vE, vN) from the GNSS solution interpolated to t_{k_j} (interpolate_gnss), height and vU
+//     the aided references (the GNSS ones, as at the start); the attitude and the previous
+//     compensated increment (coning/sculling memory) are carried on; the mid-point
+//     extrapolation restarts as at the start (previous state = restart state).
+//   - GNSS epoch e, compared at tau_e = t_e - gnss_latency, belongs to window j when
+//     t_{k_j} < tau_e <= t_{k_{j+1}} (k_0 = nav_begin() - 1; the epochs clamped to the start
+//     belong to window 0, those past the data end to the last window): an epoch at a restart
+//     epoch closes its window (is compared with the INS before the restart).
+//   - Eq. 15, the sum of squares and the residual vector (same layout, one entry pair per
+//     epoch) are therefore summed over all windows.
+//   - W shorter than one GNSS period (1 / gnss_rate_hz) is refused (windows without an epoch).
+//     W at or beyond the navigated span gives no restart: the result is bit-identical to W = 0.
 #pragma once
 
 #include <functional>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -30,8 +52,32 @@ AlignmentMode alignment_mode_from_string(const std::string& text);
 
 enum class FitnessKind { kEq15, kSumSquares };
 
+/// The fitness of a residual vector r = (dvE_0, dvN_0, dvE_1, dvN_1, ...) (m/s), as
+/// NavigationProblem::residuals orders it: Eq. 15, sum_t sqrt(dvE_t^2 + dvN_t^2), or the sum of
+/// squares. The one implementation of the sum (NavigationProblem::fitness and the
+/// identification problem's residual path both call it, so their results are bit-identical).
+double fitness_from_residuals(std::span<const double> r, FitnessKind kind = FitnessKind::kEq15);
+
 struct NavigationOptions {
   AlignmentMode alignment = AlignmentMode::kPerCandidate;
+  /// Windowed fitness (see the top of this file): 0 = one pure-INS run over the whole flight
+  /// (the paper's Eq. 15, the default); W > 0 = the INS restarted from GNSS position and
+  /// velocity every W seconds after the navigation start, attitude carried on (s).
+  double window_s = 0.0;
+  /// Throws std::invalid_argument naming the bad value: window_s must be finite and >= 0. (The
+  /// data-dependent check, W at least one GNSS period, is NavigationProblem's.)
+  void validate() const;
+};
+
+/// One INS restart of the windowed fitness: after IMU step `imu_index`, the position and
+/// horizontal velocity are replaced by the GNSS solution interpolated to that epoch.
+struct WindowRestart {
+  std::size_t imu_index = 0;  ///< index into Dataset::imu of the step the restart follows
+  double t_s = 0.0;           ///< its time (s)
+  double lat_rad = 0.0;       ///< GNSS latitude at t_s (rad)
+  double lon_rad = 0.0;       ///< GNSS longitude at t_s (rad)
+  double vE_mps = 0.0;        ///< GNSS east velocity at t_s (m/s)
+  double vN_mps = 0.0;        ///< GNSS north velocity at t_s (m/s)
 };
 
 /// Everything about one dataset that does not depend on the candidate, computed once:
@@ -57,6 +103,11 @@ class NavigationProblem {
   const std::vector<std::size_t>& epoch_gnss_indices() const { return epoch_gnss_index_; }
   /// Window sums of the alignment (count == 0 when align_s = 0).
   const AlignmentWindow& alignment_window() const { return window_; }
+  /// The restarts of the windowed fitness in time order (empty when window_s = 0 or W covers
+  /// the navigated span); read by the batched kernel too.
+  const std::vector<WindowRestart>& window_restarts() const { return restarts_; }
+  /// Number of fitness windows (1 + the restarts).
+  std::size_t num_windows() const { return restarts_.size() + 1; }
 
   /// Initial attitude the candidate would get from alignment (per options).
   Eigen::Matrix3d initial_attitude(const SensorErrors& candidate) const;
@@ -75,7 +126,8 @@ class NavigationProblem {
                                 const std::optional<Eigen::Matrix3d>& C_b_n_override = {}) const;
 
   /// Full run with callbacks (for `insid navigate` and diagnostics). `C_b_n_override` replaces
-  /// the aligned initial attitude (e.g. truth). `on_step` sees the state after every IMU step.
+  /// the aligned initial attitude (e.g. truth). `on_step` sees the state after every IMU step
+  /// (with window_s > 0, at a restart epoch the state before the restart).
   /// Returns the residual vector as `residuals` does.
   void run(const SensorErrors& candidate, const std::optional<Eigen::Matrix3d>& C_b_n_override,
            const std::function<void(const NavState&)>& on_step, std::vector<double>& r) const;
@@ -91,6 +143,7 @@ class NavigationProblem {
   std::vector<double> h_ref_m_;    // GNSS height interpolated at every IMU epoch
   std::vector<double> vU_ref_mps_;  // GNSS vertical velocity interpolated at every IMU epoch
   std::vector<std::size_t> epoch_gnss_index_;  // GNSS rows compared, in time order
+  std::vector<WindowRestart> restarts_;         // windowed fitness, in time order
 };
 
 /// Linear interpolation helper on GNSS rows: value at time t (clamped to the ends).

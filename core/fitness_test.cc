@@ -1,8 +1,11 @@
 #include "core/fitness.h"
 
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <random>
+#include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -95,6 +98,20 @@ TEST(Fitness, HandComputedConstructedCase) {
   EXPECT_NEAR(r[199], 0.4, 1e-8);
 }
 
+TEST(Fitness, OneSumOfResidualsForEq15AndSumOfSquares) {
+  // Hand-computed: epochs (3, 4) and (0, -1) m/s: Eq. 15 = 5 + 1, sum of squares = 25 + 1.
+  const std::vector<double> r = {3.0, 4.0, 0.0, -1.0};
+  EXPECT_EQ(fitness_from_residuals(r), 6.0);
+  EXPECT_EQ(fitness_from_residuals(r, FitnessKind::kSumSquares), 26.0);
+  EXPECT_EQ(fitness_from_residuals(std::vector<double>{}), 0.0);
+  // NavigationProblem::fitness is this sum of its residuals, bit for bit.
+  const NavigationProblem problem(static_dataset(paper_errors(), 700.0));
+  std::vector<double> residuals;
+  problem.residuals({}, residuals);
+  for (FitnessKind kind : {FitnessKind::kEq15, FitnessKind::kSumSquares})
+    EXPECT_EQ(problem.fitness({}, kind), fitness_from_residuals(residuals, kind));
+}
+
 TEST(Fitness, PerCandidateAlignmentDiffersFromFixed) {
   const auto ds = static_dataset(paper_errors());
   const NavigationProblem per(ds, {AlignmentMode::kPerCandidate});
@@ -127,6 +144,109 @@ TEST(Fitness, RejectsDataWithoutNavigationPart) {
   auto ds = static_dataset({}, 700.0);
   ds->meta.align_s = 700.0;
   EXPECT_THROW(NavigationProblem{ds}, std::invalid_argument);
+}
+
+// ----- windowed fitness (issue 14; core/fitness.h "Windowed fitness") --------------------------
+
+NavigationOptions windowed(double window_s, AlignmentMode mode = AlignmentMode::kPerCandidate) {
+  NavigationOptions options;
+  options.alignment = mode;
+  options.window_s = window_s;
+  return options;
+}
+
+TEST(WindowedFitness, BadWindowsAreRefusedNamingTheValue) {
+  const auto ds = static_dataset({}, 700.0);  // GNSS at 1 Hz
+  for (double bad : {-1.0, std::nan(""), std::numeric_limits<double>::infinity()}) {
+    try {
+      NavigationProblem problem(ds, windowed(bad));
+      ADD_FAILURE() << "window_s = " << bad << " accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("window_s = "), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(">= 0"), std::string::npos) << e.what();
+    }
+  }
+  // Shorter than one GNSS period (1 s here): windows without an epoch.
+  try {
+    NavigationProblem problem(ds, windowed(0.5));
+    ADD_FAILURE() << "window_s = 0.5 accepted at 1 Hz GNSS";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("window_s = 0.5 s is shorter than one GNSS period (1 s"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_NO_THROW(NavigationProblem(ds, windowed(1.0)));  // one period is enough
+}
+
+TEST(WindowedFitness, RestartEpochsFollowTheDocumentedRule) {
+  // 600 s alignment, navigation from t0 = 600 s to the last IMU epoch at 700 s, IMU at 100 Hz.
+  const auto ds = static_dataset({}, 700.0);
+  const NavigationProblem ten(ds, windowed(10.0));
+  // t0 + 10 j for j = 1..9 (t = 700 is the last epoch: no restart after the last step).
+  ASSERT_EQ(ten.window_restarts().size(), 9u);
+  EXPECT_EQ(ten.num_windows(), 10u);
+  for (std::size_t j = 0; j < 9; ++j) {
+    const WindowRestart& r = ten.window_restarts()[j];
+    EXPECT_NEAR(r.t_s, 610.0 + 10.0 * static_cast<double>(j), 1e-9) << j;
+    EXPECT_EQ(ds->imu[r.imu_index].t_s, r.t_s);
+  }
+  // 7.3 s: the first IMU epoch at or after 600 + 7.3 j (epochs every 10 ms fall on it).
+  const NavigationProblem odd(ds, windowed(7.3));
+  ASSERT_EQ(odd.window_restarts().size(), 13u);  // 607.3 ... 694.9
+  EXPECT_NEAR(odd.window_restarts().back().t_s, 694.9, 1e-9);
+  // Nothing to restart: W = 0, or W reaching the last epoch.
+  EXPECT_TRUE(NavigationProblem(ds, windowed(0.0)).window_restarts().empty());
+  EXPECT_TRUE(NavigationProblem(ds, windowed(100.0)).window_restarts().empty());
+  EXPECT_EQ(NavigationProblem(ds, windowed(99.0)).window_restarts().size(), 1u);
+}
+
+TEST(WindowedFitness, AWindowLongerThanTheFlightIsOneRunBitForBit) {
+  const auto ds = static_dataset(paper_errors(), 900.0);
+  for (AlignmentMode mode : {AlignmentMode::kPerCandidate, AlignmentMode::kFixed}) {
+    const NavigationProblem one(ds, windowed(0.0, mode)), longer(ds, windowed(1e6, mode));
+    std::vector<double> r_one, r_longer;
+    one.residuals({}, r_one);
+    longer.residuals({}, r_longer);
+    EXPECT_EQ(r_one, r_longer);
+    EXPECT_EQ(one.fitness({}), longer.fitness({}));
+    EXPECT_EQ(one.fitness({}, FitnessKind::kSumSquares),
+              longer.fitness({}, FitnessKind::kSumSquares));
+  }
+}
+
+TEST(WindowedFitness, ARestartResetsPositionAndVelocity) {
+  // GIVEN clean static data aligned once as recorded (the attitude is the true one) and a
+  // candidate that compensates an accelerometer bias the IMU does not have (5 mg on x, -3 mg on
+  // y): its horizontal velocity error grows as b t (Schuler: 84 min period, far longer).
+  const auto ds = static_dataset({}, 1200.0);  // 600 s navigated, GNSS at 1 Hz
+  SensorErrors candidate;
+  candidate.accel.bias.x() = 0.05;
+  candidate.accel.bias.y() = -0.03;
+  const double b = std::hypot(0.05, -0.03);
+  const double window_s = 10.0;
+  const NavigationProblem one(ds, windowed(0.0, AlignmentMode::kFixed));
+  const NavigationProblem win(ds, windowed(window_s, AlignmentMode::kFixed));
+  std::vector<double> r_one, r_win;
+  one.residuals(candidate, r_one);
+  win.residuals(candidate, r_win);
+  ASSERT_EQ(r_one.size(), r_win.size());
+  double max_one = 0.0, max_win = 0.0, last_win = 0.0;
+  for (std::size_t e = 0; e < one.num_epochs(); ++e) {
+    max_one = std::max(max_one, std::hypot(r_one[2 * e], r_one[2 * e + 1]));
+    max_win = std::max(max_win, std::hypot(r_win[2 * e], r_win[2 * e + 1]));
+  }
+  last_win = std::hypot(r_win[r_win.size() - 2], r_win.back());
+  // THEN windowed, every residual stays within what the bias builds in one window (b W, within
+  // 2 %: the tilt the velocity error makes through the transport rate is tiny over 10 s), and
+  // a window's last epoch shows it in full; in one run the error keeps growing (b * 600 s).
+  EXPECT_LE(max_win, 1.02 * b * window_s);
+  EXPECT_GE(last_win, 0.98 * b * window_s);
+  EXPECT_GE(max_one, 30.0 * b * window_s);
+  // The epoch right after a restart (1 s into its window) holds only that second's error.
+  const std::size_t after = 10;  // epoch at t = 611 s, window from 610 s
+  EXPECT_NEAR(std::hypot(r_win[2 * after], r_win[2 * after + 1]), b * 1.0, 0.02 * b);
+  // The windowed fitness is far smaller than the one-run fitness.
+  EXPECT_LT(win.fitness(candidate), 0.1 * one.fitness(candidate));
 }
 
 }  // namespace

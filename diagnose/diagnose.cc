@@ -381,6 +381,9 @@ std::string DiagnoseOptions::validate() const {
         real("collinear_threshold", collinear_threshold, 1e-9, 1.0),
         real("observable_max_sigma", observable_max_sigma, 1e-9, 1e9)})
     if (!error.empty()) return error;
+  if (!std::isfinite(window_s) || window_s < 0.0)
+    return "DiagnoseOptions.window_s = " + opt::format_number(window_s) +
+           ": must be a finite number of seconds >= 0 (0 = one pure-INS run)";
   return "";
 }
 
@@ -392,6 +395,7 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
   const int threads = options.threads > 0 ? options.threads : omp_get_max_threads();
   NavigationOptions nav_options;
   nav_options.alignment = options.alignment;
+  nav_options.window_s = options.window_s;
   auto nav = std::make_shared<const NavigationProblem>(dataset, nav_options);
   opt::EvaluatorOptions evaluator;
   evaluator.parallelism = threads == 1 ? opt::Parallelism::kSerial : opt::Parallelism::kOpenMP;
@@ -422,6 +426,7 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
   report["format"] = "insid-diagnose/1";
   report["build"] = build_info_json();
   report["alignment"] = to_string(options.alignment);
+  report["window_s"] = options.window_s;
   report["seed"] = options.seed;
   report["num_epochs"] = nav->num_epochs();
   report["nav_start_t_s"] = nav->nav_start_t_s();

@@ -35,6 +35,9 @@ struct DiagnoseOptions {
   int max_effects = 3;
   std::uint64_t seed = 1;
   AlignmentMode alignment = AlignmentMode::kPerCandidate;
+  /// Windowed fitness (NavigationOptions::window_s, core/fitness.h): 0 = one pure-INS run over
+  /// the whole flight; W > 0 = the INS restarted from GNSS every W seconds (s).
+  double window_s = 0.0;
   std::string algorithm = "dvpio";       ///< optimizer for the base fit ("none": LM only)
   int optimizer_iterations = 20;         ///< the optimizer's population is its preset's
   int replicas_basis = 40;               ///< replicas building the working covariance

@@ -66,6 +66,12 @@ TEST(Options, EveryBadFieldIsNamedNothingIsClamped) {
   EXPECT_NE(error([](DiagnoseOptions& o) { o.collinear_threshold = 1.5; }).find("collinear_threshold"),
             std::string::npos);
   EXPECT_NE(error([](DiagnoseOptions& o) { o.threads = -1; }).find("threads = -1"), std::string::npos);
+  EXPECT_EQ(error([](DiagnoseOptions& o) { o.window_s = -2.0; }),
+            "DiagnoseOptions.window_s = -2: must be a finite number of seconds >= 0 (0 = one "
+            "pure-INS run)");
+  EXPECT_NE(error([](DiagnoseOptions& o) { o.window_s = std::nan(""); }).find("window_s = nan"),
+            std::string::npos);
+  EXPECT_EQ(error([](DiagnoseOptions& o) { o.window_s = 30.0; }), "");
 }
 
 TEST(NoiseModel, EstimatesNavGradeLevelsFromTheAlignmentWindow) {

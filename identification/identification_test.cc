@@ -135,6 +135,23 @@ TEST(Identification, NonFiniteFitnessNamesTheCandidateInSiAndWhereItsNavigationB
   }
 }
 
+TEST(Identification, ScalarResidualPathScoresAsTheFitnessBitForBit) {
+  // The least-squares path (residuals + their sum) and the fitness path give the same bits, for
+  // both fitness kinds (one sum of residuals, core/fitness.h fitness_from_residuals).
+  const ParameterMapping m(EstimatedParameter::paper_four());
+  const std::vector<Eigen::VectorXd> xs = {Eigen::Vector4d(-0.5, 0.4, 0.5, -0.4),
+                                           Eigen::Vector4d(0.1, -0.2, 0.3, 0.9)};
+  for (FitnessKind kind : {FitnessKind::kEq15, FitnessKind::kSumSquares}) {
+    const InsIdentificationProblem problem(static_problem(), m, kind, {},
+                                           FitnessEvaluator::kScalar);
+    std::vector<std::vector<double>> r(xs.size());
+    std::vector<double> f(xs.size());
+    problem.evaluate_residual_batch(xs, r, f);
+    for (std::size_t i = 0; i < xs.size(); ++i)
+      EXPECT_EQ(f[i], problem.navigation().fitness(m.to_errors(xs[i]), kind)) << i;
+  }
+}
+
 TEST(Identification, SerialAndOpenMpEvaluationAgreeBitForBit) {
   const ParameterMapping m(EstimatedParameter::paper_four());
   opt::EvaluatorOptions serial, parallel;

@@ -79,6 +79,9 @@ std::string cache_key(const std::string& data_dir, const InsIdentificationProble
   std::ostringstream key;
   key << "data_sha256=" << dataset_digest(data_dir);
   key << ";alignment=" << to_string(problem.navigation().options().alignment);
+  // The windowed fitness has its own optimum (W = 0 keeps the keys written before it existed).
+  if (problem.navigation().options().window_s > 0.0)
+    key << ";window_s=" << opt::format_number(problem.navigation().options().window_s);
   for (const EstimatedParameter& p : problem.mapping().parameters())
     key << ";" << p.name << ":" << opt::format_number(p.sigma) << ":"
         << opt::format_number(p.lower_sigma) << ":" << opt::format_number(p.upper_sigma);

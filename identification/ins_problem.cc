@@ -193,12 +193,7 @@ void InsIdentificationProblem::score(std::span<const Eigen::VectorXd> xs,
       // Candidate i writes only r_out[i]: safe under evaluate_each's OpenMP loop.
       std::vector<double>& r = r_out[static_cast<std::size_t>(&x - first)];
       navigation_->residuals(mapping_.to_errors(x), r);
-      double sum = 0.0;  // as NavigationProblem::fitness
-      for (std::size_t e = 0; e + 1 < r.size(); e += 2) {
-        const double d2 = r[e] * r[e] + r[e + 1] * r[e + 1];
-        sum += kind_ == FitnessKind::kEq15 ? std::sqrt(d2) : d2;
-      }
-      return sum;
+      return fitness_from_residuals(r, kind_);  // as NavigationProblem::fitness
     });
     return;
   }

@@ -1,0 +1,83 @@
+#include "identification/window_study.h"
+
+#include <cmath>
+#include <stdexcept>
+
+#include <Eigen/Cholesky>
+
+#include "core/rotation.h"
+#include "identification/local_fit.h"
+#include "scenarios/noise.h"
+#include "scenarios/scenario.h"
+
+namespace insid::window_study {
+
+Grade grade(const std::string& name) {
+  if (name == "mems") return {name, 0.1 * kDegToRad, 0.01 * 9.80665};
+  if (name == "nav") return {name, kSigmaGyroRadS, kSigmaAccelMps2};
+  throw std::invalid_argument("window study: grade must be 'mems' or 'nav', got '" + name + "'");
+}
+
+Eigen::VectorXd truth_sigma() { return Eigen::Vector4d(-2.0, 1.5, 2.0, -1.5); }
+
+ParameterMapping mapping(const Grade& g) {
+  std::vector<EstimatedParameter> p(4);
+  const char* names[] = {"accel_bias_x", "accel_bias_y", "gyro_bias_x", "gyro_bias_y"};
+  for (int k = 0; k < 4; ++k) {
+    p[static_cast<std::size_t>(k)].name = names[k];
+    p[static_cast<std::size_t>(k)].sigma = k < 2 ? g.sigma_accel_mps2 : g.sigma_gyro_rad_s;
+  }
+  return ParameterMapping(p);
+}
+
+std::shared_ptr<const Dataset> flight(const Grade& g, double flight_s, std::uint64_t seed) {
+  scenarios::ScenarioConfig cfg = scenarios::preset_scenario("rich");
+  cfg.flight_s = flight_s;
+  cfg.noise = scenarios::noise_grade(g.name);
+  cfg.seed = seed;
+  cfg.injected = SensorErrors{};
+  Dataset ds = scenarios::simulate(cfg);
+  // The biases after the alignment window (m = true + noise + b dt: the order of bias and white
+  // noise does not matter).
+  const SensorErrors injected = mapping(g).to_errors(mapping(g).from_sigma(truth_sigma()));
+  for (std::size_t k = 1; k < ds.imu.size(); ++k) {
+    ImuSample& s = ds.imu[k];
+    if (s.t_s <= ds.meta.align_s + 1e-9) continue;
+    apply_imu_errors(injected, s.t_s, s.t_s - ds.imu[k - 1].t_s, s.dtheta_b_rad, s.dv_b_mps);
+  }
+  ds.meta.injected = nonzero_effects(injected);
+  return std::make_shared<const Dataset>(std::move(ds));
+}
+
+WindowFit fit_window(const std::shared_ptr<const Dataset>& data, const Grade& g, double window_s,
+                     int threads) {
+  NavigationOptions options;
+  options.alignment = AlignmentMode::kFixed;
+  options.window_s = window_s;
+  auto nav = std::make_shared<const NavigationProblem>(data, options);
+  opt::EvaluatorOptions evaluator;
+  evaluator.parallelism = threads == 1 ? opt::Parallelism::kSerial : opt::Parallelism::kOpenMP;
+  evaluator.num_threads = threads;
+  const ParameterMapping m = mapping(g);
+  const InsIdentificationProblem problem(nav, m, FitnessKind::kEq15, evaluator);
+
+  WindowFit out;
+  out.window_s = window_s;
+  out.windows = nav->num_windows();
+  const LocalFitResult at_truth = local_fit(problem, m.from_sigma(truth_sigma()));
+  const LocalFitResult at_centre = local_fit(problem, Eigen::VectorXd::Zero(m.dimension()));
+  out.optimum_sigma = at_truth.value_sigma;
+  out.from_centre_sigma = at_centre.value_sigma;
+  out.fitness_optimum = at_truth.fitness;
+  out.fitness_from_centre = at_centre.fitness;
+  // Gauss-Newton covariance at the optimum, residual variance from the fit.
+  const Eigen::MatrixXd& J = at_truth.jacobian_sigma;
+  const double dof = static_cast<double>(J.rows() - J.cols());
+  const double s2 = at_truth.sum_squares / std::max(dof, 1.0);
+  const Eigen::MatrixXd cov =
+      s2 * (J.transpose() * J).ldlt().solve(Eigen::MatrixXd::Identity(J.cols(), J.cols()));
+  out.gn_sd_sigma = cov.diagonal().cwiseMax(0.0).cwiseSqrt();
+  return out;
+}
+
+}  // namespace insid::window_study

@@ -1,0 +1,134 @@
+// insid-window-study: the windowed fitness's trade-off table (issue 14; results/window/).
+//   insid-window-study [--grades mems,nav] [--windows 5,10,20,40,80,0] [--seeds 3]
+//                      [--flight-s 300] [--threads 2] [--csv FILE]
+// For each grade, seed and window length W (0 = one run): the Eq. 15 optimum of the paper's four
+// biases found by a local fit started at the truth, the one started at the box centre, and the
+// Gauss-Newton sd at the optimum (identification/window_study.h). Prints a markdown table of the
+// medians over seeds (stdout) and writes every row to the CSV.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "identification/window_study.h"
+
+namespace {
+
+std::vector<std::string> split(const std::string& text) {
+  std::vector<std::string> out;
+  std::stringstream in(text);
+  for (std::string item; std::getline(in, item, ',');) out.push_back(item);
+  return out;
+}
+
+double number(const std::string& text, const std::string& option) {
+  std::size_t used = 0;
+  double value = 0.0;
+  try {
+    value = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != text.size() || !std::isfinite(value))
+    throw std::invalid_argument(option + ": expected a finite number, got '" + text + "'");
+  return value;
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace insid;
+  try {
+    std::vector<std::string> grades = {"mems", "nav"};
+    std::vector<double> windows = {5, 10, 20, 40, 80, 0};
+    int seeds = 3, threads = 2;
+    double flight_s = 300.0;
+    std::string csv_path;
+    for (int i = 1; i < argc; ++i) {
+      const std::string a = argv[i];
+      if (i + 1 >= argc) throw std::invalid_argument(a + ": missing value");
+      const std::string v = argv[++i];
+      if (a == "--grades") {
+        grades = split(v);
+      } else if (a == "--windows") {
+        windows.clear();
+        for (const std::string& w : split(v)) windows.push_back(number(w, a));
+      } else if (a == "--seeds") {
+        seeds = static_cast<int>(number(v, a));
+      } else if (a == "--flight-s") {
+        flight_s = number(v, a);
+      } else if (a == "--threads") {
+        threads = static_cast<int>(number(v, a));
+      } else if (a == "--csv") {
+        csv_path = v;
+      } else {
+        throw std::invalid_argument("unknown option " + a);
+      }
+    }
+    if (seeds < 1) throw std::invalid_argument("--seeds: at least 1");
+    std::ofstream csv;
+    if (!csv_path.empty()) {
+      csv.open(csv_path);
+      if (!csv) throw std::runtime_error("cannot write " + csv_path);
+      csv << "grade,seed,window_s,windows,fitness_optimum,fitness_from_centre";
+      for (const char* p : {"dAx", "dAy", "dDx", "dDy"})
+        csv << ",err_" << p << "_sigma,err_centre_" << p << "_sigma,gn_sd_" << p << "_sigma";
+      csv << "\n";
+    }
+    const Eigen::VectorXd truth = window_study::truth_sigma();
+    std::printf("| grade | W (s) | windows | GN sd dAx, dAy, dDx, dDy (sigma) | "
+                "|optimum - truth| dAx, dAy, dDx, dDy (sigma) | "
+                "|fit from centre - truth| max (sigma) |\n|---|---|---|---|---|---|\n");
+    for (const std::string& name : grades) {
+      const window_study::Grade g = window_study::grade(name);
+      std::vector<std::shared_ptr<const Dataset>> flights;
+      for (int s = 1; s <= seeds; ++s)
+        flights.push_back(window_study::flight(g, flight_s, static_cast<std::uint64_t>(s)));
+      for (double w : windows) {
+        std::vector<std::vector<double>> sd(4), err(4);
+        std::vector<double> centre_err;
+        std::size_t n_windows = 0;
+        for (int s = 1; s <= seeds; ++s) {
+          const window_study::WindowFit f =
+              window_study::fit_window(flights[static_cast<std::size_t>(s - 1)], g, w, threads);
+          n_windows = f.windows;
+          const Eigen::VectorXd e = f.optimum_sigma - truth;
+          const Eigen::VectorXd ec = f.from_centre_sigma - truth;
+          for (int k = 0; k < 4; ++k) {
+            sd[static_cast<std::size_t>(k)].push_back(f.gn_sd_sigma[k]);
+            err[static_cast<std::size_t>(k)].push_back(std::abs(e[k]));
+          }
+          centre_err.push_back(ec.cwiseAbs().maxCoeff());
+          if (csv) {
+            csv << name << "," << s << "," << w << "," << f.windows << "," << f.fitness_optimum
+                << "," << f.fitness_from_centre;
+            for (int k = 0; k < 4; ++k)
+              csv << "," << e[k] << "," << ec[k] << "," << f.gn_sd_sigma[k];
+            csv << "\n";
+          }
+          std::cerr << "insid-window-study: " << name << " seed " << s << " W " << w << " done\n";
+        }
+        std::printf("| %s | %g | %zu | %.3g, %.3g, %.3g, %.3g | %.3g, %.3g, %.3g, %.3g | %.3g |\n",
+                    name.c_str(), w, n_windows, median(sd[0]), median(sd[1]), median(sd[2]),
+                    median(sd[3]), median(err[0]), median(err[1]), median(err[2]),
+                    median(err[3]), median(centre_err));
+        std::fflush(stdout);
+      }
+    }
+  } catch (const std::exception& e) {
+    std::cerr << "insid-window-study: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}
