@@ -310,7 +310,7 @@ void NavigationProblem::run(const SensorErrors& candidate,
       s0.lon_rad = restart.lon_rad;
       s0.v_eb_n.x() = restart.vE_mps;
       s0.v_eb_n.y() = restart.vN_mps;
-      ins = Strapdown(earth, s0, inc);
+      ins = Strapdown(earth, s0, inc, inc.t_s - ds.imu[k - 1].t_s);
       v_now = antenna_velocity(ins.state(), omega_at_epoch);
     }
     v_prev = v_now;
