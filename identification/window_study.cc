@@ -7,6 +7,7 @@
 
 #include "core/rotation.h"
 #include "identification/local_fit.h"
+#include "optimizers/registry.h"
 #include "scenarios/noise.h"
 #include "scenarios/scenario.h"
 
@@ -50,7 +51,7 @@ std::shared_ptr<const Dataset> flight(const Grade& g, double flight_s, std::uint
 }
 
 WindowFit fit_window(const std::shared_ptr<const Dataset>& data, const Grade& g, double window_s,
-                     int threads) {
+                     int threads, std::uint64_t pso_seed) {
   NavigationOptions options;
   options.alignment = AlignmentMode::kFixed;
   options.window_s = window_s;
@@ -77,6 +78,11 @@ WindowFit fit_window(const std::shared_ptr<const Dataset>& data, const Grade& g,
   const Eigen::MatrixXd cov =
       s2 * (J.transpose() * J).ldlt().solve(Eigen::MatrixXd::Identity(J.cols(), J.cols()));
   out.gn_sd_sigma = cov.diagonal().cwiseMax(0.0).cwiseSqrt();
+  // A swarm on the same landscape at the paper's budget (global search, no local polish).
+  opt::RunConfig config;
+  config.seed = pso_seed;
+  config.max_iterations = 40;
+  out.pso_sigma = m.to_sigma(opt::optimize("pso", problem, config).best_x);
   return out;
 }
 

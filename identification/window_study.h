@@ -53,9 +53,11 @@ struct WindowFit {
                                      ///< sum of squares / (m - n) (white-residual assumption)
   double fitness_optimum = 0.0;      ///< Eq. 15 at optimum_sigma
   double fitness_from_centre = 0.0;  ///< Eq. 15 at from_centre_sigma
+  Eigen::VectorXd pso_sigma;         ///< PSO at the paper's budget (10 x 40, Table 4), best point
 };
-/// The fits for one window length (W = 0: one run) on the given flight.
+/// The fits for one window length (W = 0: one run) on the given flight; `pso_seed` seeds the
+/// PSO run.
 WindowFit fit_window(const std::shared_ptr<const Dataset>& data, const Grade& g, double window_s,
-                     int threads = 1);
+                     int threads = 1, std::uint64_t pso_seed = 1);
 
 }  // namespace insid::window_study
