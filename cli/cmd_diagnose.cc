@@ -9,6 +9,7 @@
 
 #include "cli/cli_util.h"
 #include "cli/commands.h"
+#include "cli/initial_attitude_cli.h"
 #include "core/dataset.h"
 #include "diagnose/diagnose.h"
 
@@ -34,6 +35,7 @@ struct DiagnoseArgs {
   double alpha = 0.05;
   double observable_max_sigma = 30.0;
   std::string alignment = "per-candidate";
+  InitialAttitudeArgs initial_attitude;
   int threads = 0;
   bool quiet = false;
   bool no_plots = false;
@@ -60,6 +62,7 @@ void run(const DiagnoseArgs& a) {
   o.alpha = a.alpha;
   o.observable_max_sigma = a.observable_max_sigma;
   o.alignment = alignment_mode_from_string(a.alignment);
+  o.initial_attitude = initial_attitude_options(a.initial_attitude);
   o.threads = a.threads;
   o.progress = !a.quiet;
   diagnose::DiagnoseResult res = diagnose::run_diagnose(dataset, o);
@@ -144,6 +147,7 @@ void add_diagnose_command(CLI::App& app) {
       ->capture_default_str()
       ->check(number_in(1e-9, 1e9));
   cmd->add_option("--alignment", a->alignment, "per-candidate | fixed")->capture_default_str();
+  add_initial_attitude_options(cmd, a->initial_attitude);
   cmd->add_option("--threads", a->threads, "OpenMP threads (0 = all)")->capture_default_str()
       ->check(whole_in(0, kMaxThreads));
   cmd->add_flag("--quiet", a->quiet, "no progress on stderr");

@@ -392,6 +392,7 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
   const int threads = options.threads > 0 ? options.threads : omp_get_max_threads();
   NavigationOptions nav_options;
   nav_options.alignment = options.alignment;
+  nav_options.initial_attitude = options.initial_attitude;
   auto nav = std::make_shared<const NavigationProblem>(dataset, nav_options);
   opt::EvaluatorOptions evaluator;
   evaluator.parallelism = threads == 1 ? opt::Parallelism::kSerial : opt::Parallelism::kOpenMP;
@@ -422,6 +423,7 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
   report["format"] = "insid-diagnose/1";
   report["build"] = build_info_json();
   report["alignment"] = to_string(options.alignment);
+  report["initial_attitude"] = options.initial_attitude.describe();
   report["seed"] = options.seed;
   report["num_epochs"] = nav->num_epochs();
   report["nav_start_t_s"] = nav->nav_start_t_s();

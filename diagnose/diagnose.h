@@ -35,6 +35,7 @@ struct DiagnoseOptions {
   int max_effects = 3;
   std::uint64_t seed = 1;
   AlignmentMode alignment = AlignmentMode::kPerCandidate;
+  InitialAttitudeOptions initial_attitude;  ///< core/alignment.h (issue 14)
   std::string algorithm = "dvpio";       ///< optimizer for the base fit ("none": LM only)
   int optimizer_iterations = 20;         ///< the optimizer's population is its preset's
   int replicas_basis = 40;               ///< replicas building the working covariance

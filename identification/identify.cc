@@ -79,6 +79,10 @@ std::string cache_key(const std::string& data_dir, const InsIdentificationProble
   std::ostringstream key;
   key << "data_sha256=" << dataset_digest(data_dir);
   key << ";alignment=" << to_string(problem.navigation().options().alignment);
+  // (gyrocompass, the default, adds nothing: keys written before issue 14 stay valid)
+  const InitialAttitudeOptions& attitude = problem.navigation().options().initial_attitude;
+  if (attitude.mode != InitialAttitudeMode::kGyrocompass)
+    key << ";initial_attitude=" << attitude.describe();
   for (const EstimatedParameter& p : problem.mapping().parameters())
     key << ";" << p.name << ":" << opt::format_number(p.sigma) << ":"
         << opt::format_number(p.lower_sigma) << ":" << opt::format_number(p.upper_sigma);
