@@ -416,25 +416,36 @@ InitialAttitude::InitialAttitude(const Dataset& ds, const InitialAttitudeOptions
   }
 }
 
-double InitialAttitude::yaw_change_to(const CourseFix& fix,
-                                      const ImuCompensator& compensator) const {
+EulerAngles InitialAttitude::tilt_offset(const ImuCompensator& compensator) const {
   // The candidate's levelling, against the reference track's start.
   Eigen::Vector3d omega_ib_b = window_.sum_dtheta_b / window_.sum_dt_s;
   Eigen::Vector3d f_ib_b = window_.sum_dv_b / window_.sum_dt_s;
   compensator.compensate_mean(window_.mean_t_mid_s, omega_ib_b, f_ib_b);
   const EulerAngles tilt = euler_from_C_b_n(level_with_yaw(f_ib_b, 0.0));
-  const double droll = wrap_pi(tilt.roll_rad - reference_tilt_.roll_rad);
-  const double dpitch = tilt.pitch_rad - reference_tilt_.pitch_rad;
+  EulerAngles d;
+  d.roll_rad = wrap_pi(tilt.roll_rad - reference_tilt_.roll_rad);
+  d.pitch_rad = tilt.pitch_rad - reference_tilt_.pitch_rad;
+  return d;
+}
+
+double InitialAttitude::yaw_change_to(const CourseFix& fix, const ImuCompensator& compensator,
+                                      const EulerAngles& tilt_offset) const {
   return yaw_change_rad(fix.carry, compensator, earth_up_rate_rad_s_) +
-         fix.dyaw_droll0 * droll + fix.dyaw_dpitch0 * dpitch;
+         fix.dyaw_droll0 * tilt_offset.roll_rad + fix.dyaw_dpitch0 * tilt_offset.pitch_rad;
+}
+
+double InitialAttitude::yaw_change_to(const CourseFix& fix,
+                                      const ImuCompensator& compensator) const {
+  return yaw_change_to(fix, compensator, tilt_offset(compensator));
 }
 
 double InitialAttitude::level_heading_yaw_rad(const ImuCompensator& compensator) const {
   if (options_.heading_deg) return *options_.heading_deg * kDegToRad;
+  const EulerAngles offset = tilt_offset(compensator);
   // Circular mean of the courses carried back to the start: psi_0 = course - delta psi.
   double s = 0.0, c = 0.0;
   for (const CourseFix& fix : fixes_) {
-    const double psi0 = fix.course_rad - yaw_change_to(fix, compensator);
+    const double psi0 = fix.course_rad - yaw_change_to(fix, compensator, offset);
     s += std::sin(psi0);
     c += std::cos(psi0);
   }

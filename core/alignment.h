@@ -179,6 +179,9 @@ class InitialAttitude {
   InitialAttitudeOptions options_;
   AlignmentWindow window_;
   Eigen::Matrix3d C_b_n_fixed_ = Eigen::Matrix3d::Identity();  // given / truth
+  EulerAngles tilt_offset(const ImuCompensator& compensator) const;  // candidate - track start
+  double yaw_change_to(const CourseFix& fix, const ImuCompensator& compensator,
+                       const EulerAngles& tilt_offset) const;
   double earth_up_rate_rad_s_ = 0.0;
   EulerAngles reference_tilt_;  // roll/pitch where the reference track starts
   std::vector<CourseFix> fixes_;
