@@ -9,6 +9,7 @@
 
 #include "cli/cli_util.h"
 #include "cli/commands.h"
+#include "cli/initial_attitude_cli.h"
 #include "core/dataset.h"
 #include "diagnose/diagnose.h"
 
@@ -35,6 +36,7 @@ struct DiagnoseArgs {
   double observable_max_sigma = 30.0;
   std::string alignment = "per-candidate";
   double window_s = 0.0;
+  InitialAttitudeArgs initial_attitude;
   int threads = 0;
   bool quiet = false;
   bool no_plots = false;
@@ -62,6 +64,7 @@ void run(const DiagnoseArgs& a) {
   o.observable_max_sigma = a.observable_max_sigma;
   o.alignment = alignment_mode_from_string(a.alignment);
   o.window_s = a.window_s;
+  o.initial_attitude = initial_attitude_options(a.initial_attitude);
   o.threads = a.threads;
   o.progress = !a.quiet;
   diagnose::DiagnoseResult res = diagnose::run_diagnose(dataset, o);
@@ -149,6 +152,7 @@ void add_diagnose_command(CLI::App& app) {
   cmd->add_option("--window-s", a->window_s, kWindowHelp)
       ->capture_default_str()
       ->check(number_in(0.0, kMaxWindowS));
+  add_initial_attitude_options(cmd, a->initial_attitude);
   cmd->add_option("--threads", a->threads, "OpenMP threads (0 = all)")->capture_default_str()
       ->check(whole_in(0, kMaxThreads));
   cmd->add_flag("--quiet", a->quiet, "no progress on stderr");

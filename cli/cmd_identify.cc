@@ -1,5 +1,6 @@
 // insid identify: find the sensor errors of a dataset with GA / PSO / PIO / DVPIO or a reference
 // baseline (CMA-ES, DE, compass, LM, BOBYQA, Nelder-Mead, EKF-RTS).
+#include <algorithm>
 #include <charconv>
 #include <chrono>
 #include <cmath>
@@ -13,6 +14,7 @@
 
 #include "cli/cli_util.h"
 #include "cli/commands.h"
+#include "cli/initial_attitude_cli.h"
 #include "core/dataset.h"
 #include "core/fitness.h"
 #include "identification/ekf_rts.h"
@@ -33,6 +35,7 @@ struct IdentifyArgs {
   std::int64_t evaluations = 0;
   std::string alignment = "per-candidate";
   double window_s = 0.0;
+  InitialAttitudeArgs initial_attitude;
   int threads = 0;
   bool no_reference = false;
   bool positions = false;
@@ -41,14 +44,24 @@ struct IdentifyArgs {
 
 void run_identify(const IdentifyArgs& args) {
   auto dataset = std::make_shared<const Dataset>(load_dataset(args.data_dir));
-  NavigationOptions nav_options;
-  nav_options.alignment = alignment_mode_from_string(args.alignment);
-  nav_options.window_s = args.window_s;
-  auto navigation = std::make_shared<const NavigationProblem>(dataset, nav_options);
-
   std::vector<EstimatedParameter> estimated;
   for (const std::string& e : args.estimate) estimated.push_back(EstimatedParameter::parse(e));
   if (estimated.empty()) estimated = EstimatedParameter::paper_four();
+
+  NavigationOptions nav_options;
+  nav_options.alignment = alignment_mode_from_string(args.alignment);
+  nav_options.initial_attitude = initial_attitude_options(args.initial_attitude);
+  nav_options.window_s = args.window_s;
+  // The gyrocompass feasibility check meets the search box's gyro biases.
+  std::vector<std::string> names;
+  std::vector<double> max_abs_si;
+  for (const EstimatedParameter& p : estimated) {
+    names.push_back(p.name);
+    max_abs_si.push_back(std::max(std::abs(p.lower_sigma), std::abs(p.upper_sigma)) *
+                         std::abs(p.sigma));
+  }
+  nav_options.initial_attitude.gyro_bias_allowance_rad_s = gyro_bias_allowance(names, max_abs_si);
+  auto navigation = std::make_shared<const NavigationProblem>(dataset, nav_options);
   ParameterMapping mapping(estimated);
   opt::EvaluatorOptions evaluator;
   evaluator.parallelism = args.threads == 1 ? opt::Parallelism::kSerial : opt::Parallelism::kOpenMP;
@@ -83,6 +96,7 @@ void run_identify(const IdentifyArgs& args) {
   out["data"] = args.data_dir;
   out["alignment"] = to_string(nav_options.alignment);
   out["window_s"] = nav_options.window_s;
+  out["initial_attitude"] = initial_attitude_json(*navigation, mapping.to_errors(result.best_x));
   out["fitness_kind"] = "eq15";
   for (const EstimatedParameter& p : estimated)
     out["estimated"].push_back({{"name", p.name}, {"sigma", p.sigma},
@@ -152,6 +166,7 @@ void add_identify_command(CLI::App& app) {
   cmd->add_option("--window-s", args->window_s, kWindowHelp)
       ->capture_default_str()
       ->check(number_in(0.0, kMaxWindowS));
+  add_initial_attitude_options(cmd, args->initial_attitude);
   cmd->add_option("--threads", args->threads, "OpenMP threads (0 = all, 1 = serial)")
       ->capture_default_str()
       ->check(whole_in(0, kMaxThreads));

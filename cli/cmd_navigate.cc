@@ -13,6 +13,7 @@
 
 #include "cli/cli_util.h"
 #include "cli/commands.h"
+#include "cli/initial_attitude_cli.h"
 #include "core/dataset.h"
 #include "core/fitness.h"
 #include "core/rotation.h"
@@ -24,28 +25,12 @@ namespace {
 struct NavigateArgs {
   std::string data_dir;
   std::vector<std::string> compensate;
-  std::string initial_attitude = "align";
+  InitialAttitudeArgs initial_attitude;
   std::string alignment = "per-candidate";
   double window_s = 0.0;
   std::string out_csv;
   std::string summary_path;
 };
-
-// Truth attitude at the navigation start: truth.csv when present, else meta.json `initial`
-// (valid because the alignment window is static).
-Eigen::Matrix3d truth_attitude_at(const Dataset& ds, double t_s) {
-  if (!ds.truth.empty()) {
-    const TruthSample* best = &ds.truth.front();
-    for (const TruthSample& s : ds.truth)
-      if (std::abs(s.t_s - t_s) < std::abs(best->t_s - t_s)) best = &s;
-    return C_b_n_from_euler(best->attitude);
-  }
-  if (!ds.meta.initial_attitude_known)
-    throw std::invalid_argument(
-        "--initial-attitude truth: this dataset has no truth.csv and its meta.json gives no "
-        "initial attitude (measured data); use --initial-attitude align");
-  return C_b_n_from_euler(ds.meta.initial.attitude);
-}
 
 // A navigation that went non-finite is an error, never a result: name the first state that
 // did, the IMU line it came from, and the compensation applied.
@@ -79,14 +64,11 @@ void run_navigate(const NavigateArgs& args) {
   NavigationOptions options;
   options.alignment = alignment_mode_from_string(args.alignment);
   options.window_s = args.window_s;
+  options.initial_attitude = initial_attitude_options(args.initial_attitude);
   const NavigationProblem problem(dataset, options);
 
-  std::optional<Eigen::Matrix3d> C_b_n_override;
-  if (args.initial_attitude == "truth")
-    C_b_n_override = truth_attitude_at(*dataset, problem.nav_start_t_s());
-  else if (args.initial_attitude != "align")
-    throw std::invalid_argument("--initial-attitude must be 'align' or 'truth', got '" +
-                                args.initial_attitude + "'");
+  // Every mode, truth included, lives in the problem (core/alignment.h); no override here.
+  const std::optional<Eigen::Matrix3d> C_b_n_override;
 
   std::vector<NavState> states;
   states.reserve(problem.num_steps());
@@ -106,7 +88,7 @@ void run_navigate(const NavigateArgs& args) {
   summary["alignment"] = to_string(options.alignment);
   summary["window_s"] = options.window_s;
   summary["windows"] = problem.num_windows();
-  summary["initial_attitude"] = args.initial_attitude;
+  summary["initial_attitude"] = to_string(options.initial_attitude.mode);
   summary["compensate"] = nonzero_effects(candidate);
   summary["nav_start_t_s"] = problem.nav_start_t_s();
   summary["epochs"] = problem.num_epochs();
@@ -114,13 +96,12 @@ void run_navigate(const NavigateArgs& args) {
   summary["sum_squares"] = sum_sq;
   summary["rms_dvh_mps"] = std::sqrt(sum_sq / static_cast<double>(problem.num_epochs()));
   summary["max_dvh_mps"] = max_dvh;
-  // The override first: without it (align_s = 0) the alignment must not even be tried.
   const EulerAngles att0 = euler_from_C_b_n(
-      states.empty() ? Eigen::Matrix3d::Identity()
-                     : (C_b_n_override ? *C_b_n_override : problem.initial_attitude(candidate)));
+      states.empty() ? Eigen::Matrix3d::Identity() : problem.initial_attitude(candidate));
   summary["initial_attitude_deg"] = {{"roll", att0.roll_rad * kRadToDeg},
                                      {"pitch", att0.pitch_rad * kRadToDeg},
                                      {"yaw", wrap_two_pi(att0.yaw_rad) * kRadToDeg}};
+  summary["initial_attitude_detail"] = initial_attitude_json(problem, candidate);
 
   // Errors against truth (at the truth epochs inside the navigation span, nearest INS epoch
   // interpolated linearly).
@@ -175,9 +156,7 @@ void add_navigate_command(CLI::App& app) {
   cmd->add_option("--data", args->data_dir, "dataset directory (insid-dataset/1)")->required();
   cmd->add_option("--compensate", args->compensate,
                   "NAME=VALUE: compensate a catalogue error (SI units), repeatable");
-  cmd->add_option("--initial-attitude", args->initial_attitude,
-                  "align (from the data) | truth (truth.csv or meta.json initial)")
-      ->capture_default_str();
+  add_initial_attitude_options(cmd, args->initial_attitude);
   cmd->add_option("--alignment", args->alignment, "per-candidate | fixed")->capture_default_str();
   cmd->add_option("--window-s", args->window_s, kWindowHelp)
       ->capture_default_str()

@@ -132,6 +132,64 @@ TEST_F(CliSafety, ZeroAlignmentWindowWorksWithTruthAndIsNamedWithoutIt) {
   EXPECT_EQ(text(summary).find("null"), std::string::npos) << text(summary);
 }
 
+// --initial-attitude (issue 14): 'align' is gyrocompass and navigates exactly as the default; a
+// bad mode or a heading without level+heading is named; MEMS data are refused for gyrocompassing
+// (navigate and identify) with the expected sd, and level+heading records where the heading
+// came from.
+TEST_F(CliSafety, InitialAttitudeModesOnTheCommandLine) {
+  const auto line_of = [](const std::string& json, const std::string& key) {
+    const auto at = json.find("\"" + key + "\":");
+    return at == std::string::npos ? std::string("(no " + key + ")")
+                                   : json.substr(at, json.find('\n', at) - at);
+  };
+  const fs::path s_default = root_ / "default.json", s_align = root_ / "align.json";
+  ASSERT_EQ(insid("navigate --data " + data_.string() + " --summary " + s_default.string()).status, 0);
+  const Outcome align = insid("navigate --data " + data_.string() +
+                              " --initial-attitude align --summary " + s_align.string());
+  ASSERT_EQ(align.status, 0) << align.output;
+  EXPECT_EQ(line_of(text(s_align), "fitness"), line_of(text(s_default), "fitness"));
+  EXPECT_NE(text(s_align).find("\"initial_attitude\": \"gyrocompass\""), std::string::npos);
+  EXPECT_NE(text(s_align).find("\"gyrocompass_heading_sd_deg\""), std::string::npos);
+  const Outcome bad = insid("navigate --data " + data_.string() + " --initial-attitude compass");
+  EXPECT_NE(bad.status, 0);
+  EXPECT_NE(bad.output.find("--initial-attitude must be"), std::string::npos) << bad.output;
+  EXPECT_NE(bad.output.find("got 'compass'"), std::string::npos) << bad.output;
+  const Outcome stray = insid("navigate --data " + data_.string() + " --heading-deg 10");
+  EXPECT_NE(stray.status, 0);
+  EXPECT_NE(stray.output.find("only used by --initial-attitude level+heading"), std::string::npos)
+      << stray.output;
+
+  const fs::path mems = root_ / "mems";
+  ASSERT_EQ(insid("simulate --preset straight --grade mems --flight-s 60 --out " + mems.string()).status, 0);
+  // sqrt((0.2 deg/sqrt(h))^2 / 600 s + b^2) / (15.04 deg/h cos 40.068 deg): b the catalogue
+  // sigma (navigate) or identify's default box edge, 4 sigma.
+  const std::vector<std::pair<std::string, std::string>> refusals = {
+      {"navigate", "heading sd 2.44 deg (angle random walk 0.2 deg/sqrt(h) declared in meta.json "
+                   "noise.arw_deg_rth, averaged over the 600 s static window; gyro bias allowance "
+                   "0.01 deg/h"},
+      {"identify --algo lm --iterations 1", "heading sd 2.45 deg (angle random walk 0.2 "
+                   "deg/sqrt(h) declared in meta.json noise.arw_deg_rth, averaged over the 600 s "
+                   "static window; gyro bias allowance 0.04 deg/h"}};
+  for (const auto& [command, expected] : refusals) {
+    const Outcome refused = insid(command + " --data " + mems.string());
+    EXPECT_NE(refused.status, 0) << command;
+    EXPECT_NE(refused.output.find("--initial-attitude gyrocompass refused: expected gyrocompass " +
+                                  expected),
+              std::string::npos) << refused.output;
+  }
+  const fs::path s_given = root_ / "given.json", s_course = root_ / "course.json";
+  const Outcome given = insid("navigate --data " + mems.string() +
+                              " --initial-attitude level+heading --heading-deg 0 --summary " +
+                              s_given.string());
+  ASSERT_EQ(given.status, 0) << given.output;
+  EXPECT_NE(text(s_given).find("\"heading_source\": \"given\""), std::string::npos) << text(s_given);
+  const Outcome course = insid("navigate --data " + mems.string() +
+                               " --initial-attitude level+heading --summary " + s_course.string());
+  ASSERT_EQ(course.status, 0) << course.output;
+  EXPECT_NE(text(s_course).find("\"heading_source\": \"gnss_course\""), std::string::npos);
+  EXPECT_NE(text(s_course).find("\"course_t_s\": "), std::string::npos);
+}
+
 // The command-line and config battery: every bad value is refused before any work, with a
 // non-zero exit and a message naming the option (or config key) and the value.
 struct BadInput {

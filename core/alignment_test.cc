@@ -1,6 +1,8 @@
 #include "core/alignment.h"
 
 #include <cmath>
+#include <random>
+#include <string>
 
 #include <gtest/gtest.h>
 
@@ -79,6 +81,90 @@ TEST(Alignment, ParallelVectorsAreRejected) {
                std::invalid_argument);
   EXPECT_THROW(coarse_align(Eigen::Vector3d::Zero(), Eigen::Vector3d(1e-5, 0, 0)),
                std::invalid_argument);
+}
+
+
+// level_with_yaw(f, yaw of the gyrocompass) is the gyrocompass attitude: roll and pitch from the
+// same up direction, at tilts and headings all round.
+TEST(Alignment, LevellingWithTheGyrocompassYawIsTheCoarseAlignment) {
+  const EarthModel earth = EarthModel::paper(kLat, 50.0);
+  for (double yaw_deg : {0.0, 45.0, 170.0, 260.0})
+    for (double roll_deg : {-20.0, 0.0, 3.0}) {
+      const EulerAngles att{roll_deg * kDegToRad, 7.0 * kDegToRad, yaw_deg * kDegToRad};
+      const Dataset ds = testing::make_static_dataset(earth, kLat, 0.0, 50.0, att, 60.0, 60.0);
+      const AlignmentWindow w = window_of(ds);
+      const Eigen::Matrix3d C = align_window(w, ImuCompensator(SensorErrors{}));
+      const Eigen::Matrix3d L =
+          level_with_yaw(w.sum_dv_b / w.sum_dt_s, euler_from_C_b_n(C).yaw_rad);
+      EXPECT_LT((L - C).norm(), 1e-12) << roll_deg << " " << yaw_deg;
+      EXPECT_LT((L - C_b_n_from_euler(att)).norm(), 1e-9);
+    }
+}
+
+// The O(1) projected compensation equals the sum over compensated increments (general model:
+// bias, drift, scale, misalignment) for random directions and increments.
+TEST(Alignment, ProjectedGyroSumEqualsTheSumOfCompensatedIncrements) {
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  SensorErrors errors;
+  errors.gyro.bias = Eigen::Vector3d(u(rng), u(rng), u(rng)) * 1e-2;
+  errors.gyro.bias_drift = Eigen::Vector3d(u(rng), u(rng), u(rng)) * 1e-6;
+  errors.gyro.scale = Eigen::Vector3d(u(rng), u(rng), u(rng)) * 1e-2;
+  errors.gyro.misalign(0, 1) = 3e-3;
+  errors.gyro.misalign(2, 0) = -2e-3;
+  const ImuCompensator compensator(errors);
+  Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d U = Eigen::Vector3d::Zero(), V = Eigen::Vector3d::Zero();
+  double direct = 0.0, t = 10.0;
+  for (int k = 0; k < 500; ++k) {
+    const double dt = 0.005 + 0.005 * (u(rng) + 1.0);
+    t += dt;
+    const Eigen::Vector3d dir = Eigen::Vector3d(u(rng), u(rng), u(rng)).normalized();
+    Eigen::Vector3d dtheta = Eigen::Vector3d(u(rng), u(rng), u(rng)) * 0.01, dv = Eigen::Vector3d::Zero();
+    M += dir * dtheta.transpose();
+    U += dir * dt;
+    V += dir * ((t - 0.5 * dt) * dt);
+    compensator.compensate(t, dt, dtheta, dv);
+    direct += dir.dot(dtheta);
+  }
+  EXPECT_NEAR(compensator.projected_gyro_sum(M, U, V), direct, 1e-12 * (1.0 + std::abs(direct)));
+  EXPECT_GT(std::abs(direct - ImuCompensator(SensorErrors{}).projected_gyro_sum(M, U, V)), 1e-4);
+}
+
+TEST(Alignment, ModeNamesAndOptionsAreChecked) {
+  EXPECT_EQ(initial_attitude_mode_from_string("align"), InitialAttitudeMode::kGyrocompass);
+  for (InitialAttitudeMode m : {InitialAttitudeMode::kGyrocompass, InitialAttitudeMode::kLevelHeading,
+                                InitialAttitudeMode::kGiven, InitialAttitudeMode::kTruth})
+    EXPECT_EQ(initial_attitude_mode_from_string(to_string(m)), m);
+  try {
+    initial_attitude_mode_from_string("magnetometer");
+    ADD_FAILURE() << "no exception";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("got 'magnetometer'"), std::string::npos) << e.what();
+  }
+  InitialAttitudeOptions o;
+  EXPECT_EQ(o.validate(), "");
+  o.heading_deg = 10.0;  // only for level+heading
+  EXPECT_NE(o.validate().find("only used by --initial-attitude level+heading"), std::string::npos);
+  o.mode = InitialAttitudeMode::kLevelHeading;
+  EXPECT_EQ(o.validate(), "");
+  o.course_min_speed_mps = -1.0;
+  EXPECT_NE(o.validate().find("course_min_speed_mps must be a finite number > 0, got -1"),
+            std::string::npos);
+}
+
+// The feasibility figure: nav grade over 600 s at the paper's latitude with the paper box
+// (4 sigma = 0.04 deg/h) is about 0.2 deg; it is the ARW term alone with no bias allowance.
+TEST(Alignment, GyrocompassFeasibilityFigures) {
+  const double W = 7.292115e-5, arw = 0.002 * kDegToRad / 60.0;
+  const GyrocompassFeasibility nav =
+      gyrocompass_feasibility(arw, true, 600.0, 4 * kSigmaGyroRadS, W, kLat);
+  const double expected = std::hypot(arw / std::sqrt(600.0), 4 * kSigmaGyroRadS) / (W * std::cos(kLat));
+  EXPECT_DOUBLE_EQ(nav.heading_sd_rad, expected);
+  EXPECT_NEAR(nav.heading_sd_rad * kRadToDeg, 0.2, 0.01);
+  const GyrocompassFeasibility noise_only = gyrocompass_feasibility(arw, true, 600.0, 0.0, W, kLat);
+  EXPECT_DOUBLE_EQ(noise_only.heading_sd_rad, arw / std::sqrt(600.0) / (W * std::cos(kLat)));
+  EXPECT_NE(nav.describe().find("declared in meta.json"), std::string::npos) << nav.describe();
 }
 
 }  // namespace

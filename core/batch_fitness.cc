@@ -840,7 +840,8 @@ BatchFitness::BatchFitness(std::shared_ptr<const NavigationProblem> problem)
   impl->nb = nav.nav_begin();
   impl->n = ds.imu.size();
   impl->n_epochs = nav.num_epochs();
-  if (nav.alignment_window().count == 0) reason_ = "no alignment window (align_s = 0)";
+  if (nav.alignment_window().count == 0 && nav.initial_attitude_source().depends_on_candidate())
+    reason_ = "no alignment window (align_s = 0)";
   double max_rot = 0.0;
   for (std::size_t k = impl->nb; k < impl->n && reason_.empty(); ++k) {
     if (!(ds.imu[k].t_s > ds.imu[k - 1].t_s))

@@ -79,10 +79,8 @@ NavigationProblem::NavigationProblem(std::shared_ptr<const Dataset> dataset,
     throw std::invalid_argument("NavigationProblem: align_s = " + seconds_text(ds.meta.align_s) +
                                 " s leaves no IMU data to navigate");
   nav_begin_ = std::max<std::size_t>(n_align, 1);
-  if (n_align > 0) {
+  if (n_align > 0)
     window_ = AlignmentWindow::from_imu(ds.imu, window_begin, n_align, t_window_start);
-    C_b_n_fixed_ = aligned(SensorErrors{});
-  }
 
   // Height and vertical-velocity reference at every IMU epoch (GNSS, linear interpolation).
   h_ref_m_.resize(ds.imu.size());
@@ -139,6 +137,10 @@ NavigationProblem::NavigationProblem(std::shared_ptr<const Dataset> dataset,
                            g.v_eb_n_mps.y()});
     }
   }
+  // The initial attitude's mode against the data (refusals name what to give instead).
+  attitude_source_ = InitialAttitude(ds, options_.initial_attitude, window_, window_begin,
+                                     n_align, t_window_start, nav_begin_);
+  if (attitude_source_.depends_on_candidate()) C_b_n_fixed_ = aligned(SensorErrors{});
 }
 
 double NavigationProblem::nav_start_t_s() const { return dataset_->imu[nav_begin_ - 1].t_s; }
@@ -150,10 +152,8 @@ std::string NavigationProblem::seconds_text(double value) {
 }
 
 Eigen::Matrix3d NavigationProblem::initial_attitude(const SensorErrors& candidate) const {
-  if (window_.count == 0)
-    throw std::invalid_argument(
-        "dataset has align_s = " + seconds_text(dataset_->meta.align_s) +
-        " s, less than one IMU step: no alignment possible; give the initial attitude (truth)");
+  if (!attitude_source_.depends_on_candidate())  // given / truth: the same for every candidate
+    return attitude_source_.attitude(ImuCompensator(SensorErrors{}));
   if (options_.alignment == AlignmentMode::kFixed) return C_b_n_fixed_;
   return aligned(candidate);
 }
@@ -162,7 +162,7 @@ Eigen::Matrix3d NavigationProblem::initial_attitude(const SensorErrors& candidat
 // candidate's compensation (a huge value there, or in the data, makes the levelling fail).
 Eigen::Matrix3d NavigationProblem::aligned(const SensorErrors& candidate) const {
   try {
-    return align_window(window_, ImuCompensator(candidate));
+    return attitude_source_.attitude(ImuCompensator(candidate));
   } catch (const std::exception& e) {
     std::string compensation;
     for (const auto& [name, value] : nonzero_effects(candidate))

@@ -67,6 +67,8 @@ struct NavigationOptions {
   /// Throws std::invalid_argument naming the bad value: window_s must be finite and >= 0. (The
   /// data-dependent check, W at least one GNSS period, is NavigationProblem's.)
   void validate() const;
+  /// How the attitude at the navigation start is found (core/alignment.h; issue 14).
+  InitialAttitudeOptions initial_attitude{};
 };
 
 /// One INS restart of the windowed fitness: after IMU step `imu_index`, the position and
@@ -111,6 +113,8 @@ class NavigationProblem {
 
   /// Initial attitude the candidate would get from alignment (per options).
   Eigen::Matrix3d initial_attitude(const SensorErrors& candidate) const;
+  /// The initial-attitude mode set up for this dataset (course epochs, feasibility figures).
+  const InitialAttitude& initial_attitude_source() const { return attitude_source_; }
   /// Initial state at the navigation start for a given attitude (position, velocity from GNSS).
   NavState initial_state(const Eigen::Matrix3d& C_b_n) const;
 
@@ -139,6 +143,7 @@ class NavigationProblem {
   NavigationOptions options_;
   std::size_t nav_begin_ = 0;
   AlignmentWindow window_;
+  InitialAttitude attitude_source_;
   Eigen::Matrix3d C_b_n_fixed_ = Eigen::Matrix3d::Identity();
   std::vector<double> h_ref_m_;    // GNSS height interpolated at every IMU epoch
   std::vector<double> vU_ref_mps_;  // GNSS vertical velocity interpolated at every IMU epoch

@@ -190,4 +190,12 @@ void ImuCompensator::compensate_mean(double t_mid_mean_s, Eigen::Vector3d& omega
   f_ib_b = accel_inv_ * (f_ib_b - (accel_.bias + accel_.bias_drift * t_mid_mean_s));
 }
 
+double ImuCompensator::projected_gyro_sum(const Eigen::Matrix3d& sum_u_dtheta,
+                                          const Eigen::Vector3d& sum_u_dt,
+                                          const Eigen::Vector3d& sum_u_tmid_dt) const {
+  // sum_k u_k^T G^-1 dtheta_k = sum_ij (G^-1)_ij (sum_k u_k,i dtheta_k,j).
+  return gyro_inv_.cwiseProduct(sum_u_dtheta).sum() - sum_u_dt.dot(gyro_inv_ * gyro_.bias) -
+         sum_u_tmid_dt.dot(gyro_inv_ * gyro_.bias_drift);
+}
+
 }  // namespace insid

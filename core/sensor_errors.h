@@ -84,6 +84,11 @@ class ImuCompensator {
   /// to t_mid_mean_s (the model is affine, so this is exact for window means).
   void compensate_mean(double t_mid_mean_s, Eigen::Vector3d& omega_ib_b,
                        Eigen::Vector3d& f_ib_b) const;
+  /// sum_k u_k^T G^-1 (dtheta_k - (b0 + b_dot t_mid_k) dt_k): compensated gyro increments
+  /// projected on directions u_k, in O(1) from sum u dtheta^T, sum u dt and sum u t_mid dt
+  /// (the model is affine; level+heading carries a course back with it, core/alignment.h).
+  double projected_gyro_sum(const Eigen::Matrix3d& sum_u_dtheta, const Eigen::Vector3d& sum_u_dt,
+                            const Eigen::Vector3d& sum_u_tmid_dt) const;
 
  private:
   TriadErrors gyro_, accel_;

@@ -396,6 +396,7 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
   NavigationOptions nav_options;
   nav_options.alignment = options.alignment;
   nav_options.window_s = options.window_s;
+  nav_options.initial_attitude = options.initial_attitude;
   auto nav = std::make_shared<const NavigationProblem>(dataset, nav_options);
   opt::EvaluatorOptions evaluator;
   evaluator.parallelism = threads == 1 ? opt::Parallelism::kSerial : opt::Parallelism::kOpenMP;
@@ -427,6 +428,7 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
   report["build"] = build_info_json();
   report["alignment"] = to_string(options.alignment);
   report["window_s"] = options.window_s;
+  report["initial_attitude"] = options.initial_attitude.describe();
   report["seed"] = options.seed;
   report["num_epochs"] = nav->num_epochs();
   report["nav_start_t_s"] = nav->nav_start_t_s();

@@ -38,6 +38,7 @@ struct DiagnoseOptions {
   /// Windowed fitness (NavigationOptions::window_s, core/fitness.h): 0 = one pure-INS run over
   /// the whole flight; W > 0 = the INS restarted from GNSS every W seconds (s).
   double window_s = 0.0;
+  InitialAttitudeOptions initial_attitude;  ///< core/alignment.h (issue 14)
   std::string algorithm = "dvpio";       ///< optimizer for the base fit ("none": LM only)
   int optimizer_iterations = 20;         ///< the optimizer's population is its preset's
   int replicas_basis = 40;               ///< replicas building the working covariance

@@ -16,6 +16,7 @@
 
 #include "core/dataset.h"
 #include "core/fitness.h"
+#include "core/rotation.h"
 #include "import/csv_imu.h"
 #include "import/gnss_solution.h"
 #include "import/importer.h"
@@ -709,9 +710,81 @@ TEST(SharedData, RtklibWalkImportsAndItsStaticGyroMeansMatchTheCsv) {
   EXPECT_NEAR(span, span_csv, 1e-6);
   EXPECT_LT((dataset_mean_b - csv_mean_b).cwiseAbs().maxCoeff(), 1e-9)
       << dataset_mean_b.transpose() << " vs " << csv_mean_b.transpose();
-  // And the dataset navigates (alignment on the static window, then a pure-INS run).
-  const NavigationProblem problem(std::make_shared<const Dataset>(ds));
+  // And the dataset navigates (levelling on the static window, heading from the GNSS course,
+  // then a pure-INS run; gyrocompassing is refused on this MEMS IMU, see the next test).
+  NavigationOptions options;
+  options.initial_attitude.mode = InitialAttitudeMode::kLevelHeading;
+  const NavigationProblem problem(std::make_shared<const Dataset>(ds), options);
   EXPECT_TRUE(std::isfinite(problem.fitness(SensorErrors{})));
+}
+
+// The walk with the initial-attitude modes (issue 14): gyrocompassing is refused (the ARW,
+// estimated from the static window since the import declares none, and Earth rate 0.004 deg/s
+// make the expected heading sd far above 1 deg); level+heading navigates, its heading taken from
+// the first GNSS epochs at >= 1 m/s and carried back to the start, reported here; given is
+// refused (meta.json initial attitude null).
+TEST(SharedData, RtklibWalkNavigatesWithLevelHeadingAndRefusesGyrocompass) {
+  const fs::path dir = fs::path(INSID_SHARED_DATA) / "rtklib-walk";
+  if (!fs::exists(dir / "imu_1730_sf.csv"))
+    GTEST_SKIP() << "../shared/data/rtklib-walk is absent (tests that need the shared real data "
+                    "skip outside CI)";
+  std::ifstream imu_in(dir / "imu_1730_sf.csv"), pos_in(dir / "gnss_1730_sf.pos");
+  std::stringstream imu_text, pos_text;
+  imu_text << imu_in.rdbuf();
+  pos_text << pos_in.rdbuf();
+  CsvImuSpec spec;
+  spec.columns = CsvImuSpec::parse_columns("t,ax,ay,az,gx,gy,gz,-,-,-,-");
+  spec.parse_units("s,g-local,rad/s");
+  spec.mounting_rpy_deg = {180.0, 0.0, -90.0};
+  const GnssSolution gnss = parse_rtklib_pos(pos_text.str(), "gnss_1730_sf.pos");
+  const CsvImu imu = read_csv_imu(imu_text.str(), "imu_1730_sf.csv", spec, std::nullopt);
+  const auto ds = std::make_shared<const Dataset>(assemble_dataset(imu, gnss, AssembleOptions{}).dataset);
+
+  std::string refused;
+  try {
+    NavigationProblem gyrocompass(ds, NavigationOptions{});
+  } catch (const std::invalid_argument& e) {
+    refused = e.what();
+  }
+  EXPECT_NE(refused.find("--initial-attitude gyrocompass refused: expected gyrocompass heading sd "),
+            std::string::npos) << refused;
+  EXPECT_NE(refused.find("estimated from the static window's rate scatter"), std::string::npos)
+      << refused;
+
+  NavigationOptions options;
+  options.initial_attitude.mode = InitialAttitudeMode::kLevelHeading;
+  const NavigationProblem problem(ds, options);
+  const auto& fixes = problem.initial_attitude_source().course_fixes();
+  ASSERT_FALSE(fixes.empty());
+  EXPECT_GT(fixes.front().t_s, problem.nav_start_t_s());
+  EXPECT_GE(fixes.front().speed_mps, options.initial_attitude.course_min_speed_mps);
+  const EulerAngles att = euler_from_C_b_n(problem.initial_attitude(SensorErrors{}));
+  EXPECT_TRUE(std::isfinite(att.yaw_rad));
+  // Levelled: a walker's IMU (body z down after the mounting) is within 30 deg of level.
+  EXPECT_LT(std::abs(att.roll_rad), 30.0 * kDegToRad);
+  EXPECT_LT(std::abs(att.pitch_rad), 30.0 * kDegToRad);
+  std::vector<double> r;
+  problem.residuals(SensorErrors{}, r);
+  ASSERT_EQ(r.size(), 2 * problem.num_epochs());
+  for (double v : r) ASSERT_TRUE(std::isfinite(v));
+  std::cout << "[ walk ] level+heading: start t = " << problem.nav_start_t_s()
+            << " s, heading at start " << wrap_two_pi(att.yaw_rad) * kRadToDeg << " deg (roll "
+            << att.roll_rad * kRadToDeg << ", pitch " << att.pitch_rad * kRadToDeg << "), from "
+            << fixes.size() << " course epochs t = " << fixes.front().t_s << ".."
+            << fixes.back().t_s << " s (speed " << fixes.front().speed_mps << " m/s, course "
+            << wrap_two_pi(fixes.front().course_rad) * kRadToDeg << " deg); fitness "
+            << problem.fitness(SensorErrors{}) << "; gyrocompass: " << refused << "\n";
+
+  Dataset unknown = *ds;
+  ASSERT_FALSE(unknown.meta.initial_attitude_known);
+  std::string given;
+  try {
+    NavigationProblem p(std::make_shared<const Dataset>(unknown),
+                        [] { NavigationOptions o; o.initial_attitude.mode = InitialAttitudeMode::kGiven; return o; }());
+  } catch (const std::invalid_argument& e) {
+    given = e.what();
+  }
+  EXPECT_NE(given.find("null"), std::string::npos) << given;
 }
 
 }  // namespace
