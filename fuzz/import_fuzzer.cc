@@ -3,6 +3,8 @@
 // ms, g, deg/s with a mounting rotation) — the rest is the file. Byte 4 assembles a dataset from
 // a KF-GINS IMU text and a fixed valid GNSS solution. Readers must accept the text or throw
 // std::runtime_error / std::invalid_argument with a message; anything else is a finding.
+// INSID_FUZZ_READER=N (0-5) pins the reader, whatever the first byte says (one reader per run,
+// e.g. scripts/fuzz.sh's per-reader runs of the ULog and CSV readers).
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
@@ -30,12 +32,20 @@ const insid::import::GnssSolution& fixed_gnss() {
 
 }  // namespace
 
+static int pinned_reader() {
+  static const int reader = [] {
+    const char* text = std::getenv("INSID_FUZZ_READER");
+    return text == nullptr ? -1 : std::atoi(text) % 6;
+  }();
+  return reader;
+}
+
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size == 0) return 0;
   const std::string text(reinterpret_cast<const char*>(data + 1), size - 1);
   namespace im = insid::import;
   try {
-    switch (data[0] % 6) {
+    switch (pinned_reader() >= 0 ? pinned_reader() : data[0] % 6) {
       case 0:
         im::parse_rtklib_pos(text, "fuzz.pos");
         break;
