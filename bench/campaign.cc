@@ -34,7 +34,10 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr const char* kManifestSchema = "insid-campaign/1";
-constexpr const char* kRunSchema = "insid-run/1";
+// insid-run/2 renamed "estimate_sigma" (the estimate in sigma units, read as an sd) to
+// "estimate_in_sigma_units" (issue 15); insid-run/1 records are still read (resume, merge).
+constexpr const char* kRunSchema = "insid-run/2";
+constexpr const char* kRunSchemaOld = "insid-run/1";
 
 // Strict JSON object reader: every key must be consumed, unknown keys are errors.
 class Reader {
@@ -117,7 +120,11 @@ std::string run_record_problem(const nlohmann::json& j, const std::string& scena
              want + "\"";
     return "";
   };
-  for (const auto& [key, want] : {std::pair<const char*, std::string>{"schema", kRunSchema},
+  const std::string schema = j.contains("schema") && j["schema"].is_string() &&
+                                    j["schema"].get<std::string>() == kRunSchemaOld
+                                ? kRunSchemaOld
+                                : kRunSchema;
+  for (const auto& [key, want] : {std::pair<const char*, std::string>{"schema", schema},
                                   {"scenario", scenario},
                                   {"algorithm", label}})
     if (std::string p = text_field(key, want); !p.empty()) return p;
