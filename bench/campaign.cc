@@ -49,7 +49,11 @@ std::string run_record_problem(const nlohmann::json& j, const std::string& scena
              want + "\"";
     return "";
   };
-  for (const auto& [key, want] : {std::pair<const char*, std::string>{"schema", kRunSchema},
+  const std::string schema = j.contains("schema") && j["schema"].is_string() &&
+                                    j["schema"].get<std::string>() == kRunSchemaOld
+                                ? kRunSchemaOld
+                                : kRunSchema;
+  for (const auto& [key, want] : {std::pair<const char*, std::string>{"schema", schema},
                                   {"scenario", scenario},
                                   {"algorithm", label}})
     if (std::string p = text_field(key, want); !p.empty()) return p;

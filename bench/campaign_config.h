@@ -19,7 +19,10 @@ namespace insid::campaign {
 
 /// Schemas of a campaign directory's manifest.json and run files.
 inline constexpr const char* kManifestSchema = "insid-campaign/1";
-inline constexpr const char* kRunSchema = "insid-run/1";
+// insid-run/2 renamed "estimate_sigma" (the estimate in sigma units, read as an sd) to
+// "estimate_in_sigma_units" (issue 15); insid-run/1 records are still read (resume, merge).
+inline constexpr const char* kRunSchema = "insid-run/2";
+inline constexpr const char* kRunSchemaOld = "insid-run/1";
 
 struct ScenarioSpec {
   std::string name;

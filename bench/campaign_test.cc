@@ -103,13 +103,13 @@ TEST(Campaign, FilesFollowTheDocumentedSchema) {
                            {"/config/max_iterations", 'n'}, {"/config/alignment", 's'},
                            {"/config/estimate", 'a'}}, "manifest");
   const nlohmann::json run = read(run_file(dir.string(), "rich-short", "DVPIO", 2));
-  EXPECT_EQ(run["schema"], "insid-run/1");
+  EXPECT_EQ(run["schema"], "insid-run/2");
   expect_fields(run, {{"/scenario", 's'}, {"/algorithm", 's'}, {"/seed", 'n'}, {"/parameters", 'a'},
                       {"/result/algorithm/name", 's'}, {"/result/algorithm/parameters", 'o'},
                       {"/result/fitness", 'n'}, {"/result/evaluations", 'n'},
                       {"/result/wall_s", 'n'}, {"/result/termination", 's'},
                       {"/result/history", 'a'}, {"/result/best_per_evaluation", 'a'},
-                      {"/estimate", 'o'}, {"/estimate_sigma", 'o'}, {"/truth_sigma", 'o'},
+                      {"/estimate", 'o'}, {"/estimate_in_sigma_units", 'o'}, {"/truth_sigma", 'o'},
                       {"/error_sigma", 'o'}, {"/error_vs_optimum_sigma", 'o'},
                       {"/optimum_fitness", 'n'}, {"/fitness_gap", 'n'}}, "run");
   expect_fields(run["result"]["history"][0],
@@ -151,6 +151,39 @@ TEST(Campaign, DifferentConfigIsRefusedUnlessForceNew) {
   }
   options.force_new = true;
   EXPECT_NO_THROW(run_campaign(other, options));
+  fs::remove_all(dir);
+}
+
+TEST(Campaign, RunFilesOfTheOldSchemaStillResume) {
+  // GIVEN a finished campaign with one run written before insid-run/2 (the estimate in sigma
+  // units was "estimate_sigma"), issue 15
+  const fs::path dir = fresh_dir("old-run-schema");
+  RunOptions options;
+  options.out_dir = dir.string();
+  options.quiet = true;
+  ASSERT_TRUE(run_campaign(small_config(), options).complete);
+  const fs::path file = run_file(dir.string(), "rich-short", "PSO", 1);
+  nlohmann::json run = read(file);
+  ASSERT_EQ(run["schema"], "insid-run/2");
+  run["schema"] = "insid-run/1";
+  run["estimate_sigma"] = run["estimate_in_sigma_units"];
+  run.erase("estimate_in_sigma_units");
+  std::ofstream(file) << run.dump(1);
+  const std::string old_bytes = bytes(file);
+  // THEN it is kept: not redone, not rewritten, and the summary is written again
+  fs::remove(dir / "summary.json");
+  const CampaignOutcome outcome = run_campaign(small_config(), options);
+  EXPECT_EQ(outcome.skipped_runs, 8);
+  EXPECT_EQ(outcome.new_runs, 0);
+  EXPECT_TRUE(outcome.complete);
+  EXPECT_TRUE(fs::exists(dir / "summary.json"));
+  EXPECT_EQ(bytes(file), old_bytes);
+  // ...but a schema that is neither is redone
+  run["schema"] = "insid-run/0";
+  std::ofstream(file) << run.dump(1);
+  const CampaignOutcome redo = run_campaign(small_config(), options);
+  EXPECT_EQ(redo.new_runs, 1);
+  EXPECT_EQ(read(file)["schema"], "insid-run/2");
   fs::remove_all(dir);
 }
 
@@ -337,7 +370,7 @@ TEST(Campaign, RunFileAndIdentifyRecordTheSameAssessment) {
   const nlohmann::json run = read(run_file(options.out_dir, "data", "DVPIO", 2));
   const nlohmann::json id = read(identified);
   // THEN both carry every assessment field (results/README.md), with the same values
-  for (const char* key : {"estimate", "estimate_sigma", "truth_sigma", "error_sigma",
+  for (const char* key : {"estimate", "estimate_in_sigma_units", "truth_sigma", "error_sigma",
                           "error_vs_optimum_sigma", "optimum_fitness", "fitness_gap",
                           "fitness_gap_relative"}) {
     ASSERT_TRUE(run.contains(key)) << "run file lacks " << key;

@@ -20,6 +20,7 @@
 #include "identification/ekf_rts.h"
 #include "identification/identify.h"
 #include "identification/ins_problem.h"
+#include "identification/uncertainty.h"
 #include "optimizers/registry.h"
 
 namespace insid::cli {
@@ -39,10 +40,15 @@ struct IdentifyArgs {
   int threads = 0;
   bool no_reference = false;
   bool positions = false;
+  int uncertainty_replicas = 100;
   std::string out;
 };
 
 void run_identify(const IdentifyArgs& args) {
+  if (args.uncertainty_replicas > 0 && args.uncertainty_replicas < 10)
+    throw std::invalid_argument("--uncertainty-replicas " +
+                                std::to_string(args.uncertainty_replicas) +
+                                ": expected 0 (no uncertainty) or at least 10 replicas");
   auto dataset = std::make_shared<const Dataset>(load_dataset(args.data_dir));
   std::vector<EstimatedParameter> estimated;
   for (const std::string& e : args.estimate) estimated.push_back(EstimatedParameter::parse(e));
@@ -91,7 +97,7 @@ void run_identify(const IdentifyArgs& args) {
   nlohmann::json out = optimizer_result_json(result, mapping);
   if (const auto* ekf = dynamic_cast<const EkfRtsOptimizer*>(optimizer.get()))
     out["ekf"] = ekf->report_json(mapping);
-  out["format"] = "insid-identify/1";
+  out["format"] = "insid-identify/2";  // /2: estimate_sigma -> estimate_in_sigma_units, parameters
   out["build"] = build_info_json();
   out["data"] = args.data_dir;
   out["alignment"] = to_string(nav_options.alignment);
@@ -107,6 +113,16 @@ void run_identify(const IdentifyArgs& args) {
     out["reference_optimum"] = ref->to_json(mapping);
   }
   add_run_assessment_json(out, result, mapping, dataset->meta.injected, ref ? &*ref : nullptr);
+  // How sure the estimate is, the same way whatever found it (identification/uncertainty.h).
+  if (args.uncertainty_replicas > 0) {
+    UncertaintyOptions uo;
+    uo.replicas = args.uncertainty_replicas;
+    uo.criterion = criterion_for_algorithm(args.algorithm);
+    uo.threads = args.threads;
+    const UncertaintyReport report = estimate_uncertainty(problem, mapping.to_sigma(result.best_x), uo);
+    add_uncertainty_json(out, report);
+    std::cerr << report.table();
+  }
   write_json_output(args.out, out);
 }
 
@@ -173,6 +189,10 @@ void add_identify_command(CLI::App& app) {
   cmd->add_flag("--no-reference-optimum", args->no_reference,
                 "skip the data's own optimum (multi-start local fit, cached in the dataset dir)");
   cmd->add_flag("--positions", args->positions, "record every particle's position per iteration");
+  cmd->add_option("--uncertainty-replicas", args->uncertainty_replicas,
+                  "noise replicas for the estimate's sd and flags (0 = no uncertainty)")
+      ->capture_default_str()
+      ->check(whole_in(0, 100000));
   cmd->add_option("--out", args->out, "result JSON file (default: stdout)");
   cmd->callback([args] { run_identify(*args); });
 }

@@ -180,9 +180,10 @@ TEST(Identification, ResultJsonHasEstimatesErrorsAndHistory) {
   EXPECT_EQ(j["best_per_evaluation"].size(), 30u);
   EXPECT_NEAR(j["truth_sigma"]["gyro_bias_x"].get<double>(), 2.0, 1e-12);
   EXPECT_NEAR(j["error_sigma"]["accel_bias_y"].get<double>(),
-              j["estimate_sigma"]["accel_bias_y"].get<double>() - 1.5, 1e-12);
+              j["estimate_in_sigma_units"]["accel_bias_y"].get<double>() - 1.5, 1e-12);
   EXPECT_NEAR(j["estimate"]["gyro_bias_y"].get<double>(),
-              j["estimate_sigma"]["gyro_bias_y"].get<double>() * kSigmaGyroRadS, 1e-20);
+              j["estimate_in_sigma_units"]["gyro_bias_y"].get<double>() * kSigmaGyroRadS, 1e-20);
+  EXPECT_FALSE(j.contains("estimate_sigma"));  // renamed (issue 15): it read as an sd
 }
 
 }  // namespace

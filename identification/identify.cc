@@ -27,7 +27,8 @@ namespace insid {
 nlohmann::json ReferenceOptimum::to_json(const ParameterMapping& mapping) const {
   nlohmann::json j;
   for (int k = 0; k < mapping.dimension(); ++k)
-    j["estimate_sigma"][mapping.parameters()[static_cast<std::size_t>(k)].name] = value_sigma[k];
+    j[kEstimateInSigmaUnits][mapping.parameters()[static_cast<std::size_t>(k)].name] =
+        value_sigma[k];
   j["fitness"] = fitness;
   j["evaluations"] = evaluations;
   j["starts"] = starts;
@@ -41,11 +42,24 @@ ReferenceOptimum ReferenceOptimum::from_json(const nlohmann::json& j,
   optimum.fitness = j.at("fitness").get<double>();
   optimum.evaluations = j.at("evaluations").get<std::int64_t>();
   optimum.starts = j.at("starts").get<int>();
-  optimum.value_sigma.resize(mapping.dimension());
-  for (int k = 0; k < mapping.dimension(); ++k)
-    optimum.value_sigma[k] =
-        j.at("estimate_sigma").at(mapping.parameters()[static_cast<std::size_t>(k)].name).get<double>();
+  optimum.value_sigma = estimate_in_sigma_units(j, mapping);
   return optimum;
+}
+
+Eigen::VectorXd estimate_in_sigma_units(const nlohmann::json& block,
+                                        const ParameterMapping& mapping) {
+  const char* key = block.contains(kEstimateInSigmaUnits) ? kEstimateInSigmaUnits
+                    : block.contains(kEstimateInSigmaUnitsOld) ? kEstimateInSigmaUnitsOld
+                                                               : nullptr;
+  if (key == nullptr)
+    throw std::runtime_error(std::string("no estimate: neither \"") + kEstimateInSigmaUnits +
+                             "\" nor (before insid-identify/2) \"" + kEstimateInSigmaUnitsOld +
+                             "\" is there");
+  Eigen::VectorXd value_sigma(mapping.dimension());
+  for (int k = 0; k < mapping.dimension(); ++k)
+    value_sigma[k] =
+        block.at(key).at(mapping.parameters()[static_cast<std::size_t>(k)].name).get<double>();
+  return value_sigma;
 }
 
 ReferenceOptimum find_reference_optimum(const InsIdentificationProblem& problem, int starts,
@@ -112,7 +126,7 @@ ReferenceOptimum cached_reference_optimum(const std::string& data_dir,
   if (cache.is_object() && cache.contains(key)) {
     try {
       return ReferenceOptimum::from_json(cache[key], problem.mapping());
-    } catch (const nlohmann::json::exception&) {
+    } catch (const std::exception&) {
       // a damaged entry is recomputed (and overwritten below)
     }
   }
@@ -182,7 +196,7 @@ void add_estimate_json(nlohmann::json& out, const ParameterMapping& mapping,
   for (int k = 0; k < mapping.dimension(); ++k) {
     const EstimatedParameter& p = mapping.parameters()[static_cast<std::size_t>(k)];
     out["estimate"][p.name] = value_sigma[k] * p.sigma;
-    out["estimate_sigma"][p.name] = value_sigma[k];
+    out[kEstimateInSigmaUnits][p.name] = value_sigma[k];
     if (injected) {
       const auto it = injected->find(p.name);
       const double truth_sigma = (it == injected->end() ? 0.0 : it->second) / p.sigma;

@@ -27,7 +27,9 @@ struct ReferenceOptimum {
   std::int64_t evaluations = 0;
   int starts = 0;
   nlohmann::json to_json(const ParameterMapping& mapping) const;
-  /// Inverse of to_json; throws nlohmann::json::exception on a missing or mistyped field.
+  /// Inverse of to_json (reads the estimate under its old name "estimate_sigma" too); throws
+  /// nlohmann::json::exception on a missing or mistyped field, std::runtime_error when the
+  /// estimate block is missing.
   static ReferenceOptimum from_json(const nlohmann::json& j, const ParameterMapping& mapping);
 };
 
@@ -47,7 +49,19 @@ ReferenceOptimum cached_reference_optimum(const std::string& data_dir,
 nlohmann::json optimizer_result_json(const opt::Result& result, const ParameterMapping& mapping,
                                      bool include_per_evaluation = true);
 
-/// Estimate / error blocks: "estimate" (SI), "estimate_sigma", and with `injected`,
+/// Name of the block that holds an estimate in sigma units (the search unit of each parameter,
+/// `estimated[].sigma`: the catalogue sigma unless given). Before insid-identify/2 and
+/// insid-run/2 it was "estimate_sigma", which readers took for a standard deviation (issue 15).
+inline constexpr const char* kEstimateInSigmaUnits = "estimate_in_sigma_units";
+inline constexpr const char* kEstimateInSigmaUnitsOld = "estimate_sigma";
+
+/// The estimate in sigma units from a result / optimum block, under either name (old files);
+/// throws std::runtime_error naming both when neither is there, nlohmann::json::exception on a
+/// missing parameter or mistyped value.
+Eigen::VectorXd estimate_in_sigma_units(const nlohmann::json& block,
+                                        const ParameterMapping& mapping);
+
+/// Estimate / error blocks: "estimate" (SI), "estimate_in_sigma_units", and with `injected`,
 /// "truth_sigma" and "error_sigma" (estimate minus truth, sigma units).
 void add_estimate_json(nlohmann::json& out, const ParameterMapping& mapping,
                        const Eigen::VectorXd& value_sigma,

@@ -71,7 +71,9 @@ def noise_floor(cdir):
         opt = load(os.path.join(cdir, "optimum", sc["name"] + ".json"))
         run = load(os.path.join(cdir, "runs", sc["name"], cfg["algorithms"][0]["label"], "seed_1.json"))
         for p in params:
-            diffs[p].append(opt["estimate_sigma"][p] - run["truth_sigma"][p])
+            # "estimate_sigma" before insid-run/2 (issue 15)
+            est = opt.get("estimate_in_sigma_units") or opt["estimate_sigma"]
+            diffs[p].append(est[p] - run["truth_sigma"][p])
     stats = {}
     for p, v in diffs.items():
         stats[p] = {"mean": statistics.fmean(v),

@@ -45,6 +45,11 @@ POSITION_ALGORITHMS = ("pio", "dvpio")
 # Small helpers
 # ------------------------------------------------------------------------------------------------
 
+def estimate_in_sigma_units(block):
+    """The estimate in sigma units of a run / optimum block: "estimate_in_sigma_units"
+    (insid-run/2, insid-identify/2) or, in older files, "estimate_sigma"."""
+    return block.get("estimate_in_sigma_units") or block.get("estimate_sigma") or {}
+
 
 def warn(msg):
     print(f"campaign_report: warning: {msg}", file=sys.stderr)
@@ -275,7 +280,7 @@ class Campaign:
                     if p not in names:
                         names.append(p)
             for r in self.algo_runs(scenario, label):
-                for p in (r.get("estimate_sigma") or {}):
+                for p in estimate_in_sigma_units(r):
                     if p not in names:
                         names.append(p)
         return names
@@ -565,7 +570,7 @@ def plot_positions(c, scenario, label, run, path, dpi):
     if dim == 0:
         return None
     if len(params) != dim:
-        params = list(run.get("estimate_sigma") or {})[:dim]
+        params = list(estimate_in_sigma_units(run))[:dim]
         if len(params) != dim:
             params = [f"x{k}" for k in range(dim)]
     its, pos, best_traj, best_its = [], [], [], []
@@ -588,7 +593,7 @@ def plot_positions(c, scenario, label, run, path, dpi):
             best_its.append(it)
             best_traj.append(best_x)
     truth = run.get("truth_sigma") or {}
-    estimate = run.get("estimate_sigma") or {}
+    estimate = estimate_in_sigma_units(run)
     err_opt = run.get("error_vs_optimum_sigma") or {}
     premature_at = next((num(h.get("iteration", i)) for i, h in enumerate(hist)
                          if h.get("premature") is True), None)

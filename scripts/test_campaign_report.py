@@ -84,14 +84,17 @@ def make_run(rng, scenario, label, name, evals_per_it, seed, level, truth, posit
         history.append(h)
     estimate = {p: (truth[p] if truth else 0.0) + float(rng.normal(0, math.sqrt(final)))
                 for p in PARAMS}
-    run = {"schema": "insid-run/1", "scenario": scenario, "algorithm": label, "seed": seed,
+    # Even seeds are written as before insid-run/2 (estimate_sigma): old run files must still read.
+    old = seed % 2 == 0
+    run = {"schema": "insid-run/1" if old else "insid-run/2", "scenario": scenario,
+           "algorithm": label, "seed": seed,
            "parameters": PARAMS,
            "result": {"algorithm": {"name": name, "parameters": {"population": 10}},
                       "seed": seed, "fitness": best, "evaluations": ITERATIONS * evals_per_it,
                       "iterations": ITERATIONS, "wall_s": 0.5 * evals_per_it / 10,
                       "termination": "max_iterations", "history": history,
                       "best_per_evaluation": per_eval},
-           "estimate_sigma": estimate}
+           ("estimate_sigma" if old else "estimate_in_sigma_units"): estimate}
     if truth:
         run["truth_sigma"] = dict(truth)
         run["error_sigma"] = {p: estimate[p] - truth[p] for p in PARAMS}
@@ -196,7 +199,8 @@ def make_campaign(root, full, rng):
                                premature=15 if name == "dvpio" else None)
                 if not full:  # drop optional fields
                     run["result"].pop("best_per_evaluation")
-                    run.pop("estimate_sigma")
+                    run.pop("estimate_sigma", None)
+                    run.pop("estimate_in_sigma_units", None)
                 runs[s][label].append(run)
                 write(os.path.join(root, "runs", s, label, f"seed_{seed}.json"), run)
         if full:  # a leftover temp file the script must ignore

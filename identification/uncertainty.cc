@@ -1,0 +1,522 @@
+#include "identification/uncertainty.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <memory>
+#include <numbers>
+#include <sstream>
+#include <stdexcept>
+#include <tuple>
+
+#include <Eigen/Cholesky>
+#include <Eigen/QR>
+#include <omp.h>
+
+#include "core/sensor_errors.h"
+#include "diagnose/noise_model.h"
+#include "optimizers/parameters.h"
+
+namespace insid {
+namespace {
+
+using Mat = Eigen::MatrixXd;
+using Vec = Eigen::VectorXd;
+using json = nlohmann::json;
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kZ95 = 1.959963984540054;  // two-sided 95 % normal quantile
+
+json num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
+json opt_num(const std::optional<double>& v) { return v ? num(*v) : json(nullptr); }
+
+Vec to_vec(const std::vector<double>& r) {
+  return Eigen::Map<const Vec>(r.data(), static_cast<Eigen::Index>(r.size()));
+}
+
+std::uint64_t mix_seed(std::uint64_t seed, std::uint64_t k) {
+  std::uint64_t x = seed * 0x9e3779b97f4a7c15ULL + k + 0x632be59bd9b4e019ULL;
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
+  return x ^ (x >> 31);
+}
+
+// Normal draws for the replicas: Marsaglia's polar method on a splitmix64 stream (portable,
+// deterministic in the seed; no trigonometry, so several times cheaper than Box-Muller, which
+// dominated the cost of a replica).
+class FastNormal {
+ public:
+  explicit FastNormal(std::uint64_t seed) : state_(seed) {}
+  double operator()() {
+    if (has_spare_) {
+      has_spare_ = false;
+      return spare_;
+    }
+    double u = 0.0, v = 0.0, q = 0.0;
+    do {
+      u = 2.0 * uniform() - 1.0;
+      v = 2.0 * uniform() - 1.0;
+      q = u * u + v * v;
+    } while (q >= 1.0 || q == 0.0);
+    const double f = std::sqrt(-2.0 * std::log(q) / q);
+    spare_ = v * f;
+    has_spare_ = true;
+    return u * f;
+  }
+
+ private:
+  double uniform() {
+    std::uint64_t z = (state_ += 0x9e3779b97f4a7c15ULL);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+    z ^= z >> 31;
+    return static_cast<double>(z >> 11) * 0x1.0p-53;
+  }
+  std::uint64_t state_;
+  bool has_spare_ = false;
+  double spare_ = 0.0;
+};
+
+// One noise replica into `out`, a buffer of the same shape as `source` reused between replicas
+// (no allocation, no page faults: the fresh copy per replica of diagnose::noise_replica was half
+// its cost). The noise model is diagnose::noise_replica's: per IMU axis and sample
+// N(0, arw^2 dt) on dtheta and N(0, vrw^2 dt) on dv (dt = 1 / imu_rate_hz), per GNSS epoch and
+// ENU axis N(0, sv^2) on the velocity and N(0, sp^2) on the position.
+void fill_replica(const Dataset& source, const NoiseLevels& levels, std::uint64_t seed,
+                  Dataset& out) {
+  constexpr double kRadToDeg = 180.0 / std::numbers::pi;
+  FastNormal normal(seed);
+  const double dt = 1.0 / source.meta.imu_rate_hz;
+  const double s_theta = levels.arw_deg_rth / kRadToDeg / 60.0 * std::sqrt(dt);
+  const double s_v = levels.vrw_mps_rth / 60.0 * std::sqrt(dt);
+  for (std::size_t i = 0; i < source.imu.size(); ++i) {
+    const ImuSample& in = source.imu[i];
+    ImuSample& o = out.imu[i];
+    for (int a = 0; a < 3; ++a) {
+      o.dtheta_b_rad[a] = in.dtheta_b_rad[a] + s_theta * normal();
+      o.dv_b_mps[a] = in.dv_b_mps[a] + s_v * normal();
+    }
+  }
+  const EarthModel& earth = source.meta.earth;
+  for (std::size_t i = 0; i < source.gnss.size(); ++i) {
+    const GnssSample& in = source.gnss[i];
+    GnssSample& g = out.gnss[i];
+    for (int a = 0; a < 3; ++a) g.v_eb_n_mps[a] = in.v_eb_n_mps[a] + levels.gnss_vel_sigma_mps * normal();
+    const double rn = earth.meridian_radius_m(in.lat_rad) + in.h_m;
+    const double re = (earth.prime_vertical_radius_m(in.lat_rad) + in.h_m) * std::cos(in.lat_rad);
+    g.lat_rad = in.lat_rad + levels.gnss_pos_sigma_m * normal() / rn;
+    g.lon_rad = in.lon_rad + levels.gnss_pos_sigma_m * normal() / re;
+    g.h_m = in.h_m + levels.gnss_pos_sigma_m * normal();
+  }
+}
+
+// Columns of J with the given indices.
+Mat columns(const Mat& J, const std::vector<int>& idx) {
+  Mat out(J.rows(), static_cast<Eigen::Index>(idx.size()));
+  for (std::size_t k = 0; k < idx.size(); ++k) out.col(static_cast<Eigen::Index>(k)) = J.col(idx[k]);
+  return out;
+}
+
+// Share of column j of J not explained by the other columns: |P_perp J_j|^2 / |J_j|^2.
+double share_not_absorbed(const Mat& J, int j) {
+  const double norm2 = J.col(j).squaredNorm();
+  if (!(norm2 > 0.0)) return 0.0;
+  if (J.cols() == 1) return 1.0;
+  std::vector<int> others;
+  for (int k = 0; k < J.cols(); ++k)
+    if (k != j) others.push_back(k);
+  const Mat O = columns(J, others);
+  const Eigen::ColPivHouseholderQR<Mat> qr(O);
+  const Vec left = J.col(j) - O * qr.solve(Vec(J.col(j)));
+  return left.squaredNorm() / norm2;
+}
+
+// One (weighted) Gauss-Newton step on the columns `free`: -(J^T W J)^-1 J^T W r.
+Vec gauss_newton_step(const Mat& J, const Vec& r, const Vec& w, const std::vector<int>& free) {
+  Vec step = Vec::Zero(J.cols());
+  if (free.empty()) return step;
+  const Mat JF = columns(J, free);
+  const Mat JtW = JF.transpose() * w.asDiagonal();
+  const Mat A = JtW * JF;
+  const Vec b = JtW * r;
+  const Vec d = -Eigen::ColPivHouseholderQR<Mat>(A).solve(b);
+  for (std::size_t k = 0; k < free.size(); ++k) step[free[k]] = d[static_cast<Eigen::Index>(k)];
+  return step;
+}
+
+}  // namespace
+
+std::string to_string(UncertaintyCriterion criterion) {
+  return criterion == UncertaintyCriterion::kEq15 ? "eq15" : "least-squares";
+}
+
+UncertaintyCriterion criterion_for_algorithm(const std::string& algorithm) {
+  return (algorithm == "lm" || algorithm == "ekf-rts") ? UncertaintyCriterion::kLeastSquares
+                                                       : UncertaintyCriterion::kEq15;
+}
+
+std::string UncertaintyOptions::validate() const {
+  const auto real = [](const char* field, double value, double lo, double hi) {
+    if (std::isfinite(value) && value >= lo && value <= hi) return std::string();
+    return std::string("UncertaintyOptions.") + field + " = " + opt::format_number(value) +
+           ": must be a finite number in [" + opt::format_number(lo) + ", " +
+           opt::format_number(hi) + "]";
+  };
+  if (replicas < 10 || replicas > 100000)
+    return "UncertaintyOptions.replicas = " + std::to_string(replicas) +
+           ": must be a whole number in [10, 100000]";
+  if (threads < 0 || threads > 4096)
+    return "UncertaintyOptions.threads = " + std::to_string(threads) +
+           ": must be a whole number in [0, 4096]";
+  for (const std::string& error :
+       {real("jacobian_step_sigma", jacobian_step_sigma, 1e-6, 1.0),
+        real("not_observable_box_fraction", not_observable_box_fraction, 1e-6, 1e6),
+        real("absorbed_share", absorbed_share, 0.0, 1.0),
+        real("correlated_threshold", correlated_threshold, 0.0, 1.0),
+        real("not_converged_sd", not_converged_sd, 1e-9, 1e9),
+        real("box_edge_tolerance", box_edge_tolerance, 0.0, 0.5)})
+    if (!error.empty()) return error;
+  if (noise) {
+    const NoiseLevels& l = *noise;
+    for (const std::string& error :
+         {real("noise.arw_deg_rth", l.arw_deg_rth, 0.0, 1e6),
+          real("noise.vrw_mps_rth", l.vrw_mps_rth, 0.0, 1e6),
+          real("noise.gnss_vel_sigma_mps", l.gnss_vel_sigma_mps, 0.0, 1e6),
+          real("noise.gnss_pos_sigma_m", l.gnss_pos_sigma_m, 0.0, 1e6)})
+      if (!error.empty()) return error;
+  }
+  return "";
+}
+
+std::pair<std::string, double> engineering_unit(const std::string& si_unit) {
+  constexpr double kDeg = 180.0 / std::numbers::pi;
+  constexpr double kMicroG = 9.80665e-6;  // m/s^2
+  if (si_unit == "rad/s") return {"deg/h", kDeg * 3600.0};
+  if (si_unit == "m/s^2") return {"ug", 1.0 / kMicroG};
+  if (si_unit == "1") return {"ppm", 1e6};
+  if (si_unit == "rad") return {"arcsec", kDeg * 3600.0};
+  if (si_unit == "m/s^3") return {"ug/h", 3600.0 / kMicroG};
+  if (si_unit == "rad/s^2") return {"deg/h^2", kDeg * 3600.0 * 3600.0};
+  if (si_unit == "s") return {"ms", 1e3};
+  return {si_unit, 1.0};
+}
+
+UncertaintyReport estimate_uncertainty(const InsIdentificationProblem& problem,
+                                       const Eigen::VectorXd& value_sigma,
+                                       const UncertaintyOptions& options) {
+  if (const std::string error = options.validate(); !error.empty())
+    throw std::invalid_argument(error);
+  const auto t0 = std::chrono::steady_clock::now();
+  const ParameterMapping& mapping = problem.mapping();
+  const int n = mapping.dimension();
+  if (value_sigma.size() != n)
+    throw std::invalid_argument("estimate_uncertainty: estimate has " +
+                                std::to_string(value_sigma.size()) + " values, the problem " +
+                                std::to_string(n) + " parameters");
+  UncertaintyReport report;
+  report.options = options;
+  report.criterion = options.criterion;
+  report.replicas = options.replicas;
+  report.jacobian_step_sigma = options.jacobian_step_sigma;
+
+  // 1. Residuals at the estimate and the central-difference Jacobian, one batch of 2n + 1
+  //    candidates through the problem (the batched kernel when it covers the data).
+  const double h = options.jacobian_step_sigma;
+  std::vector<Eigen::VectorXd> xs(static_cast<std::size_t>(2 * n + 1));
+  xs[0] = mapping.from_sigma(value_sigma);
+  for (int j = 0; j < n; ++j) {
+    Vec plus = value_sigma, minus = value_sigma;
+    plus[j] += h;
+    minus[j] -= h;
+    xs[static_cast<std::size_t>(1 + 2 * j)] = mapping.from_sigma(plus);
+    xs[static_cast<std::size_t>(2 + 2 * j)] = mapping.from_sigma(minus);
+  }
+  std::vector<std::vector<double>> rs(xs.size());
+  std::vector<double> fs(xs.size());
+  problem.evaluate_residual_batch(xs, rs, fs);
+  report.evaluations += static_cast<std::int64_t>(xs.size());
+  const Vec r = to_vec(rs[0]);
+  const Eigen::Index m = r.size();
+  if (m < n) throw std::runtime_error("estimate_uncertainty: fewer residuals than parameters");
+  Mat J(m, n);  // d r / d value_sigma (m/s per sigma)
+  for (int j = 0; j < n; ++j)
+    J.col(j) = (to_vec(rs[static_cast<std::size_t>(1 + 2 * j)]) -
+                to_vec(rs[static_cast<std::size_t>(2 + 2 * j)])) /
+               (2.0 * h);
+
+  report.jacobian_sigma = J;
+  report.residuals = r;
+
+  // 2. Noise replicas through the same pipeline at the estimate (diagnose/noise_model.h).
+  const NavigationProblem& nav = problem.navigation();
+  const Dataset& dataset = nav.dataset();
+  diagnose::NoiseEstimate noise = diagnose::noise_levels_for(dataset);
+  if (options.noise) {
+    noise.levels = *options.noise;
+    noise.source = "given";
+  }
+  report.noise_levels = noise.levels;
+  report.noise_source = noise.source;
+  const SensorErrors errors = mapping.to_errors(xs[0]);
+  std::vector<double> r_scalar;
+  nav.residuals(errors, r_scalar);  // the replicas run the scalar reference: compare like with like
+  ++report.evaluations;
+  const Vec r0 = to_vec(r_scalar);
+  const int M = options.replicas;
+  Mat D(m, M);
+  {
+    std::vector<std::string> failures(static_cast<std::size_t>(M));
+    const int threads = options.threads > 0 ? options.threads : omp_get_max_threads();
+    // One replica buffer per thread (the data without truth.csv, which navigation never reads).
+    std::vector<Dataset> buffers(static_cast<std::size_t>(threads));
+    for (Dataset& b : buffers) {
+      b.meta = dataset.meta;
+      b.imu = dataset.imu;
+      b.gnss = dataset.gnss;
+    }
+#pragma omp parallel for schedule(dynamic) num_threads(threads)
+    for (int k = 0; k < M; ++k) {
+      try {
+        Dataset& buffer = buffers[static_cast<std::size_t>(omp_get_thread_num())];
+        fill_replica(dataset, noise.levels, mix_seed(options.seed, 7000 + k), buffer);
+        // Non-owning: the buffer outlives the problem, which lives in this iteration only.
+        const std::shared_ptr<const Dataset> replica(std::shared_ptr<const Dataset>(), &buffer);
+        const NavigationProblem rnav(replica, nav.options());
+        std::vector<double> rr;
+        rnav.residuals(errors, rr);
+        const Vec d = to_vec(rr) - r0;
+        if (static_cast<Eigen::Index>(rr.size()) != m || !d.allFinite())
+          throw std::runtime_error("its residuals are not finite");
+        D.col(k) = d;
+      } catch (const std::exception& e) {
+        failures[static_cast<std::size_t>(k)] = e.what();
+      }
+    }
+    for (int k = 0; k < M; ++k)
+      if (!failures[static_cast<std::size_t>(k)].empty())
+        throw std::runtime_error("uncertainty: noise replica " + std::to_string(k) + ": " +
+                                 failures[static_cast<std::size_t>(k)]);
+    report.evaluations += M;
+  }
+
+  // 3. Which columns carry information of their own.
+  report.parameters.resize(static_cast<std::size_t>(n));
+  std::vector<int> computable;
+  for (int j = 0; j < n; ++j) {
+    ParameterUncertainty& p = report.parameters[static_cast<std::size_t>(j)];
+    const EstimatedParameter& e = mapping.parameters()[static_cast<std::size_t>(j)];
+    p.name = e.name;
+    p.sigma_si = e.sigma;
+    p.estimate_si = value_sigma[j] * e.sigma;
+    p.unit = std::string(effect_info(e.name).unit);
+    std::tie(p.unit_eng, p.eng_per_si) = engineering_unit(p.unit);
+    p.share_not_absorbed = share_not_absorbed(J, j);
+    if (!(J.col(j).squaredNorm() > 0.0))
+      p.sd_reason = "the residuals do not depend on it on this flight (zero Jacobian column)";
+    else if (!(p.share_not_absorbed > 1e-10))
+      p.sd_reason = "its Jacobian column is a combination of the others (share not absorbed " +
+                    opt::format_number(p.share_not_absorbed) + ")";
+    else
+      computable.push_back(j);
+  }
+
+  // 4. Covariance: least-squares response to every replica, dtheta = -(J^T J)^-1 J^T d.
+  report.covariance_sigma = Mat::Constant(n, n, kNaN);
+  report.correlation = Mat::Constant(n, n, kNaN);
+  Vec sd_sigma = Vec::Constant(n, kNaN);
+  if (!computable.empty()) {
+    const Mat JF = columns(J, computable);
+    const Mat theta = -Eigen::ColPivHouseholderQR<Mat>(JF).solve(D);  // |F| x M
+    const Mat cov = theta * theta.transpose() / static_cast<double>(M);
+    for (std::size_t a = 0; a < computable.size(); ++a)
+      for (std::size_t b = 0; b < computable.size(); ++b)
+        report.covariance_sigma(computable[a], computable[b]) =
+            cov(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b));
+    for (int j : computable) sd_sigma[j] = std::sqrt(report.covariance_sigma(j, j));
+    for (int a : computable)
+      for (int b : computable)
+        report.correlation(a, b) = report.covariance_sigma(a, b) / (sd_sigma[a] * sd_sigma[b]);
+  }
+
+  // 5. Distance to the optimum of the algorithm's criterion: one Gauss-Newton step (an IRLS /
+  //    Weiszfeld step for Eq. 15, weights 1/|r_t|), parameters at a box edge that the step
+  //    pushes outward held there (the box-constrained optimum is what the algorithm sought).
+  Vec w = Vec::Ones(m);
+  if (options.criterion == UncertaintyCriterion::kEq15) {
+    double mean = 0.0;
+    for (Eigen::Index e = 0; e + 1 < m; e += 2) mean += std::hypot(r[e], r[e + 1]);
+    mean /= static_cast<double>(std::max<Eigen::Index>(m / 2, 1));
+    const double floor = std::max(1e-6 * mean, 1e-12);
+    for (Eigen::Index e = 0; e + 1 < m; e += 2)
+      w[e] = w[e + 1] = 1.0 / std::max(std::hypot(r[e], r[e + 1]), floor);
+  }
+  std::vector<bool> at_edge_low(static_cast<std::size_t>(n)), at_edge_high(static_cast<std::size_t>(n));
+  for (int j = 0; j < n; ++j) {
+    const EstimatedParameter& e = mapping.parameters()[static_cast<std::size_t>(j)];
+    const double tol = options.box_edge_tolerance * (e.upper_sigma - e.lower_sigma);
+    at_edge_low[static_cast<std::size_t>(j)] = value_sigma[j] <= e.lower_sigma + tol;
+    at_edge_high[static_cast<std::size_t>(j)] = value_sigma[j] >= e.upper_sigma - tol;
+  }
+  Vec step = gauss_newton_step(J, r, w, computable);
+  for (int pass = 0; pass < n; ++pass) {
+    std::vector<int> free;
+    bool changed = false;
+    for (int j : computable) {
+      const bool pushed_out = (at_edge_low[static_cast<std::size_t>(j)] && step[j] < 0.0) ||
+                              (at_edge_high[static_cast<std::size_t>(j)] && step[j] > 0.0);
+      if (pushed_out) {
+        changed = changed || step[j] != 0.0;
+        continue;
+      }
+      free.push_back(j);
+    }
+    if (!changed) break;
+    step = gauss_newton_step(J, r, w, free);
+  }
+
+  // 6. Flags.
+  for (int j = 0; j < n; ++j) {
+    ParameterUncertainty& p = report.parameters[static_cast<std::size_t>(j)];
+    const EstimatedParameter& e = mapping.parameters()[static_cast<std::size_t>(j)];
+    p.step_to_optimum_sigma = step[j];
+    if (std::isfinite(sd_sigma[j]) && sd_sigma[j] > 0.0) {
+      p.sd_si = sd_sigma[j] * e.sigma;
+      p.step_to_optimum_sd = std::abs(step[j]) / sd_sigma[j];
+    } else if (p.sd_reason.empty() && std::isfinite(sd_sigma[j])) {
+      p.sd_reason = "the noise replicas do not move it (zero sd: noise-free data?)";
+    }
+    if (at_edge_low[static_cast<std::size_t>(j)] || at_edge_high[static_cast<std::size_t>(j)])
+      p.flags.push_back("at_box_edge");
+    const bool too_wide = p.sd_si && 2.0 * kZ95 * sd_sigma[j] >
+                                         options.not_observable_box_fraction *
+                                             (e.upper_sigma - e.lower_sigma);
+    if (!p.sd_si.has_value() && p.sd_reason.rfind("the noise replicas", 0) != 0)
+      p.flags.push_back("not_observable");
+    else if (too_wide || p.share_not_absorbed < options.absorbed_share)
+      p.flags.push_back("not_observable");
+    for (int k = 0; k < n; ++k)
+      if (k != j && std::isfinite(report.correlation(j, k)) &&
+          std::abs(report.correlation(j, k)) > options.correlated_threshold)
+        p.flags.push_back("correlated:" + mapping.parameters()[static_cast<std::size_t>(k)].name);
+    if (p.step_to_optimum_sd && *p.step_to_optimum_sd > options.not_converged_sd)
+      p.flags.push_back("not_converged");
+    if (p.step_to_optimum_sd)
+      report.distance_to_optimum_sd =
+          std::max(report.distance_to_optimum_sd.value_or(0.0), *p.step_to_optimum_sd);
+  }
+  report.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return report;
+}
+
+json UncertaintyReport::parameters_json() const {
+  json arr = json::array();
+  for (const ParameterUncertainty& p : parameters) {
+    json j;
+    j["name"] = p.name;
+    j["estimate"] = num(p.estimate_si);
+    j["sd"] = opt_num(p.sd_si);
+    if (!p.sd_si) j["sd_reason"] = p.sd_reason;
+    j["unit"] = p.unit;
+    j["estimate_eng"] = num(p.estimate_si * p.eng_per_si);
+    j["sd_eng"] = p.sd_si ? num(*p.sd_si * p.eng_per_si) : json(nullptr);
+    j["unit_eng"] = p.unit_eng;
+    j["sigma_unit"] = p.sigma_si;
+    j["estimate_in_sigma_units"] = num(p.estimate_sigma_units());
+    j["sd_in_sigma_units"] = p.sd_si ? num(*p.sd_si / p.sigma_si) : json(nullptr);
+    j["share_not_absorbed"] = num(p.share_not_absorbed);
+    j["step_to_optimum_in_sigma_units"] = num(p.step_to_optimum_sigma);
+    j["step_to_optimum_sd"] = opt_num(p.step_to_optimum_sd);
+    j["flags"] = p.flags;
+    arr.push_back(j);
+  }
+  return arr;
+}
+
+json UncertaintyReport::correlation_json() const {
+  json names = json::array(), matrix = json::array();
+  for (const ParameterUncertainty& p : parameters) names.push_back(p.name);
+  for (Eigen::Index a = 0; a < correlation.rows(); ++a) {
+    json row = json::array();
+    for (Eigen::Index b = 0; b < correlation.cols(); ++b) row.push_back(num(correlation(a, b)));
+    matrix.push_back(row);
+  }
+  return {{"names", names}, {"matrix", matrix}};
+}
+
+json UncertaintyReport::method_json() const {
+  json j;
+  j["method"] =
+      "Gauss-Newton covariance at the estimate: central-difference residual Jacobian through "
+      "the batched kernel, least-squares response -(J^T J)^-1 J^T d to noise replicas d of the "
+      "flight (the data's own IMU/GNSS noise levels added again, run through alignment and "
+      "navigation: correlated residual noise included)";
+  j["criterion"] = to_string(criterion);
+  j["replicas"] = replicas;
+  j["replica_seed"] = options.seed;
+  j["jacobian_step_in_sigma_units"] = jacobian_step_sigma;
+  j["noise_model"] = {{"arw_deg_rth", noise_levels.arw_deg_rth},
+                      {"vrw_mps_rth", noise_levels.vrw_mps_rth},
+                      {"gnss_vel_sigma_mps", noise_levels.gnss_vel_sigma_mps},
+                      {"gnss_pos_sigma_m", noise_levels.gnss_pos_sigma_m},
+                      {"source", noise_source}};
+  j["distance_to_optimum_sd"] = opt_num(distance_to_optimum_sd);
+  j["thresholds"] = {
+      {"not_observable",
+       "95 % interval (2 x 1.96 sd) wider than " +
+           opt::format_number(options.not_observable_box_fraction) +
+           " x the search box, or share of the Jacobian column not absorbed by the others < " +
+           opt::format_number(options.absorbed_share)},
+      {"correlated", "|correlation| > " + opt::format_number(options.correlated_threshold)},
+      {"not_converged", "one Gauss-Newton step to the optimum of the criterion > " +
+                            opt::format_number(options.not_converged_sd) + " sd"},
+      {"at_box_edge", "within " + opt::format_number(options.box_edge_tolerance) +
+                          " of the box width from a bound"}};
+  j["evaluations"] = evaluations;
+  j["wall_s"] = wall_s;
+  return j;
+}
+
+std::string UncertaintyReport::table() const {
+  std::ostringstream out;
+  char line[512];
+  std::snprintf(line, sizeof(line), "%-16s %12s %11s %-8s %9s %8s  %s\n", "parameter", "estimate",
+                "sd", "unit", "est/sigma", "sd/sigma", "flags");
+  out << line;
+  for (const ParameterUncertainty& p : parameters) {
+    std::string flags;
+    for (const std::string& f : p.flags) {
+      if (!flags.empty()) flags += ' ';
+      flags += f;
+    }
+    if (!p.sd_si) {
+      if (!flags.empty()) flags += ' ';
+      flags.append("(sd: ").append(p.sd_reason).append(")");
+    }
+    const double est = p.estimate_si * p.eng_per_si;
+    if (p.sd_si)
+      std::snprintf(line, sizeof(line), "%-16s %12.5g %11.3g %-8s %9.3f %8.3f  %s\n",
+                    p.name.c_str(), est, *p.sd_si * p.eng_per_si, p.unit_eng.c_str(),
+                    p.estimate_sigma_units(), *p.sd_si / p.sigma_si, flags.c_str());
+    else
+      std::snprintf(line, sizeof(line), "%-16s %12.5g %11s %-8s %9.3f %8s  %s\n", p.name.c_str(),
+                    est, "-", p.unit_eng.c_str(), p.estimate_sigma_units(), "-", flags.c_str());
+    out << line;
+  }
+  if (distance_to_optimum_sd)
+    out << "distance to the " << to_string(criterion) << " optimum: "
+        << opt::format_number(std::round(*distance_to_optimum_sd * 1000.0) / 1000.0)
+        << " sd (one Gauss-Newton step); sd from " << replicas << " noise replicas ("
+        << noise_source << ")\n";
+  return out.str();
+}
+
+void add_uncertainty_json(nlohmann::json& out, const UncertaintyReport& report) {
+  out["parameters"] = report.parameters_json();
+  out["correlation"] = report.correlation_json();
+  out["uncertainty"] = report.method_json();
+}
+
+}  // namespace insid

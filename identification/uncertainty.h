@@ -1,0 +1,124 @@
+// How sure an identification is (issue 15, part 1): one implementation for every algorithm,
+// whatever found the point (swarm, baseline, LM, EKF-RTS).
+//
+//   * Jacobian J = d r / d value_sigma of the residual vector (dvE_t, dvN_t) at the estimate,
+//     central differences through the problem's batched kernel (2n candidates in one batch).
+//   * Noise model: noise replicas of the flight (the levels and the noise model of
+//     diagnose/noise_model.h, generated in place per thread for speed). The INS residuals are
+//     integrated ARW/VRW plus the alignment error propagated through Schuler dynamics: strongly
+//     correlated and not stationary, so neither s^2 (J^T J)^-1 (white) nor a stationary
+//     autocorrelation (HAC) sandwich describes them. A replica = the dataset with extra white
+//     noise of the data's own levels on every IMU increment and GNSS epoch, run through the same
+//     pipeline (alignment included) at the estimate; replica minus data run = one draw d_m of
+//     the residuals' noise response. The least-squares estimator's response to it is
+//     dtheta_m = -(J^T J)^-1 J^T d_m, and the covariance is the mean of dtheta_m dtheta_m^T over
+//     the replicas (a sandwich (J^T J)^-1 J^T Sigma_r J (J^T J)^-1 with Sigma_r estimated by the
+//     replicas, never formed).
+//   * Distance to the optimum: one Gauss-Newton step from the estimate on the criterion the
+//     algorithm minimised (least squares, or an IRLS/Weiszfeld step for Eq. 15's sum of norms),
+//     parameters held at a box edge they press against; in sd units per parameter.
+//   * Flags per parameter: at_box_edge, not_observable, correlated:<other>, not_converged.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+
+#include "core/dataset.h"
+#include "identification/ins_problem.h"
+
+namespace insid {
+
+/// What the algorithm that found the point minimised (sets the Gauss-Newton step used for the
+/// distance to the optimum).
+enum class UncertaintyCriterion {
+  kEq15,          ///< Eq. 15 sum of norms (GA, PSO, PIO, DVPIO, CMA-ES, DE, ... ): IRLS step
+  kLeastSquares,  ///< sum of squares of the residuals (lm, ekf-rts): Gauss-Newton step
+};
+std::string to_string(UncertaintyCriterion criterion);
+/// The criterion an algorithm of the registry minimises ("lm", "ekf-rts" -> least squares).
+UncertaintyCriterion criterion_for_algorithm(const std::string& algorithm);
+
+struct UncertaintyOptions {
+  int replicas = 100;                 ///< noise replicas (sd's own relative error ~1/sqrt(2M))
+  std::uint64_t seed = 20261124;      ///< replica noise seed
+  /// Central-difference step in sigma units. The residuals are close to linear in the sensor
+  /// errors over several sigma; 0.01 sigma keeps the truncation error (h^2) negligible and the
+  /// difference (~1e-2 of a sigma's effect, itself >> the 1e-12 relative kernel round-off) clean.
+  double jacobian_step_sigma = 0.01;
+  UncertaintyCriterion criterion = UncertaintyCriterion::kEq15;
+  /// not_observable when the 95 % interval (2 x 1.96 sd) is wider than this fraction of the
+  /// search box: the flight cannot place the parameter inside the box it was searched in.
+  double not_observable_box_fraction = 1.0;
+  /// not_observable when the share of the parameter's Jacobian column not explained by the other
+  /// columns, |P_perp J_j|^2 / |J_j|^2, is below this (absorbed by the others).
+  double absorbed_share = 1e-4;
+  double correlated_threshold = 0.95;  ///< |rho| above this: correlated:<other>
+  double not_converged_sd = 1.0;       ///< GN step to the optimum beyond this many sd
+  double box_edge_tolerance = 1e-3;    ///< at_box_edge within this fraction of the box width
+  int threads = 0;                     ///< replica runs in parallel (0 = OpenMP default)
+  /// Noise levels of the replicas; default: meta.json "noise", else estimated from the data.
+  std::optional<NoiseLevels> noise;
+  /// Why the options are unusable ("" when they are), naming the field and value.
+  std::string validate() const;
+};
+
+struct ParameterUncertainty {
+  std::string name;
+  double sigma_si = 0.0;            ///< SI value of one sigma unit (the search unit)
+  double estimate_si = 0.0;
+  std::optional<double> sd_si;      ///< empty when it cannot be computed (sd_reason says why)
+  std::string sd_reason;
+  std::string unit, unit_eng;       ///< SI unit, engineering unit (deg/h, ug, ppm, ...)
+  double eng_per_si = 1.0;          ///< engineering value = SI value * eng_per_si
+  double share_not_absorbed = 0.0;  ///< |P_perp J_j|^2 / |J_j|^2 (1 = independent column)
+  double step_to_optimum_sigma = 0.0;             ///< GN step (sigma units)
+  std::optional<double> step_to_optimum_sd;       ///< |step| / sd
+  std::vector<std::string> flags;
+  double estimate_sigma_units() const { return estimate_si / sigma_si; }
+};
+
+struct UncertaintyReport {
+  std::vector<ParameterUncertainty> parameters;
+  Eigen::MatrixXd covariance_sigma;  ///< sigma units (NaN rows/cols where sd is missing)
+  Eigen::MatrixXd correlation;       ///< NaN where undefined
+  Eigen::MatrixXd jacobian_sigma;    ///< d r / d value_sigma at the estimate (m/s per sigma)
+  Eigen::VectorXd residuals;         ///< r at the estimate (m/s)
+  std::optional<double> distance_to_optimum_sd;  ///< max over parameters of |step| / sd
+  UncertaintyCriterion criterion = UncertaintyCriterion::kEq15;
+  NoiseLevels noise_levels;
+  std::string noise_source;
+  int replicas = 0;
+  double jacobian_step_sigma = 0.0;
+  std::int64_t evaluations = 0;      ///< full INS runs (Jacobian + replicas)
+  double wall_s = 0.0;
+  UncertaintyOptions options;
+  /// "parameters": [{name, estimate, sd, unit, estimate_eng, sd_eng, unit_eng, flags, ...}].
+  nlohmann::json parameters_json() const;
+  /// "correlation": {names, matrix} (null where undefined).
+  nlohmann::json correlation_json() const;
+  /// "uncertainty": method, noise model, thresholds, distance to the optimum, cost.
+  nlohmann::json method_json() const;
+  /// A short human table (one line per parameter, then the strong correlations).
+  std::string table() const;
+};
+
+/// Engineering unit of a catalogue SI unit: "rad/s" -> deg/h, "m/s^2" -> ug, "1" -> ppm,
+/// "rad" -> arcsec, "m/s^3" -> ug/h, "rad/s^2" -> deg/h^2, "s" -> ms, "m" -> m.
+/// Returns the unit and the factor (engineering = SI * factor).
+std::pair<std::string, double> engineering_unit(const std::string& si_unit);
+
+/// The uncertainty of the estimate `value_sigma` (sigma units) of `problem`.
+UncertaintyReport estimate_uncertainty(const InsIdentificationProblem& problem,
+                                       const Eigen::VectorXd& value_sigma,
+                                       const UncertaintyOptions& options = {});
+
+/// The result layout's blocks added to a result JSON: "parameters", "correlation",
+/// "uncertainty".
+void add_uncertainty_json(nlohmann::json& out, const UncertaintyReport& report);
+
+}  // namespace insid

@@ -1,0 +1,248 @@
+// Uncertainty of an identification (issue 15): the 95 % intervals of LM cover the truth over
+// noise seeds of a short flight (and a mis-scaled or white-noise sd does not); the box-edge /
+// not-observable flags fire on a 120 s flight and not on a long one; old result files read.
+#include <cmath>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <Eigen/QR>
+#include <gtest/gtest.h>
+
+#include "core/json_reader.h"
+#include "identification/identify.h"
+#include "identification/ins_problem.h"
+#include "identification/uncertainty.h"
+#include "optimizers/registry.h"
+#include "scenarios/scenario.h"
+
+namespace insid {
+namespace {
+
+constexpr double kZ95 = 1.959963984540054;
+// The short flight of the coverage test: long enough that the box [-4, 4] sigma does not
+// decide the errors (on 120 s the accelerometer biases have sd ~70 sigma and LM stops at the box
+// edge, which any sd "covers"), short enough for 20 seeds in a test.
+constexpr double kCoverageFlightS = 300.0;
+// The long flight of the flag test: the `paper` preset cut to one hour (the full 2.6 h flight
+// takes minutes here; identification/README.md gives the measured times).
+constexpr double kLongFlightS = 3600.0;
+
+std::shared_ptr<const Dataset> simulate_preset(const std::string& preset, double flight_s,
+                                               const std::string& grade, std::uint64_t seed) {
+  scenarios::ScenarioConfig cfg = scenarios::preset_scenario(preset);
+  cfg.flight_s = flight_s;
+  cfg.noise = scenarios::noise_grade(grade);
+  cfg.seed = seed;
+  return std::make_shared<const Dataset>(scenarios::simulate(cfg));
+}
+
+struct Trial {
+  Eigen::VectorXd truth_sigma, estimate_sigma;
+  UncertaintyReport report;
+};
+
+// LM (Ceres, the registry's "lm") on the paper's four, then the uncertainty at its estimate.
+Trial lm_trial(const std::string& preset, double flight_s, std::uint64_t seed) {
+  const auto dataset = simulate_preset(preset, flight_s, "nav", seed);
+  const auto navigation = std::make_shared<const NavigationProblem>(dataset);
+  opt::EvaluatorOptions evaluator;
+  evaluator.parallelism = opt::Parallelism::kOpenMP;
+  const InsIdentificationProblem problem(
+      navigation, ParameterMapping(EstimatedParameter::paper_four()), FitnessKind::kEq15,
+      evaluator);
+  opt::RunConfig config;
+  config.seed = seed;
+  config.max_iterations = 0;
+  config.max_evaluations = 200;
+  const opt::Result result = opt::optimize("lm", problem, config);
+  Trial t;
+  t.estimate_sigma = problem.mapping().to_sigma(result.best_x);
+  t.truth_sigma.resize(4);
+  for (int k = 0; k < 4; ++k) {
+    const EstimatedParameter& p = problem.mapping().parameters()[static_cast<std::size_t>(k)];
+    const auto it = dataset->meta.injected->find(p.name);
+    t.truth_sigma[k] = (it == dataset->meta.injected->end() ? 0.0 : it->second) / p.sigma;
+  }
+  UncertaintyOptions options;
+  options.criterion = criterion_for_algorithm("lm");
+  t.report = estimate_uncertainty(problem, t.estimate_sigma, options);
+  return t;
+}
+
+bool has_flag(const ParameterUncertainty& p, const std::string& flag) {
+  for (const std::string& f : p.flags)
+    if (f == flag) return true;
+  return false;
+}
+
+// GIVEN 20 noise seeds of a 300 s nav-grade `rich` flight, WHEN LM identifies the paper's four
+// and the uncertainty is computed at its estimate, THEN each parameter's 95 % interval covers
+// the injected value in 16-20 of 20 seeds; the same test applied to half the sd, or to the
+// white-noise s^2 (J^T J)^-1, fails for some parameter (the test can tell a mis-scaled sd).
+TEST(Uncertainty, LmIntervalsCoverTheTruthOverNoiseSeedsOfAShortFlight) {
+  constexpr int kSeeds = 20;
+  const std::vector<std::string> names = {"accel_bias_x", "accel_bias_y", "gyro_bias_x",
+                                          "gyro_bias_y"};
+  std::vector<int> covered(4, 0), covered_half(4, 0), covered_white(4, 0);
+  std::vector<double> z2(4, 0.0);
+  for (int seed = 1; seed <= kSeeds; ++seed) {
+    const Trial t = lm_trial("rich", kCoverageFlightS, static_cast<std::uint64_t>(seed));
+    const Eigen::MatrixXd& J = t.report.jacobian_sigma;
+    const Eigen::Index m = J.rows();
+    const double s2 = t.report.residuals.squaredNorm() / static_cast<double>(m - 4);
+    const Eigen::MatrixXd cov_white =
+        s2 * (J.transpose() * J).inverse();  // the white-noise textbook formula
+    for (int k = 0; k < 4; ++k) {
+      const ParameterUncertainty& p = t.report.parameters[static_cast<std::size_t>(k)];
+      ASSERT_TRUE(p.sd_si.has_value()) << p.name << ": " << p.sd_reason;
+      const double sd = *p.sd_si / p.sigma_si;
+      const double err = std::abs(t.estimate_sigma[k] - t.truth_sigma[k]);
+      covered[static_cast<std::size_t>(k)] += err <= kZ95 * sd;
+      covered_half[static_cast<std::size_t>(k)] += err <= kZ95 * 0.5 * sd;
+      covered_white[static_cast<std::size_t>(k)] += err <= kZ95 * std::sqrt(cov_white(k, k));
+      z2[static_cast<std::size_t>(k)] += err * err / (sd * sd);
+    }
+  }
+  int half_fails = 0, white_fails = 0;
+  for (std::size_t k = 0; k < 4; ++k) {
+    std::cout << "[ coverage ] " << names[k] << ": " << covered[k] << "/" << kSeeds
+              << " (|error|/sd RMS " << std::sqrt(z2[k] / kSeeds) << "); half sd "
+              << covered_half[k] << "/" << kSeeds << "; white s^2 (J^T J)^-1 "
+              << covered_white[k] << "/" << kSeeds << "\n";
+    EXPECT_GE(covered[k], 16) << names[k];
+    EXPECT_LE(covered[k], 20) << names[k];
+    half_fails += covered_half[k] < 16;
+    white_fails += covered_white[k] < 16;
+  }
+  EXPECT_GE(half_fails, 1) << "the coverage test cannot tell an sd half as large";
+  EXPECT_GE(white_fails, 1) << "the coverage test cannot tell the white-noise sd";
+}
+
+// GIVEN a 120 s flight, THEN some parameter is flagged at_box_edge or not_observable (the issue's
+// accel_bias_y); GIVEN a one-hour `paper` flight, THEN neither flag (nor not_converged) fires and the
+// estimate lies within 3 sd of the truth. (correlated:<other> may fire on both: per-candidate
+// alignment couples the two gyro biases, DESIGN.md sec. 10.)
+TEST(Uncertainty, FlagsFireOnAShortFlightAndNotOnALongOne) {
+  int short_flagged = 0;
+  for (std::uint64_t seed : {1, 2, 3}) {
+    const Trial t = lm_trial("rich", 120.0, seed);
+    std::cerr << "120 s rich, seed " << seed << ":\n" << t.report.table();
+    for (const ParameterUncertainty& p : t.report.parameters)
+      if (has_flag(p, "at_box_edge") || has_flag(p, "not_observable")) {
+        ++short_flagged;
+        break;
+      }
+  }
+  EXPECT_EQ(short_flagged, 3) << "the short flight should say it cannot tell";
+  const Trial t = lm_trial("paper", kLongFlightS, 1);
+  std::cerr << kLongFlightS << " s paper, seed 1:\n" << t.report.table();
+  for (std::size_t k = 0; k < t.report.parameters.size(); ++k) {
+    const ParameterUncertainty& p = t.report.parameters[k];
+    for (const char* flag : {"at_box_edge", "not_observable", "not_converged"})
+      EXPECT_FALSE(has_flag(p, flag)) << p.name << " flagged " << flag << " on the long flight";
+    ASSERT_TRUE(p.sd_si.has_value());
+    const auto i = static_cast<Eigen::Index>(k);
+    EXPECT_LE(std::abs(t.estimate_sigma[i] - t.truth_sigma[i]), 3.0 * *p.sd_si / p.sigma_si)
+        << p.name;
+  }
+}
+
+// A point away from the optimum is flagged not_converged with its distance; the optimum is not.
+TEST(Uncertainty, NotConvergedFiresAwayFromTheOptimum) {
+  const auto dataset = simulate_preset("rich", 600.0, "nav", 4);
+  const auto navigation = std::make_shared<const NavigationProblem>(dataset);
+  const InsIdentificationProblem problem(navigation,
+                                         ParameterMapping(EstimatedParameter::paper_four()));
+  opt::RunConfig config;
+  config.max_iterations = 0;
+  config.max_evaluations = 200;
+  const Eigen::VectorXd optimum =
+      problem.mapping().to_sigma(opt::optimize("lm", problem, config).best_x);
+  UncertaintyOptions options;
+  options.criterion = UncertaintyCriterion::kLeastSquares;
+  const UncertaintyReport at = estimate_uncertainty(problem, optimum, options);
+  ASSERT_TRUE(at.distance_to_optimum_sd.has_value());
+  EXPECT_LT(*at.distance_to_optimum_sd, 0.1);
+  Eigen::VectorXd off = optimum;
+  off[0] += 5.0 * *at.parameters[0].sd_si / at.parameters[0].sigma_si;  // 5 sd in accel_bias_x
+  const UncertaintyReport away = estimate_uncertainty(problem, off, options);
+  std::cerr << away.table();
+  ASSERT_TRUE(away.distance_to_optimum_sd.has_value());
+  EXPECT_GT(*away.distance_to_optimum_sd, 3.0);
+  EXPECT_TRUE(has_flag(away.parameters[0], "not_converged"));
+}
+
+// The result layout: every parameter has name, estimate, sd, units, flags; the engineering units
+// are the catalogue's (deg/h for gyro biases, ug for accelerometer biases, ppm for scale factors).
+TEST(Uncertainty, ResultLayoutAndEngineeringUnits) {
+  EXPECT_EQ(engineering_unit("rad/s").first, "deg/h");
+  EXPECT_NEAR(kSigmaGyroRadS * engineering_unit("rad/s").second, 0.01, 1e-15);
+  EXPECT_EQ(engineering_unit("m/s^2").first, "ug");
+  EXPECT_NEAR(kSigmaAccelMps2 * engineering_unit("m/s^2").second, 0.0005 / 9.80665e-6, 1e-9);
+  EXPECT_EQ(engineering_unit("1").first, "ppm");
+  EXPECT_NEAR(1e-4 * engineering_unit("1").second, 100.0, 1e-9);
+  const Trial t = lm_trial("rich", 120.0, 1);
+  nlohmann::json out;
+  add_uncertainty_json(out, t.report);
+  ASSERT_EQ(out["parameters"].size(), 4u);
+  for (const auto& p : out["parameters"])
+    for (const char* key :
+         {"name", "estimate", "sd", "unit", "estimate_eng", "sd_eng", "unit_eng", "flags"})
+      EXPECT_TRUE(p.contains(key)) << key;
+  EXPECT_EQ(out["parameters"][2]["unit_eng"], "deg/h");
+  EXPECT_EQ(out["correlation"]["matrix"].size(), 4u);
+  EXPECT_NEAR(out["correlation"]["matrix"][1][1].get<double>(), 1.0, 1e-12);
+}
+
+UncertaintyOptions bad(void (*edit)(UncertaintyOptions&)) {
+  UncertaintyOptions o;
+  edit(o);
+  return o;
+}
+
+TEST(Uncertainty, OptionsNameTheBadValue) {
+  EXPECT_EQ(UncertaintyOptions{}.validate(), "");
+  EXPECT_NE(bad([](UncertaintyOptions& o) { o.replicas = 3; }).validate().find("replicas = 3"),
+            std::string::npos);
+  EXPECT_NE(bad([](UncertaintyOptions& o) { o.jacobian_step_sigma = 0.0; })
+                .validate()
+                .find("jacobian_step_sigma = 0"),
+            std::string::npos);
+  EXPECT_NE(bad([](UncertaintyOptions& o) { o.correlated_threshold = 2.0; })
+                .validate()
+                .find("correlated_threshold = 2"),
+            std::string::npos);
+}
+
+// Results written before the rename (estimate_sigma) still read: the committed optimum of the
+// paper-plus-baselines campaign, and an old-style block next to the new one.
+TEST(Uncertainty, OldResultFilesStillRead) {
+  const std::filesystem::path old_file =
+      std::filesystem::path(INSID_SOURCE_DIR) / "results/paper-plus-baselines/optimum/rich.json";
+  const nlohmann::json j = read_json_file(old_file);
+  ASSERT_TRUE(j.contains("estimate_sigma")) << "the committed file is an old one";
+  const ParameterMapping mapping(EstimatedParameter::paper_four());
+  const ReferenceOptimum old_opt = ReferenceOptimum::from_json(j, mapping);
+  EXPECT_EQ(old_opt.value_sigma[0], j["estimate_sigma"]["accel_bias_x"].get<double>());
+  EXPECT_EQ(old_opt.fitness, j["fitness"].get<double>());
+  const nlohmann::json now = old_opt.to_json(mapping);
+  EXPECT_FALSE(now.contains("estimate_sigma"));
+  const ReferenceOptimum again = ReferenceOptimum::from_json(now, mapping);
+  EXPECT_EQ(again.value_sigma, old_opt.value_sigma);
+  EXPECT_EQ(estimate_in_sigma_units(j, mapping), old_opt.value_sigma);
+  EXPECT_EQ(estimate_in_sigma_units(now, mapping), old_opt.value_sigma);
+  // A block with neither name is refused, naming both.
+  try {
+    estimate_in_sigma_units(nlohmann::json{{"fitness", 1.0}}, mapping);
+    ADD_FAILURE() << "no error";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("estimate_in_sigma_units"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("estimate_sigma"), std::string::npos);
+  }
+}
+
+}  // namespace
+}  // namespace insid
