@@ -302,16 +302,28 @@ std::string missing_runs_report(const std::string& out_dir, const CampaignConfig
   return report.str();
 }
 
+std::string RunOptions::validate() const {
+  if (out_dir.empty()) return "the campaign's output directory (--out) is empty";
+  if (threads < 0) return "threads must be >= 0 (0 = all cores), got " + std::to_string(threads);
+  if (max_new_runs < 0)
+    return "max_new_runs must be >= 0 (0 = no limit), got " + std::to_string(max_new_runs);
+  if (shard.count < 0 || (shard.active() && (shard.index < 1 || shard.index > shard.count)))
+    return "shard " + shard.to_string() + " is out of range; it must be i/N with 1 <= i <= N";
+  if (cluster != nullptr && cluster->size() > 1 && shard.active())
+    return "--shard cannot be combined with an MPI launch (the ranks share the work already)";
+  if (force_new && shard.active())
+    return "--force-new cannot be combined with --shard (it would delete the other shards' runs)";
+  return "";
+}
+
 CampaignOutcome run_campaign(const CampaignConfig& config, const RunOptions& options) {
   const auto t_start = std::chrono::steady_clock::now();
   const fs::path dir(options.out_dir);
   const int threads = options.threads > 0 ? options.threads : omp_get_max_threads();
   Cluster* cluster = options.cluster != nullptr && options.cluster->size() > 1 ? options.cluster : nullptr;
   const bool root = cluster == nullptr || cluster->rank() == 0;
-  if (cluster != nullptr && options.shard.active())
-    throw std::invalid_argument("--shard cannot be combined with an MPI launch (the ranks share the work already)");
-  if (options.force_new && options.shard.active())
-    throw std::invalid_argument("--force-new cannot be combined with --shard (it would delete the other shards' runs)");
+  if (const std::string why = options.validate(); !why.empty()) throw std::invalid_argument(why);
+  config.validate("campaign '" + config.name + "'");
 
   // Every path of the campaign first (a config name that cannot be a path is refused before
   // anything is written).

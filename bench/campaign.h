@@ -50,6 +50,11 @@ struct RunOptions {
   Cluster* cluster = nullptr;
   /// Extra keys for manifest.json (a sweep stores its own settings there for `insid merge`).
   nlohmann::json manifest_extra = nlohmann::json::object();
+
+  /// "" when valid, else why, naming the value: no out_dir, negative threads or max_new_runs, a
+  /// shard out of range, --shard with an MPI launch or with --force-new. run_campaign checks it
+  /// before any work.
+  std::string validate() const;
 };
 
 struct CampaignOutcome {

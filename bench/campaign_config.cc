@@ -10,6 +10,8 @@
 
 #include "core/output_dir.h"
 #include "optimizers/registry.h"
+#include "scenarios/noise.h"
+#include "scenarios/scenario.h"
 
 namespace insid::campaign {
 namespace fs = std::filesystem;
@@ -270,36 +272,63 @@ CampaignConfig parse_campaign(const nlohmann::json& j, const std::string& origin
   r.finish({"name", "scenarios", "algorithms", "seeds", "max_iterations", "max_evaluations",
             "alignment", "estimate", "record_positions_seeds", "target_error_sigma",
             "target_fitness_gap"});
-  // Validation with the value named.
-  if (c.scenarios.empty()) throw std::invalid_argument(origin + ": no scenario");
-  if (c.algorithms.empty()) throw std::invalid_argument(origin + ": no algorithm");
-  if (c.seeds.empty()) throw std::invalid_argument(origin + ": no seed");
+  c.validate(origin);
+  return c;
+}
+
+void CampaignConfig::validate(const std::string& origin) const {
+  if (scenarios.empty()) throw std::invalid_argument(origin + ": no scenario");
+  if (algorithms.empty()) throw std::invalid_argument(origin + ": no algorithm");
+  if (seeds.empty()) throw std::invalid_argument(origin + ": no seed");
   constexpr std::size_t kMaxSeeds = 100000;  // each seed is a run file per algorithm
-  if (c.seeds.size() > kMaxSeeds)
-    throw std::invalid_argument(origin + ": " + std::to_string(c.seeds.size()) +
+  if (seeds.size() > kMaxSeeds)
+    throw std::invalid_argument(origin + ": " + std::to_string(seeds.size()) +
                                 " seeds is beyond the limit of " + std::to_string(kMaxSeeds));
   {
     std::set<std::uint64_t> seen;
-    for (std::uint64_t seed : c.seeds)
+    for (std::uint64_t seed : seeds)
       if (!seen.insert(seed).second)
         throw std::invalid_argument(origin + ": seed " + std::to_string(seed) +
                                     " is listed twice in \"seeds\"");
   }
-  if (c.max_iterations == 0 && c.max_evaluations == 0)
+  if (max_iterations < 0)
+    throw std::invalid_argument(origin + ": max_iterations must be >= 0, got " +
+                                std::to_string(max_iterations));
+  if (max_evaluations < 0)
+    throw std::invalid_argument(origin + ": max_evaluations must be >= 0, got " +
+                                std::to_string(max_evaluations));
+  if (max_iterations == 0 && max_evaluations == 0)
     throw std::invalid_argument(origin + ": give max_iterations or max_evaluations (> 0)");
+  if (record_positions_seeds < 0)
+    throw std::invalid_argument(origin + ": record_positions_seeds must be >= 0, got " +
+                                std::to_string(record_positions_seeds));
   std::set<std::string> labels, names;
-  for (const AlgorithmSpec& a : c.algorithms) {
+  for (const AlgorithmSpec& a : algorithms) {
     if (!labels.insert(a.label).second)
       throw std::invalid_argument(origin + ": algorithm label '" + a.label + "' used twice");
     opt::RunConfig probe;
     opt::make_optimizer(a.name, opt::Bounds::unit_box(4), probe,
                         opt::ParameterMap(a.parameters.begin(), a.parameters.end()));
   }
-  for (const ScenarioSpec& s : c.scenarios)
+  for (std::size_t i = 0; i < scenarios.size(); ++i) {
+    const ScenarioSpec& s = scenarios[i];
+    const std::string where = origin + ": scenarios[" + std::to_string(i) + "]";
     if (!names.insert(s.name).second)
       throw std::invalid_argument(origin + ": scenario name '" + s.name + "' used twice");
-  estimated_parameters(c);
-  return c;
+    if (s.preset.empty() == s.data_dir.empty())
+      throw std::invalid_argument(where + ": give exactly one of \"preset\" and \"data\"");
+    if (s.flight_s && !(*s.flight_s > 0.0 && std::isfinite(*s.flight_s)))
+      throw std::invalid_argument(where + ".flight_s must be a positive number of seconds, got " +
+                                  std::to_string(*s.flight_s));
+    // Unknown names fail here, before a directory is written, not when the scenario is made.
+    try {
+      if (!s.preset.empty()) scenarios::preset_scenario(s.preset);
+      if (s.grade) scenarios::noise_grade(*s.grade);
+    } catch (const std::exception& e) {
+      throw std::invalid_argument(where + ": " + e.what());
+    }
+  }
+  estimated_parameters(*this);
 }
 
 std::vector<std::string> preset_campaign_names() {

@@ -55,6 +55,12 @@ struct CampaignConfig {
 
   /// Resolved config as JSON (the manifest's "config"; also what resume compares).
   nlohmann::json to_json() const;
+  /// Throws std::invalid_argument starting with `origin` and naming the bad value: no
+  /// scenario, algorithm or seed; a seed listed twice or more than 100000; no budget or a
+  /// negative one; a label or scenario name used twice; an unknown algorithm, parameter,
+  /// preset, noise grade or estimated effect; a scenario flight that is not positive; a
+  /// negative record_positions_seeds. parse_campaign and run_campaign call it before any work.
+  void validate(const std::string& origin) const;
 };
 
 /// Parse a campaign JSON (documented keys; unknown keys rejected, naming the key and `origin`).

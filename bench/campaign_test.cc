@@ -315,6 +315,95 @@ TEST(Campaign, BadConfigsGetClearErrors) {
   EXPECT_DOUBLE_EQ(axis.values[1], 0.02);
 }
 
+// The message of the std::invalid_argument that `f` throws ("" when it throws none).
+template <typename F>
+std::string invalid_argument_of(F f) {
+  try {
+    f();
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(Campaign, OptionsAreValidatedBeforeAnyWorkNamingTheBadValue) {
+  // GIVEN a valid campaign and options for a directory that does not exist
+  const fs::path dir = fresh_dir("validate");
+  const CampaignConfig good = parse_campaign(nlohmann::json::parse(kConfig), "c.json");
+  RunOptions options;
+  options.out_dir = dir.string();
+  options.quiet = true;
+  EXPECT_EQ(options.validate(), "");
+  EXPECT_NO_THROW(good.validate("c.json"));
+  // WHEN one value is bad THEN the error names it, and nothing is written
+  const auto campaign_error = [&](const CampaignConfig& config, const RunOptions& o) {
+    return invalid_argument_of([&] { run_campaign(config, o); });
+  };
+  RunOptions bad = options;
+  bad.threads = -2;
+  EXPECT_NE(campaign_error(good, bad).find("threads must be >= 0 (0 = all cores), got -2"),
+            std::string::npos);
+  bad = options;
+  bad.max_new_runs = -1;
+  EXPECT_NE(campaign_error(good, bad).find("max_new_runs must be >= 0"), std::string::npos);
+  bad = options;
+  bad.shard.index = 3;
+  bad.shard.count = 2;
+  EXPECT_NE(campaign_error(good, bad).find("shard 3/2 is out of range"), std::string::npos);
+  bad = options;
+  bad.shard = Shard::parse("1/2");
+  bad.force_new = true;
+  EXPECT_NE(campaign_error(good, bad).find("--force-new cannot be combined with --shard"),
+            std::string::npos);
+  CampaignConfig config = good;
+  config.max_evaluations = -5;
+  EXPECT_NE(campaign_error(config, options).find("max_evaluations must be >= 0, got -5"),
+            std::string::npos);
+  config = good;
+  config.record_positions_seeds = -1;
+  EXPECT_NE(campaign_error(config, options).find("record_positions_seeds must be >= 0, got -1"),
+            std::string::npos);
+  config = good;
+  config.scenarios[0].grade = "consumer";
+  EXPECT_NE(campaign_error(config, options).find("scenarios[0]"), std::string::npos);
+  EXPECT_NE(campaign_error(config, options).find("consumer"), std::string::npos);
+  config = good;
+  config.scenarios[0].preset = "moon-landing";
+  EXPECT_NE(campaign_error(config, options).find("moon-landing"), std::string::npos);
+  config = good;
+  config.scenarios[0].flight_s = -300.0;
+  EXPECT_NE(campaign_error(config, options).find("scenarios[0].flight_s must be a positive"),
+            std::string::npos);
+  config = good;
+  config.seeds = {1, 2, 1};
+  EXPECT_NE(campaign_error(config, options).find("seed 1 is listed twice"), std::string::npos);
+  EXPECT_FALSE(fs::exists(dir));
+  // AND a sweep's settings likewise
+  SweepConfig sweep;
+  sweep.scenario.name = "rich";
+  sweep.scenario.preset = "rich";
+  EXPECT_NE(invalid_argument_of([&] { sweep.validate(); }).find("give at least one --grid"),
+            std::string::npos);
+  sweep.axes = {SweepAxis::parse("R=0.02,0.2")};
+  EXPECT_EQ(invalid_argument_of([&] { sweep.validate(); }), "");
+  sweep.random_settings = -3;
+  EXPECT_NE(invalid_argument_of([&] { run_sweep(sweep, options); }).find("--random must be >= 0, got -3"),
+            std::string::npos);
+  sweep.random_settings = 0;
+  sweep.max_iterations = -1;
+  EXPECT_NE(invalid_argument_of([&] { run_sweep(sweep, options); }).find("--iterations must be >= 0, got -1"),
+            std::string::npos);
+  sweep.max_iterations = 40;
+  sweep.seeds.clear();
+  EXPECT_NE(invalid_argument_of([&] { run_sweep(sweep, options); }).find("sweep: no seed"),
+            std::string::npos);
+  sweep.seeds = seed_range(2);
+  sweep.axes[0].values.clear();
+  EXPECT_NE(invalid_argument_of([&] { run_sweep(sweep, options); }).find("--grid R: no values"),
+            std::string::npos);
+  EXPECT_FALSE(fs::exists(dir));
+}
+
 TEST(Campaign, SweepWritesPerSettingStatistics) {
   const fs::path dir = fresh_dir("sweep");
   SweepConfig sweep;

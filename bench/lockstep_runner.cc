@@ -247,12 +247,12 @@ std::string LockstepRunner::first_error() const { return impl_->first_error(); }
 
 std::shared_ptr<const Dataset> scenario_dataset(const ScenarioSpec& spec) {
   if (!spec.data_dir.empty()) return std::make_shared<const Dataset>(load_dataset(spec.data_dir));
-  scenarios::ScenarioConfig cfg = scenarios::preset_scenario(spec.preset);
-  if (spec.flight_s) cfg.flight_s = *spec.flight_s;
-  if (spec.grade) cfg.noise = scenarios::noise_grade(*spec.grade);
-  cfg.seed = spec.data_seed;
-  for (const auto& [name, value] : spec.set) add_effect(cfg.injected, name, value);
-  return std::make_shared<const Dataset>(scenarios::simulate(cfg));
+  scenarios::ScenarioOverrides overrides;
+  overrides.seed = spec.data_seed;
+  overrides.grade = spec.grade;
+  overrides.flight_s = spec.flight_s;
+  overrides.set = spec.set;
+  return std::make_shared<const Dataset>(scenarios::simulate_preset(spec.preset, overrides));
 }
 
 std::size_t wave_target(int threads, std::size_t runs_to_do) {

@@ -10,7 +10,7 @@
 
 #include "core/batch_fitness.h"
 #include "core/fitness.h"
-#include "core/test_support.h"
+#include "core/static_dataset.h"
 #include "optimizers/registry.h"
 
 namespace insid {
@@ -23,7 +23,7 @@ std::shared_ptr<const Dataset> one_hour_dataset() {
     SensorErrors errors;
     errors.accel.bias = Eigen::Vector3d(-2.0, 1.5, 0.0) * kSigmaAccelMps2;
     errors.gyro.bias = Eigen::Vector3d(2.0, -1.5, 0.0) * kSigmaGyroRadS;
-    return std::make_shared<const Dataset>(testing::make_static_dataset(
+    return std::make_shared<const Dataset>(make_static_dataset(
         EarthModel::paper(lat, 50.0), lat, 116.246 * kDegToRad, 50.0,
         {0.01, -0.02, 1.2}, 3600.0, 600.0, errors, 100.0, 100.0));
   }();

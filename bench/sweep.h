@@ -32,6 +32,11 @@ struct SweepConfig {
   int max_iterations = 40;
   std::int64_t max_evaluations = 0;
   AlignmentMode alignment = AlignmentMode::kPerCandidate;
+
+  /// Throws std::invalid_argument naming the bad value: no axis, an axis key given twice or
+  /// with no values, a non-finite value or LO > HI, negative random_settings, no seed,
+  /// negative budgets. sweep_settings and run_sweep call it before any work.
+  void validate() const;
 };
 
 /// The settings (user units, keys as given), grid order or random draws.

@@ -13,10 +13,6 @@
 #include "core/dataset.h"
 #include "diagnose/diagnose.h"
 
-#ifndef INSID_SOURCE_DIR
-#define INSID_SOURCE_DIR "."
-#endif
-
 namespace insid::cli {
 namespace {
 
@@ -84,9 +80,13 @@ void run(const DiagnoseArgs& a) {
 
   std::string prefix;
   if (!a.no_plots) {
+    // INSID_SCRIPTS_DIR, else the copy the build puts next to the binary (cli/CMakeLists.txt):
+    // the binary embeds no source-tree path.
     const char* env = std::getenv("INSID_SCRIPTS_DIR");
+    std::error_code exe_error;
+    const fs::path exe = fs::read_symlink("/proc/self/exe", exe_error);
     const fs::path script =
-        fs::path(env ? env : INSID_SOURCE_DIR "/scripts") / "diagnose_plots.py";
+        (env ? fs::path(env) : exe_error ? fs::path(".") : exe.parent_path()) / "diagnose_plots.py";
     // Debian's python3 (with matplotlib) first; INSID_PYTHON overrides.
     const char* py_env = std::getenv("INSID_PYTHON");
     const std::string python =

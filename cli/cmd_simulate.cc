@@ -36,14 +36,18 @@ void run_simulate(const SimulateArgs& args) {
   namespace sc = insid::scenarios;
   if (args.preset.empty() == args.config.empty())
     throw std::invalid_argument("give exactly one of --preset NAME or --config FILE");
-  sc::ScenarioConfig cfg =
+  const sc::ScenarioConfig base =
       args.preset.empty() ? sc::load_scenario_file(args.config) : sc::preset_scenario(args.preset);
-  if (args.seed) cfg.seed = *args.seed;
-  if (!args.grade.empty()) cfg.noise = sc::noise_grade(args.grade);
-  if (args.flight_s) cfg.flight_s = *args.flight_s;
-  if (args.clean) cfg.injected = SensorErrors{};
-  for (const auto& [name, value] : parse_effect_assignments(args.set, "--set"))
-    add_effect(cfg.injected, name, value);  // on top of the preset's
+  sc::ScenarioOverrides overrides;
+  overrides.seed = args.seed;
+  if (!args.grade.empty()) {
+    sc::noise_grade(args.grade);  // an unknown grade is named before a bad --set, as always
+    overrides.grade = args.grade;
+  }
+  overrides.flight_s = args.flight_s;
+  overrides.clean = args.clean;
+  overrides.set = parse_effect_assignments(args.set, "--set");  // on top of the preset's
+  const sc::ScenarioConfig cfg = sc::with_overrides(base, overrides);
   const sc::ScenarioPlan plan = sc::plan_scenario(cfg);  // all checks before any work
 
   if (args.print_config) {

@@ -6,12 +6,13 @@
 namespace insid::diagnose {
 
 std::shared_ptr<const Dataset> make_hidden_dataset(const HiddenCase& c) {
-  scenarios::ScenarioConfig cfg = scenarios::preset_scenario(c.preset);
-  cfg.flight_s = c.flight_s;
-  cfg.seed = c.seed;
-  cfg.noise = scenarios::noise_grade(c.grade);
-  for (const auto& [name, value] : c.hidden) add_effect(cfg.injected, name, value);
-  return std::make_shared<const Dataset>(scenarios::simulate(cfg, /*record_truth_in_meta=*/false));
+  scenarios::ScenarioOverrides overrides;
+  overrides.flight_s = c.flight_s;
+  overrides.seed = c.seed;
+  overrides.grade = c.grade;
+  overrides.set = c.hidden;
+  return std::make_shared<const Dataset>(
+      scenarios::simulate_preset(c.preset, overrides, /*record_truth_in_meta=*/false));
 }
 
 }  // namespace insid::diagnose

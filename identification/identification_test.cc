@@ -75,6 +75,30 @@ TEST(Identification, LocalFitFindsTheInjectedBiasesOnNoiseFreeData) {
   EXPECT_LT(fit.fitness, 1e-3 * problem.fitness(Eigen::VectorXd::Zero(4)));
 }
 
+TEST(Identification, LocalFitOptionsAreValidatedBeforeAnyRunNamingTheBadValue) {
+  const InsIdentificationProblem problem(static_problem(),
+                                         ParameterMapping(EstimatedParameter::paper_four()));
+  EXPECT_EQ(LocalFitOptions{}.validate(), "");
+  const auto error_of = [&](const LocalFitOptions& options) -> std::string {
+    try {
+      local_fit(problem, Eigen::VectorXd::Zero(4), options);
+    } catch (const std::invalid_argument& e) {
+      return e.what();
+    }
+    return "";
+  };
+  LocalFitOptions bad;
+  bad.max_iterations = -1;
+  EXPECT_EQ(error_of(bad), "local fit: max_iterations must be >= 0, got -1");
+  bad = {};
+  bad.step_sigma = 0.0;
+  EXPECT_NE(error_of(bad).find("step_sigma must be a positive finite number"), std::string::npos);
+  bad = {};
+  bad.tolerance_sigma = -1e-6;
+  EXPECT_NE(error_of(bad).find("tolerance_sigma must be a non-negative finite number"),
+            std::string::npos);
+}
+
 // Static data with biases `scale` x the paper's after the alignment window, in `dir`.
 std::shared_ptr<const NavigationProblem> write_static_data(const std::filesystem::path& dir,
                                                            double scale) {

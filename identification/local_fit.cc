@@ -2,6 +2,8 @@
 
 #include <cmath>
 #include <span>
+#include <stdexcept>
+#include <string>
 
 #include <Eigen/Cholesky>
 
@@ -44,8 +46,21 @@ void residuals_at(const InsIdentificationProblem& problem, const Eigen::VectorXd
                                   std::span<std::vector<double>>(&r, 1), std::span<double>(&f, 1));
 }
 
+std::string LocalFitOptions::validate() const {
+  if (max_iterations < 0)
+    return "local fit: max_iterations must be >= 0, got " + std::to_string(max_iterations);
+  if (!(step_sigma > 0.0 && std::isfinite(step_sigma)))
+    return "local fit: step_sigma must be a positive finite number (sigma units), got " +
+           std::to_string(step_sigma);
+  if (!(tolerance_sigma >= 0.0 && std::isfinite(tolerance_sigma)))
+    return "local fit: tolerance_sigma must be a non-negative finite number (sigma units), got " +
+           std::to_string(tolerance_sigma);
+  return "";
+}
+
 LocalFitResult local_fit(const InsIdentificationProblem& problem, const Eigen::VectorXd& x0,
                          const LocalFitOptions& options) {
+  if (const std::string why = options.validate(); !why.empty()) throw std::invalid_argument(why);
   const ParameterMapping& mapping = problem.mapping();
   const int n = mapping.dimension();
   LocalFitResult out;

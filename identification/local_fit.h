@@ -7,6 +7,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -21,6 +22,10 @@ struct LocalFitOptions {
   double tolerance_sigma = 1e-6;    ///< stop when the step is below this (sigma units)
   bool eq15 = true;                 ///< IRLS towards the Eq. 15 optimum (else least squares)
   bool clamp_to_box = true;         ///< keep the estimate inside the search box
+
+  /// "" when valid, else why, naming the value: max_iterations >= 0, step_sigma a positive
+  /// finite number, tolerance_sigma a non-negative finite number. local_fit checks it first.
+  std::string validate() const;
 };
 
 struct LocalFitResult {

@@ -81,12 +81,13 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
 
   try {
-    ScenarioConfig cfg = config_file.empty() ? preset_scenario(preset)
-                                             : load_scenario_file(config_file);
+    ScenarioOverrides overrides;
+    overrides.seed = seed;
+    if (!grade.empty()) overrides.grade = grade;
+    if (flight_s > 0) overrides.flight_s = flight_s;
+    const ScenarioConfig cfg = with_overrides(
+        config_file.empty() ? preset_scenario(preset) : load_scenario_file(config_file), overrides);
     if (!config_file.empty()) preset = cfg.name;
-    cfg.seed = seed;
-    if (!grade.empty()) cfg.noise = noise_grade(grade);
-    if (flight_s > 0) cfg.flight_s = flight_s;
     const ScenarioPlan plan = plan_scenario(cfg);
     std::fprintf(stderr, "simulating preset '%s': %.0f s alignment + %.0f s flight, %zu IMU rows, "
                  "%zu GNSS rows ...\n", preset.c_str(), cfg.align_s, plan.flight_s,

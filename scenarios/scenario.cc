@@ -338,6 +338,20 @@ std::vector<std::string> preset_names() {
   return names;
 }
 
+ScenarioConfig with_overrides(ScenarioConfig cfg, const ScenarioOverrides& overrides) {
+  if (overrides.seed) cfg.seed = *overrides.seed;
+  if (overrides.grade) cfg.noise = noise_grade(*overrides.grade);
+  if (overrides.flight_s) cfg.flight_s = *overrides.flight_s;
+  if (overrides.clean) cfg.injected = SensorErrors{};
+  for (const auto& [name, value] : overrides.set) add_effect(cfg.injected, name, value);
+  return cfg;
+}
+
+Dataset simulate_preset(std::string_view preset, const ScenarioOverrides& overrides,
+                        bool record_truth_in_meta) {
+  return simulate(with_overrides(preset_scenario(preset), overrides), record_truth_in_meta);
+}
+
 ScenarioConfig preset_scenario(std::string_view name) {
   for (const auto& [n, text] : preset_texts())
     if (n == name) return parse_scenario(parse_json_strict(text, "preset '" + n + "'"), "preset '" + n + "'");

@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <map>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -52,6 +53,18 @@ ScenarioConfig preset_scenario(std::string_view name);
 /// The effective configuration as JSON (parse_scenario reads it back to the same config).
 nlohmann::json scenario_to_json(const ScenarioConfig& cfg);
 
+/// What a caller changes in a scenario before simulating it: the command line's --seed,
+/// --grade, --flight-s, --clean, --set, a campaign's scenario spec, diagnose's hidden cases.
+struct ScenarioOverrides {
+  std::optional<std::uint64_t> seed;
+  std::optional<std::string> grade;   ///< noise_grade(grade) replaces the noise block
+  std::optional<double> flight_s;     ///< flight after the alignment (s)
+  bool clean = false;                 ///< drop the scenario's own injected errors first
+  std::map<std::string, double> set;  ///< catalogue effects (SI) injected on top
+};
+/// `cfg` with `overrides` applied (unknown grades and effect names throw, naming them).
+ScenarioConfig with_overrides(ScenarioConfig cfg, const ScenarioOverrides& overrides);
+
 /// What a configuration expands to.
 struct ScenarioPlan {
   Trajectory trajectory;
@@ -68,6 +81,11 @@ Dataset simulate(const ScenarioConfig& cfg, bool record_truth_in_meta = true);
 /// Same, reusing a plan.
 Dataset simulate(const ScenarioConfig& cfg, const ScenarioPlan& plan,
                  bool record_truth_in_meta = true);
+
+/// The one "preset -> overrides -> simulate" path: simulate(with_overrides(
+/// preset_scenario(preset), overrides), record_truth_in_meta).
+Dataset simulate_preset(std::string_view preset, const ScenarioOverrides& overrides,
+                        bool record_truth_in_meta = true);
 
 /// The ground truth of a simulation (written to answer.json with --no-injected).
 nlohmann::json answer_json(const ScenarioConfig& cfg);
