@@ -15,6 +15,7 @@
 
 #include <gtest/gtest.h>
 
+#include "core/test_support.h"
 #include "scenarios/scenario.h"
 
 namespace insid {
@@ -35,24 +36,8 @@ std::shared_ptr<const NavigationProblem> scenario_problem(
     cfg.align_s = 60.0;
     cfg.imu_rate_hz = 1000.0;
     cfg.substeps = 1;
-    Dataset fine = scenarios::simulate(cfg);
-    Dataset jittered = fine;
-    jittered.meta.format = DatasetFormat::kV2;
-    jittered.meta.imu_rate_hz = 100.0;
-    jittered.imu.clear();
-    jittered.truth.clear();
-    std::mt19937_64 rng(5);
-    std::uniform_int_distribution<std::size_t> rows(7, 13);
-    for (std::size_t k = 0; k + 13 <= fine.imu.size();) {
-      ImuSample s;
-      for (std::size_t m = rows(rng), j = 0; j < m; ++j, ++k) {
-        s.dtheta_b_rad += fine.imu[k].dtheta_b_rad;
-        s.dv_b_mps += fine.imu[k].dv_b_mps;
-      }
-      s.t_s = fine.imu[k - 1].t_s;
-      jittered.imu.push_back(s);
-    }
-    validate_dataset(jittered);
+    const Dataset fine = scenarios::simulate(cfg);
+    Dataset jittered = testing::jittered_rows(fine, 7, 13, 5, 100.0);
     ds = std::make_shared<const Dataset>(std::move(jittered));
   }
   if (!ds) {

@@ -1,5 +1,6 @@
 // insid import (issue 13): the RTKLIB .pos reader, the mapped IMU CSV reader, the mounting
 // convention, the assembly into an insid-dataset/2, and the shared rtklib-walk recording.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -7,7 +8,7 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
-#include <random>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -16,6 +17,7 @@
 
 #include "core/dataset.h"
 #include "core/fitness.h"
+#include "core/test_support.h"
 #include "core/rotation.h"
 #include "import/csv_imu.h"
 #include "import/gnss_solution.h"
@@ -337,29 +339,16 @@ TEST(CsvImport, JitteredFlightRoundTripThroughAMappedCsvAndAPos) {
   cfg.noise.arw_deg_rth = cfg.noise.vrw_mps_rth = 0.0;
   cfg.noise.gm_gyro_sigma_deg_h = cfg.noise.gm_accel_sigma_mps2 = 0.0;
   const Dataset fine = scenarios::simulate(cfg);
-  Dataset jittered = fine;
+  std::vector<std::size_t> last;
+  Dataset jittered = insid::testing::jittered_rows(fine, 7, 13, 31, 100.0, &last);
   jittered.meta.earth = EarthModel::wgs84();
-  jittered.meta.format = DatasetFormat::kV2;
-  jittered.meta.imu_rate_hz = 100.0;
-  jittered.imu.clear();
-  jittered.truth.clear();
   Rates at_stamp;
-  std::mt19937_64 rng(31);
-  std::uniform_int_distribution<std::size_t> rows(7, 13);
   const double dt_fine = 1e-3;
-  for (std::size_t k = 0; k + 14 <= fine.imu.size();) {
-    ImuSample s;
-    for (std::size_t n = rows(rng), j = 0; j < n; ++j, ++k) {
-      s.dtheta_b_rad += fine.imu[k].dtheta_b_rad;
-      s.dv_b_mps += fine.imu[k].dv_b_mps;
-    }
-    s.t_s = fine.imu[k - 1].t_s;
-    jittered.imu.push_back(s);
-    at_stamp.omega_ib_b.push_back((fine.imu[k - 1].dtheta_b_rad + fine.imu[k].dtheta_b_rad) / (2 * dt_fine));
-    at_stamp.f_ib_b.push_back((fine.imu[k - 1].dv_b_mps + fine.imu[k].dv_b_mps) / (2 * dt_fine));
+  for (std::size_t k : last) {
+    const std::size_t next = std::min(k + 1, fine.imu.size() - 1);  // the very last: one-sided
+    at_stamp.omega_ib_b.push_back((fine.imu[k].dtheta_b_rad + fine.imu[next].dtheta_b_rad) / (2 * dt_fine));
+    at_stamp.f_ib_b.push_back((fine.imu[k].dv_b_mps + fine.imu[next].dv_b_mps) / (2 * dt_fine));
   }
-  jittered.meta.align_s = 60.0;
-  validate_dataset(jittered);
   const std::vector<double> relative = csv_pos_round_trip(jittered, &at_stamp);
   for (double r : relative) EXPECT_LT(r, 5e-4);
   std::printf("jittered CSV + .pos round trip: relative fitness difference %.3g (error-free), "
@@ -378,24 +367,8 @@ TEST(CsvImport, JitteredIntervalMeansImportWithTheRowsOwnStep) {
   cfg.imu_rate_hz = 1000.0;
   cfg.substeps = 1;
   const Dataset fine = scenarios::simulate(cfg);
-  Dataset jittered = fine;
+  Dataset jittered = insid::testing::jittered_rows(fine, 7, 13, 31, 100.0);
   jittered.meta.earth = EarthModel::wgs84();
-  jittered.meta.format = DatasetFormat::kV2;
-  jittered.meta.imu_rate_hz = 100.0;
-  jittered.imu.clear();
-  jittered.truth.clear();
-  std::mt19937_64 rng(31);
-  std::uniform_int_distribution<std::size_t> rows(7, 13);
-  for (std::size_t k = 0; k + 13 <= fine.imu.size();) {
-    ImuSample s;
-    for (std::size_t n = rows(rng), j = 0; j < n; ++j, ++k) {
-      s.dtheta_b_rad += fine.imu[k].dtheta_b_rad;
-      s.dv_b_mps += fine.imu[k].dv_b_mps;
-    }
-    s.t_s = fine.imu[k - 1].t_s;
-    jittered.imu.push_back(s);
-  }
-  validate_dataset(jittered);
   const std::vector<double> means = csv_pos_round_trip(jittered, nullptr, "interval-mean");
   const std::vector<double> trapezoid = csv_pos_round_trip(jittered, nullptr, "point");
   for (std::size_t i = 0; i < means.size(); ++i) {
@@ -650,13 +623,18 @@ TEST(SharedData, Px4LogsImportOrAreRefusedWithTheDocumentedMessage) {
   }
 }
 
-// The shared MEMS walk (rtklib-walk): imports as documented, and the static start's gyro means in
-// the dataset match a direct computation from the CSV.
-TEST(SharedData, RtklibWalkImportsAndItsStaticGyroMeansMatchTheCsv) {
+// The shared MEMS walk (../shared/data/rtklib-walk) read with its documented mapping (its README:
+// g and rad/s, sensor z up, mounting 180, 0, -90); nullopt when the folder is absent.
+struct SharedWalk {
+  std::string imu_text;
+  CsvImu imu;
+  GnssSolution gnss;
+};
+constexpr const char* kNoSharedWalk =
+    "../shared/data/rtklib-walk is absent (tests that need the shared real data skip outside CI)";
+std::optional<SharedWalk> read_shared_walk() {
   const fs::path dir = fs::path(INSID_SHARED_DATA) / "rtklib-walk";
-  if (!fs::exists(dir / "imu_1730_sf.csv"))
-    GTEST_SKIP() << "../shared/data/rtklib-walk is absent (tests that need the shared real data "
-                    "skip outside CI)";
+  if (!fs::exists(dir / "imu_1730_sf.csv")) return std::nullopt;
   std::ifstream imu_in(dir / "imu_1730_sf.csv"), pos_in(dir / "gnss_1730_sf.pos");
   std::stringstream imu_text, pos_text;
   imu_text << imu_in.rdbuf();
@@ -665,9 +643,21 @@ TEST(SharedData, RtklibWalkImportsAndItsStaticGyroMeansMatchTheCsv) {
   spec.columns = CsvImuSpec::parse_columns("t,ax,ay,az,gx,gy,gz,-,-,-,-");
   spec.parse_units("s,g-local,rad/s");
   spec.mounting_rpy_deg = {180.0, 0.0, -90.0};
-  const GnssSolution gnss = parse_rtklib_pos(pos_text.str(), "gnss_1730_sf.pos");
+  SharedWalk walk;
+  walk.imu_text = imu_text.str();
+  walk.gnss = parse_rtklib_pos(pos_text.str(), "gnss_1730_sf.pos");
+  walk.imu = read_csv_imu(walk.imu_text, "imu_1730_sf.csv", spec, std::nullopt);
+  return walk;
+}
+
+// The shared MEMS walk (rtklib-walk): imports as documented, and the static start's gyro means in
+// the dataset match a direct computation from the CSV.
+TEST(SharedData, RtklibWalkImportsAndItsStaticGyroMeansMatchTheCsv) {
+  const std::optional<SharedWalk> walk = read_shared_walk();
+  if (!walk) GTEST_SKIP() << kNoSharedWalk;
+  const GnssSolution& gnss = walk->gnss;
+  const CsvImu& imu = walk->imu;
   EXPECT_EQ(gnss.epochs.size(), 536u);
-  const CsvImu imu = read_csv_imu(imu_text.str(), "imu_1730_sf.csv", spec, std::nullopt);
   EXPECT_EQ(imu.t_gpst_unix_s.size(), 20455u);
   const Assembled a = assemble_dataset(imu, gnss, AssembleOptions{});
   const Dataset& ds = a.dataset;
@@ -683,7 +673,7 @@ TEST(SharedData, RtklibWalkImportsAndItsStaticGyroMeansMatchTheCsv) {
   const double t_first_abs = a.provenance["time_origin_gpst_unix_s"].get<double>() + ds.imu.front().t_s;
   double sum[3] = {0, 0, 0}, prev[4] = {0, 0, 0, 0}, span_csv = 0.0;
   bool have_prev = false;
-  std::istringstream lines(imu_text.str());
+  std::istringstream lines(walk->imu_text);
   std::string line;
   while (std::getline(lines, line)) {
     double v[7];
@@ -724,20 +714,10 @@ TEST(SharedData, RtklibWalkImportsAndItsStaticGyroMeansMatchTheCsv) {
 // the first GNSS epochs at >= 1 m/s and carried back to the start, reported here; given is
 // refused (meta.json initial attitude null).
 TEST(SharedData, RtklibWalkNavigatesWithLevelHeadingAndRefusesGyrocompass) {
-  const fs::path dir = fs::path(INSID_SHARED_DATA) / "rtklib-walk";
-  if (!fs::exists(dir / "imu_1730_sf.csv"))
-    GTEST_SKIP() << "../shared/data/rtklib-walk is absent (tests that need the shared real data "
-                    "skip outside CI)";
-  std::ifstream imu_in(dir / "imu_1730_sf.csv"), pos_in(dir / "gnss_1730_sf.pos");
-  std::stringstream imu_text, pos_text;
-  imu_text << imu_in.rdbuf();
-  pos_text << pos_in.rdbuf();
-  CsvImuSpec spec;
-  spec.columns = CsvImuSpec::parse_columns("t,ax,ay,az,gx,gy,gz,-,-,-,-");
-  spec.parse_units("s,g-local,rad/s");
-  spec.mounting_rpy_deg = {180.0, 0.0, -90.0};
-  const GnssSolution gnss = parse_rtklib_pos(pos_text.str(), "gnss_1730_sf.pos");
-  const CsvImu imu = read_csv_imu(imu_text.str(), "imu_1730_sf.csv", spec, std::nullopt);
+  const std::optional<SharedWalk> walk = read_shared_walk();
+  if (!walk) GTEST_SKIP() << kNoSharedWalk;
+  const GnssSolution& gnss = walk->gnss;
+  const CsvImu& imu = walk->imu;
   const auto ds = std::make_shared<const Dataset>(assemble_dataset(imu, gnss, AssembleOptions{}).dataset);
 
   std::string refused;

@@ -6,12 +6,12 @@
 #include <cmath>
 #include <memory>
 #include <optional>
-#include <random>
 #include <vector>
 
 #include <gtest/gtest.h>
 
 #include "core/fitness.h"
+#include "core/test_support.h"
 #include "scenarios/scenario.h"
 
 namespace insid::scenarios {
@@ -172,27 +172,6 @@ TEST(RoundTrip, ExactCandidateCompensatesInjectedErrors) {
 // above: 1e-4 m/s, 0.5 m). Measured: 5.5e-5 m/s and 0.011 m (constant rate: 5.0e-5, 0.011).
 // Checked to fail: the two-sample coning/sculling weights of equal steps (1/12 whatever the
 // steps; core/mechanization.h two_sample_divisor) give 2.6e-4 m/s on the jittered rows.
-Dataset grouped(const Dataset& fine, const std::vector<std::size_t>& group_rows) {
-  Dataset out = fine;
-  out.imu.clear();
-  out.truth.clear();
-  out.meta.format = DatasetFormat::kV2;
-  out.meta.imu_rate_hz = 100.0;
-  std::size_t k = 0;
-  for (std::size_t n : group_rows) {
-    ImuSample s;
-    for (std::size_t j = 0; j < n; ++j, ++k) {
-      s.dtheta_b_rad += fine.imu[k].dtheta_b_rad;
-      s.dv_b_mps += fine.imu[k].dv_b_mps;
-    }
-    s.t_s = fine.imu[k - 1].t_s;
-    out.imu.push_back(s);
-    out.truth.push_back(fine.truth[k - 1]);
-  }
-  validate_dataset(out);
-  return out;
-}
-
 TEST(RoundTrip, JitteredImuStepsOnAMovingFlightNavigateLikeAConstantRate) {
   ScenarioConfig c = preset_scenario("rich");
   c.noise = noise_grade("none");
@@ -202,17 +181,8 @@ TEST(RoundTrip, JitteredImuStepsOnAMovingFlightNavigateLikeAConstantRate) {
   c.align_s = 120.0;
   c.flight_s = 600.0;
   const Dataset fine = simulate(c);
-  std::vector<std::size_t> constant_groups, jittered_groups;
-  std::mt19937_64 rng(13);
-  std::uniform_int_distribution<std::size_t> rows(7, 13);
-  for (std::size_t used = 0; used + 13 <= fine.imu.size();) {
-    const std::size_t n = rows(rng);
-    jittered_groups.push_back(n);
-    used += n;
-  }
-  constant_groups.assign(fine.imu.size() / 10, 10);
-  const Dataset constant = grouped(fine, constant_groups);
-  const Dataset jittered = grouped(fine, jittered_groups);
+  const Dataset constant = testing::jittered_rows(fine, 10, 10, 13, 100.0);
+  const Dataset jittered = testing::jittered_rows(fine, 7, 13, 13, 100.0);
   double min_dt = 1.0, max_dt = 0.0;
   for (std::size_t i = 1; i < jittered.imu.size(); ++i) {
     const double dt = jittered.imu[i].t_s - jittered.imu[i - 1].t_s;
