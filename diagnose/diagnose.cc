@@ -28,6 +28,7 @@
 #include "identification/local_fit.h"
 #include "optimizers/parameters.h"
 #include "optimizers/registry.h"
+#include "optimizers/random.h"
 
 namespace insid::diagnose {
 namespace {
@@ -54,12 +55,7 @@ double hrms(const Vec& r) {
 // JSON-safe number (NaN/inf -> null).
 json num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 
-std::uint64_t mix_seed(std::uint64_t seed, std::uint64_t k) {
-  std::uint64_t x = seed * 0x9e3779b97f4a7c15ULL + k + 0x632be59bd9b4e019ULL;
-  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
-  return x ^ (x >> 31);
-}
+using opt::mix_seed;
 
 class Progress {
  public:

@@ -18,6 +18,7 @@
 #include "core/sensor_errors.h"
 #include "diagnose/noise_model.h"
 #include "optimizers/parameters.h"
+#include "optimizers/random.h"
 
 namespace insid {
 namespace {
@@ -37,12 +38,7 @@ Vec to_vec(const std::vector<double>& r) {
   return Eigen::Map<const Vec>(r.data(), static_cast<Eigen::Index>(r.size()));
 }
 
-std::uint64_t mix_seed(std::uint64_t seed, std::uint64_t k) {
-  std::uint64_t x = seed * 0x9e3779b97f4a7c15ULL + k + 0x632be59bd9b4e019ULL;
-  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
-  return x ^ (x >> 31);
-}
+using opt::mix_seed;
 
 // Normal draws for the replicas: Marsaglia's polar method on a splitmix64 stream (portable,
 // deterministic in the seed; no trigonometry, so several times cheaper than Box-Muller, which

@@ -20,6 +20,15 @@ inline std::uint64_t splitmix64(std::uint64_t x) {
   return x ^ (x >> 31);
 }
 
+/// A seed for the k-th independent stream of a run seeded with `seed` (a splitmix64-style
+/// finaliser of seed and k): replicas, restarts and iterations draw from mix_seed(seed, k).
+inline std::uint64_t mix_seed(std::uint64_t seed, std::uint64_t k) {
+  std::uint64_t x = seed * 0x9e3779b97f4a7c15ULL + k + 0x632be59bd9b4e019ULL;
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
+  return x ^ (x >> 31);
+}
+
 class Rng {
  public:
   explicit Rng(std::uint64_t seed) : engine_(splitmix64(seed)) {}
