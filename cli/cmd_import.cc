@@ -33,7 +33,7 @@ namespace fs = std::filesystem;
 struct ImportCsvArgs {
   std::string imu, gnss, columns, units, imu_time = "gpst-unix", rate_samples = "point", mounting, out;
   std::optional<int> gps_week;
-  double time_offset_s = 0.0;
+  std::optional<double> time_offset_s;  // required with --imu-time relative
   std::vector<int> gnss_quality = {1, 2};
   std::optional<double> align_s;
   double static_speed_mps = 0.2;
@@ -123,7 +123,11 @@ void run_import_csv(const ImportCsvArgs& args) {
   spec.time_scale = args.imu_time;
   spec.rate_samples = args.rate_samples;
   spec.gps_week = args.gps_week;
-  spec.time_offset_s = args.time_offset_s;
+  if (args.imu_time == "relative" && !args.time_offset_s)
+    throw std::invalid_argument(
+        "--imu-time relative needs --imu-time-offset-s: the GPS time of week (s) at the logger's "
+        "zero, so that the IMU can be paired with the GNSS solution");
+  spec.time_offset_s = args.time_offset_s.value_or(0.0);
   if (!args.mounting.empty()) {
     const std::vector<double> rpy = parse_number_list(args.mounting, "--mounting-rpy-deg");
     if (rpy.size() != 3)
@@ -292,15 +296,20 @@ void add_import_command(CLI::App& app) {
                   "normal gravity at the first GNSS position")
       ->required();
   csv->add_option("--gnss", a->gnss, "GNSS solution: RTKLIB .pos (llh, GPST, with velocity)")->required();
-  csv->add_option("--imu-time", a->imu_time, "IMU time scale: gpst-unix | gps-sow")->capture_default_str();
+  csv->add_option("--imu-time", a->imu_time,
+                  "IMU time scale: gpst-unix | gps-sow | relative (seconds from the logger's zero; "
+                  "--imu-time-offset-s gives its GPS time of week)")
+      ->capture_default_str();
   csv->add_option("--rate-samples", a->rate_samples,
                   "rate rows are point (the rate at each stamp: trapezoid) | interval-mean (the "
                   "mean over the step each row closes: times the step)")
       ->capture_default_str();
   csv->add_option("--gps-week", a->gps_week, "GPS week for --imu-time gps-sow (default: the GNSS file's)")
       ->check(whole_in(0, 100000));
-  csv->add_option("--imu-time-offset-s", a->time_offset_s, "added to every IMU time (s)")
-      ->check(number_in(-86400, 86400));
+  csv->add_option("--imu-time-offset-s", a->time_offset_s,
+                  "added to every IMU time (s, within +-86400); with --imu-time relative the GPS "
+                  "time of week at the logger's zero (required)")
+      ->check(number_in(-86400, 604800));
   csv->add_option("--mounting-rpy-deg", a->mounting,
                   "R,P,Y: v_body = Rx(R) Ry(P) Rz(Y) v_sensor (passive rotations, the matrix roll/"
                   "pitch/yaw give for C_n^b); e.g. 180,0,-90 turns a resting +1 g on sensor z into "

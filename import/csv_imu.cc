@@ -101,17 +101,23 @@ std::string CsvImuSpec::validate() const {
            "' is not g (9.80665 m/s^2), g-local (local normal gravity), m/s^2 or m/s (increments)";
   if (gyro_unit != "rad/s" && gyro_unit != "deg/s" && gyro_unit != "rad" && gyro_unit != "deg")
     return "--units: gyro unit '" + gyro_unit + "' is not rad/s, deg/s, rad or deg (increments)";
-  if (time_scale != "gpst-unix" && time_scale != "gps-sow")
+  if (time_scale != "gpst-unix" && time_scale != "gps-sow" && time_scale != "relative")
     return "--imu-time '" + time_scale +
-           "': must be gpst-unix or gps-sow (relative times cannot be paired with GNSS)";
+           "': must be gpst-unix, gps-sow or relative (with --imu-time-offset-s, the GPS time of "
+           "week at the logger's zero)";
   if (rate_samples != "point" && rate_samples != "interval-mean")
     return "--rate-samples '" + rate_samples +
            "': must be point (the rate at each stamp) or interval-mean (the mean over the step "
            "each row closes)";
   if (gps_week && (*gps_week < 0 || *gps_week > 100000))
     return "--gps-week " + std::to_string(*gps_week) + ": must be a GPS week number >= 0";
-  if (!std::isfinite(time_offset_s) || std::fabs(time_offset_s) > 86400.0)
+  if (time_scale == "relative") {
+    if (!std::isfinite(time_offset_s) || time_offset_s < 0.0 || time_offset_s >= 604800.0)
+      return "--imu-time-offset-s: with --imu-time relative it is the GPS time of week at the "
+             "logger's zero, in [0, 604800) s";
+  } else if (!std::isfinite(time_offset_s) || std::fabs(time_offset_s) > 86400.0) {
     return "--imu-time-offset-s: must be a finite number of seconds within +-86400";
+  }
   for (int k = 0; k < 3; ++k)
     if (!std::isfinite(mounting_rpy_deg[k]) || std::fabs(mounting_rpy_deg[k]) > 360.0)
       return "--mounting-rpy-deg: each angle must be finite, within +-360 deg";
@@ -128,11 +134,11 @@ CsvImu read_csv_imu(const std::string& text, const std::string& where, const Csv
   const double g_scale = spec.gyro_unit == "deg/s" || spec.gyro_unit == "deg" ? kDegToRad : 1.0;
   const double a_scale = spec.accel_unit == "g" ? 9.80665 : 1.0;  // g-local: applied later
   GpstTime t_base = 0.0L;
-  if (spec.time_scale == "gps-sow") {
+  if (spec.time_scale == "gps-sow" || spec.time_scale == "relative") {
     const std::optional<int> week = spec.gps_week ? spec.gps_week : gnss_week;
     if (!week)
-      throw std::invalid_argument("--imu-time gps-sow: give --gps-week (the GNSS file does not "
-                                  "give a week)");
+      throw std::invalid_argument("--imu-time " + spec.time_scale +
+                                  ": give --gps-week (the GNSS file does not give a week)");
     t_base = kGpsEpochGpstUnix_s + *week * kSecondsPerWeek;
   }
   const Eigen::Matrix3d C_s_b = mounting_matrix(spec.mounting_rpy_deg);

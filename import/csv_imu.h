@@ -24,10 +24,14 @@ struct CsvImuSpec {
                                      ///< m/s^2 | m/s (velocity increments)
   std::string gyro_unit = "rad/s";   ///< rad/s | deg/s | rad | deg (the last two: increments)
   /// gpst-unix: GPST seconds since 1970 (no leap seconds); gps-sow: GPST seconds of week (with
-  /// gps_week, or the week of the GNSS file's first epoch).
+  /// gps_week, or the week of the GNSS file's first epoch); relative: seconds from the logger's
+  /// own origin, placed on GPST by time_offset_s = the GPS time of week at the logger's zero
+  /// (same week rule as gps-sow).
   std::string time_scale = "gpst-unix";
   std::optional<int> gps_week;
-  double time_offset_s = 0.0;  ///< added to every IMU time (a known IMU clock offset)
+  /// Added to every IMU time: a known IMU clock offset (within +-86400 s), or for `relative` the
+  /// GPS time of week of the logger's zero, in [0, 604800) s.
+  double time_offset_s = 0.0;
   /// What a rate row holds: "point" (the rate at the row's stamp, e.g. a low-passed sensor
   /// output; integrated by the trapezoid over the row's own step) or "interval-mean" (the mean
   /// over the interval the row closes, e.g. PX4's sensor_combined; times the row's own step).

@@ -156,6 +156,42 @@ TEST(CsvImu, SpecAndRowErrorsAreNamed) {
   EXPECT_EQ(imu.line[0], 2u);
 }
 
+// --imu-time relative: stamps from the logger's own zero, placed on GPST by the GPS time of week
+// of that zero (--imu-time-offset-s) in the given week (or the GNSS file's); the offset must be a
+// time of week, and a week must be known.
+TEST(CsvImu, RelativeTimesArePlacedOnGpstByTheTimeOfWeekOfTheLoggersZero) {
+  CsvImuSpec spec;
+  spec.columns = CsvImuSpec::parse_columns("t,ax,ay,az,gx,gy,gz");
+  spec.parse_units("ms,g,deg/s");
+  spec.time_scale = "relative";
+  spec.time_offset_s = 345600.25;  // Thursday 00:00:00.25 GPST
+  const std::string text = "0,0,0,1,0,0,0\n6,0,0,1,0,0,0\n13,0,0,1,0,0,0\n";
+  const CsvImu imu = read_csv_imu(text, "imu.csv", spec, 2381);
+  ASSERT_EQ(imu.t_gpst_unix_s.size(), 3u);
+  const GpstTime week_start = kGpsEpochGpstUnix_s + 2381 * kSecondsPerWeek;
+  EXPECT_NEAR(static_cast<double>(imu.t_gpst_unix_s[0] - week_start), 345600.25, 1e-9);
+  EXPECT_NEAR(static_cast<double>(imu.t_gpst_unix_s[2] - week_start), 345600.263, 1e-9);
+  spec.gps_week = 2000;  // an explicit week wins over the GNSS file's
+  EXPECT_NEAR(static_cast<double>(read_csv_imu(text, "imu.csv", spec, 2381).t_gpst_unix_s[0] -
+                                  (kGpsEpochGpstUnix_s + 2000 * kSecondsPerWeek)),
+              345600.25, 1e-9);
+  spec.gps_week.reset();
+  try {
+    read_csv_imu(text, "imu.csv", spec, std::nullopt);
+    ADD_FAILURE() << "accepted without a week";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("--imu-time relative: give --gps-week"), std::string::npos)
+        << e.what();
+  }
+  spec.time_offset_s = 700000.0;
+  EXPECT_NE(spec.validate().find("GPS time of week at the logger's zero, in [0, 604800)"),
+            std::string::npos);
+  spec.time_scale = "gpst-unix";  // a plain clock offset stays within a day
+  EXPECT_NE(spec.validate().find("within +-86400"), std::string::npos);
+  spec.time_scale = "utc";
+  EXPECT_NE(spec.validate().find("must be gpst-unix, gps-sow or relative"), std::string::npos);
+}
+
 // simulate -> export (KF-GINS text) -> import: the same navigation as the original dataset.
 // Bound: 17 significant digits write every double exactly, so what differs is the degree <->
 // radian conversions of latitude/longitude (an ulp), the alignment window's start taken from the
