@@ -571,17 +571,17 @@ void run_group(const NavigationProblem& nav, const BatchFitness::Impl& im,
       // Sculling and rotation (Savage two-sample): f = dv + dth x dv / 2 + (dthp x dv +
       // dvp x dth) / D = dv + ((D/2 dth + dthp) x dv + dvp x dth) / D, D = 12 for equal steps.
       const double divisor = two_sample_divisor(previous_dt(k), dt);
-      const double k12 = 1.0 / divisor;
+      const double weight = 1.0 / divisor;  // 1/12 for equal steps
       const PN ax6 = fma(0.5 * divisor, dthx, dthpx), ay6 = fma(0.5 * divisor, dthy, dthpy),
                az6 = fma(0.5 * divisor, dthz, dthpz);
-      p.fx = fma(fma(ay6, dvz, fma(-az6, dvy, fma(dvpy, dthz, -(dvpz * dthy)))), k12, dvx);
-      p.fy = fma(fma(az6, dvx, fma(-ax6, dvz, fma(dvpz, dthx, -(dvpx * dthz)))), k12, dvy);
-      p.fz = fma(fma(ax6, dvy, fma(-ay6, dvx, fma(dvpx, dthy, -(dvpy * dthx)))), k12, dvz);
+      p.fx = fma(fma(ay6, dvz, fma(-az6, dvy, fma(dvpy, dthz, -(dvpz * dthy)))), weight, dvx);
+      p.fy = fma(fma(az6, dvx, fma(-ax6, dvz, fma(dvpz, dthx, -(dvpx * dthz)))), weight, dvy);
+      p.fz = fma(fma(ax6, dvy, fma(-ay6, dvx, fma(dvpx, dthy, -(dvpy * dthx)))), weight, dvz);
       // Coning-corrected body rotation vector (Savage) and its quaternion: cos(x/2) and
       // sin(x/2)/x to degree 6 (truncation < 2e-22 for |x| < 0.06 rad per step).
-      const PN phx = fma(fma(dthpy, dthz, -(dthpz * dthy)), k12, dthx);
-      const PN phy = fma(fma(dthpz, dthx, -(dthpx * dthz)), k12, dthy);
-      const PN phz = fma(fma(dthpx, dthy, -(dthpy * dthx)), k12, dthz);
+      const PN phx = fma(fma(dthpy, dthz, -(dthpz * dthy)), weight, dthx);
+      const PN phy = fma(fma(dthpz, dthx, -(dthpx * dthz)), weight, dthy);
+      const PN phz = fma(fma(dthpx, dthy, -(dthpy * dthx)), weight, dthz);
       const PN th2 = fma(phx, phx, fma(phy, phy, phz * phz));
       p.pw = fma(th2, fma(th2, fma(th2, -1.0 / 46080, 1.0 / 384), -1.0 / 8), 1.0);
       const PN kp = fma(th2, fma(th2, fma(th2, -1.0 / 645120, 1.0 / 3840), -1.0 / 48), 0.5);
