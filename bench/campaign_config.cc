@@ -344,7 +344,7 @@ CampaignConfig preset_campaign(const std::string& name) {
       {{"label", "DVPIO"}, {"name", "dvpio"}},
   });
   if (name == "paper-fig9") {
-    // The paper scenario and the four algorithms with Table 4 settings (DESIGN.md sec. 2).
+    // The paper scenario and the four algorithms with Table 4 settings (docs/design.md sec. 2).
     j = {{"name", "paper-fig9"},
          {"scenarios", {{{"name", "paper"}, {"preset", "paper"}}}},
          {"algorithms", table4},

@@ -1,5 +1,5 @@
 // insid diagnose: which catalogue effect explains what the base model leaves in the residuals
-// (issue 7, DESIGN.md sec. 9; method in diagnose/README.md).
+// (issue 7, docs/design.md sec. 9; method in diagnose/README.md).
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>

@@ -1,4 +1,4 @@
-// Dataset I/O for `insid-dataset/1` (DESIGN.md sec. 5).
+// Dataset I/O for `insid-dataset/1` (docs/design.md sec. 5).
 //
 // Decisions (beyond the design notes):
 // - CSV: the header must list exactly the format's columns, in order (a UTF-8 BOM, spaces

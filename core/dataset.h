@@ -1,4 +1,4 @@
-// Dataset format `insid-dataset/1` (DESIGN.md sec. 5): a directory with imu.csv, gnss.csv,
+// Dataset format `insid-dataset/1` (docs/design.md sec. 5): a directory with imu.csv, gnss.csv,
 // optional truth.csv and meta.json. Units are converted once here: angles are radians inside.
 #pragma once
 

@@ -18,7 +18,7 @@ double EarthModel::prime_vertical_radius_m(double lat_rad) const {
 }
 
 double EarthModel::normal_gravity_mps2(double lat_rad, double h_m) const {
-  // DESIGN.md sec. 3: g = g_eq (1 + 5.27094e-3 sin^2 + 2.32718e-5 sin^4) - 3.086e-6 h.
+  // docs/design.md sec. 3: g = g_eq (1 + 5.27094e-3 sin^2 + 2.32718e-5 sin^4) - 3.086e-6 h.
   const double s2 = std::sin(lat_rad) * std::sin(lat_rad);
   return g_eq_mps2 * (1.0 + 5.27094e-3 * s2 + 2.32718e-5 * s2 * s2) - 3.086e-6 * h_m;
 }

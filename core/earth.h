@@ -1,5 +1,5 @@
 // Earth model: reference ellipsoid, curvature radii, normal gravity, Earth rate.
-// Conventions (DESIGN.md sec. 3): SI units and radians; n frame = local level ENU.
+// Conventions (docs/design.md sec. 3): SI units and radians; n frame = local level ENU.
 #pragma once
 
 #include <string>
@@ -29,7 +29,7 @@ struct EarthModel {
   double meridian_radius_m(double lat_rad) const;
   /// Prime-vertical radius of curvature R_N (m).
   double prime_vertical_radius_m(double lat_rad) const;
-  /// Normal gravity magnitude (DESIGN.md sec. 3), along the ellipsoid normal (m/s^2).
+  /// Normal gravity magnitude (docs/design.md sec. 3), along the ellipsoid normal (m/s^2).
   double normal_gravity_mps2(double lat_rad, double h_m) const;
   /// Gravity vector g_n in ENU: (0, 0, -g).
   Eigen::Vector3d gravity_n(double lat_rad, double h_m) const;
@@ -41,7 +41,7 @@ struct EarthModel {
   /// Empty when valid, else a message naming the bad field and value.
   std::string validate() const;
 
-  /// The paper's Table 3 Earth (DESIGN.md sec. 2): Krasovsky-1940, Earth rate 7.292115147e-5,
+  /// The paper's Table 3 Earth (docs/design.md sec. 2): Krasovsky-1940, Earth rate 7.292115147e-5,
   /// g_eq chosen so that gravity at (lat_rad, h_m) equals g0_mps2.
   static EarthModel paper(double lat_rad, double h_m, double g0_mps2 = 9.801);
   static EarthModel wgs84() { return {}; }

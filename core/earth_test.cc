@@ -25,7 +25,7 @@ TEST(Earth, Wgs84RadiiMatchPublishedValues) {
 TEST(Earth, NormalGravityMatchesPublishedValues) {
   const EarthModel earth = EarthModel::wgs84();
   EXPECT_NEAR(earth.normal_gravity_mps2(0.0, 0.0), 9.7803267714, 1e-10);
-  // DESIGN.md's series (the form used in Qin Yongyuan's "Inertial Navigation" and PSINS) has
+  // docs/design.md's series (the form used in Qin Yongyuan's "Inertial Navigation" and PSINS) has
   // 5.27094e-3 where the WGS-84 expansion of Somigliana's formula has 5.2790414e-3, so it
   // departs from the published WGS-84 normal gravity by up to 8.1e-5 m/s^2 (at the poles).
   // Published WGS-84 values (NIMA TR8350.2, table 4.1): pole 9.8321849378, 45 deg 9.8061992.

@@ -254,7 +254,7 @@ void NavigationProblem::run(const SensorErrors& candidate,
   compensator.compensate(prev.t_s, prev.t_s - t_before, prev.dtheta_b_rad, prev.dv_b_mps);
   Strapdown ins(earth, initial_state(C_b_n0), prev, prev.t_s - t_before);
 
-  // INS velocity at the GNSS antenna (lever arm, DESIGN.md sec. 4):
+  // INS velocity at the GNSS antenna (lever arm, docs/design.md sec. 4):
   //   v_ant_n = v_eb_n + C_b_n (omega_ib_b x l_b) - omega_ie_n x (C_b_n l_b),
   // with omega_ib_b extrapolated from the last two increments (mid-interval rates) to the epoch.
   const Eigen::Vector3d& l_b = candidate.lever_arm_b_m;

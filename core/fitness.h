@@ -1,4 +1,4 @@
-// Per-candidate pipeline of the paper (Sec. 2.3 step 2, DESIGN.md sec. 2): compensate the
+// Per-candidate pipeline of the paper (Sec. 2.3 step 2, docs/design.md sec. 2): compensate the
 // sensor data with the candidate, align, navigate pure-inertially (height aided), and compare
 // the INS velocity with the GNSS velocity at GNSS epochs after the alignment window.
 //   fitness (Eq. 15) = sum_t sqrt(dvE_t^2 + dvN_t^2),

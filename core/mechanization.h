@@ -9,7 +9,7 @@
 //   3. attitude: coning-corrected body rotation vector and n-frame rotation over the step,
 //      as quaternions (Eq. 3 integrated exactly for the rotation vector).
 // Height and vertical velocity may be aided: replaced after each step by a reference (the
-// paper takes height from an altimeter; DESIGN.md sec. 2 "Vertical channel").
+// paper takes height from an altimeter; docs/design.md sec. 2 "Vertical channel").
 #pragma once
 
 #include <cmath>

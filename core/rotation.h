@@ -1,4 +1,4 @@
-// Attitude conventions (DESIGN.md sec. 3): b = FRD body, n = ENU. C_b_n maps b to n
+// Attitude conventions (docs/design.md sec. 3): b = FRD body, n = ENU. C_b_n maps b to n
 // (v_n = C_b_n * v_b). Euler angles: roll (right wing down +), pitch (nose up +),
 // yaw = heading from north, clockwise + (all in radians here; degrees only at I/O).
 #pragma once

@@ -1,6 +1,6 @@
-// Sensor error model and the one catalogue of effect names (DESIGN.md sec. 3-4).
+// Sensor error model and the one catalogue of effect names (docs/design.md sec. 3-4).
 //
-// IMU model, measured from true (DESIGN.md sec. 3):
+// IMU model, measured from true (docs/design.md sec. 3):
 //   m = (I + S + M) * true + b(t) + noise,   b(t) = b0 + b_dot * t,
 // S diagonal scale factors, M off-diagonal misalignments (M(i,j): sensor axis i sensing true
 // axis j). For increments over (t - dt, t] the bias integrates to
@@ -66,7 +66,7 @@ SensorErrors errors_from_map(const std::map<std::string, double>& values);
 /// Non-zero effects as {name: value}.
 std::map<std::string, double> nonzero_effects(const SensorErrors& errors);
 
-/// Paper sigma units (DESIGN.md sec. 2).
+/// Paper sigma units (docs/design.md sec. 2).
 constexpr double kSigmaAccelMps2 = 0.0005;                        // sigma_A = 0.0005 m/s^2
 constexpr double kSigmaGyroRadS = 0.01 * 3.14159265358979323846 / 180.0 / 3600.0;  // 0.01 deg/h
 

@@ -15,7 +15,7 @@
 
 namespace insid::testing {
 
-/// The paper's Sec. 3.2 injection [-2, 1.5, 2, -1.5] sigma (DESIGN.md sec. 2).
+/// The paper's Sec. 3.2 injection [-2, 1.5, 2, -1.5] sigma (docs/design.md sec. 2).
 inline SensorErrors paper_errors() {
   SensorErrors e;
   e.accel.bias.x() = -2.0 * kSigmaAccelMps2;

@@ -1,4 +1,4 @@
-// The discrepancy workflow (`insid diagnose`, issue 7, DESIGN.md sec. 9; method and choices in
+// The discrepancy workflow (`insid diagnose`, issue 7, docs/design.md sec. 9; method and choices in
 // diagnose/README.md):
 //   1. fit the base model (optimizer, then a least-squares Levenberg-Marquardt polish);
 //   2. noise model: M noise replicas of the same flight (diagnose/noise_model.h) give draws of

@@ -19,7 +19,7 @@
 
 namespace insid {
 
-/// The data's own optimum: best of a multi-start local fit (LM + Eq. 15 IRLS), DESIGN.md
+/// The data's own optimum: best of a multi-start local fit (LM + Eq. 15 IRLS), docs/design.md
 /// sec. 10: judge an optimizer against it, and the truth against the noise floor.
 struct ReferenceOptimum {
   Eigen::VectorXd value_sigma;

@@ -22,13 +22,13 @@ namespace insid {
 struct EstimatedParameter {
   std::string name;
   double sigma = 0.0;         ///< SI value of one sigma
-  double lower_sigma = -4.0;  ///< box, in sigma units (DESIGN.md sec. 2: [-4, 4])
+  double lower_sigma = -4.0;  ///< box, in sigma units (docs/design.md sec. 2: [-4, 4])
   double upper_sigma = 4.0;
 
   /// "NAME" (catalogue sigma, [-4, 4]) or "NAME:SIGMA" or "NAME:SIGMA:LO:HI" (SIGMA in SI,
   /// LO/HI in sigma units). Throws std::invalid_argument naming the bad part.
   static EstimatedParameter parse(const std::string& text);
-  /// The paper's four: accel_bias_x, accel_bias_y, gyro_bias_x, gyro_bias_y (DESIGN.md sec. 2).
+  /// The paper's four: accel_bias_x, accel_bias_y, gyro_bias_x, gyro_bias_y (docs/design.md sec. 2).
   static std::vector<EstimatedParameter> paper_four();
 };
 
@@ -59,7 +59,7 @@ class ParameterMapping {
   SensorErrors base_;
 };
 
-/// Which implementation scores candidates (DESIGN.md sec. 8, issue 6).
+/// Which implementation scores candidates (docs/design.md sec. 8, issue 6).
 enum class FitnessEvaluator {
   kBatched,  ///< the vectorised multi-candidate kernel (core/batch_fitness.h); default
   kScalar,   ///< NavigationProblem::fitness per candidate (the reference), for comparison

@@ -1,7 +1,7 @@
 // Local polish of an identification: Levenberg-Marquardt on the residual vector (dvE_t, dvN_t)
 // with a forward-difference Jacobian through the full mechanization, and an iteratively
 // reweighted variant (weights 1/|dv_t|) whose fixed point minimises Eq. 15's sum of norms
-// (Weiszfeld-type IRLS). Eq. 15 is a cone on noise-free data (DESIGN.md sec. 10), so curvature
+// (Weiszfeld-type IRLS). Eq. 15 is a cone on noise-free data (docs/design.md sec. 10), so curvature
 // comes from the Gauss-Newton J^T J of the residuals, never from fitness differences.
 #pragma once
 

@@ -124,7 +124,7 @@ TEST(Uncertainty, LmIntervalsCoverTheTruthOverNoiseSeedsOfAShortFlight) {
 // GIVEN a 120 s flight, THEN some parameter is flagged at_box_edge or not_observable (the issue's
 // accel_bias_y); GIVEN a one-hour `paper` flight, THEN neither flag (nor not_converged) fires and the
 // estimate lies within 3 sd of the truth. (correlated:<other> may fire on both: per-candidate
-// alignment couples the two gyro biases, DESIGN.md sec. 10.)
+// alignment couples the two gyro biases, docs/design.md sec. 10.)
 TEST(Uncertainty, FlagsFireOnAShortFlightAndNotOnALongOne) {
   int short_flagged = 0;
   for (std::uint64_t seed : {1, 2, 3}) {

@@ -21,7 +21,7 @@
 //    every iteration and the cycle is trivial. Each dimension's T history is its own: Eq. 14
 //    uses that dimension's last two probes.
 //  - Eq. 13: T_j = -1 when f(negative probe) <= f(positive probe), else +1.
-//  - Eq. 14 (DESIGN.md sec. 2 reading), applied after the probe of dimension j whenever the
+//  - Eq. 14 (docs/design.md sec. 2 reading), applied after the probe of dimension j whenever the
 //    dimension has a previous T: with older = T(i-2), newer = T(i-1) and the current d (the
 //    previous generation's values) on the right-hand side,
 //      older = -1, newer = -1:  d_p = 0.5 d_n,  d_n = 2 d_n
@@ -166,7 +166,7 @@ void DvpioOptimizer::propose_premature() {
 }
 
 void DvpioOptimizer::adapt_d(int dim, int older, int newer) {
-  // Eq. 14 (DESIGN.md sec. 2 reading); right-hand sides use the previous generation's d.
+  // Eq. 14 (docs/design.md sec. 2 reading); right-hand sides use the previous generation's d.
   const double dp = d_positive_[dim];
   const double dn = d_negative_[dim];
   double new_dp = dp;

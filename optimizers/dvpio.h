@@ -1,5 +1,5 @@
 // DVPIO: pigeon-inspired optimisation with dimension-vector adaptive mutation (paper Sec. 2.2,
-// Eq. 10-14; binding reading of Eq. 14 in DESIGN.md sec. 2). Paper Table 4 preset: 10 pigeons,
+// Eq. 10-14; binding reading of Eq. 14 in docs/design.md sec. 2). Paper Table 4 preset: 10 pigeons,
 // 40 iterations, R = 0.05, C = 1, initial d = 0.05 sigma.
 //
 // Units: d_initial, d_min, d_max and dist_threshold are in the problem's (normalised)
@@ -31,7 +31,7 @@ struct DvpioParams {
   double d_initial = 0.0125;    ///< initial d_jp = d_jn (problem units; 0.05 sigma in the INS box)
   double d_min = 1e-6;          ///< lower clamp of d (problem units)
   double d_max = 0.5;           ///< upper clamp of d (problem units)
-  /// 0 (default): Eq. 14 exactly as DESIGN.md sec. 2 reads it. 1: an insid variant, not the
+  /// 0 (default): Eq. 14 exactly as docs/design.md sec. 2 reads it. 1: an insid variant, not the
   /// paper's: when neither probe of dimension j beats the X_gbest they were placed around, both
   /// d of j are halved and j's T history restarts, instead of Eq. 14 (which compares the two
   /// probes only, and can lock d at (d_max/2, d_max): optimizers/README.md).

@@ -1,5 +1,5 @@
 // DVPIO's premature switch (Eq. 10), dimension-vector probes (Eq. 11-12), T flags (Eq. 13) and
-// d adaptation (Eq. 14, DESIGN.md sec. 2 reading) against hand-derived values.
+// d adaptation (Eq. 14, docs/design.md sec. 2 reading) against hand-derived values.
 #include "optimizers/dvpio.h"
 
 #include <algorithm>

@@ -1,5 +1,5 @@
 // The optimizers' view of a problem: a box and a batch evaluation that scores a whole
-// population at once (DESIGN.md sec. 6). Nothing here knows about INS.
+// population at once (docs/design.md sec. 6). Nothing here knows about INS.
 //
 // Coordinates. Optimizers search the problem's own box. By convention a problem presents a
 // normalised box, [-1, 1]^n; every distance an optimizer uses (DVPIO's d and dist_threshold,

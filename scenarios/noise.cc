@@ -81,7 +81,7 @@ NoiseSpec noise_grade(std::string_view name) {
     s.gnss_vel_sigma_mps = 0.03;
     s.gnss_pos_sigma_m = 0.5;
   } else if (name == "paper") {
-    // Near noise-free (DESIGN.md sec. 10): the paper's exact-bias fitness of 1.0e3 over the
+    // Near noise-free (docs/design.md sec. 10): the paper's exact-bias fitness of 1.0e3 over the
     // `paper` preset's 8.6e5 epochs means a mean horizontal velocity error of ~1.2e-3 m/s. A
     // noise-free IMU and a GNSS velocity noise of 7e-4 m/s per axis (mean norm 8.8e-4 m/s, plus
     // the INS error from starting with a noisy GNSS velocity) reproduce it.

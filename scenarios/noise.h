@@ -50,7 +50,7 @@ struct NoiseSpec {
   NoiseLevels levels() const;
 };
 
-/// Grades: "nav" (optical-gyro INS), "mems", "paper" (near noise-free, DESIGN.md sec. 10),
+/// Grades: "nav" (optical-gyro INS), "mems", "paper" (near noise-free, docs/design.md sec. 10),
 /// "none". Throws std::invalid_argument listing the valid names otherwise.
 NoiseSpec noise_grade(std::string_view name);
 

@@ -259,7 +259,7 @@ void parse_injected(const ObjectReader& top, const json& j, bool in_sigma, Senso
   for (const auto& [key, value] : j.items()) {
     if (!is_effect_name(key))
       throw std::invalid_argument(where + ": unknown effect name '" + key +
-                                  "' (see the effect catalogue, DESIGN.md sec. 4)");
+                                  "' (see the effect catalogue, docs/design.md sec. 4)");
     if (!value.is_number() || !std::isfinite(value.get<double>()))
       throw std::invalid_argument(where + ": '" + key + "' must be a finite number, got " +
                                   type_name(value));
@@ -500,7 +500,7 @@ Dataset simulate(const ScenarioConfig& cfg, const ScenarioPlan& plan, bool recor
     m.noise = cfg.noise.levels();
   }
 
-  // --- IMU: errors (DESIGN.md sec. 3 sensor model), bias instability, white noise.
+  // --- IMU: errors (docs/design.md sec. 3 sensor model), bias instability, white noise.
   const double dt = 1.0 / cfg.imu_rate_hz;
   const NoiseSpec& n = cfg.noise;
   const bool noisy = !n.is_zero();

@@ -4,7 +4,7 @@
 Usage: accuracy_table.py ROOT  -- ROOT holds one campaign directory per config in
 ROOT/configs/*.json (named like the config without .json). Prints markdown to stdout.
 
-Two questions, reported separately (DESIGN.md sec. 10):
+Two questions, reported separately (docs/design.md sec. 10):
   * how well does the optimizer solve the problem: |estimate - data's own optimum| (sigma)
     and the relative fitness gap (f - f_opt) / f_opt;
   * how well can the biases be known from these data: |estimate - truth| (sigma), next to the
