@@ -171,10 +171,10 @@ INSID_AI double lane(const P<N>& a, int l) {
 // clamped to the start; n_imu: after the last step, clamped to the end), interpolating the INS
 // velocity between the states at step - 1 and step with weight w.
 struct Event {
-  std::int64_t step;
-  double w;
-  double gE, gN;
-  std::int64_t epoch;
+  std::int64_t step;  ///< IMU index after whose state the epoch is compared
+  double w;           ///< interpolation weight between the states at step - 1 and step [1]
+  double gE, gN;      ///< GNSS velocity, east and north of n = ENU [m/s]
+  std::int64_t epoch; ///< index of the compared epoch (residual slots 2 epoch, 2 epoch + 1)
 };
 using EventList = std::vector<Event>;
 
@@ -210,18 +210,27 @@ EventList make_events(const NavigationProblem& nav, double latency) {
 // Everything one lane needs, set up in scalar code from the candidate (O(1) except the
 // events of a non-zero latency).
 struct LaneInit {
-  double Gi[9], Ai[9];  // inverse distortion matrices, row-major
-  bool general = false;  // distortion (scale, misalignment) or bias drift
-  double bg[3], dg[3], ba[3], da[3];
-  double lat, vE, vN;
-  double q[4];  // w, x, y, z
-  double dthp[3], dvp[3], omp[3];
-  double l[3];
-  bool lever = false;
-  double vantE, vantN;  // antenna velocity at the navigation start
-  double acc = 0.0;     // epochs clamped to the start, already summed
+  double gyro_distortion_inv[9];   ///< (I + S_g + M_g)^-1, row-major [1]
+  double accel_distortion_inv[9];  ///< (I + S_a + M_a)^-1, row-major [1]
+  bool general = false;  ///< distortion (scale, misalignment) or bias drift present
+  double gyro_bias_b_rad_s[3];         ///< gyro bias at t = 0, body FRD [rad/s]
+  double gyro_bias_drift_b_rad_s2[3];  ///< its linear drift [rad/s^2]
+  double accel_bias_b_mps2[3];         ///< accelerometer bias at t = 0, body FRD [m/s^2]
+  double accel_bias_drift_b_mps3[3];   ///< its linear drift [m/s^3]
+  double lat_rad;           ///< geodetic latitude at the navigation start [rad]
+  double v_eb_n_east_mps;   ///< INS velocity, east component of n = ENU [m/s]
+  double v_eb_n_north_mps;  ///< INS velocity, north component [m/s]
+  double q_b_n[4];          ///< attitude quaternion b -> n: w, x, y, z [1]
+  double dtheta_prev_b_rad[3];      ///< compensated angle increment of the step before [rad]
+  double dv_prev_b_mps[3];          ///< compensated velocity increment of the step before [m/s]
+  double omega_ib_b_prev_rad_s[3];  ///< mean angular rate over the step before [rad/s]
+  double lever_arm_b_m[3];          ///< GNSS antenna relative to the IMU, body FRD [m]
+  bool lever = false;               ///< lever arm non-zero
+  double v_ant_n_east_mps;   ///< antenna velocity at the navigation start, east [m/s]
+  double v_ant_n_north_mps;  ///< antenna velocity at the navigation start, north [m/s]
+  double eq15_sum_at_start = 0.0;  ///< epochs clamped to the start, already summed (Eq. 15 terms)
   const EventList* events = nullptr;
-  std::size_t cursor = 0;  // first event not yet emitted
+  std::size_t cursor = 0;  ///< first event not yet emitted
   std::vector<double>* residuals = nullptr;
 };
 
@@ -251,26 +260,26 @@ void setup_lane(const NavigationProblem& nav, const SensorErrors& c, const Event
   const Eigen::Matrix3d Ai = c.accel.distortion().inverse();
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) {
-      li.Gi[3 * i + j] = Gi(i, j);
-      li.Ai[3 * i + j] = Ai(i, j);
+      li.gyro_distortion_inv[3 * i + j] = Gi(i, j);
+      li.accel_distortion_inv[3 * i + j] = Ai(i, j);
     }
   li.general = !(Gi == Eigen::Matrix3d::Identity() && Ai == Eigen::Matrix3d::Identity()) ||
                !c.gyro.bias_drift.isZero(0) || !c.accel.bias_drift.isZero(0);
   for (int i = 0; i < 3; ++i) {
-    li.bg[i] = c.gyro.bias[i];
-    li.dg[i] = c.gyro.bias_drift[i];
-    li.ba[i] = c.accel.bias[i];
-    li.da[i] = c.accel.bias_drift[i];
-    li.l[i] = c.lever_arm_b_m[i];
+    li.gyro_bias_b_rad_s[i] = c.gyro.bias[i];
+    li.gyro_bias_drift_b_rad_s2[i] = c.gyro.bias_drift[i];
+    li.accel_bias_b_mps2[i] = c.accel.bias[i];
+    li.accel_bias_drift_b_mps3[i] = c.accel.bias_drift[i];
+    li.lever_arm_b_m[i] = c.lever_arm_b_m[i];
   }
   li.lever = !c.lever_arm_b_m.isZero(0);
-  li.lat = s0.lat_rad;
-  li.vE = s0.v_eb_n.x();
-  li.vN = s0.v_eb_n.y();
-  li.q[0] = s0.q_b_n.w();
-  li.q[1] = s0.q_b_n.x();
-  li.q[2] = s0.q_b_n.y();
-  li.q[3] = s0.q_b_n.z();
+  li.lat_rad = s0.lat_rad;
+  li.v_eb_n_east_mps = s0.v_eb_n.x();
+  li.v_eb_n_north_mps = s0.v_eb_n.y();
+  li.q_b_n[0] = s0.q_b_n.w();
+  li.q_b_n[1] = s0.q_b_n.x();
+  li.q_b_n[2] = s0.q_b_n.y();
+  li.q_b_n[3] = s0.q_b_n.z();
 
   ImuSample prev = ds.imu[nb - 1];
   const double t_before =
@@ -278,9 +287,9 @@ void setup_lane(const NavigationProblem& nav, const SensorErrors& c, const Event
   compensator.compensate(prev.t_s, prev.t_s - t_before, prev.dtheta_b_rad, prev.dv_b_mps);
   const Eigen::Vector3d omega_mid_prev = prev.dtheta_b_rad / (prev.t_s - t_before);
   for (int i = 0; i < 3; ++i) {
-    li.dthp[i] = prev.dtheta_b_rad[i];
-    li.dvp[i] = prev.dv_b_mps[i];
-    li.omp[i] = omega_mid_prev[i];
+    li.dtheta_prev_b_rad[i] = prev.dtheta_b_rad[i];
+    li.dv_prev_b_mps[i] = prev.dv_b_mps[i];
+    li.omega_ib_b_prev_rad_s[i] = omega_mid_prev[i];
   }
   Eigen::Vector3d v_ant = s0.v_eb_n;
   if (li.lever) {
@@ -289,24 +298,24 @@ void setup_lane(const NavigationProblem& nav, const SensorErrors& c, const Event
     v_ant = s0.v_eb_n + C * omega_mid_prev.cross(l_b) -
             earth.omega_ie_n(s0.lat_rad).cross(C * l_b);
   }
-  li.vantE = v_ant.x();
-  li.vantN = v_ant.y();
+  li.v_ant_n_east_mps = v_ant.x();
+  li.v_ant_n_north_mps = v_ant.y();
 
   li.events = events;
   li.residuals = residuals;
-  li.acc = 0.0;
+  li.eq15_sum_at_start = 0.0;
   li.cursor = 0;
   const auto start_step = static_cast<std::int64_t>(nb) - 1;
   while (li.cursor < events->size() && (*events)[li.cursor].step == start_step) {
     const Event& ev = (*events)[li.cursor++];
-    const double rE = li.vantE - ev.gE;
-    const double rN = li.vantN - ev.gN;
+    const double rE = li.v_ant_n_east_mps - ev.gE;
+    const double rN = li.v_ant_n_north_mps - ev.gN;
     if (residuals) {
       (*residuals)[2 * ev.epoch] = rE;
       (*residuals)[2 * ev.epoch + 1] = rN;
     }
     const double d2 = rE * rE + rN * rN;
-    li.acc += sum_squares ? d2 : std::sqrt(d2);
+    li.eq15_sum_at_start += sum_squares ? d2 : std::sqrt(d2);
   }
 }
 
@@ -343,58 +352,63 @@ void run_group(const NavigationProblem& nav, const BatchFitness::Impl& im,
     for (int l = 0; l < L; ++l) r.c[l / W][l % W] = get(*lanes[l]);
     return r;
   };
-  // Parameters.
-  PN bgx = gather([](const LaneInit& li) { return li.bg[0]; });
-  PN bgy = gather([](const LaneInit& li) { return li.bg[1]; });
-  PN bgz = gather([](const LaneInit& li) { return li.bg[2]; });
-  PN dgx = gather([](const LaneInit& li) { return li.dg[0]; });
-  PN dgy = gather([](const LaneInit& li) { return li.dg[1]; });
-  PN dgz = gather([](const LaneInit& li) { return li.dg[2]; });
-  PN bax = gather([](const LaneInit& li) { return li.ba[0]; });
-  PN bay = gather([](const LaneInit& li) { return li.ba[1]; });
-  PN baz = gather([](const LaneInit& li) { return li.ba[2]; });
-  PN dax = gather([](const LaneInit& li) { return li.da[0]; });
-  PN day = gather([](const LaneInit& li) { return li.da[1]; });
-  PN daz = gather([](const LaneInit& li) { return li.da[2]; });
+  // Parameters, one lane per candidate (LaneInit's fields): bg* gyro bias b [rad/s], dg* its
+  // drift [rad/s^2], ba* accelerometer bias b [m/s^2], da* its drift [m/s^3], Gi / Ai the inverse
+  // distortion matrices [1], l* lever arm b [m].
+  PN bgx = gather([](const LaneInit& li) { return li.gyro_bias_b_rad_s[0]; });
+  PN bgy = gather([](const LaneInit& li) { return li.gyro_bias_b_rad_s[1]; });
+  PN bgz = gather([](const LaneInit& li) { return li.gyro_bias_b_rad_s[2]; });
+  PN dgx = gather([](const LaneInit& li) { return li.gyro_bias_drift_b_rad_s2[0]; });
+  PN dgy = gather([](const LaneInit& li) { return li.gyro_bias_drift_b_rad_s2[1]; });
+  PN dgz = gather([](const LaneInit& li) { return li.gyro_bias_drift_b_rad_s2[2]; });
+  PN bax = gather([](const LaneInit& li) { return li.accel_bias_b_mps2[0]; });
+  PN bay = gather([](const LaneInit& li) { return li.accel_bias_b_mps2[1]; });
+  PN baz = gather([](const LaneInit& li) { return li.accel_bias_b_mps2[2]; });
+  PN dax = gather([](const LaneInit& li) { return li.accel_bias_drift_b_mps3[0]; });
+  PN day = gather([](const LaneInit& li) { return li.accel_bias_drift_b_mps3[1]; });
+  PN daz = gather([](const LaneInit& li) { return li.accel_bias_drift_b_mps3[2]; });
   PN Gi[9], Ai[9];
   if constexpr (kGeneral) {
     // Identity rows and columns give the same bits as the fast path (1 x + 0 y + 0 z = x).
     for (int j = 0; j < 9; ++j) {
-      Gi[j] = gather([j](const LaneInit& li) { return li.Gi[j]; });
-      Ai[j] = gather([j](const LaneInit& li) { return li.Ai[j]; });
+      Gi[j] = gather([j](const LaneInit& li) { return li.gyro_distortion_inv[j]; });
+      Ai[j] = gather([j](const LaneInit& li) { return li.accel_distortion_inv[j]; });
     }
   }
   PN lx{}, ly{}, lz{};
   if constexpr (kLever) {
-    lx = gather([](const LaneInit& li) { return li.l[0]; });
-    ly = gather([](const LaneInit& li) { return li.l[1]; });
-    lz = gather([](const LaneInit& li) { return li.l[2]; });
+    lx = gather([](const LaneInit& li) { return li.lever_arm_b_m[0]; });
+    ly = gather([](const LaneInit& li) { return li.lever_arm_b_m[1]; });
+    lz = gather([](const LaneInit& li) { return li.lever_arm_b_m[2]; });
   }
-  // State.
-  PN lat = gather([](const LaneInit& li) { return li.lat; });
+  // State: lat [rad]; vE, vN the INS velocity in n = ENU [m/s] (vEp, vNp at the step before);
+  // q* the attitude quaternion b -> n; dthp* [rad], dvp* [m/s], omp* [rad/s] the compensated
+  // increments and mean rate of the step before (two-sample corrections, lever arm); vaEp, vaNp
+  // the antenna velocity at the step before [m/s]; acc the running Eq. 15 sum.
+  PN lat = gather([](const LaneInit& li) { return li.lat_rad; });
   PN em{};  // lat_mid - lat (0 at the first step: the previous state is the initial one)
-  PN vE = gather([](const LaneInit& li) { return li.vE; });
-  PN vN = gather([](const LaneInit& li) { return li.vN; });
+  PN vE = gather([](const LaneInit& li) { return li.v_eb_n_east_mps; });
+  PN vN = gather([](const LaneInit& li) { return li.v_eb_n_north_mps; });
   PN vEp = vE, vNp = vN;
-  PN qw = gather([](const LaneInit& li) { return li.q[0]; });
-  PN qx = gather([](const LaneInit& li) { return li.q[1]; });
-  PN qy = gather([](const LaneInit& li) { return li.q[2]; });
-  PN qz = gather([](const LaneInit& li) { return li.q[3]; });
-  PN dthpx = gather([](const LaneInit& li) { return li.dthp[0]; });
-  PN dthpy = gather([](const LaneInit& li) { return li.dthp[1]; });
-  PN dthpz = gather([](const LaneInit& li) { return li.dthp[2]; });
-  PN dvpx = gather([](const LaneInit& li) { return li.dvp[0]; });
-  PN dvpy = gather([](const LaneInit& li) { return li.dvp[1]; });
-  PN dvpz = gather([](const LaneInit& li) { return li.dvp[2]; });
+  PN qw = gather([](const LaneInit& li) { return li.q_b_n[0]; });
+  PN qx = gather([](const LaneInit& li) { return li.q_b_n[1]; });
+  PN qy = gather([](const LaneInit& li) { return li.q_b_n[2]; });
+  PN qz = gather([](const LaneInit& li) { return li.q_b_n[3]; });
+  PN dthpx = gather([](const LaneInit& li) { return li.dtheta_prev_b_rad[0]; });
+  PN dthpy = gather([](const LaneInit& li) { return li.dtheta_prev_b_rad[1]; });
+  PN dthpz = gather([](const LaneInit& li) { return li.dtheta_prev_b_rad[2]; });
+  PN dvpx = gather([](const LaneInit& li) { return li.dv_prev_b_mps[0]; });
+  PN dvpy = gather([](const LaneInit& li) { return li.dv_prev_b_mps[1]; });
+  PN dvpz = gather([](const LaneInit& li) { return li.dv_prev_b_mps[2]; });
   PN ompx{}, ompy{}, ompz{};
   if constexpr (kLever) {
-    ompx = gather([](const LaneInit& li) { return li.omp[0]; });
-    ompy = gather([](const LaneInit& li) { return li.omp[1]; });
-    ompz = gather([](const LaneInit& li) { return li.omp[2]; });
+    ompx = gather([](const LaneInit& li) { return li.omega_ib_b_prev_rad_s[0]; });
+    ompy = gather([](const LaneInit& li) { return li.omega_ib_b_prev_rad_s[1]; });
+    ompz = gather([](const LaneInit& li) { return li.omega_ib_b_prev_rad_s[2]; });
   }
-  PN vaEp = gather([](const LaneInit& li) { return li.vantE; });
-  PN vaNp = gather([](const LaneInit& li) { return li.vantN; });
-  PN acc = gather([](const LaneInit& li) { return li.acc; });
+  PN vaEp = gather([](const LaneInit& li) { return li.v_ant_n_east_mps; });
+  PN vaNp = gather([](const LaneInit& li) { return li.v_ant_n_north_mps; });
+  PN acc = gather([](const LaneInit& li) { return li.eq15_sum_at_start; });
 
   // GNSS epochs: one shared schedule when every lane has the same event list and position,
   // else per-lane cursors with masked accumulation (same arithmetic per lane).
@@ -513,7 +527,9 @@ void run_group(const NavigationProblem& nav, const BatchFitness::Impl& im,
   constexpr int kBlock = 16;
   static_assert(((1 << kAnchorShift) % kBlock) == 0, "anchors fall on block starts");
   struct Pre {
-    PN fx, fy, fz, pw, px, py, pz, dthx, dthy, dthz;
+    PN fx, fy, fz;          // velocity increment in b, sculling-corrected [m/s]
+    PN pw, px, py, pz;      // body-rotation quaternion of the step (coning-corrected)
+    PN dthx, dthy, dthz;    // compensated angle increment in b [rad]
   };
   Pre pre[kBlock];
 
