@@ -12,14 +12,13 @@
 #ifndef INSID_VERSION
 #define INSID_VERSION "unknown"
 #endif
+#include "insid_git_revision.h"  // generated at build time (cmake/git_revision.cmake)
+
 #ifndef INSID_BUILD_TYPE
 #define INSID_BUILD_TYPE "unknown"
 #endif
 #ifndef INSID_CPU_PATH
 #define INSID_CPU_PATH "unknown"
-#endif
-#ifndef INSID_GIT_REVISION
-#define INSID_GIT_REVISION "unknown"
 #endif
 
 namespace insid {

@@ -22,6 +22,7 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include "insid_git_revision.h"  // generated at build time (cmake/git_revision.cmake)
 #include "core/dataset.h"
 #include "core/fitness.h"
 #include "scenarios/scenario.h"
