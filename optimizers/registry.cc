@@ -34,9 +34,7 @@ const AlgorithmFactory* find_registered(std::string_view algorithm) {
   std::string names;
   for (const std::string& name : algorithm_names()) names += (names.empty() ? "" : ", ") + name;
   throw std::invalid_argument("unknown optimizer '" + std::string(algorithm) +
-                              "'; valid optimizers: " + names +
-                              ", or external:CMD (a program speaking the protocol of "
-                              "optimizers/README.md)");
+                              "'; valid optimizers: " + names);
 }
 
 }  // namespace
