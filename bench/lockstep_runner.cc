@@ -50,15 +50,21 @@ struct LockstepRunner::Impl {
 
   int new_runs() const { return done_; }
 
+  // One failed run: "run PATH failed: why"; several: "N of M runs failed (...)" and each one.
   std::string first_error() const {
+    std::vector<std::string> failures;
     for (const auto& [id, error] : errors_) {
       try {
         std::rethrow_exception(error);
       } catch (const std::exception& e) {
-        return "run " + runs_[id].path + " failed: " + e.what();
+        failures.push_back("run " + runs_[id].path + " failed: " + e.what());
       }
     }
-    return "";
+    if (failures.size() <= 1) return failures.empty() ? "" : failures.front();
+    std::string text = std::to_string(failures.size()) + " of " + std::to_string(runs_.size()) +
+                       " runs failed (the others were written):";
+    for (const std::string& failure : failures) text += "\n  " + failure;
+    return text;
   }
 
  private:

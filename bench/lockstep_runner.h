@@ -84,7 +84,7 @@ class LockstepRunner {
 
   /// Runs finished and written so far.
   int new_runs() const;
-  /// The first failed run's error ("" when none failed).
+  /// The failed run's error ("" when none failed); when several failed, all of them, one a line.
   std::string first_error() const;
 
  private:

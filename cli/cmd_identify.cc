@@ -162,7 +162,9 @@ void add_identify_command(CLI::App& app) {
   cmd->add_option("--data", args->data_dir, "dataset directory (insid-dataset/1)")->required();
   cmd->add_option("--algo", args->algorithm,
                   "ga | pso | pio | dvpio (the paper's), or a reference baseline: cmaes | de | "
-                  "compass | lm | bobyqa | neldermead | ekf-rts (optimizers/README.md)")->capture_default_str();
+                  "compass | lm | bobyqa | neldermead | ekf-rts (optimizers/README.md), or external:CMD, a "
+                  "program speaking the JSON-lines protocol of optimizers/README.md (e.g. "
+                  "\"external:/usr/bin/python3 scripts/external_random_search.py\")")->capture_default_str();
   cmd->add_option("--estimate", args->estimate,
                   "NAME[:SIGMA[:LO:HI]] (SIGMA in SI, box in sigma units); default: the paper's "
                   "four (accel_bias_x accel_bias_y gyro_bias_x gyro_bias_y), [-4, 4] sigma");

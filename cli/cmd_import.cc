@@ -13,10 +13,13 @@
 
 #include <nlohmann/json.hpp>
 
+#include "bench/campaign.h"
+#include "bench/iohprofiler.h"
 #include "cli/cli_util.h"
 #include "cli/commands.h"
 #include "core/dataset.h"
 #include "core/digest.h"
+#include "core/json_reader.h"
 #include "identification/identify.h"
 #include "import/csv_imu.h"
 #include "import/gnss_solution.h"
@@ -240,14 +243,51 @@ void run_import_ulog(const ImportUlogArgs& args) {
 }
 
 struct ExportArgs {
-  std::string to, data, out;
+  std::string to, data, campaign, out;
   double sow_offset_s = 0.0;
   std::optional<double> pos_std_m, vel_std_mps;
   bool force = false;
 };
 
+// insid export --to iohprofiler: a campaign's runs for IOHanalyzer (bench/iohprofiler.h).
+void run_export_iohprofiler(const ExportArgs& args) {
+  if (args.campaign.empty())
+    throw std::invalid_argument("--to iohprofiler needs --campaign DIR (a campaign directory)");
+  if (!args.data.empty())
+    throw std::invalid_argument("--data is for --to kf-gins; --to iohprofiler reads --campaign");
+  if (contains_working_directory(args.out))
+    throw std::invalid_argument("--out " + args.out + ": the current directory or a parent of it");
+  if (!fs::exists(fs::path(args.campaign) / "manifest.json"))
+    throw std::invalid_argument("--campaign " + args.campaign + ": no manifest.json (not a "
+                                "campaign directory written by insid bench or insid sweep)");
+  if (!args.force) {
+    // The folders an export writes: one per algorithm label of the campaign.
+    const nlohmann::json manifest =
+        read_json_file(fs::path(args.campaign) / "manifest.json", "--campaign " + args.campaign);
+    const campaign::CampaignConfig config =
+        campaign::config_from_manifest(manifest, args.campaign + "/manifest.json");
+    OutputKind kind{"an IOHprofiler export", {}};
+    for (const campaign::AlgorithmSpec& a : config.algorithms) kind.own_entries.push_back(a.label);
+    require_own_or_empty(args.out, kind, "give --force to add the algorithm folders there");
+  }
+  const campaign::IohExportOutcome outcome = campaign::export_iohprofiler(args.campaign, args.out);
+  std::fprintf(stderr,
+               "insid export: wrote %d runs in %d .info files (IOHprofiler format, one folder per "
+               "algorithm) under %s",
+               outcome.runs, outcome.info_files, args.out.c_str());
+  if (outcome.missing_runs > 0)
+    std::fprintf(stderr, "; %d runs of the campaign have no run file yet and were skipped",
+                 outcome.missing_runs);
+  std::fprintf(stderr, "\n");
+}
+
 void run_export(const ExportArgs& args) {
-  if (args.to != "kf-gins") throw std::invalid_argument("--to: only kf-gins is supported");
+  if (args.to == "iohprofiler") return run_export_iohprofiler(args);
+  if (args.to != "kf-gins")
+    throw std::invalid_argument("--to: kf-gins or iohprofiler, got '" + args.to + "'");
+  if (args.data.empty()) throw std::invalid_argument("--to kf-gins needs --data DIR (a dataset)");
+  if (!args.campaign.empty())
+    throw std::invalid_argument("--campaign is for --to iohprofiler; --to kf-gins reads --data");
   const OutputKind kind{"a KF-GINS export", {"imu.txt", "gnss.txt"}};
   if (contains_working_directory(args.out))
     throw std::invalid_argument("--out " + args.out + ": the current directory or a parent of it");
@@ -370,9 +410,14 @@ void add_import_command(CLI::App& app) {
 void add_export_command(CLI::App& app) {
   auto a = std::make_shared<ExportArgs>();
   CLI::App* cmd = app.add_subcommand(
-      "export", "Write an insid dataset in another program's layout (KF-GINS: imu.txt, gnss.txt)");
-  cmd->add_option("--to", a->to, "target layout: kf-gins")->required();
-  cmd->add_option("--data", a->data, "dataset directory")->required();
+      "export",
+      "Write an insid dataset in another program's layout (KF-GINS: imu.txt, gnss.txt), or a "
+      "campaign's runs in IOHprofiler's format for IOHanalyzer (.info + .dat per algorithm)");
+  cmd->add_option("--to", a->to, "target layout: kf-gins (--data) | iohprofiler (--campaign)")
+      ->required();
+  cmd->add_option("--data", a->data, "dataset directory (--to kf-gins)");
+  cmd->add_option("--campaign", a->campaign,
+                  "campaign directory of insid bench / sweep (--to iohprofiler)");
   cmd->add_option("--out", a->out, "output directory (new, empty, or a previous export)")->required();
   cmd->add_option("--sow-offset-s", a->sow_offset_s, "added to t_s to give KF-GINS's seconds of week")
       ->check(number_in(0, 604800));

@@ -6,6 +6,7 @@
 
 #include "optimizers/ceres_lm.h"
 #include "optimizers/dvpio.h"
+#include "optimizers/external.h"
 #include "optimizers/ga.h"
 #include "optimizers/nlopt_algorithms.h"
 #include "optimizers/pagmo_algorithms.h"
@@ -60,6 +61,11 @@ void register_algorithm(const std::string& name, AlgorithmFactory factory) {
 std::unique_ptr<Optimizer> make_optimizer(std::string_view algorithm, const Bounds& bounds,
                                           const RunConfig& config,
                                           const ParameterMap& overrides) {
+  if (is_external_algorithm(algorithm)) {
+    return std::make_unique<ExternalOptimizer>(
+        std::string(algorithm.substr(kExternalPrefix.size())), bounds, config,
+        ExternalParams::from_map(overrides));
+  }
   if (algorithm == "ga") {
     return std::make_unique<GaOptimizer>(bounds, config, GaParams::from_map(overrides));
   }
@@ -99,6 +105,7 @@ std::unique_ptr<Optimizer> make_optimizer(std::string_view algorithm, const Boun
 }
 
 ParameterList default_parameters(std::string_view algorithm) {
+  if (is_external_algorithm(algorithm)) return ExternalParams{}.list();
   if (algorithm == "ga") return GaParams{}.list();
   if (algorithm == "pso") return PsoParams{}.list();
   if (algorithm == "pio") return PioParams{}.list();

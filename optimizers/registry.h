@@ -22,7 +22,8 @@ std::vector<std::string> paper_algorithm_names();
 /// "bobyqa", "neldermead".
 std::vector<std::string> baseline_algorithm_names();
 
-/// The algorithm's parameters with defaults overridden by `overrides`, validated. Throws
+/// The algorithm's parameters with defaults overridden by `overrides`, validated; besides the
+/// names above, "external:CMD" runs CMD as an external optimizer (external.h). Throws
 /// std::invalid_argument for an unknown algorithm or parameter (listing the valid ones) or an
 /// invalid value (naming it).
 std::unique_ptr<Optimizer> make_optimizer(std::string_view algorithm, const Bounds& bounds,

@@ -1,0 +1,166 @@
+// External optimizers in campaigns (issue 18): the reference Python client
+// (scripts/external_random_search.py) gives the same runs as the same random search computed
+// directly (numpy draws, scored by the campaign's own INS problem) for 1 and 2 threads; a
+// crashing client fails its own runs with the documented error and the others are written.
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+
+#include <gtest/gtest.h>
+
+#include "bench/campaign.h"
+#include "identification/ins_problem.h"
+
+namespace insid::campaign {
+namespace {
+namespace fs = std::filesystem;
+
+const std::string kPython = "/usr/bin/python3";
+const std::string kSource = INSID_SOURCE_DIR;
+const std::string kClient = kSource + "/scripts/external_random_search.py";
+const std::string kTestClient = kSource + "/optimizers/testdata/external_test_client.py";
+
+std::string run_command(const std::string& command) {
+  std::string out;
+  FILE* pipe = ::popen(command.c_str(), "r");
+  if (pipe == nullptr) return out;
+  char buffer[4096];
+  for (std::size_t n; (n = std::fread(buffer, 1, sizeof(buffer), pipe)) > 0;) out.append(buffer, n);
+  ::pclose(pipe);
+  return out;
+}
+
+bool python_with_numpy() {
+  return run_command(kPython + " -c 'import numpy; print(1)' 2>/dev/null") == "1\n";
+}
+
+nlohmann::json read(const fs::path& p) {
+  std::ifstream in(p);
+  nlohmann::json j;
+  in >> j;
+  return j;
+}
+
+nlohmann::json config_json(bool with_crash) {
+  nlohmann::json algorithms = {{{"label", "RS-py"}, {"name", "external:" + kPython + " " + kClient}},
+                               {{"label", "PSO"}, {"name", "pso"}}};
+  if (with_crash)
+    algorithms.push_back(
+        {{"label", "crash"}, {"name", "external:" + kPython + " " + kTestClient + " crash"}});
+  return {{"name", "test-external"},
+          {"scenarios", {{{"name", "rich-short"}, {"preset", "rich"}, {"flight_s", 300},
+                          {"grade", "nav"}, {"data_seed", 5}}}},
+          {"algorithms", algorithms},
+          {"seeds", 2},
+          {"max_iterations", 0},
+          {"max_evaluations", 25}};
+}
+
+fs::path fresh_dir(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() /
+                       ("insid-external-campaign-" + name + "-" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  return dir;
+}
+
+// numpy's default_rng(seed): `count` uniform points in [-1, 1]^n drawn at once.
+std::vector<Eigen::VectorXd> numpy_points(std::uint64_t seed, int n, int count) {
+  const std::string script = "import json, numpy as np; p = np.random.default_rng(" +
+                             std::to_string(seed) + ").uniform([-1.0] * " + std::to_string(n) +
+                             ", [1.0] * " + std::to_string(n) + ", size=(" +
+                             std::to_string(count) + ", " + std::to_string(n) +
+                             ")); print(json.dumps(p.tolist()))";
+  const nlohmann::json j = nlohmann::json::parse(run_command(kPython + " -c '" + script + "'"));
+  std::vector<Eigen::VectorXd> points;
+  for (const auto& row : j) {
+    Eigen::VectorXd x(n);
+    for (int d = 0; d < n; ++d) x[d] = row[static_cast<std::size_t>(d)].get<double>();
+    points.push_back(x);
+  }
+  return points;
+}
+
+TEST(ExternalCampaign, PythonRandomSearchEqualsDirectComputationFor1And2Threads) {
+  if (!python_with_numpy()) GTEST_SKIP() << kPython << " with numpy is not available";
+  const CampaignConfig config = parse_campaign(config_json(false), "test");
+  std::map<int, fs::path> dirs;
+  for (const int threads : {1, 2}) {
+    dirs[threads] = fresh_dir("threads-" + std::to_string(threads));
+    RunOptions options;
+    options.out_dir = dirs[threads].string();
+    options.threads = threads;
+    options.quiet = true;
+    ASSERT_TRUE(run_campaign(config, options).complete);
+  }
+
+  // The same random search computed directly: numpy's points scored by the campaign's problem.
+  const auto dataset = scenario_dataset(config.scenarios[0]);
+  const auto navigation = std::make_shared<const NavigationProblem>(
+      dataset, NavigationOptions{config.alignment});
+  const InsIdentificationProblem problem(navigation, ParameterMapping(estimated_parameters(config)));
+  for (std::uint64_t seed = 1; seed <= 2; ++seed) {
+    const std::vector<Eigen::VectorXd> points = numpy_points(seed, problem.dimension(), 25);
+    ASSERT_EQ(points.size(), 25u);
+    std::vector<double> f(points.size());
+    problem.evaluate_batch(points, f);
+    std::vector<double> best_per_evaluation;
+    double best = std::numeric_limits<double>::infinity();
+    for (double fi : f) best_per_evaluation.push_back(best = std::min(best, fi));
+
+    nlohmann::json one = read(run_file(dirs[1].string(), "rich-short", "RS-py", seed));
+    nlohmann::json two = read(run_file(dirs[2].string(), "rich-short", "RS-py", seed));
+    EXPECT_EQ(one["result"]["best_per_evaluation"].get<std::vector<double>>(), best_per_evaluation)
+        << "seed " << seed;
+    EXPECT_EQ(one["result"]["fitness"].get<double>(), best);
+    EXPECT_EQ(one["result"]["evaluations"], 25);
+    EXPECT_EQ(one["result"]["iterations"], 3);  // 10 + 10 + 5
+    // Seed 1 records its batches (record_positions_seeds = 1): each point's own fitness, in order.
+    if (seed == 1) {
+      std::vector<double> told;
+      for (const nlohmann::json& h : one["result"]["history"])
+        for (const nlohmann::json& fi : h.at("positions_fitness")) told.push_back(fi.get<double>());
+      EXPECT_EQ(told, f);
+    }
+    // The thread count changes nothing but wall times.
+    one["result"].erase("wall_s");
+    two["result"].erase("wall_s");
+    EXPECT_EQ(one, two) << "seed " << seed;
+  }
+  for (const auto& [threads, dir] : dirs) fs::remove_all(dir);
+}
+
+TEST(ExternalCampaign, CrashingClientFailsOnlyItsOwnRuns) {
+  if (!python_with_numpy()) GTEST_SKIP() << kPython << " with numpy is not available";
+  const CampaignConfig config = parse_campaign(config_json(true), "test");
+  const fs::path dir = fresh_dir("crash");
+  RunOptions options;
+  options.out_dir = dir.string();
+  options.threads = 2;
+  options.quiet = true;
+  std::string error;
+  try {
+    run_campaign(config, options);
+  } catch (const std::runtime_error& e) {
+    error = e.what();
+  }
+  // The error names both failed runs, the command and what happened.
+  for (std::uint64_t seed = 1; seed <= 2; ++seed) {
+    const std::string expected = "run " + run_file(dir.string(), "rich-short", "crash", seed) +
+                                 " failed: external optimizer '" + kPython + " " + kTestClient +
+                                 " crash' (seed " + std::to_string(seed) +
+                                 "): the process exited with status 3 before replying to ask 2";
+    EXPECT_NE(error.find(expected), std::string::npos) << "'" << expected << "' not in: " << error;
+    EXPECT_FALSE(fs::exists(run_file(dir.string(), "rich-short", "crash", seed)));
+    // The other runs were written.
+    EXPECT_TRUE(fs::exists(run_file(dir.string(), "rich-short", "RS-py", seed)));
+    EXPECT_TRUE(fs::exists(run_file(dir.string(), "rich-short", "PSO", seed)));
+  }
+  EXPECT_NE(error.find("2 of 6 runs failed"), std::string::npos) << error;
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace insid::campaign

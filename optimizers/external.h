@@ -1,0 +1,101 @@
+// An optimizer that runs in another process and speaks a JSON-lines protocol on its stdin/stdout
+// (issue 18): `--algo "external:/usr/bin/python3 scripts/external_random_search.py"`. The
+// protocol is documented in optimizers/README.md ("External optimizers"); in short, insid sends
+//   {"type":"problem", "protocol":1, "dimension":n, "lower":[...], "upper":[...], "seed":s,
+//    "max_evaluations":E, "max_iterations":I}                       once, no reply;
+//   {"type":"ask", "iteration":k, "remaining_evaluations":r}     -> {"points":[[...], ...]};
+//   {"type":"tell", "iteration":k, "fitness":[...]}                 no reply;
+//   {"type":"stop", "reason":"iterations"}                          no reply, then EOF.
+// One process per run (a campaign's lock-step wave holds one per run), started at the first
+// ask() (never by the constructor, so that validating a campaign config starts nothing).
+//
+// Failures (ExternalOptimizerError, message naming the command, the run's seed and the
+// offending line): the process exits or closes its stdout before replying (with its exit
+// status or signal), does not reply within `timeout_s` (it is then killed), or replies with a
+// line that is not a JSON object with valid "points" (not JSON, points not an array of arrays
+// of `dimension` finite numbers inside the box, no point). A client may also reply
+// {"error":"text"} to give up with its own reason. After a failure the run stays failed.
+#pragma once
+
+#include <sys/types.h>
+
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "optimizers/optimizer.h"
+#include "optimizers/parameters.h"
+
+namespace insid::opt {
+
+/// The `--algo` prefix of an external optimizer: "external:CMD".
+inline constexpr std::string_view kExternalPrefix = "external:";
+/// True for "external:..." names.
+inline bool is_external_algorithm(std::string_view algorithm) {
+  return algorithm.substr(0, kExternalPrefix.size()) == kExternalPrefix;
+}
+
+struct ExternalParams {
+  static constexpr std::string_view kAlgorithm = "external";
+
+  double timeout_s = 60.0;  ///< longest wait for one reply (s); the process is then killed
+
+  static std::span<const ParameterField<ExternalParams>> fields();
+  std::string validate() const;
+  ParameterList list() const { return list_parameters(*this); }
+  void set(std::string_view name, double value) { set_parameter(*this, name, value); }
+  static ExternalParams from_map(const ParameterMap& overrides) {
+    return parameters_from_map<ExternalParams>(overrides);
+  }
+};
+
+/// A failure of the external process or of its replies.
+class ExternalOptimizerError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+class ExternalOptimizer final : public Optimizer {
+ public:
+  /// `command` runs under /bin/sh -c in the current directory. Throws std::invalid_argument on
+  /// an empty command, invalid params, bounds or config, or initial positions (not passed on).
+  ExternalOptimizer(std::string command, const Bounds& bounds, const RunConfig& config,
+                    const ExternalParams& params = {});
+  /// Sends "stop" when the process still runs, waits briefly for it to exit, else kills it.
+  ~ExternalOptimizer() override;
+
+  ParameterList parameters() const override { return params_.list(); }
+  const std::string& command() const { return command_; }
+
+ protected:
+  void propose(std::vector<Eigen::VectorXd>& batch) override;
+  void accept(std::span<const Eigen::VectorXd> batch, std::span<const double> fitness) override;
+  std::string phase() const override { return iteration() == 0 ? "initial" : "external"; }
+
+ private:
+  void start();
+  /// Writes one line (a '\n' is appended) within the timeout; throws on failure.
+  void send_line(const std::string& line, std::string_view what);
+  /// Reads the next non-empty line within the timeout; throws on EOF or timeout.
+  std::string read_line(std::string_view what);
+  /// Kills the process group and reaps it; returns how it ended ("exited with status 3").
+  std::string kill_and_reap();
+  /// Reaps the process if it has ended within `wait_s`; returns how it ended or "".
+  std::string try_reap(double wait_s);
+  [[noreturn]] void fail(const std::string& message);
+  std::string context() const;
+
+  std::string command_;
+  ExternalParams params_;
+  pid_t pid_ = -1;
+  int fd_ = -1;            ///< our end of the socket pair (the child's stdin and stdout)
+  std::string buffer_;     ///< bytes read past the last line
+  int lines_read_ = 0;     ///< lines of the child's stdout read so far (for messages)
+  std::string error_;      ///< set once the run has failed
+};
+
+}  // namespace insid::opt
