@@ -422,6 +422,7 @@ def report(work, out, W):
             % (best[0], 100 * (1 - best[1]["fitness"] / course[1]["fitness"]), course[0]))
     add("- **Window W = %g s**: LM (least squares on the windowed residuals, the same landscape the "
         "swarm searches) for W in {5, 10, 20, 40, 0}:\n" % W)
+    add("  ![window](figures/window.png)\n")
     add("  | W (s) | windows | " + " | ".join("%s (%s)" % (n, unit(n)) for n in names) + " |")
     add("  |---|---|" + "---|" * len(names))
     for w in Ws:
