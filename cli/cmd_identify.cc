@@ -74,7 +74,8 @@ void run_identify(const IdentifyArgs& args) {
   evaluator.num_threads = args.threads;
   const InsIdentificationProblem problem(navigation, mapping, FitnessKind::kEq15, evaluator);
 
-  const opt::ParameterMap overrides = parse_algorithm_params(args.params, mapping);
+  const opt::ParameterMap overrides =
+      parse_algorithm_params(args.params, mapping, opt::default_parameters(args.algorithm));
   opt::RunConfig config;
   config.seed = args.seed;
   config.max_iterations = args.iterations;
@@ -129,7 +130,8 @@ void run_identify(const IdentifyArgs& args) {
 }  // namespace
 
 opt::ParameterMap parse_algorithm_params(const std::vector<std::string>& items,
-                                         const ParameterMapping& mapping) {
+                                         const ParameterMapping& mapping,
+                                         const opt::ParameterList& own) {
   opt::ParameterMap overrides;
   for (const std::string& item : items) {
     const auto eq = item.find('=');
@@ -142,9 +144,9 @@ opt::ParameterMap parse_algorithm_params(const std::vector<std::string>& items,
     if (ec != std::errc() || ptr != text.data() + text.size() || !std::isfinite(value))
       throw std::invalid_argument("--param " + key + ": expected a finite number, got '" + text + "'");
     // Distances given in sigma units (e.g. d_initial_sigma=0.05) are converted to the
-    // optimizer's normalised box.
+    // optimizer's normalised box; the algorithm's own "..._sigma" settings are not.
     try {
-      const auto [box_key, box_value] = mapping.algorithm_parameter_in_box(key, value);
+      const auto [box_key, box_value] = mapping.algorithm_parameter_in_box(key, value, own);
       overrides[box_key] = box_value;  // a key given twice: the last one counts
     } catch (const std::invalid_argument& e) {
       throw std::invalid_argument(std::string("--param ") + e.what());

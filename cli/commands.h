@@ -23,8 +23,10 @@ void add_import_command(CLI::App& app);
 void add_export_command(CLI::App& app);
 
 /// `--param KEY=VALUE` items; keys ending in _sigma are distances in sigma units, converted
-/// to the normalised box of `mapping`.
+/// to the normalised box of `mapping`, unless the algorithm has a parameter of that very name
+/// (`own`, its opt::default_parameters: ekf-rts's initial_bias_sigma).
 opt::ParameterMap parse_algorithm_params(const std::vector<std::string>& items,
-                                         const ParameterMapping& mapping);
+                                         const ParameterMapping& mapping,
+                                         const opt::ParameterList& own = {});
 
 }  // namespace insid::cli

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "core/test_support.h"
+#include "identification/ekf_rts.h"
 #include "identification/identify.h"
 #include "identification/ins_problem.h"
 #include "identification/local_fit.h"
@@ -49,6 +50,27 @@ TEST(Identification, MappingRoundTripsAndUsesThePaperBox) {
   EXPECT_DOUBLE_EQ(e.gyro.bias.x(), 2.0 * kSigmaGyroRadS);
   EXPECT_DOUBLE_EQ(e.accel.bias.x(), -4.0 * kSigmaAccelMps2);
   EXPECT_DOUBLE_EQ(m.sigma_per_unit(0), 4.0);
+}
+
+// `--param KEY_sigma=V` is a distance in sigma units (DVPIO's d_initial_sigma) converted to the
+// normalised box, but an algorithm's own parameter whose name ends in _sigma (ekf-rts's
+// initial_bias_sigma, a prior in catalogue sigma units) is passed through: before, it was
+// stripped to "initial_bias" and refused as unknown, so no MEMS prior could be given.
+TEST(Identification, AlgorithmParameterInBoxKeepsTheAlgorithmsOwnSigmaSettings) {
+  const ParameterMapping m(EstimatedParameter::paper_four());  // [-4, 4] sigma -> [-1, 1]
+  const opt::ParameterList dvpio = opt::default_parameters("dvpio");
+  const auto [d_key, d_value] = m.algorithm_parameter_in_box("d_initial_sigma", 0.4, dvpio);
+  EXPECT_EQ(d_key, "d_initial");
+  EXPECT_DOUBLE_EQ(d_value, 0.1);
+  const opt::ParameterList ekf = EkfRtsParams{}.list();
+  const auto [e_key, e_value] = m.algorithm_parameter_in_box("initial_bias_sigma", 36000.0, ekf);
+  EXPECT_EQ(e_key, "initial_bias_sigma");
+  EXPECT_DOUBLE_EQ(e_value, 36000.0);
+  // The setting reaches the filter: no "unknown parameter" from the registry's factory.
+  EXPECT_NO_THROW(EkfRtsParams::from_map({{e_key, e_value}}));
+  const auto [plain_key, plain_value] = m.algorithm_parameter_in_box("w", 0.7, dvpio);
+  EXPECT_EQ(plain_key, "w");
+  EXPECT_DOUBLE_EQ(plain_value, 0.7);
 }
 
 TEST(Identification, EstimateSpecParsingRejectsBadInput) {

@@ -94,10 +94,12 @@ double ParameterMapping::sigma_per_unit(int j) const {
   return 0.5 * (p.upper_sigma - p.lower_sigma);
 }
 
-std::pair<std::string, double> ParameterMapping::algorithm_parameter_in_box(std::string key,
-                                                                           double value) const {
+std::pair<std::string, double> ParameterMapping::algorithm_parameter_in_box(
+    std::string key, double value, const opt::ParameterList& own) const {
   const std::string suffix = "_sigma";
   if (key.size() <= suffix.size() || !key.ends_with(suffix)) return {std::move(key), value};
+  for (const auto& [name, default_value] : own)
+    if (name == key) return {std::move(key), value};  // the algorithm's own "..._sigma" setting
   key.erase(key.size() - suffix.size());
   const double unit = sigma_per_unit(0);
   for (int k = 1; k < dimension(); ++k)

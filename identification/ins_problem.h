@@ -14,6 +14,7 @@
 #include "core/batch_fitness.h"
 #include "core/fitness.h"
 #include "core/sensor_errors.h"
+#include "optimizers/parameters.h"
 #include "optimizers/problem.h"
 
 namespace insid {
@@ -49,10 +50,13 @@ class ParameterMapping {
   double sigma_per_unit(int j) const;
   /// An algorithm parameter as the optimizer takes it: a key ending in `_sigma` is a distance in
   /// sigma units (DVPIO's `d_initial_sigma=0.05`), returned without the suffix and divided by
-  /// the sigma span of one normalised unit; any other key comes back unchanged. Throws
-  /// std::invalid_argument naming the key when the estimated parameters' boxes differ in
-  /// width (no common unit).
-  std::pair<std::string, double> algorithm_parameter_in_box(std::string key, double value) const;
+  /// the sigma span of one normalised unit; any other key comes back unchanged, and so does a
+  /// key in `own` (the algorithm's own parameter names, opt::default_parameters): ekf-rts's
+  /// `initial_bias_sigma` is a prior in catalogue sigma units, not a DVPIO-style distance to be
+  /// stripped to `initial_bias`. Throws std::invalid_argument naming the key when the estimated
+  /// parameters' boxes differ in width (no common unit).
+  std::pair<std::string, double> algorithm_parameter_in_box(
+      std::string key, double value, const opt::ParameterList& own = {}) const;
 
  private:
   std::vector<EstimatedParameter> parameters_;
