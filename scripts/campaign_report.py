@@ -32,7 +32,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.colors import LogNorm  # noqa: E402
-from matplotlib.ticker import FixedLocator, FuncFormatter, NullFormatter  # noqa: E402
+from matplotlib.ticker import FixedLocator, FuncFormatter, LogLocator, NullFormatter  # noqa: E402
 
 try:  # scipy is only needed when summary.json lacks the pairwise tests
     from scipy import stats as sps  # noqa: E402
@@ -187,7 +187,9 @@ def plain_number(v, _pos=None):
     """Tick label without exponents ("70", "0.002", "1.5e+04" only past 1e4)."""
     if not math.isfinite(v):
         return ""
-    if v != 0 and (abs(v) >= 1e4 or abs(v) < 1e-3):
+    if abs(v) >= 1e3:
+        return f"{v:,.0f}"
+    if v != 0 and abs(v) < 1e-3:
         return f"{v:.2g}"
     return f"{v:.3g}"
 
@@ -539,7 +541,8 @@ def plot_convergence(c, scenario, axis, path, dpi):
         ax.yaxis.set_major_formatter(FuncFormatter(plain_number))
     if axis == "evaluations":
         ax.set_xscale("log")
-        ax.set_xlabel("fitness evaluations")
+        ax.xaxis.set_major_formatter(FuncFormatter(plain_number))
+        ax.set_xlabel("fitness evaluations (full INS runs)")
     else:
         ax.set_xlabel("iteration (generation)")
     ax.set_ylabel("best-so-far Eq. 15 fitness (m/s)")
@@ -575,6 +578,10 @@ def boxplot(ax, data, labels, colors, log=None):
         log = positive(values) and values.max() / max(values.min(), 1e-300) > 100
     if log and positive(values):
         ax.set_yscale("log")
+        if values.max() / values.min() < 1e3:  # few decades: label 1, 2, 5 of each
+            ax.yaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+        ax.yaxis.set_major_formatter(FuncFormatter(plain_number))
+        ax.yaxis.set_minor_formatter(NullFormatter())
     ax.grid(alpha=0.3, axis="y")
     return True
 
@@ -610,7 +617,12 @@ def plot_final_fitness(c, scenario, path, dpi):
     else:
         fig, ax = plt.subplots(figsize=(6.8, 4.4))
         ax_far = None
-    ok = boxplot(ax, [c.finals(scenario, lab) for lab in near], near, colors)
+    near_values = [c.finals(scenario, lab) for lab in near]
+    flat = np.concatenate(near_values) if near_values else np.array([])
+    flat = flat[np.isfinite(flat)]
+    # Log when the boxes span more than a factor 10, so that no box is squashed by another.
+    log = bool(flat.size) and positive(flat) and flat.max() / flat.min() > 10
+    ok = boxplot(ax, near_values, near, colors, log=log)
     if not ok:
         plt.close(fig)
         return False
