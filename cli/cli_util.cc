@@ -5,7 +5,6 @@
 #include <system_error>
 #include <cmath>
 #include <filesystem>
-#include <iomanip>
 #include <iostream>
 #include <stdexcept>
 
@@ -34,41 +33,40 @@ std::map<std::string, double> parse_effect_assignments(const std::vector<std::st
   return out;
 }
 
-campaign::ProgressCallback campaign_progress_printer() {
+campaign::ProgressCallback campaign_progress_printer(std::shared_ptr<ProgressPrinter> printer) {
   using Kind = campaign::ProgressEvent::Kind;
-  return [](const campaign::ProgressEvent& e) {
+  return [printer](const campaign::ProgressEvent& e) {
+    const auto whole = [](double s) { return std::to_string(std::lround(s)); };
     switch (e.kind) {
       case Kind::kRemovedTemporaries:
-        std::cerr << "insid: removed " << e.count
-                  << " temporary file(s) left by an interrupted run in " << e.path << "\n";
+        printer->note("removed " + std::to_string(e.count) +
+                      " temporary file(s) left by an interrupted run in " + e.path);
         break;
       case Kind::kRedoingDamagedRun:
-        std::cerr << "insid bench: redoing a damaged run file: " << e.detail << "\n";
+        printer->note("redoing a damaged run file: " + e.detail);
         break;
       case Kind::kPreparingScenario:
-        std::cerr << "insid bench: preparing scenario " << e.scenario << "\n";
+        printer->note("preparing scenario " + e.scenario);
         break;
       case Kind::kFindingOptimum:
-        std::cerr << "insid bench: finding the data's own optimum of " << e.scenario << "\n";
+        printer->note("finding the data's own optimum of " + e.scenario);
         break;
       case Kind::kWaitingForOptimum:
-        std::cerr << "insid bench: waiting for another rank to write "
-                  << std::filesystem::path(e.path) << "\n";
+        printer->note("waiting for another rank to write " + e.path);
         break;
       case Kind::kRunFinished:
-        std::cerr << std::fixed << std::setprecision(0);
         if (!e.mpi_rank)
-          std::cerr << "\rinsid bench: runs " << e.runs_present << "/" << e.runs_total << " ("
-                    << e.scenario << " " << e.algorithm << " seed " << e.seed << "), elapsed "
-                    << e.elapsed_s << " s, ETA " << e.eta_s << " s   ";
+          printer->status("runs " + std::to_string(e.runs_present) + "/" +
+                          std::to_string(e.runs_total) + " (" + e.scenario + " " + e.algorithm +
+                          " seed " + std::to_string(e.seed) + "), elapsed " + whole(e.elapsed_s) +
+                          " s, ETA " + whole(e.eta_s) + " s");
         else  // rank 0 sees only its own runs
-          std::cerr << "\rinsid bench: rank 0 finished " << e.new_runs << " runs (" << e.scenario
-                    << " " << e.algorithm << " seed " << e.seed << "), elapsed " << e.elapsed_s
-                    << " s   ";
-        std::cerr << std::defaultfloat << std::flush;
+          printer->status("rank 0 finished " + std::to_string(e.new_runs) + " runs (" +
+                          e.scenario + " " + e.algorithm + " seed " + std::to_string(e.seed) +
+                          "), elapsed " + whole(e.elapsed_s) + " s");
         break;
       case Kind::kRunsEnded:
-        std::cerr << "\n";
+        printer->finish();
         break;
     }
   };

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -10,6 +11,7 @@
 
 #include "bench/campaign.h"
 #include "bench/cluster.h"
+#include "cli/progress.h"
 #include "core/sensor_errors.h"
 
 namespace insid::cli {
@@ -54,9 +56,10 @@ std::string split_description(const campaign::RunOptions& options,
 std::string incomplete_message(const campaign::RunOptions& options,
                                const campaign::CampaignOutcome& outcome);
 
-/// Prints a campaign's progress (bench, sweep) to stderr: scenario preparation, the optimum,
-/// and one updating line of finished runs with elapsed time and ETA.
-campaign::ProgressCallback campaign_progress_printer();
+/// Prints a campaign's progress (bench, sweep) through `printer` (its prefix names the
+/// command): scenario preparation, the optimum, and the status line of finished runs with
+/// elapsed time and ETA.
+campaign::ProgressCallback campaign_progress_printer(std::shared_ptr<ProgressPrinter> printer);
 
 /// Write JSON to `path` atomically, or to stdout when path is empty or "-".
 void write_json_output(const std::string& path, const nlohmann::json& j);

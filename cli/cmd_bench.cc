@@ -27,13 +27,14 @@ struct BenchArgs {
   int max_new_runs = 0;
   double flight_s = 0.0;
   std::string shard;
+  Verbosity verbosity = Verbosity::kNormal;
 };
 
 void run_bench(const BenchArgs& args) {
   // Joined first, so that every rank of an MPI launch sees the same errors below.
   const std::unique_ptr<campaign::Cluster> cluster = campaign::join_mpi_launch();
   if (args.preset.empty() == args.config_path.empty())
-    throw std::invalid_argument("give exactly one of --preset and --config");
+    throw UsageError("give exactly one of --preset and --config");
   campaign::CampaignConfig config;
   if (!args.preset.empty()) {
     config = campaign::preset_campaign(args.preset);
@@ -57,9 +58,13 @@ void run_bench(const BenchArgs& args) {
   options.max_new_runs = args.max_new_runs;
   if (!args.shard.empty()) options.shard = campaign::Shard::parse(args.shard);
   options.cluster = cluster.get();
-  options.progress = campaign_progress_printer();
+  const auto printer = std::make_shared<ProgressPrinter>("insid bench", args.verbosity);
+  options.progress = campaign_progress_printer(printer);
+  options.quiet = printer->quiet();
   const campaign::CampaignOutcome outcome = campaign::run_campaign(config, options);
+  printer->finish();
   if (!outcome.writes_results) return;  // MPI rank 0 reports for the launch
+  if (printer->quiet()) return;
   std::cerr << "insid bench: " << outcome.new_runs << " new runs"
             << cli::split_description(options, outcome)
             << ", "
@@ -100,6 +105,7 @@ void add_bench_command(CLI::App& app) {
   cmd->add_option("--shard", args->shard,
                   "do only slice i of N of the runs (i/N, 1 <= i <= N; for batch-scheduler "
                   "arrays): runs whose position in the run list modulo N is i-1");
+  add_verbosity_flags(cmd, args->verbosity);
   cmd->callback([args] { run_bench(*args); });
 }
 

@@ -10,6 +10,7 @@
 #include "cli/cli_util.h"
 #include "cli/commands.h"
 #include "cli/initial_attitude_cli.h"
+#include "cli/progress.h"
 #include "core/dataset.h"
 #include "diagnose/diagnose.h"
 
@@ -34,7 +35,7 @@ struct DiagnoseArgs {
   double window_s = 0.0;
   InitialAttitudeArgs initial_attitude;
   int threads = 0;
-  bool quiet = false;
+  Verbosity verbosity = Verbosity::kNormal;
   bool no_plots = false;
 };
 
@@ -62,7 +63,8 @@ void run(const DiagnoseArgs& a) {
   o.window_s = a.window_s;
   o.initial_attitude = initial_attitude_options(a.initial_attitude);
   o.threads = a.threads;
-  o.progress = !a.quiet;
+  // The diagnosis prints plain timed lines, one per step (never '\r'); --verbose adds nothing.
+  o.progress = a.verbosity != Verbosity::kQuiet;
   diagnose::DiagnoseResult res = diagnose::run_diagnose(dataset, o);
   res.report["data"] = a.data_dir;
   write_json_output(a.out, res.report);
@@ -155,7 +157,7 @@ void add_diagnose_command(CLI::App& app) {
   add_initial_attitude_options(cmd, a->initial_attitude);
   cmd->add_option("--threads", a->threads, "OpenMP threads (0 = all)")->capture_default_str()
       ->check(whole_in(0, kMaxThreads));
-  cmd->add_flag("--quiet", a->quiet, "no progress on stderr");
+  add_verbosity_flags(cmd, a->verbosity);
   cmd->add_flag("--no-plots", a->no_plots, "report.md without figures");
   cmd->callback([a] { run(*a); });
 }

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <iostream>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -15,6 +16,7 @@
 #include "cli/cli_util.h"
 #include "cli/commands.h"
 #include "cli/initial_attitude_cli.h"
+#include "cli/progress.h"
 #include "core/dataset.h"
 #include "core/fitness.h"
 #include "identification/ekf_rts.h"
@@ -42,11 +44,12 @@ struct IdentifyArgs {
   bool positions = false;
   int uncertainty_replicas = 100;
   std::string out;
+  Verbosity verbosity = Verbosity::kNormal;
 };
 
 void run_identify(const IdentifyArgs& args) {
   if (args.uncertainty_replicas > 0 && args.uncertainty_replicas < 10)
-    throw std::invalid_argument("--uncertainty-replicas " +
+    throw UsageError("--uncertainty-replicas " +
                                 std::to_string(args.uncertainty_replicas) +
                                 ": expected 0 (no uncertainty) or at least 10 replicas");
   auto dataset = std::make_shared<const Dataset>(load_dataset(args.data_dir));
@@ -84,15 +87,32 @@ void run_identify(const IdentifyArgs& args) {
   auto optimizer = opt::make_optimizer(args.algorithm, problem.bounds(), config, overrides);
 
   // ask / evaluate / tell, with progress on stderr (opt::step also feeds the baselines that
-  // need residual vectors or the problem itself: lm, ekf-rts).
+  // need residual vectors or the problem itself: lm, ekf-rts). The status shows the iterations
+  // done; the closing line says how the run ended and where its best was found (a restarting
+  // baseline such as lm spends the budget on restarts after converging).
+  ProgressPrinter progress("insid identify", args.verbosity);
+  const std::string budget = args.iterations > 0 ? "/" + std::to_string(args.iterations) : "";
+  int best_at_iteration = 0;
+  double best_so_far = std::numeric_limits<double>::infinity();
   while (!optimizer->done()) {
     opt::step(*optimizer, problem);
     const opt::Result& live = optimizer->result();
-    std::cerr << "\rinsid identify: " << args.algorithm << " iteration " << live.iterations << "/"
-              << args.iterations << ", evaluations " << live.evaluations << ", best "
-              << live.best_f << "   " << std::flush;
+    if (live.best_f < best_so_far) {
+      best_so_far = live.best_f;
+      best_at_iteration = live.iterations;
+    }
+    progress.status(args.algorithm + " iteration " + std::to_string(live.iterations) + budget +
+                    ", evaluations " + std::to_string(live.evaluations) + ", best " +
+                    short_number(live.best_f));
   }
-  std::cerr << "\n";
+  progress.finish();
+  {
+    const opt::Result& done = optimizer->result();
+    progress.note(args.algorithm + " stopped after " + std::to_string(done.iterations) +
+                  " iteration(s) and " + std::to_string(done.evaluations) + " evaluations (" +
+                  std::string(opt::to_string(done.termination)) + "); best " + short_number(done.best_f) +
+                  " first reached at iteration " + std::to_string(best_at_iteration));
+  }
   const opt::Result& result = optimizer->result();
 
   nlohmann::json out = optimizer_result_json(result, mapping);
@@ -110,7 +130,7 @@ void run_identify(const IdentifyArgs& args) {
                                 {"lower_sigma", p.lower_sigma}, {"upper_sigma", p.upper_sigma}});
   std::optional<ReferenceOptimum> ref;
   if (!args.no_reference) {
-    ref = cached_reference_optimum(args.data_dir, problem);
+    ref = cached_reference_optimum(args.data_dir, problem, !progress.quiet());
     out["reference_optimum"] = ref->to_json(mapping);
   }
   add_run_assessment_json(out, result, mapping, dataset->meta.injected, ref ? &*ref : nullptr);
@@ -122,7 +142,7 @@ void run_identify(const IdentifyArgs& args) {
     uo.threads = args.threads;
     const UncertaintyReport report = estimate_uncertainty(problem, mapping.to_sigma(result.best_x), uo);
     add_uncertainty_json(out, report);
-    std::cerr << report.table();
+    if (!progress.quiet()) std::cerr << report.table();
   }
   write_json_output(args.out, out);
 }
@@ -198,6 +218,7 @@ void add_identify_command(CLI::App& app) {
       ->capture_default_str()
       ->check(whole_in(0, 100000));
   cmd->add_option("--out", args->out, "result JSON file (default: stdout)");
+  add_verbosity_flags(cmd, args->verbosity);
   cmd->callback([args] { run_identify(*args); });
 }
 

@@ -17,6 +17,7 @@
 #include "bench/iohprofiler.h"
 #include "cli/cli_util.h"
 #include "cli/commands.h"
+#include "cli/progress.h"
 #include "core/dataset.h"
 #include "core/digest.h"
 #include "core/json_reader.h"
@@ -41,6 +42,7 @@ struct ImportCsvArgs {
   std::optional<double> align_s;
   double static_speed_mps = 0.2;
   bool force = false;
+  Verbosity verbosity = Verbosity::kNormal;
 };
 
 std::string read_text(const std::string& path, const char* option) {
@@ -97,7 +99,7 @@ nlohmann::json source_json(const std::string& role, const std::string& path, con
 // Provenance, the atomic write, and the user's summary: common to every import format.
 void finish_import(const std::string& command, import::Assembled result, nlohmann::json options,
                    nlohmann::json sources, const std::string& out, bool force,
-                   std::chrono::steady_clock::time_point t0) {
+                   std::chrono::steady_clock::time_point t0, Verbosity verbosity) {
   nlohmann::json& prov = result.provenance;
   prov["format"] = "insid-provenance/1";
   prov["command"] = command;
@@ -108,14 +110,18 @@ void finish_import(const std::string& command, import::Assembled result, nlohman
   write_options.into_foreign_directory = force;
   write_options.extra_files["provenance.json"] = prov.dump(2) + "\n";
   write_dataset(out, result.dataset, write_options);
+  // Notes say what was dropped or derived: printed even with --quiet (also in provenance.json).
   for (const std::string& note : result.notes) std::cerr << "insid import: " << note << "\n";
+  ProgressPrinter progress("insid import", verbosity);
   const Dataset& ds = result.dataset;
-  std::fprintf(stderr,
-               "insid import: wrote %s (insid-dataset/2): %zu IMU rows (median %.4g Hz), %zu GNSS "
-               "epochs (%.3g Hz), %.1f s, in %.2f s\n",
-               out.c_str(), ds.imu.size(), ds.meta.imu_rate_hz, ds.gnss.size(),
-               ds.meta.gnss_rate_hz, ds.imu.back().t_s - ds.imu.front().t_s,
-               std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  char line[256];
+  std::snprintf(line, sizeof line,
+                " (insid-dataset/2): %zu IMU rows (median %.4g Hz), %zu GNSS epochs (%.3g Hz), "
+                "%.1f s, in %.2f s",
+                ds.imu.size(), ds.meta.imu_rate_hz, ds.gnss.size(), ds.meta.gnss_rate_hz,
+                ds.imu.back().t_s - ds.imu.front().t_s,
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  progress.note("wrote " + out + line);
 }
 
 void run_import_csv(const ImportCsvArgs& args) {
@@ -127,14 +133,14 @@ void run_import_csv(const ImportCsvArgs& args) {
   spec.rate_samples = args.rate_samples;
   spec.gps_week = args.gps_week;
   if (args.imu_time == "relative" && !args.time_offset_s)
-    throw std::invalid_argument(
+    throw UsageError(
         "--imu-time relative needs --imu-time-offset-s: the GPS time of week (s) at the logger's "
         "zero, so that the IMU can be paired with the GNSS solution");
   spec.time_offset_s = args.time_offset_s.value_or(0.0);
   if (!args.mounting.empty()) {
     const std::vector<double> rpy = parse_number_list(args.mounting, "--mounting-rpy-deg");
     if (rpy.size() != 3)
-      throw std::invalid_argument("--mounting-rpy-deg: expected R,P,Y (three angles in degrees)");
+      throw UsageError("--mounting-rpy-deg: expected R,P,Y (three angles in degrees)");
     spec.mounting_rpy_deg = {rpy[0], rpy[1], rpy[2]};
   }
   if (const std::string e = spec.validate(); !e.empty()) throw std::invalid_argument(e);
@@ -168,7 +174,7 @@ void run_import_csv(const ImportCsvArgs& args) {
       {"static_speed_mps", args.static_speed_mps}};
   finish_import("insid import csv", std::move(result), std::move(recorded_options),
                 {source_json("imu", args.imu, imu_text), source_json("gnss", args.gnss, gnss_text)},
-                args.out, args.force, t0);
+                args.out, args.force, t0, args.verbosity);
 }
 
 struct ImportKfGinsArgs {
@@ -177,6 +183,7 @@ struct ImportKfGinsArgs {
   std::optional<double> align_s;
   double static_speed_mps = 0.2;
   bool force = false;
+  Verbosity verbosity = Verbosity::kNormal;
 };
 
 void run_import_kf_gins(const ImportKfGinsArgs& args) {
@@ -201,7 +208,7 @@ void run_import_kf_gins(const ImportKfGinsArgs& args) {
       {"axes", "body forward-right-down as KF-GINS defines its IMU file (no mounting applied)"}};
   finish_import("insid import kf-gins", std::move(result), std::move(opts),
                 {source_json("imu", args.imu, imu_text), source_json("gnss", args.gnss, gnss_text)},
-                args.out, args.force, t0);
+                args.out, args.force, t0, args.verbosity);
 }
 
 struct ImportUlogArgs {
@@ -210,6 +217,7 @@ struct ImportUlogArgs {
   std::optional<double> align_s;
   double static_speed_mps = 0.2;
   bool force = false;
+  Verbosity verbosity = Verbosity::kNormal;
 };
 
 void run_import_ulog(const ImportUlogArgs& args) {
@@ -239,7 +247,7 @@ void run_import_ulog(const ImportUlogArgs& args) {
                          {"align_s", args.align_s ? nlohmann::json(*args.align_s) : nlohmann::json(nullptr)},
                          {"static_speed_mps", args.static_speed_mps}};
   finish_import("insid import ulog", std::move(result), std::move(opts), {source}, args.out,
-                args.force, t0);
+                args.force, t0, args.verbosity);
 }
 
 struct ExportArgs {
@@ -254,7 +262,7 @@ void run_export_iohprofiler(const ExportArgs& args) {
   if (args.campaign.empty())
     throw std::invalid_argument("--to iohprofiler needs --campaign DIR (a campaign directory)");
   if (!args.data.empty())
-    throw std::invalid_argument("--data is for --to kf-gins; --to iohprofiler reads --campaign");
+    throw UsageError("--data is for --to kf-gins; --to iohprofiler reads --campaign");
   if (contains_working_directory(args.out))
     throw std::invalid_argument("--out " + args.out + ": the current directory or a parent of it");
   if (!fs::exists(fs::path(args.campaign) / "manifest.json"))
@@ -284,10 +292,10 @@ void run_export_iohprofiler(const ExportArgs& args) {
 void run_export(const ExportArgs& args) {
   if (args.to == "iohprofiler") return run_export_iohprofiler(args);
   if (args.to != "kf-gins")
-    throw std::invalid_argument("--to: kf-gins or iohprofiler, got '" + args.to + "'");
+    throw UsageError("--to: kf-gins or iohprofiler, got '" + args.to + "'");
   if (args.data.empty()) throw std::invalid_argument("--to kf-gins needs --data DIR (a dataset)");
   if (!args.campaign.empty())
-    throw std::invalid_argument("--campaign is for --to iohprofiler; --to kf-gins reads --data");
+    throw UsageError("--campaign is for --to iohprofiler; --to kf-gins reads --data");
   const OutputKind kind{"a KF-GINS export", {"imu.txt", "gnss.txt"}};
   if (contains_working_directory(args.out))
     throw std::invalid_argument("--out " + args.out + ": the current directory or a parent of it");
@@ -364,6 +372,7 @@ void add_import_command(CLI::App& app) {
       ->check(number_in(1e-6, 10));
   csv->add_option("--out", a->out, "output dataset directory (new, empty or an insid dataset)")->required();
   csv->add_flag("--force", a->force, "write into a --out directory that holds other files");
+  add_verbosity_flags(csv, a->verbosity);
   csv->callback([a] { run_import_csv(*a); });
 
   auto k = std::make_shared<ImportKfGinsArgs>();
@@ -382,6 +391,7 @@ void add_import_command(CLI::App& app) {
       ->check(number_in(1e-6, 10));
   kf->add_option("--out", k->out, "output dataset directory")->required();
   kf->add_flag("--force", k->force, "write into a --out directory that holds other files");
+  add_verbosity_flags(kf, k->verbosity);
   kf->callback([k] { run_import_kf_gins(*k); });
 
   auto u = std::make_shared<ImportUlogArgs>();
@@ -404,6 +414,7 @@ void add_import_command(CLI::App& app) {
       ->check(number_in(1e-6, 10));
   ul->add_option("--out", u->out, "output dataset directory")->required();
   ul->add_flag("--force", u->force, "write into a --out directory that holds other files");
+  add_verbosity_flags(ul, u->verbosity);
   ul->callback([u] { run_import_ulog(*u); });
 }
 

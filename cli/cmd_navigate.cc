@@ -3,6 +3,8 @@
 #include <cmath>
 #include <cstdio>
 #include <iostream>
+#include <map>
+#include <stdexcept>
 #include <memory>
 #include <optional>
 #include <sstream>
@@ -14,8 +16,10 @@
 #include "cli/cli_util.h"
 #include "cli/commands.h"
 #include "cli/initial_attitude_cli.h"
+#include "cli/progress.h"
 #include "core/dataset.h"
 #include "core/fitness.h"
+#include "core/json_reader.h"
 #include "core/rotation.h"
 #include "optimizers/parameters.h"
 
@@ -25,12 +29,61 @@ namespace {
 struct NavigateArgs {
   std::string data_dir;
   std::vector<std::string> compensate;
+  std::string compensate_from;
   InitialAttitudeArgs initial_attitude;
   std::string alignment = "per-candidate";
   double window_s = 0.0;
   std::string out_csv;
   std::string summary_path;
+  Verbosity verbosity = Verbosity::kNormal;
 };
+
+// The estimates of an identify result (insid-identify/1 or /2): its `parameters` array (name,
+// estimate in SI) when it has one, else its `estimate` object {name: SI value}. Throws naming the
+// file and what it lacks.
+std::map<std::string, double> identify_estimates(const std::string& path) {
+  const std::string where = "--compensate-from " + path;
+  nlohmann::json j;
+  try {
+    j = read_json_file(path, where);
+  } catch (const std::runtime_error& e) {
+    throw std::invalid_argument(e.what());
+  }
+  const std::string format =
+      j.is_object() && j.contains("format") && j["format"].is_string() ? j["format"].get<std::string>()
+                                                                     : "";
+  if (format != "insid-identify/1" && format != "insid-identify/2")
+    throw std::invalid_argument(
+        where + ": not an identify result (\"format\" is " +
+        (format.empty() ? std::string("missing") : "'" + format + "'") +
+        ", expected insid-identify/1 or insid-identify/2, as written by insid identify --out)");
+  std::map<std::string, double> estimates;
+  const auto take = [&](const std::string& name, const nlohmann::json& value,
+                        const std::string& field) {
+    if (!value.is_number() || !std::isfinite(value.get<double>()))
+      throw std::invalid_argument(where + ": " + field + " is " + value.dump() +
+                                  ", expected a finite number (SI units)");
+    effect_info(name);  // throws with the list of valid names
+    estimates[name] = value.get<double>();
+  };
+  if (j.contains("parameters")) {
+    const nlohmann::json& params = j["parameters"];
+    if (!params.is_array() || params.empty())
+      throw std::invalid_argument(where + ": \"parameters\" must be a non-empty array");
+    for (std::size_t k = 0; k < params.size(); ++k) {
+      const std::string field = "parameters[" + std::to_string(k) + "]";
+      if (!params[k].is_object() || !params[k].contains("name") || !params[k]["name"].is_string() ||
+          !params[k].contains("estimate"))
+        throw std::invalid_argument(where + ": " + field + " needs \"name\" and \"estimate\"");
+      take(params[k]["name"].get<std::string>(), params[k]["estimate"], field + ".estimate");
+    }
+  } else if (j.contains("estimate") && j["estimate"].is_object() && !j["estimate"].empty()) {
+    for (const auto& [name, value] : j["estimate"].items()) take(name, value, "estimate." + name);
+  } else {
+    throw std::invalid_argument(where + ": neither \"parameters\" nor an \"estimate\" object");
+  }
+  return estimates;
+}
 
 // A navigation that went non-finite is an error, never a result: name the first state that
 // did, the IMU line it came from, and the compensation applied.
@@ -59,8 +112,18 @@ void require_finite_navigation(const NavigationProblem& problem, const std::stri
 
 void run_navigate(const NavigateArgs& args) {
   auto dataset = std::make_shared<const Dataset>(load_dataset(args.data_dir));
-  const SensorErrors candidate =
-      errors_from_map(parse_effect_assignments(args.compensate, "--compensate"));
+  ProgressPrinter progress("insid navigate", args.verbosity);
+  std::map<std::string, double> compensation;
+  if (!args.compensate_from.empty()) compensation = identify_estimates(args.compensate_from);
+  for (const auto& [name, value] : parse_effect_assignments(args.compensate, "--compensate")) {
+    if (compensation.count(name))
+      throw UsageError("--compensate " + name + " is also in --compensate-from " +
+                       args.compensate_from + ": give each effect once");
+    compensation[name] = value;
+  }
+  for (const auto& [name, value] : compensation)
+    progress.detail("compensating " + name + " = " + opt::format_number(value) + " (SI)");
+  const SensorErrors candidate = errors_from_map(compensation);
   NavigationOptions options;
   options.alignment = alignment_mode_from_string(args.alignment);
   options.window_s = args.window_s;
@@ -90,6 +153,7 @@ void run_navigate(const NavigateArgs& args) {
   summary["windows"] = problem.num_windows();
   summary["initial_attitude"] = to_string(options.initial_attitude.mode);
   summary["compensate"] = nonzero_effects(candidate);
+  if (!args.compensate_from.empty()) summary["compensate_from"] = args.compensate_from;
   summary["nav_start_t_s"] = problem.nav_start_t_s();
   summary["epochs"] = problem.num_epochs();
   summary["fitness"] = fitness;
@@ -134,14 +198,17 @@ void run_navigate(const NavigateArgs& args) {
     char line[512];
     for (const NavState& s : states) {
       const EulerAngles e = euler_from_q_b_n(s.q_b_n);
-      std::snprintf(line, sizeof line, "%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g\n",
+      std::snprintf(line, sizeof line, "%.6f,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g\n",
                     s.t_s, s.lat_rad * kRadToDeg, s.lon_rad * kRadToDeg, s.h_m, s.v_eb_n.x(),
                     s.v_eb_n.y(), s.v_eb_n.z(), e.roll_rad * kRadToDeg, e.pitch_rad * kRadToDeg,
                     wrap_two_pi(e.yaw_rad) * kRadToDeg);
       text += line;
     }
     write_file_atomic(args.out_csv, text);
+    progress.detail("wrote " + args.out_csv + " (" + std::to_string(states.size()) + " rows)");
   }
+  progress.detail("Eq. 15 fitness " + short_number(fitness) + " m/s over " +
+                  std::to_string(problem.num_epochs()) + " GNSS epochs");
   write_json_output(args.summary_path, summary);
 }
 
@@ -156,6 +223,9 @@ void add_navigate_command(CLI::App& app) {
   cmd->add_option("--data", args->data_dir, "dataset directory (insid-dataset/1)")->required();
   cmd->add_option("--compensate", args->compensate,
                   "NAME=VALUE: compensate a catalogue error (SI units), repeatable");
+  cmd->add_option("--compensate-from", args->compensate_from,
+                  "identify result JSON (insid identify --out): compensate its estimates (its "
+                  "\"parameters\", else its \"estimate\"); --compensate adds other effects");
   add_initial_attitude_options(cmd, args->initial_attitude);
   cmd->add_option("--alignment", args->alignment, "per-candidate | fixed")->capture_default_str();
   cmd->add_option("--window-s", args->window_s, kWindowHelp)
@@ -163,6 +233,7 @@ void add_navigate_command(CLI::App& app) {
       ->check(number_in(0.0, kMaxWindowS));
   cmd->add_option("--out", args->out_csv, "navigation solution CSV (truth.csv columns)");
   cmd->add_option("--summary", args->summary_path, "summary JSON file (default: stdout)");
+  add_verbosity_flags(cmd, args->verbosity);
   cmd->callback([args] { run_navigate(*args); });
 }
 

@@ -12,6 +12,7 @@
 
 #include "cli/cli_util.h"
 #include "cli/commands.h"
+#include "cli/progress.h"
 #include "core/dataset.h"
 #include "scenarios/scenario.h"
 
@@ -30,12 +31,13 @@ struct SimulateArgs {
   bool clean = false;
   bool print_config = false;
   bool force = false;
+  Verbosity verbosity = Verbosity::kNormal;
 };
 
 void run_simulate(const SimulateArgs& args) {
   namespace sc = insid::scenarios;
   if (args.preset.empty() == args.config.empty())
-    throw std::invalid_argument("give exactly one of --preset NAME or --config FILE");
+    throw UsageError("give exactly one of --preset NAME or --config FILE");
   const sc::ScenarioConfig base =
       args.preset.empty() ? sc::load_scenario_file(args.config) : sc::preset_scenario(args.preset);
   sc::ScenarioOverrides overrides;
@@ -54,23 +56,27 @@ void run_simulate(const SimulateArgs& args) {
     std::cout << sc::scenario_to_json(cfg).dump(2) << "\n";
     return;
   }
-  if (args.out.empty()) throw std::invalid_argument("--out DIR is required");
+  if (args.out.empty()) throw UsageError("--out DIR is required");
   dataset_destination(args.out, args.force);  // refuse a directory before the work, not after
 
-  std::fprintf(stderr,
-               "insid simulate: '%s', %.0f s alignment + %.0f s flight, IMU %g Hz (%zu rows), "
-               "GNSS %g Hz (%zu rows), noise grade '%s', seed %llu ...\n",
-               cfg.name.c_str(), cfg.align_s, plan.flight_s, cfg.imu_rate_hz, plan.num_imu_steps,
-               cfg.gnss_rate_hz, plan.num_gnss, cfg.noise.grade.c_str(),
-               static_cast<unsigned long long>(cfg.seed));
+  ProgressPrinter progress("insid simulate", args.verbosity);
+  char line[512];
+  std::snprintf(line, sizeof line,
+                "'%s', %.0f s alignment + %.0f s flight, IMU %g Hz (%zu rows), GNSS %g Hz (%zu "
+                "rows), noise grade '%s', seed %llu ...",
+                cfg.name.c_str(), cfg.align_s, plan.flight_s, cfg.imu_rate_hz, plan.num_imu_steps,
+                cfg.gnss_rate_hz, plan.num_gnss, cfg.noise.grade.c_str(),
+                static_cast<unsigned long long>(cfg.seed));
+  progress.note(line);
   const auto t0 = std::chrono::steady_clock::now();
   const Dataset ds = sc::simulate(cfg, plan, !args.no_injected);
   DatasetWriteOptions write_options;
   write_options.into_foreign_directory = args.force;
   if (args.no_injected) write_options.extra_files["answer.json"] = sc::answer_json(cfg).dump(2) + "\n";
   write_dataset(args.out, ds, write_options);  // atomic: nothing half-written on failure
-  std::fprintf(stderr, "insid simulate: wrote %s in %.1f s\n", args.out.c_str(),
-               std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  std::snprintf(line, sizeof line, "%.1f",
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  progress.note("wrote " + args.out + " in " + line + " s");
 }
 
 }  // namespace
@@ -107,6 +113,7 @@ void add_simulate_command(CLI::App& app) {
                 "write the truth to answer.json in the dataset directory");
   cmd->add_flag("--print-config", args->print_config,
                 "print the effective scenario JSON (after the options) and exit");
+  add_verbosity_flags(cmd, args->verbosity);
   cmd->callback([args] { run_simulate(*args); });
 }
 

@@ -29,6 +29,7 @@ struct SweepArgs {
   bool force_new = false;
   bool force = false;
   std::string shard;
+  Verbosity verbosity = Verbosity::kNormal;
 };
 
 void run(const SweepArgs& args) {
@@ -57,9 +58,14 @@ void run(const SweepArgs& args) {
   options.into_foreign_directory = args.force;
   if (!args.shard.empty()) options.shard = campaign::Shard::parse(args.shard);
   options.cluster = cluster.get();
-  options.progress = campaign_progress_printer();
+  // Labelled "insid sweep" (the campaign runner behind it is bench's).
+  const auto printer = std::make_shared<ProgressPrinter>("insid sweep", args.verbosity);
+  options.progress = campaign_progress_printer(printer);
+  options.quiet = printer->quiet();
   const auto outcome = campaign::run_sweep(sweep, options);
+  printer->finish();
   if (!outcome.writes_results) return;  // MPI rank 0 reports for the launch
+  if (printer->quiet()) return;
   std::cerr << "insid sweep: " << campaign::sweep_settings(sweep).size() << " settings x "
             << sweep.seeds.size() << " seeds; " << outcome.new_runs << " new runs"
             << cli::split_description(options, outcome)
@@ -111,6 +117,7 @@ void add_sweep_command(CLI::App& app) {
   cmd->add_flag("--force-new", args->force_new, "discard a different campaign's results in --out");
   cmd->add_option("--shard", args->shard,
                   "do only slice i of N of the runs (i/N; see insid bench --shard)");
+  add_verbosity_flags(cmd, args->verbosity);
   cmd->callback([args] { run(*args); });
 }
 

@@ -1,7 +1,9 @@
 // Subcommands of the `insid` executable. Each adds itself to the CLI11 app; its callback
-// does the work and throws std::exception on error (main prints it and exits with 1).
+// does the work and throws std::exception on error (main prints "insid <command>: error: ..."
+// and exits with kExitFailure, or kExitUsage for a UsageError).
 #pragma once
 
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -11,6 +13,26 @@
 #include "optimizers/parameters.h"
 
 namespace insid::cli {
+
+/// Exit codes of insid (README "Exit codes", and `insid --help`).
+inline constexpr int kExitOk = 0;       ///< done (also --help, --version)
+inline constexpr int kExitFailure = 1;  ///< the command ran and failed
+inline constexpr int kExitUsage = 2;    ///< the command line was refused before any work
+inline constexpr const char* kExitCodeHelp =
+    "Exit codes:\n"
+    "  0  done (also --help, --version)\n"
+    "  1  the command ran and failed: unreadable or invalid data, config or result file, a\n"
+    "     refused directory, a navigation that went non-finite, an I/O error\n"
+    "  2  the command line was refused before any work: unknown command or option, missing\n"
+    "     required option, a value of the wrong form or out of range, options that conflict\n"
+    "     (every parse error of the CLI11 library, its codes 100-114, is reported as 2)\n"
+    "Errors are printed as 'insid <command>: error: <what>' on stderr.\n";
+
+/// A command line that parsed but cannot be run as given (exclusive options both given, a
+/// needed one missing): exit code kExitUsage, like a parse error.
+struct UsageError : std::invalid_argument {
+  using std::invalid_argument::invalid_argument;
+};
 
 void add_navigate_command(CLI::App& app);
 void add_identify_command(CLI::App& app);

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 namespace {
 namespace fs = std::filesystem;
@@ -195,6 +196,7 @@ TEST_F(CliSafety, InitialAttitudeModesOnTheCommandLine) {
 struct BadInput {
   std::string args;                   // after "insid"
   std::vector<std::string> expected;  // substrings of the output
+  bool parse_error = false;           // refused by the parser (exit 2), else after it (exit 1)
 };
 
 std::vector<BadInput> option_cases(const std::string& data) {
@@ -234,7 +236,7 @@ std::vector<BadInput> option_cases(const std::string& data) {
       {diag, "--window-s", {"-2", "inf"}}};
   for (const Option& o : options)
     for (const std::string& value : o.bad)
-      cases.push_back({o.command + " " + o.option + " " + value, {o.option, value}});
+      cases.push_back({o.command + " " + o.option + " " + value, {o.option, value}, true});
   // Values inside --param, --grid, --set, --compensate.
   cases.push_back({ident + " --param population=1e9", {"population", "1e+09", "limit"}});
   cases.push_back({ident + " --param population=2.5", {"population", "integer"}});
@@ -243,6 +245,23 @@ std::vector<BadInput> option_cases(const std::string& data) {
   cases.push_back({sim + " --set gyro_bias_x=abc", {"--set", "gyro_bias_x"}});
   cases.push_back({sim + " --set nosuch=1", {"nosuch"}});
   cases.push_back({"navigate --data " + data + " --compensate accel_bias_x", {"--compensate", "NAME=VALUE"}});
+  // Values checked after parsing (issue 19 audit of every command's options): exit 1, named.
+  cases.push_back({ident + " --estimate gyro_bias_x:0", {"--estimate 'gyro_bias_x:0'", "SIGMA must be > 0"}});
+  cases.push_back({ident + " --estimate gyro_bias_x:-1e-7", {"SIGMA must be > 0"}});
+  cases.push_back({ident + " --estimate gyro_bias_x:1e-7:1:-1", {"LO must be < HI"}});
+  cases.push_back({ident + " --param population=0", {"population", "got 0"}});
+  cases.push_back({ident + " --param population=-3", {"population", "got -3"}});
+  cases.push_back({"identify --algo nosuch --data " + data, {"unknown optimizer 'nosuch'"}});
+  cases.push_back({"navigate --data " + data + " --alignment sideways", {"got 'sideways'"}});
+  cases.push_back({sweep + " --grid R=0.1:0.3:0", {"--grid 'R=0.1:0.3:0'", "N must be"}});
+  cases.push_back({sweep + " --grid R=0.3:0.1:3", {"LO must be <= HI"}});
+  cases.push_back({sweep + " --grid R=", {"--grid", "got 'R='"}});
+  cases.push_back({sweep + " --preset nosuch", {"unknown preset 'nosuch'"}});
+  cases.push_back({sweep + " --grade bogus", {"unknown noise grade 'bogus'"}});
+  cases.push_back({"bench --preset nosuch --out " + data + "-never", {"unknown campaign preset 'nosuch'"}});
+  cases.push_back({sim + " --set gyro_bias_x=nan", {"--set gyro_bias_x", "'nan'"}});
+  cases.push_back({diag + " --candidates nosuch", {"unknown effect name 'nosuch'"}});
+  cases.push_back({diag + " --base gyro_bias_x:0", {"SIGMA must be > 0"}});
   // A window shorter than one GNSS period (10 Hz here) is refused by the problem, named.
   cases.push_back({"navigate --data " + data + " --window-s 0.05",
                    {"window_s = 0.05 s is shorter than one GNSS period (0.1 s"}});
@@ -302,6 +321,8 @@ TEST_F(CliSafety, EveryBadOptionOrConfigValueIsRefusedUpFrontAndNamed) {
   for (const BadInput& c : options) {
     const Outcome o = insid(c.args);
     EXPECT_NE(o.status, 0) << c.args << "\n" << o.output;
+    // A value the parser refuses is a usage error (2); one refused after parsing, a failure (1).
+    EXPECT_EQ(o.status, c.parse_error ? 2 : 1) << c.args << "\n" << o.output;
     refused += o.status != 0;
     for (const std::string& part : c.expected)
       EXPECT_NE(o.output.find(part), std::string::npos)
@@ -313,6 +334,8 @@ TEST_F(CliSafety, EveryBadOptionOrConfigValueIsRefusedUpFrontAndNamed) {
     const fs::path out = root_ / ("campaign" + std::to_string(k));
     const Outcome o = insid("bench --config " + file.string() + " --out " + out.string());
     EXPECT_NE(o.status, 0) << configs[k].first << "\n" << o.output;
+    EXPECT_EQ(o.status, 1) << configs[k].first << "\n" << o.output;
+    EXPECT_EQ(o.output.rfind("insid bench: error: ", 0), 0u) << o.output;
     refused += o.status != 0;
     for (const std::string& part : configs[k].second)
       EXPECT_NE(o.output.find(part), std::string::npos)
@@ -403,3 +426,175 @@ TEST_F(CliSafety, ImportAndExportRefuseBadInputAndNeverHalfWrite) {
 }
 
 }  // namespace
+
+namespace manners {  // issue 19: command-line manners
+
+bool has(const std::string& text, const std::string& part) {
+  return text.find(part) != std::string::npos;
+}
+
+// `insid --version` prints the git revision the binary was built from (and exits 0).
+TEST(CliManners, VersionPrintsTheGitRevision) {
+  const std::string revision = INSID_GIT_REVISION;
+  ASSERT_NE(revision, "unknown") << "configured outside a git checkout";
+  const Outcome o = insid("--version");
+  EXPECT_EQ(o.status, 0) << o.output;
+  EXPECT_TRUE(has(o.output, "git revision: " + revision)) << o.output;
+  EXPECT_TRUE(has(o.output, "build type:")) << o.output;
+  EXPECT_TRUE(has(o.output, "compiler:")) << o.output;
+}
+
+// The three documented exit codes, each with the one error prefix; the table is in --help.
+TEST_F(CliSafety, ExitCodesAreTheDocumentedOnesWithOneErrorPrefix) {
+  const Outcome help = insid("--help");
+  EXPECT_EQ(help.status, 0);
+  for (const std::string line : {"Exit codes:", "  0  done", "  1  the command ran and failed",
+                                 "  2  the command line was refused"})
+    EXPECT_TRUE(has(help.output, line)) << help.output;
+
+  const std::string d = data_.string(), never = (root_ / "never").string();
+  struct Case {
+    std::string args, prefix;
+    int status;
+  };
+  const std::vector<Case> cases = {
+      {"", "insid: error: A subcommand is required", 2},
+      {"nosuch", "insid: error: unknown command 'nosuch'; the commands are navigate identify", 2},
+      {"navigate", "insid navigate: error: --data is required", 2},
+      {"navigate --data " + d + " --nosuch 1", "insid navigate: error: The following argument", 2},
+      {"bench --preset quick --seeds 0 --out " + never, "insid bench: error: --seeds: value 0", 2},
+      {"identify --data " + d + " --quiet --verbose", "insid identify: error: --quiet excludes --verbose", 2},
+      {"simulate --out " + never, "insid simulate: error: give exactly one of --preset", 2},
+      {"simulate --preset straight", "insid simulate: error: --out DIR is required", 2},
+      {"identify --data " + d + " --uncertainty-replicas 5", "insid identify: error: --uncertainty-replicas 5", 2},
+      {"import csv --imu x --columns t,ax,ay,az,gx,gy,gz --units s,g,rad/s --gnss y --imu-time relative --out " + never,
+       "insid import csv: error: --imu-time relative needs --imu-time-offset-s", 2},
+      {"navigate --data " + never, "insid navigate: error: dataset directory", 1},
+      {"navigate --data " + d + " --compensate-from " + (data_ / "meta.json").string(),
+       "insid navigate: error: --compensate-from " + (data_ / "meta.json").string() +
+           ": not an identify result", 1},
+      {"navigate --data " + d + " --summary " + (root_ / "ok.json").string(), "", 0},
+  };
+  for (const Case& c : cases) {
+    const Outcome o = insid(c.args);
+    EXPECT_EQ(o.status, c.status) << "insid " << c.args << "\n" << o.output;
+    if (!c.prefix.empty()) {
+      EXPECT_EQ(o.output.rfind(c.prefix, 0), 0u) << "insid " << c.args << "\n" << o.output;
+    }
+    if (c.status == 2) {
+      EXPECT_TRUE(has(o.output, "--help' for the options")) << o.output;
+    }
+  }
+  EXPECT_FALSE(fs::exists(never));
+}
+
+// Progress to a file or pipe: plain lines, never '\r'; nothing with --quiet; the closing line
+// gives the iterations actually done; a sweep's progress is labelled "insid sweep".
+TEST_F(CliSafety, ProgressToANonTerminalHasNoCarriageReturn) {
+  const std::string d = data_.string();
+  const fs::path result = root_ / "r.json";
+  const std::string ident = "identify --algo pso --iterations 3 --no-reference-optimum "
+                            "--uncertainty-replicas 0 --data " + d + " --out " + result.string();
+  const Outcome o = insid(ident);
+  ASSERT_EQ(o.status, 0) << o.output;
+  EXPECT_FALSE(has(o.output, "\r")) << o.output;
+  EXPECT_TRUE(has(o.output, "insid identify: pso iteration 1/3")) << o.output;
+  EXPECT_TRUE(has(o.output, "insid identify: pso stopped after 3 iteration(s)")) << o.output;
+  const Outcome quiet = insid(ident + " --quiet");
+  ASSERT_EQ(quiet.status, 0) << quiet.output;
+  EXPECT_EQ(quiet.output, "");
+  // lm converges, then restarts until the budget is spent: the closing line says where the
+  // best was first reached, not only the budget.
+  const Outcome lm = insid("identify --algo lm --iterations 12 --no-reference-optimum "
+                           "--uncertainty-replicas 0 --data " + d + " --out " + result.string());
+  ASSERT_EQ(lm.status, 0) << lm.output;
+  EXPECT_TRUE(has(lm.output, "insid identify: lm stopped after ")) << lm.output;
+  EXPECT_TRUE(has(lm.output, " first reached at iteration ")) << lm.output;
+
+  const fs::path sweep = root_ / "sweep";
+  const Outcome s = insid("sweep --algo pso --grid w=0.5,0.7 --seeds 1 --iterations 2 --preset "
+                          "straight --flight-s 20 --out " + sweep.string());
+  ASSERT_EQ(s.status, 0) << s.output;
+  EXPECT_FALSE(has(s.output, "\r")) << s.output;
+  EXPECT_FALSE(has(s.output, "insid bench")) << s.output;
+  EXPECT_TRUE(has(s.output, "insid sweep: runs 2/2")) << s.output;
+  const Outcome sim = insid("simulate --preset straight --flight-s 5 --quiet --out " +
+                            (root_ / "q").string());
+  ASSERT_EQ(sim.status, 0) << sim.output;
+  EXPECT_EQ(sim.output, "");
+}
+
+// nav.csv times are fixed 6-decimal numbers, never 600.00999999999999.
+TEST_F(CliSafety, NavigationCsvTimesHaveSixDecimals) {
+  const fs::path nav = root_ / "nav.csv";
+  const Outcome o = insid("navigate --data " + data_.string() + " --summary " +
+                          (root_ / "s.json").string() + " --out " + nav.string());
+  ASSERT_EQ(o.status, 0) << o.output;
+  std::istringstream in(text(nav));
+  std::string line;
+  std::getline(in, line);  // header
+  int rows = 0;
+  while (std::getline(in, line)) {
+    const std::string t = line.substr(0, line.find(','));
+    const auto dot = t.find('.');
+    ASSERT_NE(dot, std::string::npos) << line;
+    ASSERT_EQ(t.size() - dot - 1, 6u) << "line " << rows + 2 << ": " << line;
+    ++rows;
+  }
+  EXPECT_GT(rows, 1000);
+}
+
+// navigate --compensate-from: an identify result's estimates, /2 (parameters) or /1 (estimate),
+// give the same navigation as the same values given with --compensate; other files are named.
+TEST_F(CliSafety, NavigateCompensatesFromAnIdentifyResult) {
+  const std::string d = data_.string();
+  const fs::path result = root_ / "r.json";
+  Outcome o = insid("identify --algo pso --iterations 3 --no-reference-optimum "
+                    "--uncertainty-replicas 10 --quiet --data " + d + " --out " + result.string());
+  ASSERT_EQ(o.status, 0) << o.output;
+  const nlohmann::json r = nlohmann::json::parse(text(result));
+  ASSERT_TRUE(r.contains("parameters"));
+  std::string by_hand;
+  char value[64];
+  for (const auto& p : r["parameters"]) {
+    std::snprintf(value, sizeof value, "%.17g", p["estimate"].get<double>());
+    by_hand += " --compensate " + p["name"].get<std::string>() + "=" + value;
+  }
+  const auto fitness = [&](const std::string& args) {
+    const fs::path s = root_ / "s.json";
+    const Outcome n = insid("navigate --data " + d + args + " --summary " + s.string());
+    EXPECT_EQ(n.status, 0) << args << "\n" << n.output;
+    return nlohmann::json::parse(text(s))["fitness"].get<double>();
+  };
+  const double f_hand = fitness(by_hand);
+  EXPECT_EQ(fitness(" --compensate-from " + result.string()), f_hand);
+  EXPECT_NE(fitness(""), f_hand);
+  // Schema /1: no "parameters", the "estimate" object.
+  nlohmann::json v1 = r;
+  v1.erase("parameters");
+  v1["format"] = "insid-identify/1";
+  const fs::path r1 = root_ / "r1.json";
+  std::ofstream(r1) << v1.dump(2);
+  EXPECT_EQ(fitness(" --compensate-from " + r1.string()), f_hand);
+  // An effect in both: refused.
+  const std::string first = r["parameters"][0]["name"].get<std::string>();
+  o = insid("navigate --data " + d + " --compensate-from " + result.string() + " --compensate " +
+            first + "=0");
+  EXPECT_EQ(o.status, 2) << o.output;
+  EXPECT_TRUE(has(o.output, "--compensate " + first + " is also in --compensate-from")) << o.output;
+  // Not an identify result; a broken estimate.
+  nlohmann::json bad = v1;
+  bad["format"] = "insid-run/2";
+  std::ofstream(r1, std::ios::trunc) << bad.dump(2);
+  o = insid("navigate --data " + d + " --compensate-from " + r1.string());
+  EXPECT_EQ(o.status, 1);
+  EXPECT_TRUE(has(o.output, "not an identify result (\"format\" is 'insid-run/2'")) << o.output;
+  bad = v1;
+  bad["estimate"][first] = "big";
+  std::ofstream(r1, std::ios::trunc) << bad.dump(2);
+  o = insid("navigate --data " + d + " --compensate-from " + r1.string());
+  EXPECT_EQ(o.status, 1);
+  EXPECT_TRUE(has(o.output, "estimate." + first + " is \"big\", expected a finite number")) << o.output;
+}
+
+}  // namespace manners

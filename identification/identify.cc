@@ -110,7 +110,7 @@ std::string cache_key(const std::string& data_dir, const InsIdentificationProble
 }  // namespace
 
 ReferenceOptimum cached_reference_optimum(const std::string& data_dir,
-                                          const InsIdentificationProblem& problem) {
+                                          const InsIdentificationProblem& problem, bool announce) {
   const std::filesystem::path path = std::filesystem::path(data_dir) / "insid-optimum-cache.json";
   const std::string key = cache_key(data_dir, problem);
   nlohmann::json cache = nlohmann::json::object();
@@ -129,8 +129,9 @@ ReferenceOptimum cached_reference_optimum(const std::string& data_dir,
       // a damaged entry is recomputed (and overwritten below)
     }
   }
-  std::cerr << "insid: finding the data's own optimum (multi-start local fit, cached in "
-            << path.string() << ")\n";
+  if (announce)
+    std::cerr << "insid: finding the data's own optimum (multi-start local fit, cached in "
+              << path.string() << ")\n";
   ReferenceOptimum opt = find_reference_optimum(problem);
   if (!cache.is_object()) cache = nlohmann::json::object();
   cache[key] = opt.to_json(problem.mapping());

@@ -41,8 +41,10 @@ ReferenceOptimum find_reference_optimum(const InsIdentificationProblem& problem,
 /// directory are ignored by the format), keyed by the data files' SHA-256 (dataset_digest),
 /// estimated parameters, alignment and fixed effects.
 /// Computed and stored when missing; a read-only directory only costs the recomputation.
+/// `announce`: say so on stderr when it has to be computed (false: silent, for --quiet).
 ReferenceOptimum cached_reference_optimum(const std::string& data_dir,
-                                          const InsIdentificationProblem& problem);
+                                          const InsIdentificationProblem& problem,
+                                          bool announce = true);
 
 /// Parameters of an optimizer result in JSON: history per iteration and per evaluation, with
 /// DVPIO's d vector converted to sigma units through the mapping.

@@ -32,6 +32,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.colors import LogNorm  # noqa: E402
+from matplotlib.ticker import FixedLocator, FuncFormatter, LogLocator, NullFormatter  # noqa: E402
 
 try:  # scipy is only needed when summary.json lacks the pairwise tests
     from scipy import stats as sps  # noqa: E402
@@ -160,6 +161,39 @@ def save(fig, path, dpi):
     plt.close(fig)
 
 
+# Engineering units of a catalogue effect from its SI value: (factor, unit) by name prefix.
+G0_MPS2 = 9.80665
+ENGINEERING_UNITS = (
+    ("accel_bias", 1e6 / G0_MPS2, "µg"),
+    ("accel_scale", 1e6, "ppm"),
+    ("gyro_bias", 180.0 / math.pi * 3600.0, "deg/h"),
+    ("gyro_scale", 1e6, "ppm"),
+    ("gyro_misalign", 1e6, "µrad"),
+    ("accel_misalign", 1e6, "µrad"),
+    ("lever_arm", 1.0, "m"),
+    ("gnss_latency", 1e3, "ms"),
+)
+
+
+def engineering_unit(name):
+    """(factor from SI, unit) of a parameter, or None when it is not in the table."""
+    for prefix, factor, unit in ENGINEERING_UNITS:
+        if name.startswith(prefix):
+            return factor, unit
+    return None
+
+
+def plain_number(v, _pos=None):
+    """Tick label without exponents ("70", "0.002", "1.5e+04" only past 1e4)."""
+    if not math.isfinite(v):
+        return ""
+    if abs(v) >= 1e3:
+        return f"{v:,.0f}"
+    if v != 0 and abs(v) < 1e-3:
+        return f"{v:.2g}"
+    return f"{v:.3g}"
+
+
 def positive(values):
     x = np.asarray(values, dtype=float)
     x = x[np.isfinite(x)]
@@ -284,6 +318,27 @@ class Campaign:
                     if p not in names:
                         names.append(p)
         return names
+
+    def parameter_sigma_si(self):
+        """{parameter: its sigma in SI} from the campaign config's "estimate" list."""
+        out = {}
+        for e in self.config.get("estimate") or []:
+            if isinstance(e, dict) and isinstance(e.get("name"), str):
+                v = num(e.get("sigma"))
+                if math.isfinite(v) and v > 0:
+                    out[e["name"]] = v
+        return out
+
+    def optimum_error_sigma(self, scenario):
+        """{parameter: |reference optimum − truth| (σ)}: the error an exact minimiser of Eq. 15
+        has on this data (the same in every run: error_sigma − error_vs_optimum_sigma)."""
+        for label in self.labels[scenario]:
+            for r in self.algo_runs(scenario, label):
+                e, eo = r.get("error_sigma") or {}, r.get("error_vs_optimum_sigma") or {}
+                out = {p: abs(num(e[p]) - num(eo[p])) for p in e if p in eo}
+                if out and all(math.isfinite(v) for v in out.values()):
+                    return out
+        return {}
 
     def errors(self, scenario, label, block="error_sigma"):
         """{param: array of signed errors over runs} from the run files."""
@@ -475,14 +530,22 @@ def plot_convergence(c, scenario, axis, path, dpi):
     if drawn == 0:
         plt.close(fig)
         return False
+    optimum = next((num(r.get("optimum_fitness")) for lab in labels
+                    for r in c.algo_runs(scenario, lab)
+                    if math.isfinite(num(r.get("optimum_fitness")))), math.nan)
+    if math.isfinite(optimum):
+        ax.axhline(optimum, color="tab:green", ls="--", lw=1.0,
+                   label=f"data's own optimum ({plain_number(optimum)})")
     if positive(np.concatenate(all_y)):
         ax.set_yscale("log")
+        ax.yaxis.set_major_formatter(FuncFormatter(plain_number))
     if axis == "evaluations":
         ax.set_xscale("log")
-        ax.set_xlabel("fitness evaluations")
+        ax.xaxis.set_major_formatter(FuncFormatter(plain_number))
+        ax.set_xlabel("fitness evaluations (full INS runs)")
     else:
         ax.set_xlabel("iteration (generation)")
-    ax.set_ylabel("best-so-far fitness")
+    ax.set_ylabel("best-so-far Eq. 15 fitness (m/s)")
     ax.set_title(f"{scenario}: best-so-far fitness, median and IQR over seeds", fontsize=10)
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=7 if drawn > 6 else 8, ncol=2 if drawn > 6 else 1)
@@ -491,7 +554,9 @@ def plot_convergence(c, scenario, axis, path, dpi):
     return True
 
 
-def boxplot(ax, data, labels, colors):
+def boxplot(ax, data, labels, colors, log=None):
+    """Box plots of `data` per label. log: True/False forces the y scale; None picks log when
+    the values are positive and span more than a factor 100."""
     keep = [(d[np.isfinite(d)], lab) for d, lab in zip(data, labels)]
     keep = [(d, lab) for d, lab in keep if d.size]
     if not keep:
@@ -503,29 +568,86 @@ def boxplot(ax, data, labels, colors):
         patch.set_facecolor(colors[lab])
         patch.set_alpha(0.45)
     ax.set_xticks(pos)
-    ax.set_xticklabels([lab for _, lab in keep], fontsize=8, rotation=30 if len(keep) > 4 else 0)
+    if len(keep) > 4:  # slanted, anchored at their right end: no overlap
+        ax.set_xticklabels([lab for _, lab in keep], fontsize=8, rotation=40, ha="right",
+                           rotation_mode="anchor")
+    else:
+        ax.set_xticklabels([lab for _, lab in keep], fontsize=8)
     values = np.concatenate([d for d, _ in keep])
-    if positive(values) and values.max() / max(values.min(), 1e-300) > 100:
+    if log is None:
+        log = positive(values) and values.max() / max(values.min(), 1e-300) > 100
+    if log and positive(values):
         ax.set_yscale("log")
+        if values.max() / values.min() < 1e3:  # few decades: label 1, 2, 5 of each
+            ax.yaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+        ax.yaxis.set_major_formatter(FuncFormatter(plain_number))
+        ax.yaxis.set_minor_formatter(NullFormatter())
     ax.grid(alpha=0.3, axis="y")
     return True
 
 
+def off_scale_labels(c, scenario, labels):
+    """Methods whose median final fitness is more than 3x the median of the medians: drawn in a
+    panel of their own so that they do not squash the others' boxes."""
+    med = {lab: float(np.nanmedian(c.finals(scenario, lab))) if c.finals(scenario, lab).size
+           else math.nan for lab in labels}
+    finite = [v for v in med.values() if math.isfinite(v)]
+    if len(finite) < 3:
+        return []
+    typical = float(np.median(finite))
+    if typical <= 0:
+        return []
+    return [lab for lab in labels if math.isfinite(med[lab]) and med[lab] > 3 * typical]
+
+
+FITNESS_LABEL = "final Eq. 15 fitness (m/s, summed over the GNSS epochs)"
+
+
 def plot_final_fitness(c, scenario, path, dpi):
     labels = c.labels[scenario]
-    fig, ax = plt.subplots(figsize=(6.5, 4.2))
-    ok = boxplot(ax, [c.finals(scenario, lab) for lab in labels], labels, colors_for(labels))
+    colors = colors_for(labels)
+    far = off_scale_labels(c, scenario, labels)
+    near = [lab for lab in labels if lab not in far]
+    optimum = next((num(r.get("optimum_fitness")) for lab in labels
+                    for r in c.algo_runs(scenario, lab)
+                    if math.isfinite(num(r.get("optimum_fitness")))), math.nan)
+    if far:
+        fig, (ax, ax_far) = plt.subplots(
+            1, 2, figsize=(7.5, 4.4), gridspec_kw={"width_ratios": [max(len(near), 1), len(far) + 0.6]})
+    else:
+        fig, ax = plt.subplots(figsize=(6.8, 4.4))
+        ax_far = None
+    near_values = [c.finals(scenario, lab) for lab in near]
+    flat = np.concatenate(near_values) if near_values else np.array([])
+    flat = flat[np.isfinite(flat)]
+    # Log when the boxes span more than a factor 10, so that no box is squashed by another.
+    log = bool(flat.size) and positive(flat) and flat.max() / flat.min() > 10
+    ok = boxplot(ax, near_values, near, colors, log=log)
     if not ok:
         plt.close(fig)
         return False
-    ax.set_ylabel("final fitness")
-    ax.set_title(f"{scenario}: final fitness over seeds", fontsize=10)
+    if math.isfinite(optimum):
+        ax.axhline(optimum, color="tab:green", ls="--", lw=1.0,
+                   label=f"data's own optimum (reference, {plain_number(optimum)})")
+        ax.legend(fontsize=7, loc="upper right")
+    ax.set_ylabel(FITNESS_LABEL, fontsize=9)
+    ax.yaxis.set_major_formatter(FuncFormatter(plain_number))
+    ax.yaxis.set_minor_formatter(NullFormatter())
+    if ax_far is not None:
+        boxplot(ax_far, [c.finals(scenario, lab) for lab in far], far, colors, log=False)
+        ax_far.yaxis.set_major_formatter(FuncFormatter(plain_number))
+        ax_far.set_title("off the left scale\n(median > 3x typical)", fontsize=8)
+    fig.suptitle(f"{scenario}: final fitness over seeds (lower is better)", fontsize=10)
     fig.tight_layout()
     save(fig, path, dpi)
     return True
 
 
 def plot_parameter_errors(c, scenario, block, path, dpi):
+    """|error| per parameter, one panel each, all on the same kind of scale (log when every
+    error is positive), in σ on the left and in engineering units (deg/h, µg, ...) on the right;
+    against truth, a line at the reference optimum's own error: the floor an exact minimiser
+    of Eq. 15 reaches on this data."""
     labels = c.labels[scenario]
     errs = {lab: c.errors(scenario, lab, block) for lab in labels}
     params = [p for p in c.parameter_names(scenario) if any(p in e for e in errs.values())]
@@ -533,23 +655,43 @@ def plot_parameter_errors(c, scenario, block, path, dpi):
         params += [p for p in e if p not in params]
     if not params:
         return False
-    ncols = min(3, len(params))
+    sigma_si = c.parameter_sigma_si()
+    floor = c.optimum_error_sigma(scenario) if block == "error_sigma" else {}
+    all_values = np.concatenate([np.abs(e[p]) for e in errs.values() for p in e if e[p].size]
+                                or [np.array([])])
+    log = positive(all_values)
+    ncols = 2 if len(params) == 4 else min(3, len(params))
     nrows = math.ceil(len(params) / ncols)
-    fig, axes = plt.subplots(nrows, ncols, figsize=(4.3 * ncols, 3.0 * nrows), squeeze=False)
+    fig, axes = plt.subplots(nrows, ncols, figsize=(5.6 * ncols, 3.6 * nrows), squeeze=False)
     colors = colors_for(labels)
     for k, p in enumerate(params):
         ax = axes.flat[k]
         data = [np.abs(errs[lab].get(p, np.array([]))) for lab in labels]
-        if not boxplot(ax, data, labels, colors):
+        if not boxplot(ax, data, labels, colors, log=log):
             ax.set_visible(False)
             continue
         ax.set_title(p, fontsize=9)
-        if k % ncols == 0:
-            ax.set_ylabel("|error| (σ)")
+        ax.set_ylabel("|error| (σ)", fontsize=8)
+        if p in floor and floor[p] > 0:
+            ax.axhline(floor[p], color="tab:green", ls="--", lw=1.0,
+                       label=f"reference optimum's error ({plain_number(floor[p])} σ)")
+            ax.legend(fontsize=7, loc="lower left")
+        eng = engineering_unit(p)
+        if eng and p in sigma_si:
+            factor = sigma_si[p] * eng[0]
+            sec = ax.secondary_yaxis("right", functions=(lambda v, f=factor: v * f,
+                                                         lambda v, f=factor: v / f))
+            sec.set_ylabel(f"|error| ({eng[1]})", fontsize=8)
+            sec.yaxis.set_major_formatter(FuncFormatter(plain_number))
+            sec.yaxis.set_minor_formatter(NullFormatter())
+        ax.yaxis.set_major_formatter(FuncFormatter(plain_number))
+        ax.yaxis.set_minor_formatter(NullFormatter())
     for k in range(len(params), nrows * ncols):
         axes.flat[k].set_visible(False)
     what = "|estimate − truth|" if block == "error_sigma" else "|estimate − reference optimum|"
-    fig.suptitle(f"{scenario}: {what} per parameter, in units of the parameter's σ", fontsize=10)
+    scale = "log scale" if log else "linear scale"
+    fig.suptitle(f"{scenario}: {what} per parameter, in the parameter's σ (left) and in "
+                 f"engineering units (right); {scale}", fontsize=10)
     fig.tight_layout()
     save(fig, path, dpi)
     return True
@@ -597,10 +739,11 @@ def plot_positions(c, scenario, label, run, path, dpi):
     err_opt = run.get("error_vs_optimum_sigma") or {}
     premature_at = next((num(h.get("iteration", i)) for i, h in enumerate(hist)
                          if h.get("premature") is True), None)
-    ncols = min(3, dim)
+    # A near-square grid without empty panels where possible (4 parameters: 2 x 2).
+    ncols = min(dim, max(1, math.ceil(math.sqrt(dim))))
     nrows = math.ceil(dim / ncols)
-    height = 2.6 * nrows + 0.9  # inches; the top 0.55 in hold the title and the legend
-    fig, axes = plt.subplots(nrows, ncols, figsize=(4.3 * ncols, height), squeeze=False)
+    height = 2.8 * nrows + 0.9  # inches; the top 0.55 in hold the title and the legend
+    fig, axes = plt.subplots(nrows, ncols, figsize=(5.0 * ncols, height), squeeze=False)
     for k in range(dim):
         ax = axes.flat[k]
         xs = np.concatenate([np.full(p.shape[0], it) for it, p in zip(its, pos)])
@@ -610,12 +753,16 @@ def plot_positions(c, scenario, label, run, path, dpi):
             ax.plot(best_its, [b[k] for b in best_traj], color="black", lw=1.3,
                     label="global best")
         name = params[k]
+        # Truth: a wide translucent band; the optimum: a thin dashed line on top, so that both
+        # stay visible where they coincide (the paper flight: within 0.003 σ).
         if name in truth and math.isfinite(num(truth[name])):
-            ax.axhline(num(truth[name]), color="tab:red", ls="--", lw=1.0, label="truth")
+            ax.axhline(num(truth[name]), color="tab:red", lw=4.5, alpha=0.35, zorder=1,
+                       label="truth")
         if name in estimate and name in err_opt:
             optimum = num(estimate[name]) - num(err_opt[name])
             if math.isfinite(optimum):
-                ax.axhline(optimum, color="tab:green", ls=":", lw=1.0, label="reference optimum")
+                ax.axhline(optimum, color="darkgreen", ls=(0, (4, 2)), lw=1.1, zorder=4,
+                           label="reference optimum (Eq. 15)")
         if premature_at is not None and math.isfinite(premature_at):
             ax.axvline(premature_at, color="tab:orange", lw=0.8, alpha=0.8,
                        label="premature detected")
@@ -668,6 +815,19 @@ def setting_median(s):
     return num((s.get("final_fitness") or {}).get("median"))
 
 
+def colourbar_plain(cb, values):
+    """Five plain-number ticks from the lowest to the highest value (a log colourbar otherwise
+    labels its minor ticks as "7×10¹")."""
+    v = np.asarray(values, dtype=float)
+    v = v[np.isfinite(v)]
+    if v.size == 0 or v.min() == v.max():
+        return
+    ticks = np.geomspace(v.min(), v.max(), 5) if positive(v) else np.linspace(v.min(), v.max(), 5)
+    cb.ax.yaxis.set_major_locator(FixedLocator(ticks))
+    cb.ax.yaxis.set_major_formatter(FuncFormatter(plain_number))
+    cb.ax.yaxis.set_minor_formatter(NullFormatter())
+
+
 def plot_sweep_scatter(settings, params, best, figdir, dpi):
     """Random-search sweep (settings off the grid): median final fitness against each
     parameter (one swept parameter) or coloured scatter over each pair of parameters."""
@@ -686,7 +846,7 @@ def plot_sweep_scatter(settings, params, best, figdir, dpi):
         if positive(med[ok]):
             ax.set_yscale("log")
         ax.set_xlabel(p)
-        ax.set_ylabel("median final fitness")
+        ax.set_ylabel("median final fitness (m/s)")
         ax.grid(alpha=0.3)
         fig.tight_layout()
         path = figure_file(figdir, f"sweep_scatter_{p}")
@@ -701,7 +861,7 @@ def plot_sweep_scatter(settings, params, best, figdir, dpi):
         norm = LogNorm() if positive(med[keep]) and med[keep].max() > med[keep].min() else None
         sc = ax.scatter(x[keep], y[keep], c=med[keep], cmap="viridis_r", norm=norm, s=36,
                         edgecolors="k", linewidths=0.3)
-        fig.colorbar(sc, ax=ax, label="median final fitness")
+        colourbar_plain(fig.colorbar(sc, ax=ax, label="median final fitness (m/s)"), med[keep])
         if p in best and q in best:
             ax.plot(num(best[p]), num(best[q]), marker="s", markersize=12, fillstyle="none",
                     color="red", mew=2)
@@ -745,7 +905,7 @@ def plot_sweep(sweep, figdir, dpi):
         ax.set_xticks(x)
         ax.set_xticklabels([fmt(v) for v in vals])
         ax.set_xlabel(p)
-        ax.set_ylabel("median final fitness (IQR bars)")
+        ax.set_ylabel("median final fitness (m/s, IQR bars)")
         if positive(np.concatenate([med, lo, hi])):
             ax.set_yscale("log")
         ax.grid(alpha=0.3)
@@ -781,7 +941,7 @@ def plot_sweep(sweep, figdir, dpi):
             positive(finite) and finite.max() > finite.min()) else None
         im = ax.imshow(np.ma.masked_invalid(M), origin="lower", aspect="auto", cmap="viridis_r",
                        norm=norm)
-        fig.colorbar(im, ax=ax, label="median final fitness")
+        colourbar_plain(fig.colorbar(im, ax=ax, label="median final fitness (m/s)"), finite)
         ax.set_xticks(range(len(grid[q])))
         ax.set_xticklabels([fmt(v) for v in grid[q]], fontsize=8)
         ax.set_yticks(range(len(grid[p])))
@@ -1173,6 +1333,86 @@ def write_report(c, figdir, alpha, dpi):
     return report, figures
 
 
+# DVPIO parameters that act only once its premature test (Eq. 10) has fired, and the test's own
+# threshold: when the test never fires, settings differing only in these give identical runs.
+DVPIO_PREMATURE_PARAMETERS = {"dist_threshold", "d_initial", "d0", "d_min", "d_max",
+                              "shrink_without_gain"}
+
+
+def setting_runs(c, label):
+    """The run files of a sweep setting (any scenario), by seed."""
+    for scenario in c.runs:
+        if label in c.runs[scenario]:
+            return {num(r.get("seed")): r for r in c.runs[scenario][label]}
+    return {}
+
+
+def run_fingerprint(run):
+    """What makes two runs the same result: final fitness, evaluations and the estimate."""
+    res = run.get("result") or {}
+    est = estimate_in_sigma_units(run)
+    return (num(res.get("fitness")), num(res.get("evaluations")),
+            tuple(sorted((p, num(v)) for p, v in est.items())))
+
+
+def sweep_ties(c, settings):
+    """Groups (lists of settings, >= 2) whose runs are identical, with how it is known and, when
+    it can be known, why: [(group, basis, reason)]. Basis "runs": every seed's run file gives the
+    same final fitness, evaluations and estimate; "summary": no run files, but every summary
+    statistic in sweep.json is equal."""
+    groups = {}
+    for s in settings:
+        label = s.get("label")
+        runs = setting_runs(c, label) if label else {}
+        if runs:
+            key = ("runs", tuple(sorted((seed, run_fingerprint(r)) for seed, r in runs.items())))
+        else:
+            q, e = s.get("final_fitness") or {}, s.get("error_sigma_norm") or {}
+            key = ("summary", tuple(num(d.get(k)) for d in (q, e) for k in ("median", "q1", "q3"))
+                   + tuple(num(v) for v in (s.get("median_ci95") or [])))
+            if any(math.isnan(v) for v in key[1]):
+                continue
+        groups.setdefault(key, []).append(s)
+    out = []
+    for key, group in groups.items():
+        if len(group) < 2:
+            continue
+        params = [g.get("parameters") or {} for g in group]
+        differing = sorted({p for sp in params for p in sp
+                            if any(not same_value(sp.get(p), o.get(p)) for o in params)})
+        reason = ""
+        algorithm = str(c.sweep.get("algorithm", "")).lower()
+        base = {p[:-6] if p.endswith("_sigma") else p for p in differing}
+        if algorithm == "dvpio" and base and base <= DVPIO_PREMATURE_PARAMETERS and key[0] == "runs":
+            fired = any(h.get("premature") is True for g in group
+                        for r in setting_runs(c, g.get("label")).values()
+                        for h in (r.get("result") or {}).get("history") or [])
+            has_flags = any("premature" in h for g in group
+                            for r in setting_runs(c, g.get("label")).values()
+                            for h in (r.get("result") or {}).get("history") or [])
+            if has_flags and not fired:
+                reason = ("DVPIO's premature test (Eq. 10) never fired in these runs, so "
+                          + ", ".join(differing) + " never acted")
+        out.append((group, key[0], differing, reason))
+    return out
+
+
+def competition_ranks(top, ties):
+    """Rank texts for the table: tied settings share the rank of the first, written "1=" """
+    tied_with = {}
+    for group, _, _, _ in ties:
+        labels = [g.get("label") for g in group]
+        for lab in labels:
+            tied_with[lab] = set(labels)
+    ranks = []
+    for i, s in enumerate(top):
+        lab = s.get("label")
+        first = next((j for j in range(i + 1) if top[j].get("label") in tied_with.get(lab, ())),
+                     i)
+        ranks.append(f"{first + 1}=" if lab in tied_with else str(i + 1))
+    return ranks
+
+
 def sweep_section(c, figdir, md_dir, dpi, figures):
     sw = c.sweep
     out = [f"## Parameter sweep: {sw.get('algorithm', '?')}\n"]
@@ -1191,8 +1431,10 @@ def sweep_section(c, figdir, md_dir, dpi, figures):
         top = sorted(settings, key=lambda s: (math.isnan(setting_median(s)), setting_median(s)))
     top = top[:10]
     params = list(grid) or sorted({p for s in top for p in (s.get("parameters") or {})})
+    ties = sweep_ties(c, settings)
+    ranks = competition_ranks(top, ties)
     rows = []
-    for rank, s in enumerate(top, 1):
+    for rank, s in zip(ranks, top):
         sp = s.get("parameters") or {}
         q = s.get("final_fitness") or {}
         en = s.get("error_sigma_norm") or {}
@@ -1208,7 +1450,19 @@ def sweep_section(c, figdir, md_dir, dpi, figures):
         out.append(md_table(["rank", "label"] + params + ["final fitness median [q1, q3]",
                                                  "95 % CI of the median",
                                                  "‖error‖ (σ) median [q1, q3]"], rows) + "\n")
-        if len(top) > 1:
+        for group, basis, differing, reason in ties:
+            labels = ", ".join(g.get("label", "?") for g in group)
+            how = ("gave identical runs on every seed (same final fitness, evaluations and "
+                   "estimate)" if basis == "runs" else
+                   "have identical summary statistics (no run files to compare seed by seed)")
+            why = (f" Why: {reason}." if reason else
+                   " Why they coincide is not known from the files"
+                   + (f" (they differ in {', '.join(differing)})." if differing else "."))
+            out.append(f"**Tie**: settings {labels} {how}: they are one result, ranked equal "
+                       f"(\"=\"), not an order.{why}\n")
+        if len(top) > 1 and not any(
+                {top[0].get("label"), top[1].get("label")} <= {g.get("label") for g in group}
+                for group, _, _, _ in ties):
             ci0, ci1 = top[0].get("median_ci95"), top[1].get("median_ci95")
             if isinstance(ci0, list) and isinstance(ci1, list) and len(ci0) == len(ci1) == 2:
                 overlap = num(ci0[1]) >= num(ci1[0]) and num(ci1[1]) >= num(ci0[0])

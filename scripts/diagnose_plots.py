@@ -32,18 +32,39 @@ def load_series(path):
             np.array(na))
 
 
-def plot_residuals(report, series, out):
+def phase_spans(t, mask):
+    """(start, end) times of the runs of consecutive True in `mask`, each reaching halfway to
+    the neighbouring epochs (what step="mid" shading showed)."""
+    spans = []
+    n = len(t)
+    i = 0
+    while i < n:
+        if not mask[i]:
+            i += 1
+            continue
+        j = i
+        while j + 1 < n and mask[j + 1]:
+            j += 1
+        start = 0.5 * (t[i - 1] + t[i]) if i > 0 else t[i]
+        end = 0.5 * (t[j] + t[j + 1]) if j + 1 < n else t[j]
+        spans.append((start, end))
+        i = j + 1
+    return spans
+
+
+def residuals_figure(report, series):
+    """The residuals figure. Phase shading is drawn with axvspan, which spans the axis height
+    without entering the y data limits: the residual axes follow the data (a fill_between
+    over 0..1 with an axis transform counted 1.0 as data and forced every axis up to 1 m/s)."""
     t, phase, eb, nb, ea, na = series
     fig, axes = plt.subplots(3, 1, figsize=(11, 8), sharex=True)
     colours = {"turn": "#f4d6a0", "speed change": "#c9e4c5", "climb/descent": "#cfd8f0",
                "slow": "#dddddd"}
     for ax in axes:
         for name, colour in colours.items():
-            mask = phase == name
-            if mask.any():
-                ax.fill_between(t, 0, 1, where=mask, color=colour, alpha=0.6, step="mid",
-                                transform=ax.get_xaxis_transform(), linewidth=0,
-                                label=name if ax is axes[0] else None)
+            for k, (start, end) in enumerate(phase_spans(t, phase == name)):
+                ax.axvspan(start, end, color=colour, alpha=0.6, linewidth=0,
+                           label=name if ax is axes[0] and k == 0 else None)
     axes[0].plot(t, eb, lw=0.7, label="dvE base fit")
     axes[0].plot(t, ea, lw=0.7, label="dvE final model")
     axes[0].set_ylabel("dvE (m/s)")
@@ -63,6 +84,11 @@ def plot_residuals(report, series, out):
     found = ", ".join(f["effect"] for f in report.get("found", [])) or "nothing"
     axes[0].set_title(f"INS-minus-GNSS velocity residuals (found: {found})")
     fig.tight_layout()
+    return fig
+
+
+def plot_residuals(report, series, out):
+    fig = residuals_figure(report, series)
     fig.savefig(out, dpi=110)
     plt.close(fig)
 

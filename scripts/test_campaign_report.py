@@ -350,6 +350,67 @@ def test_sweep_only(root, rng):
     check("12 random settings" in report, "random sweep: says the settings are random")
 
 
+def test_sweep_ties(root, rng):
+    """Settings with identical runs are reported as a tie, with the reason when the run files
+    show it (DVPIO's premature test never fired, so dist_threshold never acted)."""
+    for fired in (False, True):
+        d = os.path.join(root, f"sweep-ties-{'fired' if fired else 'never'}")
+        grid = {"R": [0.1, 0.2], "dist_threshold": [0.01, 0.05, 0.1]}
+        settings = []
+        for i, (r_value, dt) in enumerate(itertools.product(*grid.values())):
+            label = f"s{i:04d}"
+            tied = r_value == 0.1
+            for seed in (1, 2, 3):
+                # The R = 0.1 settings share one run per seed (identical files); others differ.
+                run_rng = np.random.default_rng(seed if tied else 1000 * (i + 1) + seed)
+                run = make_run(run_rng, "paper", label, "dvpio", 10, seed,
+                               1e-3 if tied else 5e-3, None, False,
+                               premature=5 if (fired or not tied) else None)
+                run["algorithm"] = label
+                write(os.path.join(d, "runs", "paper", label, f"seed_{seed}.json"), run)
+            m = 1e-3 if tied else 5e-3 * (1 + i)
+            settings.append({"label": label, "parameters": {"R": r_value, "dist_threshold": dt},
+                             "final_fitness": {"median": m, "q1": 0.8 * m, "q3": 1.3 * m},
+                             "error_sigma_norm": {"median": m, "q1": m, "q3": m},
+                             "median_ci95": [0.7 * m, 1.4 * m]})
+        write(os.path.join(d, "sweep.json"),
+              {"schema": "insid-sweep/1", "algorithm": "dvpio", "scenario": "paper", "seeds": 3,
+               "grid": grid, "random_settings": 0, "settings": settings,
+               "best": sorted(settings, key=lambda s: s["final_fitness"]["median"])[:5]})
+        report = run_report(d)
+        check("**Tie**: settings s0000, s0001, s0002 gave identical runs on every seed" in report,
+              f"ties ({'fired' if fired else 'never'}): the tie is reported\n{report[:3000]}")
+        check(re.search(r"\| 1= \| s000[012] \|", report) is not None
+              and "| 1 | s000" not in report, "ties: tied settings share rank 1=")
+        never = "premature test (Eq. 10) never fired in these runs, so dist_threshold" in report
+        check(never != fired, f"ties: reason given only when the test never fired ({fired})")
+        if fired:
+            check("Why they coincide is not known from the files (they differ in "
+                  "dist_threshold)" in report, "ties: unknown reason said so")
+        check("s0003" not in [g for g in re.findall(r"\*\*Tie\*\*: settings ([^g]*)gave", report)
+                              if "s0003" in g], "ties: distinct settings not tied")
+
+
+def test_colourbar_plain():
+    """The sweep colourbar labels plain numbers (a LogNorm colourbar wrote "7×10¹")."""
+    sys.path.insert(0, HERE)
+    import campaign_report as cr
+    from matplotlib.colors import LogNorm
+    fig, ax = cr.plt.subplots()
+    M = np.array([[52.0, 61.0], [70.0, 88.0]])
+    im = ax.imshow(M, norm=LogNorm(vmin=M.min(), vmax=M.max()))
+    cb = fig.colorbar(im, ax=ax)
+    cr.colourbar_plain(cb, M)
+    fig.canvas.draw()
+    texts = [t.get_text() for t in cb.ax.get_yticklabels(which="both") if t.get_text()]
+    check(len(texts) >= 3, f"colourbar: ticks labelled ({texts})")
+    check(all(re.fullmatch(r"[0-9.]+", t) for t in texts), f"colourbar: plain numbers {texts}")
+    cr.plt.close(fig)
+    check(cr.engineering_unit("gyro_bias_x") == (180.0 / math.pi * 3600.0, "deg/h")
+          and abs(cr.engineering_unit("accel_bias_y")[0] * 9.80665e-6 - 1.0) < 1e-12,
+          "engineering units: deg/h and µg")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--keep", metavar="DIR", help="write the synthetic directories under DIR")
@@ -363,6 +424,8 @@ def main():
         test_full(root, rng)
         test_minimal(root, rng)
         test_sweep_only(root, rng)
+        test_sweep_ties(root, rng)
+        test_colourbar_plain()
     if failures:
         print(f"{len(failures)} check(s) failed")
         return 1
