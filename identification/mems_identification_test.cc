@@ -8,8 +8,8 @@
 //   - every sd is below 0.05 of the grade's sigma (the flight pins each bias down: a huge sd
 //     would pass the first two checks and say nothing; the box is 8 sigma wide);
 //   - LM flags none of the five not_observable (all five are observable on this flight).
-// Each test takes ~10 s (EKF-RTS) and ~60 s (LM, 100 noise replicas per seed) on this 2-core
-// machine.
+// EKF-RTS takes 5-8 s, LM 60-90 s (100 noise replicas per seed; 26 s of CPU for both) on this
+// shared 2-core machine; the sd test of `identify --algo ekf-rts` 1 s.
 #include <cmath>
 #include <cstdint>
 #include <iostream>
@@ -17,8 +17,10 @@
 
 #include <gtest/gtest.h>
 
+#include "identification/ekf_rts.h"
 #include "identification/grade.h"
 #include "identification/mems_study.h"
+#include "identification/uncertainty.h"
 #include "optimizers/registry.h"
 
 namespace insid {
@@ -70,6 +72,58 @@ TEST(MemsIdentification, EkfRtsRecoversTheBiasesWithinItsSmoothedSd) {
 // box THEN the same holds with the replica sd of identification/uncertainty.h.
 TEST(MemsIdentification, LmOnTheWindowedFitnessRecoversTheBiasesWithinItsSd) {
   expect_within_stated_sd(&mems_study::lm_windowed, "lm windowed");
+}
+
+// GIVEN one seed of the MEMS flight WHEN `ekf-rts` runs through the registry (as `insid identify`
+// does) and the uncertainty report takes the filter's sd (use_filter_sd) THEN parameters[].sd
+// is the smoother's sd (not the Gauss-Newton one, which is kept as gauss_newton_sd and differs
+// by more than 20 % here), sd_source says so, and a filter sd wider than the box makes the
+// parameter not_observable.
+TEST(MemsIdentification, IdentifyReportsTheFiltersOwnSdForEkfRts) {
+  register_ekf_rts();
+  const mems_study::Spec spec;
+  const auto data = mems_study::flight(spec, 1);
+  const InsIdentificationProblem problem = mems_study::problem(data, 0.0, 0);
+  opt::RunConfig config;
+  auto optimizer = opt::make_optimizer("ekf-rts", problem.bounds(), config, {});
+  while (!optimizer->done()) opt::step(*optimizer, problem);
+  const auto* ekf = dynamic_cast<const EkfRtsOptimizer*>(optimizer.get());
+  ASSERT_NE(ekf, nullptr);
+  ASSERT_TRUE(ekf->ekf()->setup.has_value()) << "the mems grade's set-up";
+  EXPECT_EQ(ekf->ekf()->setup->grade.name, "mems");
+  UncertaintyOptions uo;
+  uo.replicas = 10;
+  uo.criterion = criterion_for_algorithm("ekf-rts");
+  UncertaintyReport report =
+      estimate_uncertainty(problem, problem.mapping().to_sigma(optimizer->result().best_x), uo);
+  const ParameterMapping& m = problem.mapping();
+  std::vector<double> filter_sd;
+  for (int k = 0; k < m.dimension(); ++k)
+    filter_sd.push_back(ekf->std_sigma()[k] * m.parameters()[static_cast<std::size_t>(k)].sigma);
+  UncertaintyReport wide = report;
+  use_filter_sd(report, filter_sd);
+  int differs = 0;
+  for (int k = 0; k < m.dimension(); ++k) {
+    const ParameterUncertainty& p = report.parameters[static_cast<std::size_t>(k)];
+    EXPECT_EQ(*p.sd_si, ekf->ekf()->std.at(p.name)) << p.name;
+    EXPECT_EQ(p.sd_source, "ekf-rts smoothed covariance");
+    ASSERT_TRUE(p.gn_sd_si.has_value());
+    differs += std::abs(*p.gn_sd_si / *p.sd_si - 1.0) > 0.2;
+    for (const std::string& f : p.flags) EXPECT_NE(f, "not_observable") << p.name;
+  }
+  EXPECT_GE(differs, 1) << "the filter's and the Gauss-Newton sd should not coincide here";
+  const nlohmann::json j = report.parameters_json();
+  EXPECT_EQ(j[0]["sd"].get<double>(), filter_sd[0]);
+  EXPECT_EQ(j[0]["sd_source"], "ekf-rts smoothed covariance");
+  // A filter sd of 3 sigma: its 95 % interval (11.8 sigma) is wider than the 8 sigma box.
+  std::vector<double> huge;
+  for (int k = 0; k < m.dimension(); ++k) huge.push_back(3.0 * m.parameters()[static_cast<std::size_t>(k)].sigma);
+  use_filter_sd(wide, huge);
+  for (const ParameterUncertainty& p : wide.parameters) {
+    bool flagged = false;
+    for (const std::string& f : p.flags) flagged |= f == "not_observable";
+    EXPECT_TRUE(flagged) << p.name;
+  }
 }
 
 }  // namespace
