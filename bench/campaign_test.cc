@@ -544,6 +544,17 @@ TEST(Campaign, MemsCampaignRunsWithLevelHeadingAndAWindow) {
             std::string::npos);
   bad["initial_attitude"] = "level+heading";
   EXPECT_EQ(invalid_argument_of([&] { parse_campaign(bad, "m.json"); }), "");
+  // A sweep passes the keys on to its campaign (and leaves them out when not given).
+  SweepConfig sweep;
+  sweep.algorithm = "pso";
+  sweep.axes.push_back(SweepAxis::parse("w=0.5"));
+  sweep.scenario.name = "rich";
+  sweep.scenario.preset = "rich";
+  EXPECT_FALSE(sweep_campaign(sweep).to_json().contains("initial_attitude"));
+  sweep.initial_attitude = InitialAttitudeMode::kLevelHeading;
+  sweep.window_s = 10.0;
+  EXPECT_EQ(sweep_campaign(sweep).to_json()["initial_attitude"], "level+heading");
+  EXPECT_EQ(sweep_campaign(sweep).navigation_options().window_s, 10.0);
   bad = nlohmann::json::parse(kMemsConfig);
   bad["window_s"] = -1.0;
   EXPECT_NE(invalid_argument_of([&] { parse_campaign(bad, "m.json"); }).find("window_s = -1"),
