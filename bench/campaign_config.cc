@@ -149,6 +149,24 @@ std::string config_difference(const nlohmann::json& old_config, const nlohmann::
   return first_difference(with_added_defaults(old_config, new_config), new_config);
 }
 
+NavigationOptions CampaignConfig::navigation_options() const {
+  NavigationOptions options;
+  options.alignment = alignment;
+  options.window_s = window_s;
+  if (initial_attitude) {
+    options.initial_attitude.mode = *initial_attitude;
+    options.initial_attitude.heading_deg = heading_deg;
+    // The feasibility check meets the estimated gyro biases' box, as in `insid identify`.
+    double allowance = 0.0;
+    for (const EstimatedParameter& p : estimated_parameters(*this))
+      if (p.name == "gyro_bias_x" || p.name == "gyro_bias_y")  // the horizontal ones
+        allowance = std::max(allowance, std::max(std::abs(p.lower_sigma), std::abs(p.upper_sigma)) *
+                                            std::abs(p.sigma));
+    if (allowance > 0.0) options.initial_attitude.gyro_bias_allowance_rad_s = allowance;
+  }
+  return options;
+}
+
 std::vector<EstimatedParameter> estimated_parameters(const CampaignConfig& config) {
   std::vector<EstimatedParameter> params;
   for (const std::string& e : config.estimate) params.push_back(EstimatedParameter::parse(e));
@@ -188,6 +206,9 @@ nlohmann::json CampaignConfig::to_json() const {
   j["max_iterations"] = max_iterations;
   j["max_evaluations"] = max_evaluations;
   j["alignment"] = insid::to_string(alignment);
+  if (initial_attitude) j["initial_attitude"] = insid::to_string(*initial_attitude);
+  if (heading_deg) j["heading_deg"] = *heading_deg;
+  if (window_s != 0.0) j["window_s"] = window_s;
   j["estimate"] = nlohmann::json::array();
   for (const EstimatedParameter& p : estimated_parameters(*this))
     j["estimate"].push_back({{"name", p.name}, {"sigma", p.sigma},
@@ -264,14 +285,24 @@ CampaignConfig parse_campaign(const nlohmann::json& j, const std::string& origin
   if (r.has("max_iterations")) c.max_iterations = whole(r.number("max_iterations"), origin + ": max_iterations");
   if (r.has("max_evaluations")) c.max_evaluations = whole(r.number("max_evaluations"), origin + ": max_evaluations");
   if (r.has("alignment")) c.alignment = alignment_mode_from_string(r.string("alignment"));
+  if (r.has("initial_attitude")) {
+    const std::string mode = r.string("initial_attitude");
+    try {
+      c.initial_attitude = initial_attitude_mode_from_string(mode);
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(origin + ": initial_attitude: " + e.what());
+    }
+  }
+  if (r.has("heading_deg")) c.heading_deg = r.number("heading_deg");
+  if (r.has("window_s")) c.window_s = r.number("window_s");
   if (r.has("estimate"))
     for (const auto& e : r.array_of("estimate", "string")) c.estimate.push_back(e.get<std::string>());
   if (r.has("record_positions_seeds")) c.record_positions_seeds = whole(r.number("record_positions_seeds"), origin + ": record_positions_seeds");
   if (r.has("target_error_sigma")) c.target_error_sigma = r.array_of("target_error_sigma", "number").get<std::vector<double>>();
   if (r.has("target_fitness_gap")) c.target_fitness_gap = r.array_of("target_fitness_gap", "number").get<std::vector<double>>();
   r.finish({"name", "scenarios", "algorithms", "seeds", "max_iterations", "max_evaluations",
-            "alignment", "estimate", "record_positions_seeds", "target_error_sigma",
-            "target_fitness_gap"});
+            "alignment", "initial_attitude", "heading_deg", "window_s", "estimate",
+            "record_positions_seeds", "target_error_sigma", "target_fitness_gap"});
   c.validate(origin);
   return c;
 }
@@ -291,6 +322,22 @@ void CampaignConfig::validate(const std::string& origin) const {
         throw std::invalid_argument(origin + ": seed " + std::to_string(seed) +
                                     " is listed twice in \"seeds\"");
   }
+  if (heading_deg && initial_attitude != InitialAttitudeMode::kLevelHeading)
+    throw std::invalid_argument(origin + ": heading_deg " + opt::format_number(*heading_deg) +
+                                " is given but initial_attitude is " +
+                                (initial_attitude ? insid::to_string(*initial_attitude)
+                                                  : std::string("absent (gyrocompass)")) +
+                                "; heading_deg goes with \"initial_attitude\": \"level+heading\"");
+  if (heading_deg && !(std::isfinite(*heading_deg) && std::abs(*heading_deg) <= 360.0))
+    throw std::invalid_argument(origin + ": heading_deg must be a finite angle in [-360, 360] "
+                                "deg, got " + opt::format_number(*heading_deg));
+  try {
+    navigation_options().validate();
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(origin + ": " + e.what());
+  }
+  if (std::string error = navigation_options().initial_attitude.validate(); !error.empty())
+    throw std::invalid_argument(origin + ": " + error);
   if (max_iterations < 0)
     throw std::invalid_argument(origin + ": max_iterations must be >= 0, got " +
                                 std::to_string(max_iterations));

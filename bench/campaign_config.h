@@ -48,6 +48,17 @@ struct CampaignConfig {
   int max_iterations = 40;
   std::int64_t max_evaluations = 0;
   AlignmentMode alignment = AlignmentMode::kPerCandidate;
+  /// Initial-attitude mode (core/alignment.h; `insid identify --initial-attitude`): absent =
+  /// gyrocompass with the catalogue's gyro bias allowance, exactly as before the key existed
+  /// (and not written to the resolved config, so older campaign directories still resume).
+  /// Given: the mode, the feasibility check meeting the estimated gyro biases' box as identify
+  /// does, and the key in the resolved config and every run file.
+  std::optional<InitialAttitudeMode> initial_attitude;
+  std::optional<double> heading_deg;  ///< level+heading only: the heading (deg); absent: course
+  /// Windowed fitness (core/fitness.h; `--window-s`): 0 = one run (default, not written).
+  double window_s = 0.0;
+  /// The navigation options of every scenario (alignment, initial attitude, window).
+  NavigationOptions navigation_options() const;
   std::vector<std::string> estimate;  ///< --estimate specs; empty = the paper's four
   int record_positions_seeds = 1;     ///< record particle positions for the first k seeds
   std::vector<double> target_error_sigma = {1.0, 0.3, 0.1};   ///< max |error vs optimum|

@@ -472,3 +472,94 @@ TEST(Campaign, RunFileAndIdentifyRecordTheSameAssessment) {
 
 }  // namespace
 }  // namespace insid::campaign
+
+namespace insid::campaign {
+namespace {
+
+// A MEMS campaign (issue 14): the rich flight with mems noise and MEMS-size biases, searched
+// in a MEMS box (0.1 deg/s, 10 mg units).
+const char* kMemsConfig = R"({
+  "name": "test-mems",
+  "scenarios": [{"name": "rich-mems", "preset": "rich", "flight_s": 120, "grade": "mems",
+                 "data_seed": 2, "set": {"gyro_bias_x": 0.00349, "gyro_bias_y": -0.00262,
+                                         "accel_bias_x": 0.196, "accel_bias_y": -0.147}}],
+  "algorithms": [{"label": "PSO", "name": "pso"}],
+  "seeds": 1,
+  "max_iterations": 2,
+  "estimate": ["accel_bias_x:0.0980665", "accel_bias_y:0.0980665",
+               "gyro_bias_x:0.001745", "gyro_bias_y:0.001745"]
+})";
+
+// GIVEN a MEMS campaign without the new keys THEN it is refused by the gyrocompass feasibility
+// check, as before (configs always gyrocompassed); WITH "initial_attitude": "level+heading" and
+// "window_s": 10 THEN it runs, and the resolved config and every run file record both. A config
+// without the keys resolves to the same JSON as before (no new key), so older campaign
+// directories still resume; bad values are named.
+TEST(Campaign, MemsCampaignRunsWithLevelHeadingAndAWindow) {
+  nlohmann::json j = nlohmann::json::parse(kMemsConfig);
+  const CampaignConfig old_style = parse_campaign(j, "mems.json");
+  EXPECT_FALSE(old_style.to_json().contains("initial_attitude"));
+  EXPECT_FALSE(old_style.to_json().contains("window_s"));
+  EXPECT_FALSE(old_style.to_json().contains("heading_deg"));
+  const fs::path dir = fresh_dir("mems");
+  RunOptions options;
+  options.out_dir = dir.string();
+  options.quiet = true;
+  std::string refused;
+  try {
+    run_campaign(old_style, options);
+  } catch (const std::exception& e) {
+    refused = e.what();
+  }
+  EXPECT_NE(refused.find("level+heading"), std::string::npos) << refused;
+  fs::remove_all(dir);
+
+  j["initial_attitude"] = "level+heading";
+  j["window_s"] = 10.0;
+  const CampaignConfig mems = parse_campaign(j, "mems.json");
+  EXPECT_EQ(mems.to_json()["initial_attitude"], "level+heading");
+  EXPECT_EQ(mems.to_json()["window_s"], 10.0);
+  EXPECT_EQ(mems.navigation_options().initial_attitude.mode, InitialAttitudeMode::kLevelHeading);
+  EXPECT_EQ(mems.navigation_options().window_s, 10.0);
+  // The feasibility allowance meets the box (4 x 0.1 deg/s), as identify's does.
+  EXPECT_NEAR(mems.navigation_options().initial_attitude.gyro_bias_allowance_rad_s, 4 * 0.001745,
+              1e-12);
+  ASSERT_TRUE(run_campaign(mems, options).complete);
+  const nlohmann::json manifest = read(dir / "manifest.json");
+  EXPECT_EQ(manifest["config"]["initial_attitude"], "level+heading");
+  EXPECT_EQ(manifest["config"]["window_s"], 10.0);
+  const nlohmann::json run = read(run_file(dir.string(), "rich-mems", "PSO", 1));
+  EXPECT_EQ(run["initial_attitude"], "level+heading");
+  EXPECT_EQ(run["window_s"], 10.0);
+  EXPECT_TRUE(std::isfinite(run["result"]["fitness"].get<double>()));
+  fs::remove_all(dir);
+
+  nlohmann::json bad = nlohmann::json::parse(kMemsConfig);
+  bad["initial_attitude"] = "compass";
+  EXPECT_NE(invalid_argument_of([&] { parse_campaign(bad, "m.json"); }).find("compass"),
+            std::string::npos);
+  bad = nlohmann::json::parse(kMemsConfig);
+  bad["heading_deg"] = 30.0;
+  EXPECT_NE(invalid_argument_of([&] { parse_campaign(bad, "m.json"); }).find("heading_deg"),
+            std::string::npos);
+  bad["initial_attitude"] = "level+heading";
+  EXPECT_EQ(invalid_argument_of([&] { parse_campaign(bad, "m.json"); }), "");
+  // A sweep passes the keys on to its campaign (and leaves them out when not given).
+  SweepConfig sweep;
+  sweep.algorithm = "pso";
+  sweep.axes.push_back(SweepAxis::parse("w=0.5"));
+  sweep.scenario.name = "rich";
+  sweep.scenario.preset = "rich";
+  EXPECT_FALSE(sweep_campaign(sweep).to_json().contains("initial_attitude"));
+  sweep.initial_attitude = InitialAttitudeMode::kLevelHeading;
+  sweep.window_s = 10.0;
+  EXPECT_EQ(sweep_campaign(sweep).to_json()["initial_attitude"], "level+heading");
+  EXPECT_EQ(sweep_campaign(sweep).navigation_options().window_s, 10.0);
+  bad = nlohmann::json::parse(kMemsConfig);
+  bad["window_s"] = -1.0;
+  EXPECT_NE(invalid_argument_of([&] { parse_campaign(bad, "m.json"); }).find("window_s = -1"),
+            std::string::npos);
+}
+
+}  // namespace
+}  // namespace insid::campaign

@@ -102,7 +102,7 @@ struct LockstepRunner::Impl {
       report({.kind = ProgressEvent::Kind::kPreparingScenario, .scenario = spec.name});
       st.dataset = scenario_dataset(spec);
       st.navigation = std::make_shared<const NavigationProblem>(
-          st.dataset, NavigationOptions{config_.alignment});
+          st.dataset, config_.navigation_options());
       opt::EvaluatorOptions eval;
       eval.parallelism = opt::Parallelism::kOpenMP;
       eval.num_threads = settings_.threads;
@@ -199,6 +199,11 @@ struct LockstepRunner::Impl {
     j["scenario"] = scenario.name;
     j["algorithm"] = algo.label;
     j["seed"] = run.seed;
+    // Recorded only when the config sets them (older run files stay as they were).
+    if (config_.initial_attitude)
+      j["initial_attitude"] = insid::to_string(*config_.initial_attitude);
+    if (config_.heading_deg) j["heading_deg"] = *config_.heading_deg;
+    if (config_.window_s != 0.0) j["window_s"] = config_.window_s;
     j["parameters"] = nlohmann::json::array();
     for (const EstimatedParameter& p : mapping_.parameters()) j["parameters"].push_back(p.name);
     j["result"] = optimizer_result_json(result, mapping_);

@@ -155,6 +155,9 @@ CampaignConfig sweep_campaign(const SweepConfig& sweep) {
   j["max_iterations"] = sweep.max_iterations;
   j["max_evaluations"] = sweep.max_evaluations;
   j["alignment"] = to_string(sweep.alignment);
+  if (sweep.initial_attitude) j["initial_attitude"] = to_string(*sweep.initial_attitude);
+  if (sweep.heading_deg) j["heading_deg"] = *sweep.heading_deg;
+  if (sweep.window_s != 0.0) j["window_s"] = sweep.window_s;
   j["record_positions_seeds"] = 0;
   return parse_campaign(j, "sweep");
 }

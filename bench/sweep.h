@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -32,6 +33,10 @@ struct SweepConfig {
   int max_iterations = 40;
   std::int64_t max_evaluations = 0;
   AlignmentMode alignment = AlignmentMode::kPerCandidate;
+  /// The campaign keys of issue 14 (campaign_config.h): absent = as before.
+  std::optional<InitialAttitudeMode> initial_attitude;
+  std::optional<double> heading_deg;
+  double window_s = 0.0;
 
   /// Throws std::invalid_argument naming the bad value: no axis, an axis key given twice or
   /// with no values, a non-finite value or LO > HI, negative random_settings, no seed,

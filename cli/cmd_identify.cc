@@ -20,6 +20,7 @@
 #include "core/dataset.h"
 #include "core/fitness.h"
 #include "identification/ekf_rts.h"
+#include "identification/grade.h"
 #include "identification/identify.h"
 #include "identification/ins_problem.h"
 #include "identification/uncertainty.h"
@@ -32,6 +33,7 @@ struct IdentifyArgs {
   std::string data_dir;
   std::string algorithm = "dvpio";
   std::vector<std::string> estimate;
+  std::string grade = "auto";
   std::vector<std::string> params;
   std::uint64_t seed = 1;
   int iterations = 40;
@@ -53,9 +55,22 @@ void run_identify(const IdentifyArgs& args) {
                                 std::to_string(args.uncertainty_replicas) +
                                 ": expected 0 (no uncertainty) or at least 10 replicas");
   auto dataset = std::make_shared<const Dataset>(load_dataset(args.data_dir));
+  // The grade sets the search unit of every NAME given without SIGMA and the default set:
+  // nav (the catalogue) the paper's four, as always; tactical and mems the x/y/z gyro and x/y
+  // accelerometer biases (the z gyro is observable once the heading comes from the GNSS course
+  // or the flight turns; the uncertainty flags it not_observable when it is not).
+  const SensorGrade& grade = grade_for(*dataset, args.grade);
   std::vector<EstimatedParameter> estimated;
-  for (const std::string& e : args.estimate) estimated.push_back(EstimatedParameter::parse(e));
-  if (estimated.empty()) estimated = EstimatedParameter::paper_four();
+  for (const std::string& e : args.estimate) estimated.push_back(grade.parameter(e));
+  if (estimated.empty()) {
+    if (grade.name == "nav") {
+      estimated = EstimatedParameter::paper_four();
+    } else {
+      for (const char* name :
+           {"accel_bias_x", "accel_bias_y", "gyro_bias_x", "gyro_bias_y", "gyro_bias_z"})
+        estimated.push_back(grade.parameter(name));
+    }
+  }
 
   NavigationOptions nav_options;
   nav_options.alignment = alignment_mode_from_string(args.alignment);
@@ -85,6 +100,7 @@ void run_identify(const IdentifyArgs& args) {
   config.max_evaluations = args.evaluations;
   config.record_positions = args.positions;
   auto optimizer = opt::make_optimizer(args.algorithm, problem.bounds(), config, overrides);
+  if (auto* ekf = dynamic_cast<EkfRtsOptimizer*>(optimizer.get())) ekf->set_grade(grade.name);
 
   // ask / evaluate / tell, with progress on stderr (opt::step also feeds the baselines that
   // need residual vectors or the problem itself: lm, ekf-rts). The status shows the iterations
@@ -125,6 +141,7 @@ void run_identify(const IdentifyArgs& args) {
   out["window_s"] = nav_options.window_s;
   out["initial_attitude"] = initial_attitude_json(*navigation, mapping.to_errors(result.best_x));
   out["fitness_kind"] = "eq15";
+  if (args.grade != "auto" || grade.name != "nav") out["grade"] = grade.name;
   for (const EstimatedParameter& p : estimated)
     out["estimated"].push_back({{"name", p.name}, {"sigma", p.sigma},
                                 {"lower_sigma", p.lower_sigma}, {"upper_sigma", p.upper_sigma}});
@@ -140,7 +157,14 @@ void run_identify(const IdentifyArgs& args) {
     uo.replicas = args.uncertainty_replicas;
     uo.criterion = criterion_for_algorithm(args.algorithm);
     uo.threads = args.threads;
-    const UncertaintyReport report = estimate_uncertainty(problem, mapping.to_sigma(result.best_x), uo);
+    UncertaintyReport report = estimate_uncertainty(problem, mapping.to_sigma(result.best_x), uo);
+    // EKF-RTS reports its own smoothed sd (identification/uncertainty.h, use_filter_sd).
+    if (const auto* ekf = dynamic_cast<const EkfRtsOptimizer*>(optimizer.get())) {
+      std::vector<double> filter_sd;
+      for (int k = 0; k < mapping.dimension(); ++k)
+        filter_sd.push_back(ekf->std_sigma()[k] * mapping.parameters()[static_cast<std::size_t>(k)].sigma);
+      use_filter_sd(report, filter_sd);
+    }
     add_uncertainty_json(out, report);
     if (!progress.quiet()) std::cerr << report.table();
   }
@@ -188,8 +212,14 @@ void add_identify_command(CLI::App& app) {
                   "program speaking the JSON-lines protocol of optimizers/README.md (e.g. "
                   "\"external:/usr/bin/python3 scripts/external_random_search.py\")")->capture_default_str();
   cmd->add_option("--estimate", args->estimate,
-                  "NAME[:SIGMA[:LO:HI]] (SIGMA in SI, box in sigma units); default: the paper's "
+                  "NAME[:SIGMA[:LO:HI]] (SIGMA in SI, box in sigma units; without SIGMA the grade's sigma); default: the paper's "
                   "four (accel_bias_x accel_bias_y gyro_bias_x gyro_bias_y), [-4, 4] sigma");
+  cmd->add_option("--grade", args->grade,
+                  "sensor grade auto | nav | tactical | mems: the search unit (sigma) of every "
+                  "--estimate NAME without SIGMA and the default parameters (nav: the paper's "
+                  "four; tactical, mems: also gyro_bias_z); auto: from meta.json's noise block "
+                  "(identification/grade.h), nav without one")
+      ->capture_default_str();
   cmd->add_option("--param", args->params,
                   "KEY=VALUE algorithm parameter (see optimizers/README.md); distances "
                   "d_initial, d_min, d_max, dist_threshold are in the normalised box, or in "

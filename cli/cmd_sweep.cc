@@ -1,5 +1,7 @@
 // insid sweep: tune optimizer parameters (PIO/DVPIO R, d, premature threshold) over seeds.
 #include <iostream>
+#include <cmath>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -24,6 +26,9 @@ struct SweepArgs {
   int iterations = 40;
   std::int64_t evaluations = 0;
   std::string alignment = "per-candidate";
+  std::string initial_attitude;  // empty: as before (gyrocompass)
+  double heading_deg = std::numeric_limits<double>::quiet_NaN();
+  double window_s = 0.0;
   std::string out;
   int threads = 0;
   bool force_new = false;
@@ -51,6 +56,10 @@ void run(const SweepArgs& args) {
   sweep.max_iterations = args.iterations;
   sweep.max_evaluations = args.evaluations;
   sweep.alignment = alignment_mode_from_string(args.alignment);
+  if (!args.initial_attitude.empty())
+    sweep.initial_attitude = initial_attitude_mode_from_string(args.initial_attitude);
+  if (!std::isnan(args.heading_deg)) sweep.heading_deg = args.heading_deg;
+  sweep.window_s = args.window_s;
   campaign::RunOptions options;
   options.out_dir = args.out;
   options.threads = args.threads;
@@ -108,6 +117,14 @@ void add_sweep_command(CLI::App& app) {
   cmd->add_option("--evaluations", args->evaluations, "evaluation budget (0 = none)")
       ->check(whole_in(0, 1000000000));
   cmd->add_option("--alignment", args->alignment, "per-candidate | fixed")->capture_default_str();
+  cmd->add_option("--initial-attitude", args->initial_attitude,
+                  "gyrocompass | level+heading | given | truth (the campaign key "
+                  "initial_attitude; default: gyrocompass, as before)");
+  cmd->add_option("--heading-deg", args->heading_deg,
+                  "level+heading: the heading at the start (deg); default: the GNSS course");
+  cmd->add_option("--window-s", args->window_s,
+                  "windowed fitness: INS restarted from GNSS every W s (0 = one run)")
+      ->capture_default_str();
   cmd->add_option("--out", args->out, "results directory")->required();
   cmd->add_option("--threads", args->threads, "threads (0 = all cores)")
       ->check(whole_in(0, kMaxThreads));

@@ -122,14 +122,91 @@ nlohmann::json EkfRtsResult::to_json() const {
                      {"gnss_pos_sigma_m", noise_used.gnss_pos_sigma_m}};
   j["updates"] = updates;
   j["states"] = states;
+  if (setup) {
+    j["setup"] = {{"grade", setup->grade.name},
+                  {"passes", setup->passes},
+                  {"relinearisation_prior_factor", setup->relinearisation_prior_factor},
+                  {"prior", "bias sd initial_bias_sigma x grade sigma; attitude error tied to "
+                            "the bias errors through the initial-attitude mode"},
+                  {"initial_tilt_sd_rad", initial_tilt_sd_rad},
+                  {"initial_heading_sd_rad", initial_heading_sd_rad}};
+  }
   j["filter_wall_s"] = filter_wall_s;
   j["smoother_wall_s"] = smoother_wall_s;
   return j;
 }
 
-EkfRtsResult run_ekf_rts(const NavigationProblem& navigation, const EkfRtsParams& params,
-                         const SensorErrors& base) {
-  if (std::string error = params.validate(); !error.empty()) throw std::invalid_argument(error);
+namespace {
+
+// The initial attitude's error model of the grade-aware set-up (ekf_rts.h): G = d phi0 / d
+// (gyro bias, accel bias) of the problem's initial-attitude mode at `base`, by central
+// differences (step 1 % of the grade's sigma; the mode's attitude is smooth in the biases and
+// O(1) per candidate), and the sd of the mode's own noise (tilt, heading).
+struct AttitudeErrorModel {
+  Eigen::Matrix3d C_b_n;                                 // the mode's attitude at `base`
+  Eigen::Matrix<double, 3, 6> G = Eigen::Matrix<double, 3, 6>::Zero();
+  double tilt_sd_rad = 0.0, heading_sd_rad = 0.0;
+};
+
+AttitudeErrorModel attitude_error_model(const NavigationProblem& navigation,
+                                        const SensorErrors& base, const SensorGrade& grade,
+                                        const NoiseLevels& noise) {
+  const InitialAttitude& source = navigation.initial_attitude_source();
+  AttitudeErrorModel m;
+  m.C_b_n = source.attitude(ImuCompensator(base));
+  if (source.depends_on_candidate()) {
+    for (int i = 0; i < 6; ++i) {
+      const double h = 0.01 * (i < 3 ? grade.gyro_bias_rad_s : grade.accel_bias_mps2);
+      SensorErrors plus = base, minus = base;
+      (i < 3 ? plus.gyro.bias : plus.accel.bias)[i % 3] += h;
+      (i < 3 ? minus.gyro.bias : minus.accel.bias)[i % 3] -= h;
+      // C(b + d) ~ (I + [g d x]) C(b): g from the skew part of C(b + h) C(b - h)^T.
+      const Eigen::Matrix3d R = source.attitude(ImuCompensator(plus)) *
+                                source.attitude(ImuCompensator(minus)).transpose();
+      const Eigen::Matrix3d A = 0.5 * (R - R.transpose());
+      m.G.col(i) = Eigen::Vector3d(A(2, 1), A(0, 2), A(1, 0)) / (2.0 * h);
+    }
+  }
+  const Dataset& ds = navigation.dataset();
+  const double window_s = navigation.alignment_window().sum_dt_s;
+  const double g = 9.80665;
+  const double vrw_rts = noise.vrw_mps_rth / 60.0, arw_rts = noise.arw_deg_rth * kDegToRad / 60.0;
+  const InitialAttitudeOptions& options = source.options();
+  switch (options.mode) {
+    case InitialAttitudeMode::kGyrocompass:
+      m.tilt_sd_rad = window_s > 0.0 ? vrw_rts / (g * std::sqrt(window_s)) : 0.01;
+      m.heading_sd_rad = source.feasibility() ? source.feasibility()->heading_sd_rad : 0.1;
+      break;
+    case InitialAttitudeMode::kLevelHeading: {
+      m.tilt_sd_rad = window_s > 0.0 ? vrw_rts / (g * std::sqrt(window_s)) : 0.01;
+      if (options.heading_deg) {
+        m.heading_sd_rad = 1.0 * kDegToRad;  // a given heading: taken to 1 deg
+        break;
+      }
+      double var_course = 0.0, t_carry = 0.0;
+      const auto& fixes = source.course_fixes();
+      for (const CourseFix& f : fixes) {
+        var_course += std::pow(noise.gnss_vel_sigma_mps / std::max(f.speed_mps, 1e-3), 2);
+        t_carry = std::max(t_carry, f.t_s - navigation.nav_start_t_s());
+      }
+      const double n = std::max<double>(static_cast<double>(fixes.size()), 1.0);
+      m.heading_sd_rad = std::sqrt(var_course / (n * n) + arw_rts * arw_rts * t_carry);
+      break;
+    }
+    case InitialAttitudeMode::kGiven:
+    case InitialAttitudeMode::kTruth:
+      m.tilt_sd_rad = m.heading_sd_rad = 1e-3;
+      break;
+  }
+  (void)ds;
+  m.tilt_sd_rad = std::max(m.tilt_sd_rad, 1e-4);
+  m.heading_sd_rad = std::max(m.heading_sd_rad, 1e-4);
+  return m;
+}
+
+EkfRtsResult ekf_pass(const NavigationProblem& navigation, const EkfRtsParams& params,
+                      const SensorErrors& base, const EkfRtsGradeSetup* setup,
+                      const Eigen::Matrix<double, 6, 1>* bias_prior_sd = nullptr) {
   const auto t_start = std::chrono::steady_clock::now();
   const Dataset& ds = navigation.dataset();
   const EarthModel& earth = ds.meta.earth;
@@ -141,17 +218,19 @@ EkfRtsResult run_ekf_rts(const NavigationProblem& navigation, const EkfRtsParams
 
   // Noise.
   const std::optional<NoiseLevels>& dn = ds.meta.noise;
+  // Defaults without a noise block: nav (the original set-up) or the grade's levels.
+  const NoiseLevels defaults = setup ? setup->grade.noise : kDefaultNoise;
   NoiseLevels noise;
   noise.arw_deg_rth = pick(params.arw_deg_rth, dn ? std::optional(dn->arw_deg_rth) : std::nullopt,
-                           kDefaultNoise.arw_deg_rth, kNoiseFloor.arw_deg_rth);
+                           defaults.arw_deg_rth, kNoiseFloor.arw_deg_rth);
   noise.vrw_mps_rth = pick(params.vrw_mps_rth, dn ? std::optional(dn->vrw_mps_rth) : std::nullopt,
-                           kDefaultNoise.vrw_mps_rth, kNoiseFloor.vrw_mps_rth);
+                           defaults.vrw_mps_rth, kNoiseFloor.vrw_mps_rth);
   noise.gnss_vel_sigma_mps =
       pick(params.gnss_vel_sigma_mps, dn ? std::optional(dn->gnss_vel_sigma_mps) : std::nullopt,
-           kDefaultNoise.gnss_vel_sigma_mps, kNoiseFloor.gnss_vel_sigma_mps);
+           defaults.gnss_vel_sigma_mps, kNoiseFloor.gnss_vel_sigma_mps);
   noise.gnss_pos_sigma_m =
       pick(params.gnss_pos_sigma_m, dn ? std::optional(dn->gnss_pos_sigma_m) : std::nullopt,
-           kDefaultNoise.gnss_pos_sigma_m, kNoiseFloor.gnss_pos_sigma_m);
+           defaults.gnss_pos_sigma_m, kNoiseFloor.gnss_pos_sigma_m);
   const double q_arw = std::pow(noise.arw_deg_rth * kPi / 180.0 / 60.0, 2);  // rad^2/s
   const double q_vrw = std::pow(noise.vrw_mps_rth / 60.0, 2);                // (m/s)^2/s
 
@@ -169,7 +248,10 @@ EkfRtsResult run_ekf_rts(const NavigationProblem& navigation, const EkfRtsParams
   };
 
   // Initial state and covariance.
-  const Eigen::Matrix3d C0 = navigation.initial_attitude(SensorErrors{});
+  std::optional<AttitudeErrorModel> attitude_model;
+  if (setup) attitude_model = attitude_error_model(navigation, base, setup->grade, noise);
+  const Eigen::Matrix3d C0 =
+      attitude_model ? attitude_model->C_b_n : navigation.initial_attitude(SensorErrors{});
   NavState state = navigation.initial_state(C0);
   const std::size_t k0 = navigation.nav_begin();
   Mat P = Mat::Zero(N, N);
@@ -190,6 +272,25 @@ EkfRtsResult run_ekf_rts(const NavigationProblem& navigation, const EkfRtsParams
       Eigen::Matrix3d::Identity() * std::pow(params.initial_bias_sigma * kSigmaAccelMps2, 2);
   if (scale) {
     P.block<6, 6>(kSg, kSg) = Mat::Identity(6, 6) * std::pow(params.initial_scale_ppm * 1e-6, 2);
+  }
+  if (attitude_model) {
+    // Grade-aware prior (ekf_rts.h): bias priors from the grade, the attitude error tied to
+    // the bias errors through the initial-attitude mode, phi0 = G db + w.
+    Eigen::Matrix<double, 6, 6> Pb = Eigen::Matrix<double, 6, 6>::Zero();
+    Pb.diagonal().head<3>().setConstant(
+        std::pow(params.initial_bias_sigma * setup->grade.gyro_bias_rad_s, 2));
+    Pb.diagonal().tail<3>().setConstant(
+        std::pow(params.initial_bias_sigma * setup->grade.accel_bias_mps2, 2));
+    if (bias_prior_sd) Pb.diagonal() = bias_prior_sd->cwiseAbs2().cwiseMin(Pb.diagonal());
+    const Eigen::Matrix<double, 3, 6>& G = attitude_model->G;
+    const double t2 = std::pow(attitude_model->tilt_sd_rad, 2);
+    P.block<3, 3>(kPhi, kPhi) = G * Pb * G.transpose();
+    P.block<3, 3>(kPhi, kPhi) += Eigen::Vector3d(t2, t2, std::pow(attitude_model->heading_sd_rad, 2))
+                                     .asDiagonal()
+                                     .toDenseMatrix();
+    P.block<6, 6>(kBg, kBg) = Pb;
+    P.block<3, 6>(kPhi, kBg) = G * Pb;
+    P.block<6, 3>(kBg, kPhi) = (G * Pb).transpose();
   }
 
   std::vector<UpdateRecord> records;
@@ -350,8 +451,57 @@ EkfRtsResult run_ekf_rts(const NavigationProblem& navigation, const EkfRtsParams
   out.noise_used = noise;
   out.updates = updates;
   out.states = N;
+  if (attitude_model) {
+    out.setup = *setup;
+    out.initial_tilt_sd_rad = attitude_model->tilt_sd_rad;
+    out.initial_heading_sd_rad = attitude_model->heading_sd_rad;
+  }
   out.filter_wall_s = std::chrono::duration<double>(t_filter - t_start).count();
   out.smoother_wall_s = std::chrono::duration<double>(t_end - t_filter).count();
+  return out;
+}
+
+}  // namespace
+
+std::optional<EkfRtsGradeSetup> ekf_grade_setup(const NavigationProblem& navigation,
+                                                const SensorGrade& grade) {
+  if (grade.name == "nav" &&
+      navigation.options().initial_attitude.mode == InitialAttitudeMode::kGyrocompass)
+    return std::nullopt;
+  return EkfRtsGradeSetup{grade, 2, 30.0};
+}
+
+EkfRtsResult run_ekf_rts(const NavigationProblem& navigation, const EkfRtsParams& params,
+                         const SensorErrors& base, const std::optional<EkfRtsGradeSetup>& setup) {
+  if (std::string error = params.validate(); !error.empty()) throw std::invalid_argument(error);
+  if (!setup) return ekf_pass(navigation, params, base, nullptr);
+  if (setup->passes < 1)
+    throw std::invalid_argument("ekf-rts: passes must be >= 1, got " +
+                                std::to_string(setup->passes));
+  if (!(setup->relinearisation_prior_factor >= 3.0) ||
+      !std::isfinite(setup->relinearisation_prior_factor))
+    throw std::invalid_argument("ekf-rts: relinearisation_prior_factor must be finite and >= 3, got " +
+                                std::to_string(setup->relinearisation_prior_factor));
+  SensorErrors b = base;
+  EkfRtsResult out;
+  double filter_s = 0.0, smoother_s = 0.0;
+  for (int pass = 0; pass < setup->passes; ++pass) {
+    // Passes after the first: the bias prior centred on the previous pass's estimate, its sd
+    // the previous posterior sd times relinearisation_prior_factor (never wider than the
+    // grade's prior).
+    Eigen::Matrix<double, 6, 1> prior_sd;
+    if (pass > 0) {
+      const std::vector<std::string> names = sensor_names(false);
+      for (int i = 0; i < 6; ++i)
+        prior_sd[i] = setup->relinearisation_prior_factor * out.std.at(names[static_cast<std::size_t>(i)]);
+    }
+    out = ekf_pass(navigation, params, b, &*setup, pass > 0 ? &prior_sd : nullptr);
+    filter_s += out.filter_wall_s;
+    smoother_s += out.smoother_wall_s;
+    for (const auto& [name, value] : out.estimate) set_effect(b, name, value);
+  }
+  out.filter_wall_s = filter_s;
+  out.smoother_wall_s = smoother_s;
   return out;
 }
 
@@ -394,7 +544,9 @@ void EkfRtsOptimizer::bind(const opt::Problem& problem) {
   for (const EstimatedParameter& e : mapping.parameters())
     if (e.name.find("_scale_") != std::string::npos) needs_scale = true;
   if (needs_scale) p.scale_factors = 1;
-  ekf_ = run_ekf_rts(ins->navigation(), p, mapping.base());
+  const SensorGrade& grade = grade_for(ins->navigation().dataset(), grade_);
+  ekf_ = run_ekf_rts(ins->navigation(), p, mapping.base(),
+                     ekf_grade_setup(ins->navigation(), grade));
   const int n = mapping.dimension();
   estimate_sigma_.resize(n);
   std_sigma_.resize(n);

@@ -378,6 +378,7 @@ UncertaintyReport estimate_uncertainty(const InsIdentificationProblem& problem,
     ParameterUncertainty& p = report.parameters[static_cast<std::size_t>(j)];
     const EstimatedParameter& e = mapping.parameters()[static_cast<std::size_t>(j)];
     p.step_to_optimum_sigma = step[j];
+    p.box_width_sigma = e.upper_sigma - e.lower_sigma;
     if (std::isfinite(sd_sigma[j]) && sd_sigma[j] > 0.0) {
       p.sd_si = sd_sigma[j] * e.sigma;
       p.step_to_optimum_sd = std::abs(step[j]) / sd_sigma[j];
@@ -407,6 +408,34 @@ UncertaintyReport estimate_uncertainty(const InsIdentificationProblem& problem,
   return report;
 }
 
+void use_filter_sd(UncertaintyReport& report, const std::vector<double>& filter_sd_si) {
+  if (filter_sd_si.size() != report.parameters.size())
+    throw std::invalid_argument("use_filter_sd: " + std::to_string(filter_sd_si.size()) +
+                                " sd for " + std::to_string(report.parameters.size()) +
+                                " parameters");
+  const UncertaintyOptions& options = report.options;
+  for (std::size_t j = 0; j < report.parameters.size(); ++j) {
+    ParameterUncertainty& p = report.parameters[j];
+    const double sd_si = filter_sd_si[j];
+    if (!(sd_si > 0.0) || !std::isfinite(sd_si))
+      throw std::invalid_argument("use_filter_sd: sd of " + p.name +
+                                  " must be finite and > 0, got " + std::to_string(sd_si));
+    p.gn_sd_si = p.sd_si;
+    p.sd_si = sd_si;
+    p.sd_reason.clear();
+    p.sd_source = "ekf-rts smoothed covariance";
+    const double sd_sigma = sd_si / p.sigma_si;
+    std::vector<std::string> kept;
+    for (const std::string& f : p.flags)
+      if (f != "not_observable") kept.push_back(f);
+    p.flags = kept;
+    const bool too_wide =
+        2.0 * kZ95 * sd_sigma > options.not_observable_box_fraction * p.box_width_sigma;
+    if (too_wide || p.share_not_absorbed < options.absorbed_share)
+      p.flags.push_back("not_observable");
+  }
+}
+
 json UncertaintyReport::parameters_json() const {
   json arr = json::array();
   for (const ParameterUncertainty& p : parameters) {
@@ -426,6 +455,10 @@ json UncertaintyReport::parameters_json() const {
     j["step_to_optimum_in_sigma_units"] = num(p.step_to_optimum_sigma);
     j["step_to_optimum_sd"] = opt_num(p.step_to_optimum_sd);
     j["flags"] = p.flags;
+    if (!p.sd_source.empty()) {
+      j["sd_source"] = p.sd_source;
+      j["gauss_newton_sd"] = opt_num(p.gn_sd_si);
+    }
     arr.push_back(j);
   }
   return arr;
@@ -506,6 +539,9 @@ std::string UncertaintyReport::table() const {
         << opt::format_number(std::round(*distance_to_optimum_sd * 1000.0) / 1000.0)
         << " sd (one Gauss-Newton step); sd from " << replicas << " noise replicas ("
         << noise_source << ")\n";
+  if (!parameters.empty() && !parameters.front().sd_source.empty())
+    out << "the sd column is the " << parameters.front().sd_source
+        << " (the Gauss-Newton sd above: \"gauss_newton_sd\" in the JSON)\n";
   return out.str();
 }
 

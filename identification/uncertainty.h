@@ -76,9 +76,15 @@ struct ParameterUncertainty {
   std::string unit, unit_eng;       ///< SI unit, engineering unit (deg/h, ug, ppm, ...)
   double eng_per_si = 1.0;          ///< engineering value = SI value * eng_per_si
   double share_not_absorbed = 0.0;  ///< |P_perp J_j|^2 / |J_j|^2 (1 = independent column)
+  double box_width_sigma = 0.0;     ///< search box width (sigma units)
   double step_to_optimum_sigma = 0.0;             ///< GN step (sigma units)
   std::optional<double> step_to_optimum_sd;       ///< |step| / sd
   std::vector<std::string> flags;
+  /// Where sd comes from: empty = the Gauss-Newton replica covariance (the default, not written
+  /// to JSON); "ekf-rts smoothed covariance" after use_filter_sd (gn_sd_si then holds the
+  /// Gauss-Newton one for comparison).
+  std::string sd_source;
+  std::optional<double> gn_sd_si;
   double estimate_sigma_units() const { return estimate_si / sigma_si; }
 };
 
@@ -116,6 +122,18 @@ std::pair<std::string, double> engineering_unit(const std::string& si_unit);
 UncertaintyReport estimate_uncertainty(const InsIdentificationProblem& problem,
                                        const Eigen::VectorXd& value_sigma,
                                        const UncertaintyOptions& options = {});
+
+/// EKF-RTS (issue 14): the filter-smoother reports its own sd, the smoothed covariance of the
+/// biases, which is what its estimate's uncertainty is (the Gauss-Newton sd describes the
+/// least-squares optimum's spread, not the filter's). `filter_sd_si` per parameter in the
+/// report's order (SI). Each parameter's sd becomes the filter's (sd_source says so, gn_sd_si
+/// keeps the Gauss-Newton one) and not_observable is re-derived with it (95 % interval wider
+/// than the box, or the Jacobian column absorbed, as before). at_box_edge, correlated:<other>
+/// and not_converged are unchanged: not_converged and step_to_optimum_sd still measure the
+/// distance to the least-squares optimum of the fitness in its own (Gauss-Newton) sd, i.e.
+/// whether the filter's point and the fitness's optimum disagree beyond that optimum's spread.
+/// Throws std::invalid_argument when the sizes differ or an sd is not finite and positive.
+void use_filter_sd(UncertaintyReport& report, const std::vector<double>& filter_sd_si);
 
 /// The result layout's blocks added to a result JSON: "parameters", "correlation",
 /// "uncertainty".

@@ -1,0 +1,68 @@
+// Identification of a simulated MEMS flight within its stated sd (issue 14): the flight, the
+// two methods (EKF-RTS and LM on the windowed fitness) and one trial per noise seed. Used by
+// mems_identification_test.cc and `insid-mems-study` (results/mems/). Links the scenarios, so it
+// is a library of its own like window_study.
+//
+// Set-up (results/mems/README.md): the `rich` preset (takeoff, acceleration, turns both ways)
+// with a 30 s static window and `flight_s` after it, MEMS noise (scenarios/noise.cc: ARW 0.2
+// deg/sqrt(h), VRW 0.05 m/s/sqrt(h), GNSS velocity 0.03 m/s, position 0.5 m), biases on from
+// t = 0: gyro (0.2, -0.15, 0.2) deg/s, accelerometer (20, -15, 0) mg (400 s: the takeoff,
+// the first turns and speed changes). Initial attitude
+// `level+heading` with the heading from the GNSS course (carried back to the start, per
+// candidate), per-candidate alignment, the five estimated parameters gyro_bias_x|y|z and
+// accel_bias_x|y with the mems grade's sigmas (0.1 deg/s, 10 mg) and the [-4, 4] sigma box.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/dataset.h"
+#include "identification/ins_problem.h"
+
+namespace insid::mems_study {
+
+struct Spec {
+  double align_s = 30.0;
+  double flight_s = 400.0;
+  double window_s = 10.0;   ///< windowed fitness of the LM method (s)
+  int replicas = 100;       ///< noise replicas of LM's sd (identification/uncertainty.h)
+  int threads = 0;          ///< OpenMP threads (0 = default)
+  int ekf_passes = 2;       ///< EKF-RTS passes (identification/ekf_rts.h, EkfRtsGradeSetup)
+  double ekf_update_interval_s = 1.0;  ///< EKF-RTS GNSS update interval (s)
+  std::string ekf_attitude = "level+heading";  ///< EKF-RTS initial-attitude mode
+};
+
+/// The five estimated parameters, in this order.
+const std::vector<std::string>& parameter_names();
+/// The injected values (SI), in parameter_names() order.
+Eigen::VectorXd truth_si();
+
+/// The simulated flight for a noise seed.
+std::shared_ptr<const Dataset> flight(const Spec& spec, std::uint64_t seed);
+
+/// The identification problem on `data`: level+heading from the course, per-candidate
+/// alignment, windowed fitness of `window_s` (0 = one run), the mems grade's box.
+InsIdentificationProblem problem(const std::shared_ptr<const Dataset>& data, double window_s,
+                                 int threads);
+
+/// One method's answer: estimate and reported sd per parameter (SI, parameter_names() order),
+/// and flags per parameter (LM: the uncertainty report's; EKF-RTS: none).
+struct Answer {
+  std::string method;
+  Eigen::VectorXd estimate_si, sd_si;
+  std::vector<std::vector<std::string>> flags;
+  double wall_s = 0.0;
+};
+
+/// EKF-RTS (grade-aware set-up, identification/ekf_rts.h): the smoothed biases at the
+/// navigation start and the smoother's own sd.
+Answer ekf_rts(const std::shared_ptr<const Dataset>& data, const Spec& spec);
+/// LM (the registry's "lm", 200 evaluations from the box centre) on the windowed fitness, sd
+/// and flags from identification/uncertainty.h (least-squares criterion, noise replicas).
+Answer lm_windowed(const std::shared_ptr<const Dataset>& data, const Spec& spec);
+
+}  // namespace insid::mems_study

@@ -1,0 +1,92 @@
+// insid-mems-study (results/mems/): EKF-RTS and LM on the windowed fitness over noise seeds of a
+// simulated MEMS flight (identification/mems_study.h): per seed and parameter the error and the
+// reported sd; per method and parameter the count within 3 sd, the 95 % coverage and the RMS
+// of |error| / sd. Markdown on stdout, one CSV row per seed, method and parameter with --csv.
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "identification/ekf_rts.h"
+#include "identification/mems_study.h"
+
+int main(int argc, char** argv) {
+  using namespace insid;
+  CLI::App app("insid-mems-study: identification of simulated MEMS flights within their sd");
+  mems_study::Spec spec;
+  int seeds = 10;
+  double sd_scale = 1.0;
+  std::string csv;
+  bool ekf_only = false;
+  app.add_option("--seeds", seeds, "noise seeds 1..N")->capture_default_str()
+      ->check(CLI::Range(1, 100000));
+  app.add_option("--flight-s", spec.flight_s)->capture_default_str()->check(CLI::Range(10.0, 1e5));
+  app.add_option("--align-s", spec.align_s)->capture_default_str()->check(CLI::Range(1.0, 1e4));
+  app.add_option("--window-s", spec.window_s)->capture_default_str()->check(CLI::Range(0.0, 1e5));
+  app.add_option("--replicas", spec.replicas)->capture_default_str()->check(CLI::Range(10, 100000));
+  app.add_option("--threads", spec.threads)->capture_default_str()->check(CLI::Range(0, 1024));
+  app.add_option("--ekf-passes", spec.ekf_passes)->capture_default_str()->check(CLI::Range(1, 20));
+  app.add_option("--ekf-update-interval-s", spec.ekf_update_interval_s)->capture_default_str();
+  app.add_option("--ekf-attitude", spec.ekf_attitude)->capture_default_str();
+  app.add_option("--sd-scale", sd_scale, "multiply the reported sd (a broken sd, for checks)")
+      ->capture_default_str();
+  app.add_flag("--ekf-only", ekf_only, "EKF-RTS only (seconds instead of a minute)");
+  app.add_option("--csv", csv, "one row per seed, method and parameter");
+  CLI11_PARSE(app, argc, argv);
+  register_ekf_rts();
+
+  constexpr double kZ95 = 1.959963984540054;
+  const auto& names = mems_study::parameter_names();
+  const Eigen::VectorXd truth = mems_study::truth_si();
+  std::ofstream out;
+  if (!csv.empty()) {
+    out.open(csv);
+    out << "seed,method,parameter,truth_si,estimate_si,sd_si,error_over_sd,flags,wall_s\n";
+  }
+  const char* methods[] = {"ekf-rts", "lm"};
+  const int n_methods = ekf_only ? 1 : 2;
+  std::vector<std::vector<int>> within3(2, std::vector<int>(5, 0)), covered = within3;
+  std::vector<std::vector<double>> z2(2, std::vector<double>(5, 0.0));
+  double wall[2] = {0.0, 0.0};
+  for (int seed = 1; seed <= seeds; ++seed) {
+    const auto data = mems_study::flight(spec, static_cast<std::uint64_t>(seed));
+    for (int m = 0; m < n_methods; ++m) {
+      const mems_study::Answer a =
+          m == 0 ? mems_study::ekf_rts(data, spec) : mems_study::lm_windowed(data, spec);
+      wall[m] += a.wall_s;
+      for (int k = 0; k < 5; ++k) {
+        const double err = a.estimate_si[k] - truth[k];
+        const double sd = sd_scale * a.sd_si[k];
+        const double z = err / sd;
+        within3[m][k] += std::abs(z) <= 3.0;
+        covered[m][k] += std::abs(z) <= kZ95;
+        z2[m][k] += z * z;
+        std::string flags;
+        for (const std::string& f : a.flags[k]) flags += (flags.empty() ? "" : " ") + f;
+        if (out)
+          out << seed << "," << methods[m] << "," << names[k] << "," << truth[k] << ","
+              << a.estimate_si[k] << "," << sd << "," << z << "," << flags << "," << a.wall_s
+              << "\n";
+      }
+    }
+    std::cerr << "seed " << seed << " done\n";
+  }
+  std::printf("| method | parameter | within 3 sd | 95 %% covered | RMS \\|error\\|/sd |\n");
+  std::printf("|---|---|---|---|---|\n");
+  for (int m = 0; m < n_methods; ++m) {
+    int total3 = 0, total95 = 0;
+    for (int k = 0; k < 5; ++k) {
+      std::printf("| %s | %s | %d/%d | %d/%d | %.3g |\n", methods[m], names[k].c_str(),
+                  within3[m][k], seeds, covered[m][k], seeds, std::sqrt(z2[m][k] / seeds));
+      total3 += within3[m][k];
+      total95 += covered[m][k];
+    }
+    std::printf("| %s | all | %d/%d | %d/%d | (wall %.1f s over %d seeds) |\n", methods[m], total3,
+                5 * seeds, total95, 5 * seeds, wall[m], seeds);
+  }
+  return 0;
+}
