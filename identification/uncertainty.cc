@@ -173,7 +173,8 @@ std::string UncertaintyOptions::validate() const {
         real("absorbed_share", absorbed_share, 0.0, 1.0),
         real("correlated_threshold", correlated_threshold, 0.0, 1.0),
         real("not_converged_sd", not_converged_sd, 1e-9, 1e9),
-        real("box_edge_tolerance", box_edge_tolerance, 0.0, 0.5)})
+        real("box_edge_tolerance", box_edge_tolerance, 0.0, 0.5),
+        real("misfit_min_ratio", misfit_min_ratio, 1.0, 1e12)})
     if (!error.empty()) return error;
   if (noise) {
     const NoiseLevels& l = *noise;
@@ -331,6 +332,32 @@ UncertaintyReport estimate_uncertainty(const InsIdentificationProblem& problem,
       for (std::size_t b = 0; b < computable.size(); ++b)
         report.covariance_sigma(computable[a], computable[b]) =
             cov(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b));
+    // 4b. Model misfit (a Birge ratio): the part of the data's residual that the parameters
+    //     cannot absorb, |P_perp r|^2, against the same part of the replicas' noise responses,
+    //     |P_perp d_k|^2. With the model right and the noise at the replicas' levels the two
+    //     have the same distribution; a flight whose residual is far above every replica has
+    //     structure the model lacks (an effect not estimated, a wrong noise level), and the
+    //     noise-only covariance is then too small by about that ratio. When the data's value
+    //     exceeds every replica's (p < 1/(M+1)) and the ratio exceeds misfit_min_ratio, the
+    //     covariance is scaled by the ratio (sd by its square root) and the result says so.
+    const Eigen::ColPivHouseholderQR<Mat> qr(JF);
+    auto unabsorbed = [&](const Vec& v) { return (v - JF * qr.solve(v)).squaredNorm(); };
+    const double data_sq = unabsorbed(r0);
+    double noise_sq_mean = 0.0, noise_sq_max = 0.0;
+    for (int k = 0; k < M; ++k) {
+      const double e = unabsorbed(D.col(k));
+      noise_sq_mean += e / static_cast<double>(M);
+      noise_sq_max = std::max(noise_sq_max, e);
+    }
+    if (noise_sq_mean > 0.0) {
+      const double ratio = data_sq / noise_sq_mean;
+      report.residual_vs_noise_rms = std::sqrt(ratio);
+      report.residual_above_every_replica = data_sq > noise_sq_max;
+      if (report.residual_above_every_replica && ratio > options.misfit_min_ratio) {
+        report.sd_scale = std::sqrt(ratio);
+        report.covariance_sigma *= ratio;
+      }
+    }
     for (int j : computable) sd_sigma[j] = std::sqrt(report.covariance_sigma(j, j));
     for (int a : computable)
       for (int b : computable)
@@ -421,10 +448,13 @@ void use_filter_sd(UncertaintyReport& report, const std::vector<double>& filter_
       throw std::invalid_argument("use_filter_sd: sd of " + p.name +
                                   " must be finite and > 0, got " + std::to_string(sd_si));
     p.gn_sd_si = p.sd_si;
-    p.sd_si = sd_si;
+    // The filter's covariance assumes its model as much as the Gauss-Newton one does: the same
+    // model-misfit factor applies (1 when the residual is at the noise replicas' level).
+    p.sd_si = sd_si * report.sd_scale;
     p.sd_reason.clear();
-    p.sd_source = "ekf-rts smoothed covariance";
-    const double sd_sigma = sd_si / p.sigma_si;
+    p.sd_source = report.sd_scale > 1.0 ? "ekf-rts smoothed covariance, scaled for model misfit"
+                                        : "ekf-rts smoothed covariance";
+    const double sd_sigma = *p.sd_si / p.sigma_si;
     std::vector<std::string> kept;
     for (const std::string& f : p.flags)
       if (f != "not_observable") kept.push_back(f);
@@ -491,6 +521,10 @@ json UncertaintyReport::method_json() const {
                       {"gnss_vel_sigma_mps", noise_levels.gnss_vel_sigma_mps},
                       {"gnss_pos_sigma_m", noise_levels.gnss_pos_sigma_m},
                       {"source", noise_source}};
+  j["residual_vs_noise_rms"] = opt_num(residual_vs_noise_rms);
+  j["residual_above_every_replica"] = residual_above_every_replica;
+  j["sd_scale_for_misfit"] = sd_scale;
+  j["misfit_min_ratio"] = options.misfit_min_ratio;
   j["distance_to_optimum_sd"] = opt_num(distance_to_optimum_sd);
   j["thresholds"] = {
       {"not_observable",
@@ -542,6 +576,15 @@ std::string UncertaintyReport::table() const {
   if (!parameters.empty() && !parameters.front().sd_source.empty())
     out << "the sd column is the " << parameters.front().sd_source
         << " (the Gauss-Newton sd above: \"gauss_newton_sd\" in the JSON)\n";
+  if (residual_vs_noise_rms && sd_scale > 1.0)
+    out << "model misfit: the residual the parameters cannot absorb is "
+        << opt::format_number(std::round(*residual_vs_noise_rms * 100.0) / 100.0)
+        << "x the noise replicas' (above all " << replicas
+        << "): every sd is scaled by that factor; the model lacks something (insid diagnose)\n";
+  else if (residual_vs_noise_rms)
+    out << "residual not absorbed / noise replicas': "
+        << opt::format_number(std::round(*residual_vs_noise_rms * 100.0) / 100.0)
+        << " (sd not scaled)\n";
   return out.str();
 }
 

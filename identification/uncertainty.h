@@ -60,6 +60,10 @@ struct UncertaintyOptions {
   double correlated_threshold = 0.95;  ///< |rho| above this: correlated:<other>
   double not_converged_sd = 1.0;       ///< GN step to the optimum beyond this many sd
   double box_edge_tolerance = 1e-3;    ///< at_box_edge within this fraction of the box width
+  /// Model misfit: when the residual the parameters cannot absorb is above every noise
+  /// replica's and its mean square exceeds the replicas' by more than this ratio, the covariance
+  /// is scaled by the ratio (see estimate_uncertainty). >= 1.
+  double misfit_min_ratio = 4.0;
   int threads = 0;                     ///< replica runs in parallel (0 = OpenMP default)
   /// Noise levels of the replicas; default: meta.json "noise", else estimated from the data.
   std::optional<NoiseLevels> noise;
@@ -95,6 +99,11 @@ struct UncertaintyReport {
   Eigen::MatrixXd jacobian_sigma;    ///< d r / d value_sigma at the estimate (m/s per sigma)
   Eigen::VectorXd residuals;         ///< r at the estimate (m/s)
   std::optional<double> distance_to_optimum_sd;  ///< max over parameters of |step| / sd
+  /// sqrt(|P_perp r|^2 / mean_k |P_perp d_k|^2): the unabsorbed residual against the noise
+  /// replicas' (about 1 when the model and the noise levels are right).
+  std::optional<double> residual_vs_noise_rms;
+  bool residual_above_every_replica = false;
+  double sd_scale = 1.0;  ///< factor applied to every sd for model misfit (1: none)
   UncertaintyCriterion criterion = UncertaintyCriterion::kEq15;
   NoiseLevels noise_levels;
   std::string noise_source;
