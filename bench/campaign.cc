@@ -384,6 +384,9 @@ std::string RunOptions::validate() const {
   if (threads < 0) return "threads must be >= 0 (0 = all cores), got " + std::to_string(threads);
   if (max_new_runs < 0)
     return "max_new_runs must be >= 0 (0 = no limit), got " + std::to_string(max_new_runs);
+  if (!(max_wave_s >= 0.0) || !std::isfinite(max_wave_s))
+    return "max_wave_s must be a finite number >= 0 (0 = no bound), got " +
+           std::to_string(max_wave_s);
   if (shard.count < 0 || (shard.active() && (shard.index < 1 || shard.index > shard.count)))
     return "shard " + shard.to_string() + " is out of range; it must be i/N with 1 <= i <= N";
   if (cluster != nullptr && cluster->size() > 1 && shard.active())
@@ -452,6 +455,7 @@ CampaignOutcome run_campaign(const CampaignConfig& config, const RunOptions& opt
   settings.threads = threads;
   settings.scalar_reference = options.scalar_reference;
   settings.mpi_rank = options.cluster != nullptr;
+  settings.max_wave_s = cluster == nullptr ? options.max_wave_s : 0.0;
   if (!options.quiet && root) settings.progress = options.progress;  // rank 0 reports
   std::string run_error;
   if (cluster == nullptr) {
