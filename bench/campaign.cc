@@ -1,13 +1,17 @@
 #include "bench/campaign.h"
 
 #include <omp.h>
+#include <signal.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <ctime>
 #include <exception>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <limits>
 #include <map>
@@ -151,12 +155,75 @@ const OutputKind kCampaignKind{
 
 // Check out_dir's manifest against `config` (a different campaign is refused unless
 // force_new) and write the manifest, under the directory's locks (core/output_dir.h): the
-// directory itself gates the check-and-write, `.insid-lock` is held shared by every process
-// running this campaign for as long as it runs, and alone by one that starts a new campaign
-// there (which therefore fails while another campaign runs). Temporary files left by killed
+// directory itself gates the check-and-write; `.insid-lock` is held alone, for as long as the
+// campaign runs, by a process that does all the runs (a plain run, an MPI launch's rank 0) or
+// starts a new campaign there, and shared by shards (--shard i/N) of one campaign, so a second
+// plain run, or a shard beside a plain run, fails naming the holder (pid, host, since when:
+// the lock file's text, see write_holders) instead of doing every run again. flock(2) locks
+// die with their process, so a killed holder leaves no lock behind. Temporary files left by killed
 // processes are removed when no other process runs. Returns the run lock, to hold until the
 // campaign ends, and the number of shards the directory is split into (0 when unknown): this
 // launch's, or the one recorded by earlier shards of the same campaign.
+// Who holds a campaign directory's run lock, one line per process in the lock file:
+// "pid <pid> on <host> since <UTC time>, <what>". Written under the gate lock: a process that
+// holds the lock alone replaces the text, a shard adds its line to those of the shards still
+// running (a line of a process on this host that no longer runs is dropped).
+struct Holder {
+  long pid = 0;
+  std::string host, line;
+};
+
+std::vector<Holder> read_holders(const fs::path& lock_path) {
+  std::vector<Holder> holders;
+  std::ifstream in(lock_path);
+  for (std::string line; std::getline(in, line);) {
+    std::istringstream words(line);
+    std::string pid_word, on_word;
+    Holder h;
+    if (words >> pid_word >> h.pid >> on_word >> h.host && pid_word == "pid" && on_word == "on") {
+      h.line = line;
+      holders.push_back(std::move(h));
+    }
+  }
+  return holders;
+}
+
+// False only for a process of this host that is gone (a line left by a killed holder).
+bool may_be_running(const Holder& h) {
+  if (h.host != host_name()) return true;
+  return ::kill(static_cast<pid_t>(h.pid), 0) == 0 || errno == EPERM;
+}
+
+std::string live_holders(const fs::path& lock_path) {
+  std::string text;
+  for (const Holder& h : read_holders(lock_path))
+    if (may_be_running(h)) text += (text.empty() ? "" : "; ") + h.line;
+  return text.empty() ? "holder not recorded" : text;
+}
+
+std::string utc_now() {
+  const std::time_t now = std::time(nullptr);
+  std::tm utc{};
+  gmtime_r(&now, &utc);
+  char buffer[32];
+  std::strftime(buffer, sizeof(buffer), "%Y-%m-%dT%H:%M:%SZ", &utc);
+  return buffer;
+}
+
+void write_holders(const fs::path& lock_path, bool alone, const Shard& shard) {
+  std::string text;
+  if (!alone)
+    for (const Holder& h : read_holders(lock_path))
+      if (may_be_running(h) && h.pid != static_cast<long>(getpid())) text += h.line + "\n";
+  text += "pid " + std::to_string(getpid()) + " on " + host_name() + " since " + utc_now() + ", " +
+          (shard.active() ? "shard " + shard.to_string() : std::string("all runs")) + "\n";
+  // In place, not by rename: the lock lives on this file's inode.
+  std::ofstream out(lock_path, std::ios::trunc);
+  out << text;
+  if (!out.flush())
+    throw std::runtime_error("cannot write the campaign lock '" + lock_path.string() + "'");
+}
+
 struct DirectoryClaim {
   std::unique_ptr<FileLock> run_lock;
   int shard_count = 0;
@@ -185,8 +252,19 @@ DirectoryClaim prepare_directory(const CampaignConfig& config, const RunOptions&
   FileLock gate(dir);
   gate.lock(FileLock::Mode::kExclusive);
   DirectoryClaim claim;
-  claim.run_lock = std::make_unique<FileLock>(dir / FileLock::kRunLockName);
+  const fs::path lock_path = dir / FileLock::kRunLockName;
+  claim.run_lock = std::make_unique<FileLock>(lock_path);
   const bool alone = claim.run_lock->try_lock(FileLock::Mode::kExclusive);
+  // A plain run or an MPI launch does every run: beside any other process it would do them twice.
+  const bool whole_campaign = !options.shard.active();
+  const std::string in_use =
+      options.out_dir + " is in use by another insid process running a campaign there now (" +
+      live_holders(lock_path) + "); wait for it to finish, or choose another --out" +
+      (whole_campaign ? " (only shards of one campaign, --shard i/N, share a directory)" : "");
+  if (whole_campaign && !alone) throw std::runtime_error(in_use);
+  // A shard joins other shards (shared), never a process that holds the directory alone.
+  if (!whole_campaign && !alone && !claim.run_lock->try_lock(FileLock::Mode::kShared))
+    throw std::runtime_error(in_use);
   if (alone) {
     const int removed = remove_stale_temporaries(dir);
     if (removed > 0)
@@ -194,9 +272,6 @@ DirectoryClaim prepare_directory(const CampaignConfig& config, const RunOptions&
                                 .path = options.out_dir,
                                 .count = removed});
   }
-  const std::string in_use =
-      options.out_dir + " is in use by another insid process running a campaign there now; "
-      "wait for it to finish, or choose another --out";
   int shard_count = options.shard.count;
   if (fs::exists(manifest_path)) {
     nlohmann::json old;
@@ -238,7 +313,9 @@ DirectoryClaim prepare_directory(const CampaignConfig& config, const RunOptions&
   if (!digests.empty()) manifest["data_sha256"] = digests;
   for (const auto& item : options.manifest_extra.items()) manifest[item.key()] = item.value();
   write_file_atomic(manifest_path, manifest.dump(2) + "\n");
-  claim.run_lock->lock(FileLock::Mode::kShared);  // a conversion; safe: we hold the gate
+  // A shard shares the lock with the other shards (a conversion; safe: we hold the gate).
+  if (!whole_campaign) claim.run_lock->lock(FileLock::Mode::kShared);
+  write_holders(lock_path, alone, options.shard);
   claim.shard_count = shard_count;
   return claim;
 }
@@ -307,6 +384,9 @@ std::string RunOptions::validate() const {
   if (threads < 0) return "threads must be >= 0 (0 = all cores), got " + std::to_string(threads);
   if (max_new_runs < 0)
     return "max_new_runs must be >= 0 (0 = no limit), got " + std::to_string(max_new_runs);
+  if (!(max_wave_s >= 0.0) || !std::isfinite(max_wave_s))
+    return "max_wave_s must be a finite number >= 0 (0 = no bound), got " +
+           std::to_string(max_wave_s);
   if (shard.count < 0 || (shard.active() && (shard.index < 1 || shard.index > shard.count)))
     return "shard " + shard.to_string() + " is out of range; it must be i/N with 1 <= i <= N";
   if (cluster != nullptr && cluster->size() > 1 && shard.active())
@@ -375,6 +455,7 @@ CampaignOutcome run_campaign(const CampaignConfig& config, const RunOptions& opt
   settings.threads = threads;
   settings.scalar_reference = options.scalar_reference;
   settings.mpi_rank = options.cluster != nullptr;
+  settings.max_wave_s = cluster == nullptr ? options.max_wave_s : 0.0;
   if (!options.quiet && root) settings.progress = options.progress;  // rank 0 reports
   std::string run_error;
   if (cluster == nullptr) {

@@ -41,6 +41,12 @@ struct RunOptions {
   bool quiet = false;
   /// Stop after this many newly finished runs (for interruption tests); 0 = no limit.
   int max_new_runs = 0;
+  /// What a SIGKILL may lose: the runs of the lock-step wave in flight, whose files are written
+  /// when the wave ends. Waves are sized to take at most about this many seconds (by the speed
+  /// of the scenario's previous wave; a scenario's first wave is the smallest that keeps the
+  /// kernel busy, 48 candidates per round per thread); 0 = no time bound (an eighth of the runs
+  /// per wave). Not applied to MPI launches, whose units are small waves already.
+  double max_wave_s = 10.0;
   /// Score with the scalar reference (NavigationProblem::fitness per candidate) instead of the
   /// batched kernel, for comparisons; results agree within ~1e-12 relative.
   bool scalar_reference = false;
@@ -52,8 +58,8 @@ struct RunOptions {
   nlohmann::json manifest_extra = nlohmann::json::object();
 
   /// "" when valid, else why, naming the value: no out_dir, negative threads or max_new_runs, a
-  /// shard out of range, --shard with an MPI launch or with --force-new. run_campaign checks it
-  /// before any work.
+  /// negative or non-finite max_wave_s, a shard out of range, --shard with an MPI launch or with
+  /// --force-new. run_campaign checks it before any work.
   std::string validate() const;
 };
 

@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -346,6 +347,13 @@ TEST(Campaign, OptionsAreValidatedBeforeAnyWorkNamingTheBadValue) {
   bad = options;
   bad.max_new_runs = -1;
   EXPECT_NE(campaign_error(good, bad).find("max_new_runs must be >= 0"), std::string::npos);
+  for (const double wave_s : {-1.0, std::nan("")}) {
+    bad = options;
+    bad.max_wave_s = wave_s;
+    EXPECT_NE(campaign_error(good, bad).find("max_wave_s must be a finite number >= 0"),
+              std::string::npos)
+        << wave_s;
+  }
   bad = options;
   bad.shard.index = 3;
   bad.shard.count = 2;

@@ -1,11 +1,15 @@
 // Campaign directories: insid never writes into another program's directory, never outside
 // --out, never lets two campaigns share one directory, and cleans its own leftovers.
+#include <signal.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <thread>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -112,8 +116,14 @@ TEST(DirectorySafety, AnotherCampaignCannotStartWhileOneRuns) {
   const std::string error = error_of(other, force_new);
   EXPECT_NE(error.find("is in use by another insid process"), std::string::npos) << error;
   EXPECT_EQ(text(run_file(dir.string(), "short", "PSO", 1)), run_bytes);
-  // The same campaign may join (shards of one campaign share the directory).
-  EXPECT_TRUE(run_campaign(config(), options_for(dir)).complete);
+  // A shard of the same campaign may join (shards of one campaign share the directory); a
+  // plain run, which would do every run again, may not.
+  const std::string plain_error = error_of(config(), options_for(dir));
+  EXPECT_NE(plain_error.find("is in use by another insid process"), std::string::npos)
+      << plain_error;
+  RunOptions shard = options_for(dir);
+  shard.shard = Shard::parse("1/1");
+  EXPECT_TRUE(run_campaign(config(), shard).complete);
   // Into a fresh directory whose first campaign has not written its manifest yet.
   const fs::path empty = fresh_dir("lock-empty");
   fs::create_directories(empty);
@@ -125,6 +135,67 @@ TEST(DirectorySafety, AnotherCampaignCannotStartWhileOneRuns) {
   EXPECT_TRUE(run_campaign(other, force_new).complete);
   fs::remove_all(dir);
   fs::remove_all(empty);
+}
+
+// Long enough that the holder still runs while the test tries the directory (it is killed).
+const char* kLongConfig = R"({
+  "name": "safety-long",
+  "scenarios": [{"name": "short", "preset": "rich", "flight_s": 120, "grade": "nav",
+                 "data_seed": 3}],
+  "algorithms": [{"label": "PSO", "name": "pso"}],
+  "seeds": 40,
+  "max_iterations": 400
+})";
+
+TEST(DirectorySafety, SecondPlainRunIsRefusedNamingTheHolderUntilTheHolderIsKilled) {
+  // GIVEN a plain `insid bench` process running a campaign in dir
+  const fs::path dir = fresh_dir("holder");
+  fs::create_directories(dir);
+  const fs::path config_path = dir.string() + ".json";
+  std::ofstream(config_path) << kLongConfig;
+  const CampaignConfig long_config = parse_campaign(nlohmann::json::parse(kLongConfig), "test");
+  const pid_t holder = fork();
+  ASSERT_GE(holder, 0);
+  if (holder == 0) {
+    execl(INSID_BINARY, INSID_BINARY, "bench", "--config", config_path.c_str(), "--out",
+          dir.c_str(), "--threads", "1", static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  const fs::path lock = dir / FileLock::kRunLockName;
+  const std::string holder_line = "pid " + std::to_string(holder) + " on ";
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+  while (text(lock).find(holder_line) == std::string::npos &&
+         std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  ASSERT_NE(text(lock).find(holder_line), std::string::npos) << text(lock);
+
+  // WHEN a second plain run, and a shard, try the same directory, THEN both are refused, the
+  // message naming the holder: pid, host, since when, what it does
+  const std::string error = error_of(long_config, options_for(dir));
+  EXPECT_NE(error.find(dir.string() + " is in use by another insid process"), std::string::npos)
+      << error;
+  EXPECT_NE(error.find(holder_line), std::string::npos) << error;
+  EXPECT_NE(error.find(" since 20"), std::string::npos) << error;
+  EXPECT_NE(error.find("Z, all runs"), std::string::npos) << error;
+  RunOptions shard = options_for(dir);
+  shard.shard = Shard::parse("1/2");
+  EXPECT_NE(error_of(long_config, shard).find(holder_line), std::string::npos);
+
+  // WHEN the holder is killed (its lock file still names it), THEN the next plain run takes the
+  // directory over and records itself
+  kill(holder, SIGKILL);
+  int status = 0;
+  waitpid(holder, &status, 0);
+  ASSERT_NE(text(lock).find(holder_line), std::string::npos);
+  RunOptions next = options_for(dir);
+  next.max_new_runs = 1;
+  const CampaignOutcome outcome = run_campaign(long_config, next);
+  EXPECT_EQ(outcome.new_runs, 1);
+  EXPECT_EQ(text(lock).find(holder_line), std::string::npos) << text(lock);
+  EXPECT_NE(text(lock).find("pid " + std::to_string(getpid()) + " on "), std::string::npos)
+      << text(lock);
+  fs::remove_all(dir);
+  fs::remove(config_path);
 }
 
 TEST(DirectorySafety, RerunRemovesTemporariesLeftByAKill) {

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <exception>
 #include <filesystem>
+#include <future>
 #include <map>
 #include <optional>
 #include <thread>
@@ -37,15 +38,28 @@ struct LockstepRunner::Impl {
     while (next < ids.size()) {
       const std::size_t scenario = runs_[ids[next]].scenario;
       prepare(scenario, source);
+      ScenarioState& st = states_[scenario];
+      const std::size_t target = bounded_wave_target(wave_target, st.seconds_per_candidate);
       std::vector<Member> wave;
       std::size_t wave_candidates = 0;
       while (next < ids.size() && runs_[ids[next]].scenario == scenario &&
-             (wave.empty() || wave_candidates < wave_target)) {
+             (wave.empty() || wave_candidates < target)) {
         add_member(ids[next], wave, wave_candidates);
         ++next;
       }
-      run_wave(wave, *states_[scenario].problem);
+      const auto t_wave = std::chrono::steady_clock::now();
+      run_wave(wave, *st.problem);
+      const double wave_s =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - t_wave).count();
+      // The speed of this wave sizes the next one of the scenario (waves of bounded wall time).
+      if (wave_candidates > 0) st.seconds_per_candidate = wave_s / static_cast<double>(wave_candidates);
+      if (settings_.wave_finished) settings_.wave_finished(wave.size(), wave_candidates, target, wave_s);
+      write_parked_runs();
     }
+    // The optima found alongside: wait for them, then write the runs that waited for them.
+    for (std::size_t s = 0; s < states_.size(); ++s)
+      if (states_[s].optimum_future.valid()) collect_optimum(s);
+    write_parked_runs();
   }
 
   int new_runs() const { return done_; }
@@ -73,6 +87,13 @@ struct LockstepRunner::Impl {
     std::shared_ptr<const NavigationProblem> navigation;
     std::unique_ptr<InsIdentificationProblem> problem;
     std::optional<ReferenceOptimum> optimum;
+    /// The optimum being found alongside the runs, on its own single-threaded problem.
+    std::unique_ptr<InsIdentificationProblem> optimum_problem;
+    std::future<ReferenceOptimum> optimum_future;
+    /// Finished runs waiting for the optimum before their files can be written.
+    std::vector<std::pair<std::size_t, opt::Result>> parked;
+    /// Wall seconds per candidate-per-round of the scenario's last wave (0: none yet).
+    double seconds_per_candidate = 0.0;
   };
   struct Member {
     std::size_t id;  // position in the run list
@@ -110,16 +131,66 @@ struct LockstepRunner::Impl {
           st.navigation, mapping_, FitnessKind::kEq15, eval,
           settings_.scalar_reference ? FitnessEvaluator::kScalar : FitnessEvaluator::kBatched);
     }
-    if (st.optimum) return;
+    if (st.optimum || st.optimum_future.valid()) return;
     st.optimum = read_optimum(s);
     if (st.optimum || source == OptimumSource::kWait) return;
     report({.kind = ProgressEvent::Kind::kFindingOptimum, .scenario = spec.name});
-    // Deterministic: shards that find it at the same time write the same file (atomically).
-    st.optimum = find_reference_optimum(*st.problem);
+    // Alongside the runs, which do not need it (only their files' error_vs_optimum block does):
+    // one more thread beside the OpenMP team, on its own problem that scores serially. The
+    // kernel gives the same bits for any thread count, so the optimum equals one found first.
+    opt::EvaluatorOptions serial;
+    serial.parallelism = opt::Parallelism::kSerial;
+    st.optimum_problem = std::make_unique<InsIdentificationProblem>(
+        st.navigation, mapping_, FitnessKind::kEq15, serial,
+        settings_.scalar_reference ? FitnessEvaluator::kScalar : FitnessEvaluator::kBatched);
+    st.optimum_future = std::async(std::launch::async, [problem = st.optimum_problem.get()] {
+      return find_reference_optimum(*problem);
+    });
+  }
+
+  // Waits for the optimum found alongside and writes its file. Deterministic: shards that find
+  // it at the same time write the same file (atomically).
+  void collect_optimum(std::size_t s) {
+    ScenarioState& st = states_[s];
+    st.optimum = st.optimum_future.get();
+    st.optimum_problem.reset();
     nlohmann::json oj = st.optimum->to_json(mapping_);
-    oj["scenario"] = spec.name;
+    oj["scenario"] = config_.scenarios[s].name;
     fs::create_directories(optimum_path(s).parent_path());
     write_file_atomic(optimum_path(s), oj.dump(2) + "\n");
+  }
+
+  // Whether scenario s's optimum is known now (collecting it when found alongside).
+  bool optimum_ready(std::size_t s) {
+    ScenarioState& st = states_[s];
+    if (st.optimum) return true;
+    if (st.optimum_future.valid() &&
+        st.optimum_future.wait_for(std::chrono::seconds(0)) == std::future_status::ready)
+      collect_optimum(s);
+    return st.optimum.has_value();
+  }
+
+  // Writes the finished runs that waited for an optimum that is known now.
+  void write_parked_runs() {
+    for (std::size_t s = 0; s < states_.size(); ++s) {
+      if (states_[s].parked.empty() || !optimum_ready(s)) continue;
+      std::vector<std::pair<std::size_t, opt::Result>> parked;
+      parked.swap(states_[s].parked);
+      for (const auto& [id, result] : parked) write_run(runs_[id], result);
+    }
+  }
+
+  // The wave target within the wall-time bound: the scenario's first wave is the smallest that
+  // keeps the kernel's groups full (its speed is not known yet), later ones as many candidates
+  // per round as the last wave's speed fits into max_wave_s, never fewer than that smallest.
+  std::size_t bounded_wave_target(std::size_t target, double seconds_per_candidate) const {
+    if (settings_.max_wave_s <= 0.0) return target;
+    const std::size_t smallest = wave_target(settings_.threads, 0);
+    if (seconds_per_candidate <= 0.0) return std::min(target, smallest);
+    const double fits = settings_.max_wave_s / seconds_per_candidate;
+    const std::size_t bounded =
+        fits >= static_cast<double>(target) ? target : static_cast<std::size_t>(fits);
+    return std::min(target, std::max(smallest, bounded));
   }
 
   // The optimum of scenario s, waiting for the MPI rank that finds it when it is not there yet.
@@ -184,7 +255,12 @@ struct LockstepRunner::Impl {
     for (Member& m : wave) optimizers.push_back(m.optimizer.get());
     opt::TogetherHooks hooks;
     hooks.finished = [&](std::size_t i) {
-      write_run(runs_[wave[i].id], wave[i].optimizer->result());
+      const RunSpec& run = runs_[wave[i].id];
+      ScenarioState& st = states_[run.scenario];
+      if (st.optimum_future.valid() && !optimum_ready(run.scenario))
+        st.parked.emplace_back(wave[i].id, wave[i].optimizer->result());  // written once found
+      else
+        write_run(run, wave[i].optimizer->result());
     };
     hooks.failed = [&](std::size_t i, std::exception_ptr error) { errors_[wave[i].id] = error; };
     opt::run_together(optimizers, problem, hooks);

@@ -65,6 +65,14 @@ struct RunnerSettings {
   bool scalar_reference = false;   ///< score with the scalar reference evaluator
   bool mpi_rank = false;           ///< one rank of an MPI launch (progress counts are its own)
   ProgressCallback progress;       ///< may be empty (nothing reported)
+  /// Wall-time bound of a wave (what a kill can lose): after a scenario's first wave, whose
+  /// speed sizes the next, waves take about this long at most, but never fewer candidates per
+  /// round than wave_target(threads, 0); 0 = no bound (waves of wave_target's size).
+  double max_wave_s = 0.0;
+  /// Called after each wave: its runs, candidates per round (first round), the target it was
+  /// built for and its wall time. For tests; may be empty.
+  std::function<void(std::size_t runs, std::size_t candidates, std::size_t target, double wall_s)>
+      wave_finished;
 };
 
 /// Runs lists of runs of one campaign in lock-step waves, preparing scenarios on first use.

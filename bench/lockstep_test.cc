@@ -6,10 +6,15 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
+#include <memory>
+#include <vector>
 
 #include <gtest/gtest.h>
 
 #include "bench/campaign.h"
+#include "identification/identify.h"
+#include "identification/ins_problem.h"
 
 namespace insid::campaign {
 namespace {
@@ -116,6 +121,98 @@ TEST(Lockstep, LeastSquaresRunsScoredTogetherEqualRunsDoneAlone) {
     }
   fs::remove_all(together);
   fs::remove_all(alone);
+}
+
+// The runner on every run of kConfig into a fresh directory, recording its waves.
+struct Waves {
+  std::vector<std::size_t> runs, candidates, targets;
+};
+Waves run_runner_into(const fs::path& dir, double max_wave_s) {
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const CampaignConfig config = parse_campaign(nlohmann::json::parse(kConfig), "test");
+  std::vector<RunSpec> runs;
+  std::vector<std::size_t> ids;
+  for (std::size_t a = 0; a < config.algorithms.size(); ++a)
+    for (std::uint64_t seed : config.seeds) {
+      ids.push_back(runs.size());
+      runs.push_back({0, a, seed, run_file(dir.string(), "rich-short", config.algorithms[a].label, seed)});
+    }
+  Waves waves;
+  RunnerSettings settings;
+  settings.out_dir = dir.string();
+  settings.threads = 1;
+  settings.max_wave_s = max_wave_s;
+  settings.wave_finished = [&](std::size_t n, std::size_t candidates, std::size_t target, double) {
+    waves.runs.push_back(n);
+    waves.candidates.push_back(candidates);
+    waves.targets.push_back(target);
+  };
+  LockstepRunner runner(config, settings, runs, 0, static_cast<int>(runs.size()));
+  runner.run(ids, std::numeric_limits<std::size_t>::max(), OptimumSource::kCompute);
+  EXPECT_EQ(runner.first_error(), "");
+  EXPECT_EQ(runner.new_runs(), static_cast<int>(runs.size()));
+  return waves;
+}
+
+TEST(Lockstep, WavesOfBoundedWallTimeKeepEveryResultAndTheOptimum) {
+  // GIVEN the nine runs of kConfig done by the runner with no wave bound (one wave), with a
+  // bound no wave can meet, and with a bound every wave meets
+  const std::string tag = std::to_string(getpid());
+  const fs::path one_wave = fs::temp_directory_path() / ("insid-lockstep-one-wave-" + tag);
+  const fs::path tight = fs::temp_directory_path() / ("insid-lockstep-tight-" + tag);
+  const fs::path loose = fs::temp_directory_path() / ("insid-lockstep-loose-" + tag);
+  const Waves unbounded = run_runner_into(one_wave, 0.0);
+  const Waves smallest = run_runner_into(tight, 1e-9);
+  const Waves measured = run_runner_into(loose, 1e9);
+  const std::size_t floor = wave_target(1, 0);  // 48 candidates per round on one thread
+
+  // THEN without a bound every run is in one wave
+  EXPECT_EQ(unbounded.runs, std::vector<std::size_t>{9});
+  // AND with the tight bound every wave is the smallest that keeps the kernel busy: it stops
+  // at the first run that brings it to `floor` candidates per round
+  ASSERT_GT(smallest.runs.size(), 2u);
+  for (std::size_t w = 0; w < smallest.runs.size(); ++w) {
+    EXPECT_EQ(smallest.targets[w], floor) << "wave " << w;
+    if (w + 1 < smallest.runs.size()) {
+      EXPECT_GE(smallest.candidates[w], floor) << "wave " << w;
+    }
+    EXPECT_LT(smallest.candidates[w], 2 * floor) << "wave " << w;  // all nine runs: 120
+  }
+  // AND with the loose bound the first wave, of unknown speed, is the smallest, and the next
+  // takes every other run (its measured speed fits them all into the bound)
+  ASSERT_EQ(measured.runs.size(), 2u);
+  EXPECT_EQ(measured.targets[0], floor);
+  EXPECT_EQ(measured.runs[0] + measured.runs[1], 9u);
+  EXPECT_GT(measured.targets[1], 1000000u);
+
+  // AND every run file and the optimum (found alongside the first wave) are the same
+  const CampaignConfig config = parse_campaign(nlohmann::json::parse(kConfig), "test");
+  for (const fs::path& dir : {tight, loose}) {
+    EXPECT_EQ(read(optimum_file(dir.string(), "rich-short")),
+              read(optimum_file(one_wave.string(), "rich-short")));
+    for (const AlgorithmSpec& algo : config.algorithms)
+      for (std::uint64_t seed : config.seeds) {
+        nlohmann::json a = read(run_file(dir.string(), "rich-short", algo.label, seed));
+        nlohmann::json b = read(run_file(one_wave.string(), "rich-short", algo.label, seed));
+        a["result"].erase("wall_s");
+        b["result"].erase("wall_s");
+        EXPECT_EQ(a, b) << dir << " " << algo.label << " seed " << seed;
+      }
+  }
+  // AND the optimum found alongside the runs is the one found on its own before any run
+  const std::shared_ptr<const Dataset> data = scenario_dataset(config.scenarios[0]);
+  opt::EvaluatorOptions two_threads;
+  two_threads.parallelism = opt::Parallelism::kOpenMP;
+  two_threads.num_threads = 2;
+  const InsIdentificationProblem problem(
+      std::make_shared<const NavigationProblem>(data, NavigationOptions{config.alignment}),
+      ParameterMapping(estimated_parameters(config)), FitnessKind::kEq15, two_threads,
+      FitnessEvaluator::kBatched);
+  nlohmann::json alone = find_reference_optimum(problem).to_json(problem.mapping());
+  alone["scenario"] = "rich-short";
+  EXPECT_EQ(read(optimum_file(one_wave.string(), "rich-short")), alone);
+  for (const fs::path& dir : {one_wave, tight, loose}) fs::remove_all(dir);
 }
 
 }  // namespace
