@@ -13,6 +13,7 @@
 #include "core/output_dir.h"
 #include "identification/identify.h"
 #include "identification/ins_problem.h"
+#include "identification/uncertainty.h"
 #include "optimizers/registry.h"
 #include "scenarios/scenario.h"
 
@@ -178,13 +179,14 @@ struct LockstepRunner::Impl {
     for (Member& m : wave) optimizers.push_back(m.optimizer.get());
     opt::TogetherHooks hooks;
     hooks.finished = [&](std::size_t i) {
-      write_run(runs_[wave[i].id], wave[i].optimizer->result());
+      write_run(runs_[wave[i].id], *wave[i].optimizer);
     };
     hooks.failed = [&](std::size_t i, std::exception_ptr error) { errors_[wave[i].id] = error; };
     opt::run_together(optimizers, problem, hooks);
   }
 
-  void write_run(const RunSpec& run, const opt::Result& result) {
+  void write_run(const RunSpec& run, const opt::Optimizer& optimizer) {
+    const opt::Result& result = optimizer.result();
     const ScenarioSpec& scenario = config_.scenarios[run.scenario];
     const AlgorithmSpec& algo = config_.algorithms[run.algorithm];
     const ReferenceOptimum& opt = optimum(run.scenario);
@@ -194,8 +196,17 @@ struct LockstepRunner::Impl {
     j["algorithm"] = algo.label;
     j["seed"] = run.seed;
     j["parameters"] = nlohmann::json::array();
-    for (const EstimatedParameter& p : mapping_.parameters()) j["parameters"].push_back(p.name);
+    for (const EstimatedParameter& p : mapping_.parameters()) j["parameters"].push_back({{"name", p.name}});
     j["result"] = optimizer_result_json(result, mapping_);
+    // How sure the estimate is, as in identify results (issue 15): "parameters" with sd and
+    // flags, "correlation", "uncertainty" (its wall time and INS runs: the cost per run).
+    if (config_.uncertainty_replicas > 0) {
+      UncertaintyOptions uo;
+      uo.replicas = config_.uncertainty_replicas;
+      uo.criterion = criterion_for_algorithm(algo.name);
+      uo.threads = settings_.threads;
+      add_run_uncertainty_json(j, *states_[run.scenario].problem, optimizer, uo);
+    }
     add_run_assessment_json(j, result, mapping_, states_[run.scenario].dataset->meta.injected, &opt);
     fs::create_directories(fs::path(run.path).parent_path());
     write_file_atomic(run.path, j.dump(1) + "\n");

@@ -119,8 +119,7 @@ void run_identify(const IdentifyArgs& args) {
     uo.replicas = args.uncertainty_replicas;
     uo.criterion = criterion_for_algorithm(args.algorithm);
     uo.threads = args.threads;
-    const UncertaintyReport report = estimate_uncertainty(problem, mapping.to_sigma(result.best_x), uo);
-    add_uncertainty_json(out, report);
+    const UncertaintyReport report = add_run_uncertainty_json(out, problem, *optimizer, uo);
     std::cerr << report.table();
   }
   write_json_output(args.out, out);

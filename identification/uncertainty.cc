@@ -17,6 +17,7 @@
 
 #include "core/sensor_errors.h"
 #include "diagnose/noise_model.h"
+#include "identification/ekf_rts.h"
 #include "optimizers/parameters.h"
 #include "optimizers/random.h"
 
@@ -407,6 +408,38 @@ UncertaintyReport estimate_uncertainty(const InsIdentificationProblem& problem,
   return report;
 }
 
+void use_own_sd(UncertaintyReport& report, const Eigen::VectorXd& own_sd_sigma,
+                const std::string& source) {
+  if (own_sd_sigma.size() != static_cast<Eigen::Index>(report.parameters.size()))
+    throw std::invalid_argument("use_own_sd: " + std::to_string(own_sd_sigma.size()) +
+                                " standard deviations for " +
+                                std::to_string(report.parameters.size()) + " parameters");
+  for (std::size_t j = 0; j < report.parameters.size(); ++j) {
+    ParameterUncertainty& p = report.parameters[j];
+    const double sd = own_sd_sigma[static_cast<Eigen::Index>(j)];
+    if (!std::isfinite(sd) || sd <= 0.0)
+      throw std::invalid_argument("use_own_sd: " + source + " sd of " + p.name + " = " +
+                                  std::to_string(sd) + ": expected a finite positive number");
+    p.sd_gauss_newton_si = p.sd_si;
+    p.sd_si = sd * p.sigma_si;
+    p.sd_reason.clear();
+    p.sd_source = source;
+  }
+}
+
+UncertaintyReport add_run_uncertainty_json(json& out, const InsIdentificationProblem& problem,
+                                           const opt::Optimizer& optimizer,
+                                           const UncertaintyOptions& options) {
+  UncertaintyReport report =
+      estimate_uncertainty(problem, problem.mapping().to_sigma(optimizer.result().best_x), options);
+  // The EKF-RTS reports its own smoothed sd (issue 15): the Gauss-Newton sd describes the
+  // least-squares optimum's spread, not the filter's estimate.
+  if (const auto* ekf = dynamic_cast<const EkfRtsOptimizer*>(&optimizer))
+    use_own_sd(report, ekf->std_sigma(), "ekf-rts smoothed covariance");
+  add_uncertainty_json(out, report);
+  return report;
+}
+
 json UncertaintyReport::parameters_json() const {
   json arr = json::array();
   for (const ParameterUncertainty& p : parameters) {
@@ -415,6 +448,8 @@ json UncertaintyReport::parameters_json() const {
     j["estimate"] = num(p.estimate_si);
     j["sd"] = opt_num(p.sd_si);
     if (!p.sd_si) j["sd_reason"] = p.sd_reason;
+    j["sd_source"] = p.sd_source;
+    if (p.sd_source != "gauss-newton replicas") j["sd_gauss_newton"] = opt_num(p.sd_gauss_newton_si);
     j["unit"] = p.unit;
     j["estimate_eng"] = num(p.estimate_si * p.eng_per_si);
     j["sd_eng"] = p.sd_si ? num(*p.sd_si * p.eng_per_si) : json(nullptr);

@@ -30,6 +30,7 @@
 
 #include "core/dataset.h"
 #include "identification/ins_problem.h"
+#include "optimizers/optimizer.h"
 
 namespace insid {
 
@@ -73,6 +74,11 @@ struct ParameterUncertainty {
   double estimate_si = 0.0;
   std::optional<double> sd_si;      ///< empty when it cannot be computed (sd_reason says why)
   std::string sd_reason;
+  /// Where sd comes from: "gauss-newton replicas" (estimate_uncertainty), or the algorithm's
+  /// own covariance (use_own_sd: the EKF-RTS's smoothed covariance), with the Gauss-Newton
+  /// value then kept in sd_gauss_newton_si.
+  std::string sd_source = "gauss-newton replicas";
+  std::optional<double> sd_gauss_newton_si;
   std::string unit, unit_eng;       ///< SI unit, engineering unit (deg/h, ug, ppm, ...)
   double eng_per_si = 1.0;          ///< engineering value = SI value * eng_per_si
   double share_not_absorbed = 0.0;  ///< |P_perp J_j|^2 / |J_j|^2 (1 = independent column)
@@ -116,6 +122,22 @@ std::pair<std::string, double> engineering_unit(const std::string& si_unit);
 UncertaintyReport estimate_uncertainty(const InsIdentificationProblem& problem,
                                        const Eigen::VectorXd& value_sigma,
                                        const UncertaintyOptions& options = {});
+
+/// An algorithm that carries its own covariance (the EKF-RTS's smoothed one) reports that sd:
+/// `own_sd_sigma` (sigma units, the report's parameter order) replaces sd, the Gauss-Newton sd
+/// moves to sd_gauss_newton_si, `source` names it. Flags stay those of the Gauss-Newton
+/// analysis (not_converged: the filter's estimate is far from the least-squares optimum).
+/// Throws std::invalid_argument when the sizes differ or a value is not finite and positive.
+void use_own_sd(UncertaintyReport& report, const Eigen::VectorXd& own_sd_sigma,
+                const std::string& source);
+
+/// The uncertainty blocks of a finished run's record, the same for `insid identify` results and
+/// campaign run files: estimate_uncertainty at the optimizer's best point (the EKF-RTS reports
+/// its own smoothed sd, use_own_sd), then add_uncertainty_json. Returns the report.
+UncertaintyReport add_run_uncertainty_json(nlohmann::json& out,
+                                           const InsIdentificationProblem& problem,
+                                           const opt::Optimizer& optimizer,
+                                           const UncertaintyOptions& options);
 
 /// The result layout's blocks added to a result JSON: "parameters", "correlation",
 /// "uncertainty".
