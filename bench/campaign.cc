@@ -53,10 +53,12 @@ std::string run_record_problem(const nlohmann::json& j, const std::string& scena
              want + "\"";
     return "";
   };
-  const std::string schema = j.contains("schema") && j["schema"].is_string() &&
-                                    j["schema"].get<std::string>() == kRunSchemaOld
-                                ? kRunSchemaOld
-                                : kRunSchema;
+  const std::string schema =
+      j.contains("schema") && j["schema"].is_string() &&
+              (j["schema"].get<std::string>() == kRunSchemaOld ||
+               j["schema"].get<std::string>() == kRunSchemaPrevious)
+          ? j["schema"].get<std::string>()
+          : std::string(kRunSchema);
   for (const auto& [key, want] : {std::pair<const char*, std::string>{"schema", schema},
                                   {"scenario", scenario},
                                   {"algorithm", label}})

@@ -214,6 +214,9 @@ nlohmann::json CampaignConfig::to_json() const {
     j["estimate"].push_back({{"name", p.name}, {"sigma", p.sigma},
                              {"lower_sigma", p.lower_sigma}, {"upper_sigma", p.upper_sigma}});
   j["record_positions_seeds"] = record_positions_seeds;
+  // Only when set to something else than the default: manifests written before the key existed
+  // still match on resume.
+  if (uncertainty_replicas != 100) j["uncertainty_replicas"] = uncertainty_replicas;
   j["target_error_sigma"] = target_error_sigma;
   j["target_fitness_gap"] = target_fitness_gap;
   return j;
@@ -298,11 +301,13 @@ CampaignConfig parse_campaign(const nlohmann::json& j, const std::string& origin
   if (r.has("estimate"))
     for (const auto& e : r.array_of("estimate", "string")) c.estimate.push_back(e.get<std::string>());
   if (r.has("record_positions_seeds")) c.record_positions_seeds = whole(r.number("record_positions_seeds"), origin + ": record_positions_seeds");
+  if (r.has("uncertainty_replicas")) c.uncertainty_replicas = whole(r.number("uncertainty_replicas"), origin + ": uncertainty_replicas");
   if (r.has("target_error_sigma")) c.target_error_sigma = r.array_of("target_error_sigma", "number").get<std::vector<double>>();
   if (r.has("target_fitness_gap")) c.target_fitness_gap = r.array_of("target_fitness_gap", "number").get<std::vector<double>>();
   r.finish({"name", "scenarios", "algorithms", "seeds", "max_iterations", "max_evaluations",
             "alignment", "initial_attitude", "heading_deg", "window_s", "estimate",
-            "record_positions_seeds", "target_error_sigma", "target_fitness_gap"});
+            "record_positions_seeds", "target_error_sigma", "target_fitness_gap",
+            "uncertainty_replicas"});
   c.validate(origin);
   return c;
 }
@@ -349,6 +354,10 @@ void CampaignConfig::validate(const std::string& origin) const {
   if (record_positions_seeds < 0)
     throw std::invalid_argument(origin + ": record_positions_seeds must be >= 0, got " +
                                 std::to_string(record_positions_seeds));
+  if (uncertainty_replicas < 0 || (uncertainty_replicas > 0 && uncertainty_replicas < 2) ||
+      uncertainty_replicas > 100000)
+    throw std::invalid_argument(origin + ": uncertainty_replicas must be 0 (none) or in [2, "
+                                "100000], got " + std::to_string(uncertainty_replicas));
   std::set<std::string> labels, names;
   for (const AlgorithmSpec& a : algorithms) {
     if (!labels.insert(a.label).second)

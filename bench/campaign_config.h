@@ -21,8 +21,12 @@ namespace insid::campaign {
 inline constexpr const char* kManifestSchema = "insid-campaign/1";
 // insid-run/2 renamed "estimate_sigma" (the estimate in sigma units, read as an sd) to
 // "estimate_in_sigma_units" (issue 15); insid-run/1 records are still read (resume, merge).
-inline constexpr const char* kRunSchema = "insid-run/2";
+// insid-run/3 (issue 15): "parameters" is the uncertainty layout of identify results (objects
+// with name, estimate, sd, units, flags; was a list of names), with "correlation" and
+// "uncertainty"; insid-run/2 and /1 records are still read.
+inline constexpr const char* kRunSchema = "insid-run/3";
 inline constexpr const char* kRunSchemaOld = "insid-run/1";
+inline constexpr const char* kRunSchemaPrevious = "insid-run/2";
 
 struct ScenarioSpec {
   std::string name;
@@ -61,6 +65,10 @@ struct CampaignConfig {
   NavigationOptions navigation_options() const;
   std::vector<std::string> estimate;  ///< --estimate specs; empty = the paper's four
   int record_positions_seeds = 1;     ///< record particle positions for the first k seeds
+  /// Noise replicas of each run's uncertainty (identification/uncertainty.h, issue 15): the
+  /// run file's "parameters" carry sd and flags, "correlation" the matrix. 0 = none (the run's
+  /// parameters are then listed by name only). Cost per run: 2n + 1 + replicas INS runs.
+  int uncertainty_replicas = 100;
   std::vector<double> target_error_sigma = {1.0, 0.3, 0.1};   ///< max |error vs optimum|
   std::vector<double> target_fitness_gap = {1.0, 0.1, 0.01};  ///< (f - f_opt) / f_opt
 

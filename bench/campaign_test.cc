@@ -104,7 +104,14 @@ TEST(Campaign, FilesFollowTheDocumentedSchema) {
                            {"/config/max_iterations", 'n'}, {"/config/alignment", 's'},
                            {"/config/estimate", 'a'}}, "manifest");
   const nlohmann::json run = read(run_file(dir.string(), "rich-short", "DVPIO", 2));
-  EXPECT_EQ(run["schema"], "insid-run/2");
+  EXPECT_EQ(run["schema"], "insid-run/3");
+  // issue 15: parameters with sd and flags, correlation and the uncertainty's own cost
+  expect_fields(run, {{"/parameters/0/name", 's'}, {"/parameters/0/sd", 'n'},
+                      {"/parameters/0/estimate", 'n'}, {"/parameters/0/unit_eng", 's'},
+                      {"/parameters/0/flags", 'a'}, {"/correlation/matrix", 'a'},
+                      {"/uncertainty/wall_s", 'n'}, {"/uncertainty/evaluations", 'n'}},
+                "run uncertainty");
+  EXPECT_EQ(run["parameters"].size(), 4u);
   expect_fields(run, {{"/scenario", 's'}, {"/algorithm", 's'}, {"/seed", 'n'}, {"/parameters", 'a'},
                       {"/result/algorithm/name", 's'}, {"/result/algorithm/parameters", 'o'},
                       {"/result/fitness", 'n'}, {"/result/evaluations", 'n'},
@@ -165,7 +172,7 @@ TEST(Campaign, RunFilesOfTheOldSchemaStillResume) {
   ASSERT_TRUE(run_campaign(small_config(), options).complete);
   const fs::path file = run_file(dir.string(), "rich-short", "PSO", 1);
   nlohmann::json run = read(file);
-  ASSERT_EQ(run["schema"], "insid-run/2");
+  ASSERT_EQ(run["schema"], "insid-run/3");
   run["schema"] = "insid-run/1";
   run["estimate_sigma"] = run["estimate_in_sigma_units"];
   run.erase("estimate_in_sigma_units");
@@ -184,7 +191,15 @@ TEST(Campaign, RunFilesOfTheOldSchemaStillResume) {
   std::ofstream(file) << run.dump(1);
   const CampaignOutcome redo = run_campaign(small_config(), options);
   EXPECT_EQ(redo.new_runs, 1);
-  EXPECT_EQ(read(file)["schema"], "insid-run/2");
+  EXPECT_EQ(read(file)["schema"], "insid-run/3");
+  // ...and an insid-run/2 record (parameters listed by name, no sd) is kept as well
+  nlohmann::json previous = read(file);
+  previous["schema"] = "insid-run/2";
+  previous["parameters"] = {"accel_bias_x", "accel_bias_y", "gyro_bias_x", "gyro_bias_y"};
+  std::ofstream(file) << previous.dump(1);
+  const std::string previous_bytes = bytes(file);
+  EXPECT_EQ(run_campaign(small_config(), options).new_runs, 0);
+  EXPECT_EQ(bytes(file), previous_bytes);
   fs::remove_all(dir);
 }
 

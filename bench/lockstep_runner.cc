@@ -14,6 +14,7 @@
 #include "core/output_dir.h"
 #include "identification/identify.h"
 #include "identification/ins_problem.h"
+#include "identification/uncertainty.h"
 #include "optimizers/registry.h"
 #include "scenarios/scenario.h"
 
@@ -91,7 +92,12 @@ struct LockstepRunner::Impl {
     std::unique_ptr<InsIdentificationProblem> optimum_problem;
     std::future<ReferenceOptimum> optimum_future;
     /// Finished runs waiting for the optimum before their files can be written.
-    std::vector<std::pair<std::size_t, opt::Result>> parked;
+    struct Parked {
+      std::size_t id;             // position in the run list
+      opt::Result result;
+      nlohmann::json uncertainty;  // the run's uncertainty blocks, computed when it finished
+    };
+    std::vector<Parked> parked;
     /// Wall seconds per candidate-per-round of the scenario's last wave (0: none yet).
     double seconds_per_candidate = 0.0;
   };
@@ -174,9 +180,9 @@ struct LockstepRunner::Impl {
   void write_parked_runs() {
     for (std::size_t s = 0; s < states_.size(); ++s) {
       if (states_[s].parked.empty() || !optimum_ready(s)) continue;
-      std::vector<std::pair<std::size_t, opt::Result>> parked;
+      std::vector<ScenarioState::Parked> parked;
       parked.swap(states_[s].parked);
-      for (const auto& [id, result] : parked) write_run(runs_[id], result);
+      for (const auto& r : parked) write_run(runs_[r.id], r.result, r.uncertainty);
     }
   }
 
@@ -257,16 +263,32 @@ struct LockstepRunner::Impl {
     hooks.finished = [&](std::size_t i) {
       const RunSpec& run = runs_[wave[i].id];
       ScenarioState& st = states_[run.scenario];
+      nlohmann::json uncertainty = uncertainty_blocks(run, *wave[i].optimizer);
       if (st.optimum_future.valid() && !optimum_ready(run.scenario))
-        st.parked.emplace_back(wave[i].id, wave[i].optimizer->result());  // written once found
+        st.parked.push_back({wave[i].id, wave[i].optimizer->result(), std::move(uncertainty)});
       else
-        write_run(run, wave[i].optimizer->result());
+        write_run(run, wave[i].optimizer->result(), uncertainty);
     };
     hooks.failed = [&](std::size_t i, std::exception_ptr error) { errors_[wave[i].id] = error; };
     opt::run_together(optimizers, problem, hooks);
   }
 
-  void write_run(const RunSpec& run, const opt::Result& result) {
+  // How sure the run's estimate is, as in identify results (issue 15): "parameters" with sd and
+  // flags, "correlation", "uncertainty" (its wall time and INS runs: the cost per run); empty
+  // when the config turns it off. Needs the optimizer (the EKF-RTS reports its own sd).
+  nlohmann::json uncertainty_blocks(const RunSpec& run, const opt::Optimizer& optimizer) const {
+    nlohmann::json j = nlohmann::json::object();
+    if (config_.uncertainty_replicas > 0) {
+      UncertaintyOptions uo;
+      uo.replicas = config_.uncertainty_replicas;
+      uo.criterion = criterion_for_algorithm(config_.algorithms[run.algorithm].name);
+      uo.threads = settings_.threads;
+      add_run_uncertainty_json(j, *states_[run.scenario].problem, optimizer, uo);
+    }
+    return j;
+  }
+
+  void write_run(const RunSpec& run, const opt::Result& result, const nlohmann::json& uncertainty) {
     const ScenarioSpec& scenario = config_.scenarios[run.scenario];
     const AlgorithmSpec& algo = config_.algorithms[run.algorithm];
     const ReferenceOptimum& opt = optimum(run.scenario);
@@ -281,8 +303,9 @@ struct LockstepRunner::Impl {
     if (config_.heading_deg) j["heading_deg"] = *config_.heading_deg;
     if (config_.window_s != 0.0) j["window_s"] = config_.window_s;
     j["parameters"] = nlohmann::json::array();
-    for (const EstimatedParameter& p : mapping_.parameters()) j["parameters"].push_back(p.name);
+    for (const EstimatedParameter& p : mapping_.parameters()) j["parameters"].push_back({{"name", p.name}});
     j["result"] = optimizer_result_json(result, mapping_);
+    for (const auto& item : uncertainty.items()) j[item.key()] = item.value();
     add_run_assessment_json(j, result, mapping_, states_[run.scenario].dataset->meta.injected, &opt);
     fs::create_directories(fs::path(run.path).parent_path());
     write_file_atomic(run.path, j.dump(1) + "\n");

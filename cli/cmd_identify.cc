@@ -157,15 +157,7 @@ void run_identify(const IdentifyArgs& args) {
     uo.replicas = args.uncertainty_replicas;
     uo.criterion = criterion_for_algorithm(args.algorithm);
     uo.threads = args.threads;
-    UncertaintyReport report = estimate_uncertainty(problem, mapping.to_sigma(result.best_x), uo);
-    // EKF-RTS reports its own smoothed sd (identification/uncertainty.h, use_filter_sd).
-    if (const auto* ekf = dynamic_cast<const EkfRtsOptimizer*>(optimizer.get())) {
-      std::vector<double> filter_sd;
-      for (int k = 0; k < mapping.dimension(); ++k)
-        filter_sd.push_back(ekf->std_sigma()[k] * mapping.parameters()[static_cast<std::size_t>(k)].sigma);
-      use_filter_sd(report, filter_sd);
-    }
-    add_uncertainty_json(out, report);
+    const UncertaintyReport report = add_run_uncertainty_json(out, problem, *optimizer, uo);
     if (!progress.quiet()) std::cerr << report.table();
   }
   write_json_output(args.out, out);

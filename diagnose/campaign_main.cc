@@ -48,13 +48,40 @@ std::vector<Nominal> nominal_effects() {
           {"accel_bias_drift_x", 10.0 * 0.0005 / 3600.0, "0.005 m/s^2 per hour"}};
 }
 
+// The extended matrix of issue 15 adds the effects the issue names: accel_scale_z (the
+// misnamed one), a second gyro misalignment and a gyro_bias_z drift.
+std::vector<Nominal> extended_effects() {
+  std::vector<Nominal> e = nominal_effects();
+  e.push_back({"accel_scale_z", 500e-6, "500 ppm"});
+  e.push_back({"gyro_misalign_zx", 200e-6, "200 urad"});
+  e.push_back({"gyro_bias_drift_z", 1.0 * kDegH / 3600.0, "1 deg/h per hour"});
+  return e;
+}
+
+// Wilson score interval for k successes in n trials (95 %: z = 1.96).
+std::pair<double, double> wilson(int k, int n, double z = 1.959963984540054) {
+  if (n == 0) return {0.0, 1.0};
+  const double p = static_cast<double>(k) / n, z2 = z * z, den = 1.0 + z2 / n;
+  const double centre = (p + z2 / (2.0 * n)) / den;
+  const double half = z * std::sqrt(p * (1.0 - p) / n + z2 / (4.0 * n * n)) / den;
+  return {std::max(0.0, centre - half), std::min(1.0, centre + half)};
+}
+
+std::string opt_format(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
 struct Case {
   std::string kind;  // null | single | pair | unobservable
   HiddenCase data;
   double size_factor = 1.0;
+  bool key_has_flight = false;  // extended matrix: nulls of one seed at two lengths
   std::string key() const {
     std::ostringstream s;
     s << kind << "|" << data.preset << "|" << data.seed << "|" << size_factor;
+    if (key_has_flight) s << "|" << data.flight_s << "s";
     for (const auto& [n, v] : data.hidden) s << "|" << n << "=" << v;
     return s.str();
   }
@@ -69,6 +96,9 @@ int main(int argc, char** argv) {
   int seeds = 2, null_seeds = 24, threads = 0, iterations = 5, rb = 30, rc = 60;
   std::vector<double> sizes = {0.1, 0.25, 0.5, 1.0};
   bool summary_only = false;
+  std::string matrix = "original";
+  std::vector<double> null_flights = {600.0, 1200.0};
+  std::vector<std::string> null_presets = {"rich", "racetrack", "straight"};
   app.add_option("--out-dir", out_dir)->capture_default_str();
   app.add_option("--flight-s", flight_s)->capture_default_str();
   app.add_option("--seeds", seeds, "seeds per effect and size")->capture_default_str();
@@ -79,6 +109,14 @@ int main(int argc, char** argv) {
   app.add_option("--replicas-basis", rb)->capture_default_str();
   app.add_option("--replicas-calibration", rc)->capture_default_str();
   app.add_flag("--summary-only", summary_only, "only rebuild summary.json from cases.jsonl");
+  app.add_option("--matrix", matrix,
+                 "original: issue 7's case list; extended: issue 15's (11 effects x --sizes x "
+                 "--seeds on rich --flight-s, --null-seeds per preset and null flight length, "
+                 "interleaved so that any prefix is balanced)")
+      ->check(CLI::IsMember({"original", "extended"}))
+      ->capture_default_str();
+  app.add_option("--null-flights", null_flights, "extended: null flight lengths (s)");
+  app.add_option("--null-presets", null_presets, "extended: null presets");
   CLI11_PARSE(app, argc, argv);
 
   namespace fs = std::filesystem;
@@ -86,12 +124,32 @@ int main(int argc, char** argv) {
   const fs::path cases_path = fs::path(out_dir) / "cases.jsonl";
 
   std::vector<Case> cases;
-  for (int s = 1; s <= null_seeds; ++s) cases.push_back({"null", {"rich", flight_s, 1000u + s, {}}, 0});
+  const std::vector<Nominal> effects = matrix == "extended" ? extended_effects() : nominal_effects();
+  if (matrix == "extended") {
+    // Round r: ceil(null_seeds / seeds) null seeds, one flight per preset and length each
+    // (seeds 5001, ...), then every effect at every size (seed 6000 + r); so a campaign stopped
+    // early is balanced between nulls and effects.
+    const int per_round = (null_seeds + std::max(seeds, 1) - 1) / std::max(seeds, 1);
+    int next_null = 1;
+    for (int r = 1; next_null <= null_seeds || r <= seeds; ++r) {
+      for (int k = 0; k < per_round && next_null <= null_seeds; ++k, ++next_null)
+        for (const std::string& preset : null_presets)
+          for (double len : null_flights)
+            cases.push_back({"null", {preset, len, 5000u + static_cast<unsigned>(next_null), {}},
+                             0, true});
+      if (r <= seeds)
+        for (const Nominal& e : effects)
+          for (double f : sizes)
+            cases.push_back({"single", {"rich", flight_s, 6000u + static_cast<unsigned>(r),
+                                        {{e.effect, f * e.value}}}, f, true});
+    }
+  }
+  for (int s = 1; matrix == "original" && s <= null_seeds; ++s) cases.push_back({"null", {"rich", flight_s, 1000u + s, {}}, 0});
   for (const Nominal& e : nominal_effects())
     for (double f : sizes)
-      for (int s = 1; s <= seeds; ++s)
+      for (int s = 1; matrix == "original" && s <= seeds; ++s)
         cases.push_back({"single", {"rich", flight_s, 2000u + s, {{e.effect, f * e.value}}}, f});
-  for (int s = 1; s <= seeds; ++s) {
+  for (int s = 1; matrix == "original" && s <= seeds; ++s) {
     cases.push_back({"pair", {"rich", flight_s, 3000u + s,
                               {{"gnss_latency", 0.05}, {"gyro_scale_z", 300e-6}}}, 1});
     cases.push_back({"pair", {"rich", flight_s, 3100u + s,
@@ -162,7 +220,7 @@ int main(int argc, char** argv) {
   json summary;
   summary["flight_s"] = flight_s;
   json nominal = json::object();
-  for (const Nominal& e : nominal_effects()) nominal[e.effect] = {{"value", e.value}, {"label", e.label}};
+  for (const Nominal& e : effects) nominal[e.effect] = {{"value", e.value}, {"label", e.label}};
   summary["nominal"] = nominal;
   std::map<std::string, std::map<std::string, int>> confusion;  // hidden -> named -> count
   std::map<std::string, std::map<double, std::array<int, 3>>> power;  // hit(class), exact, n
@@ -242,6 +300,75 @@ int main(int argc, char** argv) {
   summary["pairs"] = {{"n", pair_n}, {"both_found", pair_both}};
   summary["unobservable"] = {{"n", unobs_n}, {"reported_not_observable", unobs_reported},
                              {"named", unobs_named}};
+  // Issue 15: every null flight (any preset, any length), the rate with its 95 % Wilson
+  // interval, and the confusion of the first named effect with the ambiguity sets counted
+  // separately: "(none)", the effect alone (unambiguous), or "{a, b, ...}" (named + partners).
+  {
+    std::map<std::string, std::array<int, 2>> by_flight;  // "preset/len s" -> named, n
+    int n_all = 0, fa_all = 0;
+    std::map<std::string, std::map<std::string, int>> sets;  // hidden -> label -> count
+    std::map<std::string, std::map<double, std::array<int, 5>>> outcome;  // see below
+    auto label = [](const json& found) {
+      if (found.empty()) return std::string("(none)");
+      const json& f = found[0];
+      if (f["ambiguous_with"].empty()) return f["effect"].get<std::string>();
+      std::set<std::string> members = {f["effect"].get<std::string>()};
+      for (const auto& a : f["ambiguous_with"]) members.insert(a.get<std::string>());
+      std::string l = "{";
+      for (const auto& m : members) l += (l.size() > 1 ? ", " : "") + m;
+      return l + "}";
+    };
+    for (const json& r : rows) {
+      const std::string kind = r["kind"];
+      const json& found = r["found"];
+      if (kind == "null") {
+        std::ostringstream k;
+        k << r["preset"].get<std::string>() << "/" << r["flight_s"].get<double>() << " s";
+        auto& b = by_flight[k.str()];
+        b[0] += !found.empty();
+        b[1]++;
+        fa_all += !found.empty();
+        ++n_all;
+        sets["(none)"][label(found)]++;
+      } else if (kind == "single") {
+        const std::string h = r["hidden"].begin().key();
+        const double f = r["size_factor"];
+        sets[h + " x" + opt_format(f)][label(found)]++;
+        // exact and unambiguous, truth in the first named set, named set (any iteration)
+        // contains the truth, first named wrong, nothing named
+        auto& o = outcome[h][f];
+        if (found.empty()) {
+          o[4]++;
+          continue;
+        }
+        const bool exact = found[0]["effect"] == h && found[0]["ambiguous_with"].empty();
+        o[0] += exact;
+        o[1] += !exact && in_class(found[0], h);
+        bool any = false;
+        for (const auto& x : found) any = any || in_class(x, h);
+        o[2] += any;
+        o[3] += !in_class(found[0], h);
+      }
+    }
+    const auto [lo, hi] = wilson(fa_all, n_all);
+    json fj = {{"null_flights", n_all}, {"with_found", fa_all},
+               {"rate", n_all ? static_cast<double>(fa_all) / n_all : 0.0},
+               {"wilson95", {lo, hi}}};
+    for (const auto& [k, b] : by_flight) {
+      const auto [l2, h2] = wilson(b[0], b[1]);
+      fj["by_flight"][k] = {{"n", b[1]}, {"with_found", b[0]}, {"wilson95", {l2, h2}}};
+    }
+    summary["false_alarm_all"] = fj;
+    summary["confusion_sets"] = sets;
+    json oj = json::object();
+    for (const auto& [h, by] : outcome)
+      for (const auto& [f, o] : by)
+        oj[h].push_back({{"size_factor", f}, {"exact_unambiguous", o[0]},
+                         {"first_set_contains_truth", o[1]}, {"named_set_contains_truth", o[2]},
+                         {"first_named_wrong", o[3]}, {"nothing_named", o[4]},
+                         {"n", o[0] + o[1] + o[3] + o[4]}});
+    summary["outcome"] = oj;
+  }
   double wall = 0;
   for (const json& r : rows) wall += r["wall_s"].get<double>();
   summary["cases"] = rows.size();

@@ -111,8 +111,15 @@ ModelFit refit(const std::shared_ptr<const NavigationProblem>& nav,
   ParameterMapping mapping(params);
   InsIdentificationProblem problem(nav, mapping, FitnessKind::kSumSquares, evaluator);
   LocalFitOptions lo;
-  lo.eq15 = false;          // least squares: consistent with the linear noise statistics
-  lo.clamp_to_box = false;  // a hidden effect may be far outside the paper's box
+  lo.eq15 = false;  // least squares: consistent with the linear noise statistics
+  // Every parameter stays in its box: the base model's is the user's stated prior (the paper's
+  // [-4, 4] sigma by default), a found effect's is wide (+-max(50, 4|beta| + 10) sigma). An
+  // unbounded fit of a base the flight cannot observe (accelerometer biases on `straight`) ran
+  // to ~600-900 sigma (tilts of degrees), far outside the linear regime that the candidate
+  // columns and the noise replicas describe, and the family-wise test then fired on effect-free
+  // data (issue 15). Inside the box the statistics stay valid at an edge: each candidate is
+  // projected off the model's columns, which needs no stationary point.
+  lo.clamp_to_box = true;
   lo.max_iterations = 40;
   lo.step_sigma = 1e-3;
   const LocalFitResult lf = local_fit(problem, mapping.from_sigma(start_sigma), lo);
@@ -197,12 +204,27 @@ struct CandidateStat {
   std::string name;
   double estimate_sigma = 0, sd_sigma = 0, z = 0, z_normal = 0, p_single = 1, p_family = 1;
   double projected_share = 0, mde_sigma = 0;
+  /// The working model's own view: sd of the GLS estimate if Sigma_w were the noise covariance
+  /// (1/sqrt(c~' W c~)) and the deviance reduction (log-likelihood ratio x 2) of adding this
+  /// candidate alone to the model under it, c~' W r squared over c~' W c~.
+  double sd_working_sigma = 0, deviance_gain = 0;
   bool observable = true, significant = false, exceeds = false;
   std::vector<std::pair<std::string, double>> collinear;
 };
 
+// Joint comparison of the best candidate with a runner-up after the fit: the difference of their
+// deviance gains (likelihood ratio of "model + best" against "model + other", working model),
+// its sd from the calibration replicas (linearised: the noise moves each gain by
+// 2 (u'r)(u'd)), and whether they are a near-tie (difference below `tie_z` sd).
+struct JointComparison {
+  std::string other;
+  double deviance_difference = 0, sd = 0, z = 0;
+  bool near_tie = false;
+};
+
 struct IterationStats {
   std::vector<CandidateStat> table;  // candidate order
+  Mat U;                             // n x q: whitened unit directions W c~ / sqrt(c~' W c~)
   double z_threshold = 0.0;
   double in_sample_false_alarm = 0.0;
   double omnibus_q = 0.0, omnibus_p = 1.0;
@@ -249,6 +271,8 @@ IterationStats score_candidates(const ModelFit& fit, const Mat& C,
     // Normal-equivalent |z| (sd estimated from MB replicas: t with MB dof).
     s.z_normal = tail > 1e-300 ? boost::math::quantile(boost::math::complement(ndist, tail)) : 40.0;
     s.projected_share = raw[c] > 0 ? std::sqrt(std::max(info[c], 0.0) / raw[c]) : 0.0;
+    s.sd_working_sigma = info[c] > 0 ? 1.0 / std::sqrt(info[c]) : 0.0;
+    s.deviance_gain = info[c] > 0 ? beta[c] * beta[c] * info[c] : 0.0;
     for (int m = 0; m < MB; ++m) Bz(m, c) = sd > 0 ? B(c, m) / sd : 0.0;
   }
   // Family-wise null distribution of max |z|: Gaussian with the replicas' correlation, drawn as
@@ -284,6 +308,9 @@ IterationStats score_candidates(const ModelFit& fit, const Mat& C,
     s.significant = s.exceeds && s.observable;
   }
   // Collinear partners: correlation of projected whitened columns.
+  out.U = Wc;
+  for (int c = 0; c < q; ++c)
+    if (info[c] > 0) out.U.col(c) /= std::sqrt(info[c]);
   for (int a = 0; a < q; ++a)
     for (int b = 0; b < q; ++b) {
       if (a == b || info[a] <= 0 || info[b] <= 0) continue;
@@ -319,6 +346,8 @@ json stat_json(const CandidateStat& s) {
             {"sd", num(s.sd_sigma * sig)},
             {"estimate_sigma", num(s.estimate_sigma)},
             {"sd_sigma", num(s.sd_sigma)},
+            {"sd_working_sigma", num(s.sd_working_sigma)},
+            {"deviance_gain", num(s.deviance_gain)},
             {"unit", std::string(effect_info(s.name).unit)},
             {"projected_share", num(s.projected_share)},
             {"min_detectable_sigma", num(s.mde_sigma)},
@@ -375,6 +404,7 @@ std::string DiagnoseOptions::validate() const {
         whole("monte_carlo_draws", monte_carlo_draws, 1000, 10000000),
         whole("threads", threads, 0, 4096), real("alpha", alpha, 1e-9, 0.5),
         real("collinear_threshold", collinear_threshold, 1e-9, 1.0),
+        real("ambiguity_z", ambiguity_z, 0.0, 100.0),
         real("observable_max_sigma", observable_max_sigma, 1e-9, 1e9)})
     if (!error.empty()) return error;
   if (!std::isfinite(window_s) || window_s < 0.0)
@@ -564,11 +594,52 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
       for (const auto& s : st.table)
         if (!s.observable) not_observable.push_back(s.name);
 
+    // Naming (issue 15): among the candidates significant at the family-wise level (the
+    // calibrated test decides *whether* to name), the one that explains the residual best once
+    // fitted jointly with the model decides *which*: the largest de-biased deviance gain of the
+    // working model. The calibrated z alone misnames: it divides each GLS estimate by its
+    // replica sd, and where the working covariance underrates the noise (smooth, integrated
+    // directions: the low-rank part sees only its basis replicas) a true effect's estimate is
+    // inefficient (sd well above the working sd) while a wrong candidate with a
+    // high-frequency signature (lever arm) keeps a small sd and picks up the leak. De-biased:
+    // the gain minus its mean under noise alone (mean of (u'd)^2 over the calibration replicas).
+    const Eigen::Index MBi = D_cal.cols();
+    const Mat UD = st.U.transpose() * D_cal;  // q x MB: u_c' d_m
+    const Vec Ur = st.U.transpose() * fit.r;  // q: u_c' r
+    auto gain = [&](std::size_t c) {
+      const auto i = static_cast<Eigen::Index>(c);
+      return Ur[i] * Ur[i] - UD.row(i).squaredNorm() / static_cast<double>(MBi);
+    };
     const CandidateStat* best = nullptr;
+    std::size_t best_k = 0;
     for (std::size_t k : order)
-      if (st.table[k].significant) {
+      if (st.table[k].significant && (!best || gain(k) > gain(best_k))) {
         best = &st.table[k];
-        break;
+        best_k = k;
+      }
+    // Joint comparison of the chosen one with every other significant candidate: the
+    // likelihood-ratio difference and its spread over the calibration replicas (the data plus
+    // one more noise draw, run through the same two statistics).
+    std::vector<JointComparison> joint;
+    if (best)
+      for (std::size_t k : order) {
+        if (k == best_k || !st.table[k].significant) continue;
+        JointComparison jc;
+        jc.other = st.table[k].name;
+        jc.deviance_difference = gain(best_k) - gain(k);
+        const auto a = static_cast<Eigen::Index>(best_k), b = static_cast<Eigen::Index>(k);
+        double mean = 0.0, sq = 0.0;
+        for (Eigen::Index m = 0; m < MBi; ++m) {
+          const double ra = Ur[a] + UD(a, m), rb = Ur[b] + UD(b, m);
+          const double d = (ra * ra - rb * rb) - (Ur[a] * Ur[a] - Ur[b] * Ur[b]);
+          mean += d;
+          sq += d * d;
+        }
+        mean /= static_cast<double>(MBi);
+        jc.sd = std::sqrt(std::max(sq / static_cast<double>(MBi) - mean * mean, 0.0));
+        jc.z = jc.sd > 0 ? jc.deviance_difference / jc.sd : std::numeric_limits<double>::infinity();
+        jc.near_tie = jc.z < options.ambiguity_z;
+        joint.push_back(jc);
       }
     std::vector<std::string> exceeding_unobservable;
     for (const auto& s : st.table)
@@ -608,6 +679,20 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
       fj["ambiguous_with"].push_back(partner);
       fj["separating_manoeuvre"][partner] = separating_manoeuvre(best->name, partner);
     }
+    fj["joint_comparison"] = json::array();
+    for (const JointComparison& jc : joint) {
+      fj["joint_comparison"].push_back({{"effect", jc.other},
+                                        {"deviance_difference", num(jc.deviance_difference)},
+                                        {"sd", num(jc.sd)},
+                                        {"z", num(jc.z)},
+                                        {"near_tie", jc.near_tie}});
+      if (jc.near_tie && !fj["separating_manoeuvre"].contains(jc.other)) {
+        fj["ambiguous_with"].push_back(jc.other);
+        fj["separating_manoeuvre"][jc.other] = separating_manoeuvre(best->name, jc.other);
+      }
+    }
+    fj["choice_rule"] =
+        "largest de-biased deviance gain (working model) among the significant candidates";
     const double sig = effect_info(best->name).sigma;
     fj["estimate_at_detection"] = best->estimate_sigma * sig;
     fj["z"] = best->z;

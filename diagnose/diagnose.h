@@ -45,6 +45,9 @@ struct DiagnoseOptions {
   int replicas_calibration = 80;         ///< replicas calibrating the statistics
   double alpha = 0.05;                   ///< family-wise false-alarm rate per iteration
   double collinear_threshold = 0.95;     ///< |correlation| of projected whitened columns
+  /// Joint comparison after the fit: a significant runner-up whose likelihood-ratio difference
+  /// to the named effect is below this many of its replica sd is reported as ambiguous with it.
+  double ambiguity_z = 1.96;
   double observable_max_sigma = 30.0;    ///< minimum detectable size above this (catalogue
                                          ///< sigmas): not observable
   int monte_carlo_draws = 20000;         ///< draws for the family-wise max-|z| distribution

@@ -76,7 +76,7 @@ TEST(MemsIdentification, LmOnTheWindowedFitnessRecoversTheBiasesWithinItsSd) {
 
 // GIVEN one seed of the MEMS flight WHEN `ekf-rts` runs through the registry (as `insid identify`
 // does) and the uncertainty report takes the filter's sd (use_filter_sd) THEN parameters[].sd
-// is the smoother's sd (not the Gauss-Newton one, which is kept as gauss_newton_sd and differs
+// is the smoother's sd (not the Gauss-Newton one, which is kept as sd_gauss_newton and differs
 // by more than 20 % here), sd_source says so, and a filter sd wider than the box makes the
 // parameter not_observable.
 TEST(MemsIdentification, IdentifyReportsTheFiltersOwnSdForEkfRts) {
@@ -107,8 +107,8 @@ TEST(MemsIdentification, IdentifyReportsTheFiltersOwnSdForEkfRts) {
     const ParameterUncertainty& p = report.parameters[static_cast<std::size_t>(k)];
     EXPECT_EQ(*p.sd_si, ekf->ekf()->std.at(p.name)) << p.name;
     EXPECT_EQ(p.sd_source, "ekf-rts smoothed covariance");
-    ASSERT_TRUE(p.gn_sd_si.has_value());
-    differs += std::abs(*p.gn_sd_si / *p.sd_si - 1.0) > 0.2;
+    ASSERT_TRUE(p.sd_gauss_newton_si.has_value());
+    differs += std::abs(*p.sd_gauss_newton_si / *p.sd_si - 1.0) > 0.2;
     for (const std::string& f : p.flags) EXPECT_NE(f, "not_observable") << p.name;
   }
   EXPECT_GE(differs, 1) << "the filter's and the Gauss-Newton sd should not coincide here";

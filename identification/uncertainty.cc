@@ -17,6 +17,7 @@
 
 #include "core/sensor_errors.h"
 #include "diagnose/noise_model.h"
+#include "identification/ekf_rts.h"
 #include "optimizers/parameters.h"
 #include "optimizers/random.h"
 
@@ -447,7 +448,7 @@ void use_filter_sd(UncertaintyReport& report, const std::vector<double>& filter_
     if (!(sd_si > 0.0) || !std::isfinite(sd_si))
       throw std::invalid_argument("use_filter_sd: sd of " + p.name +
                                   " must be finite and > 0, got " + std::to_string(sd_si));
-    p.gn_sd_si = p.sd_si;
+    p.sd_gauss_newton_si = p.sd_si;
     // The filter's covariance assumes its model as much as the Gauss-Newton one does: the same
     // model-misfit factor applies (1 when the residual is at the noise replicas' level).
     p.sd_si = sd_si * report.sd_scale;
@@ -466,6 +467,25 @@ void use_filter_sd(UncertaintyReport& report, const std::vector<double>& filter_
   }
 }
 
+UncertaintyReport add_run_uncertainty_json(json& out, const InsIdentificationProblem& problem,
+                                           const opt::Optimizer& optimizer,
+                                           const UncertaintyOptions& options) {
+  UncertaintyReport report =
+      estimate_uncertainty(problem, problem.mapping().to_sigma(optimizer.result().best_x), options);
+  // The EKF-RTS reports its own smoothed sd (issue 15): the Gauss-Newton sd describes the
+  // least-squares optimum's spread, not the filter's estimate.
+  if (const auto* ekf = dynamic_cast<const EkfRtsOptimizer*>(&optimizer)) {
+    const ParameterMapping& mapping = problem.mapping();
+    std::vector<double> filter_sd_si;
+    for (int k = 0; k < mapping.dimension(); ++k)
+      filter_sd_si.push_back(ekf->std_sigma()[k] *
+                             mapping.parameters()[static_cast<std::size_t>(k)].sigma);
+    use_filter_sd(report, filter_sd_si);
+  }
+  add_uncertainty_json(out, report);
+  return report;
+}
+
 json UncertaintyReport::parameters_json() const {
   json arr = json::array();
   for (const ParameterUncertainty& p : parameters) {
@@ -474,6 +494,8 @@ json UncertaintyReport::parameters_json() const {
     j["estimate"] = num(p.estimate_si);
     j["sd"] = opt_num(p.sd_si);
     if (!p.sd_si) j["sd_reason"] = p.sd_reason;
+    j["sd_source"] = p.sd_source;
+    if (p.sd_source != "gauss-newton replicas") j["sd_gauss_newton"] = opt_num(p.sd_gauss_newton_si);
     j["unit"] = p.unit;
     j["estimate_eng"] = num(p.estimate_si * p.eng_per_si);
     j["sd_eng"] = p.sd_si ? num(*p.sd_si * p.eng_per_si) : json(nullptr);
@@ -485,10 +507,6 @@ json UncertaintyReport::parameters_json() const {
     j["step_to_optimum_in_sigma_units"] = num(p.step_to_optimum_sigma);
     j["step_to_optimum_sd"] = opt_num(p.step_to_optimum_sd);
     j["flags"] = p.flags;
-    if (!p.sd_source.empty()) {
-      j["sd_source"] = p.sd_source;
-      j["gauss_newton_sd"] = opt_num(p.gn_sd_si);
-    }
     arr.push_back(j);
   }
   return arr;
@@ -573,9 +591,9 @@ std::string UncertaintyReport::table() const {
         << opt::format_number(std::round(*distance_to_optimum_sd * 1000.0) / 1000.0)
         << " sd (one Gauss-Newton step); sd from " << replicas << " noise replicas ("
         << noise_source << ")\n";
-  if (!parameters.empty() && !parameters.front().sd_source.empty())
+  if (!parameters.empty() && parameters.front().sd_source != "gauss-newton replicas")
     out << "the sd column is the " << parameters.front().sd_source
-        << " (the Gauss-Newton sd above: \"gauss_newton_sd\" in the JSON)\n";
+        << " (the Gauss-Newton sd: \"sd_gauss_newton\" in the JSON)\n";
   if (residual_vs_noise_rms && sd_scale > 1.0)
     out << "model misfit: the residual the parameters cannot absorb is "
         << opt::format_number(std::round(*residual_vs_noise_rms * 100.0) / 100.0)

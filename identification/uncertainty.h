@@ -30,6 +30,7 @@
 
 #include "core/dataset.h"
 #include "identification/ins_problem.h"
+#include "optimizers/optimizer.h"
 
 namespace insid {
 
@@ -77,6 +78,11 @@ struct ParameterUncertainty {
   double estimate_si = 0.0;
   std::optional<double> sd_si;      ///< empty when it cannot be computed (sd_reason says why)
   std::string sd_reason;
+  /// Where sd comes from: "gauss-newton replicas" (estimate_uncertainty), or the algorithm's
+  /// own covariance ("ekf-rts smoothed covariance", use_filter_sd), with the Gauss-Newton
+  /// value then kept in sd_gauss_newton_si for comparison.
+  std::string sd_source = "gauss-newton replicas";
+  std::optional<double> sd_gauss_newton_si;
   std::string unit, unit_eng;       ///< SI unit, engineering unit (deg/h, ug, ppm, ...)
   double eng_per_si = 1.0;          ///< engineering value = SI value * eng_per_si
   double share_not_absorbed = 0.0;  ///< |P_perp J_j|^2 / |J_j|^2 (1 = independent column)
@@ -84,11 +90,6 @@ struct ParameterUncertainty {
   double step_to_optimum_sigma = 0.0;             ///< GN step (sigma units)
   std::optional<double> step_to_optimum_sd;       ///< |step| / sd
   std::vector<std::string> flags;
-  /// Where sd comes from: empty = the Gauss-Newton replica covariance (the default, not written
-  /// to JSON); "ekf-rts smoothed covariance" after use_filter_sd (gn_sd_si then holds the
-  /// Gauss-Newton one for comparison).
-  std::string sd_source;
-  std::optional<double> gn_sd_si;
   double estimate_sigma_units() const { return estimate_si / sigma_si; }
 };
 
@@ -135,14 +136,22 @@ UncertaintyReport estimate_uncertainty(const InsIdentificationProblem& problem,
 /// EKF-RTS (issue 14): the filter-smoother reports its own sd, the smoothed covariance of the
 /// biases, which is what its estimate's uncertainty is (the Gauss-Newton sd describes the
 /// least-squares optimum's spread, not the filter's). `filter_sd_si` per parameter in the
-/// report's order (SI). Each parameter's sd becomes the filter's (sd_source says so, gn_sd_si
-/// keeps the Gauss-Newton one) and not_observable is re-derived with it (95 % interval wider
+/// report's order (SI). Each parameter's sd becomes the filter's (sd_source says so,
+/// sd_gauss_newton_si keeps the Gauss-Newton one) and not_observable is re-derived with it (95 % interval wider
 /// than the box, or the Jacobian column absorbed, as before). at_box_edge, correlated:<other>
 /// and not_converged are unchanged: not_converged and step_to_optimum_sd still measure the
 /// distance to the least-squares optimum of the fitness in its own (Gauss-Newton) sd, i.e.
 /// whether the filter's point and the fitness's optimum disagree beyond that optimum's spread.
 /// Throws std::invalid_argument when the sizes differ or an sd is not finite and positive.
 void use_filter_sd(UncertaintyReport& report, const std::vector<double>& filter_sd_si);
+
+/// The uncertainty blocks of a finished run's record, the same for `insid identify` results and
+/// campaign run files: estimate_uncertainty at the optimizer's best point (the EKF-RTS reports
+/// its own smoothed sd, use_filter_sd), then add_uncertainty_json. Returns the report.
+UncertaintyReport add_run_uncertainty_json(nlohmann::json& out,
+                                           const InsIdentificationProblem& problem,
+                                           const opt::Optimizer& optimizer,
+                                           const UncertaintyOptions& options);
 
 /// The result layout's blocks added to a result JSON: "parameters", "correlation",
 /// "uncertainty".

@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include "core/json_reader.h"
+#include "identification/ekf_rts.h"
 #include "identification/identify.h"
 #include "identification/ins_problem.h"
 #include "identification/uncertainty.h"
@@ -195,6 +196,50 @@ TEST(Uncertainty, ResultLayoutAndEngineeringUnits) {
   EXPECT_EQ(out["parameters"][2]["unit_eng"], "deg/h");
   EXPECT_EQ(out["correlation"]["matrix"].size(), 4u);
   EXPECT_NEAR(out["correlation"]["matrix"][1][1].get<double>(), 1.0, 1e-12);
+}
+
+// The EKF-RTS's parameters[].sd is the filter-smoother's own smoothed sd (issue 15), the
+// Gauss-Newton one kept beside it; any other algorithm reports the Gauss-Newton sd.
+TEST(Uncertainty, EkfRtsReportsItsOwnSmoothedSd) {
+  register_ekf_rts();
+  const auto dataset = simulate_preset("rich", 300.0, "nav", 4);
+  const auto navigation = std::make_shared<const NavigationProblem>(dataset);
+  opt::EvaluatorOptions evaluator;
+  evaluator.parallelism = opt::Parallelism::kOpenMP;
+  const InsIdentificationProblem problem(
+      navigation, ParameterMapping(EstimatedParameter::paper_four()), FitnessKind::kEq15,
+      evaluator);
+  opt::RunConfig config;
+  config.seed = 4;
+  config.max_iterations = 5;
+  auto ekf = opt::make_optimizer("ekf-rts", problem.bounds(), config, {});
+  while (!ekf->done()) opt::step(*ekf, problem);
+  const auto* filter = dynamic_cast<const EkfRtsOptimizer*>(ekf.get());
+  ASSERT_NE(filter, nullptr);
+  UncertaintyOptions options;
+  options.replicas = 20;
+  options.criterion = criterion_for_algorithm("ekf-rts");
+  nlohmann::json out;
+  const UncertaintyReport report = add_run_uncertainty_json(out, problem, *ekf, options);
+  ASSERT_EQ(out["parameters"].size(), 4u);
+  for (int k = 0; k < 4; ++k) {
+    const auto& p = out["parameters"][static_cast<std::size_t>(k)];
+    const double sigma = EstimatedParameter::paper_four()[static_cast<std::size_t>(k)].sigma;
+    EXPECT_NEAR(p["sd"].get<double>(), filter->std_sigma()[k] * sigma, 1e-12 * sigma) << p.dump();
+    EXPECT_EQ(p["sd_source"], "ekf-rts smoothed covariance");
+    ASSERT_TRUE(p["sd_gauss_newton"].is_number()) << p.dump();
+    // The two are different numbers (the filter also uses positions and re-estimates attitude).
+    EXPECT_GT(std::abs(p["sd_gauss_newton"].get<double>() - p["sd"].get<double>()),
+              1e-3 * p["sd"].get<double>()) << p.dump();
+  }
+  // A least-squares baseline on the same problem keeps the Gauss-Newton sd.
+  auto lm = opt::make_optimizer("lm", problem.bounds(), config, {});
+  while (!lm->done()) opt::step(*lm, problem);
+  nlohmann::json lm_out;
+  add_run_uncertainty_json(lm_out, problem, *lm, options);
+  EXPECT_EQ(lm_out["parameters"][0]["sd_source"], "gauss-newton replicas");
+  EXPECT_FALSE(lm_out["parameters"][0].contains("sd_gauss_newton"));
+  (void)report;
 }
 
 UncertaintyOptions bad(void (*edit)(UncertaintyOptions&)) {

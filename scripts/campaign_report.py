@@ -306,7 +306,9 @@ class Campaign:
         for label in self.labels[scenario]:
             for r in self.algo_runs(scenario, label):
                 if isinstance(r.get("parameters"), list) and r["parameters"]:
-                    return [str(p) for p in r["parameters"]]
+                    # insid-run/3: objects with "name" (and sd, flags); before: names
+                    return [str(p["name"]) if isinstance(p, dict) else str(p)
+                            for p in r["parameters"]]
         names = []
         for label in self.labels[scenario]:
             for block in ("error_sigma", "error_vs_optimum_sigma"):
@@ -707,7 +709,8 @@ def first_position_run(c, scenario, label):
 
 def plot_positions(c, scenario, label, run, path, dpi):
     hist = [h for h in run["result"].get("history") or [] if h.get("positions_sigma")]
-    params = [str(p) for p in run.get("parameters") or []]
+    params = [str(p["name"]) if isinstance(p, dict) else str(p)
+              for p in run.get("parameters") or []]
     dim = len(hist[0]["positions_sigma"][0]) if hist[0]["positions_sigma"] else 0
     if dim == 0:
         return None
