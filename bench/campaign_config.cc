@@ -216,7 +216,7 @@ nlohmann::json CampaignConfig::to_json() const {
   j["record_positions_seeds"] = record_positions_seeds;
   // Only when set to something else than the default: manifests written before the key existed
   // still match on resume.
-  if (uncertainty_replicas != 100) j["uncertainty_replicas"] = uncertainty_replicas;
+  if (uncertainty_replicas != 0) j["uncertainty_replicas"] = uncertainty_replicas;
   j["target_error_sigma"] = target_error_sigma;
   j["target_fitness_gap"] = target_fitness_gap;
   return j;
@@ -354,10 +354,11 @@ void CampaignConfig::validate(const std::string& origin) const {
   if (record_positions_seeds < 0)
     throw std::invalid_argument(origin + ": record_positions_seeds must be >= 0, got " +
                                 std::to_string(record_positions_seeds));
-  if (uncertainty_replicas < 0 || (uncertainty_replicas > 0 && uncertainty_replicas < 2) ||
+  if (uncertainty_replicas < 0 || (uncertainty_replicas > 0 && uncertainty_replicas < 10) ||
       uncertainty_replicas > 100000)
-    throw std::invalid_argument(origin + ": uncertainty_replicas must be 0 (none) or in [2, "
-                                "100000], got " + std::to_string(uncertainty_replicas));
+    throw std::invalid_argument(origin + ": uncertainty_replicas must be 0 (none) or in [10, "
+                                "100000] (UncertaintyOptions.replicas), got " +
+                                std::to_string(uncertainty_replicas));
   std::set<std::string> labels, names;
   for (const AlgorithmSpec& a : algorithms) {
     if (!labels.insert(a.label).second)

@@ -163,14 +163,15 @@ TEST_F(CliSafety, InitialAttitudeModesOnTheCommandLine) {
   const fs::path mems = root_ / "mems";
   ASSERT_EQ(insid("simulate --preset straight --grade mems --flight-s 60 --out " + mems.string()).status, 0);
   // sqrt((0.2 deg/sqrt(h))^2 / 600 s + b^2) / (15.04 deg/h cos 40.068 deg): b the catalogue
-  // sigma (navigate) or identify's default box edge, 4 sigma.
+  // sigma (navigate) or identify's default box edge, 4 sigma of the data's grade (MEMS here:
+  // 4 x 0.1 deg/s = 1440 deg/h, identification/grade.h).
   const std::vector<std::pair<std::string, std::string>> refusals = {
       {"navigate", "heading sd 2.44 deg (angle random walk 0.2 deg/sqrt(h) declared in meta.json "
                    "noise.arw_deg_rth, averaged over the 600 s static window; gyro bias allowance "
                    "0.01 deg/h"},
-      {"identify --algo lm --iterations 1", "heading sd 2.45 deg (angle random walk 0.2 "
+      {"identify --algo lm --iterations 1", "heading sd 7.17e+03 deg (angle random walk 0.2 "
                    "deg/sqrt(h) declared in meta.json noise.arw_deg_rth, averaged over the 600 s "
-                   "static window; gyro bias allowance 0.04 deg/h"}};
+                   "static window; gyro bias allowance 1.44e+03 deg/h"}};
   for (const auto& [command, expected] : refusals) {
     const Outcome refused = insid(command + " --data " + mems.string());
     EXPECT_NE(refused.status, 0) << command;
