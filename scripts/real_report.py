@@ -198,42 +198,49 @@ def words(add, W, P, names, check, headings, lmW, misfit, results, detail, nav, 
         "vertical channel: %.1f mg, reported in `ekf.smoothed_estimate`, not comparable.)"
         % (results["ekf"].get("ekf", {}).get("smoothed_estimate", {}).get("accel_bias_z", float("nan")) / G0 * 1e3))
     add("- **Flags.** insid flagged %s. `not_observable` is raised %s: its rules (the 95 %% interval "
-        "wider than the box, or a Jacobian column the others absorb) are judged with sds from the "
-        "noise model, which are far too small here (next section), so they cannot fire on this walk. "
+        "wider than the box, or a Jacobian column the others absorb) are judged with the sd as "
+        "reported, i.e. scaled for the model misfit (next section). "
         "`not_converged` on EKF-RTS means its estimate is not the least-squares optimum of the "
         "windowed residuals (a different estimator: it weighs the data by its own covariance), not "
         "that the filter failed. diagnose calls the bias drifts not observable at plausible sizes "
         "(their minimum detectable size exceeds 30 catalogue sigma)."
         % ("; ".join(flagged) or "nothing", "for " + ", ".join(sorted(set(not_obs))) if not_obs else "for no parameter"))
     add("\n## What the sd mean here\n")
-    add("The sd are the spread the estimator would show over noise replicas of this flight, with noise "
-        "levels estimated from the static window (insid's default when `meta.json` declares none). "
-        "They are lower bounds on this walk, by an order of magnitude:\n")
+    u = results["lm"].get("uncertainty", {})
+    scale = u.get("sd_scale_for_misfit", 1.0)
+    ratio = u.get("residual_vs_noise_rms")
+    add("The sd start from the spread the estimator would show over noise replicas of this flight, "
+        "with noise levels estimated from the static window (insid's default when `meta.json` "
+        "declares none). insid then compares the residual the five biases cannot absorb with the "
+        "replicas' (`uncertainty.residual_vs_noise_rms`): on this walk (LM, W = %g s) it is %s times "
+        "the replicas' and above every one of them, so insid scales every sd by %s "
+        "(`uncertainty.sd_scale_for_misfit`; the EKF-RTS's and DVPIO's by their own ratio). "
+        "Checks of the scaled sd:\n"
+        % (W, "%.1f" % ratio if ratio is not None else "-", "%.1f" % scale))
     add("- the LM estimates move over W = 10, 20, 40 s by %s, i.e. %s times their reported sd;"
         % (", ".join("%.3f %s" % (spread[n], unit(n)) for n in names),
-           "%.0f-%.0f" % (min(spread[n] / P["lm"][n]["sd"] for n in names), max(spread[n] / P["lm"][n]["sd"] for n in names))))
+           "%.2f-%.2f" % (min(spread[n] / P["lm"][n]["sd"] for n in names), max(spread[n] / P["lm"][n]["sd"] for n in names))))
     if misfit is not None:
-        add("- the residual left by the five biases is %.0f times what the noise model predicts "
-            "(diagnose's noise floor): the dominant error on this walk is not sensor noise on top of "
-            "constant biases but something the model lacks (diagnose finds a GNSS/IMU time offset "
-            "and a gyro z scale factor, which explain only a few per cent of it; the walker's body "
-            "motion, the recorder's low-pass filter and the heading assumption are candidates);" % misfit)
+        add("- diagnose's own noise floor says the same: the residual left by the five biases is %.0f "
+            "times what the noise model predicts. The dominant error on this walk is not sensor noise "
+            "on top of constant biases but something the model lacks (diagnose finds a GNSS/IMU time "
+            "offset and a gyro z scale factor, which explain only a few per cent of it; the walker's "
+            "body motion, the recorder's low-pass filter and the heading assumption are candidates);" % misfit)
     bad = sorted(k for k, v in consistency.items() if v > 1.0)
     add("- against the static window, %d of %d gyro comparisons differ by more than the sum of the two "
-        "sds (up to %.0f times it; table above).\n" % (len(bad), len(consistency), max(consistency.values())))
-    add("Read the estimates with the spread between methods and windows as their uncertainty "
-        "(about 0.02 deg/s for gyro x/y, 0.1 deg/s for gyro z, 5 mg for the accelerometers), not the sd.\n")
+        "sds (up to %.1f times it; table above).\n" % (len(bad), len(consistency), max(consistency.values())))
+    add("The scaled sd are of the size of the spread between methods and windows (about 0.02 deg/s for "
+        "gyro x/y, 0.1 deg/s for gyro z, 5 mg for the accelerometers). Without the scaling they were "
+        "%.0f times smaller, and the spread over W was up to %.0f times them.\n"
+        % (scale, max(spread[n] / P["lm"][n]["sd"] for n in names) * scale))
     add("## Known gaps (found on this file)\n")
-    add("1. **The sd ignore model misfit** (above): `insid identify` reports the noise-replica sd "
-        "without comparing the residual with the noise floor. A misfit ratio (residual rms / replica "
-        "noise rms) in `uncertainty`, with a `model_misfit` flag and an inflated sd, is left for the "
-        "uncertainty code; this report states the ratio from diagnose instead.")
-    add("2. **EKF-RTS priors on main are in the catalogue's navigation-grade sigma units** "
-        "(0.01 deg/h, 0.0005 m/s^2): the script gives `--param initial_bias_sigma=36000` (0.1 deg/s on "
-        "the gyros), which also makes the accelerometer prior 18 m/s^2 and the initial tilt prior "
-        "huge. Grade-aware priors are another branch's work (mems-id); re-run this script after it. "
-        "`--param initial_bias_sigma=...` itself was refused before this report (the `_sigma` suffix "
-        "was read as a DVPIO distance and stripped): fixed, with a test. The same suffix rule in "
+    add("1. **One misfit factor for every parameter**: scaling all sd by the residual ratio assumes the "
+        "missing effect inflates every direction alike. It is honest about the size, not about the "
+        "shape, of the uncertainty; naming the missing effect (diagnose) is the real fix.")
+    add("2. **EKF-RTS priors** come from the MEMS grade (`--grade mems`: bias priors 4 x 0.1 deg/s "
+        "and 4 x 10 mg, `identification/grade.h`) and the noise from the walk's README. "
+        "`--param initial_bias_sigma=...` was refused before this report (the `_sigma` suffix was "
+        "read as a DVPIO distance and stripped): fixed, with a test. The same suffix rule in "
         "`insid sweep --grid` is not fixed.")
     add("3. **The import's default static window** ends 1 s before the GNSS speed exceeds 0.2 m/s; "
         "this walker turned on the spot before walking off, inside that window. The script measures the "

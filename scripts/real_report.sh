@@ -42,10 +42,9 @@ A=0.0980665              # 10 mg in m/s^2
 est=(--estimate gyro_bias_x:$G --estimate gyro_bias_y:$G --estimate gyro_bias_z:$G:-8:8
      --estimate accel_bias_x:$A --estimate accel_bias_y:$A)
 att=(--initial-attitude level+heading)
-# EKF-RTS on main: priors in catalogue sigma units (0.01 deg/h, 0.0005 m/s^2); 36000 of them is
-# 0.1 deg/s on the gyros. The noise from the walk's README (gyro 0.0038 deg/s/sqrt(Hz) =
+# EKF-RTS: bias priors from the MEMS grade (identification/grade.h). The noise from the walk's README (gyro 0.0038 deg/s/sqrt(Hz) =
 # 0.23 deg/sqrt(h), accel 70 ug/sqrt(Hz) = 0.041 m/s/sqrt(h)) and the .pos std (0.05 m/s).
-ekf=(--param initial_bias_sigma=36000 --param arw_deg_rth=0.23 --param vrw_mps_rth=0.041
+ekf=(--grade mems --param arw_deg_rth=0.23 --param vrw_mps_rth=0.041
      --param gnss_vel_sigma_mps=0.05 --param gnss_pos_sigma_m=0.05)
 
 import_walk() {  # $1 = dataset dir, rest: extra options
