@@ -327,7 +327,8 @@ UncertaintyReport estimate_uncertainty(const InsIdentificationProblem& problem,
   Vec sd_sigma = Vec::Constant(n, kNaN);
   if (!computable.empty()) {
     const Mat JF = columns(J, computable);
-    const Mat theta = -Eigen::ColPivHouseholderQR<Mat>(JF).solve(D);  // |F| x M
+    const Eigen::ColPivHouseholderQR<Mat> qr(JF);
+    const Mat theta = -qr.solve(D);  // |F| x M
     const Mat cov = theta * theta.transpose() / static_cast<double>(M);
     for (std::size_t a = 0; a < computable.size(); ++a)
       for (std::size_t b = 0; b < computable.size(); ++b)
@@ -341,12 +342,12 @@ UncertaintyReport estimate_uncertainty(const InsIdentificationProblem& problem,
     //     noise-only covariance is then too small by about that ratio. When the data's value
     //     exceeds every replica's (p < 1/(M+1)) and the ratio exceeds misfit_min_ratio, the
     //     covariance is scaled by the ratio (sd by its square root) and the result says so.
-    const Eigen::ColPivHouseholderQR<Mat> qr(JF);
-    auto unabsorbed = [&](const Vec& v) { return (v - JF * qr.solve(v)).squaredNorm(); };
-    const double data_sq = unabsorbed(r0);
+    //     The replicas' parts are D + JF theta (theta = the least-squares response above).
+    const double data_sq = (r0 - JF * qr.solve(r0)).squaredNorm();
+    const Mat D_unabsorbed = D + JF * theta;
     double noise_sq_mean = 0.0, noise_sq_max = 0.0;
     for (int k = 0; k < M; ++k) {
-      const double e = unabsorbed(D.col(k));
+      const double e = D_unabsorbed.col(k).squaredNorm();
       noise_sq_mean += e / static_cast<double>(M);
       noise_sq_max = std::max(noise_sq_max, e);
     }
