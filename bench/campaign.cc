@@ -47,23 +47,24 @@ std::string run_record_problem(const nlohmann::json& j, const std::string& scena
   if (!j.is_object()) return "the top level is " + std::string(j.type_name()) + ", not an object";
   const auto text_field = [&](const char* key, const std::string& want) -> std::string {
     const auto it = j.find(key);
-    if (it == j.end() || !it->is_string()) return std::string("field \"") + key + "\" is not a string";
+    if (it == j.end() || !it->is_string())
+      return std::string("field \"") + key + "\" is not a string";
     if (it->get<std::string>() != want)
-      return std::string("field \"") + key + "\" is \"" + it->get<std::string>() + "\", expected \"" +
-             want + "\"";
+      return std::string("field \"") + key + "\" is \"" + it->get<std::string>() +
+             "\", expected \"" + want + "\"";
     return "";
   };
-  const std::string schema =
-      j.contains("schema") && j["schema"].is_string() &&
-              (j["schema"].get<std::string>() == kRunSchemaOld ||
-               j["schema"].get<std::string>() == kRunSchemaPrevious)
-          ? j["schema"].get<std::string>()
-          : std::string(kRunSchema);
+  const std::string schema = j.contains("schema") && j["schema"].is_string() &&
+                                     (j["schema"].get<std::string>() == kRunSchemaOld ||
+                                      j["schema"].get<std::string>() == kRunSchemaPrevious)
+                                 ? j["schema"].get<std::string>()
+                                 : std::string(kRunSchema);
   for (const auto& [key, want] : {std::pair<const char*, std::string>{"schema", schema},
                                   {"scenario", scenario},
                                   {"algorithm", label}})
     if (std::string p = text_field(key, want); !p.empty()) return p;
-  if (!j.contains("seed") || !j["seed"].is_number_unsigned() || j["seed"].get<std::uint64_t>() != seed)
+  if (!j.contains("seed") || !j["seed"].is_number_unsigned() ||
+      j["seed"].get<std::uint64_t>() != seed)
     return "field \"seed\" is not " + std::to_string(seed);
   const auto finite = [](const nlohmann::json& v) {
     return v.is_number() && std::isfinite(v.get<double>());
@@ -94,10 +95,12 @@ std::string run_record_problem(const nlohmann::json& j, const std::string& scena
     return "field \"result.best_per_evaluation\" is not a non-empty array";
   for (std::size_t i = 0; i < trace->size(); ++i)
     if (!finite((*trace)[i]))
-      return "field \"result.best_per_evaluation[" + std::to_string(i) + "]\" is not a finite number";
+      return "field \"result.best_per_evaluation[" + std::to_string(i) +
+             "]\" is not a finite number";
   for (const char* block : {"error_sigma", "error_vs_optimum_sigma"}) {
     if (!j.contains(block)) {
-      if (std::string(block) == "error_vs_optimum_sigma") return "field \"error_vs_optimum_sigma\" is missing";
+      if (std::string(block) == "error_vs_optimum_sigma")
+        return "field \"error_vs_optimum_sigma\" is missing";
       continue;
     }
     if (!j[block].is_object()) return std::string("field \"") + block + "\" is not an object";
@@ -139,8 +142,9 @@ std::vector<RunSpec> run_list(const CampaignConfig& config, const std::string& o
   for (std::size_t s = 0; s < config.scenarios.size(); ++s)
     for (std::size_t a = 0; a < config.algorithms.size(); ++a)
       for (std::uint64_t seed : config.seeds)
-        runs.push_back({s, a, seed,
-                        run_file(out_dir, config.scenarios[s].name, config.algorithms[a].label, seed)});
+        runs.push_back(
+            {s, a, seed,
+             run_file(out_dir, config.scenarios[s].name, config.algorithms[a].label, seed)});
   return runs;
 }
 
@@ -150,10 +154,9 @@ std::string run_problem(const CampaignConfig& config, const RunSpec& run) {
 }
 
 // What insid writes at the top of a campaign directory (bench, sweep, the report script).
-const OutputKind kCampaignKind{
-    "an insid campaign directory",
-    {"manifest.json", "runs", "optimum", "summary.json", "sweep.json", "sweep.csv", "report.md",
-     "figures", FileLock::kRunLockName}};
+const OutputKind kCampaignKind{"an insid campaign directory",
+                               {"manifest.json", "runs", "optimum", "summary.json", "sweep.json",
+                                "sweep.csv", "report.md", "figures", FileLock::kRunLockName}};
 
 // Check out_dir's manifest against `config` (a different campaign is refused unless
 // force_new) and write the manifest, under the directory's locks (core/output_dir.h): the
@@ -288,11 +291,10 @@ DirectoryClaim prepare_directory(const CampaignConfig& config, const RunOptions&
       diff = "data_sha256 (a scenario's data files changed since its runs)";
     if (!diff.empty()) {
       if (!options.force_new)
-        throw std::runtime_error(
-            options.out_dir + " holds results of a different campaign ('" +
-            old.value("config", nlohmann::json::object()).value("name", "?") +
-            "'; first difference at " + diff +
-            "). Use --force-new to discard them, or choose another --out.");
+        throw std::runtime_error(options.out_dir + " holds results of a different campaign ('" +
+                                 old.value("config", nlohmann::json::object()).value("name", "?") +
+                                 "'; first difference at " + diff +
+                                 "). Use --force-new to discard them, or choose another --out.");
       if (!alone) throw std::runtime_error(in_use);
       fs::remove_all(dir / "runs");
       fs::remove_all(dir / "optimum");
@@ -360,7 +362,8 @@ std::string missing_runs_report(const std::string& out_dir, const CampaignConfig
     const std::string problem = run_problem(config, runs[i]);
     if (problem.empty()) continue;
     ++missing;
-    const int shard = shard_count > 0 ? static_cast<int>(i % static_cast<std::size_t>(shard_count)) + 1 : 0;
+    const int shard =
+        shard_count > 0 ? static_cast<int>(i % static_cast<std::size_t>(shard_count)) + 1 : 0;
     missing_by_shard[shard].push_back(fs::relative(runs[i].path, out_dir).string() +
                                       (problem == "missing" ? "" : " (damaged: " + problem + ")"));
   }
@@ -369,7 +372,8 @@ std::string missing_runs_report(const std::string& out_dir, const CampaignConfig
   report << missing << " of " << runs.size() << " runs missing in " << out_dir;
   for (const auto& [shard, files] : missing_by_shard) {
     report << "\n  ";
-    if (shard > 0) report << "shard " << shard << "/" << shard_count << " (" << files.size() << "): ";
+    if (shard > 0)
+      report << "shard " << shard << "/" << shard_count << " (" << files.size() << "): ";
     for (std::size_t k = 0; k < files.size(); ++k) {
       if (k == 8) {
         report << " ... and " << files.size() - k << " more";
@@ -402,7 +406,8 @@ CampaignOutcome run_campaign(const CampaignConfig& config, const RunOptions& opt
   const auto t_start = std::chrono::steady_clock::now();
   const fs::path dir(options.out_dir);
   const int threads = options.threads > 0 ? options.threads : omp_get_max_threads();
-  Cluster* cluster = options.cluster != nullptr && options.cluster->size() > 1 ? options.cluster : nullptr;
+  Cluster* cluster =
+      options.cluster != nullptr && options.cluster->size() > 1 ? options.cluster : nullptr;
   const bool root = cluster == nullptr || cluster->rank() == 0;
   if (const std::string why = options.validate(); !why.empty()) throw std::invalid_argument(why);
   config.validate("campaign '" + config.name + "'");
@@ -410,7 +415,8 @@ CampaignOutcome run_campaign(const CampaignConfig& config, const RunOptions& opt
   // Every path of the campaign first (a config name that cannot be a path is refused before
   // anything is written).
   const std::vector<RunSpec> runs = run_list(config, options.out_dir);
-  for (std::size_t s = 0; s < config.scenarios.size(); ++s) optimum_file(options.out_dir, config.scenarios[s].name);
+  for (std::size_t s = 0; s < config.scenarios.size(); ++s)
+    optimum_file(options.out_dir, config.scenarios[s].name);
 
   // The manifest: rank 0 checks and writes it; every rank fails with its message (no rank is
   // left waiting for the others).
@@ -445,7 +451,8 @@ CampaignOutcome run_campaign(const CampaignConfig& config, const RunOptions& opt
         continue;
       }
       if (problem != "missing")
-        report_progress(options, {.kind = ProgressEvent::Kind::kRedoingDamagedRun, .detail = problem});
+        report_progress(options,
+                        {.kind = ProgressEvent::Kind::kRedoingDamagedRun, .detail = problem});
       pending.push_back(i);
     }
     if (options.max_new_runs > 0 && pending.size() > static_cast<std::size_t>(options.max_new_runs))
@@ -471,8 +478,9 @@ CampaignOutcome run_campaign(const CampaignConfig& config, const RunOptions& opt
     const std::vector<WorkUnit> units =
         root ? make_units(config, runs, pending, threads, cluster->size(), options.out_dir)
              : std::vector<WorkUnit>{};
-    LockstepRunner runner(config, settings, runs, outcome.skipped_runs,
-                          static_cast<int>(cluster->sum(static_cast<std::int64_t>(pending.size()))));
+    LockstepRunner runner(
+        config, settings, runs, outcome.skipped_runs,
+        static_cast<int>(cluster->sum(static_cast<std::int64_t>(pending.size()))));
     cluster->deal(units, [&](const WorkUnit& unit) {
       const std::vector<std::size_t> ids(unit.begin() + 1, unit.end());
       // The unit is one wave: its runs are scored together.
@@ -488,7 +496,8 @@ CampaignOutcome run_campaign(const CampaignConfig& config, const RunOptions& opt
     if (cluster->sum(run_error.empty() ? 0 : 1) > 0 && run_error.empty())
       run_error = "a run failed on another MPI rank (see its message)";
   }
-  if (root && outcome.new_runs > 0) report_progress(options, {.kind = ProgressEvent::Kind::kRunsEnded});
+  if (root && outcome.new_runs > 0)
+    report_progress(options, {.kind = ProgressEvent::Kind::kRunsEnded});
   if (!run_error.empty()) throw std::runtime_error(run_error);
 
   // Complete when every run is there, whichever process or launch wrote it.

@@ -31,8 +31,8 @@ class Cluster;  // bench/cluster.h
 
 struct RunOptions {
   std::string out_dir;
-  int threads = 0;          ///< 0 = OpenMP default
-  bool force_new = false;   ///< discard a different campaign's results in out_dir
+  int threads = 0;         ///< 0 = OpenMP default
+  bool force_new = false;  ///< discard a different campaign's results in out_dir
   /// Write into an out_dir that holds other files than a campaign's (kept; --force).
   bool into_foreign_directory = false;
   /// Where progress goes (scenario preparation, each finished run, ...); empty: nowhere.
@@ -65,7 +65,7 @@ struct RunOptions {
 
 struct CampaignOutcome {
   int total_runs = 0;
-  int skipped_runs = 0;   ///< already finished before this invocation
+  int skipped_runs = 0;  ///< already finished before this invocation
   int new_runs = 0;
   bool complete = false;  ///< every run present (summary written)
   double wall_s = 0.0;

@@ -2,9 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <iomanip>
 #include <set>
-#include <filesystem>
 #include <sstream>
 #include <stdexcept>
 
@@ -88,7 +88,8 @@ std::string first_difference(const nlohmann::json& a, const nlohmann::json& b,
   if (a.is_object()) {
     for (const auto& item : a.items()) {
       if (!b.contains(item.key())) return path + "." + item.key();
-      const std::string d = first_difference(item.value(), b.at(item.key()), path + "." + item.key());
+      const std::string d =
+          first_difference(item.value(), b.at(item.key()), path + "." + item.key());
       if (!d.empty()) return d;
     }
     for (const auto& item : b.items())
@@ -112,9 +113,9 @@ std::string first_difference(const nlohmann::json& a, const nlohmann::json& b,
 // gets it added before the two are compared, and such directories can still be resumed and
 // merged. A parameter away from its default is a difference as before.
 nlohmann::json with_added_defaults(nlohmann::json old_config, const nlohmann::json& new_config) {
-  const nlohmann::json* new_algorithms =
-      new_config.is_object() && new_config.contains("algorithms") ? &new_config["algorithms"]
-                                                                   : nullptr;
+  const nlohmann::json* new_algorithms = new_config.is_object() && new_config.contains("algorithms")
+                                             ? &new_config["algorithms"]
+                                             : nullptr;
   if (!old_config.is_object() || new_algorithms == nullptr || !new_algorithms->is_array() ||
       !old_config.contains("algorithms") || !old_config["algorithms"].is_array() ||
       old_config["algorithms"].size() != new_algorithms->size())
@@ -211,8 +212,10 @@ nlohmann::json CampaignConfig::to_json() const {
   if (window_s != 0.0) j["window_s"] = window_s;
   j["estimate"] = nlohmann::json::array();
   for (const EstimatedParameter& p : estimated_parameters(*this))
-    j["estimate"].push_back({{"name", p.name}, {"sigma", p.sigma},
-                             {"lower_sigma", p.lower_sigma}, {"upper_sigma", p.upper_sigma}});
+    j["estimate"].push_back({{"name", p.name},
+                             {"sigma", p.sigma},
+                             {"lower_sigma", p.lower_sigma},
+                             {"upper_sigma", p.upper_sigma}});
   j["record_positions_seeds"] = record_positions_seeds;
   // Only when set to something else than the default: manifests written before the key existed
   // still match on resume.
@@ -237,7 +240,9 @@ CampaignConfig parse_campaign(const nlohmann::json& j, const std::string& origin
       throw std::invalid_argument(where + ": give exactly one of \"preset\" and \"data\"");
     if (s.has("flight_s")) spec.flight_s = s.number("flight_s");
     if (s.has("grade")) spec.grade = s.string("grade");
-    if (s.has("data_seed")) spec.data_seed = static_cast<std::uint64_t>(whole(s.number("data_seed"), where + ".data_seed"));
+    if (s.has("data_seed"))
+      spec.data_seed =
+          static_cast<std::uint64_t>(whole(s.number("data_seed"), where + ".data_seed"));
     if (s.has("set")) {
       for (const auto& item : s.at("set").items()) {
         effect_info(item.key());
@@ -285,8 +290,10 @@ CampaignConfig parse_campaign(const nlohmann::json& j, const std::string& origin
   } else {
     c.seeds = seed_range(31);
   }
-  if (r.has("max_iterations")) c.max_iterations = whole(r.number("max_iterations"), origin + ": max_iterations");
-  if (r.has("max_evaluations")) c.max_evaluations = whole(r.number("max_evaluations"), origin + ": max_evaluations");
+  if (r.has("max_iterations"))
+    c.max_iterations = whole(r.number("max_iterations"), origin + ": max_iterations");
+  if (r.has("max_evaluations"))
+    c.max_evaluations = whole(r.number("max_evaluations"), origin + ": max_evaluations");
   if (r.has("alignment")) c.alignment = alignment_mode_from_string(r.string("alignment"));
   if (r.has("initial_attitude")) {
     const std::string mode = r.string("initial_attitude");
@@ -299,11 +306,18 @@ CampaignConfig parse_campaign(const nlohmann::json& j, const std::string& origin
   if (r.has("heading_deg")) c.heading_deg = r.number("heading_deg");
   if (r.has("window_s")) c.window_s = r.number("window_s");
   if (r.has("estimate"))
-    for (const auto& e : r.array_of("estimate", "string")) c.estimate.push_back(e.get<std::string>());
-  if (r.has("record_positions_seeds")) c.record_positions_seeds = whole(r.number("record_positions_seeds"), origin + ": record_positions_seeds");
-  if (r.has("uncertainty_replicas")) c.uncertainty_replicas = whole(r.number("uncertainty_replicas"), origin + ": uncertainty_replicas");
-  if (r.has("target_error_sigma")) c.target_error_sigma = r.array_of("target_error_sigma", "number").get<std::vector<double>>();
-  if (r.has("target_fitness_gap")) c.target_fitness_gap = r.array_of("target_fitness_gap", "number").get<std::vector<double>>();
+    for (const auto& e : r.array_of("estimate", "string"))
+      c.estimate.push_back(e.get<std::string>());
+  if (r.has("record_positions_seeds"))
+    c.record_positions_seeds =
+        whole(r.number("record_positions_seeds"), origin + ": record_positions_seeds");
+  if (r.has("uncertainty_replicas"))
+    c.uncertainty_replicas =
+        whole(r.number("uncertainty_replicas"), origin + ": uncertainty_replicas");
+  if (r.has("target_error_sigma"))
+    c.target_error_sigma = r.array_of("target_error_sigma", "number").get<std::vector<double>>();
+  if (r.has("target_fitness_gap"))
+    c.target_fitness_gap = r.array_of("target_fitness_gap", "number").get<std::vector<double>>();
   r.finish({"name", "scenarios", "algorithms", "seeds", "max_iterations", "max_evaluations",
             "alignment", "initial_attitude", "heading_deg", "window_s", "estimate",
             "record_positions_seeds", "target_error_sigma", "target_fitness_gap",
@@ -334,8 +348,10 @@ void CampaignConfig::validate(const std::string& origin) const {
                                                   : std::string("absent (gyrocompass)")) +
                                 "; heading_deg goes with \"initial_attitude\": \"level+heading\"");
   if (heading_deg && !(std::isfinite(*heading_deg) && std::abs(*heading_deg) <= 360.0))
-    throw std::invalid_argument(origin + ": heading_deg must be a finite angle in [-360, 360] "
-                                "deg, got " + opt::format_number(*heading_deg));
+    throw std::invalid_argument(origin +
+                                ": heading_deg must be a finite angle in [-360, 360] "
+                                "deg, got " +
+                                opt::format_number(*heading_deg));
   try {
     navigation_options().validate();
   } catch (const std::invalid_argument& e) {
@@ -356,7 +372,8 @@ void CampaignConfig::validate(const std::string& origin) const {
                                 std::to_string(record_positions_seeds));
   if (uncertainty_replicas < 0 || (uncertainty_replicas > 0 && uncertainty_replicas < 10) ||
       uncertainty_replicas > 100000)
-    throw std::invalid_argument(origin + ": uncertainty_replicas must be 0 (none) or in [10, "
+    throw std::invalid_argument(origin +
+                                ": uncertainty_replicas must be 0 (none) or in [10, "
                                 "100000] (UncertaintyOptions.replicas), got " +
                                 std::to_string(uncertainty_replicas));
   std::set<std::string> labels, names;
@@ -419,12 +436,18 @@ CampaignConfig preset_campaign(const std::string& name) {
     // evaluations (the paper's 10 x 40), on the paper and rich scenarios; the EKF-RTS makes one
     // pass plus one evaluation of its estimate (its cost in INS runs is in its parameters).
     nlohmann::json algorithms = table4;
-    for (const auto& [label, algo] : std::vector<std::pair<std::string, std::string>>{
-             {"CMA-ES", "cmaes"}, {"DE", "de"}, {"compass", "compass"}, {"LM", "lm"},
-             {"BOBYQA", "bobyqa"}, {"Nelder-Mead", "neldermead"}, {"EKF-RTS", "ekf-rts"}})
+    for (const auto& [label, algo] :
+         std::vector<std::pair<std::string, std::string>>{{"CMA-ES", "cmaes"},
+                                                          {"DE", "de"},
+                                                          {"compass", "compass"},
+                                                          {"LM", "lm"},
+                                                          {"BOBYQA", "bobyqa"},
+                                                          {"Nelder-Mead", "neldermead"},
+                                                          {"EKF-RTS", "ekf-rts"}})
       algorithms.push_back({{"label", label}, {"name", algo}});
     j = {{"name", "paper-plus-baselines"},
-         {"scenarios", {{{"name", "paper"}, {"preset", "paper"}}, {{"name", "rich"}, {"preset", "rich"}}}},
+         {"scenarios",
+          {{{"name", "paper"}, {"preset", "paper"}}, {{"name", "rich"}, {"preset", "rich"}}}},
          {"algorithms", algorithms},
          {"seeds", 31},
          {"max_iterations", 0},
@@ -445,7 +468,8 @@ std::string run_file(const std::string& out_dir, const std::string& scenario,
 }
 
 std::string optimum_file(const std::string& out_dir, const std::string& scenario) {
-  return (fs::path(out_dir) / "optimum" / (checked_path_component(scenario, "scenario name") + ".json"))
+  return (fs::path(out_dir) / "optimum" /
+          (checked_path_component(scenario, "scenario name") + ".json"))
       .string();
 }
 
@@ -454,7 +478,8 @@ Shard Shard::parse(const std::string& text) {
   auto number = [&](const std::string& part) {
     if (part.empty() || part.size() > 6 ||
         part.find_first_not_of("0123456789") != std::string::npos)
-      throw std::invalid_argument("--shard '" + text + "': expected i/N with whole numbers, e.g. 2/8");
+      throw std::invalid_argument("--shard '" + text +
+                                  "': expected i/N with whole numbers, e.g. 2/8");
     return std::stoi(part);
   };
   if (slash == std::string::npos)
@@ -465,8 +490,9 @@ Shard Shard::parse(const std::string& text) {
   if (shard.count < 1)
     throw std::invalid_argument("--shard '" + text + "': the number of shards N must be >= 1");
   if (shard.index < 1 || shard.index > shard.count)
-    throw std::invalid_argument("--shard '" + text + "': shard index " + std::to_string(shard.index) +
-                                " is out of range; it must be in 1.." + std::to_string(shard.count));
+    throw std::invalid_argument(
+        "--shard '" + text + "': shard index " + std::to_string(shard.index) +
+        " is out of range; it must be in 1.." + std::to_string(shard.count));
   return shard;
 }
 
@@ -492,8 +518,10 @@ CampaignConfig config_from_manifest(const nlohmann::json& manifest, const std::s
   const nlohmann::json config_json = config.to_json();
   const std::string diff = config_difference(manifest.at("config"), config_json);
   if (!diff.empty())
-    throw std::runtime_error(origin + ": the config does not read back identically (first "
-                             "difference at " + diff + ")");
+    throw std::runtime_error(origin +
+                             ": the config does not read back identically (first "
+                             "difference at " +
+                             diff + ")");
   return config;
 }
 

@@ -30,8 +30,8 @@ inline constexpr const char* kRunSchemaPrevious = "insid-run/2";
 
 struct ScenarioSpec {
   std::string name;
-  std::string preset;          ///< simulate this preset (or...)
-  std::string data_dir;        ///< ...load this dataset directory
+  std::string preset;    ///< simulate this preset (or...)
+  std::string data_dir;  ///< ...load this dataset directory
   std::optional<double> flight_s;
   std::optional<std::string> grade;
   std::uint64_t data_seed = 1;
@@ -39,8 +39,8 @@ struct ScenarioSpec {
 };
 
 struct AlgorithmSpec {
-  std::string label;  ///< unique within the campaign (directory name)
-  std::string name;   ///< ga | pso | pio | dvpio
+  std::string label;                         ///< unique within the campaign (directory name)
+  std::string name;                          ///< ga | pso | pio | dvpio
   std::map<std::string, double> parameters;  ///< overrides (see `insid identify --param`)
 };
 
@@ -121,7 +121,8 @@ struct Shard {
   int count = 0;  ///< 0: not sharded
   bool active() const { return count > 0; }
   bool contains(std::size_t run_position) const {
-    return !active() || static_cast<int>(run_position % static_cast<std::size_t>(count)) == index - 1;
+    return !active() ||
+           static_cast<int>(run_position % static_cast<std::size_t>(count)) == index - 1;
   }
   std::string to_string() const { return std::to_string(index) + "/" + std::to_string(count); }
   /// "i/N" with 1 <= i <= N; errors name the value.

@@ -33,8 +33,8 @@ const char* kConfig = R"({
 })";
 
 fs::path fresh_dir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("insid-campaign-test-" + name + "-" +
-                                                    std::to_string(getpid()));
+  const fs::path dir =
+      fs::temp_directory_path() / ("insid-campaign-test-" + name + "-" + std::to_string(getpid()));
   fs::remove_all(dir);
   return dir;
 }
@@ -61,11 +61,20 @@ void expect_fields(const nlohmann::json& j, const std::vector<std::pair<std::str
     ASSERT_TRUE(j.contains(ptr)) << what << ": missing " << path;
     const nlohmann::json& v = j.at(ptr);
     switch (type) {
-      case 'n': EXPECT_TRUE(v.is_number()) << what << path; break;
-      case 's': EXPECT_TRUE(v.is_string()) << what << path; break;
-      case 'a': EXPECT_TRUE(v.is_array()) << what << path; break;
-      case 'o': EXPECT_TRUE(v.is_object()) << what << path; break;
-      default: FAIL();
+      case 'n':
+        EXPECT_TRUE(v.is_number()) << what << path;
+        break;
+      case 's':
+        EXPECT_TRUE(v.is_string()) << what << path;
+        break;
+      case 'a':
+        EXPECT_TRUE(v.is_array()) << what << path;
+        break;
+      case 'o':
+        EXPECT_TRUE(v.is_object()) << what << path;
+        break;
+      default:
+        FAIL();
     }
   }
 }
@@ -100,46 +109,91 @@ TEST(Campaign, FilesFollowTheDocumentedSchema) {
   EXPECT_EQ(outcome.total_runs, 8);
   const nlohmann::json manifest = read(dir / "manifest.json");
   EXPECT_EQ(manifest["schema"], "insid-campaign/1");
-  expect_fields(manifest, {{"/build/git_revision", 's'}, {"/host", 's'}, {"/cores", 'n'},
-                           {"/threads", 'n'}, {"/config/name", 's'}, {"/config/scenarios", 'a'},
-                           {"/config/algorithms", 'a'}, {"/config/seeds", 'a'},
-                           {"/config/max_iterations", 'n'}, {"/config/alignment", 's'},
-                           {"/config/estimate", 'a'}}, "manifest");
+  expect_fields(manifest,
+                {{"/build/git_revision", 's'},
+                 {"/host", 's'},
+                 {"/cores", 'n'},
+                 {"/threads", 'n'},
+                 {"/config/name", 's'},
+                 {"/config/scenarios", 'a'},
+                 {"/config/algorithms", 'a'},
+                 {"/config/seeds", 'a'},
+                 {"/config/max_iterations", 'n'},
+                 {"/config/alignment", 's'},
+                 {"/config/estimate", 'a'}},
+                "manifest");
   const nlohmann::json run = read(run_file(dir.string(), "rich-short", "DVPIO", 2));
   EXPECT_EQ(run["schema"], "insid-run/3");
   // issue 15: parameters with sd and flags, correlation and the uncertainty's own cost
-  expect_fields(run, {{"/parameters/0/name", 's'}, {"/parameters/0/sd", 'n'},
-                      {"/parameters/0/estimate", 'n'}, {"/parameters/0/unit_eng", 's'},
-                      {"/parameters/0/flags", 'a'}, {"/correlation/matrix", 'a'},
-                      {"/uncertainty/wall_s", 'n'}, {"/uncertainty/evaluations", 'n'}},
+  expect_fields(run,
+                {{"/parameters/0/name", 's'},
+                 {"/parameters/0/sd", 'n'},
+                 {"/parameters/0/estimate", 'n'},
+                 {"/parameters/0/unit_eng", 's'},
+                 {"/parameters/0/flags", 'a'},
+                 {"/correlation/matrix", 'a'},
+                 {"/uncertainty/wall_s", 'n'},
+                 {"/uncertainty/evaluations", 'n'}},
                 "run uncertainty");
   EXPECT_EQ(run["parameters"].size(), 4u);
-  expect_fields(run, {{"/scenario", 's'}, {"/algorithm", 's'}, {"/seed", 'n'}, {"/parameters", 'a'},
-                      {"/result/algorithm/name", 's'}, {"/result/algorithm/parameters", 'o'},
-                      {"/result/fitness", 'n'}, {"/result/evaluations", 'n'},
-                      {"/result/wall_s", 'n'}, {"/result/termination", 's'},
-                      {"/result/history", 'a'}, {"/result/best_per_evaluation", 'a'},
-                      {"/estimate", 'o'}, {"/estimate_in_sigma_units", 'o'}, {"/truth_sigma", 'o'},
-                      {"/error_sigma", 'o'}, {"/error_vs_optimum_sigma", 'o'},
-                      {"/optimum_fitness", 'n'}, {"/fitness_gap", 'n'}}, "run");
+  expect_fields(run,
+                {{"/scenario", 's'},
+                 {"/algorithm", 's'},
+                 {"/seed", 'n'},
+                 {"/parameters", 'a'},
+                 {"/result/algorithm/name", 's'},
+                 {"/result/algorithm/parameters", 'o'},
+                 {"/result/fitness", 'n'},
+                 {"/result/evaluations", 'n'},
+                 {"/result/wall_s", 'n'},
+                 {"/result/termination", 's'},
+                 {"/result/history", 'a'},
+                 {"/result/best_per_evaluation", 'a'},
+                 {"/estimate", 'o'},
+                 {"/estimate_in_sigma_units", 'o'},
+                 {"/truth_sigma", 'o'},
+                 {"/error_sigma", 'o'},
+                 {"/error_vs_optimum_sigma", 'o'},
+                 {"/optimum_fitness", 'n'},
+                 {"/fitness_gap", 'n'}},
+                "run");
   expect_fields(run["result"]["history"][0],
-                {{"/iteration", 'n'}, {"/evaluations", 'n'}, {"/best_fitness", 'n'},
-                 {"/median_fitness", 'n'}, {"/diversity", 'n'}, {"/phase", 's'},
-                 {"/d_positive_sigma", 'a'}, {"/d_negative_sigma", 'a'}}, "history");
-  EXPECT_EQ(run["result"]["best_per_evaluation"].size(), run["result"]["evaluations"].get<std::size_t>());
+                {{"/iteration", 'n'},
+                 {"/evaluations", 'n'},
+                 {"/best_fitness", 'n'},
+                 {"/median_fitness", 'n'},
+                 {"/diversity", 'n'},
+                 {"/phase", 's'},
+                 {"/d_positive_sigma", 'a'},
+                 {"/d_negative_sigma", 'a'}},
+                "history");
+  EXPECT_EQ(run["result"]["best_per_evaluation"].size(),
+            run["result"]["evaluations"].get<std::size_t>());
   const nlohmann::json summary = read(dir / "summary.json");
   EXPECT_EQ(summary["schema"], "insid-summary/1");
   const std::string a = "/scenarios/rich-short/algorithms/PSO";
-  expect_fields(summary, {{a + "/runs", 'n'}, {a + "/final_fitness/median", 'n'},
-                          {a + "/final_fitness/q1", 'n'}, {a + "/final_fitness/q3", 'n'},
-                          {a + "/error_sigma/gyro_bias_x/median_abs", 'n'},
-                          {a + "/success", 'a'}, {a + "/curve_iterations/median", 'a'},
-                          {a + "/curve_evaluations/x", 'a'}, {a + "/wall_s/median", 'n'},
-                          {"/scenarios/rich-short/pairwise", 'a'},
-                          {"/scenarios/rich-short/ranking", 'a'}}, "summary");
+  expect_fields(summary,
+                {{a + "/runs", 'n'},
+                 {a + "/final_fitness/median", 'n'},
+                 {a + "/final_fitness/q1", 'n'},
+                 {a + "/final_fitness/q3", 'n'},
+                 {a + "/error_sigma/gyro_bias_x/median_abs", 'n'},
+                 {a + "/success", 'a'},
+                 {a + "/curve_iterations/median", 'a'},
+                 {a + "/curve_evaluations/x", 'a'},
+                 {a + "/wall_s/median", 'n'},
+                 {"/scenarios/rich-short/pairwise", 'a'},
+                 {"/scenarios/rich-short/ranking", 'a'}},
+                "summary");
   const nlohmann::json& pw = summary["scenarios"]["rich-short"]["pairwise"][0];
-  expect_fields(pw, {{"/U", 'n'}, {"/p", 'n'}, {"/p_holm", 'n'}, {"/a12", 'n'},
-                     {"/a12_magnitude", 's'}, {"/method", 's'}}, "pairwise");
+  expect_fields(pw,
+                {{"/U", 'n'},
+                 {"/p", 'n'},
+                 {"/p_holm", 'n'},
+                 {"/a12", 'n'},
+                 {"/a12_magnitude", 's'},
+                 {"/method", 's'}},
+                "pairwise");
   fs::remove_all(dir);
 }
 
@@ -414,11 +468,14 @@ TEST(Campaign, OptionsAreValidatedBeforeAnyWorkNamingTheBadValue) {
   sweep.axes = {SweepAxis::parse("R=0.02,0.2")};
   EXPECT_EQ(invalid_argument_of([&] { sweep.validate(); }), "");
   sweep.random_settings = -3;
-  EXPECT_NE(invalid_argument_of([&] { run_sweep(sweep, options); }).find("--random must be >= 0, got -3"),
-            std::string::npos);
+  EXPECT_NE(
+      invalid_argument_of([&] { run_sweep(sweep, options); }).find("--random must be >= 0, got -3"),
+      std::string::npos);
   sweep.random_settings = 0;
   sweep.max_iterations = -1;
-  EXPECT_NE(invalid_argument_of([&] { run_sweep(sweep, options); }).find("--iterations must be >= 0, got -1"),
+  EXPECT_NE(invalid_argument_of([&] {
+              run_sweep(sweep, options);
+            }).find("--iterations must be >= 0, got -1"),
             std::string::npos);
   sweep.max_iterations = 40;
   sweep.seeds.clear();
@@ -451,7 +508,8 @@ TEST(Campaign, SweepWritesPerSettingStatistics) {
   EXPECT_DOUBLE_EQ(s["settings"][1]["parameters"]["R"].get<double>(), 0.2);
   // d0_sigma = 0.05 sigma is 0.0125 in the normalised [-4, 4] sigma box.
   const nlohmann::json manifest = read(dir / "manifest.json");
-  EXPECT_DOUBLE_EQ(manifest["config"]["algorithms"][0]["parameters"]["d_initial"].get<double>(), 0.0125);
+  EXPECT_DOUBLE_EQ(manifest["config"]["algorithms"][0]["parameters"]["d_initial"].get<double>(),
+                   0.0125);
   const double lo = s["settings"][0]["median_ci95"][0], hi = s["settings"][0]["median_ci95"][1];
   const double med = s["settings"][0]["final_fitness"]["median"];
   EXPECT_LE(lo, med);
@@ -468,27 +526,31 @@ TEST(Campaign, RunFileAndIdentifyRecordTheSameAssessment) {
   const fs::path data = dir / "data";
   const fs::path identified = dir / "identify.json";
   const std::string insid = INSID_BINARY;
-  ASSERT_EQ(std::system((insid + " simulate --preset rich --flight-s 300 --grade nav --seed 3 --out " +
-                         data.string() + " 2>/dev/null").c_str()), 0);
-  const nlohmann::json config_json = {
-      {"name", "record"},
-      {"scenarios", {{{"name", "data"}, {"data", data.string()}}}},
-      {"algorithms", {{{"label", "DVPIO"}, {"name", "dvpio"}}}},
-      {"seeds", {2}},
-      {"max_iterations", 5}};
+  ASSERT_EQ(
+      std::system((insid + " simulate --preset rich --flight-s 300 --grade nav --seed 3 --out " +
+                   data.string() + " 2>/dev/null")
+                      .c_str()),
+      0);
+  const nlohmann::json config_json = {{"name", "record"},
+                                      {"scenarios", {{{"name", "data"}, {"data", data.string()}}}},
+                                      {"algorithms", {{{"label", "DVPIO"}, {"name", "dvpio"}}}},
+                                      {"seeds", {2}},
+                                      {"max_iterations", 5}};
   RunOptions options;
   options.out_dir = (dir / "campaign").string();
   options.quiet = true;
   ASSERT_TRUE(run_campaign(parse_campaign(config_json, "test"), options).complete);
   ASSERT_EQ(std::system((insid + " identify --data " + data.string() +
                          " --algo dvpio --seed 2 --iterations 5 --out " + identified.string() +
-                         " 2>/dev/null").c_str()), 0);
+                         " 2>/dev/null")
+                            .c_str()),
+            0);
   const nlohmann::json run = read(run_file(options.out_dir, "data", "DVPIO", 2));
   const nlohmann::json id = read(identified);
   // THEN both carry every assessment field (results/README.md), with the same values
-  for (const char* key : {"estimate", "estimate_in_sigma_units", "truth_sigma", "error_sigma",
-                          "error_vs_optimum_sigma", "optimum_fitness", "fitness_gap",
-                          "fitness_gap_relative"}) {
+  for (const char* key :
+       {"estimate", "estimate_in_sigma_units", "truth_sigma", "error_sigma",
+        "error_vs_optimum_sigma", "optimum_fitness", "fitness_gap", "fitness_gap_relative"}) {
     ASSERT_TRUE(run.contains(key)) << "run file lacks " << key;
     ASSERT_TRUE(id.contains(key)) << "identify result lacks " << key;
     EXPECT_EQ(run[key], id[key]) << key;

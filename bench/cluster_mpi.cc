@@ -47,8 +47,8 @@ class MpiCluster final : public Cluster {
     MPI_Comm_size(MPI_COMM_WORLD, &size_);
     if (provided < MPI_THREAD_SERIALIZED) {
       MPI_Finalize();
-      throw std::runtime_error("the MPI library provides thread level " +
-                               std::to_string(provided) + ", insid needs MPI_THREAD_SERIALIZED (" +
+      throw std::runtime_error("the MPI library provides thread level " + std::to_string(provided) +
+                               ", insid needs MPI_THREAD_SERIALIZED (" +
                                std::to_string(MPI_THREAD_SERIALIZED) + ")");
     }
   }

@@ -15,7 +15,8 @@ std::unique_ptr<Cluster> join_mpi_launch() {
   if (n > 1)
     throw std::runtime_error(
         "this insid was built without MPI (INSID_WITH_MPI=OFF or no MPI found) but was launched "
-        "as one of " + std::to_string(n) +
+        "as one of " +
+        std::to_string(n) +
         " MPI processes, each of which would run the whole campaign. Rebuild with MPI "
         "(libopenmpi-dev), or run the processes as shards with --shard i/N.");
   return nullptr;

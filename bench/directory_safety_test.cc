@@ -35,8 +35,8 @@ const char* kConfig = R"({
 CampaignConfig config() { return parse_campaign(nlohmann::json::parse(kConfig), "test"); }
 
 fs::path fresh_dir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() /
-                       ("insid-safety-test-" + name + "-" + std::to_string(getpid()));
+  const fs::path dir =
+      fs::temp_directory_path() / ("insid-safety-test-" + name + "-" + std::to_string(getpid()));
   fs::remove_all(dir);
   return dir;
 }
@@ -202,9 +202,9 @@ TEST(DirectorySafety, RerunRemovesTemporariesLeftByAKill) {
   const fs::path dir = fresh_dir("tmp");
   ASSERT_TRUE(run_campaign(config(), options_for(dir)).complete);
   const fs::path run = run_file(dir.string(), "short", "PSO", 1);
-  const std::vector<fs::path> leftovers = {
-      run.string() + ".tmp-somehost-12345-0", dir / "optimum" / "short.json.tmp-h-1-7",
-      dir / "summary.json.tmp-node-17-3"};
+  const std::vector<fs::path> leftovers = {run.string() + ".tmp-somehost-12345-0",
+                                           dir / "optimum" / "short.json.tmp-h-1-7",
+                                           dir / "summary.json.tmp-node-17-3"};
   for (const fs::path& p : leftovers) std::ofstream(p) << text(run);
   const fs::path users = dir / "runs" / "short" / "PSO" / "notes.tmp-list";  // not insid's pattern
   std::ofstream(users) << "mine";
@@ -226,7 +226,7 @@ TEST(DirectorySafety, CampaignOverDataThatChangedIsADifferentCampaign) {
   c.scenarios[0].data_dir = data.string();
   ASSERT_TRUE(run_campaign(c, options_for(dir)).complete);
   EXPECT_TRUE(run_campaign(c, options_for(dir)).complete);  // same data: resumes
-  flight.seed += 1;  // other noise, same file names
+  flight.seed += 1;                                         // other noise, same file names
   write_dataset(data, scenarios::simulate(flight));
   const std::string error = error_of(c, options_for(dir));
   EXPECT_NE(error.find("data_sha256"), std::string::npos) << error;
@@ -246,8 +246,9 @@ TEST(DirectorySafety, DamagedRunFileIsNamedAndRedone) {
   record["result"]["fitness"] = "0.5";  // a string where a number was written
   std::ofstream(run) << record.dump(1);
   const std::string problem = run_file_problem(run, "short", "PSO", 1);
-  EXPECT_NE(problem.find(run.string() + ": field \"result.fitness\" must be a finite number, got string"),
-            std::string::npos)
+  EXPECT_NE(
+      problem.find(run.string() + ": field \"result.fitness\" must be a finite number, got string"),
+      std::string::npos)
       << problem;
   EXPECT_THROW(read_run_record(run, "short", "PSO", 1), std::runtime_error);
   // A key given twice is damage too (the strict reader), and so is another run's record.

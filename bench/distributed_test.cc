@@ -196,7 +196,8 @@ TEST_F(Distributed, ShardedSweepMergesIntoSweepTables) {
   const fs::path dir = root_ / "sweep";
   const std::string sweep = std::string(INSID_BINARY) +
                             " sweep --algo dvpio --grid R=0.02,0.2 --preset rich --flight-s 200 "
-                            "--seeds 2 --iterations 4 --threads 1 --out " + dir.string();
+                            "--seeds 2 --iterations 4 --threads 1 --out " +
+                            dir.string();
   std::string out;
   ASSERT_EQ(shell(sweep + " --shard 1/2", &out), 0) << out;
   EXPECT_FALSE(fs::exists(dir / "sweep.json"));
@@ -235,7 +236,8 @@ TEST_F(Distributed, MpiTwoAndThreeRanksEqualOneProcess) {
     const auto open = out.find("MPI ranks ("), close = out.find(')', open);
     ASSERT_NE(close, std::string::npos) << out;
     const std::string per_rank = out.substr(open + 11, close - open - 11);
-    EXPECT_FALSE(per_rank.starts_with("0 ") || contains(per_rank, " 0 ") || per_rank.ends_with(" 0"))
+    EXPECT_FALSE(per_rank.starts_with("0 ") || contains(per_rank, " 0 ") ||
+                 per_rank.ends_with(" 0"))
         << "a rank did no run: " << per_rank;
     const nlohmann::json manifest = nlohmann::json::parse(bytes(dir / "manifest.json"));
     EXPECT_EQ(manifest.value("mpi_ranks", 0), ranks);
@@ -270,7 +272,8 @@ TEST_F(Distributed, MpiKilledRankResumesWithoutTouchingFinishedRuns) {
   const pid_t launcher = fork();
   ASSERT_GE(launcher, 0);
   if (launcher == 0) {
-    const std::string command = mpirun(2) + bench(dir) + " > " + (root_ / "launch.log").string() + " 2>&1";
+    const std::string command =
+        mpirun(2) + bench(dir) + " > " + (root_ / "launch.log").string() + " 2>&1";
     execl("/bin/sh", "sh", "-c", ("exec " + command).c_str(), static_cast<char*>(nullptr));
     _exit(127);
   }

@@ -45,14 +45,19 @@ nlohmann::json read(const fs::path& p) {
 }
 
 nlohmann::json config_json(bool with_crash) {
-  nlohmann::json algorithms = {{{"label", "RS-py"}, {"name", "external:" + kPython + " " + kClient}},
-                               {{"label", "PSO"}, {"name", "pso"}}};
+  nlohmann::json algorithms = {
+      {{"label", "RS-py"}, {"name", "external:" + kPython + " " + kClient}},
+      {{"label", "PSO"}, {"name", "pso"}}};
   if (with_crash)
     algorithms.push_back(
         {{"label", "crash"}, {"name", "external:" + kPython + " " + kTestClient + " crash"}});
   return {{"name", "test-external"},
-          {"scenarios", {{{"name", "rich-short"}, {"preset", "rich"}, {"flight_s", 300},
-                          {"grade", "nav"}, {"data_seed", 5}}}},
+          {"scenarios",
+           {{{"name", "rich-short"},
+             {"preset", "rich"},
+             {"flight_s", 300},
+             {"grade", "nav"},
+             {"data_seed", 5}}}},
           {"algorithms", algorithms},
           {"seeds", 2},
           {"max_iterations", 0},
@@ -70,9 +75,8 @@ fs::path fresh_dir(const std::string& name) {
 std::vector<Eigen::VectorXd> numpy_points(std::uint64_t seed, int n, int count) {
   const std::string script = "import json, numpy as np; p = np.random.default_rng(" +
                              std::to_string(seed) + ").uniform([-1.0] * " + std::to_string(n) +
-                             ", [1.0] * " + std::to_string(n) + ", size=(" +
-                             std::to_string(count) + ", " + std::to_string(n) +
-                             ")); print(json.dumps(p.tolist()))";
+                             ", [1.0] * " + std::to_string(n) + ", size=(" + std::to_string(count) +
+                             ", " + std::to_string(n) + ")); print(json.dumps(p.tolist()))";
   const nlohmann::json j = nlohmann::json::parse(run_command(kPython + " -c '" + script + "'"));
   std::vector<Eigen::VectorXd> points;
   for (const auto& row : j) {
@@ -98,9 +102,10 @@ TEST(ExternalCampaign, PythonRandomSearchEqualsDirectComputationFor1And2Threads)
 
   // The same random search computed directly: numpy's points scored by the campaign's problem.
   const auto dataset = scenario_dataset(config.scenarios[0]);
-  const auto navigation = std::make_shared<const NavigationProblem>(
-      dataset, NavigationOptions{config.alignment});
-  const InsIdentificationProblem problem(navigation, ParameterMapping(estimated_parameters(config)));
+  const auto navigation =
+      std::make_shared<const NavigationProblem>(dataset, NavigationOptions{config.alignment});
+  const InsIdentificationProblem problem(navigation,
+                                         ParameterMapping(estimated_parameters(config)));
   for (std::uint64_t seed = 1; seed <= 2; ++seed) {
     const std::vector<Eigen::VectorXd> points = numpy_points(seed, problem.dimension(), 25);
     ASSERT_EQ(points.size(), 25u);

@@ -87,7 +87,8 @@ std::int64_t parse_count(const std::string& text, const std::string& path, int l
 IohExportOutcome export_iohprofiler(const std::string& campaign_dir, const std::string& out_dir) {
   const fs::path manifest_path = fs::path(campaign_dir) / "manifest.json";
   if (!fs::exists(manifest_path))
-    throw std::runtime_error("--campaign " + campaign_dir + ": no manifest.json (not a campaign "
+    throw std::runtime_error("--campaign " + campaign_dir +
+                             ": no manifest.json (not a campaign "
                              "directory written by insid bench or insid sweep)");
   const nlohmann::json manifest = read_json_file(manifest_path);
   const CampaignConfig config = config_from_manifest(manifest, manifest_path.string());
@@ -124,8 +125,8 @@ IohExportOutcome export_iohprofiler(const std::string& campaign_dir, const std::
           if (e == 0 || trace[e] < trace[e - 1] || e + 1 == trace.size())
             dat += std::to_string(e + 1) + " " + number_text(trace[e]) + "\n";
         }
-        entries += ", " + instance + ":" + std::to_string(trace.size()) + "|" +
-                   number_text(trace.back());
+        entries +=
+            ", " + instance + ":" + std::to_string(trace.size()) + "|" + number_text(trace.back());
         if (!seeds.empty()) seeds += ' ';
         seeds += std::to_string(seed);
         ++outcome.runs;
@@ -139,7 +140,8 @@ IohExportOutcome export_iohprofiler(const std::string& campaign_dir, const std::
           header_safe(algo.label) + "', algInfo = '" + header_safe(alg_info) + "'\n" +
           "% insid campaign " + header_safe(config.name) +
           ": f = Eq. 15 fitness (minimised); instance = the scenario's noise seed (data_seed); "
-          "runs = optimizer seeds " + seeds + "\n" + dat_name + entries + "\n";
+          "runs = optimizer seeds " +
+          seeds + "\n" + dat_name + entries + "\n";
       write_file_atomic(folder / ("IOHprofiler_f" + fid + "_i" + instance + ".info"), info);
       write_file_atomic(folder / dat_name, dat);
       ++outcome.info_files;
@@ -152,7 +154,8 @@ std::string IohInfoBlock::value(const std::string& key) const {
   for (const auto& [k, v] : header) {
     if (k != key) continue;
     std::string text = v;
-    if (text.size() >= 2 && (text.front() == '\'' || text.front() == '"') && text.back() == text.front())
+    if (text.size() >= 2 && (text.front() == '\'' || text.front() == '"') &&
+        text.back() == text.front())
       text = text.substr(1, text.size() - 2);
     return text;
   }
@@ -201,13 +204,15 @@ std::vector<IohInfoBlock> read_ioh_info(const std::string& path) {
       const auto colon = entry.find(':');
       const auto bar = entry.find('|');
       if (colon == std::string::npos || bar == std::string::npos || bar < colon)
-        bad(path, n + 2, "run " + std::to_string(r) + ": expected instance:evaluations|best, got '" +
-                             entry + "'");
+        bad(path, n + 2,
+            "run " + std::to_string(r) + ": expected instance:evaluations|best, got '" + entry +
+                "'");
       IohInfoRun run;
       run.instance = entry.substr(0, colon);
       run.evaluations = parse_count(entry.substr(colon + 1, bar - colon - 1), path, n + 2,
                                     "run " + std::to_string(r) + " evaluations");
-      run.best = parse_double(entry.substr(bar + 1), path, n + 2, "run " + std::to_string(r) + " best");
+      run.best =
+          parse_double(entry.substr(bar + 1), path, n + 2, "run " + std::to_string(r) + " best");
       block.runs.push_back(run);
     }
     blocks.push_back(std::move(block));
@@ -242,10 +247,12 @@ std::vector<IohDatRun> read_ioh_dat(const std::string& path) {
     const double best = parse_double(columns[1], path, n, "best-so-far f(x)");
     if (!runs.back().empty()) {
       if (evaluation <= runs.back().back().first)
-        bad(path, n, "function evaluation " + std::to_string(evaluation) + " after " +
-                         std::to_string(runs.back().back().first) + ": must increase");
+        bad(path, n,
+            "function evaluation " + std::to_string(evaluation) + " after " +
+                std::to_string(runs.back().back().first) + ": must increase");
       if (best > runs.back().back().second)
-        bad(path, n, "best-so-far " + columns[1] + " larger than the previous record's (minimised)");
+        bad(path, n,
+            "best-so-far " + columns[1] + " larger than the previous record's (minimised)");
     }
     runs.back().emplace_back(evaluation, best);
   }
@@ -258,7 +265,8 @@ std::vector<double> expand_best_so_far(const IohDatRun& run) {
   std::vector<double> curve;
   if (run.empty()) return curve;
   // Before the first record nothing was evaluated yet (the export always records evaluation 1).
-  curve.assign(static_cast<std::size_t>(run[0].first - 1), std::numeric_limits<double>::quiet_NaN());
+  curve.assign(static_cast<std::size_t>(run[0].first - 1),
+               std::numeric_limits<double>::quiet_NaN());
   for (std::size_t k = 0; k < run.size(); ++k) {
     const std::int64_t until = k + 1 < run.size() ? run[k + 1].first - 1 : run[k].first;
     while (static_cast<std::int64_t>(curve.size()) < until) curve.push_back(run[k].second);

@@ -19,8 +19,8 @@
 //     <evaluation> <best-so-far>                    (the first evaluation, each evaluation that
 //                                                    improves the best, and the last one)
 // Numbers are written with 17 significant digits: they read back to the campaign's own doubles.
-// The campaign run files record the best-so-far after every evaluation (result.best_per_evaluation),
-// which is what the .dat records are taken from.
+// The campaign run files record the best-so-far after every evaluation
+// (result.best_per_evaluation), which is what the .dat records are taken from.
 #pragma once
 
 #include <cstdint>
@@ -51,8 +51,8 @@ struct IohInfoRun {
 };
 struct IohInfoBlock {
   std::vector<std::pair<std::string, std::string>> header;  ///< name = value pairs, in order
-  std::string comment;      ///< line 2 after its leading '%'
-  std::string data_file;    ///< relative to the .info file's folder
+  std::string comment;                                      ///< line 2 after its leading '%'
+  std::string data_file;                                    ///< relative to the .info file's folder
   std::vector<IohInfoRun> runs;
   /// The value of a header key ("" when absent), quotes removed.
   std::string value(const std::string& key) const;

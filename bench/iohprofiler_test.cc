@@ -31,8 +31,8 @@ const char* kConfig = R"({
 })";
 
 fs::path fresh_dir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() /
-                       ("insid-ioh-test-" + name + "-" + std::to_string(getpid()));
+  const fs::path dir =
+      fs::temp_directory_path() / ("insid-ioh-test-" + name + "-" + std::to_string(getpid()));
   fs::remove_all(dir);
   return dir;
 }
@@ -81,17 +81,22 @@ TEST(IohProfiler, ExportParsesBackToTheCampaignCurves) {
       EXPECT_EQ(info.value("DIM"), "4");  // the paper's four estimated parameters
       EXPECT_EQ(info.value("algId"), label);
       EXPECT_EQ(info.value("maximization"), "F");
-      EXPECT_EQ(info.value("algInfo").rfind(std::string(label == std::string("PSO") ? "pso" : "dvpio"), 0), 0u);
-      EXPECT_EQ(info.data_file, "data_f" + fid + "/IOHprofiler_f" + fid + "_DIM4_i" + inst + ".dat");
+      EXPECT_EQ(info.value("algInfo").rfind(
+                    std::string(label == std::string("PSO") ? "pso" : "dvpio"), 0),
+                0u);
+      EXPECT_EQ(info.data_file,
+                "data_f" + fid + "/IOHprofiler_f" + fid + "_DIM4_i" + inst + ".dat");
       ASSERT_EQ(info.runs.size(), 2u);
       // AND the .dat blocks expand to the run files' best-so-far per evaluation, bit for bit
-      const std::vector<IohDatRun> runs = read_ioh_dat((info_path.parent_path() / info.data_file).string());
+      const std::vector<IohDatRun> runs =
+          read_ioh_dat((info_path.parent_path() / info.data_file).string());
       ASSERT_EQ(runs.size(), 2u);
       for (std::size_t r = 0; r < 2; ++r) {
         const nlohmann::json record =
             read_json(run_file(campaign.string(), scenario.name, label, config.seeds[r]));
         const auto trace = record["result"]["best_per_evaluation"].get<std::vector<double>>();
-        EXPECT_EQ(expand_best_so_far(runs[r]), trace) << label << " " << scenario.name << " run " << r;
+        EXPECT_EQ(expand_best_so_far(runs[r]), trace)
+            << label << " " << scenario.name << " run " << r;
         EXPECT_EQ(info.runs[r].instance, inst);
         EXPECT_EQ(info.runs[r].evaluations, record["result"]["evaluations"].get<std::int64_t>());
         EXPECT_EQ(info.runs[r].best, record["result"]["fitness"].get<double>());
@@ -137,7 +142,8 @@ TEST(IohProfiler, ReaderReadsTheDocumentedExampleLayout) {
     dat << "\"function evaluation\" \"best-so-far f(x)\"\n1 +2.95000e+02\n4 +2.90000e+02\n"
            "\"function evaluation\" \"best-so-far f(x)\"\n1 +3.20000e+02\n3 +3.20000e+02\n";
   }
-  const std::vector<IohInfoBlock> blocks = read_ioh_info((dir / "IOHprofiler_f10_i1.info").string());
+  const std::vector<IohInfoBlock> blocks =
+      read_ioh_info((dir / "IOHprofiler_f10_i1.info").string());
   ASSERT_EQ(blocks.size(), 1u);
   EXPECT_EQ(blocks[0].value("funcId"), "10");
   EXPECT_EQ(blocks[0].value("DIM"), "625");
@@ -146,7 +152,8 @@ TEST(IohProfiler, ReaderReadsTheDocumentedExampleLayout) {
   ASSERT_EQ(blocks[0].runs.size(), 2u);
   EXPECT_EQ(blocks[0].runs[1].evaluations, 1953125);
   EXPECT_EQ(blocks[0].runs[1].best, 554.0);
-  const std::vector<IohDatRun> runs = read_ioh_dat((dir / "data_f10" / "IOHprofiler_f10_DIM625.dat").string());
+  const std::vector<IohDatRun> runs =
+      read_ioh_dat((dir / "data_f10" / "IOHprofiler_f10_DIM625.dat").string());
   ASSERT_EQ(runs.size(), 2u);
   EXPECT_EQ(expand_best_so_far(runs[0]), (std::vector<double>{295, 295, 295, 290}));
   EXPECT_EQ(expand_best_so_far(runs[1]), (std::vector<double>{320, 320, 320}));

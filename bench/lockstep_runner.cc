@@ -53,8 +53,10 @@ struct LockstepRunner::Impl {
       const double wave_s =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - t_wave).count();
       // The speed of this wave sizes the next one of the scenario (waves of bounded wall time).
-      if (wave_candidates > 0) st.seconds_per_candidate = wave_s / static_cast<double>(wave_candidates);
-      if (settings_.wave_finished) settings_.wave_finished(wave.size(), wave_candidates, target, wave_s);
+      if (wave_candidates > 0)
+        st.seconds_per_candidate = wave_s / static_cast<double>(wave_candidates);
+      if (settings_.wave_finished)
+        settings_.wave_finished(wave.size(), wave_candidates, target, wave_s);
       write_parked_runs();
     }
     // The optima found alongside: wait for them, then write the runs that waited for them.
@@ -93,7 +95,7 @@ struct LockstepRunner::Impl {
     std::future<ReferenceOptimum> optimum_future;
     /// Finished runs waiting for the optimum before their files can be written.
     struct Parked {
-      std::size_t id;             // position in the run list
+      std::size_t id;  // position in the run list
       opt::Result result;
       nlohmann::json uncertainty;  // the run's uncertainty blocks, computed when it finished
     };
@@ -128,8 +130,8 @@ struct LockstepRunner::Impl {
     if (!st.problem) {
       report({.kind = ProgressEvent::Kind::kPreparingScenario, .scenario = spec.name});
       st.dataset = scenario_dataset(spec);
-      st.navigation = std::make_shared<const NavigationProblem>(
-          st.dataset, config_.navigation_options());
+      st.navigation =
+          std::make_shared<const NavigationProblem>(st.dataset, config_.navigation_options());
       opt::EvaluatorOptions eval;
       eval.parallelism = opt::Parallelism::kOpenMP;
       eval.num_threads = settings_.threads;
@@ -219,9 +221,9 @@ struct LockstepRunner::Impl {
     rc.seed = run.seed;
     rc.max_iterations = config_.max_iterations;
     rc.max_evaluations = config_.max_evaluations;
-    rc.record_positions = static_cast<int>(
-        std::find(config_.seeds.begin(), config_.seeds.end(), run.seed) - config_.seeds.begin()) <
-        config_.record_positions_seeds;
+    rc.record_positions =
+        static_cast<int>(std::find(config_.seeds.begin(), config_.seeds.end(), run.seed) -
+                         config_.seeds.begin()) < config_.record_positions_seeds;
     return rc;
   }
 
@@ -238,9 +240,9 @@ struct LockstepRunner::Impl {
     const RunSpec& run = runs_[id];
     const AlgorithmSpec& algo = config_.algorithms[run.algorithm];
     try {
-      auto optimizer = opt::make_optimizer(
-          algo.name, states_[run.scenario].problem->bounds(), run_config(run),
-          opt::ParameterMap(algo.parameters.begin(), algo.parameters.end()));
+      auto optimizer =
+          opt::make_optimizer(algo.name, states_[run.scenario].problem->bounds(), run_config(run),
+                              opt::ParameterMap(algo.parameters.begin(), algo.parameters.end()));
       if (!takes_own_step(*optimizer) && residual_consumer(*optimizer) == nullptr)
         wave_candidates += optimizer->ask().size();
       wave.push_back({id, std::move(optimizer)});
@@ -303,10 +305,12 @@ struct LockstepRunner::Impl {
     if (config_.heading_deg) j["heading_deg"] = *config_.heading_deg;
     if (config_.window_s != 0.0) j["window_s"] = config_.window_s;
     j["parameters"] = nlohmann::json::array();
-    for (const EstimatedParameter& p : mapping_.parameters()) j["parameters"].push_back({{"name", p.name}});
+    for (const EstimatedParameter& p : mapping_.parameters())
+      j["parameters"].push_back({{"name", p.name}});
     j["result"] = optimizer_result_json(result, mapping_);
     for (const auto& item : uncertainty.items()) j[item.key()] = item.value();
-    add_run_assessment_json(j, result, mapping_, states_[run.scenario].dataset->meta.injected, &opt);
+    add_run_assessment_json(j, result, mapping_, states_[run.scenario].dataset->meta.injected,
+                            &opt);
     fs::create_directories(fs::path(run.path).parent_path());
     write_file_atomic(run.path, j.dump(1) + "\n");
     const int n_done = ++done_;

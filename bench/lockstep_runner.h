@@ -37,12 +37,12 @@ struct ProgressEvent {
   std::string path{};
   std::string detail{};
   int count = 0;
-  int runs_present = 0;   ///< kRunFinished: runs done before this invocation + new_runs
-  int runs_total = 0;     ///< kRunFinished: runs in the campaign
-  int new_runs = 0;       ///< kRunFinished: runs this process has finished so far
-  double elapsed_s = 0.0; ///< kRunFinished: since the runner started
-  double eta_s = 0.0;     ///< kRunFinished: estimated time left for this process's runs
-  bool mpi_rank = false;  ///< kRunFinished: counts are this MPI rank's alone
+  int runs_present = 0;    ///< kRunFinished: runs done before this invocation + new_runs
+  int runs_total = 0;      ///< kRunFinished: runs in the campaign
+  int new_runs = 0;        ///< kRunFinished: runs this process has finished so far
+  double elapsed_s = 0.0;  ///< kRunFinished: since the runner started
+  double eta_s = 0.0;      ///< kRunFinished: estimated time left for this process's runs
+  bool mpi_rank = false;   ///< kRunFinished: counts are this MPI rank's alone
 };
 using ProgressCallback = std::function<void(const ProgressEvent&)>;
 
@@ -61,10 +61,10 @@ enum class OptimumSource {
 
 struct RunnerSettings {
   std::string out_dir;
-  int threads = 1;                 ///< OpenMP threads of the fitness evaluations
-  bool scalar_reference = false;   ///< score with the scalar reference evaluator
-  bool mpi_rank = false;           ///< one rank of an MPI launch (progress counts are its own)
-  ProgressCallback progress;       ///< may be empty (nothing reported)
+  int threads = 1;                ///< OpenMP threads of the fitness evaluations
+  bool scalar_reference = false;  ///< score with the scalar reference evaluator
+  bool mpi_rank = false;          ///< one rank of an MPI launch (progress counts are its own)
+  ProgressCallback progress;      ///< may be empty (nothing reported)
   /// Wall-time bound of a wave (what a kill can lose): after a scenario's first wave, whose
   /// speed sizes the next, waves take about this long at most, but never fewer candidates per
   /// round than wave_target(threads, 0); 0 = no bound (waves of wave_target's size).

@@ -38,8 +38,8 @@ nlohmann::json read(const fs::path& p) {
 }
 
 fs::path run_campaign_into(const std::string& name, int threads, bool scalar) {
-  const fs::path dir = fs::temp_directory_path() /
-                       ("insid-lockstep-" + name + "-" + std::to_string(getpid()));
+  const fs::path dir =
+      fs::temp_directory_path() / ("insid-lockstep-" + name + "-" + std::to_string(getpid()));
   fs::remove_all(dir);
   RunOptions options;
   options.out_dir = dir.string();
@@ -94,8 +94,8 @@ TEST(Lockstep, LeastSquaresRunsScoredTogetherEqualRunsDoneAlone) {
   })";
   const CampaignConfig config = parse_campaign(nlohmann::json::parse(config_text), "test");
   auto dir_for = [](const std::string& name) {
-    const fs::path dir = fs::temp_directory_path() /
-                         ("insid-lockstep-" + name + "-" + std::to_string(getpid()));
+    const fs::path dir =
+        fs::temp_directory_path() / ("insid-lockstep-" + name + "-" + std::to_string(getpid()));
     fs::remove_all(dir);
     return dir;
   };
@@ -140,7 +140,8 @@ Waves run_runner_into(const fs::path& dir, double max_wave_s) {
   for (std::size_t a = 0; a < config.algorithms.size(); ++a)
     for (std::uint64_t seed : config.seeds) {
       ids.push_back(runs.size());
-      runs.push_back({0, a, seed, run_file(dir.string(), "rich-short", config.algorithms[a].label, seed)});
+      runs.push_back(
+          {0, a, seed, run_file(dir.string(), "rich-short", config.algorithms[a].label, seed)});
     }
   Waves waves;
   RunnerSettings settings;

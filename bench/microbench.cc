@@ -23,9 +23,9 @@ std::shared_ptr<const Dataset> one_hour_dataset() {
     SensorErrors errors;
     errors.accel.bias = Eigen::Vector3d(-2.0, 1.5, 0.0) * kSigmaAccelMps2;
     errors.gyro.bias = Eigen::Vector3d(2.0, -1.5, 0.0) * kSigmaGyroRadS;
-    return std::make_shared<const Dataset>(make_static_dataset(
-        EarthModel::paper(lat, 50.0), lat, 116.246 * kDegToRad, 50.0,
-        {0.01, -0.02, 1.2}, 3600.0, 600.0, errors, 100.0, 100.0));
+    return std::make_shared<const Dataset>(
+        make_static_dataset(EarthModel::paper(lat, 50.0), lat, 116.246 * kDegToRad, 50.0,
+                            {0.01, -0.02, 1.2}, 3600.0, 600.0, errors, 100.0, 100.0));
   }();
   return ds;
 }
@@ -51,9 +51,9 @@ std::vector<SensorErrors> candidates(int k) {
 
 // ns per candidate per IMU step from wall time (the batched runs use OpenMP threads).
 void set_counters(benchmark::State& state, double candidate_steps) {
-  state.counters["ns_per_candidate_step"] = benchmark::Counter(
-      candidate_steps * 1e-9,
-      benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  state.counters["ns_per_candidate_step"] =
+      benchmark::Counter(candidate_steps * 1e-9, benchmark::Counter::kIsIterationInvariantRate |
+                                                     benchmark::Counter::kInvert);
   state.counters["steps"] = static_cast<double>(one_hour_problem()->num_steps());
 }
 
@@ -80,7 +80,8 @@ void BM_FitnessBatched(benchmark::State& state) {
     f = kernel->fitness(c, FitnessKind::kEq15, threads);
     benchmark::DoNotOptimize(f.data());
   }
-  set_counters(state, static_cast<double>(k) * static_cast<double>(one_hour_problem()->num_steps()));
+  set_counters(state,
+               static_cast<double>(k) * static_cast<double>(one_hour_problem()->num_steps()));
   state.counters["threads"] = threads;
 }
 BENCHMARK(BM_FitnessBatched)
@@ -151,9 +152,9 @@ void BM_OptimizerGeneration(benchmark::State& state, const char* algorithm) {
       ++generations;
     }
   }
-  state.counters["ns_per_generation"] = benchmark::Counter(
-      static_cast<double>(generations) * 1e-9,
-      benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  state.counters["ns_per_generation"] =
+      benchmark::Counter(static_cast<double>(generations) * 1e-9,
+                         benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
 }
 BENCHMARK_CAPTURE(BM_OptimizerGeneration, ga, "ga");
 BENCHMARK_CAPTURE(BM_OptimizerGeneration, pso, "pso");

@@ -19,7 +19,8 @@ nlohmann::json quartiles_json(const std::vector<double>& v) {
   return {{"median", q.median}, {"q1", q.q1}, {"q3", q.q3}};
 }
 
-nlohmann::json curve_json(const std::vector<double>& x, const std::vector<std::vector<double>>& ys) {
+nlohmann::json curve_json(const std::vector<double>& x,
+                          const std::vector<std::vector<double>>& ys) {
   // ys[run][i] at x[i]
   nlohmann::json c;
   c["x"] = x;
@@ -134,7 +135,8 @@ nlohmann::json summarize_campaign(const std::string& out_dir, const CampaignConf
           outcomes.push_back(o);
         }
         const stats::RunningTime rt = stats::expected_running_time(outcomes);
-        nlohmann::json ert = std::isfinite(rt.art) ? nlohmann::json(rt.art) : nlohmann::json(nullptr);
+        nlohmann::json ert =
+            std::isfinite(rt.art) ? nlohmann::json(rt.art) : nlohmann::json(nullptr);
         success.push_back({{"target", {{"kind", "relative_fitness_gap"}, {"value", tau}}},
                            {"rate", rt.success_rate},
                            {"ert_evaluations", ert}});
@@ -154,12 +156,15 @@ nlohmann::json summarize_campaign(const std::string& out_dir, const CampaignConf
         const auto& h = r["result"]["history"];
         std::vector<double> y;
         for (std::int64_t i = 0; i < max_it; ++i)
-          y.push_back(h[std::min<std::size_t>(static_cast<std::size_t>(i), h.size() - 1)]["best_fitness"].get<double>());
+          y.push_back(
+              h[std::min<std::size_t>(static_cast<std::size_t>(i), h.size() - 1)]["best_fitness"]
+                  .get<double>());
         it_y.push_back(y);
         const auto& t = r["result"]["best_per_evaluation"];
         std::vector<double> ye;
         for (double e : ev_x)
-          ye.push_back(t[std::min<std::size_t>(static_cast<std::size_t>(e) - 1, t.size() - 1)].get<double>());
+          ye.push_back(t[std::min<std::size_t>(static_cast<std::size_t>(e) - 1, t.size() - 1)]
+                           .get<double>());
         ev_y.push_back(ye);
       }
       aj["curve_iterations"] = curve_json(it_x, it_y);
@@ -176,12 +181,18 @@ nlohmann::json summarize_campaign(const std::string& out_dir, const CampaignConf
     std::vector<double> ps;
     for (std::size_t a = 0; a < labels.size() && labels.size() <= kMaxPairwise; ++a)
       for (std::size_t b = a + 1; b < labels.size(); ++b) {
-        const stats::MannWhitneyResult mw = stats::mann_whitney_u(finals_by_algo[a], finals_by_algo[b]);
+        const stats::MannWhitneyResult mw =
+            stats::mann_whitney_u(finals_by_algo[a], finals_by_algo[b]);
         const double a12 = stats::a12(finals_by_algo[a], finals_by_algo[b]);
-        pairwise.push_back({{"a", labels[a]}, {"b", labels[b]}, {"metric", "final_fitness"},
-                            {"U", mw.u}, {"p", mw.p}, {"a12", a12},
-                            {"a12_magnitude", std::string(stats::to_string(stats::a12_magnitude(a12)))},
-                            {"method", std::string(stats::to_string(mw.method))}});
+        pairwise.push_back(
+            {{"a", labels[a]},
+             {"b", labels[b]},
+             {"metric", "final_fitness"},
+             {"U", mw.u},
+             {"p", mw.p},
+             {"a12", a12},
+             {"a12_magnitude", std::string(stats::to_string(stats::a12_magnitude(a12)))},
+             {"method", std::string(stats::to_string(mw.method))}});
         ps.push_back(mw.p);
       }
     const std::vector<double> adjusted = stats::holm(ps);
@@ -198,7 +209,8 @@ nlohmann::json summarize_campaign(const std::string& out_dir, const CampaignConf
   if (config.scenarios.size() >= 2 && config.algorithms.size() >= 2) {
     const stats::FriedmanResult fr = stats::friedman(friedman_table);
     nlohmann::json fj;
-    fj["statistic"] = std::isfinite(fr.statistic) ? nlohmann::json(fr.statistic) : nlohmann::json(nullptr);
+    fj["statistic"] =
+        std::isfinite(fr.statistic) ? nlohmann::json(fr.statistic) : nlohmann::json(nullptr);
     fj["p"] = std::isfinite(fr.p) ? nlohmann::json(fr.p) : nlohmann::json(nullptr);
     for (std::size_t a = 0; a < config.algorithms.size(); ++a)
       fj["ranks"][config.algorithms[a].label] = fr.mean_ranks[a];

@@ -54,7 +54,8 @@ std::map<std::string, double> optimizer_parameters(const std::map<std::string, d
 SweepAxis SweepAxis::parse(const std::string& text) {
   const auto eq = text.find('=');
   if (eq == std::string::npos || eq == 0 || eq + 1 == text.size())
-    throw std::invalid_argument("--grid: expected KEY=LO:HI:N or KEY=V1,V2,..., got '" + text + "'");
+    throw std::invalid_argument("--grid: expected KEY=LO:HI:N or KEY=V1,V2,..., got '" + text +
+                                "'");
   SweepAxis axis;
   axis.key = text.substr(0, eq);
   const std::string rhs = text.substr(eq + 1);
@@ -67,7 +68,8 @@ SweepAxis SweepAxis::parse(const std::string& text) {
     const double n = parse_value(parts[2], text);
     if (n < 1 || n != std::floor(n) || n > 1000)
       throw std::invalid_argument("--grid '" + text + "': N must be a whole number in [1, 1000]");
-    if (!(axis.lo <= axis.hi)) throw std::invalid_argument("--grid '" + text + "': LO must be <= HI");
+    if (!(axis.lo <= axis.hi))
+      throw std::invalid_argument("--grid '" + text + "': LO must be <= HI");
     for (int i = 0; i < static_cast<int>(n); ++i)
       axis.values.push_back(n == 1 ? axis.lo : axis.lo + (axis.hi - axis.lo) * i / (n - 1));
   } else {
@@ -86,8 +88,7 @@ void SweepConfig::validate() const {
       if (a.key == axes[j].key)
         throw std::invalid_argument("--grid: key '" + a.key +
                                     "' given twice; give each parameter one --grid");
-    if (a.values.empty())
-      throw std::invalid_argument("--grid " + a.key + ": no values");
+    if (a.values.empty()) throw std::invalid_argument("--grid " + a.key + ": no values");
     for (double v : a.values)
       if (!std::isfinite(v))
         throw std::invalid_argument("--grid " + a.key + ": value " + std::to_string(v) +
@@ -274,10 +275,11 @@ int merge_results(const std::string& dir) {
   const CampaignConfig campaign = config_from_manifest(manifest, manifest_path.string());
   const std::string missing = missing_runs_report(dir, campaign, manifest.value("shards", 0));
   if (!missing.empty()) throw std::runtime_error("cannot merge: " + missing);
-  write_file_atomic(fs::path(dir) / "summary.json", summarize_campaign(dir, campaign).dump(1) + "\n");
+  write_file_atomic(fs::path(dir) / "summary.json",
+                    summarize_campaign(dir, campaign).dump(1) + "\n");
   if (manifest.contains("sweep"))
-    write_sweep_results(sweep_from_manifest(manifest.at("sweep"), manifest_path.string()),
-                        campaign, dir);
+    write_sweep_results(sweep_from_manifest(manifest.at("sweep"), manifest_path.string()), campaign,
+                        dir);
   return static_cast<int>(campaign.scenarios.size() * campaign.algorithms.size() *
                           campaign.seeds.size());
 }

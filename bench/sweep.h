@@ -26,7 +26,8 @@ struct SweepAxis {
 struct SweepConfig {
   std::string algorithm = "dvpio";
   std::vector<SweepAxis> axes;
-  int random_settings = 0;  ///< > 0: that many random settings in the axes' ranges instead of the grid
+  int random_settings =
+      0;  ///< > 0: that many random settings in the axes' ranges instead of the grid
   std::uint64_t random_seed = 1;
   ScenarioSpec scenario;
   std::vector<std::uint64_t> seeds = seed_range(11);

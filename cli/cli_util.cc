@@ -1,12 +1,12 @@
 #include "cli/cli_util.h"
 
 #include <charconv>
-#include <cstdint>
-#include <system_error>
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
 #include <iostream>
 #include <stdexcept>
+#include <system_error>
 
 #include "core/dataset.h"
 #include "optimizers/parameters.h"
@@ -26,8 +26,8 @@ std::map<std::string, double> parse_effect_assignments(const std::vector<std::st
     double value = 0.0;
     const auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
     if (ec != std::errc() || ptr != text.data() + text.size() || !std::isfinite(value))
-      throw std::invalid_argument(option + " " + name + ": expected a finite number (SI units), got '" +
-                                  text + "'");
+      throw std::invalid_argument(option + " " + name +
+                                  ": expected a finite number (SI units), got '" + text + "'");
     out[name] = value;
   }
   return out;
@@ -61,9 +61,9 @@ campaign::ProgressCallback campaign_progress_printer(std::shared_ptr<ProgressPri
                           " seed " + std::to_string(e.seed) + "), elapsed " + whole(e.elapsed_s) +
                           " s, ETA " + whole(e.eta_s) + " s");
         else  // rank 0 sees only its own runs
-          printer->status("rank 0 finished " + std::to_string(e.new_runs) + " runs (" +
-                          e.scenario + " " + e.algorithm + " seed " + std::to_string(e.seed) +
-                          "), elapsed " + whole(e.elapsed_s) + " s");
+          printer->status("rank 0 finished " + std::to_string(e.new_runs) + " runs (" + e.scenario +
+                          " " + e.algorithm + " seed " + std::to_string(e.seed) + "), elapsed " +
+                          whole(e.elapsed_s) + " s");
         break;
       case Kind::kRunsEnded:
         printer->finish();
@@ -159,7 +159,8 @@ CLI::Validator positive_seconds(double high) {
         if (ec != std::errc() || ptr != end || !std::isfinite(value))
           return "expected a finite number of seconds, got '" + text + "'";
         if (!(value > 0.0 && value <= high))
-          return "value " + text + " s is outside the allowed (0, " + opt::format_number(high) + "] s";
+          return "value " + text + " s is outside the allowed (0, " + opt::format_number(high) +
+                 "] s";
         return "";
       },
       "SECONDS");

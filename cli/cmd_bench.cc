@@ -66,9 +66,8 @@ void run_bench(const BenchArgs& args) {
   if (!outcome.writes_results) return;  // MPI rank 0 reports for the launch
   if (printer->quiet()) return;
   std::cerr << "insid bench: " << outcome.new_runs << " new runs"
-            << cli::split_description(options, outcome)
-            << ", "
-            << outcome.skipped_runs << " already done, of " << outcome.total_runs << "; "
+            << cli::split_description(options, outcome) << ", " << outcome.skipped_runs
+            << " already done, of " << outcome.total_runs << "; "
             << static_cast<long>(std::lround(outcome.wall_s)) << " s";
   if (outcome.complete)
     std::cerr << "; summary written to " + args.out + "/summary.json\n";
@@ -84,12 +83,14 @@ void add_bench_command(CLI::App& app) {
       "bench",
       "Run (or resume) a campaign: scenarios x algorithms x seeds of identification runs, "
       "written as JSON under --out (results/README.md), with summary statistics.");
-  cmd->add_option("--preset", args->preset, "campaign preset: paper-fig9 | quick | paper-plus-baselines");
+  cmd->add_option("--preset", args->preset,
+                  "campaign preset: paper-fig9 | quick | paper-plus-baselines");
   cmd->add_option("--config", args->config_path, "campaign JSON file (results/README.md)");
   cmd->add_option("--out", args->out, "results directory")->required();
   cmd->add_option("--seeds", args->seeds, "number of seeds (1..N), overriding the config")
       ->check(whole_in(1, kMaxSeeds));
-  cmd->add_option("--threads", args->threads, "threads (0 = all cores)")->capture_default_str()
+  cmd->add_option("--threads", args->threads, "threads (0 = all cores)")
+      ->capture_default_str()
       ->check(whole_in(0, kMaxThreads));
   cmd->add_option("--flight-s", args->flight_s,
                   "override every simulated scenario's flight length after alignment (s)")

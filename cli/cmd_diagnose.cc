@@ -87,14 +87,16 @@ void run(const DiagnoseArgs& a) {
     const char* env = std::getenv("INSID_SCRIPTS_DIR");
     std::error_code exe_error;
     const fs::path exe = fs::read_symlink("/proc/self/exe", exe_error);
-    const fs::path script =
-        (env ? fs::path(env) : exe_error ? fs::path(".") : exe.parent_path()) / "diagnose_plots.py";
+    const fs::path script = (env         ? fs::path(env)
+                             : exe_error ? fs::path(".")
+                                         : exe.parent_path()) /
+                            "diagnose_plots.py";
     // Debian's python3 (with matplotlib) first; INSID_PYTHON overrides.
     const char* py_env = std::getenv("INSID_PYTHON");
     const std::string python =
         py_env ? py_env : (fs::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3");
-    const std::string cmd = shell_quote(python) + " " + shell_quote(script.string()) + " --report " +
-                            shell_quote(json_path.string()) + " --series " +
+    const std::string cmd = shell_quote(python) + " " + shell_quote(script.string()) +
+                            " --report " + shell_quote(json_path.string()) + " --series " +
                             shell_quote(csv.string()) + " --prefix " +
                             shell_quote((dir / stem).string());
     if (fs::exists(script) && std::system(cmd.c_str()) == 0)
@@ -122,9 +124,11 @@ void add_diagnose_command(CLI::App& app) {
   cmd->add_option("--candidates", a->candidates,
                   "candidate effects NAME ... or 'all' (default: every catalogue effect not in "
                   "the base)");
-  cmd->add_option("--max-effects", a->max_effects, "most effects added")->capture_default_str()
+  cmd->add_option("--max-effects", a->max_effects, "most effects added")
+      ->capture_default_str()
       ->check(whole_in(1, 100));
-  cmd->add_option("--seed", a->seed, "seed (optimizer, noise replicas)")->capture_default_str()
+  cmd->add_option("--seed", a->seed, "seed (optimizer, noise replicas)")
+      ->capture_default_str()
       ->check(seed_value());
   cmd->add_option("--out", a->out, "report JSON (default: stdout)");
   cmd->add_option("--report", a->report,
@@ -155,7 +159,8 @@ void add_diagnose_command(CLI::App& app) {
       ->capture_default_str()
       ->check(number_in(0.0, kMaxWindowS));
   add_initial_attitude_options(cmd, a->initial_attitude);
-  cmd->add_option("--threads", a->threads, "OpenMP threads (0 = all)")->capture_default_str()
+  cmd->add_option("--threads", a->threads, "OpenMP threads (0 = all)")
+      ->capture_default_str()
       ->check(whole_in(0, kMaxThreads));
   add_verbosity_flags(cmd, a->verbosity);
   cmd->add_flag("--no-plots", a->no_plots, "report.md without figures");

@@ -51,9 +51,8 @@ struct IdentifyArgs {
 
 void run_identify(const IdentifyArgs& args) {
   if (args.uncertainty_replicas > 0 && args.uncertainty_replicas < 10)
-    throw UsageError("--uncertainty-replicas " +
-                                std::to_string(args.uncertainty_replicas) +
-                                ": expected 0 (no uncertainty) or at least 10 replicas");
+    throw UsageError("--uncertainty-replicas " + std::to_string(args.uncertainty_replicas) +
+                     ": expected 0 (no uncertainty) or at least 10 replicas");
   auto dataset = std::make_shared<const Dataset>(load_dataset(args.data_dir));
   // The grade sets the search unit of every NAME given without SIGMA and the default set:
   // nav (the catalogue) the paper's four, as always; tactical and mems the x/y/z gyro and x/y
@@ -126,8 +125,9 @@ void run_identify(const IdentifyArgs& args) {
     const opt::Result& done = optimizer->result();
     progress.note(args.algorithm + " stopped after " + std::to_string(done.iterations) +
                   " iteration(s) and " + std::to_string(done.evaluations) + " evaluations (" +
-                  std::string(opt::to_string(done.termination)) + "); best " + short_number(done.best_f) +
-                  " first reached at iteration " + std::to_string(best_at_iteration));
+                  std::string(opt::to_string(done.termination)) + "); best " +
+                  short_number(done.best_f) + " first reached at iteration " +
+                  std::to_string(best_at_iteration));
   }
   const opt::Result& result = optimizer->result();
 
@@ -143,8 +143,10 @@ void run_identify(const IdentifyArgs& args) {
   out["fitness_kind"] = "eq15";
   if (args.grade != "auto" || grade.name != "nav") out["grade"] = grade.name;
   for (const EstimatedParameter& p : estimated)
-    out["estimated"].push_back({{"name", p.name}, {"sigma", p.sigma},
-                                {"lower_sigma", p.lower_sigma}, {"upper_sigma", p.upper_sigma}});
+    out["estimated"].push_back({{"name", p.name},
+                                {"sigma", p.sigma},
+                                {"lower_sigma", p.lower_sigma},
+                                {"upper_sigma", p.upper_sigma}});
   std::optional<ReferenceOptimum> ref;
   if (!args.no_reference) {
     ref = cached_reference_optimum(args.data_dir, problem, !progress.quiet());
@@ -178,7 +180,8 @@ opt::ParameterMap parse_algorithm_params(const std::vector<std::string>& items,
     double value = 0.0;
     const auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
     if (ec != std::errc() || ptr != text.data() + text.size() || !std::isfinite(value))
-      throw std::invalid_argument("--param " + key + ": expected a finite number, got '" + text + "'");
+      throw std::invalid_argument("--param " + key + ": expected a finite number, got '" + text +
+                                  "'");
     // Distances given in sigma units (e.g. d_initial_sigma=0.05) are converted to the
     // optimizer's normalised box; the algorithm's own "..._sigma" settings are not.
     try {
@@ -198,13 +201,16 @@ void add_identify_command(CLI::App& app) {
       "Identify sensor errors of a dataset with an optimizer (Eq. 15 fitness, one full "
       "alignment + pure-INS run per candidate); writes a result JSON.");
   cmd->add_option("--data", args->data_dir, "dataset directory (insid-dataset/1)")->required();
-  cmd->add_option("--algo", args->algorithm,
-                  "ga | pso | pio | dvpio (the paper's), or a reference baseline: cmaes | de | "
-                  "compass | lm | bobyqa | neldermead | ekf-rts (optimizers/README.md), or external:CMD, a "
-                  "program speaking the JSON-lines protocol of optimizers/README.md (e.g. "
-                  "\"external:/usr/bin/python3 scripts/external_random_search.py\")")->capture_default_str();
+  cmd->add_option(
+         "--algo", args->algorithm,
+         "ga | pso | pio | dvpio (the paper's), or a reference baseline: cmaes | de | "
+         "compass | lm | bobyqa | neldermead | ekf-rts (optimizers/README.md), or external:CMD, a "
+         "program speaking the JSON-lines protocol of optimizers/README.md (e.g. "
+         "\"external:/usr/bin/python3 scripts/external_random_search.py\")")
+      ->capture_default_str();
   cmd->add_option("--estimate", args->estimate,
-                  "NAME[:SIGMA[:LO:HI]] (SIGMA in SI, box in sigma units; without SIGMA the grade's sigma); default: the paper's "
+                  "NAME[:SIGMA[:LO:HI]] (SIGMA in SI, box in sigma units; without SIGMA the "
+                  "grade's sigma); default: the paper's "
                   "four (accel_bias_x accel_bias_y gyro_bias_x gyro_bias_y), [-4, 4] sigma");
   cmd->add_option("--grade", args->grade,
                   "sensor grade auto | nav | tactical | mems: the search unit (sigma) of every "
@@ -216,8 +222,7 @@ void add_identify_command(CLI::App& app) {
                   "KEY=VALUE algorithm parameter (see optimizers/README.md); distances "
                   "d_initial, d_min, d_max, dist_threshold are in the normalised box, or in "
                   "sigma units with the suffix _sigma (d_initial_sigma=0.05)");
-  cmd->add_option("--seed", args->seed, "random seed")->capture_default_str()
-      ->check(seed_value());
+  cmd->add_option("--seed", args->seed, "random seed")->capture_default_str()->check(seed_value());
   cmd->add_option("--iterations", args->iterations, "iteration budget (0 = none)")
       ->capture_default_str()
       ->check(whole_in(0, 10000000));

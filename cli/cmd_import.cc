@@ -21,6 +21,7 @@
 #include "core/dataset.h"
 #include "core/digest.h"
 #include "core/json_reader.h"
+#include "core/output_dir.h"
 #include "identification/identify.h"
 #include "import/csv_imu.h"
 #include "import/gnss_solution.h"
@@ -28,14 +29,14 @@
 #include "import/kf_gins.h"
 #include "import/ulog.h"
 #include "import/ulog_import.h"
-#include "core/output_dir.h"
 
 namespace insid::cli {
 namespace {
 namespace fs = std::filesystem;
 
 struct ImportCsvArgs {
-  std::string imu, gnss, columns, units, imu_time = "gpst-unix", rate_samples = "point", mounting, out;
+  std::string imu, gnss, columns, units, imu_time = "gpst-unix", rate_samples = "point", mounting,
+                                         out;
   std::optional<int> gps_week;
   std::optional<double> time_offset_s;  // required with --imu-time relative
   std::vector<int> gnss_quality = {1, 2};
@@ -80,15 +81,16 @@ std::vector<double> parse_number_list(const std::string& text, const char* optio
 
 // An RTKLIB .pos or a KF-GINS GNSS text file, told apart by content.
 import::GnssSolution read_gnss_by_content(const std::string& text, const std::string& path,
-                                          std::optional<int> gps_week) {
-  if (import::looks_like_rtklib_pos(text)) return import::parse_rtklib_pos(text, path);
-  if (import::looks_like_kf_gins_gnss(text)) return import::parse_kf_gins_gnss(text, path, gps_week);
-  throw std::invalid_argument("--gnss " + path +
-                              ": neither an RTKLIB solution (a '%' header naming latitude(deg)) "
-                              "nor a KF-GINS GNSS file (7 or 13 numbers per line)");
-}
+                                          std::optional<int> gps_week){
+    if (import::looks_like_rtklib_pos(text)) return import::parse_rtklib_pos(text, path);
+if (import::looks_like_kf_gins_gnss(text)) return import::parse_kf_gins_gnss(text, path, gps_week);
+throw std::invalid_argument("--gnss " + path +
+                            ": neither an RTKLIB solution (a '%' header naming latitude(deg)) "
+                            "nor a KF-GINS GNSS file (7 or 13 numbers per line)");
+}  // namespace
 
-nlohmann::json source_json(const std::string& role, const std::string& path, const std::string& text) {
+nlohmann::json source_json(const std::string& role, const std::string& path,
+                           const std::string& text) {
   return {{"role", role},
           {"path", path},
           {"file_name", fs::path(path).filename().string()},
@@ -167,7 +169,8 @@ void run_import_csv(const ImportCsvArgs& args) {
       {"rate_samples", spec.rate_samples},
       {"gps_week", args.gps_week ? nlohmann::json(*args.gps_week) : nlohmann::json(nullptr)},
       {"imu_time_offset_s", spec.time_offset_s},
-      {"mounting_rpy_deg", {spec.mounting_rpy_deg.x(), spec.mounting_rpy_deg.y(), spec.mounting_rpy_deg.z()}},
+      {"mounting_rpy_deg",
+       {spec.mounting_rpy_deg.x(), spec.mounting_rpy_deg.y(), spec.mounting_rpy_deg.z()}},
       {"mounting", "v_b = Rx(R) Ry(P) Rz(Y) v_s, applied at import"},
       {"gnss_quality", args.gnss_quality},
       {"align_s", args.align_s ? nlohmann::json(*args.align_s) : nlohmann::json(nullptr)},
@@ -199,8 +202,9 @@ void run_import_kf_gins(const ImportKfGinsArgs& args) {
   const import::CsvImu imu = import::parse_kf_gins_imu(imu_text, args.imu, args.gps_week);
   import::Assembled result = import::assemble_dataset(imu, gnss, options);
   if (gnss.format.find("derived") != std::string::npos)
-    result.notes.push_back("GNSS velocity derived from positions by central differences (the "
-                           "file has no velocity columns); see README, insid import kf-gins");
+    result.notes.push_back(
+        "GNSS velocity derived from positions by central differences (the "
+        "file has no velocity columns); see README, insid import kf-gins");
   nlohmann::json opts = {
       {"gps_week", args.gps_week ? nlohmann::json(*args.gps_week) : nlohmann::json(nullptr)},
       {"align_s", args.align_s ? nlohmann::json(*args.align_s) : nlohmann::json(nullptr)},
@@ -240,12 +244,13 @@ void run_import_ulog(const ImportUlogArgs& args) {
   prov.erase("time_origin_gpst_unix_s");
   prov.update(series.provenance, true);
   result.notes.insert(result.notes.begin(), series.notes.begin(), series.notes.end());
-  nlohmann::json opts = {{"imu_topic", args.ulog.imu_topic.empty() ? "auto" : args.ulog.imu_topic},
-                         {"imu_instance", args.ulog.imu_instance},
-                         {"gnss_instance", args.ulog.gnss_instance},
-                         {"min_fix_type", args.ulog.min_fix_type},
-                         {"align_s", args.align_s ? nlohmann::json(*args.align_s) : nlohmann::json(nullptr)},
-                         {"static_speed_mps", args.static_speed_mps}};
+  nlohmann::json opts = {
+      {"imu_topic", args.ulog.imu_topic.empty() ? "auto" : args.ulog.imu_topic},
+      {"imu_instance", args.ulog.imu_instance},
+      {"gnss_instance", args.ulog.gnss_instance},
+      {"min_fix_type", args.ulog.min_fix_type},
+      {"align_s", args.align_s ? nlohmann::json(*args.align_s) : nlohmann::json(nullptr)},
+      {"static_speed_mps", args.static_speed_mps}};
   finish_import("insid import ulog", std::move(result), std::move(opts), {source}, args.out,
                 args.force, t0, args.verbosity);
 }
@@ -266,7 +271,8 @@ void run_export_iohprofiler(const ExportArgs& args) {
   if (contains_working_directory(args.out))
     throw std::invalid_argument("--out " + args.out + ": the current directory or a parent of it");
   if (!fs::exists(fs::path(args.campaign) / "manifest.json"))
-    throw std::invalid_argument("--campaign " + args.campaign + ": no manifest.json (not a "
+    throw std::invalid_argument("--campaign " + args.campaign +
+                                ": no manifest.json (not a "
                                 "campaign directory written by insid bench or insid sweep)");
   if (!args.force) {
     // The folders an export writes: one per algorithm label of the campaign.
@@ -291,8 +297,7 @@ void run_export_iohprofiler(const ExportArgs& args) {
 
 void run_export(const ExportArgs& args) {
   if (args.to == "iohprofiler") return run_export_iohprofiler(args);
-  if (args.to != "kf-gins")
-    throw UsageError("--to: kf-gins or iohprofiler, got '" + args.to + "'");
+  if (args.to != "kf-gins") throw UsageError("--to: kf-gins or iohprofiler, got '" + args.to + "'");
   if (args.data.empty()) throw std::invalid_argument("--to kf-gins needs --data DIR (a dataset)");
   if (!args.campaign.empty())
     throw UsageError("--campaign is for --to iohprofiler; --to kf-gins reads --data");
@@ -304,23 +309,27 @@ void run_export(const ExportArgs& args) {
   const Dataset ds = load_dataset(args.data);
   // Standard deviations: given, else the dataset's declared GNSS noise, else stated defaults.
   const double pos_std = args.pos_std_m ? *args.pos_std_m
-                         : ds.meta.noise && ds.meta.noise->gnss_pos_sigma_m > 0 ? ds.meta.noise->gnss_pos_sigma_m
-                                                                             : 0.05;
+                         : ds.meta.noise && ds.meta.noise->gnss_pos_sigma_m > 0
+                             ? ds.meta.noise->gnss_pos_sigma_m
+                             : 0.05;
   const double vel_std = args.vel_std_mps ? *args.vel_std_mps
-                         : ds.meta.noise && ds.meta.noise->gnss_vel_sigma_mps > 0 ? ds.meta.noise->gnss_vel_sigma_mps
-                                                                                : 0.05;
+                         : ds.meta.noise && ds.meta.noise->gnss_vel_sigma_mps > 0
+                             ? ds.meta.noise->gnss_vel_sigma_mps
+                             : 0.05;
   std::filesystem::create_directories(args.out);
-  write_file_atomic(fs::path(args.out) / "imu.txt", import::kf_gins_imu_text(ds, args.sow_offset_s));
+  write_file_atomic(fs::path(args.out) / "imu.txt",
+                    import::kf_gins_imu_text(ds, args.sow_offset_s));
   write_file_atomic(fs::path(args.out) / "gnss.txt",
                     import::kf_gins_gnss_text(ds, args.sow_offset_s, pos_std, vel_std));
-  std::fprintf(stderr,
-               "insid export: wrote %s/imu.txt (%zu rows, FRD increments) and gnss.txt (%zu rows, 13 "
-               "columns: position, velocity NED, std %.3g m and %.3g m/s); times = t_s + %g s of "
-               "week\n",
-               args.out.c_str(), ds.imu.size(), ds.gnss.size(), pos_std, vel_std, args.sow_offset_s);
+  std::fprintf(
+      stderr,
+      "insid export: wrote %s/imu.txt (%zu rows, FRD increments) and gnss.txt (%zu rows, 13 "
+      "columns: position, velocity NED, std %.3g m and %.3g m/s); times = t_s + %g s of "
+      "week\n",
+      args.out.c_str(), ds.imu.size(), ds.gnss.size(), pos_std, vel_std, args.sow_offset_s);
 }
 
-}  // namespace
+}  // namespace insid::cli
 
 void add_import_command(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand(
@@ -333,7 +342,8 @@ void add_import_command(CLI::App& app) {
   CLI::App* csv = cmd->add_subcommand(
       "csv",
       "an IMU CSV file read with a mapping spec, and a GNSS solution (RTKLIB .pos with velocity)");
-  csv->add_option("--imu", a->imu, "IMU CSV file (comma separated; a header line is skipped)")->required();
+  csv->add_option("--imu", a->imu, "IMU CSV file (comma separated; a header line is skipped)")
+      ->required();
   csv->add_option("--columns", a->columns,
                   "role of each column in order: t,ax,ay,az,gx,gy,gz or - to ignore "
                   "(e.g. t,ax,ay,az,gx,gy,gz,-,-,-,-)")
@@ -343,7 +353,8 @@ void add_import_command(CLI::App& app) {
                   "rad/s|deg/s|rad|deg (rad, deg = increments); g = 9.80665 m/s^2, g-local = the "
                   "normal gravity at the first GNSS position")
       ->required();
-  csv->add_option("--gnss", a->gnss, "GNSS solution: RTKLIB .pos (llh, GPST, with velocity)")->required();
+  csv->add_option("--gnss", a->gnss, "GNSS solution: RTKLIB .pos (llh, GPST, with velocity)")
+      ->required();
   csv->add_option("--imu-time", a->imu_time,
                   "IMU time scale: gpst-unix | gps-sow | relative (seconds from the logger's zero; "
                   "--imu-time-offset-s gives its GPS time of week)")
@@ -352,7 +363,8 @@ void add_import_command(CLI::App& app) {
                   "rate rows are point (the rate at each stamp: trapezoid) | interval-mean (the "
                   "mean over the step each row closes: times the step)")
       ->capture_default_str();
-  csv->add_option("--gps-week", a->gps_week, "GPS week for --imu-time gps-sow (default: the GNSS file's)")
+  csv->add_option("--gps-week", a->gps_week,
+                  "GPS week for --imu-time gps-sow (default: the GNSS file's)")
       ->check(whole_in(0, 100000));
   csv->add_option("--imu-time-offset-s", a->time_offset_s,
                   "added to every IMU time (s, within +-86400); with --imu-time relative the GPS "
@@ -362,7 +374,8 @@ void add_import_command(CLI::App& app) {
                   "R,P,Y: v_body = Rx(R) Ry(P) Rz(Y) v_sensor (passive rotations, the matrix roll/"
                   "pitch/yaw give for C_n^b); e.g. 180,0,-90 turns a resting +1 g on sensor z into "
                   "-1 g on body z (FRD)");
-  csv->add_option("--gnss-quality", a->gnss_quality, "RTKLIB quality flags kept (default 1 2: fix, float)")
+  csv->add_option("--gnss-quality", a->gnss_quality,
+                  "RTKLIB quality flags kept (default 1 2: fix, float)")
       ->check(whole_in(1, 7));
   csv->add_option("--align-s", a->align_s,
                   "static alignment window (s); default: until 1 s before the GNSS shows motion")
@@ -370,7 +383,8 @@ void add_import_command(CLI::App& app) {
   csv->add_option("--static-speed", a->static_speed_mps,
                   "GNSS horizontal speed (m/s) above which the unit is moving (default 0.2)")
       ->check(number_in(1e-6, 10));
-  csv->add_option("--out", a->out, "output dataset directory (new, empty or an insid dataset)")->required();
+  csv->add_option("--out", a->out, "output dataset directory (new, empty or an insid dataset)")
+      ->required();
   csv->add_flag("--force", a->force, "write into a --out directory that holds other files");
   add_verbosity_flags(csv, a->verbosity);
   csv->callback([a] { run_import_csv(*a); });
@@ -382,7 +396,8 @@ void add_import_command(CLI::App& app) {
       "velocity then derived from positions; or 13 with velocity), or an RTKLIB .pos as --gnss");
   kf->add_option("--imu", k->imu, "KF-GINS IMU text file")->required();
   kf->add_option("--gnss", k->gnss, "KF-GINS GNSS text file or RTKLIB .pos")->required();
-  kf->add_option("--gps-week", k->gps_week, "GPS week of the seconds-of-week times (recorded; default 0)")
+  kf->add_option("--gps-week", k->gps_week,
+                 "GPS week of the seconds-of-week times (recorded; default 0)")
       ->check(whole_in(0, 100000));
   kf->add_option("--align-s", k->align_s,
                  "static alignment window (s); default: until 1 s before the GNSS shows motion")
@@ -400,10 +415,13 @@ void add_import_command(CLI::App& app) {
       "a PX4 flight log (.ulg): IMU from vehicle_imu (increments) or sensor_combined, GNSS from "
       "vehicle_gps_position or sensor_gps, layouts read from the file's own formats");
   ul->add_option("log", u->log, "the .ulg file")->required();
-  ul->add_option("--imu-topic", u->ulog.imu_topic, "vehicle_imu | sensor_combined (default: the one with more samples)");
-  ul->add_option("--imu-instance", u->ulog.imu_instance, "multi-instance IMU topic: which one (default 0)")
+  ul->add_option("--imu-topic", u->ulog.imu_topic,
+                 "vehicle_imu | sensor_combined (default: the one with more samples)");
+  ul->add_option("--imu-instance", u->ulog.imu_instance,
+                 "multi-instance IMU topic: which one (default 0)")
       ->check(whole_in(0, 255));
-  ul->add_option("--gnss-instance", u->ulog.gnss_instance, "which GNSS instance (default 0)")->check(whole_in(0, 255));
+  ul->add_option("--gnss-instance", u->ulog.gnss_instance, "which GNSS instance (default 0)")
+      ->check(whole_in(0, 255));
   ul->add_option("--min-fix-type", u->ulog.min_fix_type,
                  "PX4 fix_type kept: 3 = 3D (default), 4 = DGPS, 5 = RTK float, 6 = RTK fixed")
       ->check(whole_in(0, 8));
@@ -429,8 +447,10 @@ void add_export_command(CLI::App& app) {
   cmd->add_option("--data", a->data, "dataset directory (--to kf-gins)");
   cmd->add_option("--campaign", a->campaign,
                   "campaign directory of insid bench / sweep (--to iohprofiler)");
-  cmd->add_option("--out", a->out, "output directory (new, empty, or a previous export)")->required();
-  cmd->add_option("--sow-offset-s", a->sow_offset_s, "added to t_s to give KF-GINS's seconds of week")
+  cmd->add_option("--out", a->out, "output directory (new, empty, or a previous export)")
+      ->required();
+  cmd->add_option("--sow-offset-s", a->sow_offset_s,
+                  "added to t_s to give KF-GINS's seconds of week")
       ->check(number_in(0, 604800));
   cmd->add_option("--pos-std-m", a->pos_std_m,
                   "GNSS position std written (default: the dataset's noise block, else 0.05)")

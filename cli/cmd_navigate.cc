@@ -4,10 +4,10 @@
 #include <cstdio>
 #include <iostream>
 #include <map>
-#include <stdexcept>
 #include <memory>
 #include <optional>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -49,9 +49,9 @@ std::map<std::string, double> identify_estimates(const std::string& path) {
   } catch (const std::runtime_error& e) {
     throw std::invalid_argument(e.what());
   }
-  const std::string format =
-      j.is_object() && j.contains("format") && j["format"].is_string() ? j["format"].get<std::string>()
-                                                                     : "";
+  const std::string format = j.is_object() && j.contains("format") && j["format"].is_string()
+                                 ? j["format"].get<std::string>()
+                                 : "";
   if (format != "insid-identify/1" && format != "insid-identify/2")
     throw std::invalid_argument(
         where + ": not an identify result (\"format\" is " +
@@ -91,14 +91,13 @@ void require_finite_navigation(const NavigationProblem& problem, const std::stri
                                const SensorErrors& candidate,
                                const std::optional<Eigen::Matrix3d>& C_b_n_override,
                                const std::vector<NavState>& states, const std::vector<double>& r) {
-  const bool finite =
-      std::all_of(states.begin(), states.end(),
-                  [](const NavState& s) {
-                    return std::isfinite(s.lat_rad) && std::isfinite(s.lon_rad) &&
-                           std::isfinite(s.h_m) && s.v_eb_n.allFinite() &&
-                           s.q_b_n.coeffs().allFinite();
-                  }) &&
-      std::all_of(r.begin(), r.end(), [](double v) { return std::isfinite(v); });
+  const bool finite = std::all_of(states.begin(), states.end(),
+                                  [](const NavState& s) {
+                                    return std::isfinite(s.lat_rad) && std::isfinite(s.lon_rad) &&
+                                           std::isfinite(s.h_m) && s.v_eb_n.allFinite() &&
+                                           s.q_b_n.coeffs().allFinite();
+                                  }) &&
+                      std::all_of(r.begin(), r.end(), [](double v) { return std::isfinite(v); });
   if (finite) return;
   std::string compensation;
   for (const auto& [name, value] : nonzero_effects(candidate))
@@ -136,7 +135,8 @@ void run_navigate(const NavigateArgs& args) {
   std::vector<NavState> states;
   states.reserve(problem.num_steps());
   std::vector<double> r;
-  problem.run(candidate, C_b_n_override, [&](const NavState& s) { states.push_back(s); }, r);
+  problem.run(
+      candidate, C_b_n_override, [&](const NavState& s) { states.push_back(s); }, r);
   require_finite_navigation(problem, args.data_dir, candidate, C_b_n_override, states, r);
 
   double fitness = 0.0, sum_sq = 0.0, max_dvh = 0.0;
@@ -160,8 +160,8 @@ void run_navigate(const NavigateArgs& args) {
   summary["sum_squares"] = sum_sq;
   summary["rms_dvh_mps"] = std::sqrt(sum_sq / static_cast<double>(problem.num_epochs()));
   summary["max_dvh_mps"] = max_dvh;
-  const EulerAngles att0 = euler_from_C_b_n(
-      states.empty() ? Eigen::Matrix3d::Identity() : problem.initial_attitude(candidate));
+  const EulerAngles att0 = euler_from_C_b_n(states.empty() ? Eigen::Matrix3d::Identity()
+                                                           : problem.initial_attitude(candidate));
   summary["initial_attitude_deg"] = {{"roll", att0.roll_rad * kRadToDeg},
                                      {"pitch", att0.pitch_rad * kRadToDeg},
                                      {"yaw", wrap_two_pi(att0.yaw_rad) * kRadToDeg}};
@@ -178,7 +178,8 @@ void run_navigate(const NavigateArgs& args) {
       while (j + 1 < states.size() && states[j + 1].t_s <= tr.t_s + 1e-12) ++j;
       const NavState& a = states[j];
       const NavState& b = states[std::min(j + 1, states.size() - 1)];
-      const double w = b.t_s > a.t_s ? std::clamp((tr.t_s - a.t_s) / (b.t_s - a.t_s), 0.0, 1.0) : 0.0;
+      const double w =
+          b.t_s > a.t_s ? std::clamp((tr.t_s - a.t_s) / (b.t_s - a.t_s), 0.0, 1.0) : 0.0;
       const Eigen::Vector3d v = a.v_eb_n + w * (b.v_eb_n - a.v_eb_n);
       const double lat = a.lat_rad + w * (b.lat_rad - a.lat_rad);
       const double lon = a.lon_rad + w * (b.lon_rad - a.lon_rad);
@@ -198,9 +199,10 @@ void run_navigate(const NavigateArgs& args) {
     char line[512];
     for (const NavState& s : states) {
       const EulerAngles e = euler_from_q_b_n(s.q_b_n);
-      std::snprintf(line, sizeof line, "%.6f,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g\n",
-                    s.t_s, s.lat_rad * kRadToDeg, s.lon_rad * kRadToDeg, s.h_m, s.v_eb_n.x(),
-                    s.v_eb_n.y(), s.v_eb_n.z(), e.roll_rad * kRadToDeg, e.pitch_rad * kRadToDeg,
+      std::snprintf(line, sizeof line,
+                    "%.6f,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g\n", s.t_s,
+                    s.lat_rad * kRadToDeg, s.lon_rad * kRadToDeg, s.h_m, s.v_eb_n.x(), s.v_eb_n.y(),
+                    s.v_eb_n.z(), e.roll_rad * kRadToDeg, e.pitch_rad * kRadToDeg,
                     wrap_two_pi(e.yaw_rad) * kRadToDeg);
       text += line;
     }

@@ -72,7 +72,8 @@ void run_simulate(const SimulateArgs& args) {
   const Dataset ds = sc::simulate(cfg, plan, !args.no_injected);
   DatasetWriteOptions write_options;
   write_options.into_foreign_directory = args.force;
-  if (args.no_injected) write_options.extra_files["answer.json"] = sc::answer_json(cfg).dump(2) + "\n";
+  if (args.no_injected)
+    write_options.extra_files["answer.json"] = sc::answer_json(cfg).dump(2) + "\n";
   write_dataset(args.out, ds, write_options);  // atomic: nothing half-written on failure
   std::snprintf(line, sizeof line, "%.1f",
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());

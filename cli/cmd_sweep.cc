@@ -1,6 +1,6 @@
 // insid sweep: tune optimizer parameters (PIO/DVPIO R, d, premature threshold) over seeds.
-#include <iostream>
 #include <cmath>
+#include <iostream>
 #include <limits>
 #include <memory>
 #include <string>
@@ -77,9 +77,8 @@ void run(const SweepArgs& args) {
   if (printer->quiet()) return;
   std::cerr << "insid sweep: " << campaign::sweep_settings(sweep).size() << " settings x "
             << sweep.seeds.size() << " seeds; " << outcome.new_runs << " new runs"
-            << cli::split_description(options, outcome)
-            << ", "
-            << outcome.skipped_runs << " already done";
+            << cli::split_description(options, outcome) << ", " << outcome.skipped_runs
+            << " already done";
   if (outcome.complete)
     std::cerr << "; wrote " + args.out + "/sweep.json and sweep.csv\n";
   else
@@ -105,14 +104,16 @@ void add_sweep_command(CLI::App& app) {
   cmd->add_option("--random", args->random,
                   "draw this many random settings in the grid ranges instead of the full grid")
       ->check(whole_in(1, kMaxSeeds));
-  cmd->add_option("--seeds", args->seeds, "seeds per setting (1..N)")->capture_default_str()
+  cmd->add_option("--seeds", args->seeds, "seeds per setting (1..N)")
+      ->capture_default_str()
       ->check(whole_in(1, kMaxSeeds));
   cmd->add_option("--preset", args->preset, "scenario preset to simulate")->capture_default_str();
   cmd->add_option("--data", args->data_dir, "use this dataset instead of a preset");
   cmd->add_option("--flight-s", args->flight_s, "flight length after alignment (s) for the preset")
       ->check(positive_seconds(kMaxFlightS));
   cmd->add_option("--grade", args->grade, "noise grade for the preset (nav, mems, paper, none)");
-  cmd->add_option("--iterations", args->iterations, "iteration budget")->capture_default_str()
+  cmd->add_option("--iterations", args->iterations, "iteration budget")
+      ->capture_default_str()
       ->check(whole_in(0, 10000000));
   cmd->add_option("--evaluations", args->evaluations, "evaluation budget (0 = none)")
       ->check(whole_in(0, 1000000000));

@@ -87,12 +87,12 @@ nlohmann::json initial_attitude_json(const NavigationProblem& problem,
         const ImuCompensator compensator(candidate);
         nlohmann::json epochs = nlohmann::json::array();
         for (const CourseFix& f : fixes)
-          epochs.push_back({{"t_s", f.t_s},
-                            {"gnss_csv_line", f.gnss_index + 2},
-                            {"speed_mps", f.speed_mps},
-                            {"course_deg", wrap_two_pi(f.course_rad) * kRadToDeg},
-                            {"yaw_change_since_start_deg",
-                             source.yaw_change_to(f, compensator) * kRadToDeg}});
+          epochs.push_back(
+              {{"t_s", f.t_s},
+               {"gnss_csv_line", f.gnss_index + 2},
+               {"speed_mps", f.speed_mps},
+               {"course_deg", wrap_two_pi(f.course_rad) * kRadToDeg},
+               {"yaw_change_since_start_deg", source.yaw_change_to(f, compensator) * kRadToDeg}});
         j["course_min_speed_mps"] = o.course_min_speed_mps;
         j["course_span_s"] = o.course_span_s;
         j["course_t_s"] = fixes.empty() ? nlohmann::json() : nlohmann::json(fixes.front().t_s);

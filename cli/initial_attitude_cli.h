@@ -31,7 +31,8 @@ InitialAttitudeOptions initial_attitude_options(const InitialAttitudeArgs& args)
 
 /// The gyro bias allowance of an identification: the largest |box edge| of the estimated
 /// horizontal gyro biases (gyro_bias_x/y), else the catalogue default.
-double gyro_bias_allowance(const std::vector<std::string>& names, const std::vector<double>& max_abs_si);
+double gyro_bias_allowance(const std::vector<std::string>& names,
+                           const std::vector<double>& max_abs_si);
 
 /// What the initial attitude of a run was: mode, roll/pitch/yaw at the navigation start for
 /// `candidate`, where the heading came from (given, GNSS course with its epochs and the yaw

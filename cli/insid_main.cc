@@ -37,8 +37,8 @@ int main(int argc, char** argv) {
   const nlohmann::json build = insid::build_info_json();
   app.set_version_flag(
       "--version",
-      "insid " + build.value("version", "?") + "\n  git revision: " + build.value("git_revision", "?") +
-          "\n  build type:   " + build.value("build_type", "?") +
+      "insid " + build.value("version", "?") + "\n  git revision: " +
+          build.value("git_revision", "?") + "\n  build type:   " + build.value("build_type", "?") +
           "\n  compiler:     " + build.value("compiler", "?") +
           "\n  CPU path:     " + build.value("cpu_path", "?"),
       "print the version, git revision, build type, compiler and CPU path, and exit");

@@ -70,10 +70,10 @@ class ProgressPrinter {
   std::FILE* stream_;
   bool terminal_;
   double min_interval_s_;
-  bool live_line_open_ = false;        // terminal: a '\r' line is on screen
-  std::string held_back_;              // non-terminal: the last status not yet printed
+  bool live_line_open_ = false;  // terminal: a '\r' line is on screen
+  std::string held_back_;        // non-terminal: the last status not yet printed
   std::optional<std::chrono::steady_clock::time_point> last_line_;
-  std::size_t last_width_ = 0;         // terminal: pad over a longer previous status
+  std::size_t last_width_ = 0;  // terminal: pad over a longer previous status
 };
 
 }  // namespace insid::cli

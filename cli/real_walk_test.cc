@@ -104,7 +104,8 @@ TEST(RealWalk, ImportIdentifyCutsThePureInsErrorFourfoldAndMatchesThePadGyros) {
   const std::string common = " --data " + data.string() + " --initial-attitude level+heading";
   o = insid("identify" + common + kEstimate +
             " --algo lm --window-s 20 --no-reference-optimum --uncertainty-replicas 20 --threads 1"
-            " --out " + (root / "lm.json").string());
+            " --out " +
+            (root / "lm.json").string());
   ASSERT_EQ(o.status, 0) << o.output;
   const nlohmann::json result = read_json(root / "lm.json");
   ASSERT_EQ(result.at("parameters").size(), 5u);

@@ -75,7 +75,8 @@ TEST_F(CliSafety, SimulateIntoAUserDirectoryKeepsTheUsersFiles) {
   EXPECT_NE(o.output.find("it holds 'src'"), std::string::npos) << o.output;
   EXPECT_EQ(text(proj / "src" / "code.c"), "int main;");
   EXPECT_FALSE(fs::exists(proj / "imu.csv"));
-  const Outcome forced = insid("simulate --preset straight --flight-s 5 --force --out " + proj.string());
+  const Outcome forced =
+      insid("simulate --preset straight --flight-s 5 --force --out " + proj.string());
   EXPECT_EQ(forced.status, 0) << forced.output;
   EXPECT_EQ(text(proj / "src" / "code.c"), "int main;");
   EXPECT_TRUE(fs::exists(proj / "imu.csv"));
@@ -88,7 +89,8 @@ TEST_F(CliSafety, OneHugeImuValueIsAnErrorNamingFileAndLine) {
     const fs::path summary = root_ / "s.json";
     const Outcome o = insid("navigate --data " + data_.string() + " --summary " + summary.string());
     EXPECT_NE(o.status, 0) << value;
-    EXPECT_NE(o.output.find("imu.csv line 123, column dtheta_x_rad"), std::string::npos) << o.output;
+    EXPECT_NE(o.output.find("imu.csv line 123, column dtheta_x_rad"), std::string::npos)
+        << o.output;
     EXPECT_FALSE(fs::exists(summary));
     const Outcome id = insid("identify --algo pso --iterations 2 --data " + data_.string());
     EXPECT_NE(id.status, 0);
@@ -100,17 +102,19 @@ TEST_F(CliSafety, OneHugeImuValueIsAnErrorNamingFileAndLine) {
 TEST_F(CliSafety, NonFiniteNavigationIsAnErrorNamingTheCompensation) {
   const fs::path summary = root_ / "s.json";
   const fs::path nav = root_ / "nav.csv";
-  const Outcome o = insid("navigate --data " + data_.string() +
-                          " --compensate accel_bias_x=1e30 --summary " + summary.string() +
-                          " --out " + nav.string());
+  const Outcome o =
+      insid("navigate --data " + data_.string() + " --compensate accel_bias_x=1e30 --summary " +
+            summary.string() + " --out " + nav.string());
   EXPECT_NE(o.status, 0);
-  EXPECT_NE(o.output.find("with --compensate accel_bias_x=1e+30, the navigation became non-finite at t = "),
+  EXPECT_NE(o.output.find(
+                "with --compensate accel_bias_x=1e+30, the navigation became non-finite at t = "),
             std::string::npos)
       << o.output;
   EXPECT_NE(o.output.find("s (the step to imu.csv line "), std::string::npos) << o.output;
   EXPECT_FALSE(fs::exists(summary));
   EXPECT_FALSE(fs::exists(nav));
-  const Outcome align = insid("navigate --data " + data_.string() + " --compensate accel_bias_x=1e300");
+  const Outcome align =
+      insid("navigate --data " + data_.string() + " --compensate accel_bias_x=1e300");
   EXPECT_NE(align.status, 0);
   EXPECT_NE(align.output.find("alignment on imu.csv lines 2-"), std::string::npos) << align.output;
   EXPECT_NE(align.output.find("accel_bias_x=1e+300"), std::string::npos) << align.output;
@@ -121,7 +125,8 @@ TEST_F(CliSafety, ZeroAlignmentWindowWorksWithTruthAndIsNamedWithoutIt) {
   const auto at = meta.find("\"align_s\"");
   const auto colon = meta.find(':', at);
   const auto end = meta.find_first_of(",}", colon);
-  std::ofstream(data_ / "meta.json", std::ios::trunc) << meta.substr(0, colon + 1) + " 0.004" + meta.substr(end);
+  std::ofstream(data_ / "meta.json", std::ios::trunc)
+      << meta.substr(0, colon + 1) + " 0.004" + meta.substr(end);
   const Outcome without = insid("navigate --data " + data_.string());
   EXPECT_NE(without.status, 0);
   EXPECT_NE(without.output.find("align_s = 0.004 s"), std::string::npos) << without.output;
@@ -144,7 +149,8 @@ TEST_F(CliSafety, InitialAttitudeModesOnTheCommandLine) {
                                    : json.substr(at, json.find('\n', at) - at);
   };
   const fs::path s_default = root_ / "default.json", s_align = root_ / "align.json";
-  ASSERT_EQ(insid("navigate --data " + data_.string() + " --summary " + s_default.string()).status, 0);
+  ASSERT_EQ(insid("navigate --data " + data_.string() + " --summary " + s_default.string()).status,
+            0);
   const Outcome align = insid("navigate --data " + data_.string() +
                               " --initial-attitude align --summary " + s_align.string());
   ASSERT_EQ(align.status, 0) << align.output;
@@ -161,30 +167,36 @@ TEST_F(CliSafety, InitialAttitudeModesOnTheCommandLine) {
       << stray.output;
 
   const fs::path mems = root_ / "mems";
-  ASSERT_EQ(insid("simulate --preset straight --grade mems --flight-s 60 --out " + mems.string()).status, 0);
+  ASSERT_EQ(
+      insid("simulate --preset straight --grade mems --flight-s 60 --out " + mems.string()).status,
+      0);
   // sqrt((0.2 deg/sqrt(h))^2 / 600 s + b^2) / (15.04 deg/h cos 40.068 deg): b the catalogue
   // sigma (navigate) or identify's default box edge, 4 sigma of the data's grade (MEMS here:
   // 4 x 0.1 deg/s = 1440 deg/h, identification/grade.h).
   const std::vector<std::pair<std::string, std::string>> refusals = {
-      {"navigate", "heading sd 2.44 deg (angle random walk 0.2 deg/sqrt(h) declared in meta.json "
-                   "noise.arw_deg_rth, averaged over the 600 s static window; gyro bias allowance "
-                   "0.01 deg/h"},
-      {"identify --algo lm --iterations 1", "heading sd 7.17e+03 deg (angle random walk 0.2 "
-                   "deg/sqrt(h) declared in meta.json noise.arw_deg_rth, averaged over the 600 s "
-                   "static window; gyro bias allowance 1.44e+03 deg/h"}};
+      {"navigate",
+       "heading sd 2.44 deg (angle random walk 0.2 deg/sqrt(h) declared in meta.json "
+       "noise.arw_deg_rth, averaged over the 600 s static window; gyro bias allowance "
+       "0.01 deg/h"},
+      {"identify --algo lm --iterations 1",
+       "heading sd 7.17e+03 deg (angle random walk 0.2 "
+       "deg/sqrt(h) declared in meta.json noise.arw_deg_rth, averaged over the 600 s "
+       "static window; gyro bias allowance 1.44e+03 deg/h"}};
   for (const auto& [command, expected] : refusals) {
     const Outcome refused = insid(command + " --data " + mems.string());
     EXPECT_NE(refused.status, 0) << command;
     EXPECT_NE(refused.output.find("--initial-attitude gyrocompass refused: expected gyrocompass " +
                                   expected),
-              std::string::npos) << refused.output;
+              std::string::npos)
+        << refused.output;
   }
   const fs::path s_given = root_ / "given.json", s_course = root_ / "course.json";
-  const Outcome given = insid("navigate --data " + mems.string() +
-                              " --initial-attitude level+heading --heading-deg 0 --summary " +
-                              s_given.string());
+  const Outcome given =
+      insid("navigate --data " + mems.string() +
+            " --initial-attitude level+heading --heading-deg 0 --summary " + s_given.string());
   ASSERT_EQ(given.status, 0) << given.output;
-  EXPECT_NE(text(s_given).find("\"heading_source\": \"given\""), std::string::npos) << text(s_given);
+  EXPECT_NE(text(s_given).find("\"heading_source\": \"given\""), std::string::npos)
+      << text(s_given);
   const Outcome course = insid("navigate --data " + mems.string() +
                                " --initial-attitude level+heading --summary " + s_course.string());
   ASSERT_EQ(course.status, 0) << course.output;
@@ -216,18 +228,26 @@ std::vector<BadInput> option_cases(const std::string& data) {
   const std::string ident = "identify --algo pso --data " + data;
   const std::string diag = "diagnose --data " + data;
   const std::vector<Option> options = {
-      {sim, "--flight-s", seconds},        {sim, "--seed", seeds},
+      {sim, "--flight-s", seconds},
+      {sim, "--seed", seeds},
       {bench, "--seeds", {"0", "-1", "1000000000", "abc", "2.5"}},
       {bench, "--threads", {"-1", "5000", "abc"}},
-      {bench, "--flight-s", seconds},      {bench, "--max-new-runs", {"-1", "0", "abc"}},
+      {bench, "--flight-s", seconds},
+      {bench, "--max-new-runs", {"-1", "0", "abc"}},
       {sweep, "--random", {"0", "-1", "abc"}},
       {sweep, "--seeds", {"0", "-3", "1000000000"}},
-      {sweep, "--iterations", counts},     {sweep, "--evaluations", counts},
-      {sweep, "--threads", {"-1", "abc"}}, {sweep, "--flight-s", seconds},
-      {ident, "--seed", seeds},            {ident, "--iterations", counts},
-      {ident, "--evaluations", counts},    {ident, "--threads", {"-1", "nan"}},
-      {diag, "--seed", seeds},             {diag, "--max-effects", {"0", "-1", "abc"}},
-      {diag, "--iterations", {"0", "-1"}}, {diag, "--replicas-basis", {"1", "-1", "abc"}},
+      {sweep, "--iterations", counts},
+      {sweep, "--evaluations", counts},
+      {sweep, "--threads", {"-1", "abc"}},
+      {sweep, "--flight-s", seconds},
+      {ident, "--seed", seeds},
+      {ident, "--iterations", counts},
+      {ident, "--evaluations", counts},
+      {ident, "--threads", {"-1", "nan"}},
+      {diag, "--seed", seeds},
+      {diag, "--max-effects", {"0", "-1", "abc"}},
+      {diag, "--iterations", {"0", "-1"}},
+      {diag, "--replicas-basis", {"1", "-1", "abc"}},
       {diag, "--replicas-calibration", {"0", "abc"}},
       {diag, "--alpha", {"nan", "0", "0.9", "abc"}},
       {diag, "--observable-max-sigma", {"nan", "-1", "inf"}},
@@ -245,9 +265,11 @@ std::vector<BadInput> option_cases(const std::string& data) {
   cases.push_back({sweep + " --grid R=0.1:0.2:2", {"--grid", "'R'", "twice"}});
   cases.push_back({sim + " --set gyro_bias_x=abc", {"--set", "gyro_bias_x"}});
   cases.push_back({sim + " --set nosuch=1", {"nosuch"}});
-  cases.push_back({"navigate --data " + data + " --compensate accel_bias_x", {"--compensate", "NAME=VALUE"}});
+  cases.push_back(
+      {"navigate --data " + data + " --compensate accel_bias_x", {"--compensate", "NAME=VALUE"}});
   // Values checked after parsing (issue 19 audit of every command's options): exit 1, named.
-  cases.push_back({ident + " --estimate gyro_bias_x:0", {"--estimate 'gyro_bias_x:0'", "SIGMA must be > 0"}});
+  cases.push_back(
+      {ident + " --estimate gyro_bias_x:0", {"--estimate 'gyro_bias_x:0'", "SIGMA must be > 0"}});
   cases.push_back({ident + " --estimate gyro_bias_x:-1e-7", {"SIGMA must be > 0"}});
   cases.push_back({ident + " --estimate gyro_bias_x:1e-7:1:-1", {"LO must be < HI"}});
   cases.push_back({ident + " --param population=0", {"population", "got 0"}});
@@ -259,7 +281,8 @@ std::vector<BadInput> option_cases(const std::string& data) {
   cases.push_back({sweep + " --grid R=", {"--grid", "got 'R='"}});
   cases.push_back({sweep + " --preset nosuch", {"unknown preset 'nosuch'"}});
   cases.push_back({sweep + " --grade bogus", {"unknown noise grade 'bogus'"}});
-  cases.push_back({"bench --preset nosuch --out " + data + "-never", {"unknown campaign preset 'nosuch'"}});
+  cases.push_back(
+      {"bench --preset nosuch --out " + data + "-never", {"unknown campaign preset 'nosuch'"}});
   cases.push_back({sim + " --set gyro_bias_x=nan", {"--set gyro_bias_x", "'nan'"}});
   cases.push_back({diag + " --candidates nosuch", {"unknown effect name 'nosuch'"}});
   cases.push_back({diag + " --base gyro_bias_x:0", {"SIGMA must be > 0"}});
@@ -295,20 +318,26 @@ std::vector<std::pair<std::string, std::vector<std::string>>> config_cases() {
       {config(s1, a1, R"(, "max_evaluations": -5)"), {"max_evaluations"}},
       {config(s1, a1, R"(, "nosuch": 1)"), {"unknown key \"nosuch\""}},
       {config(s1, a1, R"(, "alignment": "sideways")"), {"sideways"}},
-      {config(R"([{"name": "../../escape_scn", "preset": "rich"}])", a1, ""), {"scenario name '../../escape_scn'"}},
+      {config(R"([{"name": "../../escape_scn", "preset": "rich"}])", a1, ""),
+       {"scenario name '../../escape_scn'"}},
       {config(R"([{"name": "", "preset": "rich"}])", a1, ""), {"scenario name ''"}},
       {config(R"([{"name": "a b", "preset": "rich"}])", a1, ""), {"scenario name 'a b'"}},
       {config(s1, R"([{"label": "..", "name": "pso"}])", ""), {"algorithm label '..'"}},
       {config(s1, R"([{"label": "x/y", "name": "pso"}])", ""), {"algorithm label 'x/y'"}},
       {config(s1, R"([{"name": "nosuch"}])", ""), {"nosuch"}},
-      {config(s1, R"([{"name": "pso", "parameters": {"w": "high"}}])", ""), {"parameters.w", "number"}},
-      {config(s1, R"([{"name": "pso", "parameters": {"population": 1e9}}])", ""), {"population", "limit"}},
+      {config(s1, R"([{"name": "pso", "parameters": {"w": "high"}}])", ""),
+       {"parameters.w", "number"}},
+      {config(s1, R"([{"name": "pso", "parameters": {"population": 1e9}}])", ""),
+       {"population", "limit"}},
       {config(s1, R"([{"name": "pso"}, {"name": "pso"}])", ""), {"label 'pso' used twice"}},
-      {config(R"([{"name": "s", "preset": "rich"}, {"name": "s", "preset": "paper"}])", a1, ""), {"scenario name 's' used twice"}},
+      {config(R"([{"name": "s", "preset": "rich"}, {"name": "s", "preset": "paper"}])", a1, ""),
+       {"scenario name 's' used twice"}},
       {config(R"([{"name": "s"}])", a1, ""), {"exactly one of \"preset\" and \"data\""}},
-      {config(R"([{"name": "s", "preset": "rich", "flight_s": "long"}])", a1, ""), {"flight_s", "number"}},
+      {config(R"([{"name": "s", "preset": "rich", "flight_s": "long"}])", a1, ""),
+       {"flight_s", "number"}},
       {config(R"([{"name": "s", "preset": "rich", "data_seed": 1.5}])", a1, ""), {"data_seed"}},
-      {config(R"([{"name": "s", "preset": "rich", "set": {"gyro_bias_x": "big"}}])", a1, ""), {"gyro_bias_x", "number"}},
+      {config(R"([{"name": "s", "preset": "rich", "set": {"gyro_bias_x": "big"}}])", a1, ""),
+       {"gyro_bias_x", "number"}},
       {config(R"([{"name": "s", "preset": "rich", "set": {"nosuch": 1}}])", a1, ""), {"nosuch"}},
       {"[1, 2]", {"expected a JSON object"}},
       {"{\"scenarios\": [", {"config"}},
@@ -327,7 +356,8 @@ TEST_F(CliSafety, EveryBadOptionOrConfigValueIsRefusedUpFrontAndNamed) {
     refused += o.status != 0;
     for (const std::string& part : c.expected)
       EXPECT_NE(o.output.find(part), std::string::npos)
-          << c.args << ": output lacks '" << part << "':\n" << o.output;
+          << c.args << ": output lacks '" << part << "':\n"
+          << o.output;
   }
   for (std::size_t k = 0; k < configs.size(); ++k) {
     const fs::path file = root_ / ("config" + std::to_string(k) + ".json");
@@ -340,7 +370,8 @@ TEST_F(CliSafety, EveryBadOptionOrConfigValueIsRefusedUpFrontAndNamed) {
     refused += o.status != 0;
     for (const std::string& part : configs[k].second)
       EXPECT_NE(o.output.find(part), std::string::npos)
-          << configs[k].first << ": output lacks '" << part << "':\n" << o.output;
+          << configs[k].first << ": output lacks '" << part << "':\n"
+          << o.output;
     EXPECT_FALSE(fs::exists(out)) << configs[k].first << ": wrote " << out;
   }
   EXPECT_FALSE(fs::exists(data_.string() + "-never"));
@@ -351,8 +382,8 @@ TEST_F(CliSafety, EveryBadOptionOrConfigValueIsRefusedUpFrontAndNamed) {
 // --window-s is recorded in navigate's summary and identify's result (issue 14).
 TEST_F(CliSafety, WindowLengthIsRecordedInEveryResult) {
   const fs::path summary = root_ / "s.json", result = root_ / "r.json";
-  Outcome o = insid("navigate --data " + data_.string() + " --window-s 5 --summary " +
-                    summary.string());
+  Outcome o =
+      insid("navigate --data " + data_.string() + " --window-s 5 --summary " + summary.string());
   ASSERT_EQ(o.status, 0) << o.output;
   // 20 s flight after the 600 s alignment: restarts at 605, 610, 615 s.
   EXPECT_NE(text(summary).find("\"window_s\": 5.0"), std::string::npos) << text(summary);
@@ -373,8 +404,8 @@ TEST_F(CliSafety, ImportAndExportRefuseBadInputAndNeverHalfWrite) {
   const fs::path kf = root_ / "kf", back = root_ / "back";
   Outcome o = insid("export --to kf-gins --data " + data_.string() + " --out " + kf.string());
   ASSERT_EQ(o.status, 0) << o.output;
-  o = insid("import kf-gins --imu " + (kf / "imu.txt").string() + " --gnss " + (kf / "gnss.txt").string() +
-            " --align-s 600 --out " + back.string());
+  o = insid("import kf-gins --imu " + (kf / "imu.txt").string() + " --gnss " +
+            (kf / "gnss.txt").string() + " --align-s 600 --out " + back.string());
   ASSERT_EQ(o.status, 0) << o.output;
   EXPECT_NE(text(back / "meta.json").find("insid-dataset/2"), std::string::npos);
   EXPECT_NE(text(back / "provenance.json").find("\"sha256\""), std::string::npos);
@@ -386,8 +417,8 @@ TEST_F(CliSafety, ImportAndExportRefuseBadInputAndNeverHalfWrite) {
   const fs::path proj = root_ / "proj";
   fs::create_directories(proj);
   std::ofstream(proj / "notes.txt") << "mine";
-  o = insid("import kf-gins --imu " + (kf / "imu.txt").string() + " --gnss " + (kf / "gnss.txt").string() +
-            " --out " + proj.string());
+  o = insid("import kf-gins --imu " + (kf / "imu.txt").string() + " --gnss " +
+            (kf / "gnss.txt").string() + " --out " + proj.string());
   EXPECT_NE(o.status, 0);
   EXPECT_NE(o.output.find("it holds 'notes.txt'"), std::string::npos) << o.output;
   o = insid("export --to kf-gins --data " + data_.string() + " --out " + proj.string());
@@ -397,17 +428,20 @@ TEST_F(CliSafety, ImportAndExportRefuseBadInputAndNeverHalfWrite) {
 
   // Bad spec values and files: named, nothing written.
   const fs::path out = root_ / "never";
-  o = insid("import csv --imu " + (kf / "imu.txt").string() + " --columns t,ax,ay,az,gx,gy,gq --units s,g,rad/s --gnss " +
+  o = insid("import csv --imu " + (kf / "imu.txt").string() +
+            " --columns t,ax,ay,az,gx,gy,gq --units s,g,rad/s --gnss " +
             (kf / "gnss.txt").string() + " --out " + out.string());
   EXPECT_NE(o.status, 0);
   EXPECT_NE(o.output.find("--columns: unknown role 'gq'"), std::string::npos) << o.output;
-  o = insid("import csv --imu " + (kf / "imu.txt").string() + " --columns t,ax,ay,az,gx,gy,gz --units s,furlong,rad/s --gnss " +
+  o = insid("import csv --imu " + (kf / "imu.txt").string() +
+            " --columns t,ax,ay,az,gx,gy,gz --units s,furlong,rad/s --gnss " +
             (kf / "gnss.txt").string() + " --out " + out.string());
   EXPECT_NE(o.output.find("accelerometer unit 'furlong'"), std::string::npos) << o.output;
-  o = insid("import kf-gins --imu " + (kf / "gnss.txt").string() + " --gnss " + (kf / "gnss.txt").string() +
-            " --out " + out.string());
+  o = insid("import kf-gins --imu " + (kf / "gnss.txt").string() + " --gnss " +
+            (kf / "gnss.txt").string() + " --out " + out.string());
   EXPECT_NE(o.status, 0);
-  EXPECT_NE(o.output.find("gnss.txt line 1: 13 fields, expected 7 or 8"), std::string::npos) << o.output;
+  EXPECT_NE(o.output.find("gnss.txt line 1: 13 fields, expected 7 or 8"), std::string::npos)
+      << o.output;
   // GNSS of another week than the IMU: no overlap, named.
   std::string shifted;
   {
@@ -415,12 +449,13 @@ TEST_F(CliSafety, ImportAndExportRefuseBadInputAndNeverHalfWrite) {
     std::string line;
     while (std::getline(in, line)) {
       const auto space = line.find(' ');
-      shifted += std::to_string(std::stod(line.substr(0, space)) + 5000.0) + line.substr(space) + "\n";
+      shifted +=
+          std::to_string(std::stod(line.substr(0, space)) + 5000.0) + line.substr(space) + "\n";
     }
   }
   std::ofstream(root_ / "late.txt") << shifted;
-  o = insid("import kf-gins --imu " + (kf / "imu.txt").string() + " --gnss " + (root_ / "late.txt").string() +
-            " --out " + out.string());
+  o = insid("import kf-gins --imu " + (kf / "imu.txt").string() + " --gnss " +
+            (root_ / "late.txt").string() + " --out " + out.string());
   EXPECT_NE(o.status, 0);
   EXPECT_NE(o.output.find("does not overlap the IMU data"), std::string::npos) << o.output;
   EXPECT_FALSE(fs::exists(out));
@@ -464,16 +499,21 @@ TEST_F(CliSafety, ExitCodesAreTheDocumentedOnesWithOneErrorPrefix) {
       {"navigate", "insid navigate: error: --data is required", 2},
       {"navigate --data " + d + " --nosuch 1", "insid navigate: error: The following argument", 2},
       {"bench --preset quick --seeds 0 --out " + never, "insid bench: error: --seeds: value 0", 2},
-      {"identify --data " + d + " --quiet --verbose", "insid identify: error: --quiet excludes --verbose", 2},
+      {"identify --data " + d + " --quiet --verbose",
+       "insid identify: error: --quiet excludes --verbose", 2},
       {"simulate --out " + never, "insid simulate: error: give exactly one of --preset", 2},
       {"simulate --preset straight", "insid simulate: error: --out DIR is required", 2},
-      {"identify --data " + d + " --uncertainty-replicas 5", "insid identify: error: --uncertainty-replicas 5", 2},
-      {"import csv --imu x --columns t,ax,ay,az,gx,gy,gz --units s,g,rad/s --gnss y --imu-time relative --out " + never,
+      {"identify --data " + d + " --uncertainty-replicas 5",
+       "insid identify: error: --uncertainty-replicas 5", 2},
+      {"import csv --imu x --columns t,ax,ay,az,gx,gy,gz --units s,g,rad/s --gnss y --imu-time "
+       "relative --out " +
+           never,
        "insid import csv: error: --imu-time relative needs --imu-time-offset-s", 2},
       {"navigate --data " + never, "insid navigate: error: dataset directory", 1},
       {"navigate --data " + d + " --compensate-from " + (data_ / "meta.json").string(),
        "insid navigate: error: --compensate-from " + (data_ / "meta.json").string() +
-           ": not an identify result", 1},
+           ": not an identify result",
+       1},
       {"navigate --data " + d + " --summary " + (root_ / "ok.json").string(), "", 0},
   };
   for (const Case& c : cases) {
@@ -494,8 +534,10 @@ TEST_F(CliSafety, ExitCodesAreTheDocumentedOnesWithOneErrorPrefix) {
 TEST_F(CliSafety, ProgressToANonTerminalHasNoCarriageReturn) {
   const std::string d = data_.string();
   const fs::path result = root_ / "r.json";
-  const std::string ident = "identify --algo pso --iterations 3 --no-reference-optimum "
-                            "--uncertainty-replicas 0 --data " + d + " --out " + result.string();
+  const std::string ident =
+      "identify --algo pso --iterations 3 --no-reference-optimum "
+      "--uncertainty-replicas 0 --data " +
+      d + " --out " + result.string();
   const Outcome o = insid(ident);
   ASSERT_EQ(o.status, 0) << o.output;
   EXPECT_FALSE(has(o.output, "\r")) << o.output;
@@ -506,21 +548,25 @@ TEST_F(CliSafety, ProgressToANonTerminalHasNoCarriageReturn) {
   EXPECT_EQ(quiet.output, "");
   // lm converges, then restarts until the budget is spent: the closing line says where the
   // best was first reached, not only the budget.
-  const Outcome lm = insid("identify --algo lm --iterations 12 --no-reference-optimum "
-                           "--uncertainty-replicas 0 --data " + d + " --out " + result.string());
+  const Outcome lm = insid(
+      "identify --algo lm --iterations 12 --no-reference-optimum "
+      "--uncertainty-replicas 0 --data " +
+      d + " --out " + result.string());
   ASSERT_EQ(lm.status, 0) << lm.output;
   EXPECT_TRUE(has(lm.output, "insid identify: lm stopped after ")) << lm.output;
   EXPECT_TRUE(has(lm.output, " first reached at iteration ")) << lm.output;
 
   const fs::path sweep = root_ / "sweep";
-  const Outcome s = insid("sweep --algo pso --grid w=0.5,0.7 --seeds 1 --iterations 2 --preset "
-                          "straight --flight-s 20 --out " + sweep.string());
+  const Outcome s = insid(
+      "sweep --algo pso --grid w=0.5,0.7 --seeds 1 --iterations 2 --preset "
+      "straight --flight-s 20 --out " +
+      sweep.string());
   ASSERT_EQ(s.status, 0) << s.output;
   EXPECT_FALSE(has(s.output, "\r")) << s.output;
   EXPECT_FALSE(has(s.output, "insid bench")) << s.output;
   EXPECT_TRUE(has(s.output, "insid sweep: runs 2/2")) << s.output;
-  const Outcome sim = insid("simulate --preset straight --flight-s 5 --quiet --out " +
-                            (root_ / "q").string());
+  const Outcome sim =
+      insid("simulate --preset straight --flight-s 5 --quiet --out " + (root_ / "q").string());
   ASSERT_EQ(sim.status, 0) << sim.output;
   EXPECT_EQ(sim.output, "");
 }
@@ -550,8 +596,10 @@ TEST_F(CliSafety, NavigationCsvTimesHaveSixDecimals) {
 TEST_F(CliSafety, NavigateCompensatesFromAnIdentifyResult) {
   const std::string d = data_.string();
   const fs::path result = root_ / "r.json";
-  Outcome o = insid("identify --algo pso --iterations 3 --no-reference-optimum "
-                    "--uncertainty-replicas 10 --quiet --data " + d + " --out " + result.string());
+  Outcome o = insid(
+      "identify --algo pso --iterations 3 --no-reference-optimum "
+      "--uncertainty-replicas 10 --quiet --data " +
+      d + " --out " + result.string());
   ASSERT_EQ(o.status, 0) << o.output;
   const nlohmann::json r = nlohmann::json::parse(text(result));
   ASSERT_TRUE(r.contains("parameters"));
@@ -595,7 +643,8 @@ TEST_F(CliSafety, NavigateCompensatesFromAnIdentifyResult) {
   std::ofstream(r1, std::ios::trunc) << bad.dump(2);
   o = insid("navigate --data " + d + " --compensate-from " + r1.string());
   EXPECT_EQ(o.status, 1);
-  EXPECT_TRUE(has(o.output, "estimate." + first + " is \"big\", expected a finite number")) << o.output;
+  EXPECT_TRUE(has(o.output, "estimate." + first + " is \"big\", expected a finite number"))
+      << o.output;
 }
 
 }  // namespace manners

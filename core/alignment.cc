@@ -80,10 +80,14 @@ constexpr double kRadRtsToDegRth = kRadToDeg * 60.0;  // sqrt(h) = 60 sqrt(s)
 
 std::string to_string(InitialAttitudeMode mode) {
   switch (mode) {
-    case InitialAttitudeMode::kGyrocompass: return "gyrocompass";
-    case InitialAttitudeMode::kLevelHeading: return "level+heading";
-    case InitialAttitudeMode::kGiven: return "given";
-    case InitialAttitudeMode::kTruth: return "truth";
+    case InitialAttitudeMode::kGyrocompass:
+      return "gyrocompass";
+    case InitialAttitudeMode::kLevelHeading:
+      return "level+heading";
+    case InitialAttitudeMode::kGiven:
+      return "given";
+    case InitialAttitudeMode::kTruth:
+      return "truth";
   }
   return "?";
 }
@@ -95,7 +99,8 @@ InitialAttitudeMode initial_attitude_mode_from_string(const std::string& text) {
   if (text == "truth") return InitialAttitudeMode::kTruth;
   throw std::invalid_argument(
       "--initial-attitude must be 'gyrocompass' (or 'align'), 'level+heading', 'given' or "
-      "'truth', got '" + text + "'");
+      "'truth', got '" +
+      text + "'");
 }
 
 std::string InitialAttitudeOptions::validate() const {
@@ -145,14 +150,14 @@ GyrocompassFeasibility gyrocompass_feasibility(double arw_rad_rts, bool arw_decl
   f.bias_allowance_rad_s = bias_allowance_rad_s;
   f.horizontal_earth_rate_rad_s = omega_ie_rad_s * std::abs(std::cos(lat_rad));
   // dpsi = eps_E / (W cos lat); eps_E: ARW averaged over T (N / sqrt(T)) and the bias allowance.
-  const double eps_E = std::sqrt(arw_rad_rts * arw_rad_rts / window_s +
-                                 bias_allowance_rad_s * bias_allowance_rad_s);
+  const double eps_E =
+      std::sqrt(arw_rad_rts * arw_rad_rts / window_s + bias_allowance_rad_s * bias_allowance_rad_s);
   f.heading_sd_rad = eps_E / f.horizontal_earth_rate_rad_s;
   return f;
 }
 
-double estimate_arw_rad_rts(const std::vector<ImuSample>& imu, std::size_t begin,
-                            std::size_t end, double t_start_s) {
+double estimate_arw_rad_rts(const std::vector<ImuSample>& imu, std::size_t begin, std::size_t end,
+                            double t_start_s) {
   if (end > imu.size() || end < begin + 3) return 0.0;
   // First differences of per-sample rates: 2 sigma^2 for white rate noise, bias removed.
   std::vector<double> diffs[3];
@@ -199,8 +204,7 @@ Eigen::Matrix3d level_with_yaw(const Eigen::Vector3d& f_ib_b, double yaw_rad) {
 double yaw_change_rad(const YawCarry& carry, const ImuCompensator& compensator,
                       double earth_up_rate_rad_s) {
   // psi_dot = d + sin(theta) phi_dot, d = -u_b . omega_ib_b + W sin(lat).
-  return -compensator.projected_gyro_sum(carry.sum_u_dtheta, carry.sum_u_dt,
-                                         carry.sum_u_tmid_dt) +
+  return -compensator.projected_gyro_sum(carry.sum_u_dtheta, carry.sum_u_dt, carry.sum_u_tmid_dt) +
          earth_up_rate_rad_s * carry.span_s + carry.roll_pitch_term_rad;
 }
 
@@ -239,7 +243,8 @@ InitialAttitude::InitialAttitude(const Dataset& ds, const InitialAttitudeOptions
     case InitialAttitudeMode::kGiven: {
       if (!ds.meta.initial_attitude_known)
         throw std::invalid_argument(
-            mode + ": meta.json \"initial\" gives no attitude (roll_deg/pitch_deg/yaw_deg are "
+            mode +
+            ": meta.json \"initial\" gives no attitude (roll_deg/pitch_deg/yaw_deg are "
             "null); use --initial-attitude level+heading on a static start, or write the "
             "attitude at the start into meta.json");
       // The attitude holds at initial.t_s; it is the one at the navigation start only while
@@ -274,24 +279,24 @@ InitialAttitude::InitialAttitude(const Dataset& ds, const InitialAttitudeOptions
     const double speed = std::hypot(g.v_eb_n_mps.x(), g.v_eb_n_mps.y());
     if (speed > options.static_max_speed_mps)
       throw std::invalid_argument(
-          "the alignment window (align_s = " + num(ds.meta.align_s, 12) +
-          " s, imu.csv lines " + std::to_string(window_begin + 2) + "-" +
-          std::to_string(window_end + 1) + ") is not static: the GNSS horizontal speed is " +
-          num(speed) + " m/s at t = " + num(g.t_s, 12) + " s (gnss.csv line " +
-          std::to_string(i + 2) + "; static means <= " + num(options.static_max_speed_mps) +
-          " m/s), so " + mode + " cannot level on it; give a shorter align_s, or the attitude "
+          "the alignment window (align_s = " + num(ds.meta.align_s, 12) + " s, imu.csv lines " +
+          std::to_string(window_begin + 2) + "-" + std::to_string(window_end + 1) +
+          ") is not static: the GNSS horizontal speed is " + num(speed) +
+          " m/s at t = " + num(g.t_s, 12) + " s (gnss.csv line " + std::to_string(i + 2) +
+          "; static means <= " + num(options.static_max_speed_mps) + " m/s), so " + mode +
+          " cannot level on it; give a shorter align_s, or the attitude "
           "at the start: --initial-attitude given (meta.json \"initial\") or truth (simulated "
           "data)");
   }
 
   if (options.mode == InitialAttitudeMode::kGyrocompass) {
     const bool declared = ds.meta.noise.has_value();
-    const double arw = declared ? ds.meta.noise->arw_deg_rth / kRadRtsToDegRth
-                                : estimate_arw_rad_rts(ds.imu, window_begin, window_end,
-                                                       window_start_t_s);
-    feasibility_ = gyrocompass_feasibility(arw, declared, window.sum_dt_s,
-                                           options.gyro_bias_allowance_rad_s,
-                                           earth.omega_ie_rad_s, lat0);
+    const double arw =
+        declared ? ds.meta.noise->arw_deg_rth / kRadRtsToDegRth
+                 : estimate_arw_rad_rts(ds.imu, window_begin, window_end, window_start_t_s);
+    feasibility_ =
+        gyrocompass_feasibility(arw, declared, window.sum_dt_s, options.gyro_bias_allowance_rad_s,
+                                earth.omega_ie_rad_s, lat0);
     if (!(feasibility_->heading_sd_rad * kRadToDeg <= options.gyrocompass_max_heading_sd_deg))
       throw std::invalid_argument(
           mode + " refused: " + feasibility_->describe() + " exceeds the threshold of " +
@@ -367,8 +372,8 @@ InitialAttitude::InitialAttitude(const Dataset& ds, const InitialAttitudeOptions
       step.sum_u_dt = u_mid * dt;
       step.sum_u_tmid_dt = u_mid * (t_mid * dt);
       step.span_s = dt;
-      step.roll_pitch_term_rad = std::sin(0.5 * (e.pitch_rad + e_prev.pitch_rad)) *
-                                 wrap_pi(e.roll_rad - e_prev.roll_rad);
+      step.roll_pitch_term_rad =
+          std::sin(0.5 * (e.pitch_rad + e_prev.pitch_rad)) * wrap_pi(e.roll_rad - e_prev.roll_rad);
       e_prev = e;
       // Fixes inside (t_prev, t_k]: the sums so far plus the fraction of this step.
       while (next_fix < fixes_.size() && fixes_[next_fix].t_s <= t_k + 1e-9) {

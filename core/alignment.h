@@ -86,8 +86,8 @@ struct InitialAttitudeOptions {
 /// bias b: sd = sqrt(N^2 / T + b^2) / (W cos lat).
 struct GyrocompassFeasibility {
   double heading_sd_rad = 0.0;
-  double arw_rad_rts = 0.0;      ///< angle random walk used (rad/sqrt(s))
-  bool arw_declared = false;     ///< from meta.json noise.arw_deg_rth (else estimated)
+  double arw_rad_rts = 0.0;   ///< angle random walk used (rad/sqrt(s))
+  bool arw_declared = false;  ///< from meta.json noise.arw_deg_rth (else estimated)
   double window_s = 0.0;
   double bias_allowance_rad_s = 0.0;
   double horizontal_earth_rate_rad_s = 0.0;  ///< W cos lat
@@ -103,8 +103,8 @@ GyrocompassFeasibility gyrocompass_feasibility(double arw_rad_rts, bool arw_decl
 /// robust (MAD) spread of first differences of the per-sample rates, per axis, averaged in
 /// variance over the three axes; N = sigma_rate * sqrt(dt). Vibration counts as noise (an
 /// overestimate, which refuses gyrocompassing sooner). 0 with fewer than 3 samples.
-double estimate_arw_rad_rts(const std::vector<ImuSample>& imu, std::size_t begin,
-                            std::size_t end, double t_start_s);
+double estimate_arw_rad_rts(const std::vector<ImuSample>& imu, std::size_t begin, std::size_t end,
+                            double t_start_s);
 
 /// C_b_n from the up direction of a mean specific force f_ib_b and a heading (yaw, clockwise
 /// from north): roll and pitch from the levelling, yaw given.
@@ -119,10 +119,10 @@ Eigen::Matrix3d level_with_yaw(const Eigen::Vector3d& f_ib_b, double yaw_rad);
 /// data as recorded, from the levelled start); the candidate enters through the compensated
 /// increments: sum u_b^T G^-1 (dtheta - (b0 + b_dot t_mid) dt), linear in the sums below.
 struct YawCarry {
-  Eigen::Matrix3d sum_u_dtheta = Eigen::Matrix3d::Zero();  ///< sum u_b dtheta_b^T (rad)
-  Eigen::Vector3d sum_u_dt = Eigen::Vector3d::Zero();      ///< sum u_b dt (s)
-  Eigen::Vector3d sum_u_tmid_dt = Eigen::Vector3d::Zero(); ///< sum u_b t_mid dt (s^2)
-  double span_s = 0.0;           ///< time from the navigation start
+  Eigen::Matrix3d sum_u_dtheta = Eigen::Matrix3d::Zero();   ///< sum u_b dtheta_b^T (rad)
+  Eigen::Vector3d sum_u_dt = Eigen::Vector3d::Zero();       ///< sum u_b dt (s)
+  Eigen::Vector3d sum_u_tmid_dt = Eigen::Vector3d::Zero();  ///< sum u_b t_mid dt (s^2)
+  double span_s = 0.0;                                      ///< time from the navigation start
   double roll_pitch_term_rad = 0.0;  ///< sum sin(theta) dphi on the reference track
 };
 /// Yaw change (rad, clockwise +) from the navigation start over the carry's span.
@@ -135,7 +135,7 @@ struct CourseFix {
   double t_s = 0.0;
   double course_rad = 0.0;  ///< atan2(vE, vN), clockwise from north
   double speed_mps = 0.0;
-  YawCarry carry;           ///< from the navigation start to t_s
+  YawCarry carry;  ///< from the navigation start to t_s
   /// d(yaw change)/d(roll, pitch at the start) on the reference track (finite differences):
   /// the carry is linearised about the track levelled from the data as recorded, and a
   /// candidate whose levelling differs (a compensated 20 mg accelerometer bias tilts it by
@@ -153,8 +153,8 @@ class InitialAttitude {
   /// imu[nav_begin - 1].t_s. Gyrocompass and level+heading need a static window; gyrocompass
   /// must also pass the feasibility check.
   InitialAttitude(const Dataset& dataset, const InitialAttitudeOptions& options,
-                  const AlignmentWindow& window, std::size_t window_begin,
-                  std::size_t window_end, double window_start_t_s, std::size_t nav_begin);
+                  const AlignmentWindow& window, std::size_t window_begin, std::size_t window_end,
+                  double window_start_t_s, std::size_t nav_begin);
 
   const InitialAttitudeOptions& options() const { return options_; }
   bool depends_on_candidate() const {
@@ -178,7 +178,7 @@ class InitialAttitude {
  private:
   InitialAttitudeOptions options_;
   AlignmentWindow window_;
-  Eigen::Matrix3d C_b_n_fixed_ = Eigen::Matrix3d::Identity();  // given / truth
+  Eigen::Matrix3d C_b_n_fixed_ = Eigen::Matrix3d::Identity();        // given / truth
   EulerAngles tilt_offset(const ImuCompensator& compensator) const;  // candidate - track start
   double yaw_change_to(const CourseFix& fix, const ImuCompensator& compensator,
                        const EulerAngles& tilt_offset) const;

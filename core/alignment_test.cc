@@ -37,7 +37,8 @@ TEST(Alignment, LevellingErrorIsMinusBiasOverG) {
   const EulerAngles att{0, 0, 0};
   SensorErrors errors;
   errors.accel.bias = Eigen::Vector3d(3 * kSigmaAccelMps2, -2 * kSigmaAccelMps2, 0);
-  const Dataset ds = testing::make_static_dataset(earth, kLat, 0.0, 50.0, att, 600.0, 600.0, errors);
+  const Dataset ds =
+      testing::make_static_dataset(earth, kLat, 0.0, 50.0, att, 600.0, 600.0, errors);
   const EulerAngles e = euler_from_C_b_n(align_window(window_of(ds), ImuCompensator({})));
   EXPECT_NEAR(e.pitch_rad, errors.accel.bias.x() / g, 0.05 * std::abs(errors.accel.bias.x() / g));
   EXPECT_NEAR(e.roll_rad, -errors.accel.bias.y() / g, 0.05 * std::abs(errors.accel.bias.y() / g));
@@ -54,7 +55,8 @@ TEST(Alignment, HeadingErrorFromEastGyroBias) {
   const EulerAngles att{0, 0, 0};  // body y axis = east
   SensorErrors errors;
   errors.gyro.bias.y() = 2 * kSigmaGyroRadS;
-  const Dataset ds = testing::make_static_dataset(earth, kLat, 0.0, 50.0, att, 600.0, 600.0, errors);
+  const Dataset ds =
+      testing::make_static_dataset(earth, kLat, 0.0, 50.0, att, 600.0, 600.0, errors);
   const EulerAngles e = euler_from_C_b_n(align_window(window_of(ds), ImuCompensator({})));
   const double expected = -errors.gyro.bias.y() / (earth.omega_ie_rad_s * std::cos(kLat));
   EXPECT_NEAR(wrap_pi(e.yaw_rad), expected, 0.05 * std::abs(expected));
@@ -69,7 +71,8 @@ TEST(Alignment, DriftCompensationUsesWindowMeanTime) {
   errors.gyro.bias_drift = Eigen::Vector3d(1e-11, 2e-11, -1e-11);
   errors.accel.scale = Eigen::Vector3d(1e-4, -2e-4, 3e-4);
   errors.gyro.misalign(0, 1) = 2e-4;
-  const Dataset ds = testing::make_static_dataset(earth, kLat, 0.0, 50.0, att, 600.0, 600.0, errors);
+  const Dataset ds =
+      testing::make_static_dataset(earth, kLat, 0.0, 50.0, att, 600.0, 600.0, errors);
   const Eigen::Matrix3d C = align_window(window_of(ds), ImuCompensator(errors));
   EXPECT_LT((C - C_b_n_from_euler(att)).norm(), 1e-9);
   const Eigen::Matrix3d C_uncompensated = align_window(window_of(ds), ImuCompensator({}));
@@ -82,7 +85,6 @@ TEST(Alignment, ParallelVectorsAreRejected) {
   EXPECT_THROW(coarse_align(Eigen::Vector3d::Zero(), Eigen::Vector3d(1e-5, 0, 0)),
                std::invalid_argument);
 }
-
 
 // level_with_yaw(f, yaw of the gyrocompass) is the gyrocompass attitude: roll and pitch from the
 // same up direction, at tilts and headings all round.
@@ -120,7 +122,8 @@ TEST(Alignment, ProjectedGyroSumEqualsTheSumOfCompensatedIncrements) {
     const double dt = 0.005 + 0.005 * (u(rng) + 1.0);
     t += dt;
     const Eigen::Vector3d dir = Eigen::Vector3d(u(rng), u(rng), u(rng)).normalized();
-    Eigen::Vector3d dtheta = Eigen::Vector3d(u(rng), u(rng), u(rng)) * 0.01, dv = Eigen::Vector3d::Zero();
+    Eigen::Vector3d dtheta = Eigen::Vector3d(u(rng), u(rng), u(rng)) * 0.01,
+                    dv = Eigen::Vector3d::Zero();
     M += dir * dtheta.transpose();
     U += dir * dt;
     V += dir * ((t - 0.5 * dt) * dt);
@@ -133,8 +136,9 @@ TEST(Alignment, ProjectedGyroSumEqualsTheSumOfCompensatedIncrements) {
 
 TEST(Alignment, ModeNamesAndOptionsAreChecked) {
   EXPECT_EQ(initial_attitude_mode_from_string("align"), InitialAttitudeMode::kGyrocompass);
-  for (InitialAttitudeMode m : {InitialAttitudeMode::kGyrocompass, InitialAttitudeMode::kLevelHeading,
-                                InitialAttitudeMode::kGiven, InitialAttitudeMode::kTruth})
+  for (InitialAttitudeMode m :
+       {InitialAttitudeMode::kGyrocompass, InitialAttitudeMode::kLevelHeading,
+        InitialAttitudeMode::kGiven, InitialAttitudeMode::kTruth})
     EXPECT_EQ(initial_attitude_mode_from_string(to_string(m)), m);
   try {
     initial_attitude_mode_from_string("magnetometer");
@@ -159,7 +163,8 @@ TEST(Alignment, GyrocompassFeasibilityFigures) {
   const double W = 7.292115e-5, arw = 0.002 * kDegToRad / 60.0;
   const GyrocompassFeasibility nav =
       gyrocompass_feasibility(arw, true, 600.0, 4 * kSigmaGyroRadS, W, kLat);
-  const double expected = std::hypot(arw / std::sqrt(600.0), 4 * kSigmaGyroRadS) / (W * std::cos(kLat));
+  const double expected =
+      std::hypot(arw / std::sqrt(600.0), 4 * kSigmaGyroRadS) / (W * std::cos(kLat));
   EXPECT_DOUBLE_EQ(nav.heading_sd_rad, expected);
   EXPECT_NEAR(nav.heading_sd_rad * kRadToDeg, 0.2, 0.01);
   const GyrocompassFeasibility noise_only = gyrocompass_feasibility(arw, true, 600.0, 0.0, W, kLat);

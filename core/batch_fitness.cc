@@ -72,26 +72,26 @@ struct M {
   m8 c[N];
 };
 
-#define INSID_BINOP(op)                                                     \
-  template <int N>                                                          \
-  INSID_AI P<N> operator op(const P<N>& a, const P<N>& b) {                 \
-    P<N> r;                                                                 \
-    for (int i = 0; i < N; ++i) r.c[i] = a.c[i] op b.c[i];                  \
-    return r;                                                               \
-  }                                                                         \
-  template <int N>                                                          \
-  INSID_AI P<N> operator op(const P<N>& a, double b) {                      \
-    P<N> r;                                                                 \
-    const v8 bb = splat(b);                                                 \
-    for (int i = 0; i < N; ++i) r.c[i] = a.c[i] op bb;                      \
-    return r;                                                               \
-  }                                                                         \
-  template <int N>                                                          \
-  INSID_AI P<N> operator op(double a, const P<N>& b) {                      \
-    P<N> r;                                                                 \
-    const v8 aa = splat(a);                                                 \
-    for (int i = 0; i < N; ++i) r.c[i] = aa op b.c[i];                      \
-    return r;                                                               \
+#define INSID_BINOP(op)                                     \
+  template <int N>                                          \
+  INSID_AI P<N> operator op(const P<N>& a, const P<N>& b) { \
+    P<N> r;                                                 \
+    for (int i = 0; i < N; ++i) r.c[i] = a.c[i] op b.c[i];  \
+    return r;                                               \
+  }                                                         \
+  template <int N>                                          \
+  INSID_AI P<N> operator op(const P<N>& a, double b) {      \
+    P<N> r;                                                 \
+    const v8 bb = splat(b);                                 \
+    for (int i = 0; i < N; ++i) r.c[i] = a.c[i] op bb;      \
+    return r;                                               \
+  }                                                         \
+  template <int N>                                          \
+  INSID_AI P<N> operator op(double a, const P<N>& b) {      \
+    P<N> r;                                                 \
+    const v8 aa = splat(a);                                 \
+    for (int i = 0; i < N; ++i) r.c[i] = aa op b.c[i];      \
+    return r;                                               \
   }
 INSID_BINOP(+)
 INSID_BINOP(-)
@@ -171,10 +171,10 @@ INSID_AI double lane(const P<N>& a, int l) {
 // clamped to the start; n_imu: after the last step, clamped to the end), interpolating the INS
 // velocity between the states at step - 1 and step with weight w.
 struct Event {
-  std::int64_t step;  ///< IMU index after whose state the epoch is compared
-  double w;           ///< interpolation weight between the states at step - 1 and step [1]
-  double gE, gN;      ///< GNSS velocity, east and north of n = ENU [m/s]
-  std::int64_t epoch; ///< index of the compared epoch (residual slots 2 epoch, 2 epoch + 1)
+  std::int64_t step;   ///< IMU index after whose state the epoch is compared
+  double w;            ///< interpolation weight between the states at step - 1 and step [1]
+  double gE, gN;       ///< GNSS velocity, east and north of n = ENU [m/s]
+  std::int64_t epoch;  ///< index of the compared epoch (residual slots 2 epoch, 2 epoch + 1)
 };
 using EventList = std::vector<Event>;
 
@@ -210,24 +210,24 @@ EventList make_events(const NavigationProblem& nav, double latency) {
 // Everything one lane needs, set up in scalar code from the candidate (O(1) except the
 // events of a non-zero latency).
 struct LaneInit {
-  double gyro_distortion_inv[9];   ///< (I + S_g + M_g)^-1, row-major [1]
-  double accel_distortion_inv[9];  ///< (I + S_a + M_a)^-1, row-major [1]
-  bool general = false;  ///< distortion (scale, misalignment) or bias drift present
+  double gyro_distortion_inv[9];       ///< (I + S_g + M_g)^-1, row-major [1]
+  double accel_distortion_inv[9];      ///< (I + S_a + M_a)^-1, row-major [1]
+  bool general = false;                ///< distortion (scale, misalignment) or bias drift present
   double gyro_bias_b_rad_s[3];         ///< gyro bias at t = 0, body FRD [rad/s]
   double gyro_bias_drift_b_rad_s2[3];  ///< its linear drift [rad/s^2]
   double accel_bias_b_mps2[3];         ///< accelerometer bias at t = 0, body FRD [m/s^2]
   double accel_bias_drift_b_mps3[3];   ///< its linear drift [m/s^3]
-  double lat_rad;           ///< geodetic latitude at the navigation start [rad]
-  double v_eb_n_east_mps;   ///< INS velocity, east component of n = ENU [m/s]
-  double v_eb_n_north_mps;  ///< INS velocity, north component [m/s]
-  double q_b_n[4];          ///< attitude quaternion b -> n: w, x, y, z [1]
-  double dtheta_prev_b_rad[3];      ///< compensated angle increment of the step before [rad]
-  double dv_prev_b_mps[3];          ///< compensated velocity increment of the step before [m/s]
-  double omega_ib_b_prev_rad_s[3];  ///< mean angular rate over the step before [rad/s]
-  double lever_arm_b_m[3];          ///< GNSS antenna relative to the IMU, body FRD [m]
-  bool lever = false;               ///< lever arm non-zero
-  double v_ant_n_east_mps;   ///< antenna velocity at the navigation start, east [m/s]
-  double v_ant_n_north_mps;  ///< antenna velocity at the navigation start, north [m/s]
+  double lat_rad;                      ///< geodetic latitude at the navigation start [rad]
+  double v_eb_n_east_mps;              ///< INS velocity, east component of n = ENU [m/s]
+  double v_eb_n_north_mps;             ///< INS velocity, north component [m/s]
+  double q_b_n[4];                     ///< attitude quaternion b -> n: w, x, y, z [1]
+  double dtheta_prev_b_rad[3];         ///< compensated angle increment of the step before [rad]
+  double dv_prev_b_mps[3];             ///< compensated velocity increment of the step before [m/s]
+  double omega_ib_b_prev_rad_s[3];     ///< mean angular rate over the step before [rad/s]
+  double lever_arm_b_m[3];             ///< GNSS antenna relative to the IMU, body FRD [m]
+  bool lever = false;                  ///< lever arm non-zero
+  double v_ant_n_east_mps;             ///< antenna velocity at the navigation start, east [m/s]
+  double v_ant_n_north_mps;            ///< antenna velocity at the navigation start, north [m/s]
   double eq15_sum_at_start = 0.0;  ///< epochs clamped to the start, already summed (Eq. 15 terms)
   const EventList* events = nullptr;
   std::size_t cursor = 0;  ///< first event not yet emitted
@@ -282,8 +282,7 @@ void setup_lane(const NavigationProblem& nav, const SensorErrors& c, const Event
   li.q_b_n[3] = s0.q_b_n.z();
 
   ImuSample prev = ds.imu[nb - 1];
-  const double t_before =
-      nb >= 2 ? ds.imu[nb - 2].t_s : prev.t_s - 1.0 / ds.meta.imu_rate_hz;
+  const double t_before = nb >= 2 ? ds.imu[nb - 2].t_s : prev.t_s - 1.0 / ds.meta.imu_rate_hz;
   compensator.compensate(prev.t_s, prev.t_s - t_before, prev.dtheta_b_rad, prev.dv_b_mps);
   const Eigen::Vector3d omega_mid_prev = prev.dtheta_b_rad / (prev.t_s - t_before);
   for (int i = 0; i < 3; ++i) {
@@ -295,8 +294,7 @@ void setup_lane(const NavigationProblem& nav, const SensorErrors& c, const Event
   if (li.lever) {
     const Eigen::Vector3d& l_b = c.lever_arm_b_m;
     const Eigen::Matrix3d C = s0.q_b_n.toRotationMatrix();
-    v_ant = s0.v_eb_n + C * omega_mid_prev.cross(l_b) -
-            earth.omega_ie_n(s0.lat_rad).cross(C * l_b);
+    v_ant = s0.v_eb_n + C * omega_mid_prev.cross(l_b) - earth.omega_ie_n(s0.lat_rad).cross(C * l_b);
   }
   li.v_ant_n_east_mps = v_ant.x();
   li.v_ant_n_north_mps = v_ant.y();
@@ -325,15 +323,15 @@ struct V3 {
   P<N> x, y, z;
 };
 template <int N>
-INSID_AI V3<N> cross(const P<N>& ax, const P<N>& ay, const P<N>& az, const P<N>& bx,
-                     const P<N>& by, const P<N>& bz) {
+INSID_AI V3<N> cross(const P<N>& ax, const P<N>& ay, const P<N>& az, const P<N>& bx, const P<N>& by,
+                     const P<N>& bz) {
   return {ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx};
 }
 
 // The kernel: N vectors of W lanes from `lanes` (N * W entries), whole navigation run.
 template <int N, bool kGeneral, bool kLever>
-void run_group(const NavigationProblem& nav, const BatchFitness::Impl& im,
-               LaneInit* const* lanes, bool sum_squares, double* acc_out) {
+void run_group(const NavigationProblem& nav, const BatchFitness::Impl& im, LaneInit* const* lanes,
+               bool sum_squares, double* acc_out) {
   constexpr int L = N * W;
   using PN = P<N>;
   const Dataset& ds = nav.dataset();
@@ -414,8 +412,8 @@ void run_group(const NavigationProblem& nav, const BatchFitness::Impl& im,
   // else per-lane cursors with masked accumulation (same arithmetic per lane).
   bool uniform = true;
   for (int l = 1; l < L; ++l)
-    uniform = uniform && lanes[l]->events == lanes[0]->events &&
-              lanes[l]->cursor == lanes[0]->cursor;
+    uniform =
+        uniform && lanes[l]->events == lanes[0]->events && lanes[l]->cursor == lanes[0]->cursor;
   std::vector<double>* res[L];
   bool any_res = false;
   for (int l = 0; l < L; ++l) {
@@ -443,8 +441,8 @@ void run_group(const NavigationProblem& nav, const BatchFitness::Impl& im,
   std::int64_t next_step = next_event_step();
 
   // Residual and Eq. 15 term of the INS antenna velocity interpolated to an epoch.
-  auto term = [&](const PN& vEnow, const PN& vNnow, const PN& w, const PN& gE, const PN& gN,
-                  PN& rE, PN& rN) __attribute__((always_inline)) {
+  auto term = [&](const PN& vEnow, const PN& vNnow, const PN& w, const PN& gE, const PN& gN, PN& rE,
+                  PN& rN) __attribute__((always_inline)) {
     rE = fma(w, vEnow - vaEp, vaEp) - gE;
     rN = fma(w, vNnow - vaNp, vaNp) - gN;
     const PN d2 = fma(rE, rE, rN * rN);
@@ -455,8 +453,7 @@ void run_group(const NavigationProblem& nav, const BatchFitness::Impl& im,
     if (uniform) {
       while (ucur < uend && uev[ucur].step == k) {
         const Event& ev = uev[ucur++];
-        acc = acc + term(vEnow, vNnow, bcast<N>(ev.w), bcast<N>(ev.gE), bcast<N>(ev.gN), rE,
-                         rN);
+        acc = acc + term(vEnow, vNnow, bcast<N>(ev.w), bcast<N>(ev.gE), bcast<N>(ev.gN), rE, rN);
         if (any_res)
           for (int l = 0; l < L; ++l)
             if (res[l]) {
@@ -502,11 +499,10 @@ void run_group(const NavigationProblem& nav, const BatchFitness::Impl& im,
     const double lref = im.ref_lat[blk], sref = im.ref_sin[blk], cref = im.ref_cos[blk];
     const PN d = lat - lref;
     const PN z = d * d;
-    const PN sd = fma(
-        d * z, fma(z, fma(z, fma(z, 1.0 / 362880, -1.0 / 5040), 1.0 / 120), -1.0 / 6), d);
+    const PN sd =
+        fma(d * z, fma(z, fma(z, fma(z, 1.0 / 362880, -1.0 / 5040), 1.0 / 120), -1.0 / 6), d);
     const PN cm1 =
-        z * fma(z, fma(z, fma(z, fma(z, -1.0 / 3628800, 1.0 / 40320), -1.0 / 720), 1.0 / 24),
-                -0.5);
+        z * fma(z, fma(z, fma(z, fma(z, -1.0 / 3628800, 1.0 / 40320), -1.0 / 720), 1.0 / 24), -0.5);
     es = sref + fma(sref, cm1, cref * sd);
     ec = cref + fma(cref, cm1, -(sref * sd));
     const PN rs = 1.0 / vsqrt(fma(-e2 * es, es, 1.0));  // 1 / sqrt(1 - e2 sin^2)
@@ -527,9 +523,9 @@ void run_group(const NavigationProblem& nav, const BatchFitness::Impl& im,
   constexpr int kBlock = 16;
   static_assert(((1 << kAnchorShift) % kBlock) == 0, "anchors fall on block starts");
   struct Pre {
-    PN fx, fy, fz;          // velocity increment in b, sculling-corrected [m/s]
-    PN pw, px, py, pz;      // body-rotation quaternion of the step (coning-corrected)
-    PN dthx, dthy, dthz;    // compensated angle increment in b [rad]
+    PN fx, fy, fz;        // velocity increment in b, sculling-corrected [m/s]
+    PN pw, px, py, pz;    // body-rotation quaternion of the step (coning-corrected)
+    PN dthx, dthy, dthz;  // compensated angle increment in b [rad]
   };
   Pre pre[kBlock];
 
@@ -613,8 +609,7 @@ void run_group(const NavigationProblem& nav, const BatchFitness::Impl& im,
       dvpx = dvx, dvpy = dvy, dvpz = dvz;
     }
 
-    if (((k0 - nb) & ((std::size_t{1} << kAnchorShift) - 1)) == 0)
-      anchor((k0 - nb) >> kRefShift);
+    if (((k0 - nb) & ((std::size_t{1} << kAnchorShift) - 1)) == 0) anchor((k0 - nb) >> kRefShift);
 
     // --- Phase B.
     for (int j = 0; j < kb; ++j) {
@@ -643,9 +638,9 @@ void run_group(const NavigationProblem& nav, const BatchFitness::Impl& im,
       const PN Bdt = dt / (fma(edRN, em, eRN) + h_mid);  // dt/(RN(lat_mid) + h_mid)
       const PN vEm = fma(0.5, vE - vEp, vE);
       const PN vNm = fma(0.5, vN - vNp, vN);
-      const PN zx = -(vNm * Adt);             // omega_en_x dt (omega_ie_x = 0)
-      const PN zen_y = vEm * Bdt;             // omega_en_y dt
-      const PN zen_z = zen_y * tan_m;         // omega_en_z dt
+      const PN zx = -(vNm * Adt);                     // omega_en_x dt (omega_ie_x = 0)
+      const PN zen_y = vEm * Bdt;                     // omega_en_y dt
+      const PN zen_z = zen_y * tan_m;                 // omega_en_z dt
       const PN zie_y = wdt * c_m, zie_z = wdt * s_m;  // omega_ie dt
       const PN zy = zie_y + zen_y, zz = zie_z + zen_z;
 
@@ -673,13 +668,13 @@ void run_group(const NavigationProblem& nav, const BatchFitness::Impl& im,
       // is taken as R'/R (relative error h/R in a 1e-10 correction).
       //   x = v_avg_N dt/(RM(lat) + h_avg), first iteration's latitude increment;
       //   lat_n - lat = x (1 - RM' (x/2)/(RM + h)) = x - (3 kk / 2) x^2.
-      const PN hC1 = dt * 0.5 / (eRM + h_avg);       // (dt/2)/(RM(lat) + h_avg)
-      const PN hE0 = dt * 0.5 / (eRN + h_avg);       // (dt/2)/(RN(lat) + h_avg)
+      const PN hC1 = dt * 0.5 / (eRM + h_avg);  // (dt/2)/(RM(lat) + h_avg)
+      const PN hE0 = dt * 0.5 / (eRN + h_avg);  // (dt/2)/(RN(lat) + h_avg)
       const PN x = (vN + vN_n) * hC1;
       const PN inc = fma(-0.5 * ekk3 * x, x, x);
       const PN lat_n = lat + inc;
       const PN dl = lat_n - lat;
-      const PN e = 0.5 * inc;                         // lat_avg2 - lat
+      const PN e = 0.5 * inc;  // lat_avg2 - lat
       const PN s2 = fma(ec, e, es);
       const PN c2 = fma(-es, e, ec);
       const PN tan2 = fma(T1, e, etn);
@@ -694,8 +689,8 @@ void run_group(const NavigationProblem& nav, const BatchFitness::Impl& im,
       // cos(|z|/2) and sin(|z|/2)/|z| of the tiny n-frame rotation need |z|^2 only to ~1e-3
       // relative (it enters as 1e-14 corrections): the mid-point rotation's, known early.
       const PN th2z = fma(zx, zx, fma(zy, zy, zz * zz));
-      const PN qzw = fma(th2z, -1.0 / 8, 1.0);          // cos(x/2), |x| < 1e-5
-      const PN kz = fma(th2z, 1.0 / 48, -0.5);          // -sin(x/2)/x
+      const PN qzw = fma(th2z, -1.0 / 8, 1.0);  // cos(x/2), |x| < 1e-5
+      const PN kz = fma(th2z, 1.0 / 48, -0.5);  // -sin(x/2)/x
       const PN pzx = kz * zmx, pzy = kz * zmy, pzz = kz * zmz;
       const PN pw = p.pw, ppx = p.px, ppy = p.py, ppz = p.pz;
       // q(-zeta) * q * q(phi) in the reference's arithmetic order: Eigen's SSE quaternion
@@ -755,7 +750,7 @@ void run_group(const NavigationProblem& nav, const BatchFitness::Impl& im,
       PN oex{}, oey{}, oez{};
       // v_ant_n = v_eb_n + C_b_n (omega_ib_b x l_b) - omega_ie_n x (C_b_n l_b) of the lanes'
       // current state, omega_ib_b extrapolated to the epoch (oex, oey, oez).
-      auto antenna = [&](PN& outE, PN& outN) __attribute__((always_inline)) {
+      auto antenna = [&](PN & outE, PN & outN) __attribute__((always_inline)) {
         const PN Tx = 2.0 * qx, Ty = 2.0 * qy, Tz = 2.0 * qz;
         const PN Twx = Tx * qw, Twy = Ty * qw, Twz = Tz * qw;
         const PN Txx = Tx * qx, Txy = Ty * qx, Txz = Tz * qx;
@@ -788,8 +783,7 @@ void run_group(const NavigationProblem& nav, const BatchFitness::Impl& im,
           do {
             const Event& ev = uev[ucur++];
             PN rE, rN;
-            acc = acc + term(vaE, vaN, bcast<N>(ev.w), bcast<N>(ev.gE), bcast<N>(ev.gN), rE,
-                             rN);
+            acc = acc + term(vaE, vaN, bcast<N>(ev.w), bcast<N>(ev.gE), bcast<N>(ev.gN), rE, rN);
           } while (ucur < uend && uev[ucur].step == kk64);
         } else {
           emit(kk64, vaE, vaN);
@@ -840,8 +834,10 @@ GroupFn pick(bool general, bool lever) {
 
 GroupFn pick(int n_vectors, bool general, bool lever) {
   switch (n_vectors) {
-    case 1: return pick<1>(general, lever);
-    default: return pick<2>(general, lever);
+    case 1:
+      return pick<1>(general, lever);
+    default:
+      return pick<2>(general, lever);
   }
 }
 
@@ -985,8 +981,7 @@ void BatchFitness::evaluate_grouped(const Request& request, const std::vector<in
         if (c.gnss_latency_s != 0.0) {
           auto it = latency_events.find(c.gnss_latency_s);
           if (it == latency_events.end())
-            it = latency_events.emplace(c.gnss_latency_s, make_events(nav, c.gnss_latency_s))
-                     .first;
+            it = latency_events.emplace(c.gnss_latency_s, make_events(nav, c.gnss_latency_s)).first;
           events = &it->second;
         }
         setup_lane(nav, c, events, sum_squares,

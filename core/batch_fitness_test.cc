@@ -297,11 +297,12 @@ TEST(BatchFitnessWindowed, KernelMatchesTheReferenceForSeveralWindowsAndBatchSiz
         for (int i = 0; i < K; ++i) {
           const double rel = relative_difference(f[i], reference[i]);
           worst = std::max(worst, rel);
-          EXPECT_LE(rel, kTolerance) << "W=" << window_s << " K=" << K << " threads=" << threads
-                                     << " candidate " << i << ": " << f[i] << " vs "
-                                     << reference[i];
+          EXPECT_LE(rel, kTolerance)
+              << "W=" << window_s << " K=" << K << " threads=" << threads << " candidate " << i
+              << ": " << f[i] << " vs " << reference[i];
           if (K == 33 && threads == 2) {
-            const std::vector<double> one = batched(kernel, std::span<const SensorErrors>(pool).subspan(i, 1), 1);
+            const std::vector<double> one =
+                batched(kernel, std::span<const SensorErrors>(pool).subspan(i, 1), 1);
             EXPECT_EQ(f[i], one[0]) << "W=" << window_s << " candidate " << i;
           }
         }

@@ -65,8 +65,8 @@ constexpr std::array<std::string_view, 10> kTruthColumns = {
     "t_s",    "lat_deg", "lon_deg",  "h_m",       "vE_mps",
     "vN_mps", "vU_mps",  "roll_deg", "pitch_deg", "yaw_deg"};
 
-constexpr double kImuRateTolerance = 0.01;    // each IMU dt within 1% of 1 / imu_rate_hz
-constexpr double kGnssEndAllowance = 1.5;     // GNSS may end 1.5 GNSS periods before the IMU
+constexpr double kImuRateTolerance = 0.01;  // each IMU dt within 1% of 1 / imu_rate_hz
+constexpr double kGnssEndAllowance = 1.5;   // GNSS may end 1.5 GNSS periods before the IMU
 
 [[noreturn]] void fail(const std::string& message) { throw DatasetError(message); }
 
@@ -144,7 +144,9 @@ std::string read_whole_file(const fs::path& path, const std::string& where) {
   if (!S_ISREG(st.st_mode)) {
     ::close(fd);
     fail(where + ": not a regular file (" +
-         (S_ISFIFO(st.st_mode) ? "a FIFO" : S_ISDIR(st.st_mode) ? "a directory" : "a special file") +
+         (S_ISFIFO(st.st_mode)  ? "a FIFO"
+          : S_ISDIR(st.st_mode) ? "a directory"
+                                : "a special file") +
          "); a dataset's files must be regular files");
   }
   std::string data;
@@ -227,8 +229,7 @@ void check_header(std::string_view header, const std::array<std::string_view, N>
       fail(where.at(1, c) + "missing column" + tail);
   for (const auto& g : got)
     if (std::find(cols.begin(), cols.end(), g) == cols.end())
-      fail(where.at(1, g.empty() ? std::string_view("(empty name)") : g) + "unknown column" +
-           tail);
+      fail(where.at(1, g.empty() ? std::string_view("(empty name)") : g) + "unknown column" + tail);
   for (std::size_t i = 0; i < std::min(got.size(), N); ++i)
     if (got[i] != cols[i])
       fail(where.at(1, cols[i]) + "column out of order (found '" + std::string(got[i]) +
@@ -301,8 +302,9 @@ struct RecordedFile {
 
 // parse_csv that also returns the file's RecordedFile (rows and digest of the values).
 template <std::size_t N, class OnRow>
-RecordedFile parse_csv_recorded(const std::string& text, const std::array<std::string_view, N>& cols,
-                                const CsvWhere& where, OnRow&& on_row) {
+RecordedFile parse_csv_recorded(const std::string& text,
+                                const std::array<std::string_view, N>& cols, const CsvWhere& where,
+                                OnRow&& on_row) {
   RecordedFile record;
   Sha256 sha;
   parse_csv(text, cols, where, [&](const double* values, std::size_t line) {
@@ -446,7 +448,8 @@ DatasetMeta parse_meta(const std::string& text, const std::string& dir_prefix,
     for (const auto& [name, record] : recorded->items()) {
       const std::string path = "files." + name;
       if (name != kImuFile && name != kGnssFile && name != kTruthFile)
-        r.fail_at("field \"" + path + "\": not a data file of a dataset (imu.csv, gnss.csv, truth.csv)");
+        r.fail_at("field \"" + path +
+                  "\": not a data file of a dataset (imu.csv, gnss.csv, truth.csv)");
       r.object(record, path);
       const double rows = r.number(record, "rows", path);
       if (rows < 0 || rows != std::floor(rows))
@@ -474,8 +477,8 @@ void check_recorded(const std::map<std::string, RecordedFile>& files, std::strin
          std::string(name) + ".rows) records " + std::to_string(it->second.rows) +
          " written by insid: the file was cut or extended since" + undo);
   if (found.sha256 != it->second.sha256)
-    fail(where + "its values differ from those whose SHA-256 meta.json (files." + std::string(name) +
-         ".sha256) records: the file was edited since insid wrote it" + undo);
+    fail(where + "its values differ from those whose SHA-256 meta.json (files." +
+         std::string(name) + ".sha256) records: the file was edited since insid wrote it" + undo);
 }
 
 // ------------------------------------------------------------------------------------------
@@ -491,8 +494,7 @@ struct Validator {
     return CsvWhere{prefix, file}.at(index + 2, column);  // header is line 1
   }
 
-  void finite(std::string_view file, std::size_t index, std::string_view column,
-              double v) const {
+  void finite(std::string_view file, std::size_t index, std::string_view column, double v) const {
     if (!std::isfinite(v))
       fail(at(file, index, column) + "expected a finite number, got " + num_text(v));
   }
@@ -554,7 +556,8 @@ struct Validator {
     if (!(m.gnss_rate_hz > 0))
       meta_fail("field \"gnss_rate_hz\" must be > 0, got " + num_text(m.gnss_rate_hz));
     if (!(m.align_s >= 0)) meta_fail("field \"align_s\" must be >= 0, got " + num_text(m.align_s));
-    if (const std::string e = m.earth.validate(); !e.empty()) meta_fail("invalid Earth model: " + e);
+    if (const std::string e = m.earth.validate(); !e.empty())
+      meta_fail("invalid Earth model: " + e);
 
     const TruthSample& ini = m.initial;
     const std::pair<const char*, double> initial_fields[] = {
@@ -613,7 +616,8 @@ struct Validator {
       // /1: increments over one nominal step (the step check below holds each within 1 %);
       // /2: over the row's own step (the nominal one for the first row).
       for (std::size_t i = 0; i < ds.imu.size(); ++i) {
-        const double dt = v1 || i == 0 ? dt_nominal : std::max(ds.imu[i].t_s - ds.imu[i - 1].t_s, dt_nominal);
+        const double dt =
+            v1 || i == 0 ? dt_nominal : std::max(ds.imu[i].t_s - ds.imu[i - 1].t_s, dt_nominal);
         const double max_dtheta = B::kMaxAngularRate_deg_s * kDegToRad * dt * 1.01;
         const double max_dv = B::kMaxSpecificForce_g * 9.80665 * dt * 1.01;
         const char* step = v1 ? "one step of 1/imu_rate_hz" : "the row's step";
@@ -640,7 +644,8 @@ struct Validator {
                " s insid integrates across; cut the data there");
         steps.push_back(dt);
       }
-      std::nth_element(steps.begin(), steps.begin() + static_cast<std::ptrdiff_t>(steps.size() / 2), steps.end());
+      std::nth_element(steps.begin(), steps.begin() + static_cast<std::ptrdiff_t>(steps.size() / 2),
+                       steps.end());
       const double median = steps[steps.size() / 2];
       if (!(std::fabs(median - dt_nominal) <= B::kImuRateTolerance2 * dt_nominal))
         meta_fail("field \"imu_rate_hz\" = " + num_text(m.imu_rate_hz) +
@@ -682,7 +687,8 @@ struct Validator {
       using B = PlausibilityBounds;
       std::vector<double> steps;
       steps.reserve(ds.gnss.size() - 1);
-      for (std::size_t i = 1; i < ds.gnss.size(); ++i) steps.push_back(ds.gnss[i].t_s - ds.gnss[i - 1].t_s);
+      for (std::size_t i = 1; i < ds.gnss.size(); ++i)
+        steps.push_back(ds.gnss[i].t_s - ds.gnss[i - 1].t_s);
       std::vector<double> sorted = steps;
       std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
       const double median_step = sorted[sorted.size() / 2];
@@ -713,8 +719,8 @@ struct Validator {
            "flight: the last GNSS time " + num_text(ds.gnss.back().t_s) +
            " s is more than 1.5/gnss_rate_hz = " + num_text(allowed_gap) +
            " s before the last IMU time " + num_text(imu_t1) + " s (imu.csv line " +
-           std::to_string(ds.imu.size() + 1) + "); uncovered: (" +
-           num_text(ds.gnss.back().t_s) + ", " + num_text(imu_t1) + "] s");
+           std::to_string(ds.imu.size() + 1) + "); uncovered: (" + num_text(ds.gnss.back().t_s) +
+           ", " + num_text(imu_t1) + "] s");
 
     // Truth (optional).
     for (std::size_t i = 0; i < ds.truth.size(); ++i) {
@@ -819,10 +825,10 @@ std::string truth_text(const std::vector<TruthSample>& truth) {
   s.reserve(64 + truth.size() * 10 * 24);
   append_header(s, kTruthColumns);
   for (const TruthSample& r : truth)
-    append_row<10>(s, {r.t_s, degrees_for(r.lat_rad), degrees_for(r.lon_rad), r.h_m,
-                       r.v_eb_n_mps.x(), r.v_eb_n_mps.y(), r.v_eb_n_mps.z(),
-                       degrees_for(r.attitude.roll_rad), degrees_for(r.attitude.pitch_rad),
-                       yaw_degrees_for(r.attitude.yaw_rad)});
+    append_row<10>(s,
+                   {r.t_s, degrees_for(r.lat_rad), degrees_for(r.lon_rad), r.h_m, r.v_eb_n_mps.x(),
+                    r.v_eb_n_mps.y(), r.v_eb_n_mps.z(), degrees_for(r.attitude.roll_rad),
+                    degrees_for(r.attitude.pitch_rad), yaw_degrees_for(r.attitude.yaw_rad)});
   return s;
 }
 
@@ -898,7 +904,8 @@ fs::path sibling(const fs::path& target, const char* tag) {
   static std::atomic<unsigned> counter{0};
   static const std::string host = [] {
     std::array<char, 256> name{};
-    if (::gethostname(name.data(), name.size() - 1) != 0 || name[0] == '\0') return std::string("host");
+    if (::gethostname(name.data(), name.size() - 1) != 0 || name[0] == '\0')
+      return std::string("host");
     std::string h(name.data());
     for (char& c : h)
       if (c == '/' || c == '\\') c = '_';
@@ -927,7 +934,8 @@ void write_dataset_files_into(const fs::path& dir, const std::map<std::string, s
   std::error_code ec;
   for (const std::string& name : {std::string(kTruthFile), std::string("answer.json")}) {
     if (!files.count(name) && fs::exists(fs::symlink_status(dir / name, ec)))
-      fail(where + ": it holds '" + name + "', which the new dataset does not have and insid "
+      fail(where + ": it holds '" + name +
+           "', which the new dataset does not have and insid "
            "will not delete; remove it yourself or choose another directory");
   }
   for (const auto& [name, contents] : files) {
@@ -979,59 +987,58 @@ Dataset load_dataset(const fs::path& dir) {
   };
   auto require_file = [&](std::string_view name) {
     if (!present(name))
-      fail(prefix + "missing file " + std::string(name) + " (required by " +
-           std::string(kFormat) + ")");
+      fail(prefix + "missing file " + std::string(name) + " (required by " + std::string(kFormat) +
+           ")");
     return dir / name;
   };
 
   Dataset ds;
   std::map<std::string, RecordedFile> recorded;
-  ds.meta = parse_meta(
-      read_whole_file(require_file(kMetaFile), prefix + std::string(kMetaFile)), prefix, recorded);
+  ds.meta = parse_meta(read_whole_file(require_file(kMetaFile), prefix + std::string(kMetaFile)),
+                       prefix, recorded);
   std::map<std::string, RecordedFile> found;  // checked against `recorded` at the end
 
   {
     const std::string text =
         read_whole_file(require_file(kImuFile), prefix + std::string(kImuFile));
     ds.imu.reserve(static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n')) + 1);
-    found[std::string(kImuFile)] =
-        parse_csv_recorded(text, kImuColumns, CsvWhere{prefix, kImuFile}, [&](const double* v, std::size_t) {
-      ImuSample& s = ds.imu.emplace_back();
-      s.t_s = v[0];
-      s.dtheta_b_rad = {v[1], v[2], v[3]};
-      s.dv_b_mps = {v[4], v[5], v[6]};
-    });
+    found[std::string(kImuFile)] = parse_csv_recorded(text, kImuColumns, CsvWhere{prefix, kImuFile},
+                                                      [&](const double* v, std::size_t) {
+                                                        ImuSample& s = ds.imu.emplace_back();
+                                                        s.t_s = v[0];
+                                                        s.dtheta_b_rad = {v[1], v[2], v[3]};
+                                                        s.dv_b_mps = {v[4], v[5], v[6]};
+                                                      });
   }
   {
     const std::string text =
         read_whole_file(require_file(kGnssFile), prefix + std::string(kGnssFile));
     ds.gnss.reserve(static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n')) + 1);
-    found[std::string(kGnssFile)] =
-        parse_csv_recorded(text, kGnssColumns, CsvWhere{prefix, kGnssFile}, [&](const double* v, std::size_t) {
-      GnssSample& s = ds.gnss.emplace_back();
-      s.t_s = v[0];
-      s.lat_rad = v[1] * kDegToRad;
-      s.lon_rad = v[2] * kDegToRad;
-      s.h_m = v[3];
-      s.v_eb_n_mps = {v[4], v[5], v[6]};
-    });
+    found[std::string(kGnssFile)] = parse_csv_recorded(
+        text, kGnssColumns, CsvWhere{prefix, kGnssFile}, [&](const double* v, std::size_t) {
+          GnssSample& s = ds.gnss.emplace_back();
+          s.t_s = v[0];
+          s.lat_rad = v[1] * kDegToRad;
+          s.lon_rad = v[2] * kDegToRad;
+          s.h_m = v[3];
+          s.v_eb_n_mps = {v[4], v[5], v[6]};
+        });
   }
   if (const fs::path p = dir / kTruthFile; present(kTruthFile)) {
-    const std::string text =
-        read_whole_file(p, prefix + std::string(kTruthFile));
+    const std::string text = read_whole_file(p, prefix + std::string(kTruthFile));
     ds.truth.reserve(static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n')) + 1);
-    found[std::string(kTruthFile)] = parse_csv_recorded(text, kTruthColumns, CsvWhere{prefix, kTruthFile},
-              [&](const double* v, std::size_t) {
-                TruthSample& s = ds.truth.emplace_back();
-                s.t_s = v[0];
-                s.lat_rad = v[1] * kDegToRad;
-                s.lon_rad = v[2] * kDegToRad;
-                s.h_m = v[3];
-                s.v_eb_n_mps = {v[4], v[5], v[6]};
-                s.attitude.roll_rad = v[7] * kDegToRad;
-                s.attitude.pitch_rad = v[8] * kDegToRad;
-                s.attitude.yaw_rad = v[9] * kDegToRad;
-              });
+    found[std::string(kTruthFile)] = parse_csv_recorded(
+        text, kTruthColumns, CsvWhere{prefix, kTruthFile}, [&](const double* v, std::size_t) {
+          TruthSample& s = ds.truth.emplace_back();
+          s.t_s = v[0];
+          s.lat_rad = v[1] * kDegToRad;
+          s.lon_rad = v[2] * kDegToRad;
+          s.h_m = v[3];
+          s.v_eb_n_mps = {v[4], v[5], v[6]};
+          s.attitude.roll_rad = v[7] * kDegToRad;
+          s.attitude.pitch_rad = v[8] * kDegToRad;
+          s.attitude.yaw_rad = v[9] * kDegToRad;
+        });
   }
 
   Validator{prefix}.run(ds);
@@ -1053,8 +1060,8 @@ std::vector<ImuGap> imu_gaps(const Dataset& dataset) {
 
 const std::vector<std::string>& dataset_directory_entries() {
   static const std::vector<std::string> entries = {
-      std::string(kMetaFile), std::string(kImuFile),     std::string(kGnssFile),
-      std::string(kTruthFile), "answer.json",             "insid-optimum-cache.json",
+      std::string(kMetaFile),  std::string(kImuFile), std::string(kGnssFile),
+      std::string(kTruthFile), "answer.json",         "insid-optimum-cache.json",
       "provenance.json"};
   return entries;
 }
@@ -1103,8 +1110,9 @@ DatasetDestination dataset_destination(const fs::path& dir, bool into_foreign_di
   const bool replaceable = holds_only_a_dataset(target, where, force);
   const bool holds_cwd = contains_working_directory(target);
   if (holds_cwd && !force)
-    fail(where + ": it is the current directory or contains it; give another directory, or "
-                 "--force to add the dataset's files there");
+    fail(where +
+         ": it is the current directory or contains it; give another directory, or "
+         "--force to add the dataset's files there");
   return replaceable && !holds_cwd ? DatasetDestination::kReplace : DatasetDestination::kAddFiles;
 }
 
@@ -1121,7 +1129,8 @@ RecordedFile record_of(const std::string& name, const std::string& text) {
 
 }  // namespace
 
-void write_dataset(const fs::path& dir, const Dataset& dataset, const DatasetWriteOptions& options) {
+void write_dataset(const fs::path& dir, const Dataset& dataset,
+                   const DatasetWriteOptions& options) {
   const std::string where = "cannot write dataset '" + dir.string() + "'";
   try {
     Validator{""}.run(dataset);
@@ -1174,8 +1183,8 @@ void write_dataset(const fs::path& dir, const Dataset& dataset, const DatasetWri
   };
   if (!fs::create_directory(tmp, ec)) {
     cleanup();
-    fail(where + ": cannot create temporary directory '" + tmp.string() + "': " +
-         (ec ? ec.message() : std::string("it already exists")));
+    fail(where + ": cannot create temporary directory '" + tmp.string() +
+         "': " + (ec ? ec.message() : std::string("it already exists")));
   }
   try {
     for (const auto& [name, contents] : files) write_whole_file(tmp / name, contents);
@@ -1226,7 +1235,8 @@ void write_file_atomic(const fs::path& path, const std::string& contents) {
     return;
   }
   if (fs::exists(st) && !fs::is_regular_file(st))
-    throw std::runtime_error("cannot write '" + path.string() + "': it exists and is not a regular file");
+    throw std::runtime_error("cannot write '" + path.string() +
+                             "': it exists and is not a regular file");
   const fs::path tmp = sibling(path, ".tmp-");
   try {
     write_whole_file(tmp, contents);

@@ -61,8 +61,8 @@ struct DatasetMeta {
   double imu_rate_hz = 100.0;  ///< /1: the rate; /2: nominal (within 10 % of the median step)
   double gnss_rate_hz = 10.0;
   EarthModel earth;
-  double align_s = 600.0;  ///< static alignment window at the start of the data (s)
-  TruthSample initial;     ///< state at the start of the data (initial.t_s)
+  double align_s = 600.0;              ///< static alignment window at the start of the data (s)
+  TruthSample initial;                 ///< state at the start of the data (initial.t_s)
   bool initial_attitude_known = true;  ///< /2 only may say false (roll/pitch/yaw null)
   std::optional<std::map<std::string, double>> injected;  ///< catalogue name -> SI value
   std::optional<NoiseLevels> noise;

@@ -78,13 +78,12 @@ struct Case {
   std::vector<std::string> expected;  // substrings of the error message
 };
 
-const std::vector<std::string> kImuColumns = {"t_s",      "dtheta_x_rad", "dtheta_y_rad",
-                                              "dtheta_z_rad", "dv_x_mps", "dv_y_mps",
-                                              "dv_z_mps"};
-const std::vector<std::string> kGnssColumns = {"t_s", "lat_deg", "lon_deg", "h_m",
-                                               "vE_mps", "vN_mps", "vU_mps"};
-const std::vector<std::string> kTruthColumns = {"t_s",    "lat_deg", "lon_deg",  "h_m",
-                                                "vE_mps", "vN_mps",  "vU_mps",   "roll_deg",
+const std::vector<std::string> kImuColumns = {
+    "t_s", "dtheta_x_rad", "dtheta_y_rad", "dtheta_z_rad", "dv_x_mps", "dv_y_mps", "dv_z_mps"};
+const std::vector<std::string> kGnssColumns = {"t_s",    "lat_deg", "lon_deg", "h_m",
+                                               "vE_mps", "vN_mps",  "vU_mps"};
+const std::vector<std::string> kTruthColumns = {"t_s",       "lat_deg", "lon_deg", "h_m",
+                                                "vE_mps",    "vN_mps",  "vU_mps",  "roll_deg",
                                                 "pitch_deg", "yaw_deg"};
 
 std::vector<Case> make_cases() {
@@ -110,24 +109,29 @@ std::vector<Case> make_cases() {
   // into -9.8e15; positions off the Earth; impossible speeds).
   for (int c = 1; c <= 6; ++c) {
     for (const std::string value : {"1e300", "-9.8e15", "1e6"}) {
-      cases.push_back({"imu_" + kImuColumns[static_cast<std::size_t>(c)] + "_" + value,
-                       [c, value](const fs::path& d) { set_field(d / "imu.csv", 30, c, value); },
-                       {"imu.csv line 30", kImuColumns[static_cast<std::size_t>(c)],
-                        "plausibility bound"}});
+      cases.push_back(
+          {"imu_" + kImuColumns[static_cast<std::size_t>(c)] + "_" + value,
+           [c, value](const fs::path& d) { set_field(d / "imu.csv", 30, c, value); },
+           {"imu.csv line 30", kImuColumns[static_cast<std::size_t>(c)], "plausibility bound"}});
     }
   }
   for (const std::string file : {"gnss.csv", "truth.csv"}) {
     const std::vector<std::tuple<std::string, int, std::string, std::string>> off_earth = {
-        {"lon_big", 2, "1e6", "plausibility bound"},     {"lon_low", 2, "-400", "plausibility bound"},
-        {"height_high", 3, "1e12", "plausible"},          {"height_low", 3, "-5000", "plausible"},
-        {"vE_fast", 4, "1e200", "plausibility bound"},    {"vN_fast", 5, "-2000", "plausibility bound"},
-        {"vU_fast", 6, "1e4", "plausibility bound"},      {"lat_pole", 1, "90", "strictly within"},
+        {"lon_big", 2, "1e6", "plausibility bound"},
+        {"lon_low", 2, "-400", "plausibility bound"},
+        {"height_high", 3, "1e12", "plausible"},
+        {"height_low", 3, "-5000", "plausible"},
+        {"vE_fast", 4, "1e200", "plausibility bound"},
+        {"vN_fast", 5, "-2000", "plausibility bound"},
+        {"vU_fast", 6, "1e4", "plausibility bound"},
+        {"lat_pole", 1, "90", "strictly within"},
         {"lat_beyond", 1, "-123", "strictly within"}};
     for (const auto& [label, col, value, why] : off_earth) {
       const std::vector<std::string>& columns = file == "gnss.csv" ? kGnssColumns : kTruthColumns;
-      cases.push_back({file.substr(0, file.find('.')) + "_" + label,
-                       [file, col, value](const fs::path& d) { set_field(d / file, 12, col, value); },
-                       {file + " line 12", columns[static_cast<std::size_t>(col)], why}});
+      cases.push_back(
+          {file.substr(0, file.find('.')) + "_" + label,
+           [file, col, value](const fs::path& d) { set_field(d / file, 12, col, value); },
+           {file + " line 12", columns[static_cast<std::size_t>(col)], why}});
     }
   }
   // Times: repeated, backwards, an IMU step off the declared rate, a GNSS gap.
@@ -147,7 +151,8 @@ std::vector<Case> make_cases() {
   }
   cases.push_back({"imu_step_jump",
                    [](const fs::path& d) {
-                     edit_lines(d / "imu.csv", [](std::vector<std::string>& l) { l.erase(l.begin() + 40); });
+                     edit_lines(d / "imu.csv",
+                                [](std::vector<std::string>& l) { l.erase(l.begin() + 40); });
                    },
                    {"imu.csv line 41", "t_s", "IMU step"}});
   cases.push_back({"gnss_gap_90s",
@@ -180,7 +185,8 @@ std::vector<Case> make_cases() {
   for (const std::string rate : {"50", "101.5", "0", "-100"}) {
     cases.push_back({"imu_rate_" + rate,
                      [rate](const fs::path& d) { set_meta_number(d, "imu_rate_hz", rate); },
-                     {rate == "0" || rate == "-100" ? "meta.json" : "imu.csv", rate == "0" || rate == "-100" ? "imu_rate_hz" : "IMU step"}});
+                     {rate == "0" || rate == "-100" ? "meta.json" : "imu.csv",
+                      rate == "0" || rate == "-100" ? "imu_rate_hz" : "IMU step"}});
   }
   // meta.json: a number beyond double (found by the fuzzer), a key given twice.
   cases.push_back({"meta_number_overflow",
@@ -196,7 +202,8 @@ std::vector<Case> make_cases() {
   // A data file cut at a line boundary, or one value edited: the rows and digest insid recorded.
   cases.push_back({"imu_cut_at_line_boundary",
                    [](const fs::path& d) {
-                     edit_lines(d / "imu.csv", [](std::vector<std::string>& l) { l.resize(l.size() - 3); });
+                     edit_lines(d / "imu.csv",
+                                [](std::vector<std::string>& l) { l.resize(l.size() - 3); });
                    },
                    {"imu.csv: holds", "files.imu.csv.rows"}});
   cases.push_back({"gnss_value_edited",

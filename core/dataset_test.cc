@@ -28,8 +28,8 @@ namespace fs = std::filesystem;
 ::testing::AssertionResult Contains(const char* text_expr, const char*, const std::string& text,
                                     const std::string& part) {
   if (text.find(part) != std::string::npos) return ::testing::AssertionSuccess();
-  return ::testing::AssertionFailure() << text_expr << " = \"" << text
-                                       << "\"\ndoes not contain \"" << part << "\"";
+  return ::testing::AssertionFailure()
+         << text_expr << " = \"" << text << "\"\ndoes not contain \"" << part << "\"";
 }
 #define EXPECT_CONTAINS(text, part) EXPECT_PRED_FORMAT2(Contains, text, part)
 
@@ -75,7 +75,8 @@ void replace_line(const fs::path& p, std::size_t line_no, const std::string& tex
 
 std::uint64_t bits(double v) { return std::bit_cast<std::uint64_t>(v); }
 
-#define EXPECT_SAME_BITS(a, b) EXPECT_EQ(bits(a), bits(b)) << #a " = " << (a) << ", " #b " = " << (b)
+#define EXPECT_SAME_BITS(a, b) \
+  EXPECT_EQ(bits(a), bits(b)) << #a " = " << (a) << ", " #b " = " << (b)
 
 void expect_identical(const TruthSample& a, const TruthSample& b) {
   EXPECT_SAME_BITS(a.t_s, b.t_s);
@@ -280,8 +281,10 @@ TEST_F(DatasetTest, RoundTripOfArbitraryRadiansIsWithinOneUlpThenExact) {
   const Dataset once = load_dataset(dir_);
   for (std::size_t i = 0; i < ds.truth.size(); ++i) {
     const TruthSample &a = ds.truth[i], &b = once.truth[i];
-    EXPECT_LE(std::fabs(a.lat_rad - b.lat_rad), std::fabs(std::nextafter(a.lat_rad, 9) - a.lat_rad));
-    EXPECT_LE(std::fabs(a.lon_rad - b.lon_rad), std::fabs(std::nextafter(a.lon_rad, 9) - a.lon_rad));
+    EXPECT_LE(std::fabs(a.lat_rad - b.lat_rad),
+              std::fabs(std::nextafter(a.lat_rad, 9) - a.lat_rad));
+    EXPECT_LE(std::fabs(a.lon_rad - b.lon_rad),
+              std::fabs(std::nextafter(a.lon_rad, 9) - a.lon_rad));
     EXPECT_LE(std::fabs(a.attitude.roll_rad - b.attitude.roll_rad),
               std::fabs(std::nextafter(a.attitude.roll_rad, 9) - a.attitude.roll_rad));
     EXPECT_GE(b.attitude.yaw_rad, 0.0);
@@ -382,12 +385,13 @@ TEST_F(DatasetTest, EmptyFileIsAnError) {
 
 TEST_F(DatasetTest, WrongHeaderIsAnErrorShowingTheExpectedHeader) {
   write_valid();
-  replace_line(dir_ / "imu.csv", 1, "t_s,dtheta_x_rad,dtheta_y_rad,dtheta_z_rad,ax,dv_y_mps,dv_z_mps");
+  replace_line(dir_ / "imu.csv", 1,
+               "t_s,dtheta_x_rad,dtheta_y_rad,dtheta_z_rad,ax,dv_y_mps,dv_z_mps");
   const std::string msg = load_error();
   EXPECT_CONTAINS(msg, dir_.string() + ": imu.csv line 1, column dv_x_mps: missing column");
-  EXPECT_CONTAINS(msg, 
-                       "expected header 't_s,dtheta_x_rad,dtheta_y_rad,dtheta_z_rad,dv_x_mps,"
-                       "dv_y_mps,dv_z_mps'");
+  EXPECT_CONTAINS(msg,
+                  "expected header 't_s,dtheta_x_rad,dtheta_y_rad,dtheta_z_rad,dv_x_mps,"
+                  "dv_y_mps,dv_z_mps'");
 }
 
 TEST_F(DatasetTest, ColumnsOutOfOrderAreAnError) {
@@ -421,22 +425,21 @@ TEST_F(DatasetTest, NanValueIsAnError) {
   write_valid();
   replace_line(dir_ / "imu.csv", 5, "0.03,1e-7,2e-7,3e-7,nan,0.001,-0.098");
   EXPECT_CONTAINS(load_error(), dir_.string() +
-                                      ": imu.csv line 5, column dv_x_mps: expected a finite "
-                                      "number, got 'nan'");
+                                    ": imu.csv line 5, column dv_x_mps: expected a finite "
+                                    "number, got 'nan'");
 }
 
 TEST_F(DatasetTest, InfValueIsAnError) {
   write_valid();
   replace_line(dir_ / "truth.csv", 3, "0.1,40,116,50,0,0,0,0,0,-inf");
   EXPECT_CONTAINS(load_error(),
-              "truth.csv line 3, column yaw_deg: expected a finite number, got '-inf'");
+                  "truth.csv line 3, column yaw_deg: expected a finite number, got '-inf'");
 }
 
 TEST_F(DatasetTest, NotANumberIsAnError) {
   write_valid();
   replace_line(dir_ / "gnss.csv", 4, "0.2,40.068,116.2x,50,0,0,0");
-  EXPECT_CONTAINS(load_error(),
-              "gnss.csv line 4, column lon_deg: expected a number, got '116.2x'");
+  EXPECT_CONTAINS(load_error(), "gnss.csv line 4, column lon_deg: expected a number, got '116.2x'");
   replace_line(dir_ / "gnss.csv", 4, "0.2,40.068,116.2,,0,0,0");
   EXPECT_CONTAINS(load_error(), "gnss.csv line 4, column h_m: empty field");
 }
@@ -445,8 +448,9 @@ TEST_F(DatasetTest, TruncatedRowIsAnError) {
   write_valid();
   replace_line(dir_ / "imu.csv", 7, "0.05,1e-7,2e-7,3e-7,0.001");
   const std::string msg = load_error();
-  EXPECT_CONTAINS(msg, "imu.csv line 7, column dv_y_mps: truncated row, expected 7 "
-                             "fields");
+  EXPECT_CONTAINS(msg,
+                  "imu.csv line 7, column dv_y_mps: truncated row, expected 7 "
+                  "fields");
   EXPECT_CONTAINS(msg, "got 5");
 }
 
@@ -469,15 +473,17 @@ TEST_F(DatasetTest, NonMonotonicTimeIsAnError) {
   replace_line(dir_ / "gnss.csv", 6, "0.35,40.068,116.2,50,0,0,0");  // line 5 has t = 0.3
   replace_line(dir_ / "gnss.csv", 7, "0.32,40.068,116.2,50,0,0,0");
   const std::string msg = load_error();
-  EXPECT_CONTAINS(msg, "gnss.csv line 7, column t_s: time 0.32 is before the time 0.35 "
-                             "on line 6");
+  EXPECT_CONTAINS(msg,
+                  "gnss.csv line 7, column t_s: time 0.32 is before the time 0.35 "
+                  "on line 6");
 }
 
 TEST_F(DatasetTest, RepeatedTimeIsAnError) {
   write_valid();
   replace_line(dir_ / "truth.csv", 4, "0.1,40,116,50,0,0,0,0,0,0");  // line 3 has t = 0.1
-  EXPECT_CONTAINS(load_error(), "truth.csv line 4, column t_s: time 0.1 repeats the time "
-                                      "0.1 on line 3");
+  EXPECT_CONTAINS(load_error(),
+                  "truth.csv line 4, column t_s: time 0.1 repeats the time "
+                  "0.1 on line 3");
 }
 
 TEST_F(DatasetTest, MissingMetaFieldIsAnError) {
@@ -487,13 +493,13 @@ TEST_F(DatasetTest, MissingMetaFieldIsAnError) {
   ASSERT_NE(at, std::string::npos);
   meta.replace(at, 2, "\"x");  // rename the key
   write_text(dir_ / "meta.json", meta);
-  EXPECT_CONTAINS(load_error(),
-              dir_.string() + ": meta.json: missing field \"earth.g_eq_mps2\"");
+  EXPECT_CONTAINS(load_error(), dir_.string() + ": meta.json: missing field \"earth.g_eq_mps2\"");
 }
 
 TEST_F(DatasetTest, BadJsonIsAnErrorWithPosition) {
   write_valid();
-  write_text(dir_ / "meta.json", "{\n  \"format\": \"insid-dataset/1\",\n  \"imu_rate_hz\": 100,,\n}\n");
+  write_text(dir_ / "meta.json",
+             "{\n  \"format\": \"insid-dataset/1\",\n  \"imu_rate_hz\": 100,,\n}\n");
   const std::string msg = load_error();
   EXPECT_CONTAINS(msg, "meta.json: not valid JSON");
   EXPECT_CONTAINS(msg, "line 3");
@@ -507,8 +513,7 @@ TEST_F(DatasetTest, WrongTypeInMetaIsAnError) {
   ASSERT_NE(at, std::string::npos);
   meta.replace(at, meta.find(',', at) - at, "\"align_s\": \"10\"");
   write_text(dir_ / "meta.json", meta);
-  EXPECT_CONTAINS(load_error(),
-              "meta.json: field \"align_s\" must be a number, got string");
+  EXPECT_CONTAINS(load_error(), "meta.json: field \"align_s\" must be a number, got string");
 }
 
 TEST_F(DatasetTest, WrongFormatIsAnError) {
@@ -516,8 +521,9 @@ TEST_F(DatasetTest, WrongFormatIsAnError) {
   std::string meta = read_text(dir_ / "meta.json");
   meta.replace(meta.find("insid-dataset/1"), 15, "insid-dataset/3");
   write_text(dir_ / "meta.json", meta);
-  EXPECT_CONTAINS(load_error(), "meta.json: field \"format\" must be \"insid-dataset/1\" or "
-                                "\"insid-dataset/2\", got \"insid-dataset/3\"");
+  EXPECT_CONTAINS(load_error(),
+                  "meta.json: field \"format\" must be \"insid-dataset/1\" or "
+                  "\"insid-dataset/2\", got \"insid-dataset/3\"");
 }
 
 // insid-dataset/2: measured timing. Jittery steps load; the declared rate must match the median
@@ -610,7 +616,7 @@ TEST_F(DatasetTest, GnssNotCoveringTheEndIsAnError) {
   write_text(dir_ / "gnss.csv", join_lines(lines));
   const std::string msg = load_error();
   EXPECT_CONTAINS(msg, "gnss.csv line " + std::to_string(lines.size()) +
-                             ", column t_s: GNSS does not cover the end");
+                           ", column t_s: GNSS does not cover the end");
   EXPECT_CONTAINS(msg, "uncovered: (29.8, 30] s");
 }
 
@@ -670,8 +676,8 @@ TEST_F(DatasetTest, UnwritableLocationIsAnErrorAndLeavesNothingBehind) {
   // (Tests may run as root, so use a path under a regular file rather than permissions.)
   write_text(root_ / "plain_file", "x");
   const Dataset ds = make_dataset(false, false, false);
-  for (const fs::path& target : {root_ / "plain_file" / "ds", root_ / "plain_file" / "a" / "ds",
-                                 root_ / "plain_file"}) {
+  for (const fs::path& target :
+       {root_ / "plain_file" / "ds", root_ / "plain_file" / "a" / "ds", root_ / "plain_file"}) {
     try {
       write_dataset(target, ds);
       ADD_FAILURE() << "no error for " << target;

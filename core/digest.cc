@@ -25,7 +25,8 @@ void Sha256::update_doubles(const double* values, std::size_t count) {
   std::array<char, 8> le{};
   for (std::size_t i = 0; i < count; ++i) {
     const auto bits = std::bit_cast<std::uint64_t>(values[i]);
-    for (int k = 0; k < 8; ++k) le[static_cast<std::size_t>(k)] = static_cast<char>((bits >> (8 * k)) & 0xff);
+    for (int k = 0; k < 8; ++k)
+      le[static_cast<std::size_t>(k)] = static_cast<char>((bits >> (8 * k)) & 0xff);
     update(le.data(), le.size());
   }
 }

@@ -10,8 +10,8 @@ namespace insid {
 
 /// Reference ellipsoid given by its semi-major axis and flattening.
 struct Ellipsoid {
-  double a_m = 6378137.0;            ///< semi-major axis (m)
-  double f = 1.0 / 298.257223563;    ///< flattening (1)
+  double a_m = 6378137.0;          ///< semi-major axis (m)
+  double f = 1.0 / 298.257223563;  ///< flattening (1)
 
   double e2() const { return f * (2.0 - f); }  ///< first eccentricity squared
 

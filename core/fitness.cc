@@ -69,7 +69,8 @@ NavigationProblem::NavigationProblem(std::shared_ptr<const Dataset> dataset,
     window_begin = 1;
     t_window_start = ds.imu.front().t_s;
     n_align = 1;
-    while (n_align < ds.imu.size() && ds.imu[n_align].t_s - t_window_start <= ds.meta.align_s + 1e-9)
+    while (n_align < ds.imu.size() &&
+           ds.imu[n_align].t_s - t_window_start <= ds.meta.align_s + 1e-9)
       ++n_align;
     if (n_align < 2)
       throw std::invalid_argument("NavigationProblem: align_s = " + seconds_text(ds.meta.align_s) +
@@ -120,8 +121,8 @@ NavigationProblem::NavigationProblem(std::shared_ptr<const Dataset> dataset,
     if (window_s < gnss_period_s - kTimeTol)
       throw std::invalid_argument(
           "window_s = " + seconds_text(window_s) + " s is shorter than one GNSS period (" +
-          seconds_text(gnss_period_s) + " s at gnss_rate_hz = " +
-          seconds_text(ds.meta.gnss_rate_hz) +
+          seconds_text(gnss_period_s) +
+          " s at gnss_rate_hz = " + seconds_text(ds.meta.gnss_rate_hz) +
           "): windows would hold no GNSS epoch; give window_s >= " + seconds_text(gnss_period_s) +
           " s, or 0 for one run over the whole flight");
     std::size_t k = nav_begin_ - 1;
@@ -133,13 +134,13 @@ NavigationProblem::NavigationProblem(std::shared_ptr<const Dataset> dataset,
       if (k + 1 >= ds.imu.size()) break;
       if (k == k_before) continue;  // this epoch is restarted at already
       const GnssSample g = interpolate_gnss(ds.gnss, ds.imu[k].t_s);
-      restarts_.push_back({k, ds.imu[k].t_s, g.lat_rad, g.lon_rad, g.v_eb_n_mps.x(),
-                           g.v_eb_n_mps.y()});
+      restarts_.push_back(
+          {k, ds.imu[k].t_s, g.lat_rad, g.lon_rad, g.v_eb_n_mps.x(), g.v_eb_n_mps.y()});
     }
   }
   // The initial attitude's mode against the data (refusals name what to give instead).
-  attitude_source_ = InitialAttitude(ds, options_.initial_attitude, window_, window_begin,
-                                     n_align, t_window_start, nav_begin_);
+  attitude_source_ = InitialAttitude(ds, options_.initial_attitude, window_, window_begin, n_align,
+                                     t_window_start, nav_begin_);
   if (attitude_source_.depends_on_candidate()) C_b_n_fixed_ = aligned(SensorErrors{});
 }
 
@@ -168,8 +169,8 @@ Eigen::Matrix3d NavigationProblem::aligned(const SensorErrors& candidate) const 
     for (const auto& [name, value] : nonzero_effects(candidate))
       compensation += (compensation.empty() ? "" : ", ") + name + "=" + seconds_text(value);
     throw std::invalid_argument(
-        "alignment on imu.csv lines 2-" + std::to_string(window_.count + 1) + " (align_s = " +
-        seconds_text(dataset_->meta.align_s) + " s)" +
+        "alignment on imu.csv lines 2-" + std::to_string(window_.count + 1) +
+        " (align_s = " + seconds_text(dataset_->meta.align_s) + " s)" +
         (compensation.empty() ? std::string() : " compensated with " + compensation) + ": " +
         e.what());
   }
@@ -218,12 +219,15 @@ std::string NavigationProblem::non_finite_report(
   double t_bad_s = 0.0;
   std::vector<double> r;
   try {
-    run(candidate, C_b_n_override, [&](const NavState& s) {
-      ++steps;
-      if (first_bad_imu || finite_state(s)) return;
-      first_bad_imu = nav_begin_ + steps - 1;
-      t_bad_s = dataset_->imu[*first_bad_imu].t_s;
-    }, r);
+    run(
+        candidate, C_b_n_override,
+        [&](const NavState& s) {
+          ++steps;
+          if (first_bad_imu || finite_state(s)) return;
+          first_bad_imu = nav_begin_ + steps - 1;
+          t_bad_s = dataset_->imu[*first_bad_imu].t_s;
+        },
+        r);
   } catch (const std::exception& e) {
     return e.what();
   }
@@ -244,8 +248,7 @@ void NavigationProblem::run(const SensorErrors& candidate,
   const Dataset& ds = *dataset_;
   const EarthModel& earth = ds.meta.earth;
   const ImuCompensator compensator(candidate);
-  const Eigen::Matrix3d C_b_n0 =
-      C_b_n_override ? *C_b_n_override : initial_attitude(candidate);
+  const Eigen::Matrix3d C_b_n0 = C_b_n_override ? *C_b_n_override : initial_attitude(candidate);
 
   // The increment ending at the navigation start seeds the coning/sculling corrections.
   ImuSample prev = ds.imu[nav_begin_ - 1];

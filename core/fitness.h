@@ -145,10 +145,10 @@ class NavigationProblem {
   AlignmentWindow window_;
   InitialAttitude attitude_source_;
   Eigen::Matrix3d C_b_n_fixed_ = Eigen::Matrix3d::Identity();
-  std::vector<double> h_ref_m_;    // GNSS height interpolated at every IMU epoch
+  std::vector<double> h_ref_m_;     // GNSS height interpolated at every IMU epoch
   std::vector<double> vU_ref_mps_;  // GNSS vertical velocity interpolated at every IMU epoch
   std::vector<std::size_t> epoch_gnss_index_;  // GNSS rows compared, in time order
-  std::vector<WindowRestart> restarts_;         // windowed fitness, in time order
+  std::vector<WindowRestart> restarts_;        // windowed fitness, in time order
 };
 
 /// Linear interpolation helper on GNSS rows: value at time t (clamped to the ends).

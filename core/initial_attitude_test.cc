@@ -25,9 +25,9 @@
 namespace insid {
 namespace {
 
-constexpr double kDegS = kDegToRad;           // 1 deg/s in rad/s
-constexpr double kMg = 9.80665e-3;            // 1 mg in m/s^2
-constexpr double kRthToRts = 1.0 / 60.0;      // per sqrt(h) -> per sqrt(s)
+constexpr double kDegS = kDegToRad;       // 1 deg/s in rad/s
+constexpr double kMg = 9.80665e-3;        // 1 mg in m/s^2
+constexpr double kRthToRts = 1.0 / 60.0;  // per sqrt(h) -> per sqrt(s)
 
 std::string message_of(const std::function<void()>& f) {
   try {
@@ -107,8 +107,8 @@ TEST(LevelHeading, MemsFlightWithATurnRecoversTheAttitudeAtTheStart) {
       t_carry = std::max(t_carry, f.t_s - problem.nav_start_t_s());
     }
     const double n = static_cast<double>(fixes.size());
-    const double yaw_sd = std::sqrt(var_course / (n * n) +
-                                    std::pow(noise.arw_deg_rth * kDegToRad * kRthToRts, 2) * t_carry);
+    const double yaw_sd = std::sqrt(
+        var_course / (n * n) + std::pow(noise.arw_deg_rth * kDegToRad * kRthToRts, 2) * t_carry);
     // The course epochs come after the turn: the carry is what makes the heading right.
     EXPECT_GT(t_carry, 5.0);
     EXPECT_NEAR(e.roll_rad, truth.attitude.roll_rad, 4 * tilt_sd + 1e-9) << "seed " << seed;
@@ -118,8 +118,8 @@ TEST(LevelHeading, MemsFlightWithATurnRecoversTheAttitudeAtTheStart) {
               << (e.roll_rad - truth.attitude.roll_rad) * kRadToDeg << " "
               << (e.pitch_rad - truth.attitude.pitch_rad) * kRadToDeg << " "
               << wrap_pi(e.yaw_rad - truth.attitude.yaw_rad) * kRadToDeg << " deg (bounds "
-              << 4 * tilt_sd * kRadToDeg << ", " << 4 * yaw_sd * kRadToDeg << " deg; " << fixes.size()
-              << " course epochs from t = " << fixes.front().t_s << " s, start "
+              << 4 * tilt_sd * kRadToDeg << ", " << 4 * yaw_sd * kRadToDeg << " deg; "
+              << fixes.size() << " course epochs from t = " << fixes.front().t_s << " s, start "
               << problem.nav_start_t_s() << " s)\n";
   }
 }
@@ -158,7 +158,8 @@ TEST(LevelHeading, CourseIsCarriedBackThroughTheTurnWithTheCandidatesGyros) {
     without_z.gyro.bias.z() = 0.0;
     double mean_span = 0.0;
     const auto& fixes = problem.initial_attitude_source().course_fixes();
-    for (const CourseFix& f : fixes) mean_span += f.carry.span_s / static_cast<double>(fixes.size());
+    for (const CourseFix& f : fixes)
+      mean_span += f.carry.span_s / static_cast<double>(fixes.size());
     const double yaw_wrong = euler_from_C_b_n(problem.initial_attitude(without_z)).yaw_rad;
     const double expected_shift = -cfg.injected.gyro.bias.z() * mean_span;
     EXPECT_NEAR(wrap_pi(yaw_wrong - yaw0), expected_shift, 0.05 * std::abs(expected_shift))
@@ -202,13 +203,13 @@ TEST(Gyrocompass, RefusedOnMemsDataWithTheExpectedHeadingSd) {
   undeclared.meta.noise.reset();
   const double estimated = estimate_arw_rad_rts(undeclared.imu, 0, 3000, 0.0);
   EXPECT_NEAR(estimated, arw, 0.1 * arw);
-  const std::string m2 = message_of(
-      [&] { NavigationProblem p(std::make_shared<const Dataset>(undeclared), NavigationOptions{}); });
+  const std::string m2 = message_of([&] {
+    NavigationProblem p(std::make_shared<const Dataset>(undeclared), NavigationOptions{});
+  });
   EXPECT_NE(m2.find("estimated from the static window's rate scatter"), std::string::npos) << m2;
   // A 600 s window does not rescue it at this grade (2.4 deg > 1 deg).
-  const std::string m3 = message_of([&] {
-    NavigationProblem p(simulate_shared(mems_flight(1, 600.0)), NavigationOptions{});
-  });
+  const std::string m3 = message_of(
+      [&] { NavigationProblem p(simulate_shared(mems_flight(1, 600.0)), NavigationOptions{}); });
   EXPECT_NE(m3.find("refused"), std::string::npos) << m3;
 }
 
@@ -310,7 +311,8 @@ TEST(InitialAttitudeModes, GivenUsesMetaInitialAndIsRefusedWhenNull) {
   const std::string m =
       message_of([&] { NavigationProblem p(shared, with_mode(InitialAttitudeMode::kGiven)); });
   EXPECT_NE(m.find("--initial-attitude given: meta.json \"initial\" gives no attitude"),
-            std::string::npos) << m;
+            std::string::npos)
+      << m;
   EXPECT_NE(m.find("null"), std::string::npos) << m;
   const std::string t =
       message_of([&] { NavigationProblem p(shared, with_mode(InitialAttitudeMode::kTruth)); });
@@ -329,7 +331,8 @@ TEST(InitialAttitudeModes, ShortAbsentAndMovingWindows) {
   EXPECT_NEAR(wrap_pi(e.yaw_rad - truth.attitude.yaw_rad), 0.0, 1.0 * kDegToRad);
   EXPECT_TRUE(std::isfinite(pad.fitness(cfg.injected)));
 
-  for (InitialAttitudeMode mode : {InitialAttitudeMode::kLevelHeading, InitialAttitudeMode::kGyrocompass}) {
+  for (InitialAttitudeMode mode :
+       {InitialAttitudeMode::kLevelHeading, InitialAttitudeMode::kGyrocompass}) {
     Dataset moving = *ds;
     moving.meta.align_s = 0.0;
     const std::string m = message_of(

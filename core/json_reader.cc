@@ -50,10 +50,10 @@ json parse_json_strict(std::string_view text, const std::string& where) {
         Frame& top = stack.back();
         top.last_key = parsed.get<std::string>();
         if (!top.keys.insert(top.last_key).second)
-          throw std::runtime_error(where + ": key \"" + top.last_key + "\" appears twice in " +
-                                   (top.path.empty() ? "the top-level object"
-                                                     : "object \"" + top.path + "\"") +
-                                   " (JSON objects must not repeat a key)");
+          throw std::runtime_error(
+              where + ": key \"" + top.last_key + "\" appears twice in " +
+              (top.path.empty() ? "the top-level object" : "object \"" + top.path + "\"") +
+              " (JSON objects must not repeat a key)");
         break;
       }
       case json::parse_event_t::object_end:

@@ -2,9 +2,9 @@
 // meta.json, scenario and campaign configs, manifests, run files, caches — goes through it.
 //
 // Strict means RFC 8259 JSON (nlohmann::json's parser: no comments, no NaN/Infinity, no trailing
-// commas) plus one rule RFC 8259 leaves open ("names within an object SHOULD be unique"): a key that
-// appears twice in one object is an error naming the key and the object it is in, instead of the
-// last value silently winning.
+// commas) plus one rule RFC 8259 leaves open ("names within an object SHOULD be unique"): a key
+// that appears twice in one object is an error naming the key and the object it is in, instead of
+// the last value silently winning.
 #pragma once
 
 #include <filesystem>

@@ -35,12 +35,13 @@ TEST(JsonReader, KeyGivenTwiceIsNamedWithItsObject) {
   EXPECT_EQ(error_of(R"({"seeds": 3, "name": "a", "seeds": 5})"),
             "cfg.json: key \"seeds\" appears twice in the top-level object (JSON objects must not "
             "repeat a key)");
-  EXPECT_NE(error_of(R"({"scenarios": [{"name": "a"}, {"name": "b", "grade": "nav", "grade": "mems"}]})")
-                .find("key \"grade\" appears twice in object \"scenarios[1]\""),
-            std::string::npos);
-  EXPECT_NE(error_of(R"({"a": {"b": [[1], {"c": {"d": 1, "d": 2}}]}})")
-                .find("in object \"a.b[1].c\""),
-            std::string::npos);
+  EXPECT_NE(
+      error_of(R"({"scenarios": [{"name": "a"}, {"name": "b", "grade": "nav", "grade": "mems"}]})")
+          .find("key \"grade\" appears twice in object \"scenarios[1]\""),
+      std::string::npos);
+  EXPECT_NE(
+      error_of(R"({"a": {"b": [[1], {"c": {"d": 1, "d": 2}}]}})").find("in object \"a.b[1].c\""),
+      std::string::npos);
 }
 
 TEST(JsonReader, SyntaxErrorsAndOverflowsAreRuntimeErrorsWithTheLine) {

@@ -8,7 +8,10 @@ namespace insid {
 
 Strapdown::Strapdown(const EarthModel& earth, const NavState& initial, const ImuSample& previous,
                      double previous_dt_s)
-    : earth_(earth), state_(initial), prev_state_(initial), prev_inc_(previous),
+    : earth_(earth),
+      state_(initial),
+      prev_state_(initial),
+      prev_inc_(previous),
       prev_dt_s_(previous_dt_s) {}
 
 void Strapdown::step(const ImuSample& inc) { update(inc); }
@@ -57,13 +60,11 @@ void Strapdown::update(const ImuSample& inc) {
   const double h_avg = 0.5 * (old.h_m + next.h_m);
   next.lat_rad = old.lat_rad + v_avg.y() / (earth_.meridian_radius_m(old.lat_rad) + h_avg) * dt;
   const double lat_avg = 0.5 * (old.lat_rad + next.lat_rad);
-  next.lat_rad =
-      old.lat_rad + v_avg.y() / (earth_.meridian_radius_m(lat_avg) + h_avg) * dt;
+  next.lat_rad = old.lat_rad + v_avg.y() / (earth_.meridian_radius_m(lat_avg) + h_avg) * dt;
   const double lat_avg2 = 0.5 * (old.lat_rad + next.lat_rad);
-  next.lon_rad = old.lon_rad + v_avg.x() /
-                                   ((earth_.prime_vertical_radius_m(lat_avg2) + h_avg) *
-                                    std::cos(lat_avg2)) *
-                                   dt;
+  next.lon_rad =
+      old.lon_rad +
+      v_avg.x() / ((earth_.prime_vertical_radius_m(lat_avg2) + h_avg) * std::cos(lat_avg2)) * dt;
 
   // --- 3. Attitude (Eq. 3): q_b_n(k) = q_n(k-1)_n(k) * q_b_n(k-1) * q_b(k)_b(k-1).
   // Body rotation vector with the two-sample coning correction (Savage Eq. 7.1.1.1-11).
@@ -72,7 +73,8 @@ void Strapdown::update(const ImuSample& inc) {
   const Eigen::Vector3d v_mid2 = v_avg;
   const Eigen::Vector3d zeta_mid_n =
       (earth_.omega_ie_n(lat_avg2) + earth_.omega_en_n(lat_avg2, h_avg, v_mid2)) * dt;
-  next.q_b_n = quat_from_rotation_vector(-zeta_mid_n) * old.q_b_n * quat_from_rotation_vector(phi_b);
+  next.q_b_n =
+      quat_from_rotation_vector(-zeta_mid_n) * old.q_b_n * quat_from_rotation_vector(phi_b);
   next.q_b_n.normalize();
 
   omega_ib_b_ = dt > 0 ? Eigen::Vector3d(dtheta / dt) : Eigen::Vector3d::Zero();

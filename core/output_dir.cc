@@ -56,19 +56,17 @@ void require_own_or_empty(const fs::path& dir, const OutputKind& kind,
     const std::string name = it->path().filename().string();
     if (!is_own_entry(name, kind)) foreign.push_back(name);
   }
-  if (ec)
-    throw std::runtime_error("cannot list '" + dir.string() + "': " + ec.message());
+  if (ec) throw std::runtime_error("cannot list '" + dir.string() + "': " + ec.message());
   if (foreign.empty()) return;
   std::sort(foreign.begin(), foreign.end());
-  throw std::runtime_error("'" + dir.string() + "' is not empty and not " + kind.description +
-                           ": it holds '" + foreign.front() + "'" +
-                           (foreign.size() > 1
-                                ? " and " + std::to_string(foreign.size() - 1) + " more entries"
-                                : std::string()) +
-                           ". insid does not write into other files' directories; choose a new "
-                           "or empty directory" +
-                           (force_hint.empty() ? std::string(".")
-                                               : ", or " + std::string(force_hint) + "."));
+  throw std::runtime_error(
+      "'" + dir.string() + "' is not empty and not " + kind.description + ": it holds '" +
+      foreign.front() + "'" +
+      (foreign.size() > 1 ? " and " + std::to_string(foreign.size() - 1) + " more entries"
+                          : std::string()) +
+      ". insid does not write into other files' directories; choose a new "
+      "or empty directory" +
+      (force_hint.empty() ? std::string(".") : ", or " + std::string(force_hint) + "."));
 }
 
 bool contains_working_directory(const fs::path& dir) {
@@ -89,8 +87,10 @@ bool contains_working_directory(const fs::path& dir) {
 
 const std::string& checked_path_component(const std::string& name, std::string_view what) {
   auto refuse = [&](const std::string& why) {
-    throw std::invalid_argument(std::string(what) + " '" + name + "' cannot be used as a file or "
-                                "directory name: " + why);
+    throw std::invalid_argument(std::string(what) + " '" + name +
+                                "' cannot be used as a file or "
+                                "directory name: " +
+                                why);
   };
   if (name.empty()) refuse("it is empty");
   if (name == "." || name == "..") refuse("'.' and '..' are not names");

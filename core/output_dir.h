@@ -19,8 +19,8 @@ namespace insid {
 
 /// What an output directory holds, as far as insid can tell.
 struct OutputKind {
-  std::string description;                  ///< e.g. "an insid dataset", for messages
-  std::vector<std::string> own_entries;     ///< names insid writes at the top level
+  std::string description;               ///< e.g. "an insid dataset", for messages
+  std::vector<std::string> own_entries;  ///< names insid writes at the top level
 };
 
 /// Throws std::runtime_error when `dir` exists and holds an entry that is not in

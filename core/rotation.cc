@@ -12,7 +12,7 @@ Eigen::Matrix3d C_b_n_from_euler(const EulerAngles& e) {
   const double cy = std::cos(e.yaw_rad), sy = std::sin(e.yaw_rad);
   Eigen::Matrix3d C_b_ned;
   C_b_ned << cp * cy, -cr * sy + sr * sp * cy, sr * sy + cr * sp * cy,  //
-      cp * sy, cr * cy + sr * sp * sy, -sr * cy + cr * sp * sy,       //
+      cp * sy, cr * cy + sr * sp * sy, -sr * cy + cr * sp * sy,         //
       -sp, sr * cp, cr * cp;
   return C_ned_enu() * C_b_ned;
 }

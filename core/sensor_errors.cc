@@ -43,14 +43,13 @@ std::vector<Entry> build_catalogue() {
   for (const char* a : kAxes) {
     const int i = axis_index(a[0]);
     add(std::string("accel_scale_") + a, "1", EffectSide::kImu, 1e-4,
-        "accelerometer scale-factor error", [i](SensorErrors& e) -> double& {
-          return e.accel.scale[i];
-        });
+        "accelerometer scale-factor error",
+        [i](SensorErrors& e) -> double& { return e.accel.scale[i]; });
   }
   for (const char* a : kAxes) {
     const int i = axis_index(a[0]);
-    add(std::string("gyro_scale_") + a, "1", EffectSide::kImu, 1e-4,
-        "gyro scale-factor error", [i](SensorErrors& e) -> double& { return e.gyro.scale[i]; });
+    add(std::string("gyro_scale_") + a, "1", EffectSide::kImu, 1e-4, "gyro scale-factor error",
+        [i](SensorErrors& e) -> double& { return e.gyro.scale[i]; });
   }
   for (const char* p : kPairs) {
     const int i = axis_index(p[0]), j = axis_index(p[1]);
@@ -66,14 +65,14 @@ std::vector<Entry> build_catalogue() {
   }
   for (const char* a : kAxes) {
     const int i = axis_index(a[0]);
-    add(std::string("accel_bias_drift_") + a, "m/s^3", EffectSide::kImu,
-        kSigmaAccelMps2 / 3600.0, "accelerometer bias drift, linear in time from t = 0",
+    add(std::string("accel_bias_drift_") + a, "m/s^3", EffectSide::kImu, kSigmaAccelMps2 / 3600.0,
+        "accelerometer bias drift, linear in time from t = 0",
         [i](SensorErrors& e) -> double& { return e.accel.bias_drift[i]; });
   }
   for (const char* a : kAxes) {
     const int i = axis_index(a[0]);
-    add(std::string("gyro_bias_drift_") + a, "rad/s^2", EffectSide::kImu,
-        kSigmaGyroRadS / 3600.0, "gyro bias drift, linear in time from t = 0",
+    add(std::string("gyro_bias_drift_") + a, "rad/s^2", EffectSide::kImu, kSigmaGyroRadS / 3600.0,
+        "gyro bias drift, linear in time from t = 0",
         [i](SensorErrors& e) -> double& { return e.gyro.bias_drift[i]; });
   }
   add("gnss_latency", "s", EffectSide::kGnss, 0.01,

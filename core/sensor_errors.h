@@ -34,18 +34,18 @@ struct TriadErrors {
 struct SensorErrors {
   TriadErrors gyro;
   TriadErrors accel;
-  double gnss_latency_s = 0.0;                                ///< GNSS tag minus true time (s)
-  Eigen::Vector3d lever_arm_b_m = Eigen::Vector3d::Zero();    ///< antenna in b from IMU (m)
+  double gnss_latency_s = 0.0;                              ///< GNSS tag minus true time (s)
+  Eigen::Vector3d lever_arm_b_m = Eigen::Vector3d::Zero();  ///< antenna in b from IMU (m)
 };
 
 enum class EffectSide { kImu, kGnss };
 
 /// One entry of the effect catalogue.
 struct EffectInfo {
-  std::string_view name;         ///< catalogue name, never renamed
-  std::string_view unit;         ///< SI unit of the value
+  std::string_view name;  ///< catalogue name, never renamed
+  std::string_view unit;  ///< SI unit of the value
   EffectSide side;
-  double sigma;                  ///< typical size used as the search/scale unit (SI)
+  double sigma;  ///< typical size used as the search/scale unit (SI)
   std::string_view description;
 };
 
@@ -67,7 +67,7 @@ SensorErrors errors_from_map(const std::map<std::string, double>& values);
 std::map<std::string, double> nonzero_effects(const SensorErrors& errors);
 
 /// Paper sigma units (docs/design.md sec. 2).
-constexpr double kSigmaAccelMps2 = 0.0005;                        // sigma_A = 0.0005 m/s^2
+constexpr double kSigmaAccelMps2 = 0.0005;  // sigma_A = 0.0005 m/s^2
 constexpr double kSigmaGyroRadS = 0.01 * 3.14159265358979323846 / 180.0 / 3600.0;  // 0.01 deg/h
 
 /// Apply the IMU error model to one pair of true increments over (t_s - dt_s, t_s].

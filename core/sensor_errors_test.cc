@@ -70,8 +70,8 @@ TEST(SensorErrors, ModelTermsHaveTheDocumentedMeaning) {
   Eigen::Vector3d dtheta(0, 0.5, 1.0), dv(0, 0, 0);
   apply_imu_errors(e, 10.0, 0.01, dtheta, dv);
   EXPECT_NEAR(dv.x(), (1e-3 + 1e-5 * 9.995) * 0.01, 1e-18);  // bias integrates at mid-time
-  EXPECT_NEAR(dtheta.z(), 1.0 * (1 + 1e-3), 1e-15);           // scale factor scales
-  EXPECT_NEAR(dtheta.x(), 2e-3 * 0.5, 1e-15);                 // misalignment M(x, y)
+  EXPECT_NEAR(dtheta.z(), 1.0 * (1 + 1e-3), 1e-15);          // scale factor scales
+  EXPECT_NEAR(dtheta.x(), 2e-3 * 0.5, 1e-15);                // misalignment M(x, y)
 }
 
 }  // namespace

@@ -124,7 +124,8 @@ int main(int argc, char** argv) {
   const fs::path cases_path = fs::path(out_dir) / "cases.jsonl";
 
   std::vector<Case> cases;
-  const std::vector<Nominal> effects = matrix == "extended" ? extended_effects() : nominal_effects();
+  const std::vector<Nominal> effects =
+      matrix == "extended" ? extended_effects() : nominal_effects();
   if (matrix == "extended") {
     // Round r: ceil(null_seeds / seeds) null seeds, one flight per preset and length each
     // (seeds 5001, ...), then every effect at every size (seed 6000 + r); so a campaign stopped
@@ -135,25 +136,33 @@ int main(int argc, char** argv) {
       for (int k = 0; k < per_round && next_null <= null_seeds; ++k, ++next_null)
         for (const std::string& preset : null_presets)
           for (double len : null_flights)
-            cases.push_back({"null", {preset, len, 5000u + static_cast<unsigned>(next_null), {}},
-                             0, true});
+            cases.push_back(
+                {"null", {preset, len, 5000u + static_cast<unsigned>(next_null), {}}, 0, true});
       if (r <= seeds)
         for (const Nominal& e : effects)
           for (double f : sizes)
-            cases.push_back({"single", {"rich", flight_s, 6000u + static_cast<unsigned>(r),
-                                        {{e.effect, f * e.value}}}, f, true});
+            cases.push_back(
+                {"single",
+                 {"rich", flight_s, 6000u + static_cast<unsigned>(r), {{e.effect, f * e.value}}},
+                 f,
+                 true});
     }
   }
-  for (int s = 1; matrix == "original" && s <= null_seeds; ++s) cases.push_back({"null", {"rich", flight_s, 1000u + s, {}}, 0});
+  for (int s = 1; matrix == "original" && s <= null_seeds; ++s)
+    cases.push_back({"null", {"rich", flight_s, 1000u + s, {}}, 0});
   for (const Nominal& e : nominal_effects())
     for (double f : sizes)
       for (int s = 1; matrix == "original" && s <= seeds; ++s)
         cases.push_back({"single", {"rich", flight_s, 2000u + s, {{e.effect, f * e.value}}}, f});
   for (int s = 1; matrix == "original" && s <= seeds; ++s) {
-    cases.push_back({"pair", {"rich", flight_s, 3000u + s,
-                              {{"gnss_latency", 0.05}, {"gyro_scale_z", 300e-6}}}, 1});
-    cases.push_back({"pair", {"rich", flight_s, 3100u + s,
-                              {{"lever_arm_z", 0.5}, {"accel_scale_x", 2000e-6}}}, 1});
+    cases.push_back(
+        {"pair",
+         {"rich", flight_s, 3000u + s, {{"gnss_latency", 0.05}, {"gyro_scale_z", 300e-6}}},
+         1});
+    cases.push_back(
+        {"pair",
+         {"rich", flight_s, 3100u + s, {{"lever_arm_z", 0.5}, {"accel_scale_x", 2000e-6}}},
+         1});
     cases.push_back({"unobservable", {"straight", flight_s, 4000u + s, {{"lever_arm_x", 1.0}}}, 1});
     cases.push_back({"unobservable", {"straight", flight_s, 4100u + s, {{"lever_arm_y", 1.0}}}, 1});
     cases.push_back({"null", {"straight", flight_s, 4200u + s, {}}, 0});
@@ -222,7 +231,7 @@ int main(int argc, char** argv) {
   json nominal = json::object();
   for (const Nominal& e : effects) nominal[e.effect] = {{"value", e.value}, {"label", e.label}};
   summary["nominal"] = nominal;
-  std::map<std::string, std::map<std::string, int>> confusion;  // hidden -> named -> count
+  std::map<std::string, std::map<std::string, int>> confusion;        // hidden -> named -> count
   std::map<std::string, std::map<double, std::array<int, 3>>> power;  // hit(class), exact, n
   std::map<std::string, std::vector<double>> shrinks;
   int null_n = 0, null_fa = 0, straight_null_n = 0, straight_null_fa = 0;
@@ -279,7 +288,8 @@ int main(int argc, char** argv) {
       unobs_named += named;
     }
   }
-  summary["false_alarm"] = {{"rich_seeds", null_n}, {"rich_with_found", null_fa},
+  summary["false_alarm"] = {{"rich_seeds", null_n},
+                            {"rich_with_found", null_fa},
                             {"rate", null_n ? static_cast<double>(null_fa) / null_n : 0.0},
                             {"straight_seeds", straight_null_n},
                             {"straight_with_found", straight_null_fa}};
@@ -287,8 +297,11 @@ int main(int argc, char** argv) {
   json pj = json::object();
   for (const auto& [h, by] : power)
     for (const auto& [f, c] : by)
-      pj[h].push_back({{"size_factor", f}, {"size", f * nominal[h]["value"].get<double>()},
-                       {"detected_class", c[0]}, {"detected_exact", c[1]}, {"n", c[2]}});
+      pj[h].push_back({{"size_factor", f},
+                       {"size", f * nominal[h]["value"].get<double>()},
+                       {"detected_class", c[0]},
+                       {"detected_exact", c[1]},
+                       {"n", c[2]}});
   summary["power"] = pj;
   json sj = json::object();
   for (const auto& [h, v] : shrinks) {
@@ -298,8 +311,8 @@ int main(int argc, char** argv) {
   }
   summary["shrink_at_nominal"] = sj;
   summary["pairs"] = {{"n", pair_n}, {"both_found", pair_both}};
-  summary["unobservable"] = {{"n", unobs_n}, {"reported_not_observable", unobs_reported},
-                             {"named", unobs_named}};
+  summary["unobservable"] = {
+      {"n", unobs_n}, {"reported_not_observable", unobs_reported}, {"named", unobs_named}};
   // Issue 15: every null flight (any preset, any length), the rate with its 95 % Wilson
   // interval, and the confusion of the first named effect with the ambiguity sets counted
   // separately: "(none)", the effect alone (unambiguous), or "{a, b, ...}" (named + partners).
@@ -351,7 +364,8 @@ int main(int argc, char** argv) {
       }
     }
     const auto [lo, hi] = wilson(fa_all, n_all);
-    json fj = {{"null_flights", n_all}, {"with_found", fa_all},
+    json fj = {{"null_flights", n_all},
+               {"with_found", fa_all},
                {"rate", n_all ? static_cast<double>(fa_all) / n_all : 0.0},
                {"wilson95", {lo, hi}}};
     for (const auto& [k, b] : by_flight) {
@@ -363,9 +377,12 @@ int main(int argc, char** argv) {
     json oj = json::object();
     for (const auto& [h, by] : outcome)
       for (const auto& [f, o] : by)
-        oj[h].push_back({{"size_factor", f}, {"exact_unambiguous", o[0]},
-                         {"first_set_contains_truth", o[1]}, {"named_set_contains_truth", o[2]},
-                         {"first_named_wrong", o[3]}, {"nothing_named", o[4]},
+        oj[h].push_back({{"size_factor", f},
+                         {"exact_unambiguous", o[0]},
+                         {"first_set_contains_truth", o[1]},
+                         {"named_set_contains_truth", o[2]},
+                         {"first_named_wrong", o[3]},
+                         {"nothing_named", o[4]},
                          {"n", o[0] + o[1] + o[3] + o[4]}});
     summary["outcome"] = oj;
   }

@@ -15,20 +15,20 @@
 #include <sstream>
 #include <stdexcept>
 
+#include <omp.h>
 #include <Eigen/Cholesky>
 #include <Eigen/Dense>
 #include <Eigen/QR>
 #include <boost/math/distributions/normal.hpp>
 #include <boost/math/distributions/students_t.hpp>
-#include <omp.h>
 
 #include "diagnose/advice.h"
 #include "diagnose/noise_model.h"
 #include "identification/identify.h"
 #include "identification/local_fit.h"
 #include "optimizers/parameters.h"
-#include "optimizers/registry.h"
 #include "optimizers/random.h"
+#include "optimizers/registry.h"
 
 namespace insid::diagnose {
 namespace {
@@ -62,8 +62,7 @@ class Progress {
   explicit Progress(bool on) : on_(on), t0_(std::chrono::steady_clock::now()) {}
   void operator()(const std::string& what) const {
     if (!on_) return;
-    const double s =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
     std::fprintf(stderr, "insid diagnose [%7.1f s] %s\n", s, what.c_str());
   }
 
@@ -81,9 +80,7 @@ class WorkingMetric {
     inner_.compute(inner);
   }
   // Sigma_w^{-1} V (Woodbury).
-  Mat inv(const Mat& V) const {
-    return (V - U_ * inner_.solve(U_.transpose() * V)) / s2_;
-  }
+  Mat inv(const Mat& V) const { return (V - U_ * inner_.solve(U_.transpose() * V)) / s2_; }
   double s2() const { return s2_; }
   int rank() const { return static_cast<int>(U_.cols()); }
 
@@ -232,9 +229,8 @@ struct IterationStats {
 
 // Step 4-5 on one model fit.
 IterationStats score_candidates(const ModelFit& fit, const Mat& C,
-                                const std::vector<std::string>& names,
-                                const WorkingMetric& W, const Mat& D_cal,
-                                const DiagnoseOptions& opt, std::uint64_t seed) {
+                                const std::vector<std::string>& names, const WorkingMetric& W,
+                                const Mat& D_cal, const DiagnoseOptions& opt, std::uint64_t seed) {
   IterationStats out;
   const int q = static_cast<int>(names.size());
   const int MB = static_cast<int>(D_cal.cols());
@@ -316,7 +312,8 @@ IterationStats score_candidates(const ModelFit& fit, const Mat& C,
       if (a == b || info[a] <= 0 || info[b] <= 0) continue;
       const double corr = Wc.col(a).dot(Ct.col(b)) / std::sqrt(info[a] * info[b]);
       if (std::abs(corr) > opt.collinear_threshold)
-        out.table[static_cast<std::size_t>(a)].collinear.emplace_back(names[static_cast<std::size_t>(b)], corr);
+        out.table[static_cast<std::size_t>(a)].collinear.emplace_back(
+            names[static_cast<std::size_t>(b)], corr);
     }
   // Omnibus check for leftover structure: whitened energy of the GLS-projected residual, data
   // against the calibration replicas.
@@ -355,7 +352,8 @@ json stat_json(const CandidateStat& s) {
             {"significant", s.significant}};
   c["collinear"] = json::array();
   for (const auto& [n, corr] : s.collinear)
-    c["collinear"].push_back({{"effect", n}, {"correlation", corr},
+    c["collinear"].push_back({{"effect", n},
+                              {"correlation", corr},
                               {"separating_manoeuvre", separating_manoeuvre(s.name, n)}});
   return c;
 }
@@ -440,7 +438,8 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
   } else {
     for (const std::string& c : options.candidates) {
       effect_info(c);  // throws on unknown names
-      if (in_model.count(c)) throw std::invalid_argument("candidate '" + c + "' is in the base model");
+      if (in_model.count(c))
+        throw std::invalid_argument("candidate '" + c + "' is in the base model");
       if (std::find(candidates.begin(), candidates.end(), c) == candidates.end())
         candidates.push_back(c);
     }
@@ -555,9 +554,8 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
   // Base parameters with sd from the same noise model.
   {
     const Vec sd = parameter_sd(fit.J, D);
-    report["base"] = {{"parameters", params_json(fit, sd)},
-                      {"fitness", fit.fitness},
-                      {"rms_mps", fit.rms}};
+    report["base"] = {
+        {"parameters", params_json(fit, sd)}, {"fitness", fit.fitness}, {"rms_mps", fit.rms}};
   }
 
   // 3-6. Iterate.
@@ -648,23 +646,23 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
       ij["choice"] = nullptr;
       if (!best) {
         ij["reason"] = "no candidate significant at the family-wise level";
-        unexplained = {{"omnibus_p_value", st.omnibus_p},
-                       {"exceeding_but_not_observable", exceeding_unobservable},
-                       {"structure_left",
-                        st.omnibus_p < options.alpha || !exceeding_unobservable.empty()},
-                       {"note", !exceeding_unobservable.empty()
-                                    ? "candidates the flight cannot observe at plausible sizes "
-                                      "exceed the threshold: model mismatch, not named"
-                                    : st.omnibus_p < options.alpha
-                                    ? "the residuals carry more structure than the noise "
-                                      "replicas, but no catalogue candidate explains it"
-                                    : "the residuals are consistent with the noise model"}};
+        unexplained = {
+            {"omnibus_p_value", st.omnibus_p},
+            {"exceeding_but_not_observable", exceeding_unobservable},
+            {"structure_left", st.omnibus_p < options.alpha || !exceeding_unobservable.empty()},
+            {"note", !exceeding_unobservable.empty()
+                         ? "candidates the flight cannot observe at plausible sizes "
+                           "exceed the threshold: model mismatch, not named"
+                     : st.omnibus_p < options.alpha
+                         ? "the residuals carry more structure than the noise "
+                           "replicas, but no catalogue candidate explains it"
+                         : "the residuals are consistent with the noise model"}};
       } else {
         ij["reason"] = "max_effects reached";
-        unexplained = {{"omnibus_p_value", st.omnibus_p},
-                       {"structure_left", true},
-                       {"note", "stopped at --max-effects with a significant candidate left: " +
-                                    best->name}};
+        unexplained = {
+            {"omnibus_p_value", st.omnibus_p},
+            {"structure_left", true},
+            {"note", "stopped at --max-effects with a significant candidate left: " + best->name}};
       }
       iterations.push_back(ij);
       break;
@@ -719,9 +717,8 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
 
   // Final estimates (SI) with sd from the noise model.
   const Vec sd_final = parameter_sd(fit.J, D);
-  report["model"] = {{"parameters", params_json(fit, sd_final)},
-                     {"fitness", fit.fitness},
-                     {"rms_mps", fit.rms}};
+  report["model"] = {
+      {"parameters", params_json(fit, sd_final)}, {"fitness", fit.fitness}, {"rms_mps", fit.rms}};
   for (auto& f : found) {
     for (std::size_t k = 0; k < fit.params.size(); ++k)
       if (fit.params[k].name == f["effect"].get<std::string>()) {
@@ -736,7 +733,9 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
   const Floor floor_before = noise_floor(base_fit.J, D, ph);
   const Floor floor_after = noise_floor(fit.J, D, ph);
   auto floor_json = [](const Floor& f) {
-    return json{{"fitness", f.fitness}, {"fitness_sd", f.fitness_sd}, {"rms_mps", f.rms},
+    return json{{"fitness", f.fitness},
+                {"fitness_sd", f.fitness_sd},
+                {"rms_mps", f.rms},
                 {"rms_sd_mps", f.rms_sd}};
   };
   report["noise_floor"] = floor_json(floor_after);
@@ -785,9 +784,8 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
                     {"epochs", static_cast<int>(a[2])},
                     {"rms_before_mps", std::sqrt(a[0] / a[2])},
                     {"rms_after_mps", std::sqrt(a[1] / a[2])},
-                    {"rms_floor_mps", floor_after.phase_rms.count(name)
-                                          ? floor_after.phase_rms.at(name)
-                                          : 0.0}});
+                    {"rms_floor_mps",
+                     floor_after.phase_rms.count(name) ? floor_after.phase_rms.at(name) : 0.0}});
     }
     report["phases"] = pj;
   }
@@ -827,22 +825,21 @@ std::string report_markdown(const json& r, const std::string& figure_prefix) {
     return s.str();
   };
   md << "# insid diagnose report\n\n";
-  md << "Alignment: " << r.value("alignment", "") << "; noise levels: "
-     << r["noise_model"]["source"].get<std::string>() << ".\n\n";
+  md << "Alignment: " << r.value("alignment", "")
+     << "; noise levels: " << r["noise_model"]["source"].get<std::string>() << ".\n\n";
   md << "## Base model\n\n| parameter | estimate (SI) | sd (SI) | estimate (sigma) | sd (sigma) |\n"
         "|---|---|---|---|---|\n";
   for (const auto& p : r["base"]["parameters"])
-    md << "| " << p["name"].get<std::string>() << " | " << g(p["estimate"]) << " | "
-       << g(p["sd"]) << " | " << g(p["estimate_sigma"], 3) << " | " << g(p["sd_sigma"], 3)
-       << " |\n";
+    md << "| " << p["name"].get<std::string>() << " | " << g(p["estimate"]) << " | " << g(p["sd"])
+       << " | " << g(p["estimate_sigma"], 3) << " | " << g(p["sd_sigma"], 3) << " |\n";
   md << "\nBase fit: Eq. 15 fitness " << g(r["base"]["fitness"], 6) << ", horizontal RMS "
      << g(r["base"]["rms_mps"]) << " m/s.\n\n";
   md << "## Found\n\n";
   if (r["found"].empty()) md << "Nothing significant (family-wise 5 %).\n";
   for (const auto& f : r["found"]) {
     md << "- **" << f["effect"].get<std::string>() << "** = " << g(f["estimate"]) << " +- "
-       << g(f["sd"]) << " " << effect_info(f["effect"].get<std::string>()).unit
-       << " (iteration " << f["iteration"].get<int>() << ", z = " << g(f["z"], 3) << ")";
+       << g(f["sd"]) << " " << effect_info(f["effect"].get<std::string>()).unit << " (iteration "
+       << f["iteration"].get<int>() << ", z = " << g(f["z"], 3) << ")";
     if (!f["ambiguous_with"].empty()) {
       md << "; ambiguous with";
       for (const auto& a : f["ambiguous_with"]) md << " " << a.get<std::string>();
@@ -854,8 +851,8 @@ std::string report_markdown(const json& r, const std::string& figure_prefix) {
   md << "\nNot observable on this flight:";
   if (r["not_observable"].empty()) md << " none";
   for (const auto& n : r["not_observable"]) md << " " << n.get<std::string>();
-  md << "\n\nLeftover: " << r["unexplained"].value("note", std::string("-")) << " (omnibus p = "
-     << g(r["unexplained"]["omnibus_p_value"], 3) << ").\n\n";
+  md << "\n\nLeftover: " << r["unexplained"].value("note", std::string("-"))
+     << " (omnibus p = " << g(r["unexplained"]["omnibus_p_value"], 3) << ").\n\n";
   const json& gp = r["gap"];
   md << "## Gap\n\n| | before | after | noise floor |\n|---|---|---|---|\n";
   md << "| Eq. 15 fitness | " << g(gp["fitness_before"], 6) << " | " << g(gp["fitness_after"], 6)
@@ -865,11 +862,12 @@ std::string report_markdown(const json& r, const std::string& figure_prefix) {
      << " | " << g(r["noise_floor"]["rms_mps"]) << " |\n\n";
   md << "Shrink (share of the fitness gap above the noise floor closed): " << g(gp["shrink"], 3)
      << "; RMS shrink: " << g(gp["rms_shrink"], 3) << ".\n\n";
-  md << "## Phases\n\n| phase | epochs | RMS before | RMS after | RMS floor |\n|---|---|---|---|---|\n";
+  md << "## Phases\n\n| phase | epochs | RMS before | RMS after | RMS floor "
+        "|\n|---|---|---|---|---|\n";
   for (const auto& p : r["phases"])
     md << "| " << p["phase"].get<std::string>() << " | " << p["epochs"].get<int>() << " | "
-       << g(p["rms_before_mps"]) << " | " << g(p["rms_after_mps"]) << " | "
-       << g(p["rms_floor_mps"]) << " |\n";
+       << g(p["rms_before_mps"]) << " | " << g(p["rms_after_mps"]) << " | " << g(p["rms_floor_mps"])
+       << " |\n";
   md << "\n## Iterations\n\n";
   for (const auto& it : r["iterations"]) {
     md << "### Iteration " << it["iteration"].get<int>() << " (threshold |z| > "

@@ -39,20 +39,20 @@ struct DiagnoseOptions {
   /// the whole flight; W > 0 = the INS restarted from GNSS every W seconds (s).
   double window_s = 0.0;
   InitialAttitudeOptions initial_attitude;  ///< core/alignment.h (issue 14)
-  std::string algorithm = "dvpio";       ///< optimizer for the base fit ("none": LM only)
-  int optimizer_iterations = 20;         ///< the optimizer's population is its preset's
-  int replicas_basis = 40;               ///< replicas building the working covariance
-  int replicas_calibration = 80;         ///< replicas calibrating the statistics
-  double alpha = 0.05;                   ///< family-wise false-alarm rate per iteration
-  double collinear_threshold = 0.95;     ///< |correlation| of projected whitened columns
+  std::string algorithm = "dvpio";          ///< optimizer for the base fit ("none": LM only)
+  int optimizer_iterations = 20;            ///< the optimizer's population is its preset's
+  int replicas_basis = 40;                  ///< replicas building the working covariance
+  int replicas_calibration = 80;            ///< replicas calibrating the statistics
+  double alpha = 0.05;                      ///< family-wise false-alarm rate per iteration
+  double collinear_threshold = 0.95;        ///< |correlation| of projected whitened columns
   /// Joint comparison after the fit: a significant runner-up whose likelihood-ratio difference
   /// to the named effect is below this many of its replica sd is reported as ambiguous with it.
   double ambiguity_z = 1.96;
-  double observable_max_sigma = 30.0;    ///< minimum detectable size above this (catalogue
-                                         ///< sigmas): not observable
-  int monte_carlo_draws = 20000;         ///< draws for the family-wise max-|z| distribution
-  int threads = 0;                       ///< OpenMP threads, 0 = default
-  bool progress = false;                 ///< human progress on stderr
+  double observable_max_sigma = 30.0;  ///< minimum detectable size above this (catalogue
+                                       ///< sigmas): not observable
+  int monte_carlo_draws = 20000;       ///< draws for the family-wise max-|z| distribution
+  int threads = 0;                     ///< OpenMP threads, 0 = default
+  bool progress = false;               ///< human progress on stderr
   /// Noise levels to use instead of meta.json / the estimate (e.g. a user's spec sheet).
   std::optional<NoiseLevels> noise;
 
@@ -78,8 +78,7 @@ struct DiagnoseResult {
   double shrink = 0.0;
 };
 
-DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
-                            const DiagnoseOptions& options);
+DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset, const DiagnoseOptions& options);
 
 /// Write the residual series as CSV: t_s,phase,dvE_before,dvN_before,dvE_after,dvN_after.
 void write_series_csv(const std::string& path, const ResidualSeries& series);

@@ -46,7 +46,8 @@ class Normal {
       return spare_;
     }
     double u1 = 0.0;
-    do u1 = uniform(); while (u1 <= 0.0);
+    do u1 = uniform();
+    while (u1 <= 0.0);
     const double u2 = uniform();
     const double r = std::sqrt(-2.0 * std::log(u1));
     spare_ = r * std::sin(2.0 * std::numbers::pi * u2);
@@ -77,7 +78,9 @@ nlohmann::json NoiseEstimate::to_json() const {
                           {"gnss_vel_sigma_mps", l.gnss_vel_sigma_mps},
                           {"gnss_pos_sigma_m", l.gnss_pos_sigma_m}};
   };
-  return {{"used", lv(levels)}, {"source", source}, {"estimated_from_data", lv(estimated)},
+  return {{"used", lv(levels)},
+          {"source", source},
+          {"estimated_from_data", lv(estimated)},
           {"estimate_method", estimate_method}};
 }
 

@@ -19,9 +19,9 @@
 namespace insid::diagnose {
 
 struct NoiseEstimate {
-  NoiseLevels levels;       ///< the levels used
-  std::string source;       ///< "meta.json" | "estimated: ..." | "given"
-  NoiseLevels estimated;    ///< always computed from the data (a consistency check)
+  NoiseLevels levels;     ///< the levels used
+  std::string source;     ///< "meta.json" | "estimated: ..." | "given"
+  NoiseLevels estimated;  ///< always computed from the data (a consistency check)
   std::string estimate_method;
   nlohmann::json to_json() const;
 };

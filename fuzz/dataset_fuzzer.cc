@@ -19,12 +19,13 @@ namespace fs = std::filesystem;
 
 const fs::path& valid_dataset() {
   static const fs::path dir = [] {
-    const fs::path d = fs::temp_directory_path() / ("insid-dataset-fuzz-" + std::to_string(getpid()));
+    const fs::path d =
+        fs::temp_directory_path() / ("insid-dataset-fuzz-" + std::to_string(getpid()));
     fs::remove_all(d);
     constexpr double kLat = 0.6;
-    insid::Dataset ds = insid::testing::make_static_dataset(
-        insid::EarthModel::paper(kLat, 50.0), kLat, 2.0, 50.0, {0.0, 0.0, 0.7}, 3.0, 1.0, {},
-        100.0, 10.0);
+    insid::Dataset ds =
+        insid::testing::make_static_dataset(insid::EarthModel::paper(kLat, 50.0), kLat, 2.0, 50.0,
+                                            {0.0, 0.0, 0.7}, 3.0, 1.0, {}, 100.0, 10.0);
     ds.truth.clear();
     insid::write_dataset(d, ds);
     return d;

@@ -1,10 +1,10 @@
 // libFuzzer target for the import readers (import/): the input's first byte picks the reader —
-// RTKLIB .pos, KF-GINS GNSS, KF-GINS IMU, a mapped IMU CSV, a PX4 ULog (byte 5) (t,ax,ay,az,gx,gy,gz,- in
-// ms, g, deg/s with a mounting rotation) — the rest is the file. Byte 4 assembles a dataset from
-// a KF-GINS IMU text and a fixed valid GNSS solution. Readers must accept the text or throw
-// std::runtime_error / std::invalid_argument with a message; anything else is a finding.
-// INSID_FUZZ_READER=N (0-5) pins the reader, whatever the first byte says (one reader per run,
-// e.g. scripts/fuzz.sh's per-reader runs of the ULog and CSV readers).
+// RTKLIB .pos, KF-GINS GNSS, KF-GINS IMU, a mapped IMU CSV, a PX4 ULog (byte 5)
+// (t,ax,ay,az,gx,gy,gz,- in ms, g, deg/s with a mounting rotation) — the rest is the file. Byte 4
+// assembles a dataset from a KF-GINS IMU text and a fixed valid GNSS solution. Readers must accept
+// the text or throw std::runtime_error / std::invalid_argument with a message; anything else is a
+// finding. INSID_FUZZ_READER=N (0-5) pins the reader, whatever the first byte says (one reader per
+// run, e.g. scripts/fuzz.sh's per-reader runs of the ULog and CSV readers).
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
@@ -24,7 +24,8 @@ const insid::import::GnssSolution& fixed_gnss() {
   static const insid::import::GnssSolution g = [] {
     std::string text;
     for (int k = 0; k < 40; ++k)
-      text += std::to_string(100 + k * 0.25) + " 40.1 -105.1 1600 0.01 0.01 0.02 0 0 0 0.05 0.05 0.05\n";
+      text += std::to_string(100 + k * 0.25) +
+              " 40.1 -105.1 1600 0.01 0.01 0.02 0 0 0 0.05 0.05 0.05\n";
     return insid::import::parse_kf_gins_gnss(text, "gnss.txt", 2381);
   }();
   return g;
@@ -65,7 +66,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       }
       case 5: {
         const im::UlogFile log = im::UlogFile::parse(text, "fuzz.ulg");
-        for (const char* topic : {"vehicle_imu", "sensor_combined", "vehicle_gps_position", "sensor_gps"})
+        for (const char* topic :
+             {"vehicle_imu", "sensor_combined", "vehicle_gps_position", "sensor_gps"})
           for (const auto& [instance, n] : log.instances(topic)) (void)n, (void)instance;
         im::extract_ulog(log, "fuzz.ulg", im::UlogImportOptions{});
         break;

@@ -43,8 +43,6 @@
 namespace insid {
 namespace {
 
-
-
 // Defaults when the dataset has no noise block (nav grade of scenarios/noise.cc) and floors
 // that keep the filter numerically healthy on noise-free data.
 constexpr NoiseLevels kDefaultNoise{0.002, 0.001, 0.01, 0.02};
@@ -53,11 +51,11 @@ constexpr NoiseLevels kNoiseFloor{1e-4, 1e-4, 1e-3, 1e-2};
 enum : int { kR = 0, kV = 3, kPhi = 6, kBg = 9, kBa = 12, kSg = 15, kSa = 18 };
 
 struct UpdateRecord {
-  Eigen::MatrixXd P_post;       // after the update (or the initial P)
-  Eigen::MatrixXd Phi_next;     // to the next update
-  Eigen::MatrixXd P_prior_next; // prior covariance at the next update
-  Eigen::VectorXd dx;           // correction applied at this update (0 for the initial)
-  Eigen::VectorXd sensor_est;   // sensor-error estimates after this update (bg, ba, [sg, sa])
+  Eigen::MatrixXd P_post;        // after the update (or the initial P)
+  Eigen::MatrixXd Phi_next;      // to the next update
+  Eigen::MatrixXd P_prior_next;  // prior covariance at the next update
+  Eigen::VectorXd dx;            // correction applied at this update (0 for the initial)
+  Eigen::VectorXd sensor_est;    // sensor-error estimates after this update (bg, ba, [sg, sa])
 };
 
 std::vector<std::string> sensor_names(bool scale) {
@@ -126,8 +124,9 @@ nlohmann::json EkfRtsResult::to_json() const {
     j["setup"] = {{"grade", setup->grade.name},
                   {"passes", setup->passes},
                   {"relinearisation_prior_factor", setup->relinearisation_prior_factor},
-                  {"prior", "bias sd initial_bias_sigma x grade sigma; attitude error tied to "
-                            "the bias errors through the initial-attitude mode"},
+                  {"prior",
+                   "bias sd initial_bias_sigma x grade sigma; attitude error tied to "
+                   "the bias errors through the initial-attitude mode"},
                   {"initial_tilt_sd_rad", initial_tilt_sd_rad},
                   {"initial_heading_sd_rad", initial_heading_sd_rad}};
   }
@@ -143,7 +142,7 @@ namespace {
 // differences (step 1 % of the grade's sigma; the mode's attitude is smooth in the biases and
 // O(1) per candidate), and the sd of the mode's own noise (tilt, heading).
 struct AttitudeErrorModel {
-  Eigen::Matrix3d C_b_n;                                 // the mode's attitude at `base`
+  Eigen::Matrix3d C_b_n;  // the mode's attitude at `base`
   Eigen::Matrix<double, 3, 6> G = Eigen::Matrix<double, 3, 6>::Zero();
   double tilt_sd_rad = 0.0, heading_sd_rad = 0.0;
 };
@@ -260,12 +259,14 @@ EkfRtsResult ekf_pass(const NavigationProblem& navigation, const EkfRtsParams& p
       std::clamp(params.initial_bias_sigma * kSigmaGyroRadS /
                      (earth.omega_ie_rad_s * std::max(std::cos(lat0), 0.1)),
                  1e-3, 0.1);
-  const double tilt_sigma =
-      std::max(params.initial_bias_sigma * kSigmaAccelMps2 / 9.8 * 3.0, 1e-4);
-  P.block<3, 3>(kR, kR) = Eigen::Matrix3d::Identity() * std::pow(std::max(noise.gnss_pos_sigma_m, 0.1), 2);
-  P.block<3, 3>(kV, kV) = Eigen::Matrix3d::Identity() * std::pow(std::max(noise.gnss_vel_sigma_mps, 0.01), 2);
+  const double tilt_sigma = std::max(params.initial_bias_sigma * kSigmaAccelMps2 / 9.8 * 3.0, 1e-4);
+  P.block<3, 3>(kR, kR) =
+      Eigen::Matrix3d::Identity() * std::pow(std::max(noise.gnss_pos_sigma_m, 0.1), 2);
+  P.block<3, 3>(kV, kV) =
+      Eigen::Matrix3d::Identity() * std::pow(std::max(noise.gnss_vel_sigma_mps, 0.01), 2);
   P.block<3, 3>(kPhi, kPhi) = Eigen::Vector3d(tilt_sigma * tilt_sigma, tilt_sigma * tilt_sigma,
-                                              heading_sigma * heading_sigma).asDiagonal();
+                                              heading_sigma * heading_sigma)
+                                  .asDiagonal();
   P.block<3, 3>(kBg, kBg) =
       Eigen::Matrix3d::Identity() * std::pow(params.initial_bias_sigma * kSigmaGyroRadS, 2);
   P.block<3, 3>(kBa, kBa) =
@@ -285,9 +286,10 @@ EkfRtsResult ekf_pass(const NavigationProblem& navigation, const EkfRtsParams& p
     const Eigen::Matrix<double, 3, 6>& G = attitude_model->G;
     const double t2 = std::pow(attitude_model->tilt_sd_rad, 2);
     P.block<3, 3>(kPhi, kPhi) = G * Pb * G.transpose();
-    P.block<3, 3>(kPhi, kPhi) += Eigen::Vector3d(t2, t2, std::pow(attitude_model->heading_sd_rad, 2))
-                                     .asDiagonal()
-                                     .toDenseMatrix();
+    P.block<3, 3>(kPhi, kPhi) +=
+        Eigen::Vector3d(t2, t2, std::pow(attitude_model->heading_sd_rad, 2))
+            .asDiagonal()
+            .toDenseMatrix();
     P.block<6, 6>(kBg, kBg) = Pb;
     P.block<3, 6>(kPhi, kBg) = G * Pb;
     P.block<6, 3>(kBg, kPhi) = (G * Pb).transpose();
@@ -480,8 +482,9 @@ EkfRtsResult run_ekf_rts(const NavigationProblem& navigation, const EkfRtsParams
                                 std::to_string(setup->passes));
   if (!(setup->relinearisation_prior_factor >= 3.0) ||
       !std::isfinite(setup->relinearisation_prior_factor))
-    throw std::invalid_argument("ekf-rts: relinearisation_prior_factor must be finite and >= 3, got " +
-                                std::to_string(setup->relinearisation_prior_factor));
+    throw std::invalid_argument(
+        "ekf-rts: relinearisation_prior_factor must be finite and >= 3, got " +
+        std::to_string(setup->relinearisation_prior_factor));
   SensorErrors b = base;
   EkfRtsResult out;
   double filter_s = 0.0, smoother_s = 0.0;
@@ -493,7 +496,8 @@ EkfRtsResult run_ekf_rts(const NavigationProblem& navigation, const EkfRtsParams
     if (pass > 0) {
       const std::vector<std::string> names = sensor_names(false);
       for (int i = 0; i < 6; ++i)
-        prior_sd[i] = setup->relinearisation_prior_factor * out.std.at(names[static_cast<std::size_t>(i)]);
+        prior_sd[i] =
+            setup->relinearisation_prior_factor * out.std.at(names[static_cast<std::size_t>(i)]);
     }
     out = ekf_pass(navigation, params, b, &*setup, pass > 0 ? &prior_sd : nullptr);
     filter_s += out.filter_wall_s;
@@ -523,7 +527,8 @@ opt::ParameterList EkfRtsOptimizer::parameters() const {
   opt::ParameterList list = params_.list();
   if (done()) {
     list.emplace_back("equivalent_ins_runs", equivalent_ins_runs_);
-    if (ekf_) list.emplace_back("filter_smoother_wall_s", ekf_->filter_wall_s + ekf_->smoother_wall_s);
+    if (ekf_)
+      list.emplace_back("filter_smoother_wall_s", ekf_->filter_wall_s + ekf_->smoother_wall_s);
     for (std::size_t k = 0; k < names_.size(); ++k)
       list.emplace_back("std_sigma_" + names_[k], std_sigma_[static_cast<Eigen::Index>(k)]);
   }
@@ -545,8 +550,8 @@ void EkfRtsOptimizer::bind(const opt::Problem& problem) {
     if (e.name.find("_scale_") != std::string::npos) needs_scale = true;
   if (needs_scale) p.scale_factors = 1;
   const SensorGrade& grade = grade_for(ins->navigation().dataset(), grade_);
-  ekf_ = run_ekf_rts(ins->navigation(), p, mapping.base(),
-                     ekf_grade_setup(ins->navigation(), grade));
+  ekf_ =
+      run_ekf_rts(ins->navigation(), p, mapping.base(), ekf_grade_setup(ins->navigation(), grade));
   const int n = mapping.dimension();
   estimate_sigma_.resize(n);
   std_sigma_.resize(n);
@@ -577,8 +582,9 @@ void EkfRtsOptimizer::bind(const opt::Problem& problem) {
 
 void EkfRtsOptimizer::propose(std::vector<Eigen::VectorXd>& batch) {
   if (bound_ == nullptr)
-    throw std::logic_error("EKF-RTS: not bound to a problem; drive it with opt::step / run / "
-                           "optimize");
+    throw std::logic_error(
+        "EKF-RTS: not bound to a problem; drive it with opt::step / run / "
+        "optimize");
   batch.push_back(x_);
 }
 
@@ -594,8 +600,9 @@ nlohmann::json EkfRtsOptimizer::report_json(const ParameterMapping& mapping) con
         estimate_sigma_[k];
   j["equivalent_ins_runs"] = equivalent_ins_runs_;
   for (const auto& [name, value] : params_.list()) j["settings"][name] = value;
-  j["model"] = "loosely coupled error-state EKF (Groves 2013 ch. 14, psi/phi-angle, ENU), "
-               "closed-loop, RTS smoother";
+  j["model"] =
+      "loosely coupled error-state EKF (Groves 2013 ch. 14, psi/phi-angle, ENU), "
+      "closed-loop, RTS smoother";
   return j;
 }
 

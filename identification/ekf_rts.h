@@ -27,13 +27,13 @@ namespace insid {
 struct EkfRtsParams {
   static constexpr std::string_view kAlgorithm = "EKF-RTS";
 
-  double update_interval_s = 1.0;     ///< GNSS updates at most this often (s)
+  double update_interval_s = 1.0;       ///< GNSS updates at most this often (s)
   double propagation_interval_s = 0.1;  ///< covariance propagation step (s)
-  int scale_factors = 0;              ///< 1: also estimate gyro and accel scale factors (21 states)
-  int use_position = 1;               ///< 1: GNSS position and velocity; 0: velocity only
-  double arw_deg_rth = -1.0;          ///< process noise; < 0: the dataset's meta.json noise block
-  double vrw_mps_rth = -1.0;          ///< (or the defaults of README when absent)
-  double gnss_vel_sigma_mps = -1.0;   ///< measurement noise; < 0: from the dataset
+  int scale_factors = 0;             ///< 1: also estimate gyro and accel scale factors (21 states)
+  int use_position = 1;              ///< 1: GNSS position and velocity; 0: velocity only
+  double arw_deg_rth = -1.0;         ///< process noise; < 0: the dataset's meta.json noise block
+  double vrw_mps_rth = -1.0;         ///< (or the defaults of README when absent)
+  double gnss_vel_sigma_mps = -1.0;  ///< measurement noise; < 0: from the dataset
   double gnss_pos_sigma_m = -1.0;
   double initial_bias_sigma = 4.0;    ///< prior std of each bias, catalogue sigma units
   double initial_scale_ppm = 1000.0;  ///< prior std of each scale factor (ppm)

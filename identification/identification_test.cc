@@ -137,8 +137,8 @@ std::shared_ptr<const NavigationProblem> write_static_data(const std::filesystem
 }
 
 TEST(Identification, OptimumCacheFollowsTheDataNotTheDirectory) {
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
-                                    ("insid-cache-test-" + std::to_string(getpid()));
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("insid-cache-test-" + std::to_string(getpid()));
   std::filesystem::remove_all(dir);
   const ParameterMapping mapping(EstimatedParameter::paper_four());
   const InsIdentificationProblem first(write_static_data(dir, 1.0), mapping);
@@ -161,10 +161,11 @@ TEST(Identification, OptimumCacheFollowsTheDataNotTheDirectory) {
 
 TEST(Identification, NonFiniteFitnessNamesTheCandidateInSiAndWhereItsNavigationBroke) {
   // One sigma of 1e200 m/s^2: the candidate at the box corner overflows; both evaluators refuse.
-  const ParameterMapping m({EstimatedParameter::parse("accel_bias_x:1e200"),
-                            EstimatedParameter::parse("gyro_bias_y")});
+  const ParameterMapping m(
+      {EstimatedParameter::parse("accel_bias_x:1e200"), EstimatedParameter::parse("gyro_bias_y")});
   const std::vector<Eigen::VectorXd> xs = {Eigen::Vector2d(0.0, 0.1), Eigen::Vector2d(1.0, 0.5)};
-  for (const FitnessEvaluator implementation : {FitnessEvaluator::kBatched, FitnessEvaluator::kScalar}) {
+  for (const FitnessEvaluator implementation :
+       {FitnessEvaluator::kBatched, FitnessEvaluator::kScalar}) {
     const InsIdentificationProblem problem(static_problem(), m, FitnessKind::kEq15, {},
                                            implementation);
     std::vector<double> f(2);

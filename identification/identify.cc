@@ -47,7 +47,7 @@ ReferenceOptimum ReferenceOptimum::from_json(const nlohmann::json& j,
 
 Eigen::VectorXd estimate_in_sigma_units(const nlohmann::json& block,
                                         const ParameterMapping& mapping) {
-  const char* key = block.contains(kEstimateInSigmaUnits) ? kEstimateInSigmaUnits
+  const char* key = block.contains(kEstimateInSigmaUnits)      ? kEstimateInSigmaUnits
                     : block.contains(kEstimateInSigmaUnitsOld) ? kEstimateInSigmaUnitsOld
                                                                : nullptr;
   if (key == nullptr)

@@ -39,16 +39,14 @@ EstimatedParameter EstimatedParameter::parse(const std::string& text) {
     p.lower_sigma = parse_number(parts[2], "LO", text);
     p.upper_sigma = parse_number(parts[3], "HI", text);
   }
-  if (!(p.sigma > 0.0))
-    throw std::invalid_argument("--estimate '" + text + "': SIGMA must be > 0");
+  if (!(p.sigma > 0.0)) throw std::invalid_argument("--estimate '" + text + "': SIGMA must be > 0");
   if (!(p.lower_sigma < p.upper_sigma))
     throw std::invalid_argument("--estimate '" + text + "': LO must be < HI");
   return p;
 }
 
 std::vector<EstimatedParameter> EstimatedParameter::paper_four() {
-  return {parse("accel_bias_x"), parse("accel_bias_y"), parse("gyro_bias_x"),
-          parse("gyro_bias_y")};
+  return {parse("accel_bias_x"), parse("accel_bias_y"), parse("gyro_bias_x"), parse("gyro_bias_y")};
 }
 
 ParameterMapping::ParameterMapping(std::vector<EstimatedParameter> parameters, SensorErrors base)
@@ -57,8 +55,7 @@ ParameterMapping::ParameterMapping(std::vector<EstimatedParameter> parameters, S
   for (std::size_t i = 0; i < parameters_.size(); ++i)
     for (std::size_t j = i + 1; j < parameters_.size(); ++j)
       if (parameters_[i].name == parameters_[j].name)
-        throw std::invalid_argument("parameter '" + parameters_[i].name +
-                                    "' is estimated twice");
+        throw std::invalid_argument("parameter '" + parameters_[i].name + "' is estimated twice");
 }
 
 Eigen::VectorXd ParameterMapping::to_sigma(const Eigen::VectorXd& x) const {
@@ -106,13 +103,14 @@ std::pair<std::string, double> ParameterMapping::algorithm_parameter_in_box(
     if (sigma_per_unit(k) != unit)
       throw std::invalid_argument(key + suffix +
                                   ": the estimated parameters have boxes of different widths; "
-                                  "give " + key + " in normalised units");
+                                  "give " +
+                                  key + " in normalised units");
   return {std::move(key), value / unit};
 }
 
 InsIdentificationProblem::InsIdentificationProblem(
-    std::shared_ptr<const NavigationProblem> navigation, ParameterMapping mapping,
-    FitnessKind kind, opt::EvaluatorOptions evaluator, FitnessEvaluator implementation)
+    std::shared_ptr<const NavigationProblem> navigation, ParameterMapping mapping, FitnessKind kind,
+    opt::EvaluatorOptions evaluator, FitnessEvaluator implementation)
     : opt::Problem(opt::Bounds::unit_box(mapping.dimension())),
       navigation_(std::move(navigation)),
       kernel_(BatchFitness::shared(navigation_)),
@@ -180,8 +178,7 @@ void InsIdentificationProblem::evaluate(std::span<const Eigen::VectorXd> xs,
   require_finite(xs, f_out);
 }
 
-void InsIdentificationProblem::score(std::span<const Eigen::VectorXd> xs,
-                                     std::span<double> f_out,
+void InsIdentificationProblem::score(std::span<const Eigen::VectorXd> xs, std::span<double> f_out,
                                      std::span<std::vector<double>> r_out) const {
   if (f_out.size() != xs.size())
     throw std::invalid_argument("evaluate_batch: " + std::to_string(xs.size()) +

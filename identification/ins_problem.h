@@ -29,15 +29,15 @@ struct EstimatedParameter {
   /// "NAME" (catalogue sigma, [-4, 4]) or "NAME:SIGMA" or "NAME:SIGMA:LO:HI" (SIGMA in SI,
   /// LO/HI in sigma units). Throws std::invalid_argument naming the bad part.
   static EstimatedParameter parse(const std::string& text);
-  /// The paper's four: accel_bias_x, accel_bias_y, gyro_bias_x, gyro_bias_y (docs/design.md sec. 2).
+  /// The paper's four: accel_bias_x, accel_bias_y, gyro_bias_x, gyro_bias_y (docs/design.md sec.
+  /// 2).
   static std::vector<EstimatedParameter> paper_four();
 };
 
 /// Maps between the optimizer's normalised coordinates x in [-1, 1]^n, sigma units and SI.
 class ParameterMapping {
  public:
-  explicit ParameterMapping(std::vector<EstimatedParameter> parameters,
-                            SensorErrors base = {});
+  explicit ParameterMapping(std::vector<EstimatedParameter> parameters, SensorErrors base = {});
   int dimension() const { return static_cast<int>(parameters_.size()); }
   const std::vector<EstimatedParameter>& parameters() const { return parameters_; }
   const SensorErrors& base() const { return base_; }
@@ -82,8 +82,7 @@ class InsIdentificationProblem final : public opt::Problem, public opt::Residual
   /// outside what the kernel covers, see BatchFitness::supported()). Results do not depend on the
   /// thread count or on how the candidates are grouped; a candidate whose set-up fails (e.g.
   /// alignment) is reported as opt::EvaluationError naming it, as evaluate_each does.
-  void evaluate_batch(std::span<const Eigen::VectorXd> xs,
-                      std::span<double> f_out) const override;
+  void evaluate_batch(std::span<const Eigen::VectorXd> xs, std::span<double> f_out) const override;
   /// Fitness of one candidate with the scalar reference.
   double fitness(const Eigen::VectorXd& x) const;
   /// Residual vector (dvE_t, dvN_t) of NavigationProblem::residuals, for the least-squares

@@ -71,9 +71,7 @@ LocalFitResult local_fit(const InsIdentificationProblem& problem, const Eigen::V
     if (options.clamp_to_box) v = v.cwiseMax(s_lo).cwiseMin(s_hi);
     return v;
   };
-  auto objective = [&](const std::vector<double>& r) {
-    return options.eq15 ? eq15(r) : sum_sq(r);
-  };
+  auto objective = [&](const std::vector<double>& r) { return options.eq15 ? eq15(r) : sum_sq(r); };
 
   std::vector<double> r;
   residuals_at(problem, mapping.from_sigma(s), r);

@@ -17,11 +17,11 @@
 namespace insid {
 
 struct LocalFitOptions {
-  int max_iterations = 30;          ///< LM iterations (each: 1 + n residual runs)
-  double step_sigma = 1e-3;         ///< finite-difference step, sigma units
-  double tolerance_sigma = 1e-6;    ///< stop when the step is below this (sigma units)
-  bool eq15 = true;                 ///< IRLS towards the Eq. 15 optimum (else least squares)
-  bool clamp_to_box = true;         ///< keep the estimate inside the search box
+  int max_iterations = 30;        ///< LM iterations (each: 1 + n residual runs)
+  double step_sigma = 1e-3;       ///< finite-difference step, sigma units
+  double tolerance_sigma = 1e-6;  ///< stop when the step is below this (sigma units)
+  bool eq15 = true;               ///< IRLS towards the Eq. 15 optimum (else least squares)
+  bool clamp_to_box = true;       ///< keep the estimate inside the search box
 
   /// "" when valid, else why, naming the value: max_iterations >= 0, step_sigma a positive
   /// finite number, tolerance_sigma a non-negative finite number. local_fit checks it first.
@@ -29,14 +29,14 @@ struct LocalFitOptions {
 };
 
 struct LocalFitResult {
-  Eigen::VectorXd x;                ///< normalised coordinates
-  Eigen::VectorXd value_sigma;      ///< sigma units
-  double fitness = 0.0;             ///< Eq. 15 at x
-  double sum_squares = 0.0;         ///< sum of squared residuals at x
-  std::int64_t evaluations = 0;     ///< full INS runs spent (Jacobian columns included)
+  Eigen::VectorXd x;             ///< normalised coordinates
+  Eigen::VectorXd value_sigma;   ///< sigma units
+  double fitness = 0.0;          ///< Eq. 15 at x
+  double sum_squares = 0.0;      ///< sum of squared residuals at x
+  std::int64_t evaluations = 0;  ///< full INS runs spent (Jacobian columns included)
   int iterations = 0;
-  Eigen::MatrixXd jacobian_sigma;   ///< d r / d value_sigma at x (m/s per sigma)
-  std::vector<double> residuals;    ///< at x
+  Eigen::MatrixXd jacobian_sigma;  ///< d r / d value_sigma at x (m/s per sigma)
+  std::vector<double> residuals;   ///< at x
 };
 
 /// Polishes from x0 (normalised coordinates) on the problem's residual vector.

@@ -39,7 +39,8 @@ void expect_within_stated_sd(Method method, const std::string& label) {
   const SensorGrade& mems = sensor_grade("mems");
   int covered = 0, within3 = 0;
   for (int seed = 1; seed <= kSeeds; ++seed) {
-    const mems_study::Answer a = method(mems_study::flight(spec, static_cast<std::uint64_t>(seed)), spec);
+    const mems_study::Answer a =
+        method(mems_study::flight(spec, static_cast<std::uint64_t>(seed)), spec);
     for (int k = 0; k < 5; ++k) {
       const std::string& name = names[static_cast<std::size_t>(k)];
       const double sd = a.sd_si[k];
@@ -117,7 +118,8 @@ TEST(MemsIdentification, IdentifyReportsTheFiltersOwnSdForEkfRts) {
   EXPECT_EQ(j[0]["sd_source"], "ekf-rts smoothed covariance");
   // A filter sd of 3 sigma: its 95 % interval (11.8 sigma) is wider than the 8 sigma box.
   std::vector<double> huge;
-  for (int k = 0; k < m.dimension(); ++k) huge.push_back(3.0 * m.parameters()[static_cast<std::size_t>(k)].sigma);
+  for (int k = 0; k < m.dimension(); ++k)
+    huge.push_back(3.0 * m.parameters()[static_cast<std::size_t>(k)].sigma);
   use_filter_sd(wide, huge);
   for (const ParameterUncertainty& p : wide.parameters) {
     bool flagged = false;

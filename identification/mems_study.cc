@@ -102,8 +102,7 @@ Answer lm_windowed(const std::shared_ptr<const Dataset>& data, const Spec& spec)
   uo.criterion = criterion_for_algorithm("lm");
   uo.replicas = spec.replicas;
   uo.threads = spec.threads;
-  const UncertaintyReport report =
-      estimate_uncertainty(p, p.mapping().to_sigma(result.best_x), uo);
+  const UncertaintyReport report = estimate_uncertainty(p, p.mapping().to_sigma(result.best_x), uo);
   Answer a;
   a.method = "lm";
   a.estimate_si.resize(5);

@@ -28,11 +28,11 @@ namespace insid::mems_study {
 struct Spec {
   double align_s = 30.0;
   double flight_s = 400.0;
-  double window_s = 10.0;   ///< windowed fitness of the LM method (s)
-  int replicas = 100;       ///< noise replicas of LM's sd (identification/uncertainty.h)
-  int threads = 0;          ///< OpenMP threads (0 = default)
-  int ekf_passes = 2;       ///< EKF-RTS passes (identification/ekf_rts.h, EkfRtsGradeSetup)
-  double ekf_update_interval_s = 1.0;  ///< EKF-RTS GNSS update interval (s)
+  double window_s = 10.0;  ///< windowed fitness of the LM method (s)
+  int replicas = 100;      ///< noise replicas of LM's sd (identification/uncertainty.h)
+  int threads = 0;         ///< OpenMP threads (0 = default)
+  int ekf_passes = 2;      ///< EKF-RTS passes (identification/ekf_rts.h, EkfRtsGradeSetup)
+  double ekf_update_interval_s = 1.0;          ///< EKF-RTS GNSS update interval (s)
   std::string ekf_attitude = "level+heading";  ///< EKF-RTS initial-attitude mode
 };
 

@@ -22,7 +22,8 @@ int main(int argc, char** argv) {
   double sd_scale = 1.0;
   std::string csv;
   bool ekf_only = false;
-  app.add_option("--seeds", seeds, "noise seeds 1..N")->capture_default_str()
+  app.add_option("--seeds", seeds, "noise seeds 1..N")
+      ->capture_default_str()
       ->check(CLI::Range(1, 100000));
   app.add_option("--flight-s", spec.flight_s)->capture_default_str()->check(CLI::Range(10.0, 1e5));
   app.add_option("--align-s", spec.align_s)->capture_default_str()->check(CLI::Range(1.0, 1e4));

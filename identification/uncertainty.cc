@@ -11,9 +11,9 @@
 #include <stdexcept>
 #include <tuple>
 
+#include <omp.h>
 #include <Eigen/Cholesky>
 #include <Eigen/QR>
-#include <omp.h>
 
 #include "core/sensor_errors.h"
 #include "diagnose/noise_model.h"
@@ -101,7 +101,8 @@ void fill_replica(const Dataset& source, const NoiseLevels& levels, std::uint64_
   for (std::size_t i = 0; i < source.gnss.size(); ++i) {
     const GnssSample& in = source.gnss[i];
     GnssSample& g = out.gnss[i];
-    for (int a = 0; a < 3; ++a) g.v_eb_n_mps[a] = in.v_eb_n_mps[a] + levels.gnss_vel_sigma_mps * normal();
+    for (int a = 0; a < 3; ++a)
+      g.v_eb_n_mps[a] = in.v_eb_n_mps[a] + levels.gnss_vel_sigma_mps * normal();
     const double rn = earth.meridian_radius_m(in.lat_rad) + in.h_m;
     const double re = (earth.prime_vertical_radius_m(in.lat_rad) + in.h_m) * std::cos(in.lat_rad);
     g.lat_rad = in.lat_rad + levels.gnss_pos_sigma_m * normal() / rn;
@@ -113,7 +114,8 @@ void fill_replica(const Dataset& source, const NoiseLevels& levels, std::uint64_
 // Columns of J with the given indices.
 Mat columns(const Mat& J, const std::vector<int>& idx) {
   Mat out(J.rows(), static_cast<Eigen::Index>(idx.size()));
-  for (std::size_t k = 0; k < idx.size(); ++k) out.col(static_cast<Eigen::Index>(k)) = J.col(idx[k]);
+  for (std::size_t k = 0; k < idx.size(); ++k)
+    out.col(static_cast<Eigen::Index>(k)) = J.col(idx[k]);
   return out;
 }
 
@@ -378,7 +380,8 @@ UncertaintyReport estimate_uncertainty(const InsIdentificationProblem& problem,
     for (Eigen::Index e = 0; e + 1 < m; e += 2)
       w[e] = w[e + 1] = 1.0 / std::max(std::hypot(r[e], r[e + 1]), floor);
   }
-  std::vector<bool> at_edge_low(static_cast<std::size_t>(n)), at_edge_high(static_cast<std::size_t>(n));
+  std::vector<bool> at_edge_low(static_cast<std::size_t>(n)),
+      at_edge_high(static_cast<std::size_t>(n));
   for (int j = 0; j < n; ++j) {
     const EstimatedParameter& e = mapping.parameters()[static_cast<std::size_t>(j)];
     const double tol = options.box_edge_tolerance * (e.upper_sigma - e.lower_sigma);
@@ -416,9 +419,9 @@ UncertaintyReport estimate_uncertainty(const InsIdentificationProblem& problem,
     }
     if (at_edge_low[static_cast<std::size_t>(j)] || at_edge_high[static_cast<std::size_t>(j)])
       p.flags.push_back("at_box_edge");
-    const bool too_wide = p.sd_si && 2.0 * kZ95 * sd_sigma[j] >
-                                         options.not_observable_box_fraction *
-                                             (e.upper_sigma - e.lower_sigma);
+    const bool too_wide =
+        p.sd_si && 2.0 * kZ95 * sd_sigma[j] >
+                       options.not_observable_box_fraction * (e.upper_sigma - e.lower_sigma);
     if (!p.sd_si.has_value() && p.sd_reason.rfind("the noise replicas", 0) != 0)
       p.flags.push_back("not_observable");
     else if (too_wide || p.share_not_absorbed < options.absorbed_share)
@@ -496,7 +499,8 @@ json UncertaintyReport::parameters_json() const {
     j["sd"] = opt_num(p.sd_si);
     if (!p.sd_si) j["sd_reason"] = p.sd_reason;
     j["sd_source"] = p.sd_source;
-    if (p.sd_source != "gauss-newton replicas") j["sd_gauss_newton"] = opt_num(p.sd_gauss_newton_si);
+    if (p.sd_source != "gauss-newton replicas")
+      j["sd_gauss_newton"] = opt_num(p.sd_gauss_newton_si);
     j["unit"] = p.unit;
     j["estimate_eng"] = num(p.estimate_si * p.eng_per_si);
     j["sd_eng"] = p.sd_si ? num(*p.sd_si * p.eng_per_si) : json(nullptr);
@@ -588,8 +592,8 @@ std::string UncertaintyReport::table() const {
     out << line;
   }
   if (distance_to_optimum_sd)
-    out << "distance to the " << to_string(criterion) << " optimum: "
-        << opt::format_number(std::round(*distance_to_optimum_sd * 1000.0) / 1000.0)
+    out << "distance to the " << to_string(criterion)
+        << " optimum: " << opt::format_number(std::round(*distance_to_optimum_sd * 1000.0) / 1000.0)
         << " sd (one Gauss-Newton step); sd from " << replicas << " noise replicas ("
         << noise_source << ")\n";
   if (!parameters.empty() && parameters.front().sd_source != "gauss-newton replicas")

@@ -45,8 +45,8 @@ std::string to_string(UncertaintyCriterion criterion);
 UncertaintyCriterion criterion_for_algorithm(const std::string& algorithm);
 
 struct UncertaintyOptions {
-  int replicas = 100;                 ///< noise replicas (sd's own relative error ~1/sqrt(2M))
-  std::uint64_t seed = 20261124;      ///< replica noise seed
+  int replicas = 100;             ///< noise replicas (sd's own relative error ~1/sqrt(2M))
+  std::uint64_t seed = 20261124;  ///< replica noise seed
   /// Central-difference step in sigma units. The residuals are close to linear in the sensor
   /// errors over several sigma; 0.01 sigma keeps the truncation error (h^2) negligible and the
   /// difference (~1e-2 of a sigma's effect, itself >> the 1e-12 relative kernel round-off) clean.
@@ -65,7 +65,7 @@ struct UncertaintyOptions {
   /// replica's and its mean square exceeds the replicas' by more than this ratio, the covariance
   /// is scaled by the ratio (see estimate_uncertainty). >= 1.
   double misfit_min_ratio = 4.0;
-  int threads = 0;                     ///< replica runs in parallel (0 = OpenMP default)
+  int threads = 0;  ///< replica runs in parallel (0 = OpenMP default)
   /// Noise levels of the replicas; default: meta.json "noise", else estimated from the data.
   std::optional<NoiseLevels> noise;
   /// Why the options are unusable ("" when they are), naming the field and value.
@@ -74,21 +74,21 @@ struct UncertaintyOptions {
 
 struct ParameterUncertainty {
   std::string name;
-  double sigma_si = 0.0;            ///< SI value of one sigma unit (the search unit)
+  double sigma_si = 0.0;  ///< SI value of one sigma unit (the search unit)
   double estimate_si = 0.0;
-  std::optional<double> sd_si;      ///< empty when it cannot be computed (sd_reason says why)
+  std::optional<double> sd_si;  ///< empty when it cannot be computed (sd_reason says why)
   std::string sd_reason;
   /// Where sd comes from: "gauss-newton replicas" (estimate_uncertainty), or the algorithm's
   /// own covariance ("ekf-rts smoothed covariance", use_filter_sd), with the Gauss-Newton
   /// value then kept in sd_gauss_newton_si for comparison.
   std::string sd_source = "gauss-newton replicas";
   std::optional<double> sd_gauss_newton_si;
-  std::string unit, unit_eng;       ///< SI unit, engineering unit (deg/h, ug, ppm, ...)
-  double eng_per_si = 1.0;          ///< engineering value = SI value * eng_per_si
-  double share_not_absorbed = 0.0;  ///< |P_perp J_j|^2 / |J_j|^2 (1 = independent column)
-  double box_width_sigma = 0.0;     ///< search box width (sigma units)
-  double step_to_optimum_sigma = 0.0;             ///< GN step (sigma units)
-  std::optional<double> step_to_optimum_sd;       ///< |step| / sd
+  std::string unit, unit_eng;                ///< SI unit, engineering unit (deg/h, ug, ppm, ...)
+  double eng_per_si = 1.0;                   ///< engineering value = SI value * eng_per_si
+  double share_not_absorbed = 0.0;           ///< |P_perp J_j|^2 / |J_j|^2 (1 = independent column)
+  double box_width_sigma = 0.0;              ///< search box width (sigma units)
+  double step_to_optimum_sigma = 0.0;        ///< GN step (sigma units)
+  std::optional<double> step_to_optimum_sd;  ///< |step| / sd
   std::vector<std::string> flags;
   double estimate_sigma_units() const { return estimate_si / sigma_si; }
 };
@@ -110,7 +110,7 @@ struct UncertaintyReport {
   std::string noise_source;
   int replicas = 0;
   double jacobian_step_sigma = 0.0;
-  std::int64_t evaluations = 0;      ///< full INS runs (Jacobian + replicas)
+  std::int64_t evaluations = 0;  ///< full INS runs (Jacobian + replicas)
   double wall_s = 0.0;
   UncertaintyOptions options;
   /// "parameters": [{name, estimate, sd, unit, estimate_eng, sd_eng, unit_eng, flags, ...}].
@@ -137,11 +137,11 @@ UncertaintyReport estimate_uncertainty(const InsIdentificationProblem& problem,
 /// biases, which is what its estimate's uncertainty is (the Gauss-Newton sd describes the
 /// least-squares optimum's spread, not the filter's). `filter_sd_si` per parameter in the
 /// report's order (SI). Each parameter's sd becomes the filter's (sd_source says so,
-/// sd_gauss_newton_si keeps the Gauss-Newton one) and not_observable is re-derived with it (95 % interval wider
-/// than the box, or the Jacobian column absorbed, as before). at_box_edge, correlated:<other>
-/// and not_converged are unchanged: not_converged and step_to_optimum_sd still measure the
-/// distance to the least-squares optimum of the fitness in its own (Gauss-Newton) sd, i.e.
-/// whether the filter's point and the fitness's optimum disagree beyond that optimum's spread.
+/// sd_gauss_newton_si keeps the Gauss-Newton one) and not_observable is re-derived with it (95 %
+/// interval wider than the box, or the Jacobian column absorbed, as before). at_box_edge,
+/// correlated:<other> and not_converged are unchanged: not_converged and step_to_optimum_sd still
+/// measure the distance to the least-squares optimum of the fitness in its own (Gauss-Newton) sd,
+/// i.e. whether the filter's point and the fitness's optimum disagree beyond that optimum's spread.
 /// Throws std::invalid_argument when the sizes differ or an sd is not finite and positive.
 void use_filter_sd(UncertaintyReport& report, const std::vector<double>& filter_sd_si);
 

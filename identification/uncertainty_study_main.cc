@@ -50,7 +50,8 @@ int main(int argc, char** argv) {
   app.add_option("--grade", grade)->capture_default_str();
   app.add_option("--seeds", seeds)->capture_default_str()->check(CLI::Range(1, 100000));
   app.add_option("--replicas", replicas)->capture_default_str()->check(CLI::Range(10, 100000));
-  app.add_option("--evaluations", evaluations, "budget of the optimizers")->capture_default_str()
+  app.add_option("--evaluations", evaluations, "budget of the optimizers")
+      ->capture_default_str()
       ->check(CLI::Range(1, 100000000));
   app.add_option("--algo", algorithms, "algorithms")->capture_default_str();
   app.add_option("--jsonl", jsonl, "one JSON line per run");
@@ -96,8 +97,8 @@ int main(int argc, char** argv) {
       wall[algo] += rep.wall_s;
       auto& t = tally[algo];
       t.resize(4);
-      nlohmann::json line = {{"seed", seed}, {"algorithm", algo}, {"preset", preset},
-                             {"flight_s", flight_s}};
+      nlohmann::json line = {
+          {"seed", seed}, {"algorithm", algo}, {"preset", preset}, {"flight_s", flight_s}};
       add_uncertainty_json(line, rep);
       line["truth_in_sigma_units"] = std::vector<double>(truth.data(), truth.data() + 4);
       for (int k = 0; k < 4; ++k) {
@@ -121,8 +122,9 @@ int main(int argc, char** argv) {
   std::cerr << "\n";
   std::printf("%s flight of %g s after the alignment, grade %s, %d noise seeds, %d replicas\n\n",
               preset.c_str(), flight_s, grade.c_str(), seeds, replicas);
-  std::printf("| algorithm (sd) | parameter | runs | 95 %% coverage | |error|/sd RMS | runs flagged |\n"
-              "|---|---|---|---|---|---|\n");
+  std::printf(
+      "| algorithm (sd) | parameter | runs | 95 %% coverage | |error|/sd RMS | runs flagged |\n"
+      "|---|---|---|---|---|---|\n");
   for (const auto& [algo, ts] : tally)
     for (std::size_t k = 0; k < ts.size(); ++k) {
       const Tally& t = ts[k];

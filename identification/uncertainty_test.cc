@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include <Eigen/QR>
 #include <gtest/gtest.h>
+#include <Eigen/QR>
 
 #include "core/json_reader.h"
 #include "identification/ekf_rts.h"
@@ -51,9 +51,9 @@ Trial lm_trial(const std::string& preset, double flight_s, std::uint64_t seed) {
   const auto navigation = std::make_shared<const NavigationProblem>(dataset);
   opt::EvaluatorOptions evaluator;
   evaluator.parallelism = opt::Parallelism::kOpenMP;
-  const InsIdentificationProblem problem(
-      navigation, ParameterMapping(EstimatedParameter::paper_four()), FitnessKind::kEq15,
-      evaluator);
+  const InsIdentificationProblem problem(navigation,
+                                         ParameterMapping(EstimatedParameter::paper_four()),
+                                         FitnessKind::kEq15, evaluator);
   opt::RunConfig config;
   config.seed = seed;
   config.max_iterations = 0;
@@ -111,8 +111,8 @@ TEST(Uncertainty, LmIntervalsCoverTheTruthOverNoiseSeedsOfAShortFlight) {
   for (std::size_t k = 0; k < 4; ++k) {
     std::cout << "[ coverage ] " << names[k] << ": " << covered[k] << "/" << kSeeds
               << " (|error|/sd RMS " << std::sqrt(z2[k] / kSeeds) << "); half sd "
-              << covered_half[k] << "/" << kSeeds << "; white s^2 (J^T J)^-1 "
-              << covered_white[k] << "/" << kSeeds << "\n";
+              << covered_half[k] << "/" << kSeeds << "; white s^2 (J^T J)^-1 " << covered_white[k]
+              << "/" << kSeeds << "\n";
     EXPECT_GE(covered[k], 16) << names[k];
     EXPECT_LE(covered[k], 20) << names[k];
     half_fails += covered_half[k] < 16;
@@ -123,8 +123,8 @@ TEST(Uncertainty, LmIntervalsCoverTheTruthOverNoiseSeedsOfAShortFlight) {
 }
 
 // GIVEN a 120 s flight, THEN some parameter is flagged at_box_edge or not_observable (the issue's
-// accel_bias_y); GIVEN a one-hour `paper` flight, THEN neither flag (nor not_converged) fires and the
-// estimate lies within 3 sd of the truth. (correlated:<other> may fire on both: per-candidate
+// accel_bias_y); GIVEN a one-hour `paper` flight, THEN neither flag (nor not_converged) fires and
+// the estimate lies within 3 sd of the truth. (correlated:<other> may fire on both: per-candidate
 // alignment couples the two gyro biases, docs/design.md sec. 10.)
 TEST(Uncertainty, FlagsFireOnAShortFlightAndNotOnALongOne) {
   int short_flagged = 0;
@@ -206,9 +206,9 @@ TEST(Uncertainty, EkfRtsReportsItsOwnSmoothedSd) {
   const auto navigation = std::make_shared<const NavigationProblem>(dataset);
   opt::EvaluatorOptions evaluator;
   evaluator.parallelism = opt::Parallelism::kOpenMP;
-  const InsIdentificationProblem problem(
-      navigation, ParameterMapping(EstimatedParameter::paper_four()), FitnessKind::kEq15,
-      evaluator);
+  const InsIdentificationProblem problem(navigation,
+                                         ParameterMapping(EstimatedParameter::paper_four()),
+                                         FitnessKind::kEq15, evaluator);
   opt::RunConfig config;
   config.seed = 4;
   config.max_iterations = 5;
@@ -230,7 +230,8 @@ TEST(Uncertainty, EkfRtsReportsItsOwnSmoothedSd) {
     ASSERT_TRUE(p["sd_gauss_newton"].is_number()) << p.dump();
     // The two are different numbers (the filter also uses positions and re-estimates attitude).
     EXPECT_GT(std::abs(p["sd_gauss_newton"].get<double>() - p["sd"].get<double>()),
-              1e-3 * p["sd"].get<double>()) << p.dump();
+              1e-3 * p["sd"].get<double>())
+        << p.dump();
   }
   // A least-squares baseline on the same problem keeps the Gauss-Newton sd.
   auto lm = opt::make_optimizer("lm", problem.bounds(), config, {});

@@ -27,9 +27,9 @@ namespace insid::window_study {
 /// A grade's search unit (sigma) and injected biases, in the paper's pattern [-2, 1.5, 2, -1.5]
 /// sigma on accel_bias_x, accel_bias_y, gyro_bias_x, gyro_bias_y.
 struct Grade {
-  std::string name;                ///< "mems" | "nav" (scenarios::noise_grade)
-  double sigma_gyro_rad_s = 0.0;   ///< one sigma of a gyro bias (rad/s)
-  double sigma_accel_mps2 = 0.0;   ///< one sigma of an accelerometer bias (m/s^2)
+  std::string name;               ///< "mems" | "nav" (scenarios::noise_grade)
+  double sigma_gyro_rad_s = 0.0;  ///< one sigma of a gyro bias (rad/s)
+  double sigma_accel_mps2 = 0.0;  ///< one sigma of an accelerometer bias (m/s^2)
 };
 /// "mems": sigma 0.1 deg/s and 10 mg (injected 0.2 / -0.15 deg/s, -20 / 15 mg); "nav": the
 /// paper's sigmas (0.01 deg/h, 0.0005 m/s^2). Throws std::invalid_argument otherwise.
@@ -47,13 +47,13 @@ std::shared_ptr<const Dataset> flight(const Grade& g, double flight_s, std::uint
 struct WindowFit {
   double window_s = 0.0;
   std::size_t windows = 0;
-  Eigen::VectorXd optimum_sigma;     ///< local Eq. 15 fit started at the truth (sigma units)
-  Eigen::VectorXd from_centre_sigma; ///< local Eq. 15 fit started at the box centre
-  Eigen::VectorXd gn_sd_sigma;       ///< sqrt diag of s^2 (J^T J)^-1 at the optimum, s^2 =
-                                     ///< sum of squares / (m - n) (white-residual assumption)
-  double fitness_optimum = 0.0;      ///< Eq. 15 at optimum_sigma
-  double fitness_from_centre = 0.0;  ///< Eq. 15 at from_centre_sigma
-  Eigen::VectorXd pso_sigma;         ///< PSO at the paper's budget (10 x 40, Table 4), best point
+  Eigen::VectorXd optimum_sigma;      ///< local Eq. 15 fit started at the truth (sigma units)
+  Eigen::VectorXd from_centre_sigma;  ///< local Eq. 15 fit started at the box centre
+  Eigen::VectorXd gn_sd_sigma;        ///< sqrt diag of s^2 (J^T J)^-1 at the optimum, s^2 =
+                                      ///< sum of squares / (m - n) (white-residual assumption)
+  double fitness_optimum = 0.0;       ///< Eq. 15 at optimum_sigma
+  double fitness_from_centre = 0.0;   ///< Eq. 15 at from_centre_sigma
+  Eigen::VectorXd pso_sigma;          ///< PSO at the paper's budget (10 x 40, Table 4), best point
 };
 /// The fits for one window length (W = 0: one run) on the given flight; `pso_seed` seeds the
 /// PSO run.

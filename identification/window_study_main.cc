@@ -3,8 +3,8 @@
 //                      [--flight-s 300] [--threads 2] [--csv FILE]
 // For each grade, seed and window length W (0 = one run): the Eq. 15 optimum of the paper's four
 // biases found by a local fit started at the truth, the one started at the box centre, a PSO run
-// at the paper's budget, and the Gauss-Newton sd at the optimum (identification/window_study.h). Prints a markdown table of the
-// medians over seeds (stdout) and writes every row to the CSV.
+// at the paper's budget, and the Gauss-Newton sd at the optimum (identification/window_study.h).
+// Prints a markdown table of the medians over seeds (stdout) and writes every row to the CSV.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -87,10 +87,11 @@ int main(int argc, char** argv) {
       csv << ",pso_max_err_sigma\n";
     }
     const Eigen::VectorXd truth = window_study::truth_sigma();
-    std::printf("| grade | W (s) | windows | GN sd dAx, dAy, dDx, dDy (sigma) | "
-                "|optimum - truth| dAx, dAy, dDx, dDy (sigma) | "
-                "|fit from centre - truth| max (sigma) | |PSO 10x40 - truth| max (sigma) |\n"
-                "|---|---|---|---|---|---|---|\n");
+    std::printf(
+        "| grade | W (s) | windows | GN sd dAx, dAy, dDx, dDy (sigma) | "
+        "|optimum - truth| dAx, dAy, dDx, dDy (sigma) | "
+        "|fit from centre - truth| max (sigma) | |PSO 10x40 - truth| max (sigma) |\n"
+        "|---|---|---|---|---|---|---|\n");
     for (const std::string& name : grades) {
       const window_study::Grade g = window_study::grade(name);
       std::vector<std::shared_ptr<const Dataset>> flights;
@@ -124,9 +125,9 @@ int main(int argc, char** argv) {
         }
         std::printf(
             "| %s | %g | %zu | %.3g, %.3g, %.3g, %.3g | %.3g, %.3g, %.3g, %.3g | %.3g | %.3g |\n",
-            name.c_str(), w, n_windows, median(sd[0]), median(sd[1]), median(sd[2]),
-            median(sd[3]), median(err[0]), median(err[1]), median(err[2]), median(err[3]),
-            median(centre_err), median(pso_err));
+            name.c_str(), w, n_windows, median(sd[0]), median(sd[1]), median(sd[2]), median(sd[3]),
+            median(err[0]), median(err[1]), median(err[2]), median(err[3]), median(centre_err),
+            median(pso_err));
         std::fflush(stdout);
       }
     }

@@ -31,7 +31,8 @@ std::vector<std::string> split(const std::string& text, char sep) {
 
 std::string trim(std::string_view s) {
   while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r'))
+    s.remove_suffix(1);
   return std::string(s);
 }
 
@@ -80,7 +81,8 @@ std::vector<std::string> CsvImuSpec::parse_columns(const std::string& text) {
 void CsvImuSpec::parse_units(const std::string& text) {
   const std::vector<std::string> units = split(text, ',');
   if (units.size() != 3)
-    throw std::invalid_argument("--units: expected TIME,ACCEL,GYRO (e.g. s,g,rad/s), got '" + text + "'");
+    throw std::invalid_argument("--units: expected TIME,ACCEL,GYRO (e.g. s,g,rad/s), got '" + text +
+                                "'");
   time_unit = trim(units[0]);
   accel_unit = trim(units[1]);
   gyro_unit = trim(units[2]);
@@ -157,11 +159,12 @@ CsvImu read_csv_imu(const std::string& text, const std::string& where, const Csv
     if (trim(line).empty()) continue;
     const std::vector<std::string> fields = split(line, ',');
     double first = 0.0;
-    if (out.line.empty() && line_no == 1 && !parse_double(trim(fields[0]), first)) continue;  // header
+    if (out.line.empty() && line_no == 1 && !parse_double(trim(fields[0]), first))
+      continue;  // header
     const std::string at = where + " line " + std::to_string(line_no);
     if (fields.size() != spec.columns.size())
-      throw std::runtime_error(at + ": " + std::to_string(fields.size()) + " fields, --columns names " +
-                               std::to_string(spec.columns.size()));
+      throw std::runtime_error(at + ": " + std::to_string(fields.size()) +
+                               " fields, --columns names " + std::to_string(spec.columns.size()));
     const auto value = [&](const char* role) {
       const std::size_t c = index.at(role);
       double v = 0.0;
@@ -181,7 +184,8 @@ CsvImu read_csv_imu(const std::string& text, const std::string& where, const Csv
     if (!out.t_gpst_unix_s.empty() && !(t > out.t_gpst_unix_s.back()))
       throw std::runtime_error(at + ", column " + std::to_string(index.at("t") + 1) +
                                " (t): time does not increase after line " +
-                               std::to_string(out.line.back()) + " (IMU rows must be in time order)");
+                               std::to_string(out.line.back()) +
+                               " (IMU rows must be in time order)");
     out.t_gpst_unix_s.push_back(t);
     out.accel_b.push_back(C_s_b * Eigen::Vector3d(value("ax"), value("ay"), value("az")) * a_scale);
     out.gyro_b.push_back(C_s_b * Eigen::Vector3d(value("gx"), value("gy"), value("gz")) * g_scale);

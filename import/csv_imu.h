@@ -19,7 +19,7 @@ struct CsvImuSpec {
   /// One role per CSV column, in order: t, ax, ay, az, gx, gy, gz, or "-" (ignored). Each of
   /// the seven roles exactly once.
   std::vector<std::string> columns;
-  std::string time_unit = "s";    ///< s | ms | us
+  std::string time_unit = "s";       ///< s | ms | us
   std::string accel_unit = "m/s^2";  ///< g (9.80665 m/s^2) | g-local (local normal gravity) |
                                      ///< m/s^2 | m/s (velocity increments)
   std::string gyro_unit = "rad/s";   ///< rad/s | deg/s | rad | deg (the last two: increments)

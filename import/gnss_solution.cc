@@ -56,14 +56,18 @@ GpstTime date_time_seconds(std::string_view date, std::string_view time, const s
   long double s = 0.0L;
   char sep1 = 0, sep2 = 0, sep3 = 0, sep4 = 0;
   std::istringstream ds{std::string(date)}, ts{std::string(time)};
-  if (!(ds >> y >> sep1 >> mo >> sep2 >> d) || sep1 != '/' || sep2 != '/' || !ds.eof() ||
-      mo < 1 || mo > 12 || d < 1 || d > 31 || y < 1980 || y > 2200)
-    throw std::runtime_error(at + ": expected a GPST date yyyy/mm/dd, got '" + std::string(date) + "'");
+  if (!(ds >> y >> sep1 >> mo >> sep2 >> d) || sep1 != '/' || sep2 != '/' || !ds.eof() || mo < 1 ||
+      mo > 12 || d < 1 || d > 31 || y < 1980 || y > 2200)
+    throw std::runtime_error(at + ": expected a GPST date yyyy/mm/dd, got '" + std::string(date) +
+                             "'");
   if (!(ts >> h >> sep3 >> mi >> sep4 >> s) || sep3 != ':' || sep4 != ':' || h < 0 || h > 23 ||
       mi < 0 || mi > 59 || !(s >= 0.0 && s < 61.0))
-    throw std::runtime_error(at + ": expected a GPST time hh:mm:ss.sss, got '" + std::string(time) + "'");
-  return static_cast<GpstTime>(days_from_civil(y, static_cast<unsigned>(mo), static_cast<unsigned>(d))) *
-             86400.0L + h * 3600.0L + mi * 60.0L + s;
+    throw std::runtime_error(at + ": expected a GPST time hh:mm:ss.sss, got '" + std::string(time) +
+                             "'");
+  return static_cast<GpstTime>(
+             days_from_civil(y, static_cast<unsigned>(mo), static_cast<unsigned>(d))) *
+             86400.0L +
+         h * 3600.0L + mi * 60.0L + s;
 }
 
 }  // namespace
@@ -88,7 +92,8 @@ GnssSolution parse_rtklib_pos(const std::string& text, const std::string& where)
   std::size_t pos = 0;
   while (pos < text.size()) {
     const std::size_t nl = text.find('\n', pos);
-    const std::string_view line(text.data() + pos, (nl == std::string::npos ? text.size() : nl) - pos);
+    const std::string_view line(text.data() + pos,
+                                (nl == std::string::npos ? text.size() : nl) - pos);
     pos = nl == std::string::npos ? text.size() : nl + 1;
     ++line_no;
     const std::string at = where + " line " + std::to_string(line_no);
@@ -104,8 +109,10 @@ GnssSolution parse_rtklib_pos(const std::string& text, const std::string& where)
     if (col.empty()) {
       // The first data row: interpret the header now.
       if (header.empty())
-        throw std::runtime_error(at + ": data before a '%' header line naming the columns (RTKLIB "
-                                 "writes '%  GPST  latitude(deg) ...'); not an RTKLIB solution file?");
+        throw std::runtime_error(
+            at +
+            ": data before a '%' header line naming the columns (RTKLIB "
+            "writes '%  GPST  latitude(deg) ...'); not an RTKLIB solution file?");
       const std::string hat = where + " line " + std::to_string(header_line);
       if (header[0] != "GPST")
         throw std::runtime_error(hat + ": time system " + std::string(header[0]) +
@@ -114,8 +121,10 @@ GnssSolution parse_rtklib_pos(const std::string& text, const std::string& where)
       std::size_t k = 1;
       for (; k < header.size(); ++k) {
         const std::string name(header[k]);
-        if (name == "x-ecef(m)" || name == "e-baseline(m)" || name.find("ecef") != std::string::npos)
-          throw std::runtime_error(hat + ": column '" + name + "': insid reads latitude/longitude/"
+        if (name == "x-ecef(m)" || name == "e-baseline(m)" ||
+            name.find("ecef") != std::string::npos)
+          throw std::runtime_error(hat + ": column '" + name +
+                                   "': insid reads latitude/longitude/"
                                    "height solutions; rerun RTKLIB with out-solformat = llh");
         col[name] = k - 1;
       }
@@ -141,9 +150,9 @@ GnssSolution parse_rtklib_pos(const std::string& text, const std::string& where)
     std::size_t expected = time_tokens;
     for (const auto& [name, index] : col) expected = std::max(expected, time_tokens + index + 1);
     if (tokens.size() < expected)
-      throw std::runtime_error(at + ": " + std::to_string(tokens.size()) + " fields, the header (line " +
-                               std::to_string(header_line) + ") needs at least " +
-                               std::to_string(expected));
+      throw std::runtime_error(at + ": " + std::to_string(tokens.size()) +
+                               " fields, the header (line " + std::to_string(header_line) +
+                               ") needs at least " + std::to_string(expected));
     GnssEpoch e;
     e.line = line_no;
     if (week_tow) {
@@ -175,14 +184,16 @@ GnssSolution parse_rtklib_pos(const std::string& text, const std::string& where)
     e.sd_ve_mps = optional("sdve");
     e.sd_vu_mps = optional("sdvu");
     if (!(std::fabs(e.lat_deg) < 90.0) || !(std::fabs(e.lon_deg) <= 360.0))
-      throw std::runtime_error(at + ": latitude " + std::string(tokens[time_tokens + col.at("latitude(deg)")]) +
+      throw std::runtime_error(at + ": latitude " +
+                               std::string(tokens[time_tokens + col.at("latitude(deg)")]) +
                                " / longitude outside (-90, 90) / [-360, 360] deg");
     if (e.quality < 0 || e.quality > 7)
       throw std::runtime_error(at + ", column Q: quality flag " + std::to_string(e.quality) +
                                " is not an RTKLIB solution status (0-7)");
     if (!out.epochs.empty() && !(e.t_gpst_unix_s > out.epochs.back().t_gpst_unix_s))
       throw std::runtime_error(at + ": time does not increase after line " +
-                               std::to_string(out.epochs.back().line) + " (epochs must be in time order)");
+                               std::to_string(out.epochs.back().line) +
+                               " (epochs must be in time order)");
     out.epochs.push_back(e);
   }
   if (out.epochs.size() < 2)

@@ -24,7 +24,7 @@ inline constexpr double kSecondsPerWeek = 604800.0;
 struct GnssEpoch {
   GpstTime t_gpst_unix_s = 0.0L;
   double lat_deg = 0.0, lon_deg = 0.0, h_m = 0.0;  ///< ellipsoidal height
-  int quality = 0;                                ///< RTKLIB Q: 1 fix, 2 float, 3 SBAS, 4 DGPS, 5 single, 6 PPP
+  int quality = 0;  ///< RTKLIB Q: 1 fix, 2 float, 3 SBAS, 4 DGPS, 5 single, 6 PPP
   int satellites = 0;
   double sd_n_m = 0.0, sd_e_m = 0.0, sd_u_m = 0.0;
   double v_n_mps = 0.0, v_e_mps = 0.0, v_u_mps = 0.0;

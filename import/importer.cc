@@ -61,22 +61,23 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
   }
   if (dropped_total > 0)
     out.notes.push_back("dropped " + std::to_string(dropped_total) + " of " +
-                        std::to_string(gnss.epochs.size()) + " GNSS epochs whose quality flag is "
+                        std::to_string(gnss.epochs.size()) +
+                        " GNSS epochs whose quality flag is "
                         "not accepted (--gnss-quality)");
   if (kept.size() < 2)
-    throw std::runtime_error("only " + std::to_string(kept.size()) +
-                             " GNSS epochs have an accepted quality flag (--gnss-quality); need at least 2");
+    throw std::runtime_error(
+        "only " + std::to_string(kept.size()) +
+        " GNSS epochs have an accepted quality flag (--gnss-quality); need at least 2");
 
   // The common span.
   const GpstTime tg0 = kept.front().t_gpst_unix_s, tg1 = kept.back().t_gpst_unix_s;
   const GpstTime ti0 = imu.t_gpst_unix_s.front(), ti1 = imu.t_gpst_unix_s.back();
   if (!(ti0 < tg1 && tg0 < ti1))
-    throw std::runtime_error("the GNSS solution (GPST " + num(static_cast<double>(tg0), 13) +
-                             " to " + num(static_cast<double>(tg1), 13) +
-                             " s since 1970) does not overlap the IMU data (" +
-                             num(static_cast<double>(ti0), 13) + " to " +
-                             num(static_cast<double>(ti1), 13) +
-                             " s); check --imu-time, --gps-week and --imu-time-offset-s");
+    throw std::runtime_error(
+        "the GNSS solution (GPST " + num(static_cast<double>(tg0), 13) + " to " +
+        num(static_cast<double>(tg1), 13) + " s since 1970) does not overlap the IMU data (" +
+        num(static_cast<double>(ti0), 13) + " to " + num(static_cast<double>(ti1), 13) +
+        " s); check --imu-time, --gps-week and --imu-time-offset-s");
   // IMU rows k in [first, last] inside the span; rates need the previous row (the interval's
   // start), increments do not.
   const bool increments = imu.gyro_is_increment && imu.accel_is_increment;
@@ -91,17 +92,20 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
   // Increments over each row's own interval.
   double g_local = 1.0;
   if (imu.accel_in_g_local) {
-    g_local = EarthModel::wgs84().normal_gravity_mps2(kept.front().lat_deg * kDegToRad, kept.front().h_m);
+    g_local =
+        EarthModel::wgs84().normal_gravity_mps2(kept.front().lat_deg * kDegToRad, kept.front().h_m);
     prov["imu"]["g_local_mps2"] = g_local;
   }
   Dataset& ds = out.dataset;
   std::vector<double> steps;
   for (std::size_t k = first; k <= last; ++k) {
-    const double dt = k > 0 ? static_cast<double>(imu.t_gpst_unix_s[k] - imu.t_gpst_unix_s[k - 1]) : 0.0;
+    const double dt =
+        k > 0 ? static_cast<double>(imu.t_gpst_unix_s[k] - imu.t_gpst_unix_s[k - 1]) : 0.0;
     ImuSample s;
     s.t_s = static_cast<double>(imu.t_gpst_unix_s[k] - t_origin);
     // The rule is per sensor: a rate is integrated (trapezoid), an increment passes through.
-    const auto increment = [&](const std::vector<Eigen::Vector3d>& v, bool is_increment, double scale) {
+    const auto increment = [&](const std::vector<Eigen::Vector3d>& v, bool is_increment,
+                               double scale) {
       if (is_increment) return Eigen::Vector3d(v[k] * scale);
       if (k == 0) throw std::logic_error("a rate needs the previous row");
       if (imu.rates_are_interval_means) return Eigen::Vector3d(v[k] * scale * dt);
@@ -142,8 +146,7 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
     ds.gnss.push_back(g);
     sd_v.push_back(std::hypot(e.sd_vn_mps, e.sd_ve_mps));
   }
-  if (ds.gnss.size() < 2)
-    throw std::runtime_error("fewer than 2 GNSS epochs inside the IMU span");
+  if (ds.gnss.size() < 2) throw std::runtime_error("fewer than 2 GNSS epochs inside the IMU span");
   // GNSS outages: steps longer than 3 median periods (longer than the dataset allows are refused
   // by the dataset checks, naming the line).
   {
@@ -154,7 +157,8 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
       if (gap <= 3.0 * period) continue;
       outages.push_back({{"after_t_s", ds.gnss[k - 1].t_s}, {"gap_s", gap}});
       if (outages.size() <= 5)
-        out.notes.push_back("GNSS outage of " + num(gap) + " s after t = " + num(ds.gnss[k - 1].t_s) + " s");
+        out.notes.push_back("GNSS outage of " + num(gap) +
+                            " s after t = " + num(ds.gnss[k - 1].t_s) + " s");
     }
     prov["gnss"]["outages"] = outages;
   }
@@ -189,8 +193,10 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
                                " s of the first IMU row; give the static window with --align-s");
     prov["alignment_window"] = {
         {"align_s", m.align_s},
-        {"how", "from the first IMU row to 1 s before the first GNSS epoch with horizontal speed "
-                "above " + num(options.static_speed_mps) + " m/s"}};
+        {"how",
+         "from the first IMU row to 1 s before the first GNSS epoch with horizontal speed "
+         "above " +
+             num(options.static_speed_mps) + " m/s"}};
   }
   out.notes.push_back("static alignment window: the first " + num(m.align_s) + " s");
   const GnssSample g0 = interpolate_gnss(ds.gnss, ds.imu.front().t_s);
@@ -205,8 +211,8 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
   for (const ImuGap& gap : gaps) {
     prov["imu"]["gaps"].push_back({{"t_s", gap.t_s}, {"dt_s", gap.dt_s}});
     if (out.notes.size() < 12)
-      out.notes.push_back("IMU gap of " + num(gap.dt_s) + " s before t = " + num(gap.t_s) +
-                          " s (" + num(gap.dt_s / dt_median, 3) + " median steps)");
+      out.notes.push_back("IMU gap of " + num(gap.dt_s) + " s before t = " + num(gap.t_s) + " s (" +
+                          num(gap.dt_s / dt_median, 3) + " median steps)");
   }
   if (gaps.empty()) prov["imu"]["gaps"] = nlohmann::json::array();
   validate_dataset(ds);

@@ -31,7 +31,7 @@ struct AssembleOptions {
 
 struct Assembled {
   Dataset dataset;
-  nlohmann::json provenance;       ///< what was read, dropped, derived (no file names: the caller's)
+  nlohmann::json provenance;  ///< what was read, dropped, derived (no file names: the caller's)
   std::vector<std::string> notes;  ///< for the user: dropped epochs, gaps, the alignment window
 };
 
@@ -41,6 +41,7 @@ struct Assembled {
 /// the first IMU row used (`time_origin_gpst_unix_s` in the provenance). Only the span both
 /// sensors cover is kept. Throws std::runtime_error (no overlap, too few epochs) or DatasetError
 /// (the result fails the dataset checks).
-Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss, const AssembleOptions& options);
+Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
+                           const AssembleOptions& options);
 
 }  // namespace insid::import

@@ -39,7 +39,8 @@ void parse_rows(const std::string& text, const std::string& where, std::vector<s
   std::vector<double> values;
   while (pos < text.size()) {
     const std::size_t nl = text.find('\n', pos);
-    const std::string_view line(text.data() + pos, (nl == std::string::npos ? text.size() : nl) - pos);
+    const std::string_view line(text.data() + pos,
+                                (nl == std::string::npos ? text.size() : nl) - pos);
     pos = nl == std::string::npos ? text.size() : nl + 1;
     ++line_no;
     const auto fields = fields_of(line);
@@ -52,13 +53,17 @@ void parse_rows(const std::string& text, const std::string& where, std::vector<s
       expected += (expected.empty() ? "" : " or ") + std::to_string(c);
     }
     if (!allowed)
-      throw std::runtime_error(at + ": " + std::to_string(fields.size()) + " fields, expected " + expected);
+      throw std::runtime_error(at + ": " + std::to_string(fields.size()) + " fields, expected " +
+                               expected);
     values.assign(fields.size(), 0.0);
     for (std::size_t k = 0; k < fields.size(); ++k) {
-      const auto [end, ec] = std::from_chars(fields[k].data(), fields[k].data() + fields[k].size(), values[k]);
-      if (ec != std::errc() || end != fields[k].data() + fields[k].size() || !std::isfinite(values[k]))
+      const auto [end, ec] =
+          std::from_chars(fields[k].data(), fields[k].data() + fields[k].size(), values[k]);
+      if (ec != std::errc() || end != fields[k].data() + fields[k].size() ||
+          !std::isfinite(values[k]))
         throw std::runtime_error(at + ", column " + std::to_string(k + 1) +
-                                 ": expected a finite number, got '" + std::string(fields[k]) + "'");
+                                 ": expected a finite number, got '" + std::string(fields[k]) +
+                                 "'");
     }
     if (!(values[0] > t_prev))
       throw std::runtime_error(at + ", column 1: time " + std::string(fields[0]) +
@@ -88,7 +93,8 @@ void append_number(std::string& out, double v, const char* separator) {
 
 }  // namespace
 
-CsvImu parse_kf_gins_imu(const std::string& text, const std::string& where, std::optional<int> gps_week) {
+CsvImu parse_kf_gins_imu(const std::string& text, const std::string& where,
+                         std::optional<int> gps_week) {
   CsvImu out;
   out.accel_is_increment = true;
   out.gyro_is_increment = true;
@@ -96,14 +102,16 @@ CsvImu parse_kf_gins_imu(const std::string& text, const std::string& where, std:
   parse_rows(text, where, {7, 8}, [&](const std::vector<double>& v, std::size_t line) {
     if (v[0] < 0.0 || v[0] >= kSecondsPerWeek + 86400.0)
       throw std::runtime_error(where + " line " + std::to_string(line) +
-                               ", column 1: GPS seconds of week " + g17(v[0]) + " outside [0, 691200)");
+                               ", column 1: GPS seconds of week " + g17(v[0]) +
+                               " outside [0, 691200)");
     out.t_gpst_unix_s.push_back(base + static_cast<GpstTime>(v[0]));
     out.gyro_b.emplace_back(v[1], v[2], v[3]);
     out.accel_b.emplace_back(v[4], v[5], v[6]);
     out.line.push_back(line);
   });
   if (out.line.size() < 3)
-    throw std::runtime_error(where + ": " + std::to_string(out.line.size()) + " IMU rows; need at least 3");
+    throw std::runtime_error(where + ": " + std::to_string(out.line.size()) +
+                             " IMU rows; need at least 3");
   return out;
 }
 
@@ -128,8 +136,8 @@ GnssSolution parse_kf_gins_gnss(const std::string& text, const std::string& wher
     const std::string at = where + " line " + std::to_string(line);
     if (columns == 0) columns = v.size();
     if (v.size() != columns)
-      throw std::runtime_error(at + ": " + std::to_string(v.size()) + " fields, the file's first row has " +
-                               std::to_string(columns));
+      throw std::runtime_error(at + ": " + std::to_string(v.size()) +
+                               " fields, the file's first row has " + std::to_string(columns));
     if (!(std::fabs(v[1]) < 90.0) || !(std::fabs(v[2]) <= 360.0))
       throw std::runtime_error(at + ": latitude/longitude " + g17(v[1]) + ", " + g17(v[2]) +
                                " deg outside (-90, 90) / [-360, 360]");

@@ -20,7 +20,8 @@ namespace insid::import {
 /// IMU rows as increments in body FRD; times on the GPST-since-1970 scale of `gps_week` (week 0
 /// when not given: the times then only order the rows). Throws std::runtime_error naming line
 /// and column.
-CsvImu parse_kf_gins_imu(const std::string& text, const std::string& where, std::optional<int> gps_week);
+CsvImu parse_kf_gins_imu(const std::string& text, const std::string& where,
+                         std::optional<int> gps_week);
 
 /// GNSS rows. A 7-column (position-only) file gets velocities by central differences of the
 /// positions in local north/east/up, v_k = (p_{k+1} - p_{k-1}) / (t_{k+1} - t_{k-1}) (one-sided at

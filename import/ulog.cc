@@ -14,9 +14,9 @@ constexpr std::size_t kMessageHeaderSize = 3;  // uint16 size, uint8 type
 
 const std::map<std::string, std::size_t>& basic_types() {
   static const std::map<std::string, std::size_t> types = {
-      {"int8_t", 1},   {"uint8_t", 1},  {"int16_t", 2}, {"uint16_t", 2}, {"int32_t", 4},
-      {"uint32_t", 4}, {"int64_t", 8},  {"uint64_t", 8}, {"float", 4},   {"double", 8},
-      {"bool", 1},     {"char", 1}};
+      {"int8_t", 1},  {"uint8_t", 1},  {"int16_t", 2}, {"uint16_t", 2},
+      {"int32_t", 4}, {"uint32_t", 4}, {"int64_t", 8}, {"uint64_t", 8},
+      {"float", 4},   {"double", 8},   {"bool", 1},    {"char", 1}};
   return types;
 }
 
@@ -63,7 +63,8 @@ UlogFile UlogFile::parse(std::string bytes, const std::string& where) {
   f.bytes_ = std::move(bytes);
   const std::string& b = f.bytes_;
   if (b.size() < kHeaderSize || std::memcmp(b.data(), kMagic, sizeof kMagic) != 0)
-    throw std::runtime_error(where + ": byte 0: not a ULog file (expected the magic 'ULog' 01 12 35)");
+    throw std::runtime_error(where +
+                             ": byte 0: not a ULog file (expected the magic 'ULog' 01 12 35)");
   f.version_ = static_cast<unsigned char>(b[7]);
   if (f.version_ > 1)
     throw std::runtime_error(where + ": byte 7: ULog version " + std::to_string(f.version_) +
@@ -96,25 +97,30 @@ UlogFile UlogFile::parse(std::string bytes, const std::string& where) {
       appended.erase(appended.begin());
       continue;
     }
-    const std::string at = where + ": byte " + std::to_string(pos) + ", '" + std::string(1, type) + "' message";
+    const std::string at =
+        where + ": byte " + std::to_string(pos) + ", '" + std::string(1, type) + "' message";
     const char* p = b.data() + body;
     switch (type) {
       case 'B': {
         if (!first_message) throw std::runtime_error(at + ": flag bits must be the first message");
-        if (size < 40) throw std::runtime_error(at + ": " + std::to_string(size) + " bytes, expected 40");
+        if (size < 40)
+          throw std::runtime_error(at + ": " + std::to_string(size) + " bytes, expected 40");
         const auto incompat = static_cast<unsigned char>(p[8]);
         if ((incompat & ~1u) != 0 || std::memcmp(p + 9, "\0\0\0\0\0\0\0", 7) != 0)
           throw std::runtime_error(at + ": incompatible flags set that insid does not know");
         if (incompat & 1u)
           for (int k = 0; k < 3; ++k)
-            if (const auto off = load<std::uint64_t>(p + 16 + 8 * k); off > 0) appended.push_back(off);
+            if (const auto off = load<std::uint64_t>(p + 16 + 8 * k); off > 0)
+              appended.push_back(off);
         break;
       }
       case 'F':
         format_texts.emplace_back(std::string(p, size), pos);
         break;
       case 'A': {
-        if (size < 4) throw std::runtime_error(at + ": " + std::to_string(size) + " bytes, expected at least 4");
+        if (size < 4)
+          throw std::runtime_error(at + ": " + std::to_string(size) +
+                                   " bytes, expected at least 4");
         Subscription s;
         s.multi_id = static_cast<unsigned char>(p[0]);
         const auto id = load<std::uint16_t>(p + 1);
@@ -123,7 +129,9 @@ UlogFile UlogFile::parse(std::string bytes, const std::string& where) {
         break;
       }
       case 'D': {
-        if (size < 2) throw std::runtime_error(at + ": " + std::to_string(size) + " bytes, expected at least 2");
+        if (size < 2)
+          throw std::runtime_error(at + ": " + std::to_string(size) +
+                                   " bytes, expected at least 2");
         const auto id = load<std::uint16_t>(p);
         if (!f.subscriptions_.count(id))
           throw std::runtime_error(at + ": data for message id " + std::to_string(id) +
@@ -137,7 +145,14 @@ UlogFile UlogFile::parse(std::string bytes, const std::string& where) {
           ++f.dropout_count_;
         }
         break;
-      case 'I': case 'M': case 'P': case 'Q': case 'L': case 'C': case 'S': case 'R':
+      case 'I':
+      case 'M':
+      case 'P':
+      case 'Q':
+      case 'L':
+      case 'C':
+      case 'S':
+      case 'R':
         break;  // information, parameters, log text, sync, unsubscription: not needed here
       default:
         throw std::runtime_error(at + ": unknown message type (code " +
@@ -150,9 +165,11 @@ UlogFile UlogFile::parse(std::string bytes, const std::string& where) {
 
   // Formats: "name:type field;type[n] field;..."
   for (const auto& [text, offset] : format_texts) {
-    const std::string at = where + ": byte " + std::to_string(offset) + ", format '" + text.substr(0, 60) + "'";
+    const std::string at =
+        where + ": byte " + std::to_string(offset) + ", format '" + text.substr(0, 60) + "'";
     const std::size_t colon = text.find(':');
-    if (colon == std::string::npos || colon == 0) throw std::runtime_error(at + ": expected 'name:fields'");
+    if (colon == std::string::npos || colon == 0)
+      throw std::runtime_error(at + ": expected 'name:fields'");
     Format fmt;
     std::size_t start = colon + 1;
     while (start < text.size()) {
@@ -162,13 +179,15 @@ UlogFile UlogFile::parse(std::string bytes, const std::string& where) {
       start = end + 1;
       if (item.empty()) continue;
       const std::size_t space = item.find(' ');
-      if (space == std::string::npos) throw std::runtime_error(at + ": field '" + item + "' is not 'type name'");
+      if (space == std::string::npos)
+        throw std::runtime_error(at + ": field '" + item + "' is not 'type name'");
       Field field;
       field.type = item.substr(0, space);
       field.name = item.substr(space + 1);
       if (const std::size_t br = field.type.find('['); br != std::string::npos) {
         const std::size_t close = field.type.find(']', br);
-        if (close == std::string::npos) throw std::runtime_error(at + ": field '" + item + "': unclosed '['");
+        if (close == std::string::npos)
+          throw std::runtime_error(at + ": field '" + item + "': unclosed '['");
         try {
           field.count = std::stoul(field.type.substr(br + 1, close - br - 1));
         } catch (const std::exception&) {
@@ -220,9 +239,10 @@ UlogFile UlogFile::parse(std::string bytes, const std::string& where) {
     if (const auto d = f.data_.find(id); d != f.data_.end())
       for (const auto& [offset, size] : d->second)
         if (size > it->second.size)
-          throw std::runtime_error(where + ": byte " + std::to_string(offset - 2 - kMessageHeaderSize) +
-                                   ", data message of '" + sub.topic + "': " + std::to_string(size) +
-                                   " bytes, but its format defines " + std::to_string(it->second.size));
+          throw std::runtime_error(
+              where + ": byte " + std::to_string(offset - 2 - kMessageHeaderSize) +
+              ", data message of '" + sub.topic + "': " + std::to_string(size) +
+              " bytes, but its format defines " + std::to_string(it->second.size));
   }
   return f;
 }
@@ -249,7 +269,8 @@ const UlogFile::Field* UlogFile::find_field(const Format& f, const std::string& 
     }
   }
   for (const Field& field : f.fields)
-    if (field.name == base && element < field.count && basic_types().count(field.type)) return &field;
+    if (field.name == base && element < field.count && basic_types().count(field.type))
+      return &field;
   return nullptr;
 }
 
@@ -282,9 +303,10 @@ std::vector<std::vector<double>> UlogFile::read(const std::string& topic, int mu
       for (const auto& [field, element] : resolved) {
         const std::size_t at = field->offset + element * field->element_size;
         if (at + field->element_size > size)
-          throw std::runtime_error(where_ + ": byte " + std::to_string(offset) + ", data message of '" +
-                                   topic + "': " + std::to_string(size) + " bytes, too short for field '" +
-                                   field->name + "' at offset " + std::to_string(at));
+          throw std::runtime_error(where_ + ": byte " + std::to_string(offset) +
+                                   ", data message of '" + topic + "': " + std::to_string(size) +
+                                   " bytes, too short for field '" + field->name + "' at offset " +
+                                   std::to_string(at));
         row.push_back(decode(field->type, bytes_.data() + offset + at));
       }
     }
@@ -297,7 +319,8 @@ std::string UlogFile::topics_summary() const {
   for (const auto& [id, sub] : subscriptions_)
     if (const auto d = data_.find(id); d != data_.end()) counts[sub.topic] += d->second.size();
   std::string out;
-  for (const auto& [topic, n] : counts) out += (out.empty() ? "" : ", ") + topic + " (" + std::to_string(n) + ")";
+  for (const auto& [topic, n] : counts)
+    out += (out.empty() ? "" : ", ") + topic + " (" + std::to_string(n) + ")";
   return out;
 }
 

@@ -14,7 +14,8 @@ std::string UlogImportOptions::validate() const {
   return "";
 }
 
-UlogSeries extract_ulog(const UlogFile& log, const std::string& where, const UlogImportOptions& options) {
+UlogSeries extract_ulog(const UlogFile& log, const std::string& where,
+                        const UlogImportOptions& options) {
   if (const std::string e = options.validate(); !e.empty()) throw std::invalid_argument(e);
   UlogSeries out;
   nlohmann::json& prov = out.provenance;
@@ -24,7 +25,8 @@ UlogSeries extract_ulog(const UlogFile& log, const std::string& where, const Ulo
                   {"topics", log.topics_summary()}};
   if (log.dropouts() > 0)
     out.notes.push_back(std::to_string(log.dropouts()) + " logger dropouts, " +
-                        std::to_string(static_cast<int>(log.dropouts_ms())) + " ms in all (listed as IMU gaps when they hit the IMU topic)");
+                        std::to_string(static_cast<int>(log.dropouts_ms())) +
+                        " ms in all (listed as IMU gaps when they hit the IMU topic)");
   if (!log.truncation().empty()) {
     prov["ulog"]["truncation"] = log.truncation();
     out.notes.push_back(log.truncation());
@@ -46,7 +48,8 @@ UlogSeries extract_ulog(const UlogFile& log, const std::string& where, const Ulo
       const auto it = inst.find(options.imu_instance);
       return it == inst.end() ? std::size_t{0} : it->second;
     };
-    imu_topic = count("vehicle_imu") >= count("sensor_combined") ? "vehicle_imu" : "sensor_combined";
+    imu_topic =
+        count("vehicle_imu") >= count("sensor_combined") ? "vehicle_imu" : "sensor_combined";
   }
   if (gnss_topic.empty()) {
     std::string imu_found;
@@ -54,39 +57,44 @@ UlogSeries extract_ulog(const UlogFile& log, const std::string& where, const Ulo
       for (const auto& [instance, n] : log.instances(t))
         imu_found += (imu_found.empty() ? "" : ", ") + std::string(t) + " instance " +
                      std::to_string(instance) + " (" + std::to_string(n) + " samples)";
-    throw std::runtime_error(where + ": no GNSS topic (vehicle_gps_position or sensor_gps, instance " +
-                             std::to_string(options.gnss_instance) +
-                             ") with data: insid identifies sensor errors against GNSS velocity, so "
-                             "this log cannot be imported; IMU found: " +
-                             (imu_found.empty() ? "none" : imu_found));
+    throw std::runtime_error(
+        where + ": no GNSS topic (vehicle_gps_position or sensor_gps, instance " +
+        std::to_string(options.gnss_instance) +
+        ") with data: insid identifies sensor errors against GNSS velocity, so "
+        "this log cannot be imported; IMU found: " +
+        (imu_found.empty() ? "none" : imu_found));
   }
   if (!log.instances(imu_topic).count(options.imu_instance))
     throw std::runtime_error(where + ": no data for IMU topic '" + imu_topic + "' instance " +
-                             std::to_string(options.imu_instance) + "; topics with data: " +
-                             log.topics_summary());
+                             std::to_string(options.imu_instance) +
+                             "; topics with data: " + log.topics_summary());
 
   // IMU.
   CsvImu& imu = out.imu;
   imu.accel_is_increment = true;
   imu.gyro_is_increment = true;
   if (imu_topic == "vehicle_imu") {
-    const std::string t_field = log.has_field("vehicle_imu", "timestamp_sample") ? "timestamp_sample" : "timestamp";
+    const std::string t_field =
+        log.has_field("vehicle_imu", "timestamp_sample") ? "timestamp_sample" : "timestamp";
     const auto rows = log.read("vehicle_imu", options.imu_instance,
                                {t_field, "delta_angle[0]", "delta_angle[1]", "delta_angle[2]",
                                 "delta_velocity[0]", "delta_velocity[1]", "delta_velocity[2]"});
     for (std::size_t k = 0; k < rows.size(); ++k) {
       const auto& r = rows[k];
-      if (!imu.t_gpst_unix_s.empty() && !(r[0] * 1e-6L > imu.t_gpst_unix_s.back())) continue;  // repeated stamp
+      if (!imu.t_gpst_unix_s.empty() && !(r[0] * 1e-6L > imu.t_gpst_unix_s.back()))
+        continue;  // repeated stamp
       imu.t_gpst_unix_s.push_back(static_cast<GpstTime>(r[0]) * 1e-6L);
       imu.gyro_b.emplace_back(r[1], r[2], r[3]);
       imu.accel_b.emplace_back(r[4], r[5], r[6]);
       imu.line.push_back(k + 1);
     }
-    prov["imu"]["source"] = "vehicle_imu instance " + std::to_string(options.imu_instance) + ": delta_angle, delta_velocity (increments) at " + t_field;
+    prov["imu"]["source"] = "vehicle_imu instance " + std::to_string(options.imu_instance) +
+                            ": delta_angle, delta_velocity (increments) at " + t_field;
   } else {
-    const auto rows = log.read("sensor_combined", options.imu_instance,
-                               {"timestamp", "gyro_rad[0]", "gyro_rad[1]", "gyro_rad[2]",
-                                "accelerometer_m_s2[0]", "accelerometer_m_s2[1]", "accelerometer_m_s2[2]"});
+    const auto rows =
+        log.read("sensor_combined", options.imu_instance,
+                 {"timestamp", "gyro_rad[0]", "gyro_rad[1]", "gyro_rad[2]", "accelerometer_m_s2[0]",
+                  "accelerometer_m_s2[1]", "accelerometer_m_s2[2]"});
     for (std::size_t k = 1; k < rows.size(); ++k) {
       const auto& r = rows[k];
       const GpstTime t = static_cast<GpstTime>(r[0]) * 1e-6L;
@@ -109,14 +117,19 @@ UlogSeries extract_ulog(const UlogFile& log, const std::string& where, const Ulo
 
   // GNSS, either field layout.
   const bool degrees = log.has_field(gnss_topic, "latitude_deg");
-  const bool has_ellipsoid = log.has_field(gnss_topic, degrees ? "altitude_ellipsoid_m" : "alt_ellipsoid");
-  const std::string height_field = degrees ? (has_ellipsoid ? "altitude_ellipsoid_m" : "altitude_msl_m")
-                                           : (has_ellipsoid ? "alt_ellipsoid" : "alt");
+  const bool has_ellipsoid =
+      log.has_field(gnss_topic, degrees ? "altitude_ellipsoid_m" : "alt_ellipsoid");
+  const std::string height_field = degrees
+                                       ? (has_ellipsoid ? "altitude_ellipsoid_m" : "altitude_msl_m")
+                                       : (has_ellipsoid ? "alt_ellipsoid" : "alt");
   std::vector<std::string> fields = {"timestamp",
                                      degrees ? "latitude_deg" : "lat",
                                      degrees ? "longitude_deg" : "lon",
                                      height_field,
-                                     "vel_n_m_s", "vel_e_m_s", "vel_d_m_s", "fix_type"};
+                                     "vel_n_m_s",
+                                     "vel_e_m_s",
+                                     "vel_d_m_s",
+                                     "fix_type"};
   const bool has_valid = log.has_field(gnss_topic, "vel_ned_valid");
   if (has_valid) fields.push_back("vel_ned_valid");
   const bool has_sats = log.has_field(gnss_topic, "satellites_used");
@@ -150,19 +163,26 @@ UlogSeries extract_ulog(const UlogFile& log, const std::string& where, const Ulo
     e.line = k + 1;
     out.gnss.epochs.push_back(e);
   }
-  out.gnss.format = "ulog " + gnss_topic + (degrees ? " (latitude_deg layout)" : " (1e-7 deg integer layout)");
+  out.gnss.format =
+      "ulog " + gnss_topic + (degrees ? " (latitude_deg layout)" : " (1e-7 deg integer layout)");
   prov["gnss"]["source"] = gnss_topic + " instance " + std::to_string(options.gnss_instance);
-  prov["gnss"]["height"] = has_ellipsoid ? "ellipsoidal (" + height_field + ")" : "MSL (" + height_field + "): no ellipsoidal height logged";
+  prov["gnss"]["height"] = has_ellipsoid
+                               ? "ellipsoidal (" + height_field + ")"
+                               : "MSL (" + height_field + "): no ellipsoidal height logged";
   prov["gnss"]["dropped"] = {{"fix_type_below_" + std::to_string(options.min_fix_type), low_fix},
                              {"vel_ned_valid_false", invalid_velocity},
                              {"repeated_timestamp", repeated}};
-  if (!has_ellipsoid) out.notes.push_back("GNSS height is MSL (" + height_field + "): the log has no ellipsoidal height; heights only enter as the vertical reference");
+  if (!has_ellipsoid)
+    out.notes.push_back(
+        "GNSS height is MSL (" + height_field +
+        "): the log has no ellipsoidal height; heights only enter as the vertical reference");
   if (low_fix + invalid_velocity > 0)
     out.notes.push_back("dropped " + std::to_string(low_fix) + " GNSS epochs with fix_type below " +
-                        std::to_string(options.min_fix_type) + " and " + std::to_string(invalid_velocity) +
-                        " with vel_ned_valid false");
+                        std::to_string(options.min_fix_type) + " and " +
+                        std::to_string(invalid_velocity) + " with vel_ned_valid false");
   if (out.gnss.epochs.size() < 2)
-    throw std::runtime_error(where + ": " + gnss_topic + " has " + std::to_string(out.gnss.epochs.size()) +
+    throw std::runtime_error(where + ": " + gnss_topic + " has " +
+                             std::to_string(out.gnss.epochs.size()) +
                              " epochs with fix_type >= " + std::to_string(options.min_fix_type) +
                              " (of " + std::to_string(rows.size()) + "); need at least 2");
   return out;

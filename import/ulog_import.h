@@ -41,6 +41,7 @@ struct UlogSeries {
 /// a note), NED velocity; epochs below min_fix_type or with vel_ned_valid false are dropped.
 /// Throws std::runtime_error naming the file and what is missing: a log without a GNSS topic is
 /// refused ("identification needs GNSS velocity") and the message lists the IMU topics it has.
-UlogSeries extract_ulog(const UlogFile& log, const std::string& where, const UlogImportOptions& options);
+UlogSeries extract_ulog(const UlogFile& log, const std::string& where,
+                        const UlogImportOptions& options);
 
 }  // namespace insid::import

@@ -41,8 +41,9 @@ struct TapeProblem {
       return {0.0};
     }
     if (tape->next >= tape->points.size() || tape->points[tape->next] != x)
-      throw std::logic_error("pagmo bridge: the algorithm asked for a point it did not propose "
-                             "(its generation would depend on its own fitness values)");
+      throw std::logic_error(
+          "pagmo bridge: the algorithm asked for a point it did not propose "
+          "(its generation would depend on its own fitness values)");
     return {tape->values[tape->next++]};
   }
   std::pair<Vec, Vec> get_bounds() const { return {lower, upper}; }
@@ -107,7 +108,7 @@ struct CallbackProblem {
 }  // namespace
 
 std::unique_ptr<GenerationalAlgorithm> make_cmaes(const CmaesSettings& s, const Vec& lower,
-                                                 const Vec& upper, unsigned seed) {
+                                                  const Vec& upper, unsigned seed) {
   // gen = 1 per evolve() call, ftol = xtol = 0, memory = true (the state carries over).
   return std::make_unique<PagmoGenerational>(
       pagmo::algorithm(pagmo::cmaes(1u, s.cc, s.cs, s.c1, s.cmu, s.sigma0, 0.0, 0.0, true,
@@ -116,7 +117,7 @@ std::unique_ptr<GenerationalAlgorithm> make_cmaes(const CmaesSettings& s, const 
 }
 
 std::unique_ptr<GenerationalAlgorithm> make_de(const DeSettings& s, const Vec& lower,
-                                              const Vec& upper, unsigned seed) {
+                                               const Vec& upper, unsigned seed) {
   return std::make_unique<PagmoGenerational>(
       pagmo::algorithm(pagmo::de(1u, s.F, s.CR, s.variant, 0.0, 0.0, seed)), lower, upper, seed);
 }

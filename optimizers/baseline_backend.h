@@ -50,15 +50,15 @@ INSID_BACKEND_API std::unique_ptr<GenerationalAlgorithm> make_cmaes(const CmaesS
                                                                     const Vec& upper,
                                                                     unsigned seed);
 INSID_BACKEND_API std::unique_ptr<GenerationalAlgorithm> make_de(const DeSettings& s,
-                                                                 const Vec& lower,
-                                                                 const Vec& upper, unsigned seed);
+                                                                 const Vec& lower, const Vec& upper,
+                                                                 unsigned seed);
 
 /// One pagmo compass search from (x0, f0) until its step falls below stop_range. `fitness`
 /// returns false when the run has ended (the search is then abandoned and this returns false);
 /// returns true when the search ended on its own.
 INSID_BACKEND_API bool compass_search(const Vec& x0, double f0, const Vec& lower, const Vec& upper,
-                                      double start_range, double stop_range,
-                                      double reduction_coeff, unsigned seed,
+                                      double start_range, double stop_range, double reduction_coeff,
+                                      unsigned seed,
                                       const std::function<bool(const Vec& x, double& f)>& fitness);
 
 struct LmSettings {
@@ -71,9 +71,8 @@ struct LmSettings {
 
 /// Evaluates the residual vectors of `points` (false: the run has ended). `label` is
 /// "jacobian" or "step".
-using ResidualEvaluator = std::function<bool(const std::vector<Vec>& points,
-                                             std::vector<Vec>& residuals,
-                                             const std::string& label)>;
+using ResidualEvaluator = std::function<bool(
+    const std::vector<Vec>& points, std::vector<Vec>& residuals, const std::string& label)>;
 
 /// One Ceres Levenberg-Marquardt start from x0 whose residual vector r0 is known (see
 /// ceres_lm.cc). Returns false when the run ended (an evaluation returned false), true when

@@ -21,9 +21,7 @@ class LeastSquaresProblem final : public Problem, public ResidualProblem {
  public:
   LeastSquaresProblem(int n, bool rosenbrock)
       : Problem(Bounds::unit_box(n)), o_(benchmark_optimum(n)), rosenbrock_(rosenbrock) {}
-  int residual_count() const override {
-    return rosenbrock_ ? 2 * (dimension() - 1) : dimension();
-  }
+  int residual_count() const override { return rosenbrock_ ? 2 * (dimension() - 1) : dimension(); }
   std::vector<double> residuals(const Eigen::VectorXd& x) const {
     std::vector<double> r;
     if (!rosenbrock_) {
@@ -202,9 +200,10 @@ TEST(Baselines, RunTogetherScoresTheLeastSquaresRunsOfARoundInOneResidualCall) {
   // GIVEN three Levenberg-Marquardt runs (residual vectors) and a BOBYQA run in lock-step
   const LeastSquaresProblem rosenbrock(4, true);
   const CallCountingProblem problem(rosenbrock);
-  const std::vector<std::pair<std::string, RunConfig>> specs = {
-      {"lm", budget(60, 1)}, {"lm", budget(90, 2)}, {"lm", budget(40, 3)},
-      {"bobyqa", budget(50, 4)}};
+  const std::vector<std::pair<std::string, RunConfig>> specs = {{"lm", budget(60, 1)},
+                                                                {"lm", budget(90, 2)},
+                                                                {"lm", budget(40, 3)},
+                                                                {"bobyqa", budget(50, 4)}};
   std::vector<std::unique_ptr<Optimizer>> owned;
   std::vector<Optimizer*> raw;
   for (const auto& [name, config] : specs) {
@@ -216,7 +215,8 @@ TEST(Baselines, RunTogetherScoresTheLeastSquaresRunsOfARoundInOneResidualCall) {
   // THEN each round's LM batches went to one evaluate_residual_batch call (as many calls as the
   // longest LM run has iterations), BOBYQA's to evaluate_batch, one call per iteration
   int longest_lm = 0;
-  for (std::size_t i = 0; i < 3; ++i) longest_lm = std::max(longest_lm, raw[i]->result().iterations);
+  for (std::size_t i = 0; i < 3; ++i)
+    longest_lm = std::max(longest_lm, raw[i]->result().iterations);
   EXPECT_EQ(problem.residual_calls, longest_lm);
   EXPECT_LT(longest_lm, raw[0]->result().iterations + raw[1]->result().iterations +
                             raw[2]->result().iterations);
@@ -247,10 +247,10 @@ TEST(Baselines, ReachTheDocumentedAccuracy) {
     double threshold;
   };
   const std::vector<Case> cases = {
-      {"cmaes", &sphere, 400, 1e-5},      {"de", &sphere, 400, 1e-2},
-      {"compass", &sphere, 400, 1e-12},   {"lm", &sphere, 50, 1e-20},
-      {"bobyqa", &sphere, 100, 1e-12},    {"neldermead", &sphere, 400, 1e-15},
-      {"cmaes", &rosenbrock, 2000, 1e-8}, {"lm", &rosenbrock, 400, 1e-20},
+      {"cmaes", &sphere, 400, 1e-5},        {"de", &sphere, 400, 1e-2},
+      {"compass", &sphere, 400, 1e-12},     {"lm", &sphere, 50, 1e-20},
+      {"bobyqa", &sphere, 100, 1e-12},      {"neldermead", &sphere, 400, 1e-15},
+      {"cmaes", &rosenbrock, 2000, 1e-8},   {"lm", &rosenbrock, 400, 1e-20},
       {"bobyqa", &rosenbrock, 1000, 1e-12},
   };
   for (const Case& c : cases) {

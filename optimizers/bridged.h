@@ -45,7 +45,8 @@ class BridgedOptimizer : public Optimizer {
     ++starts_;
     if (starts_ == 1 && !config().initial_positions.empty()) return config().initial_positions[0];
     Eigen::VectorXd x(bounds().dimension());
-    for (int j = 0; j < x.size(); ++j) x[j] = start_rng_.uniform(bounds().lower[j], bounds().upper[j]);
+    for (int j = 0; j < x.size(); ++j)
+      x[j] = start_rng_.uniform(bounds().lower[j], bounds().upper[j]);
     return x;
   }
   int starts() const { return starts_; }

@@ -56,9 +56,10 @@ void LmOptimizer::set_residuals(std::vector<std::vector<double>> residuals) {
 
 void LmOptimizer::accept(std::span<const Eigen::VectorXd> batch, std::span<const double> fitness) {
   if (pending_residuals_.size() != batch.size())
-    throw std::logic_error("LM needs the residual vectors of its candidates: drive it with "
-                           "opt::step / run / optimize on a problem that implements "
-                           "ResidualProblem");
+    throw std::logic_error(
+        "LM needs the residual vectors of its candidates: drive it with "
+        "opt::step / run / optimize on a problem that implements "
+        "ResidualProblem");
   BridgedOptimizer::accept(batch, fitness);
 }
 
@@ -76,7 +77,8 @@ void LmOptimizer::solve(detail::SolverBridge& bridge) {
                                                         const std::string& label) {
     std::vector<Eigen::VectorXd> xs;
     for (const backend::Vec& p : points)
-      xs.push_back(Eigen::Map<const Eigen::VectorXd>(p.data(), static_cast<Eigen::Index>(p.size())));
+      xs.push_back(
+          Eigen::Map<const Eigen::VectorXd>(p.data(), static_cast<Eigen::Index>(p.size())));
     std::vector<double> f;
     return bridge.request(std::move(xs), f, &residuals, label);
   };

@@ -19,8 +19,8 @@ namespace insid::opt {
 struct LmParams {
   static constexpr std::string_view kAlgorithm = "LM";
 
-  double fd_step = 2.5e-4;            ///< forward-difference step (normalised units)
-  int max_iterations_per_start = 50;  ///< Ceres max_num_iterations of one start
+  double fd_step = 2.5e-4;             ///< forward-difference step (normalised units)
+  int max_iterations_per_start = 50;   ///< Ceres max_num_iterations of one start
   double parameter_tolerance = 1e-10;  ///< Ceres parameter_tolerance (relative step)
   double function_tolerance = 1e-12;   ///< Ceres function_tolerance (relative cost change)
 

@@ -29,8 +29,8 @@ struct Case {
   std::string function;
   int dimension;
   double threshold;
-  int min_successes;  // of 20
-  double beats_random_by;  // median(random search) / median(algorithm) must reach this
+  int min_successes;             // of 20
+  double beats_random_by;        // median(random search) / median(algorithm) must reach this
   ParameterMap parameters = {};  // overrides of the defaults (a variant)
 };
 
@@ -80,13 +80,14 @@ TEST_P(Convergence, ReachesThresholdInStatedShareOfSeeds) {
     chance.push_back(random_search(*problem, config.max_evaluations, seed));
   }
   const double ratio = median(chance) / median(finals);
-  std::printf("[ measured ] %-26s f <= %-7g in %2d/20 runs (required %d), worst %.3g; median "
-              "%.3g vs random search %.3g (%.3gx, required %gx)\n",
-              case_name(c).c_str(), c.threshold, successes, c.min_successes, worst,
-              median(finals), median(chance), ratio, c.beats_random_by);
+  std::printf(
+      "[ measured ] %-26s f <= %-7g in %2d/20 runs (required %d), worst %.3g; median "
+      "%.3g vs random search %.3g (%.3gx, required %gx)\n",
+      case_name(c).c_str(), c.threshold, successes, c.min_successes, worst, median(finals),
+      median(chance), ratio, c.beats_random_by);
   EXPECT_GE(successes, c.min_successes) << "threshold " << c.threshold;
-  EXPECT_GE(ratio, c.beats_random_by) << "median " << median(finals) << " vs random search "
-                                      << median(chance);
+  EXPECT_GE(ratio, c.beats_random_by)
+      << "median " << median(finals) << " vs random search " << median(chance);
 }
 
 INSTANTIATE_TEST_SUITE_P(
@@ -103,9 +104,9 @@ INSTANTIATE_TEST_SUITE_P(
         Case{"ga", "sphere", 10, 2e-4, 17, 1000}, Case{"pso", "sphere", 10, 2e-3, 17, 300},
         Case{"pio", "sphere", 10, 1.0, 17, 2}, Case{"dvpio", "sphere", 10, 0.1, 17, 1e9},
         Case{"ga", "rosenbrock", 10, 10.0, 17, 20}, Case{"pso", "rosenbrock", 10, 20.0, 16, 15},
-        Case{"pio", "rosenbrock", 10, 500.0, 17, 1.5}, Case{"dvpio", "rosenbrock", 10, 150.0, 16, 20},
-        Case{"ga", "rastrigin", 10, 10.0, 16, 10}, Case{"pso", "rastrigin", 10, 30.0, 16, 3},
-        Case{"dvpio", "rastrigin", 10, 80.0, 17, 1.3},
+        Case{"pio", "rosenbrock", 10, 500.0, 17, 1.5},
+        Case{"dvpio", "rosenbrock", 10, 150.0, 16, 20}, Case{"ga", "rastrigin", 10, 10.0, 16, 10},
+        Case{"pso", "rastrigin", 10, 30.0, 16, 3}, Case{"dvpio", "rastrigin", 10, 80.0, 17, 1.3},
         // DVPIO's shrink_without_gain variant (not the paper's Eq. 14), 10-D.
         Case{"dvpio", "sphere", 10, 1e-10, 17, 1e9, {{"shrink_without_gain", 1}}},
         Case{"dvpio", "rosenbrock", 10, 100.0, 17, 20, {{"shrink_without_gain", 1}}},

@@ -77,8 +77,8 @@ std::string DvpioParams::validate() const {
     if (!error.empty()) return error;
   }
   if (d_min > d_max) {
-    return std::string(kAlgorithm) + ": d_min must be <= d_max, got d_min " +
-           format_number(d_min) + " > d_max " + format_number(d_max);
+    return std::string(kAlgorithm) + ": d_min must be <= d_max, got d_min " + format_number(d_min) +
+           " > d_max " + format_number(d_max);
   }
   return check_range(kAlgorithm, "d_initial", d_initial, d_min, d_max);
 }
@@ -160,8 +160,8 @@ void DvpioOptimizer::propose_premature() {
   const int nc = iteration();
   for (int i = 0; i < count; ++i) {  // the others: Eq. 8-9
     if (is_probe[i]) continue;
-    map_compass_move(bounds(), params_.R, params_.C, nc, params_.per_dimension_rand != 0,
-                     best_x(), x_[i], v_[i], rng());
+    map_compass_move(bounds(), params_.R, params_.C, nc, params_.per_dimension_rand != 0, best_x(),
+                     x_[i], v_[i], rng());
   }
 }
 

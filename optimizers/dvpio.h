@@ -23,14 +23,14 @@ namespace insid::opt {
 struct DvpioParams {
   static constexpr std::string_view kAlgorithm = "DVPIO";
 
-  int population = 10;          ///< pigeons
-  double R = 0.05;              ///< map-and-compass factor (Eq. 8), in [0, 1]
-  double C = 1.0;               ///< weight of the pull towards the global best (Eq. 8)
-  int per_dimension_rand = 1;   ///< 1: rand drawn per dimension; 0: one rand per pigeon
-  double dist_threshold = 0.05; ///< premature when Dist (Eq. 10) < this (problem units)
-  double d_initial = 0.0125;    ///< initial d_jp = d_jn (problem units; 0.05 sigma in the INS box)
-  double d_min = 1e-6;          ///< lower clamp of d (problem units)
-  double d_max = 0.5;           ///< upper clamp of d (problem units)
+  int population = 10;           ///< pigeons
+  double R = 0.05;               ///< map-and-compass factor (Eq. 8), in [0, 1]
+  double C = 1.0;                ///< weight of the pull towards the global best (Eq. 8)
+  int per_dimension_rand = 1;    ///< 1: rand drawn per dimension; 0: one rand per pigeon
+  double dist_threshold = 0.05;  ///< premature when Dist (Eq. 10) < this (problem units)
+  double d_initial = 0.0125;     ///< initial d_jp = d_jn (problem units; 0.05 sigma in the INS box)
+  double d_min = 1e-6;           ///< lower clamp of d (problem units)
+  double d_max = 0.5;            ///< upper clamp of d (problem units)
   /// 0 (default): Eq. 14 exactly as docs/design.md sec. 2 reads it. 1: an insid variant, not the
   /// paper's: when neither probe of dimension j beats the X_gbest they were placed around, both
   /// d of j are halved and j's T history restarts, instead of Eq. 14 (which compares the two
@@ -69,18 +69,18 @@ class DvpioOptimizer final : public Optimizer {
 
   DvpioParams params_;
   std::vector<Eigen::VectorXd> x_, v_;
-  std::vector<double> f_;         ///< fitness of the current positions
-  bool premature_ = false;        ///< sticky once Dist < dist_threshold
-  Eigen::VectorXd d_positive_;    ///< d_jp for the next probes
-  Eigen::VectorXd d_negative_;    ///< d_jn for the next probes
-  std::vector<int> last_flag_;    ///< T_j of the last probe of dim j; 0 = never probed
-  int probe_cursor_ = 0;          ///< first dim probed next (when population < 2n)
+  std::vector<double> f_;       ///< fitness of the current positions
+  bool premature_ = false;      ///< sticky once Dist < dist_threshold
+  Eigen::VectorXd d_positive_;  ///< d_jp for the next probes
+  Eigen::VectorXd d_negative_;  ///< d_jn for the next probes
+  std::vector<int> last_flag_;  ///< T_j of the last probe of dim j; 0 = never probed
+  int probe_cursor_ = 0;        ///< first dim probed next (when population < 2n)
   // The batch being evaluated:
   bool batch_premature_ = false;
   Eigen::VectorXd batch_d_positive_, batch_d_negative_;
-  std::vector<int> batch_flags_;               ///< T_j of this batch, 0 = not probed
+  std::vector<int> batch_flags_;                      ///< T_j of this batch, 0 = not probed
   std::vector<int> probe_positive_, probe_negative_;  ///< pigeon probing +d / -d per dim, or -1
-  double batch_gbest_f_ = 0.0;    ///< f(X_gbest) the probes were placed around
+  double batch_gbest_f_ = 0.0;                        ///< f(X_gbest) the probes were placed around
 };
 
 }  // namespace insid::opt

@@ -89,16 +89,18 @@ ExternalOptimizer::ExternalOptimizer(std::string command, const Bounds& bounds,
       command_(std::move(command)),
       params_(params) {
   if (command_.find_first_not_of(" \t") == std::string::npos) {
-    throw std::invalid_argument("external: give a command after 'external:', e.g. "
-                                "external:/usr/bin/python3 scripts/external_random_search.py");
+    throw std::invalid_argument(
+        "external: give a command after 'external:', e.g. "
+        "external:/usr/bin/python3 scripts/external_random_search.py");
   }
   if (const std::string error = params_.validate(); !error.empty()) {
     throw std::invalid_argument(error);
   }
   if (!this->config().initial_positions.empty()) {
-    throw std::invalid_argument("external: initial positions are not passed to an external "
-                                "optimizer (" + std::to_string(this->config().initial_positions.size()) +
-                                " given)");
+    throw std::invalid_argument(
+        "external: initial positions are not passed to an external "
+        "optimizer (" +
+        std::to_string(this->config().initial_positions.size()) + " given)");
   }
 }
 
@@ -106,8 +108,7 @@ ExternalOptimizer::~ExternalOptimizer() {
   if (pid_ > 0) {
     if (fd_ >= 0) {
       const std::string reason(done() ? to_string(result().termination) : "aborted");
-      const std::string line =
-          nlohmann::json{{"type", "stop"}, {"reason", reason}}.dump() + "\n";
+      const std::string line = nlohmann::json{{"type", "stop"}, {"reason", reason}}.dump() + "\n";
       // Best effort, without blocking: a client that does not read is killed below.
       (void)::send(fd_, line.data(), line.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
       ::shutdown(fd_, SHUT_WR);
@@ -167,8 +168,8 @@ void ExternalOptimizer::start() {
 }
 
 std::string ExternalOptimizer::try_reap(double wait_s) {
-  const Clock::time_point deadline =
-      Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(wait_s));
+  const Clock::time_point deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                                                        std::chrono::duration<double>(wait_s));
   for (;;) {
     int status = 0;
     const pid_t r = ::waitpid(pid_, &status, WNOHANG);
@@ -198,8 +199,8 @@ std::string ExternalOptimizer::kill_and_reap() {
 void ExternalOptimizer::send_line(const std::string& line, std::string_view what) {
   const std::string data = line + "\n";
   const Clock::time_point deadline =
-      Clock::now() + std::chrono::duration_cast<Clock::duration>(
-                         std::chrono::duration<double>(params_.timeout_s));
+      Clock::now() +
+      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(params_.timeout_s));
   std::size_t sent = 0;
   while (sent < data.size()) {
     pollfd p{fd_, POLLOUT, 0};
@@ -207,10 +208,11 @@ void ExternalOptimizer::send_line(const std::string& line, std::string_view what
     if (ready < 0 && errno == EINTR) continue;
     if (ready == 0) {
       const std::string how = kill_and_reap();
-      fail("did not read " + std::string(what) + " within timeout_s = " +
-           format_number(params_.timeout_s) + " s; killed (" + how + ")");
+      fail("did not read " + std::string(what) +
+           " within timeout_s = " + format_number(params_.timeout_s) + " s; killed (" + how + ")");
     }
-    const ssize_t n = ::send(fd_, data.data() + sent, data.size() - sent, MSG_NOSIGNAL | MSG_DONTWAIT);
+    const ssize_t n =
+        ::send(fd_, data.data() + sent, data.size() - sent, MSG_NOSIGNAL | MSG_DONTWAIT);
     if (n < 0 && (errno == EINTR || errno == EAGAIN || errno == EWOULDBLOCK)) continue;
     if (n < 0) {
       std::string how = try_reap(1.0);
@@ -223,8 +225,8 @@ void ExternalOptimizer::send_line(const std::string& line, std::string_view what
 
 std::string ExternalOptimizer::read_line(std::string_view what) {
   const Clock::time_point deadline =
-      Clock::now() + std::chrono::duration_cast<Clock::duration>(
-                         std::chrono::duration<double>(params_.timeout_s));
+      Clock::now() +
+      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(params_.timeout_s));
   for (;;) {
     // A complete line in the buffer (empty lines are skipped).
     for (std::size_t eol; (eol = buffer_.find('\n')) != std::string::npos;) {
@@ -235,15 +237,15 @@ std::string ExternalOptimizer::read_line(std::string_view what) {
       if (line.find_first_not_of(" \t") != std::string::npos) return line;
     }
     if (buffer_.size() > kMaxLineBytes)
-      fail("reply to " + std::string(what) + " is longer than " +
-           std::to_string(kMaxLineBytes) + " bytes without a newline");
+      fail("reply to " + std::string(what) + " is longer than " + std::to_string(kMaxLineBytes) +
+           " bytes without a newline");
     pollfd p{fd_, POLLIN, 0};
     const int ready = ::poll(&p, 1, remaining_ms(deadline));
     if (ready < 0 && errno == EINTR) continue;
     if (ready == 0) {
       const std::string how = kill_and_reap();
-      fail("no reply to " + std::string(what) + " within timeout_s = " +
-           format_number(params_.timeout_s) + " s; killed (" + how + ")");
+      fail("no reply to " + std::string(what) +
+           " within timeout_s = " + format_number(params_.timeout_s) + " s; killed (" + how + ")");
     }
     char chunk[65536];
     const ssize_t n = ::recv(fd_, chunk, sizeof(chunk), 0);
@@ -286,8 +288,7 @@ void ExternalOptimizer::propose(std::vector<Eigen::VectorXd>& batch) {
     const nlohmann::json& e = reply["error"];
     fail("gave up at " + what + ": " + (e.is_string() ? e.get<std::string>() : e.dump()));
   }
-  if (!reply.contains("points"))
-    fail(where + quoted_excerpt(line) + " has no \"points\"");
+  if (!reply.contains("points")) fail(where + quoted_excerpt(line) + " has no \"points\"");
   const nlohmann::json& points = reply["points"];
   if (!points.is_array() || points.empty())
     fail(where + quoted_excerpt(line) + ": \"points\" must be a non-empty array of points");

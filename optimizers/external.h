@@ -92,10 +92,10 @@ class ExternalOptimizer final : public Optimizer {
   std::string command_;
   ExternalParams params_;
   pid_t pid_ = -1;
-  int fd_ = -1;            ///< our end of the socket pair (the child's stdin and stdout)
-  std::string buffer_;     ///< bytes read past the last line
-  int lines_read_ = 0;     ///< lines of the child's stdout read so far (for messages)
-  std::string error_;      ///< set once the run has failed
+  int fd_ = -1;         ///< our end of the socket pair (the child's stdin and stdout)
+  std::string buffer_;  ///< bytes read past the last line
+  int lines_read_ = 0;  ///< lines of the child's stdout read so far (for messages)
+  std::string error_;   ///< set once the run has failed
 };
 
 }  // namespace insid::opt

@@ -46,7 +46,7 @@ bool python_with_numpy() {
   return run_command(kPython + " -c 'import numpy; print(1)' 2>/dev/null") == "1\n";
 }
 
-#define REQUIRE_PYTHON()                                                            \
+#define REQUIRE_PYTHON() \
   if (!python_with_numpy()) GTEST_SKIP() << kPython << " with numpy is not available"
 
 // An asymmetric box: a swapped lower/upper or a dropped offset shows.
@@ -66,9 +66,11 @@ double bowl(const Eigen::VectorXd& x) {
 std::vector<Eigen::VectorXd> numpy_points(std::uint64_t seed, const Bounds& box, int count) {
   const std::string script =
       "import json, numpy as np; "
-      "p = np.random.default_rng(" + std::to_string(seed) + ").uniform(" +
-      format_vector(box.lower) + ", " + format_vector(box.upper) + ", size=(" +
-      std::to_string(count) + ", " + std::to_string(box.dimension()) + ")); "
+      "p = np.random.default_rng(" +
+      std::to_string(seed) + ").uniform(" + format_vector(box.lower) + ", " +
+      format_vector(box.upper) + ", size=(" + std::to_string(count) + ", " +
+      std::to_string(box.dimension()) +
+      ")); "
       "print(json.dumps(p.tolist()))";
   const nlohmann::json j = nlohmann::json::parse(run_command(kPython + " -c '" + script + "'"));
   std::vector<Eigen::VectorXd> points;
@@ -111,8 +113,8 @@ TEST(External, PythonRandomSearchEqualsDirectComputation) {
     EXPECT_EQ(result.iterations, 5);
     EXPECT_EQ(result.termination, Termination::kEvaluations);
     EXPECT_EQ(result.best_per_evaluation, best_per_evaluation) << "seed " << seed;
-    EXPECT_TRUE(same(result.best_x, best_x)) << format_vector(result.best_x) << " vs "
-                                             << format_vector(best_x);
+    EXPECT_TRUE(same(result.best_x, best_x))
+        << format_vector(result.best_x) << " vs " << format_vector(best_x);
     EXPECT_EQ(result.best_f, best);
     EXPECT_EQ(result.history.back().batch_size, 7);
     EXPECT_EQ(result.parameters, (ParameterList{{"timeout_s", 60.0}}));
@@ -130,13 +132,15 @@ TEST(External, LockStepEqualsSeparateRuns) {
   for (std::uint64_t seed = 1; seed <= 3; ++seed) {
     config.seed = seed;
     // Different batch sizes per run: the shared batch has uneven slices.
-    together.push_back(make_optimizer(client_algo(" --batch " + std::to_string(3 + seed)), box, config));
+    together.push_back(
+        make_optimizer(client_algo(" --batch " + std::to_string(3 + seed)), box, config));
     pointers.push_back(together.back().get());
   }
   run_together(pointers, problem);
   for (std::uint64_t seed = 1; seed <= 3; ++seed) {
     config.seed = seed;
-    const Result alone = optimize(client_algo(" --batch " + std::to_string(3 + seed)), problem, config);
+    const Result alone =
+        optimize(client_algo(" --batch " + std::to_string(3 + seed)), problem, config);
     expect_same_run(together[seed - 1]->result(), alone);
     EXPECT_EQ(alone.evaluations, 4 * static_cast<std::int64_t>(3 + seed));
   }
@@ -144,7 +148,8 @@ TEST(External, LockStepEqualsSeparateRuns) {
 
 TEST(External, MessagesFollowTheProtocol) {
   REQUIRE_PYTHON();
-  const fs::path log = fs::temp_directory_path() / ("insid-external-log-" + std::to_string(getpid()));
+  const fs::path log =
+      fs::temp_directory_path() / ("insid-external-log-" + std::to_string(getpid()));
   fs::remove(log);
   const Bounds box = test_box();
   FunctionProblem problem(box, bowl);
@@ -153,8 +158,8 @@ TEST(External, MessagesFollowTheProtocol) {
   config.max_iterations = 0;
   config.max_evaluations = 5;  // 2 + 2 + (2 truncated to 1)
   {
-    auto optimizer = make_optimizer("external:" + kPython + " " + kTestClient + " log " + log.string(),
-                                    box, config);
+    auto optimizer = make_optimizer(
+        "external:" + kPython + " " + kTestClient + " log " + log.string(), box, config);
     run(*optimizer, problem);
     EXPECT_EQ(optimizer->result().evaluations, 5);
   }  // destroyed: "stop" sent, the client exits
@@ -215,8 +220,9 @@ TEST(External, HangingClientIsKilledAfterTheTimeout) {
   const std::string e = error_of("hang", 0.5);
   const double waited =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  expect_contains(e, "(seed 11): no reply to ask 1 within timeout_s = 0.5 s; killed (was killed "
-                     "by signal 9)");
+  expect_contains(e,
+                  "(seed 11): no reply to ask 1 within timeout_s = 0.5 s; killed (was killed "
+                  "by signal 9)");
   EXPECT_LT(waited, 10.0);
 }
 
@@ -244,7 +250,8 @@ TEST(External, FailedRunLeavesTheOthersAlone) {
   runs.push_back(make_optimizer(client_algo(), box, config));
   runs.push_back(make_optimizer("external:" + kPython + " " + kTestClient + " crash", box, config));
   runs.push_back(make_optimizer("pso", box, config));
-  runs.push_back(make_optimizer("external:" + kPython + " " + kTestClient + " notjson", box, config));
+  runs.push_back(
+      make_optimizer("external:" + kPython + " " + kTestClient + " notjson", box, config));
   std::vector<Optimizer*> pointers;
   for (auto& r : runs) pointers.push_back(r.get());
   std::map<std::size_t, std::string> failures;

@@ -90,8 +90,8 @@ void GaOptimizer::mutate(Eigen::VectorXd& x) {
   for (Eigen::Index j = 0; j < x.size(); ++j) {
     if (rng().uniform() >= params_.mutation_prob) continue;
     const double u = rng().uniform();
-    const double delta = u < 0.5 ? std::pow(2.0 * u, exponent) - 1.0
-                                 : 1.0 - std::pow(2.0 * (1.0 - u), exponent);
+    const double delta =
+        u < 0.5 ? std::pow(2.0 * u, exponent) - 1.0 : 1.0 - std::pow(2.0 * (1.0 - u), exponent);
     x[j] += delta * (box.upper[j] - box.lower[j]);
   }
 }

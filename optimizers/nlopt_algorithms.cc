@@ -51,8 +51,10 @@ struct ObjectiveContext {
 double objective(const std::vector<double>& x, std::vector<double>& /*grad*/, void* data) {
   auto* ctx = static_cast<ObjectiveContext*>(data);
   std::vector<double> f;
-  Eigen::VectorXd point = Eigen::Map<const Eigen::VectorXd>(x.data(), static_cast<Eigen::Index>(x.size()));
-  if (!ctx->bridge->request({std::move(point)}, f, nullptr, "objective")) throw nlopt::forced_stop();
+  Eigen::VectorXd point =
+      Eigen::Map<const Eigen::VectorXd>(x.data(), static_cast<Eigen::Index>(x.size()));
+  if (!ctx->bridge->request({std::move(point)}, f, nullptr, "objective"))
+    throw nlopt::forced_stop();
   ++ctx->requests;
   return f[0];
 }

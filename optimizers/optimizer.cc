@@ -24,10 +24,14 @@ std::string RunConfig::validate() const {
 
 std::string_view to_string(Termination termination) {
   switch (termination) {
-    case Termination::kNone: return "running";
-    case Termination::kIterations: return "iterations";
-    case Termination::kEvaluations: return "evaluations";
-    case Termination::kTarget: return "target";
+    case Termination::kNone:
+      return "running";
+    case Termination::kIterations:
+      return "iterations";
+    case Termination::kEvaluations:
+      return "evaluations";
+    case Termination::kTarget:
+      return "target";
   }
   return "unknown";
 }
@@ -139,8 +143,8 @@ void Optimizer::tell(std::span<const double> fitness) {
              (config_.max_evaluations > 0 && result_.evaluations >= config_.max_evaluations)) {
     finish(Termination::kEvaluations);
   } else {
-    result_.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() -
-                                                        *start_).count();
+    result_.wall_time_s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - *start_).count();
   }
 }
 
@@ -187,8 +191,10 @@ void check_same_box(const Optimizer& optimizer, const Problem& problem) {
   const Bounds& a = optimizer.bounds();
   const Bounds& b = problem.bounds();
   if (a.dimension() != b.dimension() || a.lower != b.lower || a.upper != b.upper) {
-    throw std::invalid_argument(optimizer.name() + ": the optimizer's box differs from that of "
-                                "problem '" + problem.name() + "'");
+    throw std::invalid_argument(optimizer.name() +
+                                ": the optimizer's box differs from that of "
+                                "problem '" +
+                                problem.name() + "'");
   }
 }
 

@@ -47,10 +47,10 @@ namespace insid::opt {
 
 struct RunConfig {
   std::uint64_t seed = 1;
-  int max_iterations = 40;          ///< batches, the initial one included; 0 = no limit
+  int max_iterations = 40;           ///< batches, the initial one included; 0 = no limit
   std::int64_t max_evaluations = 0;  ///< 0 = no limit; at least one of the two limits is set
   double target_fitness = -std::numeric_limits<double>::infinity();  ///< stop when best <= it
-  bool record_positions = false;    ///< keep every batch's positions and fitness in history
+  bool record_positions = false;  ///< keep every batch's positions and fitness in history
   /// Optional starting points (in the box) used for the first members of the initial
   /// population, the rest drawn uniformly; at most the population size.
   std::vector<Eigen::VectorXd> initial_positions;
@@ -69,18 +69,18 @@ std::string_view to_string(Termination termination);
 
 /// One iteration (batch). Population statistics are over the candidates evaluated in it.
 struct IterationRecord {
-  int iteration = 0;              ///< 1-based; iteration 1 evaluates the initial population
-  std::int64_t evaluations = 0;   ///< evaluations so far, this batch included
-  int batch_size = 0;             ///< candidates evaluated in this iteration
-  double best_fitness = 0.0;      ///< best-so-far after this iteration
-  double median_fitness = 0.0;    ///< median fitness of this iteration's candidates
-  double diversity = 0.0;         ///< mean ||x_i - x_best|| of this iteration's candidates
-  std::string phase;              ///< operator that produced the batch ("initial", ...)
+  int iteration = 0;             ///< 1-based; iteration 1 evaluates the initial population
+  std::int64_t evaluations = 0;  ///< evaluations so far, this batch included
+  int batch_size = 0;            ///< candidates evaluated in this iteration
+  double best_fitness = 0.0;     ///< best-so-far after this iteration
+  double median_fitness = 0.0;   ///< median fitness of this iteration's candidates
+  double diversity = 0.0;        ///< mean ||x_i - x_best|| of this iteration's candidates
+  std::string phase;             ///< operator that produced the batch ("initial", ...)
   // DVPIO only (false / empty for the other algorithms):
-  bool premature = false;           ///< batch made in premature mode (Eq. 12 probes)
-  Eigen::VectorXd d_positive;       ///< d_jp used by this batch's probes (Eq. 11)
-  Eigen::VectorXd d_negative;       ///< d_jn used by this batch's probes (Eq. 11)
-  std::vector<int> direction_flags; ///< T_j of this batch (Eq. 13): -1, +1, 0 = not probed
+  bool premature = false;            ///< batch made in premature mode (Eq. 12 probes)
+  Eigen::VectorXd d_positive;        ///< d_jp used by this batch's probes (Eq. 11)
+  Eigen::VectorXd d_negative;        ///< d_jn used by this batch's probes (Eq. 11)
+  std::vector<int> direction_flags;  ///< T_j of this batch (Eq. 13): -1, +1, 0 = not probed
   // Only with RunConfig::record_positions:
   std::vector<Eigen::VectorXd> positions;  ///< the batch
   std::vector<double> fitness;             ///< its fitness
@@ -96,7 +96,7 @@ struct Result {
   int iterations = 0;
   double wall_time_s = 0.0;  ///< from the first ask() to the end (or to now, while running)
   Termination termination = Termination::kNone;
-  std::vector<IterationRecord> history;    ///< one per iteration
+  std::vector<IterationRecord> history;     ///< one per iteration
   std::vector<double> best_per_evaluation;  ///< best-so-far after each evaluation
 };
 

@@ -81,8 +81,8 @@ TEST_P(EveryOptimizer, EvaluationBudgetIsNeverExceededAndTraceIsMonotone) {
     EXPECT_EQ(result.evaluations, budget);
     EXPECT_EQ(result.termination, Termination::kEvaluations);
     ASSERT_EQ(static_cast<std::int64_t>(result.best_per_evaluation.size()), budget);
-    EXPECT_TRUE(std::is_sorted(result.best_per_evaluation.rbegin(),
-                               result.best_per_evaluation.rend()));
+    EXPECT_TRUE(
+        std::is_sorted(result.best_per_evaluation.rbegin(), result.best_per_evaluation.rend()));
     EXPECT_EQ(result.best_per_evaluation.back(), result.best_f);
     EXPECT_EQ(problem->fitness(result.best_x), result.best_f);
     EXPECT_EQ(result.history.back().evaluations, budget);
@@ -170,10 +170,13 @@ TEST_P(EveryOptimizer, NonFiniteFitnessIsAnErrorNamingTheCandidate) {
 }
 
 TEST_P(EveryOptimizer, ExceptionInParallelEvaluationPropagates) {
-  const FunctionProblem problem(Bounds::unit_box(2), [](const Eigen::VectorXd& x) -> double {
-    if (x[1] > 0.9) throw std::runtime_error("simulated kernel failure");
-    return x[0] * x[0] + x[1] * x[1];
-  }, {Parallelism::kOpenMP, 2});
+  const FunctionProblem problem(Bounds::unit_box(2),
+                                [](const Eigen::VectorXd& x) -> double {
+                                  if (x[1] > 0.9)
+                                    throw std::runtime_error("simulated kernel failure");
+                                  return x[0] * x[0] + x[1] * x[1];
+                                },
+                                {Parallelism::kOpenMP, 2});
   RunConfig config = config_with(1, 20);
   config.initial_positions = {Eigen::Vector2d(0.0, 0.0), Eigen::Vector2d(0.0, 0.95)};
   try {
@@ -186,8 +189,7 @@ TEST_P(EveryOptimizer, ExceptionInParallelEvaluationPropagates) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Optimizers, EveryOptimizer,
-                         ::testing::Values("ga", "pso", "pio", "dvpio"),
+INSTANTIATE_TEST_SUITE_P(Optimizers, EveryOptimizer, ::testing::Values("ga", "pso", "pio", "dvpio"),
                          [](const auto& param_info) { return param_info.param; });
 
 TEST(AskTell, ProtocolIsChecked) {

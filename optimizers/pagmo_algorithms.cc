@@ -33,7 +33,9 @@ unsigned pagmo_seed(std::uint64_t seed) {
 namespace detail {
 namespace {
 
-backend::Vec to_vec(const Eigen::VectorXd& x) { return backend::Vec(x.data(), x.data() + x.size()); }
+backend::Vec to_vec(const Eigen::VectorXd& x) {
+  return backend::Vec(x.data(), x.data() + x.size());
+}
 Eigen::VectorXd from_vec(const backend::Vec& x) {
   return Eigen::Map<const Eigen::VectorXd>(x.data(), static_cast<Eigen::Index>(x.size()));
 }
@@ -65,11 +67,11 @@ std::string CmaesParams::validate() const {
     if (v == -1.0) return {};
     return check_range(kAlgorithm, name, v, 0.0, 1.0);
   };
-  for (std::string error : {check_at_least(kAlgorithm, "population", population, 5),
-                            check_positive(kAlgorithm, "sigma0", sigma0),
-                            auto_or_unit("cc", cc), auto_or_unit("cs", cs),
-                            auto_or_unit("c1", c1), auto_or_unit("cmu", cmu),
-                            check_range(kAlgorithm, "force_bounds", force_bounds, 0, 1)}) {
+  for (std::string error :
+       {check_at_least(kAlgorithm, "population", population, 5),
+        check_positive(kAlgorithm, "sigma0", sigma0), auto_or_unit("cc", cc),
+        auto_or_unit("cs", cs), auto_or_unit("c1", c1), auto_or_unit("cmu", cmu),
+        check_range(kAlgorithm, "force_bounds", force_bounds, 0, 1)}) {
     if (!error.empty()) return error;
   }
   return {};
@@ -86,10 +88,10 @@ std::span<const ParameterField<DeParams>> DeParams::fields() {
 }
 
 std::string DeParams::validate() const {
-  for (std::string error : {check_at_least(kAlgorithm, "population", population, 5),
-                            check_range(kAlgorithm, "F", F, 0.0, 1.0),
-                            check_range(kAlgorithm, "CR", CR, 0.0, 1.0),
-                            check_range(kAlgorithm, "variant", variant, 1, 10)}) {
+  for (std::string error :
+       {check_at_least(kAlgorithm, "population", population, 5),
+        check_range(kAlgorithm, "F", F, 0.0, 1.0), check_range(kAlgorithm, "CR", CR, 0.0, 1.0),
+        check_range(kAlgorithm, "variant", variant, 1, 10)}) {
     if (!error.empty()) return error;
   }
   return {};
@@ -176,8 +178,8 @@ std::unique_ptr<detail::PagmoState> de_state(const Bounds& bounds, const RunConf
   s.F = p.F;
   s.CR = p.CR;
   s.variant = static_cast<unsigned>(p.variant);
-  state->algorithm = backend::make_de(s, detail::to_vec(bounds.lower),
-                                      detail::to_vec(bounds.upper), pagmo_seed(config.seed));
+  state->algorithm = backend::make_de(s, detail::to_vec(bounds.lower), detail::to_vec(bounds.upper),
+                                      pagmo_seed(config.seed));
   return state;
 }
 
@@ -202,13 +204,13 @@ CompassOptimizer::CompassOptimizer(const Bounds& bounds, const RunConfig& config
 void CompassOptimizer::solve(detail::SolverBridge& bridge) {
   const backend::Vec lower = detail::to_vec(bounds().lower);
   const backend::Vec upper = detail::to_vec(bounds().upper);
-  const std::function<bool(const backend::Vec&, double&)> fitness =
-      [&bridge](const backend::Vec& x, double& f) {
-        std::vector<double> values;
-        if (!bridge.request({detail::from_vec(x)}, values, nullptr, "probe")) return false;
-        f = values[0];
-        return true;
-      };
+  const std::function<bool(const backend::Vec&, double&)> fitness = [&bridge](const backend::Vec& x,
+                                                                              double& f) {
+    std::vector<double> values;
+    if (!bridge.request({detail::from_vec(x)}, values, nullptr, "probe")) return false;
+    f = values[0];
+    return true;
+  };
   for (;;) {
     // One start: evaluate the start point, then pagmo's compass search until its step falls
     // below stop_range (max_fevals: effectively unlimited; the run's budget stops it).

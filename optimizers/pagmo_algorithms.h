@@ -22,13 +22,13 @@ namespace insid::opt {
 struct CmaesParams {
   static constexpr std::string_view kAlgorithm = "CMA-ES";
 
-  int population = 10;     ///< lambda (offspring per generation, >= 5); mu = lambda / 2
-  double sigma0 = 0.3;     ///< initial step size as a fraction of the box width
-  double cc = -1.0;        ///< cumulation constant for C (-1 = pagmo's automatic value)
-  double cs = -1.0;        ///< cumulation constant for sigma (-1 = automatic)
-  double c1 = -1.0;        ///< rank-one learning rate (-1 = automatic)
-  double cmu = -1.0;       ///< rank-mu learning rate (-1 = automatic)
-  int force_bounds = 1;    ///< 1: clamp offspring to the box (pagmo force_bounds)
+  int population = 10;   ///< lambda (offspring per generation, >= 5); mu = lambda / 2
+  double sigma0 = 0.3;   ///< initial step size as a fraction of the box width
+  double cc = -1.0;      ///< cumulation constant for C (-1 = pagmo's automatic value)
+  double cs = -1.0;      ///< cumulation constant for sigma (-1 = automatic)
+  double c1 = -1.0;      ///< rank-one learning rate (-1 = automatic)
+  double cmu = -1.0;     ///< rank-mu learning rate (-1 = automatic)
+  int force_bounds = 1;  ///< 1: clamp offspring to the box (pagmo force_bounds)
 
   static std::span<const ParameterField<CmaesParams>> fields();
   std::string validate() const;
@@ -112,8 +112,7 @@ class DeOptimizer final : public PagmoPopulationOptimizer {
 /// the previous one), restarted from a new uniform point when the step falls below stop_range.
 class CompassOptimizer final : public detail::BridgedOptimizer {
  public:
-  CompassOptimizer(const Bounds& bounds, const RunConfig& config,
-                   const CompassParams& params = {});
+  CompassOptimizer(const Bounds& bounds, const RunConfig& config, const CompassParams& params = {});
   ~CompassOptimizer() override { stop_solver(); }
   ParameterList parameters() const override { return params_.list(); }
 

@@ -86,7 +86,7 @@ void set_parameter(Params& params, std::string_view name, double value) {
   for (const ParameterField<Params>& field : Params::fields()) {
     if (field.name != name) continue;
     if (auto* member = std::get_if<double Params::*>(&field.member)) {
-      params.**member = value;
+      params.** member = value;
     } else {
       const bool whole = std::isfinite(value) && std::floor(value) == value;
       if (!whole) {
@@ -104,8 +104,8 @@ void set_parameter(Params& params, std::string_view name, double value) {
     return;
   }
   throw std::invalid_argument(std::string(Params::kAlgorithm) + ": unknown parameter '" +
-                              std::string(name) + "'; valid parameters: " +
-                              parameter_names(params));
+                              std::string(name) +
+                              "'; valid parameters: " + parameter_names(params));
 }
 
 /// Defaults overridden by `overrides`, then validated (throws std::invalid_argument).
@@ -123,17 +123,16 @@ Params parameters_from_map(const ParameterMap& overrides) {
 inline std::string check_range(std::string_view algorithm, std::string_view name, double value,
                                double low, double high) {
   if (value >= low && value <= high) return {};
-  return std::string(algorithm) + ": " + std::string(name) + " must be in [" +
-         format_number(low) + ", " + format_number(high) + "], got " + format_number(value);
+  return std::string(algorithm) + ": " + std::string(name) + " must be in [" + format_number(low) +
+         ", " + format_number(high) + "], got " + format_number(value);
 }
 inline std::string check_at_least(std::string_view algorithm, std::string_view name, double value,
                                   double low) {
   if (value >= low && std::isfinite(value)) return {};
-  return std::string(algorithm) + ": " + std::string(name) + " must be finite and >= " +
-         format_number(low) + ", got " + format_number(value);
+  return std::string(algorithm) + ": " + std::string(name) +
+         " must be finite and >= " + format_number(low) + ", got " + format_number(value);
 }
-inline std::string check_positive(std::string_view algorithm, std::string_view name,
-                                  double value) {
+inline std::string check_positive(std::string_view algorithm, std::string_view name, double value) {
   if (value > 0.0 && std::isfinite(value)) return {};
   return std::string(algorithm) + ": " + std::string(name) + " must be positive and finite, got " +
          format_number(value);

@@ -33,11 +33,9 @@ TEST(Parameters, DefaultsAreThePaperTable4Presets) {
                                               {"sbx_eta", 15},
                                               {"mutation_eta", 20},
                                               {"elite_count", 1}}));
-  EXPECT_EQ(PsoParams{}.list(), (ParameterList{{"population", 10},
-                                               {"w", 0.8},
-                                               {"c1", 2},
-                                               {"c2", 2},
-                                               {"v_max_fraction", 0.2}}));
+  EXPECT_EQ(PsoParams{}.list(),
+            (ParameterList{
+                {"population", 10}, {"w", 0.8}, {"c1", 2}, {"c2", 2}, {"v_max_fraction", 0.2}}));
   const ParameterList pio = PioParams{}.list();
   EXPECT_EQ(pio[0], (std::pair<std::string, double>("population", 10)));
   EXPECT_EQ(pio[1], (std::pair<std::string, double>("R", 0.05)));

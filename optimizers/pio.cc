@@ -67,7 +67,7 @@ void map_compass_move(const Bounds& bounds, double R, double C, int nc, bool per
   for (Eigen::Index j = 0; j < x.size(); ++j) {
     if (per_dimension_rand) r = rng.uniform();
     v[j] = v[j] * decay + C * r * (x_gbest[j] - x[j]);  // Eq. 8
-    x[j] += v[j];                                        // Eq. 9
+    x[j] += v[j];                                       // Eq. 9
     if (x[j] < bounds.lower[j] || x[j] > bounds.upper[j]) {
       x[j] = std::clamp(x[j], bounds.lower[j], bounds.upper[j]);
       v[j] = 0.0;
@@ -111,7 +111,8 @@ void PioOptimizer::landmark_step() {
   std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return f_[a] < f_[b]; });
 
   int kept = (count + 1) / 2;
-  if (kept < params_.landmark_min_population) kept = std::min(params_.landmark_min_population, count);
+  if (kept < params_.landmark_min_population)
+    kept = std::min(params_.landmark_min_population, count);
 
   std::vector<Eigen::VectorXd> x(kept), v(kept);
   Eigen::VectorXd centre = Eigen::VectorXd::Zero(bounds().dimension());

@@ -20,12 +20,12 @@ namespace insid::opt {
 struct PioParams {
   static constexpr std::string_view kAlgorithm = "PIO";
 
-  int population = 10;             ///< pigeons
-  double R = 0.05;                 ///< map-and-compass factor (Eq. 8), in [0, 1]
-  double C = 1.0;                  ///< weight of the pull towards the global best (Eq. 8)
-  double landmark_fraction = 0.25; ///< share of the planned iterations for the landmark operator
-  int landmark_min_population = 2; ///< the landmark halving stops at this many pigeons
-  int per_dimension_rand = 1;      ///< 1: rand drawn per dimension; 0: one rand per pigeon
+  int population = 10;              ///< pigeons
+  double R = 0.05;                  ///< map-and-compass factor (Eq. 8), in [0, 1]
+  double C = 1.0;                   ///< weight of the pull towards the global best (Eq. 8)
+  double landmark_fraction = 0.25;  ///< share of the planned iterations for the landmark operator
+  int landmark_min_population = 2;  ///< the landmark halving stops at this many pigeons
+  int per_dimension_rand = 1;       ///< 1: rand drawn per dimension; 0: one rand per pigeon
 
   static std::span<const ParameterField<PioParams>> fields();
   std::string validate() const;

@@ -15,8 +15,8 @@ Bounds Bounds::unit_box(int dimension) {
 }
 
 std::string Bounds::validate() const {
-  if (lower.size() < 1) return "bounds: dimension must be >= 1, got " +
-                               std::to_string(lower.size());
+  if (lower.size() < 1)
+    return "bounds: dimension must be >= 1, got " + std::to_string(lower.size());
   if (lower.size() != upper.size()) {
     return "bounds: lower has " + std::to_string(lower.size()) + " entries, upper has " +
            std::to_string(upper.size());
@@ -40,8 +40,8 @@ void check_finite_fitness(std::span<const Eigen::VectorXd> xs, std::span<const d
   for (std::size_t i = 0; i < f.size(); ++i) {
     if (std::isfinite(f[i])) continue;
     throw NonFiniteFitnessError(context + ": non-finite fitness " + format_number(f[i]) +
-                                " for candidate " + std::to_string(i) + " at x = " +
-                                format_vector(xs[i]));
+                                " for candidate " + std::to_string(i) +
+                                " at x = " + format_vector(xs[i]));
   }
 }
 
@@ -57,9 +57,8 @@ namespace {
 // the candidate, with the original exception nested.
 [[noreturn]] void rethrow_for_candidate(const std::exception_ptr& error, std::size_t index,
                                         const Eigen::VectorXd& x) {
-  const std::string where =
-      "fitness evaluation failed for candidate " + std::to_string(index) + " at x = " +
-      format_vector(x) + ": ";
+  const std::string where = "fitness evaluation failed for candidate " + std::to_string(index) +
+                            " at x = " + format_vector(x) + ": ";
   try {
     std::rethrow_exception(error);
   } catch (const std::exception& e) {
@@ -75,9 +74,8 @@ void evaluate_each(std::span<const Eigen::VectorXd> xs, std::span<double> f_out,
                    const EvaluatorOptions& options,
                    const std::function<double(const Eigen::VectorXd&)>& fitness) {
   if (f_out.size() != xs.size()) {
-    throw std::invalid_argument("evaluate_each: " + std::to_string(xs.size()) +
-                                " candidates but " + std::to_string(f_out.size()) +
-                                " output slots");
+    throw std::invalid_argument("evaluate_each: " + std::to_string(xs.size()) + " candidates but " +
+                                std::to_string(f_out.size()) + " output slots");
   }
   const auto count = static_cast<std::ptrdiff_t>(xs.size());
   if (options.parallelism == Parallelism::kSerial) {

@@ -99,8 +99,7 @@ class ScalarProblem : public Problem {
   /// Fitness of one candidate. Must be thread-safe when the evaluator is OpenMP.
   virtual double fitness(const Eigen::VectorXd& x) const = 0;
 
-  void evaluate_batch(std::span<const Eigen::VectorXd> xs,
-                      std::span<double> f_out) const final;
+  void evaluate_batch(std::span<const Eigen::VectorXd> xs, std::span<double> f_out) const final;
 
   const EvaluatorOptions& evaluator() const { return options_; }
   void set_evaluator(const EvaluatorOptions& options) { options_ = options; }

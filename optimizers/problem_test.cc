@@ -72,10 +72,13 @@ TEST(Evaluator, ExceptionInParallelRegionIsPropagatedWithCandidate) {
   // GIVEN a fitness that throws for two candidates, WHEN evaluated on 2 threads, THEN the
   // lowest failing index is reported, with the original exception nested.
   const auto points = random_points(64, 3, 5);
-  const FunctionProblem problem(Bounds::unit_box(3), [&](const Eigen::VectorXd& x) {
-    if (&x == &points[17] || &x == &points[40]) throw std::domain_error("kernel diverged");
-    return bumpy(x);
-  }, {Parallelism::kOpenMP, 2});
+  const FunctionProblem problem(Bounds::unit_box(3),
+                                [&](const Eigen::VectorXd& x) {
+                                  if (&x == &points[17] || &x == &points[40])
+                                    throw std::domain_error("kernel diverged");
+                                  return bumpy(x);
+                                },
+                                {Parallelism::kOpenMP, 2});
   std::vector<double> f(points.size());
   try {
     problem.evaluate_batch(points, f);

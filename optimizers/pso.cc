@@ -33,12 +33,12 @@ std::span<const ParameterField<PsoParams>> PsoParams::fields() {
 }
 
 std::string PsoParams::validate() const {
-  for (std::string error : {check_at_least(kAlgorithm, "population", population, 1),
-                            check_range(kAlgorithm, "w", w, 0.0, 1.0),
-                            check_range(kAlgorithm, "c1", c1, 0.0, 4.0),
-                            check_range(kAlgorithm, "c2", c2, 0.0, 4.0),
-                            check_positive(kAlgorithm, "v_max_fraction", v_max_fraction),
-                            check_range(kAlgorithm, "v_max_fraction", v_max_fraction, 0.0, 1.0)}) {
+  for (std::string error :
+       {check_at_least(kAlgorithm, "population", population, 1),
+        check_range(kAlgorithm, "w", w, 0.0, 1.0), check_range(kAlgorithm, "c1", c1, 0.0, 4.0),
+        check_range(kAlgorithm, "c2", c2, 0.0, 4.0),
+        check_positive(kAlgorithm, "v_max_fraction", v_max_fraction),
+        check_range(kAlgorithm, "v_max_fraction", v_max_fraction, 0.0, 1.0)}) {
     if (!error.empty()) return error;
   }
   return {};

@@ -59,8 +59,7 @@ void register_algorithm(const std::string& name, AlgorithmFactory factory) {
 }
 
 std::unique_ptr<Optimizer> make_optimizer(std::string_view algorithm, const Bounds& bounds,
-                                          const RunConfig& config,
-                                          const ParameterMap& overrides) {
+                                          const RunConfig& config, const ParameterMap& overrides) {
   if (is_external_algorithm(algorithm)) {
     return std::make_unique<ExternalOptimizer>(
         std::string(algorithm.substr(kExternalPrefix.size())), bounds, config,

@@ -70,7 +70,8 @@ void SolverBridge::deliver(std::vector<double> fitness,
                            std::vector<std::vector<double>> residuals) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (phase_ != Phase::kRequest) throw std::logic_error("solver bridge: deliver() without a request");
+    if (phase_ != Phase::kRequest)
+      throw std::logic_error("solver bridge: deliver() without a request");
     if (fitness.size() != points_.size())
       throw std::logic_error("solver bridge: wrong number of values");
     fitness_ = std::move(fitness);

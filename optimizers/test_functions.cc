@@ -7,7 +7,9 @@
 namespace insid::opt {
 
 namespace {
-double optimum_coordinate(Eigen::Index j) { return 0.5 * std::sin(1.3 * static_cast<double>(j + 1)); }
+double optimum_coordinate(Eigen::Index j) {
+  return 0.5 * std::sin(1.3 * static_cast<double>(j + 1));
+}
 }  // namespace
 
 Eigen::VectorXd benchmark_optimum(int dimension) {

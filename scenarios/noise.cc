@@ -13,9 +13,7 @@ std::uint64_t splitmix64(std::uint64_t x) {
   return x ^ (x >> 31);
 }
 
-double GaussianRng::uniform() {
-  return static_cast<double>(engine_() >> 11) * 0x1.0p-53;
-}
+double GaussianRng::uniform() { return static_cast<double>(engine_() >> 11) * 0x1.0p-53; }
 
 double GaussianRng::normal() {
   if (has_spare_) {
@@ -35,13 +33,12 @@ double GaussianRng::normal() {
 }
 
 std::string NoiseSpec::validate() const {
-  const std::pair<const char*, double> fields[] = {
-      {"arw_deg_rth", arw_deg_rth},
-      {"vrw_mps_rth", vrw_mps_rth},
-      {"gnss_vel_sigma_mps", gnss_vel_sigma_mps},
-      {"gnss_pos_sigma_m", gnss_pos_sigma_m},
-      {"gm_gyro_sigma_deg_h", gm_gyro_sigma_deg_h},
-      {"gm_accel_sigma_mps2", gm_accel_sigma_mps2}};
+  const std::pair<const char*, double> fields[] = {{"arw_deg_rth", arw_deg_rth},
+                                                   {"vrw_mps_rth", vrw_mps_rth},
+                                                   {"gnss_vel_sigma_mps", gnss_vel_sigma_mps},
+                                                   {"gnss_pos_sigma_m", gnss_pos_sigma_m},
+                                                   {"gm_gyro_sigma_deg_h", gm_gyro_sigma_deg_h},
+                                                   {"gm_accel_sigma_mps2", gm_accel_sigma_mps2}};
   for (const auto& [name, v] : fields) {
     if (!(v >= 0.0) || !std::isfinite(v)) {
       std::ostringstream s;
@@ -58,8 +55,8 @@ std::string NoiseSpec::validate() const {
 }
 
 bool NoiseSpec::is_zero() const {
-  return arw_deg_rth == 0 && vrw_mps_rth == 0 && gnss_vel_sigma_mps == 0 &&
-         gnss_pos_sigma_m == 0 && gm_gyro_sigma_deg_h == 0 && gm_accel_sigma_mps2 == 0;
+  return arw_deg_rth == 0 && vrw_mps_rth == 0 && gnss_vel_sigma_mps == 0 && gnss_pos_sigma_m == 0 &&
+         gm_gyro_sigma_deg_h == 0 && gm_accel_sigma_mps2 == 0;
 }
 
 NoiseLevels NoiseSpec::levels() const {

@@ -34,14 +34,14 @@ class GaussianRng {
 /// Noise levels of one dataset. White noise on the IMU increments (random walks), white noise
 /// on the GNSS solution, optional first-order Gauss-Markov bias instability on every IMU axis.
 struct NoiseSpec {
-  std::string grade = "none";      ///< name of the grade the levels started from
-  double arw_deg_rth = 0.0;         ///< angle random walk (deg/sqrt(h))
-  double vrw_mps_rth = 0.0;         ///< velocity random walk (m/s/sqrt(h))
-  double gnss_vel_sigma_mps = 0.0;  ///< per ENU axis (m/s)
-  double gnss_pos_sigma_m = 0.0;    ///< per ENU axis (m)
-  double gm_gyro_sigma_deg_h = 0.0;   ///< Gauss-Markov gyro bias steady-state sigma (deg/h)
-  double gm_accel_sigma_mps2 = 0.0;   ///< Gauss-Markov accel bias steady-state sigma (m/s^2)
-  double gm_tau_s = 3600.0;           ///< Gauss-Markov correlation time (s)
+  std::string grade = "none";        ///< name of the grade the levels started from
+  double arw_deg_rth = 0.0;          ///< angle random walk (deg/sqrt(h))
+  double vrw_mps_rth = 0.0;          ///< velocity random walk (m/s/sqrt(h))
+  double gnss_vel_sigma_mps = 0.0;   ///< per ENU axis (m/s)
+  double gnss_pos_sigma_m = 0.0;     ///< per ENU axis (m)
+  double gm_gyro_sigma_deg_h = 0.0;  ///< Gauss-Markov gyro bias steady-state sigma (deg/h)
+  double gm_accel_sigma_mps2 = 0.0;  ///< Gauss-Markov accel bias steady-state sigma (m/s^2)
+  double gm_tau_s = 3600.0;          ///< Gauss-Markov correlation time (s)
 
   /// Empty when valid, else a message naming the bad field and value.
   std::string validate() const;

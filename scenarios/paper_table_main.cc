@@ -22,9 +22,9 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
-#include "insid_git_revision.h"  // generated at build time (cmake/git_revision.cmake)
 #include "core/dataset.h"
 #include "core/fitness.h"
+#include "insid_git_revision.h"  // generated at build time (cmake/git_revision.cmake)
 #include "scenarios/scenario.h"
 
 namespace {
@@ -90,9 +90,10 @@ int main(int argc, char** argv) {
         config_file.empty() ? preset_scenario(preset) : load_scenario_file(config_file), overrides);
     if (!config_file.empty()) preset = cfg.name;
     const ScenarioPlan plan = plan_scenario(cfg);
-    std::fprintf(stderr, "simulating preset '%s': %.0f s alignment + %.0f s flight, %zu IMU rows, "
-                 "%zu GNSS rows ...\n", preset.c_str(), cfg.align_s, plan.flight_s,
-                 plan.num_imu_steps, plan.num_gnss);
+    std::fprintf(stderr,
+                 "simulating preset '%s': %.0f s alignment + %.0f s flight, %zu IMU rows, "
+                 "%zu GNSS rows ...\n",
+                 preset.c_str(), cfg.align_s, plan.flight_s, plan.num_imu_steps, plan.num_gnss);
     const auto t_sim0 = std::chrono::steady_clock::now();
     auto ds = std::make_shared<const Dataset>(simulate(cfg, plan));
     const double sim_s =
@@ -194,8 +195,7 @@ int main(int argc, char** argv) {
       const auto t0 = std::chrono::steady_clock::now();
       volatile double f = problem.fitness(cfg.injected);
       (void)f;
-      times.push_back(
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+      times.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     }
     std::sort(times.begin(), times.end());
     table["fitness_eval_s"] = {{"min", times.front()},

@@ -18,10 +18,10 @@ namespace insid::scenarios {
 namespace {
 
 struct RoundTrip {
-  double max_dv_h = 0;     // m/s
-  double max_dpos_h = 0;   // m
-  double max_att = 0;      // rad
-  double max_resid = 0;    // m/s, INS minus GNSS at GNSS epochs
+  double max_dv_h = 0;    // m/s
+  double max_dpos_h = 0;  // m
+  double max_att = 0;     // rad
+  double max_resid = 0;   // m/s, INS minus GNSS at GNSS epochs
   std::size_t steps = 0;
   std::vector<double> resid;    // (dvE, dvN) per compared GNSS epoch
   std::vector<double> epoch_t;  // GNSS tag of each compared epoch (s)
@@ -49,19 +49,22 @@ RoundTrip navigate(const Dataset& ds, const SensorErrors& candidate, bool true_a
   std::size_t k = k0;
   std::vector<double>& resid = r.resid;
   for (std::size_t i : problem.epoch_gnss_indices()) r.epoch_t.push_back(ds.gnss[i].t_s);
-  problem.run(candidate, C0, [&](const NavState& s) {
-    const TruthSample& t = ds.truth[k++];
-    EXPECT_NEAR(s.t_s, t.t_s, 1e-9);
-    r.max_dv_h = std::max(r.max_dv_h, (s.v_eb_n - t.v_eb_n_mps).head<2>().norm());
-    const double dn = (s.lat_rad - t.lat_rad) * (E.meridian_radius_m(t.lat_rad) + t.h_m);
-    const double de = (s.lon_rad - t.lon_rad) * (E.prime_vertical_radius_m(t.lat_rad) + t.h_m) *
-                      std::cos(t.lat_rad);
-    r.max_dpos_h = std::max(r.max_dpos_h, std::hypot(dn, de));
-    const Eigen::Matrix3d dC =
-        C_b_n_from_euler(t.attitude).transpose() * s.q_b_n.toRotationMatrix();
-    r.max_att = std::max(r.max_att, Eigen::Vector3d(dC(2, 1), dC(0, 2), dC(1, 0)).norm());
-    ++r.steps;
-  }, resid);
+  problem.run(
+      candidate, C0,
+      [&](const NavState& s) {
+        const TruthSample& t = ds.truth[k++];
+        EXPECT_NEAR(s.t_s, t.t_s, 1e-9);
+        r.max_dv_h = std::max(r.max_dv_h, (s.v_eb_n - t.v_eb_n_mps).head<2>().norm());
+        const double dn = (s.lat_rad - t.lat_rad) * (E.meridian_radius_m(t.lat_rad) + t.h_m);
+        const double de = (s.lon_rad - t.lon_rad) * (E.prime_vertical_radius_m(t.lat_rad) + t.h_m) *
+                          std::cos(t.lat_rad);
+        r.max_dpos_h = std::max(r.max_dpos_h, std::hypot(dn, de));
+        const Eigen::Matrix3d dC =
+            C_b_n_from_euler(t.attitude).transpose() * s.q_b_n.toRotationMatrix();
+        r.max_att = std::max(r.max_att, Eigen::Vector3d(dC(2, 1), dC(0, 2), dC(1, 0)).norm());
+        ++r.steps;
+      },
+      resid);
   for (double v : resid) r.max_resid = std::max(r.max_resid, std::fabs(v));
   return r;
 }
@@ -73,8 +76,10 @@ TEST(RoundTrip, RichFlightWithTrueInitialAttitude) {
   EXPECT_LT(r.max_dv_h, 1e-4);
   EXPECT_LT(r.max_dpos_h, 0.5);
   EXPECT_LT(r.max_resid, 1e-4);
-  std::printf("round trip (true attitude): max |dv_h| = %.3g m/s, max |dpos_h| = %.3g m, "
-              "max attitude error = %.3g rad\n", r.max_dv_h, r.max_dpos_h, r.max_att);
+  std::printf(
+      "round trip (true attitude): max |dv_h| = %.3g m/s, max |dpos_h| = %.3g m, "
+      "max attitude error = %.3g rad\n",
+      r.max_dv_h, r.max_dpos_h, r.max_att);
 }
 
 TEST(RoundTrip, RichFlightWithAlignmentFromTheData) {
@@ -82,8 +87,10 @@ TEST(RoundTrip, RichFlightWithAlignmentFromTheData) {
   const RoundTrip r = navigate(ds, SensorErrors{}, false);
   EXPECT_LT(r.max_dv_h, 1e-4);
   EXPECT_LT(r.max_dpos_h, 0.5);
-  std::printf("round trip (aligned): max |dv_h| = %.3g m/s, max |dpos_h| = %.3g m, "
-              "max attitude error = %.3g rad\n", r.max_dv_h, r.max_dpos_h, r.max_att);
+  std::printf(
+      "round trip (aligned): max |dv_h| = %.3g m/s, max |dpos_h| = %.3g m, "
+      "max attitude error = %.3g rad\n",
+      r.max_dv_h, r.max_dpos_h, r.max_att);
 }
 
 // Injected IMU errors compensated with the exact candidate navigate like clean data; GNSS-side
@@ -138,18 +145,19 @@ TEST(RoundTrip, ExactCandidateCompensatesInjectedErrors) {
     std::size_t n_far = 0;
     for (std::size_t e = 0; e < exact.epoch_t.size(); ++e) {
       const double t = exact.epoch_t[e] - c.injected.gnss_latency_s;
-      const bool near_kink = std::any_of(bps.begin(), bps.end(), [&](double b) {
-        return t - b > 0.0 && t - b < 2.0 * dt + 1e-9;
-      });
+      const bool near_kink = std::any_of(
+          bps.begin(), bps.end(), [&](double b) { return t - b > 0.0 && t - b < 2.0 * dt + 1e-9; });
       if (near_kink) continue;
       ++n_far;
-      max_far = std::max(
-          {max_far, std::fabs(exact.resid[2 * e]), std::fabs(exact.resid[2 * e + 1])});
+      max_far =
+          std::max({max_far, std::fabs(exact.resid[2 * e]), std::fabs(exact.resid[2 * e + 1])});
     }
     EXPECT_GT(n_far, exact.epoch_t.size() * 9 / 10);
     EXPECT_LT(max_far, 2e-4);
-    std::printf("exact candidate: max residual away from trajectory kinks %.3g m/s (%zu of %zu "
-                "epochs)\n", max_far, n_far, exact.epoch_t.size());
+    std::printf(
+        "exact candidate: max residual away from trajectory kinks %.3g m/s (%zu of %zu "
+        "epochs)\n",
+        max_far, n_far, exact.epoch_t.size());
   }
   // ... and without the GNSS-side effects / uncompensated the data are far off.
   SensorErrors imu_only = c.injected;
@@ -159,9 +167,10 @@ TEST(RoundTrip, ExactCandidateCompensatesInjectedErrors) {
   EXPECT_GT(no_gnss_effects.max_resid, 50 * 2e-3);
   const RoundTrip raw = navigate(ds, SensorErrors{}, false);
   EXPECT_GT(raw.max_dv_h, 1000 * exact.max_dv_h);
-  std::printf("exact candidate: max |dv_h| = %.3g m/s, max residual = %.3g m/s; without lever "
-              "arm/latency: max residual %.3g m/s; raw: max |dv_h| %.3g m/s\n",
-              exact.max_dv_h, exact.max_resid, no_gnss_effects.max_resid, raw.max_dv_h);
+  std::printf(
+      "exact candidate: max |dv_h| = %.3g m/s, max residual = %.3g m/s; without lever "
+      "arm/latency: max residual %.3g m/s; raw: max |dv_h| %.3g m/s\n",
+      exact.max_dv_h, exact.max_resid, no_gnss_effects.max_resid, raw.max_dv_h);
 }
 
 // Issue 13: real IMUs stamp their rows with jitter (insid-dataset/2 navigates each row over its own
@@ -200,10 +209,11 @@ TEST(RoundTrip, JitteredImuStepsOnAMovingFlightNavigateLikeAConstantRate) {
     EXPECT_LT(b.max_dv_h, 1e-4);
     EXPECT_LT(b.max_dpos_h, 0.5);
     EXPECT_LT(b.max_resid, 1e-4);
-    std::printf("jitter round trip (%s): constant 100 Hz max |dv_h| %.3g m/s, |dpos_h| %.3g m; "
-                "steps 7-13 ms max |dv_h| %.3g m/s, |dpos_h| %.3g m, residual %.3g m/s\n",
-                true_attitude ? "true attitude" : "aligned", a.max_dv_h, a.max_dpos_h, b.max_dv_h,
-                b.max_dpos_h, b.max_resid);
+    std::printf(
+        "jitter round trip (%s): constant 100 Hz max |dv_h| %.3g m/s, |dpos_h| %.3g m; "
+        "steps 7-13 ms max |dv_h| %.3g m/s, |dpos_h| %.3g m, residual %.3g m/s\n",
+        true_attitude ? "true attitude" : "aligned", a.max_dv_h, a.max_dpos_h, b.max_dv_h,
+        b.max_dpos_h, b.max_resid);
   }
 }
 

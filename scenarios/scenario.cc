@@ -96,8 +96,7 @@ const std::map<std::string, std::vector<std::string>>& segment_keys() {
       {"straight", {"type", "duration_s", "comment"}},
       {"speed", {"type", "speed_mps", "accel_mps2", "comment"}},
       {"turn", {"type", "turn_deg", "direction", "bank_deg", "rate_deg_s", "ramp_s", "comment"}},
-      {"loiter",
-       {"type", "circles", "direction", "bank_deg", "rate_deg_s", "ramp_s", "comment"}},
+      {"loiter", {"type", "circles", "direction", "bank_deg", "rate_deg_s", "ramp_s", "comment"}},
       {"s_turns",
        {"type", "count", "turn_deg", "direction", "bank_deg", "rate_deg_s", "ramp_s", "straight_s",
         "comment"}},
@@ -113,8 +112,9 @@ void check_segment(const json& seg, const std::string& where) {
   if (!seg.is_object())
     throw std::invalid_argument(where + ": expected an object, got " + type_name(seg));
   if (!seg.contains("type") || !seg.at("type").is_string())
-    throw std::invalid_argument(where + ": missing string key 'type' (one of: static, straight, "
-                                        "speed, turn, loiter, s_turns, climb, descend, takeoff)");
+    throw std::invalid_argument(where +
+                                ": missing string key 'type' (one of: static, straight, "
+                                "speed, turn, loiter, s_turns, climb, descend, takeoff)");
   const std::string type = seg.at("type").get<std::string>();
   const auto it = segment_keys().find(type);
   if (it == segment_keys().end())
@@ -143,7 +143,8 @@ TurnSharpness sharpness_of(const ObjectReader& r) {
   TurnSharpness s;
   if (r.has("bank_deg")) {
     s.bank_rad = r.number("bank_deg") * kDegToRad;
-    if (!(s.bank_rad > 0.0)) r.fail("bank_deg must be in (0, 60] deg, got " + num(r.number("bank_deg")));
+    if (!(s.bank_rad > 0.0))
+      r.fail("bank_deg must be in (0, 60] deg, got " + num(r.number("bank_deg")));
   }
   if (r.has("rate_deg_s")) {
     s.rate_rad_s = r.number("rate_deg_s") * kDegToRad;
@@ -354,7 +355,8 @@ Dataset simulate_preset(std::string_view preset, const ScenarioOverrides& overri
 
 ScenarioConfig preset_scenario(std::string_view name) {
   for (const auto& [n, text] : preset_texts())
-    if (n == name) return parse_scenario(parse_json_strict(text, "preset '" + n + "'"), "preset '" + n + "'");
+    if (n == name)
+      return parse_scenario(parse_json_strict(text, "preset '" + n + "'"), "preset '" + n + "'");
   std::string list;
   for (const auto& n : preset_names()) list += (list.empty() ? "" : ", ") + n;
   throw std::invalid_argument("unknown preset '" + std::string(name) + "' (valid: " + list + ")");
@@ -401,9 +403,7 @@ json scenario_to_json(const ScenarioConfig& c) {
 }
 
 ScenarioPlan plan_scenario(const ScenarioConfig& c) {
-  auto fail = [&](const std::string& what) {
-    throw std::invalid_argument(c.origin + ": " + what);
-  };
+  auto fail = [&](const std::string& what) { throw std::invalid_argument(c.origin + ": " + what); };
   if (!(c.imu_rate_hz > 0.0 && c.imu_rate_hz <= 10000.0))
     fail("imu_rate_hz must be in (0, 10000] Hz, got " + num(c.imu_rate_hz));
   if (!(c.gnss_rate_hz > 0.0 && c.gnss_rate_hz <= c.imu_rate_hz))
@@ -435,8 +435,8 @@ ScenarioPlan plan_scenario(const ScenarioConfig& c) {
 
   TrajectoryBuilder b = [&] {
     try {
-      return TrajectoryBuilder(c.initial, c.earth.normal_gravity_mps2(c.initial.lat_rad,
-                                                                      c.initial.h_m));
+      return TrajectoryBuilder(c.initial,
+                               c.earth.normal_gravity_mps2(c.initial.lat_rad, c.initial.h_m));
     } catch (const std::invalid_argument& e) {
       fail(e.what());
     }
@@ -469,8 +469,7 @@ ScenarioPlan plan_scenario(const ScenarioConfig& c) {
   ScenarioPlan p;
   p.trajectory = b.build();
   p.flight_s = flight_s;
-  p.num_imu_steps =
-      static_cast<std::size_t>(std::llround((c.align_s + flight_s) * c.imu_rate_hz));
+  p.num_imu_steps = static_cast<std::size_t>(std::llround((c.align_s + flight_s) * c.imu_rate_hz));
   p.num_gnss =
       static_cast<std::size_t>(std::floor((c.align_s + flight_s) * c.gnss_rate_hz + 1e-6)) + 1;
   return p;
@@ -504,8 +503,8 @@ Dataset simulate(const ScenarioConfig& cfg, const ScenarioPlan& plan, bool recor
   const double dt = 1.0 / cfg.imu_rate_hz;
   const NoiseSpec& n = cfg.noise;
   const bool noisy = !n.is_zero();
-  GaussianRng imu_rng(splitmix64(cfg.seed ^ 0x494D55ULL));    // "IMU"
-  GaussianRng gm_rng(splitmix64(cfg.seed ^ 0x474D42ULL));     // "GMB"
+  GaussianRng imu_rng(splitmix64(cfg.seed ^ 0x494D55ULL));     // "IMU"
+  GaussianRng gm_rng(splitmix64(cfg.seed ^ 0x474D42ULL));      // "GMB"
   GaussianRng gnss_rng(splitmix64(cfg.seed ^ 0x474E5353ULL));  // "GNSS"
   const double sigma_dtheta = n.arw_deg_rth * kDegToRad / 60.0 * std::sqrt(dt);
   const double sigma_dv = n.vrw_mps_rth / 60.0 * std::sqrt(dt);
@@ -540,7 +539,8 @@ Dataset simulate(const ScenarioConfig& cfg, const ScenarioPlan& plan, bool recor
   // --- GNSS: antenna (lever arm) at the tagged time minus the latency, plus white noise.
   const double latency = cfg.injected.gnss_latency_s;
   const Eigen::Vector3d& lever = cfg.injected.lever_arm_b_m;
-  const std::size_t decim = static_cast<std::size_t>(std::llround(cfg.imu_rate_hz / cfg.gnss_rate_hz));
+  const std::size_t decim =
+      static_cast<std::size_t>(std::llround(cfg.imu_rate_hz / cfg.gnss_rate_hz));
   ds.gnss.reserve(plan.num_gnss);
   for (std::size_t j = 0; j < plan.num_gnss; ++j) {
     const double t = static_cast<double>(j) / cfg.gnss_rate_hz;
@@ -561,8 +561,8 @@ Dataset simulate(const ScenarioConfig& cfg, const ScenarioPlan& plan, bool recor
       const double dN = n.gnss_pos_sigma_m * gnss_rng.normal();
       const double dU = n.gnss_pos_sigma_m * gnss_rng.normal();
       g.lat_rad += dN / (cfg.earth.meridian_radius_m(g.lat_rad) + g.h_m);
-      g.lon_rad += dE / ((cfg.earth.prime_vertical_radius_m(g.lat_rad) + g.h_m) *
-                         std::cos(g.lat_rad));
+      g.lon_rad +=
+          dE / ((cfg.earth.prime_vertical_radius_m(g.lat_rad) + g.h_m) * std::cos(g.lat_rad));
       g.h_m += dU;
       for (int i = 0; i < 3; ++i) g.v_eb_n_mps[i] += n.gnss_vel_sigma_mps * gnss_rng.normal();
     }

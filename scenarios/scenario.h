@@ -24,19 +24,19 @@ namespace insid::scenarios {
 struct ScenarioConfig {
   std::string name = "custom";
   std::string description;
-  std::string origin = "scenario";   ///< where it came from (file or preset), for messages
+  std::string origin = "scenario";  ///< where it came from (file or preset), for messages
   double imu_rate_hz = 100.0;
   double gnss_rate_hz = 10.0;
-  EarthModel earth;                  ///< default WGS-84
+  EarthModel earth;                   ///< default WGS-84
   std::string earth_model = "wgs84";  ///< "wgs84" | "paper" | "custom" (as given)
-  InitialPose initial;               ///< radians
-  double align_s = 600.0;            ///< static alignment at the start (s)
-  std::optional<double> flight_s;    ///< flight after the alignment (s); default: the segments
+  InitialPose initial;                ///< radians
+  double align_s = 600.0;             ///< static alignment at the start (s)
+  std::optional<double> flight_s;     ///< flight after the alignment (s); default: the segments
   nlohmann::json segments = nlohmann::json::array();  ///< played once after the alignment
   nlohmann::json repeat = nlohmann::json::array();    ///< then cycled until flight_s
-  int substeps = 4;                  ///< RK4 sub-steps per IMU interval
-  NoiseSpec noise;                   ///< default: grade "none"
-  SensorErrors injected;             ///< SI
+  int substeps = 4;                                   ///< RK4 sub-steps per IMU interval
+  NoiseSpec noise;                                    ///< default: grade "none"
+  SensorErrors injected;                              ///< SI
   std::uint64_t seed = 1;
 };
 
@@ -68,7 +68,7 @@ ScenarioConfig with_overrides(ScenarioConfig cfg, const ScenarioOverrides& overr
 /// What a configuration expands to.
 struct ScenarioPlan {
   Trajectory trajectory;
-  double flight_s = 0.0;         ///< after the alignment
+  double flight_s = 0.0;          ///< after the alignment
   std::size_t num_imu_steps = 0;  ///< rows of imu.csv
   std::size_t num_gnss = 0;       ///< rows of gnss.csv
 };

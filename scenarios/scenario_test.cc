@@ -72,8 +72,7 @@ TEST(Effects, AccelBiasAddsBiasTimesDt) {
 
 TEST(Effects, GyroBiasAndDriftAddRateTimesDt) {
   const Pair p = simulate_with("gyro_bias_y", -2e-6);
-  EXPECT_NEAR(p.with.imu[4000].dtheta_b_rad.y() - p.clean.imu[4000].dtheta_b_rad.y(), -2e-8,
-              1e-20);
+  EXPECT_NEAR(p.with.imu[4000].dtheta_b_rad.y() - p.clean.imu[4000].dtheta_b_rad.y(), -2e-8, 1e-20);
   const Pair d = simulate_with("gyro_bias_drift_z", 1e-8);  // rad/s^2, linear from t = 0
   const ImuSample& s = d.with.imu[4000];
   EXPECT_NEAR(s.dtheta_b_rad.z() - d.clean.imu[4000].dtheta_b_rad.z(),
@@ -172,7 +171,8 @@ TEST(Seeds, SameSeedGivesByteIdenticalDatasetDifferentSeedDifferentNoise) {
   c.noise.gm_gyro_sigma_deg_h = 1.0;
   c.noise.gm_accel_sigma_mps2 = 1e-3;
   c.seed = 7;
-  const fs::path dir = fs::temp_directory_path() / ("insid_seed_test_" + std::to_string(::getpid()));
+  const fs::path dir =
+      fs::temp_directory_path() / ("insid_seed_test_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   write_dataset(dir / "a", simulate(c));
   write_dataset(dir / "b", simulate(c));
@@ -276,7 +276,8 @@ TEST(BadInput, EachGetsAClearError) {
 }
 
 TEST(BadInput, UnwritableOutputLeavesNothingBehind) {
-  const fs::path base = fs::temp_directory_path() / ("insid_unwritable_" + std::to_string(::getpid()));
+  const fs::path base =
+      fs::temp_directory_path() / ("insid_unwritable_" + std::to_string(::getpid()));
   fs::remove_all(base);
   fs::create_directories(base);
   { std::ofstream(base / "file") << "x"; }  // a regular file where a directory should go

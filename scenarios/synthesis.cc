@@ -7,15 +7,14 @@
 
 namespace insid::scenarios {
 
-ImuSynthesizer::ImuSynthesizer(Trajectory trajectory, const EarthModel& earth,
-                               double imu_rate_hz, int substeps)
+ImuSynthesizer::ImuSynthesizer(Trajectory trajectory, const EarthModel& earth, double imu_rate_hz,
+                               int substeps)
     : traj_(std::move(trajectory)), earth_(earth), rate_(imu_rate_hz), substeps_(substeps) {
   if (!(imu_rate_hz > 0.0 && imu_rate_hz <= 10000.0))
     throw std::invalid_argument("imu_rate_hz must be in (0, 10000], got " +
                                 std::to_string(imu_rate_hz));
   if (substeps < 1 || substeps > 1000)
-    throw std::invalid_argument("substeps must be in [1, 1000], got " +
-                                std::to_string(substeps));
+    throw std::invalid_argument("substeps must be in [1, 1000], got " + std::to_string(substeps));
   if (const std::string e = earth.validate(); !e.empty()) throw std::invalid_argument(e);
   breakpoints_ = traj_.breakpoints();
 }
@@ -63,8 +62,8 @@ PosRate position_rate(const EarthModel& earth, double lat, const Kinematics& k) 
 
 }  // namespace
 
-void ImuSynthesizer::advance_piece(double t0, double t1, int n, GeoPos& p,
-                                   Eigen::Vector3d* dtheta, Eigen::Vector3d* dv) const {
+void ImuSynthesizer::advance_piece(double t0, double t1, int n, GeoPos& p, Eigen::Vector3d* dtheta,
+                                   Eigen::Vector3d* dv) const {
   const double h = (t1 - t0) / n;
   Kinematics k0 = traj_.eval(t0);
   for (int i = 0; i < n; ++i) {
@@ -87,11 +86,14 @@ void ImuSynthesizer::advance_piece(double t0, double t1, int n, GeoPos& p,
       const TrueState s3 = state_from(km, lat3, lon);
       const TrueState s4 = state_from(k1, lat4, lon);
       if (dtheta)
-        *dtheta += h / 6.0 * (s1.omega_ib_b + 2.0 * (s2.omega_ib_b + s3.omega_ib_b) + s4.omega_ib_b);
+        *dtheta +=
+            h / 6.0 * (s1.omega_ib_b + 2.0 * (s2.omega_ib_b + s3.omega_ib_b) + s4.omega_ib_b);
       if (dv) *dv += h / 6.0 * (s1.f_ib_b + 2.0 * (s2.f_ib_b + s3.f_ib_b) + s4.f_ib_b);
     }
-    kahan_add(p.lat, p.lat_c, h / 6.0 * (p1.lat_dot + 2.0 * (p2.lat_dot + p3.lat_dot) + p4.lat_dot));
-    kahan_add(p.lon, p.lon_c, h / 6.0 * (p1.lon_dot + 2.0 * (p2.lon_dot + p3.lon_dot) + p4.lon_dot));
+    kahan_add(p.lat, p.lat_c,
+              h / 6.0 * (p1.lat_dot + 2.0 * (p2.lat_dot + p3.lat_dot) + p4.lat_dot));
+    kahan_add(p.lon, p.lon_c,
+              h / 6.0 * (p1.lon_dot + 2.0 * (p2.lon_dot + p3.lon_dot) + p4.lon_dot));
     k0 = k1;
   }
 }
@@ -101,8 +103,8 @@ void ImuSynthesizer::advance(double t0, double t1, GeoPos& p, Eigen::Vector3d* d
   if (t1 == t0) return;
   const double dt_nominal = 1.0 / rate_;
   auto pieces = [&](double a, double b) {
-    const int n = std::max(
-        1, static_cast<int>(std::ceil(substeps_ * std::fabs(b - a) / dt_nominal - 1e-9)));
+    const int n =
+        std::max(1, static_cast<int>(std::ceil(substeps_ * std::fabs(b - a) / dt_nominal - 1e-9)));
     advance_piece(a, b, n, p, dtheta, dv);
   };
   // Split at breakpoints strictly inside (t0, t1), in the direction of travel.

@@ -66,8 +66,7 @@ class ImuSynthesizer {
     double lat_c = 0.0, lon_c = 0.0;
   };
   // Integrate lat/lon from t0 to t1 (either direction), accumulating the increments when given.
-  void advance(double t0, double t1, GeoPos& p, Eigen::Vector3d* dtheta,
-               Eigen::Vector3d* dv) const;
+  void advance(double t0, double t1, GeoPos& p, Eigen::Vector3d* dtheta, Eigen::Vector3d* dv) const;
   void advance_piece(double t0, double t1, int n, GeoPos& p, Eigen::Vector3d* dtheta,
                      Eigen::Vector3d* dv) const;
 

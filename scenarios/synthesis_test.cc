@@ -39,8 +39,7 @@ TEST(Synthesis, StaticIncrementsAreEarthRateAndGravity) {
   const double dt = 0.01;
   const Eigen::Matrix3d C_n_b = C_b_n_from_euler(cfg.initial.attitude).transpose();
   const Eigen::Vector3d w = C_n_b * cfg.earth.omega_ie_n(cfg.initial.lat_rad) * dt;
-  const Eigen::Vector3d f =
-      -C_n_b * cfg.earth.gravity_n(cfg.initial.lat_rad, cfg.initial.h_m) * dt;
+  const Eigen::Vector3d f = -C_n_b * cfg.earth.gravity_n(cfg.initial.lat_rad, cfg.initial.h_m) * dt;
   for (std::size_t k : {0, 100, 5999}) {
     EXPECT_NEAR((ds.imu[k].dtheta_b_rad - w).norm(), 0.0, 1e-12 * w.norm()) << k;
     // t_k - t_{k-1} in double differs from dt by up to 1e-12 relative near t = 60 s

@@ -134,8 +134,7 @@ std::vector<double> Trajectory::breakpoints() const {
 
 TrajectoryBuilder::TrajectoryBuilder(const InitialPose& initial, double g_ref_mps2) {
   if (!(std::fabs(initial.lat_rad) < 89.0 * kDegToRad))
-    fail("initial latitude must lie within (-89, 89) deg, got " +
-         num(initial.lat_rad * kRadToDeg));
+    fail("initial latitude must lie within (-89, 89) deg, got " + num(initial.lat_rad * kRadToDeg));
   if (!(std::fabs(initial.attitude.roll_rad) <= kMaxBankRad))
     fail("initial roll must lie within [-60, 60] deg, got " +
          num(initial.attitude.roll_rad * kRadToDeg));
@@ -156,9 +155,7 @@ TrajectoryBuilder::TrajectoryBuilder(const InitialPose& initial, double g_ref_mp
   traj_.roll_ = SmoothChannel(initial.attitude.roll_rad);
 }
 
-double TrajectoryBuilder::height_m() const {
-  return traj_.initial_.h_m + traj_.vup_.integral(t_);
-}
+double TrajectoryBuilder::height_m() const { return traj_.initial_.h_m + traj_.vup_.integral(t_); }
 
 void TrajectoryBuilder::hold_static(double duration_s) {
   if (!(duration_s > 0.0) || !std::isfinite(duration_s))
@@ -190,8 +187,7 @@ void TrajectoryBuilder::change_speed(double target_mps, double accel_mps2) {
 
 double TrajectoryBuilder::turn_rate_for(const TurnSharpness& s) const {
   const bool has_bank = s.bank_rad > 0.0, has_rate = s.rate_rad_s > 0.0;
-  if (has_bank == has_rate)
-    fail("a turn needs exactly one of bank_deg or rate_deg_s (> 0)");
+  if (has_bank == has_rate) fail("a turn needs exactly one of bank_deg or rate_deg_s (> 0)");
   if (has_bank) {
     if (!(s.bank_rad <= kMaxBankRad))
       fail("bank_deg must be in (0, 60] deg, got " + num(s.bank_rad * kRadToDeg));
@@ -232,8 +228,7 @@ void TrajectoryBuilder::climb(double dh_m, double vz_mps, double ramp_s, const d
   if (!(vz_mps > 0.0 && vz_mps <= 20.0)) fail("vz_mps must be in (0, 20] m/s, got " + num(vz_mps));
   if (!(ramp_s > 0.0) || !std::isfinite(ramp_s)) fail("ramp_s must be > 0, got " + num(ramp_s));
   if (height_m() + dh_m < -400.0)
-    fail("descent by " + num(dh_m) + " m goes below -400 m (height now " + num(height_m()) +
-         " m)");
+    fail("descent by " + num(dh_m) + " m goes below -400 m (height now " + num(height_m()) + " m)");
   // Height change = vz * (hold + ramp_s).
   const double hold = std::fabs(dh_m) / vz_mps - ramp_s;
   if (hold < -1e-9)

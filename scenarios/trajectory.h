@@ -64,9 +64,9 @@ class SmoothChannel {
 struct Kinematics {
   double t_s = 0.0;
   double h_m = 0.0;
-  Eigen::Vector3d v_eb_n = Eigen::Vector3d::Zero();      ///< (vE, vN, vU) (m/s)
-  Eigen::Vector3d a_n = Eigen::Vector3d::Zero();         ///< d/dt of v_eb_n components (m/s^2)
-  EulerAngles attitude;                                  ///< (rad)
+  Eigen::Vector3d v_eb_n = Eigen::Vector3d::Zero();  ///< (vE, vN, vU) (m/s)
+  Eigen::Vector3d a_n = Eigen::Vector3d::Zero();     ///< d/dt of v_eb_n components (m/s^2)
+  EulerAngles attitude;                              ///< (rad)
   Eigen::Matrix3d C_b_n = Eigen::Matrix3d::Identity();
   Eigen::Vector3d omega_nb_b = Eigen::Vector3d::Zero();  ///< body rate w.r.t. n (rad/s)
 };
@@ -102,18 +102,18 @@ class Trajectory {
   InitialPose initial_;
   double g_ref_ = 9.80665;
   double end_s_ = 0.0;
-  SmoothChannel speed_;    // Vh (m/s)
-  SmoothChannel vup_;      // vU (m/s)
-  SmoothChannel turn_;     // heading rate (rad/s)
-  SmoothChannel pitch_;    // pitch command (rad)
-  SmoothChannel roll_;     // roll offset (rad)
+  SmoothChannel speed_;  // Vh (m/s)
+  SmoothChannel vup_;    // vU (m/s)
+  SmoothChannel turn_;   // heading rate (rad/s)
+  SmoothChannel pitch_;  // pitch command (rad)
+  SmoothChannel roll_;   // roll offset (rad)
 };
 
 enum class TurnDirection { kLeft = -1, kRight = 1 };
 
 /// How sharp a turn is: exactly one of bank angle or turn rate.
 struct TurnSharpness {
-  double bank_rad = 0.0;  ///< coordinated bank angle, used when > 0
+  double bank_rad = 0.0;    ///< coordinated bank angle, used when > 0
   double rate_rad_s = 0.0;  ///< heading rate, used when > 0
 };
 

@@ -97,7 +97,7 @@ TEST(TrajectoryBuilder, RejectsBadSegments) {
                std::invalid_argument);  // bank out of range
   EXPECT_THROW(b.turn(kPi / 2, TurnDirection::kLeft, {0.0, 0.0}, 3.0), std::invalid_argument);
   EXPECT_THROW(b.turn(1 * kDegToRad, TurnDirection::kLeft, {30 * kDegToRad, 0.0}, 3.0),
-               std::invalid_argument);  // shorter than its ramps
+               std::invalid_argument);                          // shorter than its ramps
   EXPECT_THROW(b.climb(1.0, 2.0, 3.0), std::invalid_argument);  // shorter than its ramps
   const double t = b.now_s();
   EXPECT_EQ(b.now_s(), t);  // unchanged after the throws
