@@ -229,6 +229,29 @@ void write_holders(const fs::path& lock_path, bool alone, const Shard& shard) {
     throw std::runtime_error("cannot write the campaign lock '" + lock_path.string() + "'");
 }
 
+// A shard joining running shards: refused when a live holder runs the same shard, or a shard
+// of another split (its line ends in "shard j/M", see write_holders).
+void check_shard_joins(const fs::path& lock_path, const RunOptions& options) {
+  const std::string mine = "shard " + options.shard.to_string();
+  const std::string split = "/" + std::to_string(options.shard.count);
+  for (const Holder& h : read_holders(lock_path)) {
+    if (!may_be_running(h)) continue;
+    const std::size_t comma = h.line.rfind(", shard ");
+    if (comma == std::string::npos) continue;
+    const std::string theirs = h.line.substr(comma + 2);
+    if (theirs == mine)
+      throw std::runtime_error(options.out_dir + ": " + mine + " is already running there (" +
+                               h.line +
+                               "); each shard runs once at a time: wait for it, or run another "
+                               "shard");
+    if (theirs.size() < split.size() ||
+        theirs.compare(theirs.size() - split.size(), split.size(), split) != 0)
+      throw std::runtime_error(options.out_dir + ": " + mine +
+                               " cannot join a campaign split another way (" + h.line +
+                               "); every shard of one campaign must give the same N");
+  }
+}
+
 struct DirectoryClaim {
   std::unique_ptr<FileLock> run_lock;
   int shard_count = 0;
@@ -270,6 +293,9 @@ DirectoryClaim prepare_directory(const CampaignConfig& config, const RunOptions&
   // A shard joins other shards (shared), never a process that holds the directory alone.
   if (!whole_campaign && !alone && !claim.run_lock->try_lock(FileLock::Mode::kShared))
     throw std::runtime_error(in_use);
+  // ... and only shards of the same split, each index once: the same i/N twice, or i/N beside
+  // j/M with M != N, would do runs twice.
+  if (!whole_campaign && !alone) check_shard_joins(lock_path, options);
   if (alone) {
     const int removed = remove_stale_temporaries(dir);
     if (removed > 0)

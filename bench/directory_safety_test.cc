@@ -198,6 +198,56 @@ TEST(DirectorySafety, SecondPlainRunIsRefusedNamingTheHolderUntilTheHolderIsKill
   fs::remove(config_path);
 }
 
+TEST(DirectorySafety, ShardRunsOnceAtATimeAndJoinsOnlyShardsOfItsSplit) {
+  // GIVEN an `insid bench --shard 1/2` process running in dir
+  const fs::path dir = fresh_dir("shards");
+  fs::create_directories(dir);
+  const fs::path config_path = dir.string() + ".json";
+  std::ofstream(config_path) << kLongConfig;
+  const CampaignConfig long_config = parse_campaign(nlohmann::json::parse(kLongConfig), "test");
+  const pid_t holder = fork();
+  ASSERT_GE(holder, 0);
+  if (holder == 0) {
+    execl(INSID_BINARY, INSID_BINARY, "bench", "--config", config_path.c_str(), "--out",
+          dir.c_str(), "--threads", "1", "--shard", "1/2", static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  const fs::path lock = dir / FileLock::kRunLockName;
+  const std::string holder_line = "pid " + std::to_string(holder) + " on ";
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+  while (text(lock).find(holder_line) == std::string::npos &&
+         std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  ASSERT_NE(text(lock).find(holder_line), std::string::npos) << text(lock);
+
+  // WHEN the same shard starts again, THEN it is refused naming the running one
+  RunOptions same = options_for(dir);
+  same.shard = Shard::parse("1/2");
+  const std::string same_error = error_of(long_config, same);
+  EXPECT_NE(same_error.find("shard 1/2 is already running there"), std::string::npos) << same_error;
+  EXPECT_NE(same_error.find(holder_line), std::string::npos) << same_error;
+  // WHEN a shard of another split starts, THEN it is refused
+  RunOptions other_split = options_for(dir);
+  other_split.shard = Shard::parse("2/3");
+  const std::string split_error = error_of(long_config, other_split);
+  EXPECT_NE(split_error.find("cannot join a campaign split another way"), std::string::npos)
+      << split_error;
+  // WHEN the other shard of the same split starts, THEN it runs beside the first
+  RunOptions second = options_for(dir);
+  second.shard = Shard::parse("2/2");
+  second.max_new_runs = 1;
+  EXPECT_EQ(run_campaign(long_config, second).new_runs, 1);
+
+  kill(holder, SIGKILL);
+  int status = 0;
+  waitpid(holder, &status, 0);
+  // A killed shard's line no longer counts: the same shard may start again.
+  same.max_new_runs = 1;
+  EXPECT_EQ(run_campaign(long_config, same).new_runs, 1);
+  fs::remove_all(dir);
+  fs::remove(config_path);
+}
+
 TEST(DirectorySafety, RerunRemovesTemporariesLeftByAKill) {
   const fs::path dir = fresh_dir("tmp");
   ASSERT_TRUE(run_campaign(config(), options_for(dir)).complete);

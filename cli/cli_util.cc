@@ -81,6 +81,8 @@ void write_json_output(const std::string& path, const nlohmann::json& j) {
   write_file_atomic(path, text);
 }
 
+namespace {
+
 std::string split_description(const campaign::RunOptions& options,
                               const campaign::CampaignOutcome& outcome) {
   std::string text;
@@ -94,13 +96,54 @@ std::string split_description(const campaign::RunOptions& options,
   return text;
 }
 
-std::string incomplete_message(const campaign::RunOptions& options,
-                               const campaign::CampaignOutcome& outcome) {
-  return "; incomplete: " + outcome.missing_report + "\nRerun the same command to continue" +
-         (options.shard.active()
-              ? " (or run the other shards, then insid merge " + options.out_dir + ")"
-              : "") +
-         ".\n";
+}  // namespace
+
+void add_campaign_run_options(CLI::App* cmd, CampaignRunArgs* args) {
+  cmd->add_option("--out", args->out, "results directory")->required();
+  cmd->add_option("--threads", args->threads, "threads (0 = all cores)")
+      ->capture_default_str()
+      ->check(whole_in(0, kMaxThreads));
+  cmd->add_flag("--force", args->force,
+                "write into a --out directory that holds other files than a campaign's (they are "
+                "kept)");
+  cmd->add_flag("--force-new", args->force_new,
+                "discard results of a different campaign found in --out");
+  cmd->add_option("--shard", args->shard,
+                  "do only slice i of N of the runs (i/N, 1 <= i <= N; for batch-scheduler "
+                  "arrays): runs whose position in the run list modulo N is i-1");
+  add_verbosity_flags(cmd, args->verbosity);
+}
+
+campaign::RunOptions campaign_run_options(const CampaignRunArgs& args, campaign::Cluster* cluster,
+                                          const std::shared_ptr<ProgressPrinter>& printer) {
+  campaign::RunOptions options;
+  options.out_dir = args.out;
+  options.threads = args.threads;
+  options.force_new = args.force_new;
+  options.into_foreign_directory = args.force;
+  if (!args.shard.empty()) options.shard = campaign::Shard::parse(args.shard);
+  options.cluster = cluster;
+  options.progress = campaign_progress_printer(printer);
+  options.quiet = printer->quiet();
+  return options;
+}
+
+void print_campaign_closing(const std::string& command, const std::string& what,
+                            const campaign::RunOptions& options,
+                            const campaign::CampaignOutcome& outcome, const std::string& done) {
+  std::cerr << command << ": " << what << outcome.new_runs << " new runs"
+            << split_description(options, outcome) << ", " << outcome.skipped_runs
+            << " already done, of " << outcome.total_runs << "; "
+            << static_cast<long>(std::lround(outcome.wall_s)) << " s";
+  if (outcome.complete) {
+    std::cerr << "; " << done << "\n";
+    return;
+  }
+  std::cerr << "; incomplete: " << outcome.missing_report << "\nRerun the same command to continue"
+            << (options.shard.active()
+                    ? " (or run the other shards, then insid merge " + options.out_dir + ")"
+                    : "")
+            << ".\n";
 }
 
 CLI::Validator whole_in(long long low, long long high) {

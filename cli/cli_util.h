@@ -46,15 +46,32 @@ inline constexpr const char* kWindowHelp =
 std::map<std::string, double> parse_effect_assignments(const std::vector<std::string>& items,
                                                        const std::string& option);
 
-/// How a campaign's new runs were split, for its closing line: " (shard i/N)" or
-/// " on N MPI ranks (9 + 8 + 1)"; empty for a plain run.
-std::string split_description(const campaign::RunOptions& options,
-                              const campaign::CampaignOutcome& outcome);
+/// Where and how a campaign command (bench, sweep) runs: --out, --threads, --force, --force-new,
+/// --shard and the verbosity flags, declared once with one wording by add_campaign_run_options.
+struct CampaignRunArgs {
+  std::string out;
+  int threads = 0;
+  bool force = false;
+  bool force_new = false;
+  std::string shard;
+  Verbosity verbosity = Verbosity::kNormal;
+};
 
-/// The end of an incomplete campaign's closing line: "; incomplete: <missing runs>" and how to
-/// continue (rerun, or the other shards then `insid merge out_dir`).
-std::string incomplete_message(const campaign::RunOptions& options,
-                               const campaign::CampaignOutcome& outcome);
+/// Declares the CampaignRunArgs options on `cmd` (--out is required).
+void add_campaign_run_options(CLI::App* cmd, CampaignRunArgs* args);
+
+/// The runner's options from `args`; progress goes through `printer` (its prefix names the
+/// command). `shard` is parsed here (a bad one throws std::invalid_argument naming it).
+campaign::RunOptions campaign_run_options(const CampaignRunArgs& args, campaign::Cluster* cluster,
+                                          const std::shared_ptr<ProgressPrinter>& printer);
+
+/// A campaign command's closing line on stderr: "<command>: <what>N new runs<split>, K already
+/// done, of T; W s", then "; <done>\n" when the campaign is complete, else what is missing and
+/// how to continue (rerun, or the other shards then `insid merge out_dir`). <split> is
+/// " (shard i/N)" or " on N MPI ranks (9 + 8 + 1)", empty for a plain run.
+void print_campaign_closing(const std::string& command, const std::string& what,
+                            const campaign::RunOptions& options,
+                            const campaign::CampaignOutcome& outcome, const std::string& done);
 
 /// Prints a campaign's progress (bench, sweep) through `printer` (its prefix names the
 /// command): scenario preparation, the optimum, and the status line of finished runs with

@@ -29,12 +29,7 @@ struct SweepArgs {
   std::string initial_attitude;  // empty: as before (gyrocompass)
   double heading_deg = std::numeric_limits<double>::quiet_NaN();
   double window_s = 0.0;
-  std::string out;
-  int threads = 0;
-  bool force_new = false;
-  bool force = false;
-  std::string shard;
-  Verbosity verbosity = Verbosity::kNormal;
+  CampaignRunArgs run;
 };
 
 void run(const SweepArgs& args) {
@@ -60,29 +55,17 @@ void run(const SweepArgs& args) {
     sweep.initial_attitude = initial_attitude_mode_from_string(args.initial_attitude);
   if (!std::isnan(args.heading_deg)) sweep.heading_deg = args.heading_deg;
   sweep.window_s = args.window_s;
-  campaign::RunOptions options;
-  options.out_dir = args.out;
-  options.threads = args.threads;
-  options.force_new = args.force_new;
-  options.into_foreign_directory = args.force;
-  if (!args.shard.empty()) options.shard = campaign::Shard::parse(args.shard);
-  options.cluster = cluster.get();
   // Labelled "insid sweep" (the campaign runner behind it is bench's).
-  const auto printer = std::make_shared<ProgressPrinter>("insid sweep", args.verbosity);
-  options.progress = campaign_progress_printer(printer);
-  options.quiet = printer->quiet();
+  const auto printer = std::make_shared<ProgressPrinter>("insid sweep", args.run.verbosity);
+  const campaign::RunOptions options = campaign_run_options(args.run, cluster.get(), printer);
   const auto outcome = campaign::run_sweep(sweep, options);
   printer->finish();
   if (!outcome.writes_results) return;  // MPI rank 0 reports for the launch
   if (printer->quiet()) return;
-  std::cerr << "insid sweep: " << campaign::sweep_settings(sweep).size() << " settings x "
-            << sweep.seeds.size() << " seeds; " << outcome.new_runs << " new runs"
-            << cli::split_description(options, outcome) << ", " << outcome.skipped_runs
-            << " already done";
-  if (outcome.complete)
-    std::cerr << "; wrote " + args.out + "/sweep.json and sweep.csv\n";
-  else
-    std::cerr << cli::incomplete_message(options, outcome);
+  print_campaign_closing("insid sweep",
+                         std::to_string(campaign::sweep_settings(sweep).size()) + " settings x " +
+                             std::to_string(sweep.seeds.size()) + " seeds; ",
+                         options, outcome, "wrote " + args.run.out + "/sweep.json and sweep.csv");
 }
 
 }  // namespace
@@ -126,16 +109,7 @@ void add_sweep_command(CLI::App& app) {
   cmd->add_option("--window-s", args->window_s,
                   "windowed fitness: INS restarted from GNSS every W s (0 = one run)")
       ->capture_default_str();
-  cmd->add_option("--out", args->out, "results directory")->required();
-  cmd->add_option("--threads", args->threads, "threads (0 = all cores)")
-      ->check(whole_in(0, kMaxThreads));
-  cmd->add_flag("--force", args->force,
-                "write into a --out directory that holds other files than a campaign's (they are "
-                "kept)");
-  cmd->add_flag("--force-new", args->force_new, "discard a different campaign's results in --out");
-  cmd->add_option("--shard", args->shard,
-                  "do only slice i of N of the runs (i/N; see insid bench --shard)");
-  add_verbosity_flags(cmd, args->verbosity);
+  add_campaign_run_options(cmd, &args->run);
   cmd->callback([args] { run(*args); });
 }
 

@@ -11,6 +11,7 @@
 #include <Eigen/Geometry>
 
 #include "import/gnss_solution.h"
+#include "import/text_lines.h"
 
 namespace insid::import {
 namespace {
@@ -150,12 +151,11 @@ CsvImu read_csv_imu(const std::string& text, const std::string& where, const Csv
   out.accel_is_increment = spec.accel_is_increment();
   out.gyro_is_increment = spec.gyro_is_increment();
   out.rates_are_interval_means = spec.rate_samples == "interval-mean";
-  std::size_t pos = 0, line_no = 0;
-  while (pos < text.size()) {
-    const std::size_t nl = text.find('\n', pos);
-    const std::string line = text.substr(pos, (nl == std::string::npos ? text.size() : nl) - pos);
-    pos = nl == std::string::npos ? text.size() : nl + 1;
-    ++line_no;
+  TextLines lines(text);
+  std::string_view line_view;
+  std::size_t line_no = 0;
+  while (lines.next(&line_view, &line_no)) {
+    const std::string line(line_view);
     if (trim(line).empty()) continue;
     const std::vector<std::string> fields = split(line, ',');
     double first = 0.0;

@@ -8,6 +8,8 @@
 #include <stdexcept>
 #include <string_view>
 
+#include "import/text_lines.h"
+
 namespace insid::import {
 namespace {
 
@@ -88,14 +90,10 @@ GnssSolution parse_rtklib_pos(const std::string& text, const std::string& where)
   std::size_t header_line = 0;
   std::map<std::string, std::size_t> col;  // column name -> token index (after the time tokens)
   bool week_tow = false;
+  TextLines lines(text);
+  std::string_view line;
   std::size_t line_no = 0;
-  std::size_t pos = 0;
-  while (pos < text.size()) {
-    const std::size_t nl = text.find('\n', pos);
-    const std::string_view line(text.data() + pos,
-                                (nl == std::string::npos ? text.size() : nl) - pos);
-    pos = nl == std::string::npos ? text.size() : nl + 1;
-    ++line_no;
+  while (lines.next(&line, &line_no)) {
     const std::string at = where + " line " + std::to_string(line_no);
     if (!line.empty() && line[0] == '%') {
       const auto tokens = split_ws(line.substr(1));

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/earth.h"
+#include "import/text_lines.h"
 
 namespace insid::import {
 namespace {
@@ -33,16 +34,13 @@ std::vector<std::string_view> fields_of(std::string_view line) {
 template <class OnRow>
 void parse_rows(const std::string& text, const std::string& where, std::vector<std::size_t> counts,
                 OnRow&& on_row) {
-  std::size_t pos = 0, line_no = 0;
   double t_prev = -INFINITY;
   std::size_t line_prev = 0;
   std::vector<double> values;
-  while (pos < text.size()) {
-    const std::size_t nl = text.find('\n', pos);
-    const std::string_view line(text.data() + pos,
-                                (nl == std::string::npos ? text.size() : nl) - pos);
-    pos = nl == std::string::npos ? text.size() : nl + 1;
-    ++line_no;
+  TextLines lines(text);
+  std::string_view line;
+  std::size_t line_no = 0;
+  while (lines.next(&line, &line_no)) {
     const auto fields = fields_of(line);
     if (fields.empty()) continue;
     const std::string at = where + " line " + std::to_string(line_no);
