@@ -89,7 +89,7 @@ def test_race(insid, work):
         return 77
     out = os.path.join(work, "race")
     shutil.rmtree(out, ignore_errors=True)
-    max_experiments, evaluations = 60, 20
+    max_experiments, evaluations = 90, 20
     proc = subprocess.run(["/usr/bin/python3", os.path.join(HERE, "irace_tune.py"), "--insid",
                            insid, "--out", out, "--algos", "dvpio,pio", "--flight", "paper:60",
                            "--noise-seeds", "1,2", "--evaluations", str(evaluations),
