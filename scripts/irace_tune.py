@@ -19,8 +19,9 @@ built insid (default build/cli/insid). What it does, in OUT:
    (f - f_opt) / f_opt; the runner's docstring says why this cost).
 3. irace, run in parallel on the local cores (scenario option parallel = --parallel, default
    all cores); its output is in irace.log and its full record in irace.Rdata.
-4. elites.csv and tune.json: the final elite configurations, best first, each with the number of
-   instances it was run on, its mean and median cost there, and the same configuration as insid
+4. elites.csv and tune.json: the final elite configurations in irace's order (best sum of ranks
+   first), each with the number of runs it had (irace's instance-seed pairs), its mean and median
+   cost over them, and the same configuration as insid
    options (`--param KEY=VALUE`, sigma units) and as campaign parameters (normalised box units);
    tune.json also states the budget: experiments used x evaluations per run = INS runs spent.
 
@@ -238,7 +239,7 @@ conf <- r$allConfigurations[match(elites, r$allConfigurations$.ID.), , drop = FA
 ex <- r$experiments[, as.character(elites), drop = FALSE]
 out <- data.frame(rank = seq_along(elites), id = elites,
                   conf[, r$parameters$names, drop = FALSE],
-                  instances = colSums(!is.na(ex)),
+                  runs = colSums(!is.na(ex)),
                   mean_cost = colMeans(ex, na.rm = TRUE),
                   median_cost = apply(ex, 2, median, na.rm = TRUE), check.names = FALSE)
 write.csv(out, args[2], row.names = FALSE, na = "")
@@ -275,7 +276,7 @@ def collect(args, out, rscript, version):
                 "insid_args": ["--algo", row["algo"]] + sum([["--param", p] for p in insid_params],
                                                            []),
                 "campaign_parameters": campaign,
-                "instances": int(row["instances"]), "mean_cost": float(row["mean_cost"]),
+                "runs": int(row["runs"]), "mean_cost": float(row["mean_cost"]),
                 "median_cost": float(row["median_cost"])
             })
     used = int(used)
@@ -391,9 +392,9 @@ def main(argv):
         say("error: " + str(e))
         return 1
     best = summary["elites"][0]
-    say("%d experiments (%d INS runs); best of %d elites: %s (mean cost %.4g over %d instances)"
+    say("%d experiments (%d INS runs); best of %d elites: %s (mean cost %.4g over %d runs)"
         % (summary["experiments_used"], summary["ins_runs"], len(summary["elites"]),
-           " ".join(best["insid_args"]), best["mean_cost"], best["instances"]))
+           " ".join(best["insid_args"]), best["mean_cost"], best["runs"]))
     say("wrote %s/tune.json, elites.csv, irace.log, irace.Rdata" % out)
     return 0
 

@@ -125,9 +125,9 @@ def test_race(insid, work):
             if kind == "i":
                 check(isinstance(v, int), "elite %d: %s = %r is an integer" %
                       (e["irace_id"], name, v))
-        check(e["instances"] >= 1 and e["mean_cost"] == e["mean_cost"],
-              "elite %d has statistics (instances %r, mean %r)" %
-              (e["irace_id"], e["instances"], e["mean_cost"]))
+        check(e["runs"] >= 1 and e["mean_cost"] == e["mean_cost"],
+              "elite %d has statistics (runs %r, mean %r)" %
+              (e["irace_id"], e["runs"], e["mean_cost"]))
     check(0 < tune["experiments_used"] <= max_experiments,
           "experiments used %r in (0, %d]" % (tune["experiments_used"], max_experiments))
     check(tune["ins_runs"] == tune["experiments_used"] * evaluations, "INS runs = experiments x "
