@@ -356,6 +356,9 @@ def main(argv):
         p, _, s = f.partition(":")
         if not p or (s and not s.replace(".", "", 1).isdigit()):
             return bad("--flight %s: expected PRESET or PRESET:FLIGHT_S" % f)
+    for d in args.data:
+        if not os.path.isfile(os.path.join(d, "meta.json")):
+            return bad("--data %s: no meta.json there (expected an insid dataset directory)" % d)
     for name in ("evaluations", "max_experiments", "parallel"):
         if getattr(args, name) < 1:
             return bad("--%s %d: expected at least 1" % (name.replace("_", "-"),
