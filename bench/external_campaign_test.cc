@@ -4,9 +4,11 @@
 // crashing client fails its own runs with the documented error and the others are written.
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <memory>
 
 #include <gtest/gtest.h>
@@ -166,6 +168,38 @@ TEST(ExternalCampaign, CrashingClientFailsOnlyItsOwnRuns) {
     EXPECT_TRUE(fs::exists(run_file(dir.string(), "rich-short", "PSO", seed)));
   }
   EXPECT_NE(error.find("2 of 6 runs failed"), std::string::npos) << error;
+  fs::remove_all(dir);
+}
+
+// A wave's processes start together (issue 18): each client logs when its shell started, then
+// sleeps 1 s before the Python client runs. Launched one after another at the first ask (as
+// before), the starts of 4 runs spread over at least 3 s; launched together, over far less.
+TEST(ExternalCampaign, WaveProcessesStartTogether) {
+  if (!python_with_numpy()) GTEST_SKIP() << kPython << " with numpy is not available";
+  const fs::path dir = fresh_dir("launch");
+  fs::create_directories(dir);
+  const fs::path starts = dir / "starts.txt";
+  nlohmann::json j = config_json(false);
+  j["algorithms"] = {{{"label", "RS-slow"},
+                      {"name",
+                       "external:/usr/bin/python3 -c 'import time; print(repr(time.time()))' "
+                       ">> " +
+                           starts.string() + "; sleep 1; exec " + kPython + " " + kClient}}};
+  j["seeds"] = 4;
+  const CampaignConfig config = parse_campaign(j, "test");
+  RunOptions options;
+  options.out_dir = (dir / "campaign").string();
+  options.threads = 2;
+  options.quiet = true;
+  ASSERT_TRUE(run_campaign(config, options).complete);
+  std::ifstream in(starts);
+  std::vector<double> t;
+  for (double x; in >> x;) t.push_back(x);
+  ASSERT_EQ(t.size(), 4u);
+  const double spread =
+      *std::max_element(t.begin(), t.end()) - *std::min_element(t.begin(), t.end());
+  EXPECT_LT(spread, 1.5) << "the 4 clients started over " << spread << " s";
+  std::cout << "the 4 clients started over " << spread << " s\n";
   fs::remove_all(dir);
 }
 

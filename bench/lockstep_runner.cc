@@ -15,11 +15,16 @@
 #include "identification/identify.h"
 #include "identification/ins_problem.h"
 #include "identification/uncertainty.h"
+#include "optimizers/external.h"
 #include "optimizers/registry.h"
 #include "scenarios/scenario.h"
 
 namespace insid::campaign {
 namespace fs = std::filesystem;
+
+// An external optimizer's first batch, counted towards a wave's size before it is asked (the
+// reference client's batch is 10).
+constexpr std::size_t kExternalCandidatesGuess = 10;
 
 struct LockstepRunner::Impl {
  public:
@@ -243,8 +248,16 @@ struct LockstepRunner::Impl {
       auto optimizer =
           opt::make_optimizer(algo.name, states_[run.scenario].problem->bounds(), run_config(run),
                               opt::ParameterMap(algo.parameters.begin(), algo.parameters.end()));
-      if (!takes_own_step(*optimizer) && residual_consumer(*optimizer) == nullptr)
+      if (auto* external = dynamic_cast<opt::ExternalOptimizer*>(optimizer.get())) {
+        // Started now, asked later with the wave: the processes of a wave start together
+        // (issue 18; each run's result depends only on its own fitness values, so the wave
+        // does not change it). Its batch size is unknown until it replies: counted as
+        // kExternalCandidatesGuess for the wave's size.
+        external->launch();
+        wave_candidates += kExternalCandidatesGuess;
+      } else if (!takes_own_step(*optimizer) && residual_consumer(*optimizer) == nullptr) {
         wave_candidates += optimizer->ask().size();
+      }
       wave.push_back({id, std::move(optimizer)});
     } catch (...) {
       errors_[id] = std::current_exception();

@@ -262,9 +262,13 @@ std::string ExternalOptimizer::read_line(std::string_view what) {
   }
 }
 
-void ExternalOptimizer::propose(std::vector<Eigen::VectorXd>& batch) {
+void ExternalOptimizer::launch() {
   if (!error_.empty()) throw ExternalOptimizerError(error_);
   if (pid_ < 0 && fd_ < 0) start();
+}
+
+void ExternalOptimizer::propose(std::vector<Eigen::VectorXd>& batch) {
+  launch();
   const int k = iteration() + 1;
   const std::string what = "ask " + std::to_string(k);
   nlohmann::json ask = {{"type", "ask"}, {"iteration", k}};

@@ -6,7 +6,8 @@ packages=(build-essential cmake git libeigen3-dev nlohmann-json3-dev libcli11-de
           libbenchmark-dev libgtest-dev libboost-dev libssl-dev
           libpagmo-dev libceres-dev libnlopt-cxx-dev
           libopenmpi-dev openmpi-bin
-          python3 python3-numpy python3-scipy python3-matplotlib)
+          python3 python3-numpy python3-scipy python3-matplotlib
+          r-cran-irace)  # irace: scripts/irace_tune.py (optional: without it only that test skips)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
