@@ -457,7 +457,7 @@ CampaignOutcome run_campaign(const CampaignConfig& config, const RunOptions& opt
   }
   if (cluster != nullptr) directory_error = cluster->broadcast(directory_error);
   if (!directory_error.empty() && cluster != nullptr) {
-    std::cerr << "insid: error: " << directory_error << std::endl;
+    std::cerr << cluster->command() << ": error: " << directory_error << std::endl;
     cluster->sum(0);  // every rank has reported before any exits
     throw ReportedError(directory_error);
   }

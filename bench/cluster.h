@@ -20,6 +20,8 @@ class Cluster {
   virtual ~Cluster() = default;
   virtual int rank() const = 0;
   virtual int size() const = 0;
+  /// The command this launch runs ("insid bench"), to start a rank's messages.
+  virtual const std::string& command() const = 0;
   /// Rank 0's `text` on every rank (collective).
   virtual std::string broadcast(const std::string& text) = 0;
   /// The sum of `value` over the ranks, on every rank (collective).
@@ -41,8 +43,8 @@ int launched_world_size();
 /// Join the MPI launch this process is part of: nullptr when it is the only process. Throws
 /// std::runtime_error, naming the way out, when this build has no MPI but was launched as one
 /// of several processes (each would otherwise run the whole campaign). The returned object
-/// finalizes MPI when destroyed.
-std::unique_ptr<Cluster> join_mpi_launch();
+/// finalizes MPI when destroyed. `command` ("insid bench") starts a rank's error message.
+std::unique_ptr<Cluster> join_mpi_launch(const std::string& command);
 
 /// Whether this build can join an MPI launch.
 bool built_with_mpi();

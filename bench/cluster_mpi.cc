@@ -40,7 +40,7 @@ void wait_politely(MPI_Request& request) {
 
 class MpiCluster final : public Cluster {
  public:
-  MpiCluster() {
+  explicit MpiCluster(std::string command) : command_(std::move(command)) {
     int provided = 0;
     MPI_Init_thread(nullptr, nullptr, MPI_THREAD_SERIALIZED, &provided);
     MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
@@ -56,6 +56,7 @@ class MpiCluster final : public Cluster {
 
   int rank() const override { return rank_; }
   int size() const override { return size_; }
+  const std::string& command() const override { return command_; }
 
   std::string broadcast(const std::string& text) override {
     long long length = rank_ == 0 ? static_cast<long long>(text.size()) : 0;
@@ -94,7 +95,7 @@ class MpiCluster final : public Cluster {
     try {
       work(unit);
     } catch (const std::exception& e) {
-      std::cerr << "insid: error on MPI rank " << rank_ << ": " << e.what() << "\n";
+      std::cerr << command_ << ": error on MPI rank " << rank_ << ": " << e.what() << "\n";
       MPI_Abort(MPI_COMM_WORLD, 1);
     }
   }
@@ -149,6 +150,7 @@ class MpiCluster final : public Cluster {
     }
   }
 
+  std::string command_;  // "insid bench": starts a rank's error message
   int rank_ = 0;
   int size_ = 1;
 };
@@ -157,9 +159,9 @@ class MpiCluster final : public Cluster {
 
 bool built_with_mpi() { return true; }
 
-std::unique_ptr<Cluster> join_mpi_launch() {
+std::unique_ptr<Cluster> join_mpi_launch(const std::string& command) {
   if (launched_world_size() <= 1) return nullptr;
-  return std::make_unique<MpiCluster>();
+  return std::make_unique<MpiCluster>(command);
 }
 
 }  // namespace insid::campaign

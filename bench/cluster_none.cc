@@ -10,7 +10,7 @@ namespace insid::campaign {
 
 bool built_with_mpi() { return false; }
 
-std::unique_ptr<Cluster> join_mpi_launch() {
+std::unique_ptr<Cluster> join_mpi_launch(const std::string& /*command*/) {
   const int n = launched_world_size();
   if (n > 1)
     throw std::runtime_error(

@@ -27,7 +27,7 @@ struct BenchArgs {
 
 void run_bench(const BenchArgs& args) {
   // Joined first, so that every rank of an MPI launch sees the same errors below.
-  const std::unique_ptr<campaign::Cluster> cluster = campaign::join_mpi_launch();
+  const std::unique_ptr<campaign::Cluster> cluster = campaign::join_mpi_launch("insid bench");
   if (args.preset.empty() == args.config_path.empty())
     throw UsageError("give exactly one of --preset and --config");
   campaign::CampaignConfig config;

@@ -149,7 +149,8 @@ void run_identify(const IdentifyArgs& args) {
                                 {"upper_sigma", p.upper_sigma}});
   std::optional<ReferenceOptimum> ref;
   if (!args.no_reference) {
-    ref = cached_reference_optimum(args.data_dir, problem, !progress.quiet());
+    ref = cached_reference_optimum(args.data_dir, problem,
+                                   [&progress](const std::string& text) { progress.note(text); });
     out["reference_optimum"] = ref->to_json(mapping);
   }
   add_run_assessment_json(out, result, mapping, dataset->meta.injected, ref ? &*ref : nullptr);

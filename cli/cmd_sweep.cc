@@ -33,7 +33,7 @@ struct SweepArgs {
 };
 
 void run(const SweepArgs& args) {
-  const std::unique_ptr<campaign::Cluster> cluster = campaign::join_mpi_launch();
+  const std::unique_ptr<campaign::Cluster> cluster = campaign::join_mpi_launch("insid sweep");
   campaign::SweepConfig sweep;
   sweep.algorithm = args.algorithm;
   for (const std::string& g : args.grid) sweep.axes.push_back(campaign::SweepAxis::parse(g));

@@ -3,7 +3,6 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-#include <iostream>
 #include <sstream>
 
 #include "core/json_reader.h"
@@ -110,7 +109,8 @@ std::string cache_key(const std::string& data_dir, const InsIdentificationProble
 }  // namespace
 
 ReferenceOptimum cached_reference_optimum(const std::string& data_dir,
-                                          const InsIdentificationProblem& problem, bool announce) {
+                                          const InsIdentificationProblem& problem,
+                                          const std::function<void(const std::string&)>& note) {
   const std::filesystem::path path = std::filesystem::path(data_dir) / "insid-optimum-cache.json";
   const std::string key = cache_key(data_dir, problem);
   nlohmann::json cache = nlohmann::json::object();
@@ -129,16 +129,15 @@ ReferenceOptimum cached_reference_optimum(const std::string& data_dir,
       // a damaged entry is recomputed (and overwritten below)
     }
   }
-  if (announce)
-    std::cerr << "insid: finding the data's own optimum (multi-start local fit, cached in "
-              << path.string() << ")\n";
+  if (note)
+    note("finding the data's own optimum (multi-start local fit, cached in " + path.string() + ")");
   ReferenceOptimum opt = find_reference_optimum(problem);
   if (!cache.is_object()) cache = nlohmann::json::object();
   cache[key] = opt.to_json(problem.mapping());
   try {
     write_file_atomic(path, cache.dump(2) + "\n");
   } catch (const std::exception& e) {
-    std::cerr << "insid: note: could not cache the optimum (" << e.what() << ")\n";
+    if (note) note("could not cache the optimum (" + std::string(e.what()) + ")");
   }
   return opt;
 }

@@ -3,6 +3,7 @@
 // optimum, history). Shared by `insid identify` and the campaign runner.
 #pragma once
 
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -41,10 +42,11 @@ ReferenceOptimum find_reference_optimum(const InsIdentificationProblem& problem,
 /// directory are ignored by the format), keyed by the data files' SHA-256 (dataset_digest),
 /// estimated parameters, alignment and fixed effects.
 /// Computed and stored when missing; a read-only directory only costs the recomputation.
-/// `announce`: say so on stderr when it has to be computed (false: silent, for --quiet).
+/// `note` (empty: silent, for --quiet) is told when the optimum has to be computed, and when it
+/// could not be cached.
 ReferenceOptimum cached_reference_optimum(const std::string& data_dir,
                                           const InsIdentificationProblem& problem,
-                                          bool announce = true);
+                                          const std::function<void(const std::string&)>& note = {});
 
 /// Parameters of an optimizer result in JSON: history per iteration and per evaluation, with
 /// DVPIO's d vector converted to sigma units through the mapping.
