@@ -1,7 +1,8 @@
-// insid-mems-study (results/mems/): EKF-RTS and LM on the windowed fitness over noise seeds of a
-// simulated MEMS flight (identification/mems_study.h): per seed and parameter the error and the
-// reported sd; per method and parameter the count within 3 sd, the 95 % coverage and the RMS
-// of |error| / sd. Markdown on stdout, one CSV row per seed, method and parameter with --csv.
+// insid-mems-study (results/mems/): EKF-RTS, LM and a swarm method (DVPIO by default) on the
+// windowed fitness over noise seeds of a simulated MEMS flight (identification/mems_study.h): per
+// seed and parameter the error and the reported sd; per method and parameter the count within 3 sd,
+// the 95 % coverage and the RMS of |error| / sd. Markdown on stdout, one CSV row per seed, method
+// and parameter with --csv.
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -22,6 +23,7 @@ int main(int argc, char** argv) {
   double sd_scale = 1.0;
   std::string csv;
   bool ekf_only = false;
+  std::vector<std::string> methods = {"ekf-rts", "lm", "swarm"};
   app.add_option("--seeds", seeds, "noise seeds 1..N")
       ->capture_default_str()
       ->check(CLI::Range(1, 100000));
@@ -35,6 +37,15 @@ int main(int argc, char** argv) {
   app.add_option("--ekf-attitude", spec.ekf_attitude)->capture_default_str();
   app.add_option("--sd-scale", sd_scale, "multiply the reported sd (a broken sd, for checks)")
       ->capture_default_str();
+  app.add_option("--swarm", spec.swarm, "swarm method of the registry (the `swarm` rows)")
+      ->capture_default_str();
+  app.add_option("--swarm-evaluations", spec.swarm_evaluations, "its budget")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 100000000));
+  app.add_option("--swarm-seed", spec.swarm_seed)->capture_default_str();
+  app.add_option("--methods", methods, "any of ekf-rts, lm, swarm")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"ekf-rts", "lm", "swarm"}));
   app.add_flag("--ekf-only", ekf_only, "EKF-RTS only (seconds instead of a minute)");
   app.add_option("--csv", csv, "one row per seed, method and parameter");
   CLI11_PARSE(app, argc, argv);
@@ -48,17 +59,24 @@ int main(int argc, char** argv) {
     out.open(csv);
     out << "seed,method,parameter,truth_si,estimate_si,sd_si,error_over_sd,flags,wall_s\n";
   }
-  const char* methods[] = {"ekf-rts", "lm"};
-  const int n_methods = ekf_only ? 1 : 2;
-  std::vector<std::vector<int>> within3(2, std::vector<int>(5, 0)), covered = within3;
-  std::vector<std::vector<double>> z2(2, std::vector<double>(5, 0.0));
-  double wall[2] = {0.0, 0.0};
+  if (ekf_only) methods = {"ekf-rts"};
+  const int n_methods = static_cast<int>(methods.size());
+  std::vector<std::string> labels;
+  for (const std::string& m : methods) labels.push_back(m == "swarm" ? spec.swarm : m);
+  std::vector<std::vector<int>> within3(n_methods, std::vector<int>(5, 0)), covered = within3,
+                                                                            not_converged = within3;
+  std::vector<std::vector<double>> z2(n_methods, std::vector<double>(5, 0.0));
+  std::vector<double> wall(n_methods, 0.0);
+  std::vector<std::int64_t> evaluations(n_methods, 0);
   for (int seed = 1; seed <= seeds; ++seed) {
     const auto data = mems_study::flight(spec, static_cast<std::uint64_t>(seed));
     for (int m = 0; m < n_methods; ++m) {
-      const mems_study::Answer a =
-          m == 0 ? mems_study::ekf_rts(data, spec) : mems_study::lm_windowed(data, spec);
+      const std::string& method = methods[static_cast<std::size_t>(m)];
+      const mems_study::Answer a = method == "ekf-rts" ? mems_study::ekf_rts(data, spec)
+                                   : method == "lm"    ? mems_study::lm_windowed(data, spec)
+                                                       : mems_study::swarm_windowed(data, spec);
       wall[m] += a.wall_s;
+      evaluations[m] += a.evaluations;
       for (int k = 0; k < 5; ++k) {
         const double err = a.estimate_si[k] - truth[k];
         const double sd = sd_scale * a.sd_si[k];
@@ -67,27 +85,36 @@ int main(int argc, char** argv) {
         covered[m][k] += std::abs(z) <= kZ95;
         z2[m][k] += z * z;
         std::string flags;
-        for (const std::string& f : a.flags[k]) flags += (flags.empty() ? "" : " ") + f;
+        for (const std::string& f : a.flags[k]) {
+          flags += (flags.empty() ? "" : " ") + f;
+          not_converged[m][k] += f == "not_converged";
+        }
         if (out)
-          out << seed << "," << methods[m] << "," << names[k] << "," << truth[k] << ","
+          out << seed << "," << labels[m] << "," << names[k] << "," << truth[k] << ","
               << a.estimate_si[k] << "," << sd << "," << z << "," << flags << "," << a.wall_s
               << "\n";
       }
     }
     std::cerr << "seed " << seed << " done\n";
   }
-  std::printf("| method | parameter | within 3 sd | 95 %% covered | RMS \\|error\\|/sd |\n");
-  std::printf("|---|---|---|---|---|\n");
+  std::printf(
+      "| method | parameter | within 3 sd | 95 %% covered | RMS \\|error\\|/sd | not_converged "
+      "|\n");
+  std::printf("|---|---|---|---|---|---|\n");
   for (int m = 0; m < n_methods; ++m) {
-    int total3 = 0, total95 = 0;
+    int total3 = 0, total95 = 0, total_nc = 0;
     for (int k = 0; k < 5; ++k) {
-      std::printf("| %s | %s | %d/%d | %d/%d | %.3g |\n", methods[m], names[k].c_str(),
-                  within3[m][k], seeds, covered[m][k], seeds, std::sqrt(z2[m][k] / seeds));
+      std::printf("| %s | %s | %d/%d | %d/%d | %.3g | %d |\n", labels[m].c_str(), names[k].c_str(),
+                  within3[m][k], seeds, covered[m][k], seeds, std::sqrt(z2[m][k] / seeds),
+                  not_converged[m][k]);
       total3 += within3[m][k];
       total95 += covered[m][k];
+      total_nc += not_converged[m][k];
     }
-    std::printf("| %s | all | %d/%d | %d/%d | (wall %.1f s over %d seeds) |\n", methods[m], total3,
-                5 * seeds, total95, 5 * seeds, wall[m], seeds);
+    std::printf(
+        "| %s | all | %d/%d | %d/%d | (wall %.1f s, %lld evaluations over %d seeds) | %d |\n",
+        labels[m].c_str(), total3, 5 * seeds, total95, 5 * seeds, wall[m],
+        static_cast<long long>(evaluations[m]), seeds, total_nc);
   }
   return 0;
 }
