@@ -29,6 +29,7 @@ struct SweepArgs {
   std::string initial_attitude;  // empty: as before (gyrocompass)
   double heading_deg = std::numeric_limits<double>::quiet_NaN();
   double window_s = 0.0;
+  std::string estimation_grade;  // empty: as before (the catalogue's sigmas)
   std::string out;
   int threads = 0;
   bool force_new = false;
@@ -60,6 +61,7 @@ void run(const SweepArgs& args) {
     sweep.initial_attitude = initial_attitude_mode_from_string(args.initial_attitude);
   if (!std::isnan(args.heading_deg)) sweep.heading_deg = args.heading_deg;
   sweep.window_s = args.window_s;
+  if (!args.estimation_grade.empty()) sweep.estimation_grade = args.estimation_grade;
   campaign::RunOptions options;
   options.out_dir = args.out;
   options.threads = args.threads;
@@ -126,6 +128,10 @@ void add_sweep_command(CLI::App& app) {
   cmd->add_option("--window-s", args->window_s,
                   "windowed fitness: INS restarted from GNSS every W s (0 = one run)")
       ->capture_default_str();
+  cmd->add_option("--estimation-grade", args->estimation_grade,
+                  "nav | tactical | mems: the sigmas and default parameters of the estimation, as "
+                  "identify's --grade (the campaign key estimation_grade; --grade is the "
+                  "simulated noise); default: the catalogue's, as before");
   cmd->add_option("--out", args->out, "results directory")->required();
   cmd->add_option("--threads", args->threads, "threads (0 = all cores)")
       ->check(whole_in(0, kMaxThreads));

@@ -442,17 +442,7 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
 
   const SensorGrade& grade = grade_for(*dataset, options.grade);
   std::vector<EstimatedParameter> base = options.base;
-  if (base.empty()) {
-    // As identify: nav the paper's four; tactical and mems the x/y/z gyro and x/y accelerometer
-    // biases at the grade's sigma.
-    if (grade.name == "nav") {
-      base = EstimatedParameter::paper_four();
-    } else {
-      for (const char* name :
-           {"accel_bias_x", "accel_bias_y", "gyro_bias_x", "gyro_bias_y", "gyro_bias_z"})
-        base.push_back(grade.parameter(name));
-    }
-  }
+  if (base.empty()) base = default_estimated(grade);  // as identify's default
   std::set<std::string> in_model;
   for (const auto& p : base) in_model.insert(p.name);
   std::vector<std::string> candidates;
