@@ -77,6 +77,8 @@ Answer ekf_rts(const std::shared_ptr<const Dataset>& data, const Spec& spec) {
   setup->passes = spec.ekf_passes;
   EkfRtsParams params;
   params.update_interval_s = spec.ekf_update_interval_s;
+  params.propagation_interval_s = spec.ekf_propagation_interval_s;
+  params.use_position = spec.ekf_use_position;
   const EkfRtsResult r = run_ekf_rts(*navigation, params, SensorErrors{}, setup);
   Answer a;
   a.method = "ekf-rts";

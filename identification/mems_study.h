@@ -35,7 +35,9 @@ struct Spec {
   std::uint64_t swarm_seed = 1;           ///< its random seed
   int threads = 0;                        ///< OpenMP threads (0 = default)
   int ekf_passes = 2;  ///< EKF-RTS passes (identification/ekf_rts.h, EkfRtsGradeSetup)
-  double ekf_update_interval_s = 1.0;          ///< EKF-RTS GNSS update interval (s)
+  double ekf_update_interval_s = 1.0;       ///< EKF-RTS GNSS update interval (s)
+  double ekf_propagation_interval_s = 0.1;  ///< EKF-RTS covariance propagation step (s)
+  int ekf_use_position = 1;                 ///< EKF-RTS: 1 GNSS position and velocity, 0 velocity
   std::string ekf_attitude = "level+heading";  ///< EKF-RTS initial-attitude mode
 };
 
