@@ -580,6 +580,16 @@ const char* kMemsConfig = R"({
                "gyro_bias_x:0.001745", "gyro_bias_y:0.001745"]
 })";
 
+// A one-axis PSO sweep on the rich preset (the keys' pass-through checks).
+SweepConfig rich_pso_sweep() {
+  SweepConfig sweep;
+  sweep.algorithm = "pso";
+  sweep.axes.push_back(SweepAxis::parse("w=0.5"));
+  sweep.scenario.name = "rich";
+  sweep.scenario.preset = "rich";
+  return sweep;
+}
+
 // GIVEN a MEMS campaign without the new keys THEN it is refused by the gyrocompass feasibility
 // check, as before (configs always gyrocompassed); WITH "initial_attitude": "level+heading" and
 // "window_s": 10 THEN it runs, and the resolved config and every run file record both. A config
@@ -635,11 +645,7 @@ TEST(Campaign, MemsCampaignRunsWithLevelHeadingAndAWindow) {
   bad["initial_attitude"] = "level+heading";
   EXPECT_EQ(invalid_argument_of([&] { parse_campaign(bad, "m.json"); }), "");
   // A sweep passes the keys on to its campaign (and leaves them out when not given).
-  SweepConfig sweep;
-  sweep.algorithm = "pso";
-  sweep.axes.push_back(SweepAxis::parse("w=0.5"));
-  sweep.scenario.name = "rich";
-  sweep.scenario.preset = "rich";
+  SweepConfig sweep = rich_pso_sweep();
   EXPECT_FALSE(sweep_campaign(sweep).to_json().contains("initial_attitude"));
   sweep.initial_attitude = InitialAttitudeMode::kLevelHeading;
   sweep.window_s = 10.0;
@@ -700,11 +706,7 @@ TEST(Campaign, EstimationGradeSetsTheParametersAndIsRecorded) {
               parse_campaign(bad, "m.json");
             }).find("estimation_grade 'paper': expected nav, tactical or mems"),
             std::string::npos);
-  SweepConfig sweep;
-  sweep.algorithm = "pso";
-  sweep.axes.push_back(SweepAxis::parse("w=0.5"));
-  sweep.scenario.name = "rich";
-  sweep.scenario.preset = "rich";
+  SweepConfig sweep = rich_pso_sweep();
   EXPECT_FALSE(sweep_campaign(sweep).to_json().contains("estimation_grade"));
   sweep.estimation_grade = "tactical";
   EXPECT_EQ(sweep_campaign(sweep).to_json()["estimation_grade"], "tactical");
