@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "core/output_dir.h"
+#include "identification/grade.h"
 #include "optimizers/registry.h"
 #include "scenarios/noise.h"
 #include "scenarios/scenario.h"
@@ -170,6 +171,12 @@ NavigationOptions CampaignConfig::navigation_options() const {
 
 std::vector<EstimatedParameter> estimated_parameters(const CampaignConfig& config) {
   std::vector<EstimatedParameter> params;
+  if (config.estimation_grade) {
+    const SensorGrade& grade = sensor_grade(*config.estimation_grade);
+    for (const std::string& e : config.estimate) params.push_back(grade.parameter(e));
+    if (params.empty()) params = default_estimated(grade);
+    return params;
+  }
   for (const std::string& e : config.estimate) params.push_back(EstimatedParameter::parse(e));
   if (params.empty()) params = EstimatedParameter::paper_four();
   return params;
@@ -210,6 +217,7 @@ nlohmann::json CampaignConfig::to_json() const {
   if (initial_attitude) j["initial_attitude"] = insid::to_string(*initial_attitude);
   if (heading_deg) j["heading_deg"] = *heading_deg;
   if (window_s != 0.0) j["window_s"] = window_s;
+  if (estimation_grade) j["estimation_grade"] = *estimation_grade;
   j["estimate"] = nlohmann::json::array();
   for (const EstimatedParameter& p : estimated_parameters(*this))
     j["estimate"].push_back({{"name", p.name},
@@ -305,6 +313,7 @@ CampaignConfig parse_campaign(const nlohmann::json& j, const std::string& origin
   }
   if (r.has("heading_deg")) c.heading_deg = r.number("heading_deg");
   if (r.has("window_s")) c.window_s = r.number("window_s");
+  if (r.has("estimation_grade")) c.estimation_grade = r.string("estimation_grade");
   if (r.has("estimate"))
     for (const auto& e : r.array_of("estimate", "string"))
       c.estimate.push_back(e.get<std::string>());
@@ -319,8 +328,8 @@ CampaignConfig parse_campaign(const nlohmann::json& j, const std::string& origin
   if (r.has("target_fitness_gap"))
     c.target_fitness_gap = r.array_of("target_fitness_gap", "number").get<std::vector<double>>();
   r.finish({"name", "scenarios", "algorithms", "seeds", "max_iterations", "max_evaluations",
-            "alignment", "initial_attitude", "heading_deg", "window_s", "estimate",
-            "record_positions_seeds", "target_error_sigma", "target_fitness_gap",
+            "alignment", "initial_attitude", "heading_deg", "window_s", "estimation_grade",
+            "estimate", "record_positions_seeds", "target_error_sigma", "target_fitness_gap",
             "uncertainty_replicas"});
   c.validate(origin);
   return c;
@@ -352,6 +361,14 @@ void CampaignConfig::validate(const std::string& origin) const {
                                 ": heading_deg must be a finite angle in [-360, 360] "
                                 "deg, got " +
                                 opt::format_number(*heading_deg));
+  if (estimation_grade) {
+    const std::vector<std::string> grades = sensor_grade_names();
+    if (std::find(grades.begin(), grades.end(), *estimation_grade) == grades.end())
+      throw std::invalid_argument(origin + ": estimation_grade '" + *estimation_grade +
+                                  "': expected nav, tactical or mems (the grade of the "
+                                  "estimation, identification/grade.h; the simulated noise is "
+                                  "scenarios[].grade)");
+  }
   try {
     navigation_options().validate();
   } catch (const std::invalid_argument& e) {

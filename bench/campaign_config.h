@@ -63,8 +63,17 @@ struct CampaignConfig {
   double window_s = 0.0;
   /// The navigation options of every scenario (alignment, initial attitude, window).
   NavigationOptions navigation_options() const;
-  std::vector<std::string> estimate;  ///< --estimate specs; empty = the paper's four
-  int record_positions_seeds = 1;     ///< record particle positions for the first k seeds
+  std::vector<std::string> estimate;  ///< --estimate specs; empty = the grade's default set
+  /// The grade of the estimation (identification/grade.h; `insid identify --grade`): nav |
+  /// tactical | mems, the search unit (sigma) of every `estimate` NAME without SIGMA and the
+  /// default set when `estimate` is empty (nav: the paper's four; tactical, mems: also
+  /// gyro_bias_z). Not the scenarios' "grade", which is the noise the simulator adds
+  /// (scenarios/noise.cc: nav | mems | paper | none). Absent = the catalogue's sigmas and the
+  /// paper's four, exactly as before the key existed (not written to the resolved config or the
+  /// run files, so older campaign directories still resume). No "auto": a campaign records one
+  /// parameter set for all its scenarios.
+  std::optional<std::string> estimation_grade;
+  int record_positions_seeds = 1;  ///< record particle positions for the first k seeds
   /// Noise replicas of each run's uncertainty (identification/uncertainty.h, issue 15): the
   /// run file's "parameters" carry sd and flags, "correlation" the matrix. 0 (the default) =
   /// none: the run's parameters are then listed by name only. Cost per run: 2n + 1 + replicas
@@ -93,7 +102,8 @@ std::vector<std::string> preset_campaign_names();
 /// Seeds 1..n.
 std::vector<std::uint64_t> seed_range(int n);
 
-/// The estimated parameters of a campaign (its --estimate specs, or the paper's four).
+/// The estimated parameters of a campaign (its --estimate specs, or the default set; both with
+/// the estimation_grade's sigmas when it is given).
 std::vector<EstimatedParameter> estimated_parameters(const CampaignConfig& config);
 
 /// Where an existing directory's resolved config first differs from `new_config` ("" when it

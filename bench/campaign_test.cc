@@ -11,6 +11,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <numbers>
 #include <sstream>
 #include <thread>
 
@@ -579,6 +580,16 @@ const char* kMemsConfig = R"({
                "gyro_bias_x:0.001745", "gyro_bias_y:0.001745"]
 })";
 
+// A one-axis PSO sweep on the rich preset (the keys' pass-through checks).
+SweepConfig rich_pso_sweep() {
+  SweepConfig sweep;
+  sweep.algorithm = "pso";
+  sweep.axes.push_back(SweepAxis::parse("w=0.5"));
+  sweep.scenario.name = "rich";
+  sweep.scenario.preset = "rich";
+  return sweep;
+}
+
 // GIVEN a MEMS campaign without the new keys THEN it is refused by the gyrocompass feasibility
 // check, as before (configs always gyrocompassed); WITH "initial_attitude": "level+heading" and
 // "window_s": 10 THEN it runs, and the resolved config and every run file record both. A config
@@ -634,11 +645,7 @@ TEST(Campaign, MemsCampaignRunsWithLevelHeadingAndAWindow) {
   bad["initial_attitude"] = "level+heading";
   EXPECT_EQ(invalid_argument_of([&] { parse_campaign(bad, "m.json"); }), "");
   // A sweep passes the keys on to its campaign (and leaves them out when not given).
-  SweepConfig sweep;
-  sweep.algorithm = "pso";
-  sweep.axes.push_back(SweepAxis::parse("w=0.5"));
-  sweep.scenario.name = "rich";
-  sweep.scenario.preset = "rich";
+  SweepConfig sweep = rich_pso_sweep();
   EXPECT_FALSE(sweep_campaign(sweep).to_json().contains("initial_attitude"));
   sweep.initial_attitude = InitialAttitudeMode::kLevelHeading;
   sweep.window_s = 10.0;
@@ -648,6 +655,62 @@ TEST(Campaign, MemsCampaignRunsWithLevelHeadingAndAWindow) {
   bad["window_s"] = -1.0;
   EXPECT_NE(invalid_argument_of([&] { parse_campaign(bad, "m.json"); }).find("window_s = -1"),
             std::string::npos);
+}
+
+// GIVEN the MEMS campaign with "estimation_grade": "mems" and no "estimate" THEN it estimates
+// the mems grade's default set (the four and gyro_bias_z at 0.1 deg/s and 10 mg), as identify
+// --grade mems does; the resolved config, the manifest and every run file record the key; the
+// scenarios' "grade" (the simulated noise) is a different key and stays as it was. Without the
+// key the config resolves as before (no key, the catalogue's sigmas); a bad value is named. A
+// sweep passes the key on.
+TEST(Campaign, EstimationGradeSetsTheParametersAndIsRecorded) {
+  nlohmann::json j = nlohmann::json::parse(kMemsConfig);
+  j.erase("estimate");
+  EXPECT_FALSE(parse_campaign(j, "m.json").to_json().contains("estimation_grade"));
+  EXPECT_EQ(estimated_parameters(parse_campaign(j, "m.json")).size(), 4u);
+  EXPECT_EQ(estimated_parameters(parse_campaign(j, "m.json"))[2].sigma, kSigmaGyroRadS);
+  j["estimation_grade"] = "mems";
+  j["initial_attitude"] = "level+heading";
+  j["window_s"] = 10.0;
+  const CampaignConfig mems = parse_campaign(j, "mems.json");
+  const std::vector<EstimatedParameter> p = estimated_parameters(mems);
+  ASSERT_EQ(p.size(), 5u);
+  EXPECT_EQ(p[4].name, "gyro_bias_z");
+  EXPECT_NEAR(p[2].sigma, 0.1 * std::numbers::pi / 180.0, 1e-15);
+  EXPECT_NEAR(p[0].sigma, 10e-3 * 9.80665, 1e-15);
+  EXPECT_EQ(mems.to_json()["estimation_grade"], "mems");
+  EXPECT_EQ(mems.to_json()["scenarios"][0]["grade"], "mems");  // the simulated noise, unchanged
+  // Given estimate names take the grade's sigma too.
+  nlohmann::json named = j;
+  named["estimate"] = {"accel_bias_x", "gyro_bias_z:0.001"};
+  const std::vector<EstimatedParameter> q = estimated_parameters(parse_campaign(named, "m.json"));
+  ASSERT_EQ(q.size(), 2u);
+  EXPECT_NEAR(q[0].sigma, 10e-3 * 9.80665, 1e-15);
+  EXPECT_EQ(q[1].sigma, 0.001);
+  const fs::path dir = fresh_dir("mems-grade");
+  RunOptions options;
+  options.out_dir = dir.string();
+  options.quiet = true;
+  ASSERT_TRUE(run_campaign(mems, options).complete);
+  EXPECT_EQ(read(dir / "manifest.json")["config"]["estimation_grade"], "mems");
+  EXPECT_EQ(read(dir / "manifest.json")["config"]["estimate"].size(), 5u);
+  const nlohmann::json run = read(run_file(dir.string(), "rich-mems", "PSO", 1));
+  EXPECT_EQ(run["estimation_grade"], "mems");
+  ASSERT_EQ(run["parameters"].size(), 5u);
+  EXPECT_EQ(run["parameters"][4]["name"], "gyro_bias_z");
+  fs::remove_all(dir);
+
+  nlohmann::json bad = j;
+  bad["estimation_grade"] = "paper";  // a noise grade of the simulator, not an estimation grade
+  EXPECT_NE(invalid_argument_of([&] {
+              parse_campaign(bad, "m.json");
+            }).find("estimation_grade 'paper': expected nav, tactical or mems"),
+            std::string::npos);
+  SweepConfig sweep = rich_pso_sweep();
+  EXPECT_FALSE(sweep_campaign(sweep).to_json().contains("estimation_grade"));
+  sweep.estimation_grade = "tactical";
+  EXPECT_EQ(sweep_campaign(sweep).to_json()["estimation_grade"], "tactical");
+  EXPECT_EQ(estimated_parameters(sweep_campaign(sweep)).size(), 5u);
 }
 
 }  // namespace

@@ -317,6 +317,7 @@ struct LockstepRunner::Impl {
       j["initial_attitude"] = insid::to_string(*config_.initial_attitude);
     if (config_.heading_deg) j["heading_deg"] = *config_.heading_deg;
     if (config_.window_s != 0.0) j["window_s"] = config_.window_s;
+    if (config_.estimation_grade) j["estimation_grade"] = *config_.estimation_grade;
     j["parameters"] = nlohmann::json::array();
     for (const EstimatedParameter& p : mapping_.parameters())
       j["parameters"].push_back({{"name", p.name}});

@@ -159,6 +159,7 @@ CampaignConfig sweep_campaign(const SweepConfig& sweep) {
   if (sweep.initial_attitude) j["initial_attitude"] = to_string(*sweep.initial_attitude);
   if (sweep.heading_deg) j["heading_deg"] = *sweep.heading_deg;
   if (sweep.window_s != 0.0) j["window_s"] = sweep.window_s;
+  if (sweep.estimation_grade) j["estimation_grade"] = *sweep.estimation_grade;
   j["record_positions_seeds"] = 0;
   return parse_campaign(j, "sweep");
 }

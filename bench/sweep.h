@@ -38,6 +38,9 @@ struct SweepConfig {
   std::optional<InitialAttitudeMode> initial_attitude;
   std::optional<double> heading_deg;
   double window_s = 0.0;
+  /// The campaign key estimation_grade (nav | tactical | mems; absent = as before). Not
+  /// scenario.grade, the simulated noise.
+  std::optional<std::string> estimation_grade;
 
   /// Throws std::invalid_argument naming the bad value: no axis, an axis key given twice or
   /// with no values, a non-finite value or LO > HI, negative random_settings, no seed,

@@ -13,6 +13,7 @@
 #include "cli/progress.h"
 #include "core/dataset.h"
 #include "diagnose/diagnose.h"
+#include "identification/grade.h"
 
 namespace insid::cli {
 namespace {
@@ -21,6 +22,7 @@ struct DiagnoseArgs {
   std::string data_dir;
   std::vector<std::string> base;
   std::vector<std::string> candidates;
+  std::string grade = "auto";
   int max_effects = 3;
   std::uint64_t seed = 1;
   std::string out;
@@ -49,7 +51,10 @@ void run(const DiagnoseArgs& a) {
   namespace fs = std::filesystem;
   auto dataset = std::make_shared<const Dataset>(load_dataset(a.data_dir));
   diagnose::DiagnoseOptions o;
-  for (const std::string& b : a.base) o.base.push_back(EstimatedParameter::parse(b));
+  // --grade as identify's: every --base NAME without SIGMA gets the grade's sigma.
+  const SensorGrade& grade = grade_for(*dataset, a.grade);
+  o.grade = grade.name;
+  for (const std::string& b : a.base) o.base.push_back(grade.parameter(b));
   o.candidates = a.candidates;
   o.max_effects = a.max_effects;
   o.seed = a.seed;
@@ -120,10 +125,18 @@ void add_diagnose_command(CLI::App& app) {
       "floor before and after. Method: diagnose/README.md.");
   cmd->add_option("--data", a->data_dir, "dataset directory (insid-dataset/1)")->required();
   cmd->add_option("--base", a->base,
-                  "base model NAME[:SIGMA[:LO:HI]] ...; default: the paper's four");
+                  "base model NAME[:SIGMA[:LO:HI]] ...; default: the grade's (nav: the paper's "
+                  "four)");
   cmd->add_option("--candidates", a->candidates,
                   "candidate effects NAME ... or 'all' (default: every catalogue effect not in "
                   "the base)");
+  cmd->add_option("--grade", a->grade,
+                  "sensor grade auto | nav | tactical | mems, as identify's: the sigma of every "
+                  "--base NAME without SIGMA and of every candidate, and the default base (nav: "
+                  "the paper's four; tactical, mems: also gyro_bias_z); auto: from meta.json's "
+                  "noise block (identification/grade.h), nav without one")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"auto", "nav", "tactical", "mems"}));
   cmd->add_option("--max-effects", a->max_effects, "most effects added")
       ->capture_default_str()
       ->check(whole_in(1, 100));

@@ -34,16 +34,65 @@ namespace insid::cli {
 namespace {
 namespace fs = std::filesystem;
 
+// What every import subcommand takes (declared once by add_shared_import_options): the static
+// window (import::AssembleOptions), the output directory and the verbosity.
+struct SharedImportArgs {
+  std::optional<double> align_s;
+  double static_speed_mps = import::AssembleOptions{}.static_speed_mps;
+  double static_rate_dps = import::AssembleOptions{}.static_rate_dps;
+  double static_accel_sd_mps2 = import::AssembleOptions{}.static_accel_sd_mps2;
+  std::string out;
+  bool force = false;
+  Verbosity verbosity = Verbosity::kNormal;
+
+  /// The static-window part of the assembly options (the caller sets the GNSS quality).
+  import::AssembleOptions assemble_options() const {import::AssembleOptions options;
+  options.align_s = align_s;
+  options.static_speed_mps = static_speed_mps;
+  options.static_rate_dps = static_rate_dps;
+  options.static_accel_sd_mps2 = static_accel_sd_mps2;
+  return options;
+}
+  /// Added to the recorded options of provenance.json.
+  void record(nlohmann::json& options) const {
+  options["align_s"] = align_s ? nlohmann::json(*align_s) : nlohmann::json(nullptr);
+  options["static_speed_mps"] = static_speed_mps;
+  options["static_rate_dps"] = static_rate_dps;
+  options["static_accel_sd_mps2"] = static_accel_sd_mps2;
+}
+};  // namespace
+
+void add_shared_import_options(CLI::App* sub, SharedImportArgs& a) {
+  sub->add_option("--align-s", a.align_s,
+                  "static alignment window (s); default: detected, until 1 s before the GNSS "
+                  "shows motion or the IMU block before the first turn or shake")
+      ->check(number_in(0, 86400));
+  sub->add_option("--static-speed", a.static_speed_mps,
+                  "GNSS horizontal speed (m/s) above which the unit is moving")
+      ->capture_default_str()
+      ->check(number_in(1e-6, 10));
+  sub->add_option("--static-rate", a.static_rate_dps,
+                  "angular rate (deg/s) by which a 0.5 s block's mean departing from the still "
+                  "blocks' ends the static window (a turn on the spot)")
+      ->capture_default_str()
+      ->check(number_in(1e-6, 1000));
+  sub->add_option("--static-accel-sd", a.static_accel_sd_mps2,
+                  "sd of |specific force| (m/s^2) within a 0.5 s block that ends the static "
+                  "window (steps, handling; raise it for a platform vibrating while still)")
+      ->capture_default_str()
+      ->check(number_in(1e-6, 100));
+  sub->add_option("--out", a.out, "output dataset directory (new, empty or an insid dataset)")
+      ->required();
+  sub->add_flag("--force", a.force, "write into a --out directory that holds other files");
+  add_verbosity_flags(sub, a.verbosity);
+}
+
 struct ImportCsvArgs {
-  std::string imu, gnss, columns, units, imu_time = "gpst-unix", rate_samples = "point", mounting,
-                                         out;
+  std::string imu, gnss, columns, units, imu_time = "gpst-unix", rate_samples = "point", mounting;
   std::optional<int> gps_week;
   std::optional<double> time_offset_s;  // required with --imu-time relative
   std::vector<int> gnss_quality = {1, 2};
-  std::optional<double> align_s;
-  double static_speed_mps = 0.2;
-  bool force = false;
-  Verbosity verbosity = Verbosity::kNormal;
+  SharedImportArgs shared;
 };
 
 std::string read_text(const std::string& path, const char* option) {
@@ -87,7 +136,7 @@ if (import::looks_like_kf_gins_gnss(text)) return import::parse_kf_gins_gnss(tex
 throw std::invalid_argument("--gnss " + path +
                             ": neither an RTKLIB solution (a '%' header naming latitude(deg)) "
                             "nor a KF-GINS GNSS file (7 or 13 numbers per line)");
-}  // namespace
+}  // namespace insid::cli
 
 nlohmann::json source_json(const std::string& role, const std::string& path,
                            const std::string& text) {
@@ -127,7 +176,7 @@ void finish_import(const std::string& command, import::Assembled result, nlohman
 }
 
 void run_import_csv(const ImportCsvArgs& args) {
-  dataset_destination(args.out, args.force);  // refuse a directory before the work
+  dataset_destination(args.shared.out, args.shared.force);  // refuse a directory before the work
   import::CsvImuSpec spec;
   spec.columns = import::CsvImuSpec::parse_columns(args.columns);
   spec.parse_units(args.units);
@@ -146,10 +195,8 @@ void run_import_csv(const ImportCsvArgs& args) {
     spec.mounting_rpy_deg = {rpy[0], rpy[1], rpy[2]};
   }
   if (const std::string e = spec.validate(); !e.empty()) throw std::invalid_argument(e);
-  import::AssembleOptions options;
+  import::AssembleOptions options = args.shared.assemble_options();
   options.gnss_quality = {args.gnss_quality.begin(), args.gnss_quality.end()};
-  options.align_s = args.align_s;
-  options.static_speed_mps = args.static_speed_mps;
   if (const std::string e = options.validate(); !e.empty()) throw std::invalid_argument(e);
 
   const auto t0 = std::chrono::steady_clock::now();
@@ -172,28 +219,22 @@ void run_import_csv(const ImportCsvArgs& args) {
       {"mounting_rpy_deg",
        {spec.mounting_rpy_deg.x(), spec.mounting_rpy_deg.y(), spec.mounting_rpy_deg.z()}},
       {"mounting", "v_b = Rx(R) Ry(P) Rz(Y) v_s, applied at import"},
-      {"gnss_quality", args.gnss_quality},
-      {"align_s", args.align_s ? nlohmann::json(*args.align_s) : nlohmann::json(nullptr)},
-      {"static_speed_mps", args.static_speed_mps}};
+      {"gnss_quality", args.gnss_quality}};
+  args.shared.record(recorded_options);
   finish_import("insid import csv", std::move(result), std::move(recorded_options),
                 {source_json("imu", args.imu, imu_text), source_json("gnss", args.gnss, gnss_text)},
-                args.out, args.force, t0, args.verbosity);
+                args.shared.out, args.shared.force, t0, args.shared.verbosity);
 }
 
 struct ImportKfGinsArgs {
-  std::string imu, gnss, out;
+  std::string imu, gnss;
   std::optional<int> gps_week;
-  std::optional<double> align_s;
-  double static_speed_mps = 0.2;
-  bool force = false;
-  Verbosity verbosity = Verbosity::kNormal;
+  SharedImportArgs shared;
 };
 
 void run_import_kf_gins(const ImportKfGinsArgs& args) {
-  dataset_destination(args.out, args.force);
-  import::AssembleOptions options;
-  options.align_s = args.align_s;
-  options.static_speed_mps = args.static_speed_mps;
+  dataset_destination(args.shared.out, args.shared.force);
+  const import::AssembleOptions options = args.shared.assemble_options();
   if (const std::string e = options.validate(); !e.empty()) throw std::invalid_argument(e);
   const auto t0 = std::chrono::steady_clock::now();
   const std::string gnss_text = read_text(args.gnss, "--gnss");
@@ -207,30 +248,24 @@ void run_import_kf_gins(const ImportKfGinsArgs& args) {
         "file has no velocity columns); see README, insid import kf-gins");
   nlohmann::json opts = {
       {"gps_week", args.gps_week ? nlohmann::json(*args.gps_week) : nlohmann::json(nullptr)},
-      {"align_s", args.align_s ? nlohmann::json(*args.align_s) : nlohmann::json(nullptr)},
-      {"static_speed_mps", args.static_speed_mps},
       {"axes", "body forward-right-down as KF-GINS defines its IMU file (no mounting applied)"}};
+  args.shared.record(opts);
   finish_import("insid import kf-gins", std::move(result), std::move(opts),
                 {source_json("imu", args.imu, imu_text), source_json("gnss", args.gnss, gnss_text)},
-                args.out, args.force, t0, args.verbosity);
+                args.shared.out, args.shared.force, t0, args.shared.verbosity);
 }
 
 struct ImportUlogArgs {
-  std::string log, out;
+  std::string log;
   import::UlogImportOptions ulog;
-  std::optional<double> align_s;
-  double static_speed_mps = 0.2;
-  bool force = false;
-  Verbosity verbosity = Verbosity::kNormal;
+  SharedImportArgs shared;
 };
 
 void run_import_ulog(const ImportUlogArgs& args) {
-  dataset_destination(args.out, args.force);
+  dataset_destination(args.shared.out, args.shared.force);
   if (const std::string e = args.ulog.validate(); !e.empty()) throw std::invalid_argument(e);
-  import::AssembleOptions options;
+  import::AssembleOptions options = args.shared.assemble_options();
   options.gnss_quality = {1};  // the fix-type selection is made by extract_ulog
-  options.align_s = args.align_s;
-  options.static_speed_mps = args.static_speed_mps;
   if (const std::string e = options.validate(); !e.empty()) throw std::invalid_argument(e);
   const auto t0 = std::chrono::steady_clock::now();
   std::string bytes = read_text(args.log, "LOG");
@@ -244,15 +279,13 @@ void run_import_ulog(const ImportUlogArgs& args) {
   prov.erase("time_origin_gpst_unix_s");
   prov.update(series.provenance, true);
   result.notes.insert(result.notes.begin(), series.notes.begin(), series.notes.end());
-  nlohmann::json opts = {
-      {"imu_topic", args.ulog.imu_topic.empty() ? "auto" : args.ulog.imu_topic},
-      {"imu_instance", args.ulog.imu_instance},
-      {"gnss_instance", args.ulog.gnss_instance},
-      {"min_fix_type", args.ulog.min_fix_type},
-      {"align_s", args.align_s ? nlohmann::json(*args.align_s) : nlohmann::json(nullptr)},
-      {"static_speed_mps", args.static_speed_mps}};
-  finish_import("insid import ulog", std::move(result), std::move(opts), {source}, args.out,
-                args.force, t0, args.verbosity);
+  nlohmann::json opts = {{"imu_topic", args.ulog.imu_topic.empty() ? "auto" : args.ulog.imu_topic},
+                         {"imu_instance", args.ulog.imu_instance},
+                         {"gnss_instance", args.ulog.gnss_instance},
+                         {"min_fix_type", args.ulog.min_fix_type}};
+  args.shared.record(opts);
+  finish_import("insid import ulog", std::move(result), std::move(opts), {source}, args.shared.out,
+                args.shared.force, t0, args.shared.verbosity);
 }
 
 struct ExportArgs {
@@ -377,16 +410,7 @@ void add_import_command(CLI::App& app) {
   csv->add_option("--gnss-quality", a->gnss_quality,
                   "RTKLIB quality flags kept (default 1 2: fix, float)")
       ->check(whole_in(1, 7));
-  csv->add_option("--align-s", a->align_s,
-                  "static alignment window (s); default: until 1 s before the GNSS shows motion")
-      ->check(number_in(0, 86400));
-  csv->add_option("--static-speed", a->static_speed_mps,
-                  "GNSS horizontal speed (m/s) above which the unit is moving (default 0.2)")
-      ->check(number_in(1e-6, 10));
-  csv->add_option("--out", a->out, "output dataset directory (new, empty or an insid dataset)")
-      ->required();
-  csv->add_flag("--force", a->force, "write into a --out directory that holds other files");
-  add_verbosity_flags(csv, a->verbosity);
+  add_shared_import_options(csv, a->shared);
   csv->callback([a] { run_import_csv(*a); });
 
   auto k = std::make_shared<ImportKfGinsArgs>();
@@ -399,14 +423,7 @@ void add_import_command(CLI::App& app) {
   kf->add_option("--gps-week", k->gps_week,
                  "GPS week of the seconds-of-week times (recorded; default 0)")
       ->check(whole_in(0, 100000));
-  kf->add_option("--align-s", k->align_s,
-                 "static alignment window (s); default: until 1 s before the GNSS shows motion")
-      ->check(number_in(0, 86400));
-  kf->add_option("--static-speed", k->static_speed_mps, "GNSS speed (m/s) counted as motion")
-      ->check(number_in(1e-6, 10));
-  kf->add_option("--out", k->out, "output dataset directory")->required();
-  kf->add_flag("--force", k->force, "write into a --out directory that holds other files");
-  add_verbosity_flags(kf, k->verbosity);
+  add_shared_import_options(kf, k->shared);
   kf->callback([k] { run_import_kf_gins(*k); });
 
   auto u = std::make_shared<ImportUlogArgs>();
@@ -425,14 +442,7 @@ void add_import_command(CLI::App& app) {
   ul->add_option("--min-fix-type", u->ulog.min_fix_type,
                  "PX4 fix_type kept: 3 = 3D (default), 4 = DGPS, 5 = RTK float, 6 = RTK fixed")
       ->check(whole_in(0, 8));
-  ul->add_option("--align-s", u->align_s,
-                 "static alignment window (s); default: until 1 s before the GNSS shows motion")
-      ->check(number_in(0, 86400));
-  ul->add_option("--static-speed", u->static_speed_mps, "GNSS speed (m/s) counted as motion")
-      ->check(number_in(1e-6, 10));
-  ul->add_option("--out", u->out, "output dataset directory")->required();
-  ul->add_flag("--force", u->force, "write into a --out directory that holds other files");
-  add_verbosity_flags(ul, u->verbosity);
+  add_shared_import_options(ul, u->shared);
   ul->callback([u] { run_import_ulog(*u); });
 }
 

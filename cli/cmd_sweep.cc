@@ -29,6 +29,7 @@ struct SweepArgs {
   std::string initial_attitude;  // empty: as before (gyrocompass)
   double heading_deg = std::numeric_limits<double>::quiet_NaN();
   double window_s = 0.0;
+  std::string estimation_grade;  // empty: as before (the catalogue's sigmas)
   CampaignRunArgs run;
 };
 
@@ -55,6 +56,7 @@ void run(const SweepArgs& args) {
     sweep.initial_attitude = initial_attitude_mode_from_string(args.initial_attitude);
   if (!std::isnan(args.heading_deg)) sweep.heading_deg = args.heading_deg;
   sweep.window_s = args.window_s;
+  if (!args.estimation_grade.empty()) sweep.estimation_grade = args.estimation_grade;
   // Labelled "insid sweep" (the campaign runner behind it is bench's).
   const auto printer = std::make_shared<ProgressPrinter>("insid sweep", args.run.verbosity);
   const campaign::RunOptions options = campaign_run_options(args.run, cluster.get(), printer);
@@ -109,6 +111,10 @@ void add_sweep_command(CLI::App& app) {
   cmd->add_option("--window-s", args->window_s,
                   "windowed fitness: INS restarted from GNSS every W s (0 = one run)")
       ->capture_default_str();
+  cmd->add_option("--estimation-grade", args->estimation_grade,
+                  "nav | tactical | mems: the sigmas and default parameters of the estimation, as "
+                  "identify's --grade (the campaign key estimation_grade; --grade is the "
+                  "simulated noise); default: the catalogue's, as before");
   add_campaign_run_options(cmd, &args->run);
   cmd->callback([args] { run(*args); });
 }

@@ -405,10 +405,15 @@ TEST_F(CliSafety, ImportAndExportRefuseBadInputAndNeverHalfWrite) {
   Outcome o = insid("export --to kf-gins --data " + data_.string() + " --out " + kf.string());
   ASSERT_EQ(o.status, 0) << o.output;
   o = insid("import kf-gins --imu " + (kf / "imu.txt").string() + " --gnss " +
-            (kf / "gnss.txt").string() + " --align-s 600 --out " + back.string());
+            (kf / "gnss.txt").string() +
+            " --align-s 600 --static-rate 5 --static-accel-sd 0.3 --out " + back.string());
   ASSERT_EQ(o.status, 0) << o.output;
   EXPECT_NE(text(back / "meta.json").find("insid-dataset/2"), std::string::npos);
   EXPECT_NE(text(back / "provenance.json").find("\"sha256\""), std::string::npos);
+  // The shared import options (cli/cmd_import.cc, add_shared_import_options) are recorded.
+  EXPECT_NE(text(back / "provenance.json").find("\"static_rate_dps\": 5.0"), std::string::npos);
+  EXPECT_NE(text(back / "provenance.json").find("\"static_accel_sd_mps2\": 0.3"),
+            std::string::npos);
   o = insid("navigate --data " + back.string() + " --summary " + (root_ / "s.json").string() +
             " --out " + (root_ / "n.csv").string());
   EXPECT_EQ(o.status, 0) << o.output;

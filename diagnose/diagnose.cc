@@ -24,6 +24,7 @@
 
 #include "diagnose/advice.h"
 #include "diagnose/noise_model.h"
+#include "identification/grade.h"
 #include "identification/identify.h"
 #include "identification/local_fit.h"
 #include "optimizers/parameters.h"
@@ -133,17 +134,24 @@ ModelFit refit(const std::shared_ptr<const NavigationProblem>& nav,
   return fit;
 }
 
-// Sensitivity columns (per catalogue sigma) of `names` at `errors`, forward differences with a
-// step of `step_sigma` catalogue sigmas, one full pipeline run each.
+// The unit (sigma, SI) of an effect under `grade`: the catalogue's for nav (exactly as before
+// grades existed), else the grade's (identification/grade.h).
+double unit_sigma(const SensorGrade& grade, const std::string& name) {
+  return grade.name == "nav" ? effect_info(name).sigma : grade.sigma(name);
+}
+
+// Sensitivity columns (per unit sigma, `sigma_si`) of `names` at `errors`, forward differences
+// with a step of `step_sigma` sigmas, one full pipeline run each.
 Mat sensitivity_columns(const NavigationProblem& nav, const SensorErrors& errors, const Vec& r0,
-                        const std::vector<std::string>& names, double step_sigma, int threads) {
+                        const std::vector<std::string>& names, const std::vector<double>& sigma_si,
+                        double step_sigma, int threads) {
   Mat C(r0.size(), static_cast<Eigen::Index>(names.size()));
   std::vector<std::string> failures(names.size());
 #pragma omp parallel for schedule(dynamic) num_threads(threads)
   for (int c = 0; c < static_cast<int>(names.size()); ++c) {
     try {
       SensorErrors e = errors;
-      const double h = step_sigma * effect_info(names[static_cast<std::size_t>(c)]).sigma;
+      const double h = step_sigma * sigma_si[static_cast<std::size_t>(c)];
       add_effect(e, names[static_cast<std::size_t>(c)], h);
       std::vector<double> rc;
       nav.residuals(e, rc);
@@ -199,6 +207,7 @@ Floor noise_floor(const Mat& J, const Mat& D, const std::vector<std::string>& ep
 
 struct CandidateStat {
   std::string name;
+  double sigma_si = 0;  ///< the unit of the *_sigma fields (unit_sigma)
   double estimate_sigma = 0, sd_sigma = 0, z = 0, z_normal = 0, p_single = 1, p_family = 1;
   double projected_share = 0, mde_sigma = 0;
   /// The working model's own view: sd of the GLS estimate if Sigma_w were the noise covariance
@@ -333,7 +342,7 @@ IterationStats score_candidates(const ModelFit& fit, const Mat& C,
 }
 
 json stat_json(const CandidateStat& s) {
-  const double sig = effect_info(s.name).sigma;
+  const double sig = s.sigma_si;
   json c = {{"effect", s.name},
             {"statistic", num(s.z * s.z)},
             {"z", num(s.z)},
@@ -408,6 +417,11 @@ std::string DiagnoseOptions::validate() const {
   if (!std::isfinite(window_s) || window_s < 0.0)
     return "DiagnoseOptions.window_s = " + opt::format_number(window_s) +
            ": must be a finite number of seconds >= 0 (0 = one pure-INS run)";
+  if (grade != "auto") {
+    const std::vector<std::string> names = sensor_grade_names();
+    if (std::find(names.begin(), names.end(), grade) == names.end())
+      return "DiagnoseOptions.grade = '" + grade + "': must be auto, nav, tactical or mems";
+  }
   return "";
 }
 
@@ -426,8 +440,9 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
   evaluator.parallelism = threads == 1 ? opt::Parallelism::kSerial : opt::Parallelism::kOpenMP;
   evaluator.num_threads = threads;
 
-  std::vector<EstimatedParameter> base =
-      options.base.empty() ? EstimatedParameter::paper_four() : options.base;
+  const SensorGrade& grade = grade_for(*dataset, options.grade);
+  std::vector<EstimatedParameter> base = options.base;
+  if (base.empty()) base = default_estimated(grade);  // as identify's default
   std::set<std::string> in_model;
   for (const auto& p : base) in_model.insert(p.name);
   std::vector<std::string> candidates;
@@ -453,6 +468,7 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
   report["build"] = build_info_json();
   report["alignment"] = to_string(options.alignment);
   report["window_s"] = options.window_s;
+  if (grade.name != "nav") report["grade"] = grade.name;  // nav reports as before grades
   report["initial_attitude"] = options.initial_attitude.describe();
   report["seed"] = options.seed;
   report["num_epochs"] = nav->num_epochs();
@@ -568,10 +584,14 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
   for (int it = 0;; ++it) {
     progress("iteration " + std::to_string(it + 1) + ": sensitivities of " +
              std::to_string(remaining.size()) + " candidates");
-    const Mat C = sensitivity_columns(*nav, fit.errors, fit.r, remaining, 1.0, threads);
+    std::vector<double> remaining_sigma;
+    for (const std::string& name : remaining) remaining_sigma.push_back(unit_sigma(grade, name));
+    const Mat C =
+        sensitivity_columns(*nav, fit.errors, fit.r, remaining, remaining_sigma, 1.0, threads);
     progress("iteration " + std::to_string(it + 1) + ": scoring");
-    const IterationStats st =
+    IterationStats st =
         score_candidates(fit, C, remaining, W, D_cal, options, mix_seed(options.seed, it));
+    for (std::size_t c = 0; c < st.table.size(); ++c) st.table[c].sigma_si = remaining_sigma[c];
     json ij;
     ij["iteration"] = it + 1;
     for (const auto& p : fit.params) ij["model"].push_back(p.name);
@@ -691,7 +711,7 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
     }
     fj["choice_rule"] =
         "largest de-biased deviance gain (working model) among the significant candidates";
-    const double sig = effect_info(best->name).sigma;
+    const double sig = best->sigma_si;
     fj["estimate_at_detection"] = best->estimate_sigma * sig;
     fj["z"] = best->z;
     found.push_back(fj);

@@ -30,8 +30,16 @@
 namespace insid::diagnose {
 
 struct DiagnoseOptions {
-  std::vector<EstimatedParameter> base;  ///< default: the paper's four
-  std::vector<std::string> candidates;   ///< empty: every catalogue effect not in the base
+  std::vector<EstimatedParameter> base;  ///< default: the grade's (nav: the paper's four)
+  /// Sensor grade (identification/grade.h), as `insid identify --grade`: auto | nav | tactical |
+  /// mems. It sets the default base (nav: the paper's four; tactical, mems: also gyro_bias_z,
+  /// each at the grade's sigma) and the unit (sigma) of every candidate: its sensitivity step,
+  /// estimate_sigma, sd_sigma, min_detectable_sigma against observable_max_sigma, and the box
+  /// of a found effect. auto: meta.json's noise block, nav without one. nav is the catalogue, as
+  /// before grades existed. (A base given with `base` keeps its own sigmas: the CLI gives every
+  /// --base NAME without SIGMA the grade's, SensorGrade::parameter.)
+  std::string grade = "auto";
+  std::vector<std::string> candidates;  ///< empty: every catalogue effect not in the base
   int max_effects = 3;
   std::uint64_t seed = 1;
   AlignmentMode alignment = AlignmentMode::kPerCandidate;

@@ -77,6 +77,48 @@ TEST(Options, EveryBadFieldIsNamedNothingIsClamped) {
   EXPECT_EQ(error([](DiagnoseOptions& o) { o.window_s = 30.0; }), "");
 }
 
+// GIVEN a short effect-free flight WHEN diagnose runs with grade tactical (as `insid diagnose
+// --grade tactical`) THEN the report records the grade, the default base is the five biases
+// (gyro_bias_z added) at the tactical sigmas (1 deg/h, 1 mg), and a candidate's unit is the
+// tactical one (accel_scale_x: 3e-4, the catalogue's 1e-4); with nav (the default on these
+// data, which declare no noise) none of that: the paper's four at the catalogue's sigmas.
+TEST(Options, TheGradeSetsTheBaseAndTheCandidatesUnits) {
+  const auto ds = make_hidden_dataset({"rich", 300.0, 3, {}});
+  DiagnoseOptions o;
+  o.algorithm = "none";
+  o.replicas_basis = 5;
+  o.replicas_calibration = 10;
+  o.max_effects = 1;
+  o.candidates = {"accel_scale_x"};
+  o.threads = 2;
+  // sd / sd_sigma of an entry: the unit it is counted in (SI per sigma).
+  const auto unit = [](const nlohmann::json& e) {
+    return e["sd"].get<double>() / e["sd_sigma"].get<double>();
+  };
+  for (const std::string grade : {"tactical", "nav"}) {
+    o.grade = grade;
+    const DiagnoseResult r = run_diagnose(ds, o);
+    const nlohmann::json& base = r.report["base"]["parameters"];
+    const nlohmann::json& candidate = r.report["iterations"][0]["candidates"][0];
+    ASSERT_EQ(candidate["effect"], "accel_scale_x");
+    if (grade == "tactical") {
+      EXPECT_EQ(r.report["grade"], "tactical");
+      ASSERT_EQ(base.size(), 5u);
+      EXPECT_EQ(base[4]["name"], "gyro_bias_z");
+      EXPECT_NEAR(unit(base[2]), kDegH, 1e-6 * kDegH) << base[2].dump();
+      EXPECT_NEAR(unit(base[0]), 9.80665e-3, 1e-8) << base[0].dump();
+      EXPECT_NEAR(unit(candidate), 3e-4, 1e-10) << candidate.dump();
+    } else {
+      EXPECT_FALSE(r.report.contains("grade"));
+      ASSERT_EQ(base.size(), 4u);
+      EXPECT_NEAR(unit(candidate), 1e-4, 1e-12) << candidate.dump();
+    }
+  }
+  o.grade = "consumer";
+  EXPECT_EQ(o.validate(),
+            "DiagnoseOptions.grade = 'consumer': must be auto, nav, tactical or mems");
+}
+
 TEST(NoiseModel, EstimatesNavGradeLevelsFromTheAlignmentWindow) {
   auto ds = make_hidden_dataset({"rich", 300.0, 7, {}});
   ASSERT_FALSE(ds->meta.noise.has_value());  // measured-looking data

@@ -43,6 +43,15 @@ EstimatedParameter SensorGrade::parameter(const std::string& text) const {
   return p;
 }
 
+std::vector<EstimatedParameter> default_estimated(const SensorGrade& grade) {
+  if (grade.name == "nav") return EstimatedParameter::paper_four();
+  std::vector<EstimatedParameter> out;
+  for (const char* name :
+       {"accel_bias_x", "accel_bias_y", "gyro_bias_x", "gyro_bias_y", "gyro_bias_z"})
+    out.push_back(grade.parameter(name));
+  return out;
+}
+
 const SensorGrade& sensor_grade(std::string_view name) {
   for (const SensorGrade& g : grades())
     if (g.name == name) return g;

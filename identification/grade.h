@@ -40,6 +40,11 @@ struct SensorGrade {
   EstimatedParameter parameter(const std::string& text) const;
 };
 
+/// The parameters estimated when none are named (identify, diagnose, campaign configs with an
+/// estimation_grade): nav the paper's four at the catalogue's sigmas, as always; tactical and
+/// mems the x/y accelerometer and x/y/z gyro biases at the grade's sigmas.
+std::vector<EstimatedParameter> default_estimated(const SensorGrade& grade);
+
 /// "nav" | "tactical" | "mems"; throws std::invalid_argument naming the value otherwise.
 const SensorGrade& sensor_grade(std::string_view name);
 std::vector<std::string> sensor_grade_names();

@@ -77,6 +77,8 @@ Answer ekf_rts(const std::shared_ptr<const Dataset>& data, const Spec& spec) {
   setup->passes = spec.ekf_passes;
   EkfRtsParams params;
   params.update_interval_s = spec.ekf_update_interval_s;
+  params.propagation_interval_s = spec.ekf_propagation_interval_s;
+  params.use_position = spec.ekf_use_position;
   const EkfRtsResult r = run_ekf_rts(*navigation, params, SensorErrors{}, setup);
   Answer a;
   a.method = "ekf-rts";
@@ -91,20 +93,19 @@ Answer ekf_rts(const std::shared_ptr<const Dataset>& data, const Spec& spec) {
   return a;
 }
 
-Answer lm_windowed(const std::shared_ptr<const Dataset>& data, const Spec& spec) {
-  const auto t0 = std::chrono::steady_clock::now();
-  const InsIdentificationProblem p = problem(data, spec.window_s, spec.threads);
-  opt::RunConfig config;
-  config.max_iterations = 0;
-  config.max_evaluations = 200;
-  const opt::Result result = opt::optimize("lm", p, config);
+namespace {
+
+// sd and flags of `best_x` (problem coordinates) from identification/uncertainty.h, the path of
+// every `insid identify` result.
+Answer answer_from_uncertainty(const InsIdentificationProblem& p, const Eigen::VectorXd& best_x,
+                               const std::string& algorithm, const Spec& spec) {
   UncertaintyOptions uo;
-  uo.criterion = criterion_for_algorithm("lm");
+  uo.criterion = criterion_for_algorithm(algorithm);
   uo.replicas = spec.replicas;
   uo.threads = spec.threads;
-  const UncertaintyReport report = estimate_uncertainty(p, p.mapping().to_sigma(result.best_x), uo);
+  const UncertaintyReport report = estimate_uncertainty(p, p.mapping().to_sigma(best_x), uo);
   Answer a;
-  a.method = "lm";
+  a.method = algorithm;
   a.estimate_si.resize(5);
   a.sd_si.resize(5);
   for (std::size_t k = 0; k < 5; ++k) {
@@ -113,6 +114,34 @@ Answer lm_windowed(const std::shared_ptr<const Dataset>& data, const Spec& spec)
     a.sd_si[static_cast<Eigen::Index>(k)] = u.sd_si.value_or(std::nan(""));
     a.flags.push_back(u.flags);
   }
+  return a;
+}
+
+}  // namespace
+
+Answer lm_windowed(const std::shared_ptr<const Dataset>& data, const Spec& spec) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const InsIdentificationProblem p = problem(data, spec.window_s, spec.threads);
+  opt::RunConfig config;
+  config.max_iterations = 0;
+  config.max_evaluations = 200;
+  const opt::Result result = opt::optimize("lm", p, config);
+  Answer a = answer_from_uncertainty(p, result.best_x, "lm", spec);
+  a.evaluations = result.evaluations;
+  a.wall_s = seconds_since(t0);
+  return a;
+}
+
+Answer swarm_windowed(const std::shared_ptr<const Dataset>& data, const Spec& spec) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const InsIdentificationProblem p = problem(data, spec.window_s, spec.threads);
+  opt::RunConfig config;
+  config.seed = spec.swarm_seed;
+  config.max_iterations = 0;
+  config.max_evaluations = spec.swarm_evaluations;
+  const opt::Result result = opt::optimize(spec.swarm, p, config);
+  Answer a = answer_from_uncertainty(p, result.best_x, spec.swarm, spec);
+  a.evaluations = result.evaluations;
   a.wall_s = seconds_since(t0);
   return a;
 }

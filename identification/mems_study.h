@@ -29,10 +29,15 @@ struct Spec {
   double align_s = 30.0;
   double flight_s = 400.0;
   double window_s = 10.0;  ///< windowed fitness of the LM method (s)
-  int replicas = 100;      ///< noise replicas of LM's sd (identification/uncertainty.h)
-  int threads = 0;         ///< OpenMP threads (0 = default)
-  int ekf_passes = 2;      ///< EKF-RTS passes (identification/ekf_rts.h, EkfRtsGradeSetup)
-  double ekf_update_interval_s = 1.0;          ///< EKF-RTS GNSS update interval (s)
+  int replicas = 100;  ///< noise replicas of LM's and the swarm's sd (identification/uncertainty.h)
+  std::string swarm = "dvpio";            ///< swarm method of the registry on the windowed fitness
+  std::int64_t swarm_evaluations = 2000;  ///< its budget (fitness evaluations)
+  std::uint64_t swarm_seed = 1;           ///< its random seed
+  int threads = 0;                        ///< OpenMP threads (0 = default)
+  int ekf_passes = 2;  ///< EKF-RTS passes (identification/ekf_rts.h, EkfRtsGradeSetup)
+  double ekf_update_interval_s = 1.0;       ///< EKF-RTS GNSS update interval (s)
+  double ekf_propagation_interval_s = 0.1;  ///< EKF-RTS covariance propagation step (s)
+  int ekf_use_position = 1;                 ///< EKF-RTS: 1 GNSS position and velocity, 0 velocity
   std::string ekf_attitude = "level+heading";  ///< EKF-RTS initial-attitude mode
 };
 
@@ -56,6 +61,7 @@ struct Answer {
   Eigen::VectorXd estimate_si, sd_si;
   std::vector<std::vector<std::string>> flags;
   double wall_s = 0.0;
+  std::int64_t evaluations = 0;  ///< fitness evaluations of the search (not the sd's)
 };
 
 /// EKF-RTS (grade-aware set-up, identification/ekf_rts.h): the smoothed biases at the
@@ -64,5 +70,11 @@ Answer ekf_rts(const std::shared_ptr<const Dataset>& data, const Spec& spec);
 /// LM (the registry's "lm", 200 evaluations from the box centre) on the windowed fitness, sd
 /// and flags from identification/uncertainty.h (least-squares criterion, noise replicas).
 Answer lm_windowed(const std::shared_ptr<const Dataset>& data, const Spec& spec);
+/// The swarm method `spec.swarm` (the registry's, default parameters, `swarm_evaluations`
+/// evaluations, seed `swarm_seed`) on the windowed fitness (Eq. 15 summed over windows), sd and
+/// flags from identification/uncertainty.h at its final point, as `insid identify` reports
+/// them: the Gauss-Newton replica covariance, and not_converged when one IRLS step of Eq. 15
+/// from the final point moves a parameter by more than 1 sd.
+Answer swarm_windowed(const std::shared_ptr<const Dataset>& data, const Spec& spec);
 
 }  // namespace insid::mems_study

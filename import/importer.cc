@@ -36,7 +36,71 @@ std::string AssembleOptions::validate() const {
     return "--align-s " + num(*align_s) + ": must be a finite number of seconds in [0, 86400]";
   if (!(std::isfinite(static_speed_mps) && static_speed_mps > 0.0 && static_speed_mps <= 10.0))
     return "--static-speed " + num(static_speed_mps) + ": must be in (0, 10] m/s";
+  if (!(std::isfinite(static_rate_dps) && static_rate_dps > 0.0 && static_rate_dps <= 1000.0))
+    return "--static-rate " + num(static_rate_dps) + ": must be in (0, 1000] deg/s";
+  if (!(std::isfinite(static_accel_sd_mps2) && static_accel_sd_mps2 > 0.0 &&
+        static_accel_sd_mps2 <= 100.0))
+    return "--static-accel-sd " + num(static_accel_sd_mps2) + ": must be in (0, 100] m/s^2";
   return "";
+}
+
+ImuStaticEnd static_window_end(const std::vector<ImuSample>& imu, double t_limit_s,
+                               const AssembleOptions& options) {
+  constexpr double kBlockS = 0.5;
+  ImuStaticEnd out{t_limit_s, ""};
+  if (imu.size() < 2) return out;
+  const double t0 = imu.front().t_s;
+  const double rate_limit = options.static_rate_dps * kDegToRad;
+  Eigen::Vector3d dtheta_still = Eigen::Vector3d::Zero();  // over the still blocks so far
+  double dt_still = 0.0;
+  std::size_t k = 1;
+  for (int block = 0;; ++block) {
+    const double t_start = t0 + block * kBlockS, t_stop = t_start + kBlockS;
+    if (t_stop > t_limit_s + 1e-9) break;  // only whole blocks inside the GNSS-still span
+    Eigen::Vector3d dtheta = Eigen::Vector3d::Zero();
+    double dt = 0.0, sum_f = 0.0, sum_f2 = 0.0;
+    int n = 0;
+    for (; k < imu.size() && imu[k].t_s <= t_stop + 1e-9; ++k) {
+      const double step = imu[k].t_s - imu[k - 1].t_s;
+      if (!(step > 0.0)) continue;
+      dtheta += imu[k].dtheta_b_rad;
+      dt += step;
+      const double f = imu[k].dv_b_mps.norm() / step;  // |specific force| of the row (m/s^2)
+      sum_f += f;
+      sum_f2 += f * f;
+      ++n;
+    }
+    if (n < 2) continue;
+    // Mean angular rate of the block against the mean over the still blocks before it.
+    if (dt_still > 0.0) {
+      const Eigen::Vector3d departure = dtheta / dt - dtheta_still / dt_still;
+      const int axis = [&] {
+        Eigen::Index i = 0;
+        departure.cwiseAbs().maxCoeff(&i);
+        return static_cast<int>(i);
+      }();
+      if (std::abs(departure[axis]) > rate_limit) {
+        out.t_end_s = std::max(t0, t_start - kBlockS);
+        out.why = "the mean angular rate of the block at t = " + num(t_start - t0) +
+                  " s departs from the still blocks' by " + num(departure[axis] / kDegToRad, 3) +
+                  " deg/s on " + "xyz"[axis] + " (above --static-rate " +
+                  num(options.static_rate_dps) + ")";
+        return out;
+      }
+    }
+    const double mean_f = sum_f / n;
+    const double sd_f = std::sqrt(std::max(0.0, (sum_f2 - n * mean_f * mean_f) / (n - 1)));
+    if (sd_f > options.static_accel_sd_mps2) {
+      out.t_end_s = std::max(t0, t_start - kBlockS);
+      out.why = "the specific force of the block at t = " + num(t_start - t0) + " s scatters by " +
+                num(sd_f, 3) + " m/s^2 (above --static-accel-sd " +
+                num(options.static_accel_sd_mps2) + ")";
+      return out;
+    }
+    dtheta_still += dtheta;
+    dt_still += dt;
+  }
+  return out;
 }
 
 Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
@@ -185,18 +249,36 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
         t_moving = g.t_s;
         break;
       }
-    m.align_s = std::floor((t_moving - 1.0 - ds.imu.front().t_s) * 10.0) / 10.0;
+    // The GNSS sees translation only: the IMU criteria end the window earlier at a turn on the
+    // spot or handling (static_window_end).
+    const ImuStaticEnd imu_end = static_window_end(ds.imu, t_moving - 1.0, options);
+    // (The block starts lie on 0.5 s steps from the first row: the 1e-9 keeps 9.0 from reading
+    // 8.9 by round-off; the GNSS end is floored as before the IMU criteria existed.)
+    m.align_s = imu_end.why.empty()
+                    ? std::floor((t_moving - 1.0 - ds.imu.front().t_s) * 10.0) / 10.0
+                    : std::floor((imu_end.t_end_s - ds.imu.front().t_s) * 10.0 + 1e-9) / 10.0;
     if (m.align_s < 1.0)
-      throw std::runtime_error("no static start found: the GNSS horizontal speed exceeds " +
-                               num(options.static_speed_mps) + " m/s within " +
-                               num(t_moving - ds.imu.front().t_s) +
-                               " s of the first IMU row; give the static window with --align-s");
+      throw std::runtime_error(
+          "no static start found: " +
+          (imu_end.why.empty()
+               ? "the GNSS horizontal speed exceeds " + num(options.static_speed_mps) +
+                     " m/s within " + num(t_moving - ds.imu.front().t_s) + " s of the first IMU row"
+               : imu_end.why) +
+          "; give the static window with --align-s");
     prov["alignment_window"] = {
         {"align_s", m.align_s},
         {"how",
-         "from the first IMU row to 1 s before the first GNSS epoch with horizontal speed "
-         "above " +
-             num(options.static_speed_mps) + " m/s"}};
+         "from the first IMU row to the earlier of 1 s before the first GNSS epoch with "
+         "horizontal speed above " +
+             num(options.static_speed_mps) +
+             " m/s and the 0.5 s IMU block before the first one that moves (mean rate departing "
+             "by more than " +
+             num(options.static_rate_dps) + " deg/s, or |specific force| sd above " +
+             num(options.static_accel_sd_mps2) + " m/s^2)"},
+        {"ended_by", imu_end.why.empty() ? std::string("gnss speed") : imu_end.why},
+        {"gnss_moving_t_s", t_moving - ds.imu.front().t_s}};
+    if (!imu_end.why.empty())
+      out.notes.push_back("static window ended by the IMU before the GNSS moved: " + imu_end.why);
   }
   out.notes.push_back("static alignment window: the first " + num(m.align_s) + " s");
   const GnssSample g0 = interpolate_gnss(ds.gnss, ds.imu.front().t_s);

@@ -20,14 +20,39 @@ struct AssembleOptions {
   /// RTKLIB quality flags kept (1 fix, 2 float, 3 SBAS, 4 DGPS, 5 single, 6 PPP); the others are
   /// dropped (and counted in the provenance). Velocities are not re-weighted by their std.
   std::set<int> gnss_quality = {1, 2};
-  /// Static alignment window (s); unset: from the first IMU row to 1 s before the first GNSS
-  /// epoch whose horizontal speed exceeds static_speed_mps.
+  /// Static alignment window (s); unset: detected (static_window_end below), from the first IMU
+  /// row to the earlier of
+  ///   * 1 s before the first GNSS epoch whose horizontal speed exceeds static_speed_mps, and
+  ///   * the start of the 0.5 s IMU block before the first block that moves: its mean angular
+  ///     rate departs from the mean over the blocks before it by more than static_rate_dps on
+  ///     an axis (a turn on the spot: the GNSS does not see it), or its specific-force magnitude
+  ///     scatters (sample sd) by more than static_accel_sd_mps2 (steps, handling).
+  /// The gyro bias and Earth rate cancel in the rate's departure; the thresholds are far above
+  /// the white noise of a 0.5 s block mean of a MEMS gyro (0.005 deg/s for 0.2 deg/sqrt(h)).
   std::optional<double> align_s;
   double static_speed_mps = 0.2;
+  /// Block-mean angular rate departure (deg/s) that ends the static window: 2 deg/s turns the
+  /// unit by 1 deg in a block.
+  double static_rate_dps = 2.0;
+  /// Sample sd of |specific force| within a block (m/s^2) that ends the static window (0.1 m/s^2
+  /// ~ 10 mg: a hand-held phone scatters 0.003-0.07, walking steps 0.2-0.9). A platform that
+  /// vibrates while still (motors armed) may need a larger value.
+  double static_accel_sd_mps2 = 0.1;
 
   /// "" or the first bad field, its value and the allowed range.
   std::string validate() const;
 };
+
+/// The end (s, on the dataset's t_s) of the motionless start of `imu` up to `t_limit_s`, by the
+/// IMU criteria of AssembleOptions (0.5 s blocks from the first row): the start of the block
+/// before the first moving block, or t_limit_s when none moves before it. `why` says which
+/// criterion ended it (empty when none did).
+struct ImuStaticEnd {
+  double t_end_s = 0.0;
+  std::string why;
+};
+ImuStaticEnd static_window_end(const std::vector<ImuSample>& imu, double t_limit_s,
+                               const AssembleOptions& options);
 
 struct Assembled {
   Dataset dataset;

@@ -242,9 +242,11 @@ def words(add, W, P, names, check, headings, lmW, misfit, results, detail, nav, 
         "`--param initial_bias_sigma=...` was refused before this report (the `_sigma` suffix was "
         "read as a DVPIO distance and stripped): fixed, with a test. The same suffix rule in "
         "`insid sweep --grid` is not fixed.")
-    add("3. **The import's default static window** ends 1 s before the GNSS speed exceeds 0.2 m/s; "
-        "this walker turned on the spot before walking off, inside that window. The script measures the "
-        "quiet gyro blocks and passes `--align-s`; the importer itself still looks at GNSS speed only.")
+    add("3. **The import's default static window** ends at the 0.5 s IMU block before the first "
+        "turn or shake (`--static-rate` 2 deg/s, `--static-accel-sd` 0.1 m/s^2) as well as 1 s "
+        "before the GNSS speed exceeds 0.2 m/s; the GNSS alone would let this walker's turn on the "
+        "spot into the window. Handling below those thresholds (the gyro scatter between 3 and "
+        "7.5 s) stays in it.")
     add("4. **level+heading assumes the body x axis along the velocity**; on this walk the GNSS "
         "course minus the INS yaw (LM-compensated, W = %g s, epochs above 0.8 m/s) has 10/50/90 %% "
         "percentiles %.0f / %.0f / %.0f deg, and the heading and the gyro z bias trade (above). No "
@@ -395,14 +397,17 @@ def report(work, out, W):
     blocks = check["blocks"]
     moving_blocks = ["%.1f-%.1f s" % (b["t0"] - blocks[0]["t0"], b["t1"] - blocks[0]["t0"])
                      for b in blocks if not b["quiet"]]
-    add("- **Static window**: the import's default (up to 1 s before the first GNSS epoch faster than "
-        "0.2 m/s) is %.1f s long, but the gyros say the walker was not still throughout: 0.5 s blocks "
-        "whose sample scatter exceeds %.3f deg/s (3 x the README's noise density at this rate) are "
-        "%s from the first row. The last of them is the walker turning on the spot before walking "
-        "off, inside the default window. The script imports again with `--align-s %.1f` (up to the "
-        "last quiet block). Handling inside the window (the earlier moving blocks) stays in it; the "
-        "levelling averages over it."
-        % (float(json.load(open(os.path.join(work, "walk-default", "meta.json")))["align_s"]),
+    window = json.load(open(os.path.join(work, "walk-default", "provenance.json")))["alignment_window"]
+    gnss_only_s = math.floor((window["gnss_moving_t_s"] - 1.0) * 10.0) / 10.0
+    add("- **Static window**: the import's default is %.1f s long, ended by the IMU: %s "
+        "(`provenance.json` `alignment_window.ended_by`). The GNSS speed alone (up to 1 s before the "
+        "first epoch faster than 0.2 m/s) would give %.1f s, into the walker's turn on the spot "
+        "before walking off. Cross-check: 0.5 s blocks whose gyro sample scatter exceeds %.3f deg/s "
+        "(3 x the README's noise density at this rate) are %s from the first row; the script "
+        "imports again with `--align-s %.1f` (up to the last quiet block before the motion). "
+        "Handling inside the window (the earlier moving blocks) stays in it; the levelling averages "
+        "over it."
+        % (float(window["align_s"]), window.get("ended_by", "gnss speed"), gnss_only_s,
            check["threshold_deg_s"], ", ".join(moving_blocks) or "none", align_s))
     gc = open(os.path.join(work, "gyrocompass.txt")).read().strip().replace("\n", " ")
     add("- **Initial attitude**: `gyrocompass` is refused by insid on these data: `%s`. So "

@@ -7,9 +7,10 @@
 # Without ../shared/data/rtklib-walk it says so and exits 0 ("skipped").
 # Intermediate files go to build/real-walk/ (not committed); results/real/ is rewritten.
 # Choices made by measurement (the report shows the measurements each run):
-#   * the static window: the import's default (1 s before the first GNSS epoch above 0.2 m/s)
-#     ends while the walker already turns in place; real_report.py --static-end measures the last
-#     quiet 0.5 s block of the gyros and the data are imported again with that --align-s;
+#   * the static window: the import's default ends at the IMU block before the walker's turn on
+#     the spot (9.0 s; the GNSS speed alone would give 10.0 s, into the turn); as a cross-check
+#     real_report.py --static-end measures the last quiet 0.5 s block of the gyros (also 9.0 s)
+#     and the data are imported again with that --align-s;
 #   * the initial attitude: gyrocompass is tried (and refused: MEMS gyros do not sense Earth
 #     rate), so level+heading (GNSS course); a --heading-deg scan shows what the heading trades;
 #   * the window W: LM on W in {5, 10, 20, 40, 0}; W_CHOSEN below, reasons in the report.
