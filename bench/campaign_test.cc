@@ -18,6 +18,7 @@
 #include <gtest/gtest.h>
 
 #include "bench/sweep.h"
+#include "identification/ekf_rts.h"
 
 namespace insid::campaign {
 namespace {
@@ -487,6 +488,26 @@ TEST(Campaign, OptionsAreValidatedBeforeAnyWorkNamingTheBadValue) {
   EXPECT_NE(invalid_argument_of([&] { run_sweep(sweep, options); }).find("--grid R: no values"),
             std::string::npos);
   EXPECT_FALSE(fs::exists(dir));
+}
+
+TEST(Campaign, SweepGridKeepsTheAlgorithmsOwnSigmaParameters) {
+  // A _sigma key that is the algorithm's own parameter (ekf-rts's initial_bias_sigma, a prior
+  // in catalogue sigma) passes unchanged; a DVPIO distance in sigma is converted to the box.
+  register_ekf_rts();  // as insid's main does
+  SweepConfig ekf;
+  ekf.algorithm = "ekf-rts";
+  ekf.axes = {SweepAxis::parse("initial_bias_sigma=2,8")};
+  ekf.scenario.name = "rich";
+  ekf.scenario.preset = "rich";
+  ekf.seeds = seed_range(1);
+  const CampaignConfig ekf_campaign = sweep_campaign(ekf);
+  ASSERT_EQ(ekf_campaign.algorithms.size(), 2u);
+  EXPECT_EQ(ekf_campaign.algorithms[1].parameters.at("initial_bias_sigma"), 8.0);
+  EXPECT_EQ(ekf_campaign.algorithms[1].parameters.count("initial_bias"), 0u);
+  SweepConfig dvpio = ekf;
+  dvpio.algorithm = "dvpio";
+  dvpio.axes = {SweepAxis::parse("dist_threshold_sigma=0.4")};
+  EXPECT_DOUBLE_EQ(sweep_campaign(dvpio).algorithms[0].parameters.at("dist_threshold"), 0.1);
 }
 
 TEST(Campaign, SweepWritesPerSettingStatistics) {

@@ -13,6 +13,7 @@
 #include "core/json_reader.h"
 #include "identification/ins_problem.h"
 #include "optimizers/random.h"
+#include "optimizers/registry.h"
 
 namespace insid::campaign {
 namespace fs = std::filesystem;
@@ -37,12 +38,16 @@ std::vector<std::string> split(const std::string& s, char sep) {
 
 // Setting values in the optimizer's units: keys ending in _sigma are distances in sigma units,
 // converted through the (common) box width of the estimated parameters
-// (ParameterMapping::algorithm_parameter_in_box); "d0" is d_initial.
-std::map<std::string, double> optimizer_parameters(const std::map<std::string, double>& setting) {
+// (ParameterMapping::algorithm_parameter_in_box), except the algorithm's own "..._sigma"
+// parameters (ekf-rts's initial_bias_sigma), which pass unchanged, as in identify --param;
+// "d0" is d_initial.
+std::map<std::string, double> optimizer_parameters(const std::map<std::string, double>& setting,
+                                                   const std::string& algorithm) {
   const ParameterMapping mapping(EstimatedParameter::paper_four());
+  const opt::ParameterList own = opt::default_parameters(algorithm);
   std::map<std::string, double> out;
   for (const auto& [key_in, value_in] : setting) {
-    auto [key, value] = mapping.algorithm_parameter_in_box(key_in, value_in);
+    auto [key, value] = mapping.algorithm_parameter_in_box(key_in, value_in, own);
     if (key == "d0") key = "d_initial";
     out[key] = value;
   }
@@ -150,7 +155,7 @@ CampaignConfig sweep_campaign(const SweepConfig& sweep) {
     label << "s" << std::setw(4) << std::setfill('0') << i;
     j["algorithms"].push_back({{"label", label.str()},
                                {"name", sweep.algorithm},
-                               {"parameters", optimizer_parameters(settings[i])}});
+                               {"parameters", optimizer_parameters(settings[i], sweep.algorithm)}});
   }
   j["seeds"] = sweep.seeds;
   j["max_iterations"] = sweep.max_iterations;

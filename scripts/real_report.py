@@ -240,8 +240,8 @@ def words(add, W, P, names, check, headings, lmW, misfit, results, detail, nav, 
     add("2. **EKF-RTS priors** come from the MEMS grade (`--grade mems`: bias priors 4 x 0.1 deg/s "
         "and 4 x 10 mg, `identification/grade.h`) and the noise from the walk's README. "
         "`--param initial_bias_sigma=...` was refused before this report (the `_sigma` suffix was "
-        "read as a DVPIO distance and stripped): fixed, with a test. The same suffix rule in "
-        "`insid sweep --grid` is not fixed.")
+        "read as a DVPIO distance and stripped): fixed, with a test, in `identify --param` and in "
+        "`insid sweep --grid` alike.")
     add("3. **The import's default static window** ends at the 0.5 s IMU block before the first "
         "turn or shake (`--static-rate` 2 deg/s, `--static-accel-sd` 0.1 m/s^2) as well as 1 s "
         "before the GNSS speed exceeds 0.2 m/s; the GNSS alone would let this walker's turn on the "
