@@ -322,7 +322,20 @@ TEST(Report, JsonShapeAndMarkdown) {
     EXPECT_TRUE(j["gap"].contains(key)) << key;
   EXPECT_EQ(j["base"]["parameters"].size(), 4u);
   EXPECT_GT(j["base"]["parameters"][0]["sd"].get<double>(), 0.0);
+  // Issue 15: the family-wise rule in use is the replicas' own max |z| (Westfall-Young): the
+  // threshold is the (k+1)-th largest of the calibration replicas' maxima, k = floor(0.05 x 51)
+  // - 1 = 1, and the Gaussian rule's threshold is reported beside it.
+  const auto& i0 = j["iterations"][0];
+  EXPECT_EQ(i0["family_calibration"], "replica-max");
+  const auto maxima = i0["replica_max_z"].get<std::vector<double>>();
+  ASSERT_EQ(maxima.size(), 50u);
+  EXPECT_TRUE(std::is_sorted(maxima.begin(), maxima.end()));
+  EXPECT_EQ(i0["threshold_z"].get<double>(), maxima[48]);
+  EXPECT_EQ(i0["threshold_z_replica_max"].get<double>(), maxima[48]);
+  EXPECT_GT(i0["threshold_z_gaussian"].get<double>(), 1.0);
   const auto& c0 = j["iterations"][0]["candidates"][0];
+  for (const char* key : {"p_family", "p_family_gaussian", "p_family_replica_max"})
+    EXPECT_TRUE(c0.contains(key)) << key;
   for (const char* key : {"effect", "statistic", "p_value", "estimate", "sd", "collinear"})
     EXPECT_TRUE(c0.contains(key)) << key;
   ASSERT_FALSE(j["found"].empty());
