@@ -100,6 +100,9 @@ def main():
             of = old[c["key"]]["found"]
             row["gaussian_issue15_named_first"] = of[0]["effect"] if of else None
             row["same_first_as_issue15"] = row["named_first"] == row["gaussian_issue15_named_first"]
+            row["same_found_as_issue15"] = (
+                [(f["effect"], sorted(f["ambiguous_with"])) for f in c["found"]] ==
+                [(f["effect"], sorted(f["ambiguous_with"])) for f in of])
         eff.append(row)
     out["effects"] = {"cases": len(eff),
                       "truth_in_first_set": sum(r["truth_in_first_set"] for r in eff),
@@ -107,6 +110,7 @@ def main():
                       "wrong_first_set": sum(r["named_first"] is not None and not r["truth_in_first_set"] for r in eff),
                       "compared_with_issue15": sum("same_first_as_issue15" in r for r in eff),
                       "same_first_as_issue15": sum(r.get("same_first_as_issue15", False) for r in eff),
+                      "same_found_list_as_issue15": sum(r.get("same_found_as_issue15", False) for r in eff),
                       "rows": eff}
     json.dump(out, sys.stdout, indent=1)
     print()
