@@ -107,6 +107,9 @@ struct LockstepRunner::Impl {
     std::vector<Parked> parked;
     /// Wall seconds per candidate-per-round of the scenario's last wave (0: none yet).
     double seconds_per_candidate = 0.0;
+    /// Noise replicas for the runs' uncertainty (issue 15): run once per scenario at the data's
+    /// optimum, shared by every run (each run adds only its own Jacobian).
+    std::optional<NoiseReplicaSet> replicas;
   };
   struct Member {
     std::size_t id;  // position in the run list
@@ -171,6 +174,14 @@ struct LockstepRunner::Impl {
     oj["scenario"] = config_.scenarios[s].name;
     fs::create_directories(optimum_path(s).parent_path());
     write_file_atomic(optimum_path(s), oj.dump(2) + "\n");
+  }
+
+  // Scenario s's optimum, waiting for the one being found alongside if need be (collecting it:
+  // optimum() alone would wait for a file that only collect_optimum writes).
+  const ReferenceOptimum& optimum_now(std::size_t s) {
+    ScenarioState& st = states_[s];
+    if (!st.optimum && st.optimum_future.valid()) collect_optimum(s);
+    return optimum(s);
   }
 
   // Whether scenario s's optimum is known now (collecting it when found alongside).
@@ -291,14 +302,20 @@ struct LockstepRunner::Impl {
   // How sure the run's estimate is, as in identify results (issue 15): "parameters" with sd and
   // flags, "correlation", "uncertainty" (its wall time and INS runs: the cost per run); empty
   // when the config turns it off. Needs the optimizer (the EKF-RTS reports its own sd).
-  nlohmann::json uncertainty_blocks(const RunSpec& run, const opt::Optimizer& optimizer) const {
+  // The noise replicas are run once per scenario, at the data's optimum (the first finished
+  // run waits for it when it is still being found): they depend on the data and the noise
+  // model, not on the run, so every run file's sd comes from the same replicas.
+  nlohmann::json uncertainty_blocks(const RunSpec& run, const opt::Optimizer& optimizer) {
     nlohmann::json j = nlohmann::json::object();
     if (config_.uncertainty_replicas > 0) {
       UncertaintyOptions uo;
       uo.replicas = config_.uncertainty_replicas;
       uo.criterion = criterion_for_algorithm(config_.algorithms[run.algorithm].name);
       uo.threads = settings_.threads;
-      add_run_uncertainty_json(j, *states_[run.scenario].problem, optimizer, uo);
+      ScenarioState& st = states_[run.scenario];
+      if (!st.replicas)
+        st.replicas = noise_replica_set(*st.problem, optimum_now(run.scenario).value_sigma, uo);
+      add_run_uncertainty_json(j, *st.problem, optimizer, uo, &*st.replicas);
     }
     return j;
   }

@@ -108,6 +108,10 @@ int main(int argc, char** argv) {
   app.add_option("--iterations", iterations, "optimizer iterations")->capture_default_str();
   app.add_option("--replicas-basis", rb)->capture_default_str();
   app.add_option("--replicas-calibration", rc)->capture_default_str();
+  std::string family_calibration = "replica-max";
+  app.add_option("--family-calibration", family_calibration,
+                 "replica-max (Westfall-Young, default) | gaussian (the rule before issue 15)")
+      ->capture_default_str();
   app.add_flag("--summary-only", summary_only, "only rebuild summary.json from cases.jsonl");
   app.add_option("--matrix", matrix,
                  "original: issue 7's case list; extended: issue 15's (11 effects x --sizes x "
@@ -189,6 +193,7 @@ int main(int argc, char** argv) {
       o.replicas_calibration = rc;
       o.threads = threads;
       o.max_effects = 3;
+      o.family_calibration = family_calibration;
       const auto res = insid::diagnose::run_diagnose(ds, o);
       const double wall =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -206,6 +211,17 @@ int main(int argc, char** argv) {
       j["noise_floor"] = res.report["noise_floor"];
       j["threshold_z"] = res.report["iterations"][0]["threshold_z"];
       j["top"] = res.report["iterations"][0]["candidates"][0];
+      // Issue 15: what re-judging the first iteration under either family-wise rule needs
+      // (every candidate's row, both thresholds, the replicas' own max |z|).
+      {
+        const json& i0 = res.report["iterations"][0];
+        j["family_calibration"] = i0["family_calibration"];
+        j["threshold_z_gaussian"] = i0["threshold_z_gaussian"];
+        j["threshold_z_replica_max"] = i0["threshold_z_replica_max"];
+        j["replica_max_z"] = i0["replica_max_z"];
+        j["first_candidates"] = i0["candidates"];
+        j["first_choice"] = i0["choice"];
+      }
       // The hidden effects' own rows in the first table (z, min detectable size).
       for (const auto& [name, v] : c.data.hidden)
         for (const auto& row : res.report["iterations"][0]["candidates"])

@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Dense>
 #include <nlohmann/json.hpp>
 
 #include "core/dataset.h"
@@ -59,8 +60,13 @@ struct DiagnoseOptions {
   double observable_max_sigma = 30.0;  ///< minimum detectable size above this (catalogue
                                        ///< sigmas): not observable
   int monte_carlo_draws = 20000;       ///< draws for the family-wise max-|z| distribution
-  int threads = 0;                     ///< OpenMP threads, 0 = default
-  bool progress = false;               ///< human progress on stderr
+  /// Family-wise calibration of max |z| over the candidates (issue 15):
+  ///  "replica-max" (default): Westfall-Young, the data's |z| ranked among the calibration
+  ///    replicas' own max |z| (each replica standardised leave-one-out, like the data);
+  ///  "gaussian": a Gaussian with the replicas' correlation (the rule before issue 15).
+  std::string family_calibration = "replica-max";
+  int threads = 0;        ///< OpenMP threads, 0 = default
+  bool progress = false;  ///< human progress on stderr
   /// Noise levels to use instead of meta.json / the estimate (e.g. a user's spec sheet).
   std::optional<NoiseLevels> noise;
 
@@ -87,6 +93,22 @@ struct DiagnoseResult {
 };
 
 DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset, const DiagnoseOptions& options);
+
+/// Family-wise calibration helpers (exposed for tests). `B` is q x M: the candidates'
+/// estimators on M calibration replicas (any scale per row). Each replica's statistic is
+/// standardised leave-one-out (by the RMS of the other M - 1 replicas, as the data's is by the
+/// RMS of all M) and converted to a normal-equivalent |z| (Student t, dof = replicas used).
+/// Returns each replica's max |z| over the q candidates, sorted ascending.
+std::vector<double> replica_max_abs_z(const Eigen::MatrixXd& B);
+/// Westfall-Young family-wise p-value of a normal-equivalent |z| against those maxima:
+/// (1 + #{replica max >= |z|}) / (M + 1); exact under exchangeability of data and replicas.
+double replica_max_p_family(const std::vector<double>& sorted_max, double z_abs);
+/// The smallest |z| that the rule calls significant at `alpha` (p_family <= alpha): the
+/// (k+1)-th largest replica max with k = floor(alpha (M + 1)) - 1; +inf when M is too small.
+double replica_max_threshold(const std::vector<double>& sorted_max, double alpha);
+/// The Gaussian rule: sorted draws of max |z| from N(0, R), R = the correlation of the rows of
+/// `B` (the rule before issue 15).
+std::vector<double> gaussian_max_abs_z(const Eigen::MatrixXd& B, int draws, std::uint64_t seed);
 
 /// Write the residual series as CSV: t_s,phase,dvE_before,dvN_before,dvE_after,dvN_after.
 void write_series_csv(const std::string& path, const ResidualSeries& series);

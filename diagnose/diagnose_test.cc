@@ -8,7 +8,13 @@
 #include <ostream>
 #include <string>
 
+#include <algorithm>
+#include <random>
+#include <vector>
+
 #include <gtest/gtest.h>
+#include <boost/math/distributions/normal.hpp>
+#include <boost/math/distributions/students_t.hpp>
 
 #include "diagnose/advice.h"
 #include "diagnose/diagnose.h"
@@ -75,6 +81,20 @@ TEST(Options, EveryBadFieldIsNamedNothingIsClamped) {
   EXPECT_NE(error([](DiagnoseOptions& o) { o.window_s = std::nan(""); }).find("window_s = nan"),
             std::string::npos);
   EXPECT_EQ(error([](DiagnoseOptions& o) { o.window_s = 30.0; }), "");
+  EXPECT_EQ(error([](DiagnoseOptions& o) { o.family_calibration = "bonferroni"; }),
+            "DiagnoseOptions.family_calibration = 'bonferroni': must be 'replica-max' or "
+            "'gaussian'");
+  // Westfall-Young at 5 % needs 19 calibration replicas at least (p >= 1 / (M + 1)).
+  EXPECT_NE(error([](DiagnoseOptions& o) {
+              o.replicas_calibration = 18;
+            }).find("replicas_calibration = 18: too few"),
+            std::string::npos);
+  EXPECT_EQ(error([](DiagnoseOptions& o) { o.replicas_calibration = 19; }), "");
+  EXPECT_EQ(error([](DiagnoseOptions& o) {
+              o.replicas_calibration = 10;
+              o.family_calibration = "gaussian";
+            }),
+            "");
 }
 
 // GIVEN a short effect-free flight WHEN diagnose runs with grade tactical (as `insid diagnose
@@ -268,6 +288,68 @@ TEST(HiddenNone, NothingNamedOnStraightFlights) {
   }
 }
 
+// Issue 15: the family-wise calibration on statistics whose joint law is not Gaussian. Data and
+// M = 60 noise replicas are exchangeable draws of q = 30 candidate estimators whose noise level
+// varies from draw to draw (scale 1, or 3 with probability 0.15: a heavy-tailed scale mixture,
+// as when a few replicas excite a poorly damped direction). The data's |z| is its estimate over
+// the replicas' RMS (normal-equivalent of t with M dof, as in diagnose). The replica-max rule
+// (Westfall-Young, leave-one-out) keeps the false-alarm rate at its exact level
+// floor(0.05 x 61) / 61 = 4.9 %; the Gaussian rule it replaces (normal with the replicas'
+// correlation) fires far more often.
+TEST(FamilyCalibration, ReplicaMaxHoldsItsLevelWhereTheGaussianRuleDoesNot) {
+  constexpr int q = 30, M = 60;
+  constexpr double alpha = 0.05;
+  std::mt19937_64 rng(2026);
+  std::normal_distribution<double> g01;
+  std::uniform_real_distribution<double> u01;
+  const auto draw = [&](Eigen::MatrixXd& X) {
+    for (Eigen::Index m = 0; m < X.cols(); ++m) {
+      const double scale = u01(rng) < 0.15 ? 3.0 : 1.0;
+      for (Eigen::Index c = 0; c < X.rows(); ++c) X(c, m) = scale * g01(rng);
+    }
+  };
+  const boost::math::students_t tdist(M);
+  const boost::math::normal ndist;
+  const auto data_max_z = [&](const Eigen::MatrixXd& data, const Eigen::MatrixXd& B) {
+    double z = 0.0;
+    for (int c = 0; c < q; ++c) {
+      const double t = std::abs(data(c, 0)) / std::sqrt(B.row(c).squaredNorm() / M);
+      const double tail = boost::math::cdf(boost::math::complement(tdist, t));
+      z = std::max(z, boost::math::quantile(boost::math::complement(ndist, tail)));
+    }
+    return z;
+  };
+  Eigen::MatrixXd B(q, M), data(q, 1);
+  int trials = 4000, fa_replica_max = 0;
+  for (int k = 0; k < trials; ++k) {
+    draw(B);
+    draw(data);
+    const std::vector<double> mx = replica_max_abs_z(B);
+    ASSERT_TRUE(std::is_sorted(mx.begin(), mx.end()));
+    const double z = data_max_z(data, B);
+    const bool by_threshold = z > replica_max_threshold(mx, alpha);
+    EXPECT_EQ(by_threshold, replica_max_p_family(mx, z) <= alpha) << "trial " << k;
+    fa_replica_max += by_threshold;
+  }
+  const double rate_rm = static_cast<double>(fa_replica_max) / trials;
+  // Exact level 3/61 = 0.049; binomial sd over 4000 trials 0.0034.
+  EXPECT_GT(rate_rm, 0.035);
+  EXPECT_LT(rate_rm, 0.062);
+  int gaussian_trials = 300, fa_gaussian = 0;
+  for (int k = 0; k < gaussian_trials; ++k) {
+    draw(B);
+    draw(data);
+    const std::vector<double> g = gaussian_max_abs_z(B, 2000, 77 + static_cast<unsigned>(k));
+    const double threshold = g[static_cast<std::size_t>(std::ceil((1.0 - alpha) * 2000))];
+    fa_gaussian += data_max_z(data, B) > threshold;
+  }
+  const double rate_g = static_cast<double>(fa_gaussian) / gaussian_trials;
+  // The old rule on the same law: about 3x its nominal level (binomial sd at 0.15: 0.02).
+  EXPECT_GT(rate_g, 0.10) << "the Gaussian rule held its level: the test law is not heavy-tailed";
+  std::cout << "false alarms: replica-max " << rate_rm << " (" << trials << " trials), gaussian "
+            << rate_g << " (" << gaussian_trials << ")\n";
+}
+
 TEST(Report, JsonShapeAndMarkdown) {
   auto ds = make_hidden_dataset({"rich", 600.0, 51, {{"gnss_latency", 0.05}}});
   DiagnoseOptions o = quick_options(51);
@@ -282,7 +364,20 @@ TEST(Report, JsonShapeAndMarkdown) {
     EXPECT_TRUE(j["gap"].contains(key)) << key;
   EXPECT_EQ(j["base"]["parameters"].size(), 4u);
   EXPECT_GT(j["base"]["parameters"][0]["sd"].get<double>(), 0.0);
+  // Issue 15: the family-wise rule in use is the replicas' own max |z| (Westfall-Young): the
+  // threshold is the (k+1)-th largest of the calibration replicas' maxima, k = floor(0.05 x 51)
+  // - 1 = 1, and the Gaussian rule's threshold is reported beside it.
+  const auto& i0 = j["iterations"][0];
+  EXPECT_EQ(i0["family_calibration"], "replica-max");
+  const auto maxima = i0["replica_max_z"].get<std::vector<double>>();
+  ASSERT_EQ(maxima.size(), 50u);
+  EXPECT_TRUE(std::is_sorted(maxima.begin(), maxima.end()));
+  EXPECT_EQ(i0["threshold_z"].get<double>(), maxima[48]);
+  EXPECT_EQ(i0["threshold_z_replica_max"].get<double>(), maxima[48]);
+  EXPECT_GT(i0["threshold_z_gaussian"].get<double>(), 1.0);
   const auto& c0 = j["iterations"][0]["candidates"][0];
+  for (const char* key : {"p_family", "p_family_gaussian", "p_family_replica_max"})
+    EXPECT_TRUE(c0.contains(key)) << key;
   for (const char* key : {"effect", "statistic", "p_value", "estimate", "sd", "collinear"})
     EXPECT_TRUE(c0.contains(key)) << key;
   ASSERT_FALSE(j["found"].empty());

@@ -146,7 +146,84 @@ Vec gauss_newton_step(const Mat& J, const Vec& r, const Vec& w, const std::vecto
   return step;
 }
 
+// The noise replicas' responses at one point: replica run minus the data run r0 (scalar
+// reference), M = options.replicas draws, seeds mix_seed(options.seed, 7000 + k).
+NoiseReplicaSet run_noise_replicas(const NavigationProblem& nav, const SensorErrors& errors,
+                                   const Vec& r0, const UncertaintyOptions& options) {
+  const auto t0 = std::chrono::steady_clock::now();
+  NoiseReplicaSet set;
+  const Dataset& dataset = nav.dataset();
+  diagnose::NoiseEstimate noise = diagnose::noise_levels_for(dataset);
+  if (options.noise) {
+    noise.levels = *options.noise;
+    noise.source = "given";
+  }
+  set.levels = noise.levels;
+  set.source = noise.source;
+  set.seed = options.seed;
+  const Eigen::Index m = r0.size();
+  const int M = options.replicas;
+  Mat D(m, M);
+  {
+    std::vector<std::string> failures(static_cast<std::size_t>(M));
+    const int threads = options.threads > 0 ? options.threads : omp_get_max_threads();
+    // One replica buffer per thread (the data without truth.csv, which navigation never reads).
+    std::vector<Dataset> buffers(static_cast<std::size_t>(threads));
+    for (Dataset& b : buffers) {
+      b.meta = dataset.meta;
+      b.imu = dataset.imu;
+      b.gnss = dataset.gnss;
+    }
+#pragma omp parallel for schedule(dynamic) num_threads(threads)
+    for (int k = 0; k < M; ++k) {
+      try {
+        Dataset& buffer = buffers[static_cast<std::size_t>(omp_get_thread_num())];
+        fill_replica(dataset, noise.levels, mix_seed(options.seed, 7000 + k), buffer);
+        // Non-owning: the buffer outlives the problem, which lives in this iteration only.
+        const std::shared_ptr<const Dataset> replica(std::shared_ptr<const Dataset>(), &buffer);
+        const NavigationProblem rnav(replica, nav.options());
+        std::vector<double> rr;
+        rnav.residuals(errors, rr);
+        const Vec d = to_vec(rr) - r0;
+        if (static_cast<Eigen::Index>(rr.size()) != m || !d.allFinite())
+          throw std::runtime_error("its residuals are not finite");
+        D.col(k) = d;
+      } catch (const std::exception& e) {
+        failures[static_cast<std::size_t>(k)] = e.what();
+      }
+    }
+    for (int k = 0; k < M; ++k)
+      if (!failures[static_cast<std::size_t>(k)].empty())
+        throw std::runtime_error("uncertainty: noise replica " + std::to_string(k) + ": " +
+                                 failures[static_cast<std::size_t>(k)]);
+  }
+  set.responses = std::move(D);
+  set.evaluations = M;
+  set.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return set;
+}
+
 }  // namespace
+
+NoiseReplicaSet noise_replica_set(const InsIdentificationProblem& problem,
+                                  const Eigen::VectorXd& at_sigma,
+                                  const UncertaintyOptions& options) {
+  if (const std::string error = options.validate(); !error.empty())
+    throw std::invalid_argument(error);
+  const ParameterMapping& mapping = problem.mapping();
+  if (at_sigma.size() != mapping.dimension())
+    throw std::invalid_argument("noise_replica_set: point has " + std::to_string(at_sigma.size()) +
+                                " values, the problem " + std::to_string(mapping.dimension()) +
+                                " parameters");
+  const NavigationProblem& nav = problem.navigation();
+  const SensorErrors errors = mapping.to_errors(mapping.from_sigma(at_sigma));
+  std::vector<double> r_scalar;
+  nav.residuals(errors, r_scalar);
+  NoiseReplicaSet set = run_noise_replicas(nav, errors, to_vec(r_scalar), options);
+  set.at_sigma = at_sigma;
+  ++set.evaluations;
+  return set;
+}
 
 std::string to_string(UncertaintyCriterion criterion) {
   return criterion == UncertaintyCriterion::kEq15 ? "eq15" : "least-squares";
@@ -206,7 +283,8 @@ std::pair<std::string, double> engineering_unit(const std::string& si_unit) {
 
 UncertaintyReport estimate_uncertainty(const InsIdentificationProblem& problem,
                                        const Eigen::VectorXd& value_sigma,
-                                       const UncertaintyOptions& options) {
+                                       const UncertaintyOptions& options,
+                                       const NoiseReplicaSet* shared) {
   if (const std::string error = options.validate(); !error.empty())
     throw std::invalid_argument(error);
   const auto t0 = std::chrono::steady_clock::now();
@@ -250,57 +328,36 @@ UncertaintyReport estimate_uncertainty(const InsIdentificationProblem& problem,
   report.jacobian_sigma = J;
   report.residuals = r;
 
-  // 2. Noise replicas through the same pipeline at the estimate (diagnose/noise_model.h).
+  // 2. Noise replicas through the same pipeline at the estimate (diagnose/noise_model.h), or
+  //    the caller's set run once for the data (`shared`, e.g. once per campaign scenario at the
+  //    data's optimum): the noise response depends on the data and the noise model, and only
+  //    weakly on the point it is run at.
   const NavigationProblem& nav = problem.navigation();
-  const Dataset& dataset = nav.dataset();
-  diagnose::NoiseEstimate noise = diagnose::noise_levels_for(dataset);
-  if (options.noise) {
-    noise.levels = *options.noise;
-    noise.source = "given";
-  }
-  report.noise_levels = noise.levels;
-  report.noise_source = noise.source;
   const SensorErrors errors = mapping.to_errors(xs[0]);
   std::vector<double> r_scalar;
   nav.residuals(errors, r_scalar);  // the replicas run the scalar reference: compare like with like
   ++report.evaluations;
   const Vec r0 = to_vec(r_scalar);
-  const int M = options.replicas;
-  Mat D(m, M);
-  {
-    std::vector<std::string> failures(static_cast<std::size_t>(M));
-    const int threads = options.threads > 0 ? options.threads : omp_get_max_threads();
-    // One replica buffer per thread (the data without truth.csv, which navigation never reads).
-    std::vector<Dataset> buffers(static_cast<std::size_t>(threads));
-    for (Dataset& b : buffers) {
-      b.meta = dataset.meta;
-      b.imu = dataset.imu;
-      b.gnss = dataset.gnss;
-    }
-#pragma omp parallel for schedule(dynamic) num_threads(threads)
-    for (int k = 0; k < M; ++k) {
-      try {
-        Dataset& buffer = buffers[static_cast<std::size_t>(omp_get_thread_num())];
-        fill_replica(dataset, noise.levels, mix_seed(options.seed, 7000 + k), buffer);
-        // Non-owning: the buffer outlives the problem, which lives in this iteration only.
-        const std::shared_ptr<const Dataset> replica(std::shared_ptr<const Dataset>(), &buffer);
-        const NavigationProblem rnav(replica, nav.options());
-        std::vector<double> rr;
-        rnav.residuals(errors, rr);
-        const Vec d = to_vec(rr) - r0;
-        if (static_cast<Eigen::Index>(rr.size()) != m || !d.allFinite())
-          throw std::runtime_error("its residuals are not finite");
-        D.col(k) = d;
-      } catch (const std::exception& e) {
-        failures[static_cast<std::size_t>(k)] = e.what();
-      }
-    }
-    for (int k = 0; k < M; ++k)
-      if (!failures[static_cast<std::size_t>(k)].empty())
-        throw std::runtime_error("uncertainty: noise replica " + std::to_string(k) + ": " +
-                                 failures[static_cast<std::size_t>(k)]);
-    report.evaluations += M;
+  NoiseReplicaSet own;
+  if (!shared) {
+    own = run_noise_replicas(nav, errors, r0, options);
+    report.evaluations += own.evaluations;
+  } else {
+    if (shared->responses.rows() != m || shared->responses.cols() < 2)
+      throw std::invalid_argument("estimate_uncertainty: shared noise replicas have " +
+                                  std::to_string(shared->responses.rows()) + " residuals x " +
+                                  std::to_string(shared->responses.cols()) +
+                                  " replicas, the problem " + std::to_string(m) +
+                                  " residuals (and >= 2 replicas are needed)");
+    report.replicas_shared = true;
+    report.replicas_at_sigma = shared->at_sigma;
   }
+  const NoiseReplicaSet& set = shared ? *shared : own;
+  report.noise_levels = set.levels;
+  report.noise_source = set.source;
+  report.replicas = static_cast<int>(set.responses.cols());
+  const int M = report.replicas;
+  const Mat& D = set.responses;
 
   // 3. Which columns carry information of their own.
   report.parameters.resize(static_cast<std::size_t>(n));
@@ -473,9 +530,10 @@ void use_filter_sd(UncertaintyReport& report, const std::vector<double>& filter_
 
 UncertaintyReport add_run_uncertainty_json(json& out, const InsIdentificationProblem& problem,
                                            const opt::Optimizer& optimizer,
-                                           const UncertaintyOptions& options) {
-  UncertaintyReport report =
-      estimate_uncertainty(problem, problem.mapping().to_sigma(optimizer.result().best_x), options);
+                                           const UncertaintyOptions& options,
+                                           const NoiseReplicaSet* shared) {
+  UncertaintyReport report = estimate_uncertainty(
+      problem, problem.mapping().to_sigma(optimizer.result().best_x), options, shared);
   // The EKF-RTS reports its own smoothed sd (issue 15): the Gauss-Newton sd describes the
   // least-squares optimum's spread, not the filter's estimate.
   if (const auto* ekf = dynamic_cast<const EkfRtsOptimizer*>(&optimizer)) {
@@ -560,6 +618,13 @@ json UncertaintyReport::method_json() const {
                             opt::format_number(options.not_converged_sd) + " sd"},
       {"at_box_edge", "within " + opt::format_number(options.box_edge_tolerance) +
                           " of the box width from a bound"}};
+  if (replicas_shared) {
+    json at = json::array();
+    for (Eigen::Index k = 0; k < replicas_at_sigma.size(); ++k) at.push_back(replicas_at_sigma[k]);
+    j["replicas_shared"] = {
+        {"at_in_sigma_units", at},
+        {"note", "noise replicas run once for the data (not counted in evaluations / wall_s)"}};
+  }
   j["evaluations"] = evaluations;
   j["wall_s"] = wall_s;
   return j;

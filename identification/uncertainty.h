@@ -112,6 +112,10 @@ struct UncertaintyReport {
   double jacobian_step_sigma = 0.0;
   std::int64_t evaluations = 0;  ///< full INS runs (Jacobian + replicas)
   double wall_s = 0.0;
+  /// The replicas came from a shared NoiseReplicaSet run at replicas_at_sigma (their runs are
+  /// not in `evaluations`).
+  bool replicas_shared = false;
+  Eigen::VectorXd replicas_at_sigma;
   UncertaintyOptions options;
   /// "parameters": [{name, estimate, sd, unit, estimate_eng, sd_eng, unit_eng, flags, ...}].
   nlohmann::json parameters_json() const;
@@ -128,10 +132,34 @@ struct UncertaintyReport {
 /// Returns the unit and the factor (engineering = SI * factor).
 std::pair<std::string, double> engineering_unit(const std::string& si_unit);
 
-/// The uncertainty of the estimate `value_sigma` (sigma units) of `problem`.
+/// The noise replicas' responses of one dataset (replica run minus data run, m x M, m/s) at one
+/// point: what estimate_uncertainty needs from the replicas. They depend on the data and the
+/// noise model, and only weakly on the point (linear regime), so a campaign computes them once
+/// per scenario (at the data's optimum) and every run adds only its own Jacobian.
+struct NoiseReplicaSet {
+  Eigen::MatrixXd responses;  ///< m x M (m/s)
+  Eigen::VectorXd at_sigma;   ///< the point the replicas were run at (sigma units)
+  NoiseLevels levels;
+  std::string source;
+  std::uint64_t seed = 0;
+  std::int64_t evaluations = 0;  ///< full INS runs (data + replicas)
+  double wall_s = 0.0;
+};
+
+/// Runs options.replicas noise replicas of `problem`'s data at `at_sigma` (options.seed, noise
+/// levels and threads as estimate_uncertainty uses them).
+NoiseReplicaSet noise_replica_set(const InsIdentificationProblem& problem,
+                                  const Eigen::VectorXd& at_sigma,
+                                  const UncertaintyOptions& options = {});
+
+/// The uncertainty of the estimate `value_sigma` (sigma units) of `problem`. With `shared`
+/// (noise_replica_set of the same data) the replicas are not run again: the run costs its
+/// Jacobian (2n + 1 batched runs) and one scalar run; with the set run at `value_sigma` itself
+/// the result equals the call without it.
 UncertaintyReport estimate_uncertainty(const InsIdentificationProblem& problem,
                                        const Eigen::VectorXd& value_sigma,
-                                       const UncertaintyOptions& options = {});
+                                       const UncertaintyOptions& options = {},
+                                       const NoiseReplicaSet* shared = nullptr);
 
 /// EKF-RTS (issue 14): the filter-smoother reports its own sd, the smoothed covariance of the
 /// biases, which is what its estimate's uncertainty is (the Gauss-Newton sd describes the
@@ -151,7 +179,8 @@ void use_filter_sd(UncertaintyReport& report, const std::vector<double>& filter_
 UncertaintyReport add_run_uncertainty_json(nlohmann::json& out,
                                            const InsIdentificationProblem& problem,
                                            const opt::Optimizer& optimizer,
-                                           const UncertaintyOptions& options);
+                                           const UncertaintyOptions& options,
+                                           const NoiseReplicaSet* shared = nullptr);
 
 /// The result layout's blocks added to a result JSON: "parameters", "correlation",
 /// "uncertainty".
