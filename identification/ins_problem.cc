@@ -116,7 +116,7 @@ InsIdentificationProblem::InsIdentificationProblem(
       kernel_(BatchFitness::shared(navigation_)),
       mapping_(std::move(mapping)),
       kind_(kind),
-      options_(evaluator),
+      options_(evaluator.validated()),
       implementation_(implementation) {}
 
 double InsIdentificationProblem::fitness(const Eigen::VectorXd& x) const {

@@ -325,5 +325,19 @@ TEST(Pio, MapCompassFollowsEq8And9) {
   EXPECT_EQ(v_edge[0], 0.0);
 }
 
+TEST(EvaluatorOptions, NegativeThreadCountIsRefusedNamingTheValue) {
+  EvaluatorOptions options;
+  options.parallelism = Parallelism::kOpenMP;
+  options.num_threads = -2;
+  EXPECT_NE(options.validate().find("num_threads = -2"), std::string::npos) << options.validate();
+  const auto sphere = [](const Eigen::VectorXd& x) { return x.squaredNorm(); };
+  EXPECT_THROW(FunctionProblem(Bounds::unit_box(2), sphere, options), std::invalid_argument);
+  FunctionProblem problem(Bounds::unit_box(2), sphere);
+  EXPECT_THROW(problem.set_evaluator(options), std::invalid_argument);
+  options.num_threads = 0;
+  EXPECT_EQ(options.validate(), "");
+  EXPECT_NO_THROW(problem.set_evaluator(options));
+}
+
 }  // namespace
 }  // namespace insid::opt

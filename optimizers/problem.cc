@@ -106,8 +106,20 @@ void evaluate_each(std::span<const Eigen::VectorXd> xs, std::span<double> f_out,
   }
 }
 
+std::string EvaluatorOptions::validate() const {
+  if (num_threads < 0)
+    return "EvaluatorOptions: num_threads = " + std::to_string(num_threads) +
+           " (expected 0 for the OpenMP default, or a positive count)";
+  return "";
+}
+
+const EvaluatorOptions& EvaluatorOptions::validated() const {
+  if (const std::string why = validate(); !why.empty()) throw std::invalid_argument(why);
+  return *this;
+}
+
 ScalarProblem::ScalarProblem(Bounds bounds, EvaluatorOptions options)
-    : Problem(std::move(bounds)), options_(options) {}
+    : Problem(std::move(bounds)), options_(options.validated()) {}
 
 void ScalarProblem::evaluate_batch(std::span<const Eigen::VectorXd> xs,
                                    std::span<double> f_out) const {

@@ -81,6 +81,11 @@ enum class Parallelism {
 struct EvaluatorOptions {
   Parallelism parallelism = Parallelism::kSerial;
   int num_threads = 0;  ///< OpenMP threads; 0 = the OpenMP default
+
+  /// "" when valid, else why, naming the value: num_threads below 0.
+  std::string validate() const;
+  /// *this, or std::invalid_argument with validate()'s reason (for constructors).
+  const EvaluatorOptions& validated() const;
 };
 
 /// The per-candidate evaluator: f_out[i] = fitness(xs[i]) serially or with OpenMP. An
@@ -102,7 +107,7 @@ class ScalarProblem : public Problem {
   void evaluate_batch(std::span<const Eigen::VectorXd> xs, std::span<double> f_out) const final;
 
   const EvaluatorOptions& evaluator() const { return options_; }
-  void set_evaluator(const EvaluatorOptions& options) { options_ = options; }
+  void set_evaluator(const EvaluatorOptions& options) { options_ = options.validated(); }
 
  private:
   EvaluatorOptions options_;
