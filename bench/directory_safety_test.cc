@@ -147,18 +147,21 @@ const char* kLongConfig = R"({
   "max_iterations": 400
 })";
 
-TEST(DirectorySafety, SecondPlainRunIsRefusedNamingTheHolderUntilTheHolderIsKilled) {
-  // GIVEN a plain `insid bench` process running a campaign in dir
-  const fs::path dir = fresh_dir("holder");
+// Starts `insid bench` on kLongConfig (written to config_path) into dir, as a shard when `shard`
+// is not empty, and waits (at most 120 s) until its line is in the directory's run lock.
+// Returns its pid, or -1 when fork failed.
+pid_t start_long_bench(const fs::path& dir, const fs::path& config_path, const std::string& shard) {
   fs::create_directories(dir);
-  const fs::path config_path = dir.string() + ".json";
   std::ofstream(config_path) << kLongConfig;
-  const CampaignConfig long_config = parse_campaign(nlohmann::json::parse(kLongConfig), "test");
   const pid_t holder = fork();
-  ASSERT_GE(holder, 0);
+  if (holder < 0) return -1;
   if (holder == 0) {
-    execl(INSID_BINARY, INSID_BINARY, "bench", "--config", config_path.c_str(), "--out",
-          dir.c_str(), "--threads", "1", static_cast<char*>(nullptr));
+    if (shard.empty())
+      execl(INSID_BINARY, INSID_BINARY, "bench", "--config", config_path.c_str(), "--out",
+            dir.c_str(), "--threads", "1", static_cast<char*>(nullptr));
+    else
+      execl(INSID_BINARY, INSID_BINARY, "bench", "--config", config_path.c_str(), "--out",
+            dir.c_str(), "--threads", "1", "--shard", shard.c_str(), static_cast<char*>(nullptr));
     _exit(127);
   }
   const fs::path lock = dir / FileLock::kRunLockName;
@@ -167,6 +170,18 @@ TEST(DirectorySafety, SecondPlainRunIsRefusedNamingTheHolderUntilTheHolderIsKill
   while (text(lock).find(holder_line) == std::string::npos &&
          std::chrono::steady_clock::now() < deadline)
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  return holder;
+}
+
+TEST(DirectorySafety, SecondPlainRunIsRefusedNamingTheHolderUntilTheHolderIsKilled) {
+  // GIVEN a plain `insid bench` process running a campaign in dir
+  const fs::path dir = fresh_dir("holder");
+  const fs::path config_path = dir.string() + ".json";
+  const CampaignConfig long_config = parse_campaign(nlohmann::json::parse(kLongConfig), "test");
+  const pid_t holder = start_long_bench(dir, config_path, "");
+  ASSERT_GT(holder, 0);
+  const fs::path lock = dir / FileLock::kRunLockName;
+  const std::string holder_line = "pid " + std::to_string(holder) + " on ";
   ASSERT_NE(text(lock).find(holder_line), std::string::npos) << text(lock);
 
   // WHEN a second plain run, and a shard, try the same directory, THEN both are refused, the
@@ -201,23 +216,12 @@ TEST(DirectorySafety, SecondPlainRunIsRefusedNamingTheHolderUntilTheHolderIsKill
 TEST(DirectorySafety, ShardRunsOnceAtATimeAndJoinsOnlyShardsOfItsSplit) {
   // GIVEN an `insid bench --shard 1/2` process running in dir
   const fs::path dir = fresh_dir("shards");
-  fs::create_directories(dir);
   const fs::path config_path = dir.string() + ".json";
-  std::ofstream(config_path) << kLongConfig;
   const CampaignConfig long_config = parse_campaign(nlohmann::json::parse(kLongConfig), "test");
-  const pid_t holder = fork();
-  ASSERT_GE(holder, 0);
-  if (holder == 0) {
-    execl(INSID_BINARY, INSID_BINARY, "bench", "--config", config_path.c_str(), "--out",
-          dir.c_str(), "--threads", "1", "--shard", "1/2", static_cast<char*>(nullptr));
-    _exit(127);
-  }
+  const pid_t holder = start_long_bench(dir, config_path, "1/2");
+  ASSERT_GT(holder, 0);
   const fs::path lock = dir / FileLock::kRunLockName;
   const std::string holder_line = "pid " + std::to_string(holder) + " on ";
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
-  while (text(lock).find(holder_line) == std::string::npos &&
-         std::chrono::steady_clock::now() < deadline)
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
   ASSERT_NE(text(lock).find(holder_line), std::string::npos) << text(lock);
 
   // WHEN the same shard starts again, THEN it is refused naming the running one
