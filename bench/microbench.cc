@@ -1,6 +1,7 @@
 // insid-microbench: Google Benchmark micro-benchmarks of the fitness kernel (and, as they
 // arrive, the optimizers' own overhead). Run: build/bench/insid-microbench
 //   --benchmark_out=results/perf/microbench.json --benchmark_out_format=json
+#include <cstdint>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -130,6 +131,100 @@ BENCHMARK(BM_FitnessBatchedWindowed)
     ->Repetitions(5)
     ->ReportAggregatesOnly(true)
     ->UseRealTime();
+
+// Pipe probes (issue 16, results/perf/README.md "Compute limit on Zen 5"): what this core
+// sustains, measured in the same run as the kernel so that clock and load cancel in the ratios.
+// Each iteration runs kProbeBlocks blocks of 12 independent 512-bit FMA chains (12 chains of
+// latency 4 keep two FMA pipes busy), alone or with the memory and divider traffic the kernel's
+// compiled loop carries per FMA (scripts/kernel_limit.py counts it), so that
+// fma_per_ns(mix) x ops per candidate-step gives the limit that mix allows.
+#if defined(__x86_64__) && defined(__AVX512F__)
+constexpr std::int64_t kProbeBlocks = 100000;
+alignas(64) double probe_buffer[32 * 8];
+
+#define INSID_FMA12                                                               \
+  "vfmadd231pd %%zmm12, %%zmm13, %%zmm0\n vfmadd231pd %%zmm12, %%zmm13, %%zmm1\n" \
+  "vfmadd231pd %%zmm12, %%zmm13, %%zmm2\n vfmadd231pd %%zmm12, %%zmm13, %%zmm3\n" \
+  "vfmadd231pd %%zmm12, %%zmm13, %%zmm4\n vfmadd231pd %%zmm12, %%zmm13, %%zmm5\n" \
+  "vfmadd231pd %%zmm12, %%zmm13, %%zmm6\n vfmadd231pd %%zmm12, %%zmm13, %%zmm7\n" \
+  "vfmadd231pd %%zmm12, %%zmm13, %%zmm8\n vfmadd231pd %%zmm12, %%zmm13, %%zmm9\n" \
+  "vfmadd231pd %%zmm12, %%zmm13, %%zmm10\n vfmadd231pd %%zmm12, %%zmm13, %%zmm11\n"
+// 8 of the 12 with a memory operand (the kernel's spill reloads and constants) + 2 more loads.
+#define INSID_FMA12_LOAD10                                                              \
+  "vfmadd231pd 0(%%rax), %%zmm13, %%zmm0\n vfmadd231pd 64(%%rax), %%zmm13, %%zmm1\n"    \
+  "vfmadd231pd 128(%%rax), %%zmm13, %%zmm2\n vfmadd231pd 192(%%rax), %%zmm13, %%zmm3\n" \
+  "vfmadd231pd 256(%%rax), %%zmm13, %%zmm4\n vfmadd231pd 320(%%rax), %%zmm13, %%zmm5\n" \
+  "vfmadd231pd 384(%%rax), %%zmm13, %%zmm6\n vfmadd231pd 448(%%rax), %%zmm13, %%zmm7\n" \
+  "vfmadd231pd %%zmm12, %%zmm13, %%zmm8\n vfmadd231pd %%zmm12, %%zmm13, %%zmm9\n"       \
+  "vfmadd231pd %%zmm12, %%zmm13, %%zmm10\n vfmadd231pd %%zmm12, %%zmm13, %%zmm11\n"     \
+  "vmovapd 512(%%rax), %%zmm16\n vmovapd 576(%%rax), %%zmm17\n"
+#define INSID_STORE3 \
+  "vmovapd %%zmm16, 768(%%rax)\n vmovapd %%zmm17, 832(%%rax)\n vmovapd %%zmm16, 896(%%rax)\n"
+#define INSID_ADD3                                                                         \
+  "vaddpd %%zmm12, %%zmm18, %%zmm18\n vaddpd %%zmm12, %%zmm19, %%zmm19\n vaddpd %%zmm13, " \
+  "%%zmm20, %%zmm20\n"
+#define INSID_PROBE(body)                                                                        \
+  asm volatile(                                                                                  \
+      "vxorpd %%xmm12, %%xmm12, %%xmm12\n vxorpd %%xmm13, %%xmm13, %%xmm13\n"                    \
+      "mov %[n], %%rcx\n lea %[buf], %%rax\n1:\n" body "dec %%rcx\n jnz 1b\n"                    \
+      :                                                                                          \
+      : [n] "r"(kProbeBlocks), [buf] "m"(probe_buffer)                                           \
+      : "rcx", "rax", "xmm0", "xmm1", "xmm2", "xmm3", "xmm4", "xmm5", "xmm6", "xmm7", "xmm8",    \
+        "xmm9", "xmm10", "xmm11", "xmm12", "xmm13", "xmm16", "xmm17", "xmm18", "xmm19", "xmm20", \
+        "memory")
+
+enum class Probe { kFma, kFmaLoads, kFmaStores, kFmaLoadsStores, kKernelMix, kDiv };
+
+void BM_Pipe(benchmark::State& state, Probe probe) {
+  double fma_per_block = 12.0, div_per_block = 0.0;
+  for (auto _ : state) {
+    switch (probe) {
+      case Probe::kFma:
+        INSID_PROBE(INSID_FMA12);
+        break;
+      case Probe::kFmaLoads:
+        INSID_PROBE(INSID_FMA12_LOAD10);
+        break;
+      case Probe::kFmaStores:
+        INSID_PROBE(INSID_FMA12 INSID_STORE3);
+        break;
+      case Probe::kFmaLoadsStores:
+        INSID_PROBE(INSID_FMA12_LOAD10 INSID_STORE3);
+        break;
+      case Probe::kKernelMix:
+        INSID_PROBE(INSID_FMA12_LOAD10 INSID_STORE3 INSID_ADD3);
+        break;
+      case Probe::kDiv:  // 4 independent divisions per block, no FMA
+        fma_per_block = 0.0;
+        div_per_block = 4.0;
+        INSID_PROBE(
+            "vdivpd %%zmm12, %%zmm13, %%zmm0\n vdivpd %%zmm12, %%zmm13, %%zmm1\n"
+            "vdivpd %%zmm12, %%zmm13, %%zmm2\n vdivpd %%zmm12, %%zmm13, %%zmm3\n");
+        break;
+    }
+  }
+  const double blocks = static_cast<double>(kProbeBlocks);
+  if (fma_per_block > 0.0)
+    state.counters["fma_zmm_per_ns"] = benchmark::Counter(
+        fma_per_block * blocks * 1e-9, benchmark::Counter::kIsIterationInvariantRate);
+  if (div_per_block > 0.0)
+    state.counters["div_zmm_per_ns"] = benchmark::Counter(
+        div_per_block * blocks * 1e-9, benchmark::Counter::kIsIterationInvariantRate);
+}
+// Per 12 FMAs: loads 10 (8 as FMA operands), stores 3, adds 3 (the kernel mix: 0.83 loads,
+// 0.25 stores and 0.25 adds per FMA-pipe operation; scripts/kernel_limit.py prints the kernel's).
+BENCHMARK_CAPTURE(BM_Pipe, fma, Probe::kFma)->UseRealTime();
+BENCHMARK_CAPTURE(BM_Pipe, fma_load10, Probe::kFmaLoads)->UseRealTime();
+BENCHMARK_CAPTURE(BM_Pipe, fma_store3, Probe::kFmaStores)->UseRealTime();
+BENCHMARK_CAPTURE(BM_Pipe, fma_load10_store3, Probe::kFmaLoadsStores)->UseRealTime();
+BENCHMARK_CAPTURE(BM_Pipe, kernel_mix, Probe::kKernelMix)->UseRealTime();
+BENCHMARK_CAPTURE(BM_Pipe, div, Probe::kDiv)->UseRealTime();
+#undef INSID_PROBE
+#undef INSID_ADD3
+#undef INSID_STORE3
+#undef INSID_FMA12_LOAD10
+#undef INSID_FMA12
+#endif  // __x86_64__ && __AVX512F__
 
 // The optimizers' own cost per generation (ask + tell), fitness excluded: a 4-D problem whose
 // fitness is a precomputed constant-time sphere, Table 4 settings. Shows the harness's overhead
