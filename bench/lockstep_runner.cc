@@ -159,9 +159,14 @@ struct LockstepRunner::Impl {
     st.optimum_problem = std::make_unique<InsIdentificationProblem>(
         st.navigation, mapping_, FitnessKind::kEq15, serial,
         settings_.scalar_reference ? FitnessEvaluator::kScalar : FitnessEvaluator::kBatched);
-    st.optimum_future = std::async(std::launch::async, [problem = st.optimum_problem.get()] {
-      return find_reference_optimum(*problem);
-    });
+    // Its four starts run on up to a quarter as many threads as the team (at 16 threads the
+    // optimum, one start after another, would outlast the runs), one at 2 threads.
+    const int optimum_threads = std::clamp(settings_.threads / 4, 1, 4);
+    st.optimum_future =
+        std::async(std::launch::async, [problem = st.optimum_problem.get(), optimum_threads] {
+          return find_reference_optimum(*problem, kReferenceOptimumStarts, kReferenceOptimumSeed,
+                                        optimum_threads);
+        });
   }
 
   // Waits for the optimum found alongside and writes its file. Deterministic: shards that find

@@ -3,7 +3,11 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <future>
+#include <limits>
 #include <sstream>
+#include <stdexcept>
+#include <vector>
 
 #include "core/json_reader.h"
 #include "optimizers/random.h"
@@ -61,18 +65,36 @@ Eigen::VectorXd estimate_in_sigma_units(const nlohmann::json& block,
 }
 
 ReferenceOptimum find_reference_optimum(const InsIdentificationProblem& problem, int starts,
-                                        std::uint64_t seed) {
+                                        std::uint64_t seed, int threads) {
+  if (starts < 1) throw std::invalid_argument("find_reference_optimum: starts must be >= 1");
+  if (threads < 1) throw std::invalid_argument("find_reference_optimum: threads must be >= 1");
   const int n = problem.dimension();
+  // The start points are drawn in order before any fit runs, and the best is taken in start
+  // order (the first of equal fitnesses): the same optimum for any number of threads.
   opt::Rng rng(seed);
+  std::vector<Eigen::VectorXd> x0(static_cast<std::size_t>(starts), Eigen::VectorXd::Zero(n));
+  for (int s = 1; s < starts; ++s)
+    for (int j = 0; j < n; ++j) x0[static_cast<std::size_t>(s)][j] = -0.8 + 1.6 * rng.uniform();
+  LocalFitOptions options;
+  options.max_iterations = 40;
+  std::vector<LocalFitResult> fits(static_cast<std::size_t>(starts));
+  // Up to `threads` starts at once, each on its own thread (the problem scores concurrently:
+  // its evaluations are const and keep no state).
+  for (int first = 0; first < starts; first += threads) {
+    const int last = std::min(starts, first + threads);
+    std::vector<std::future<LocalFitResult>> running;
+    for (int s = first + 1; s < last; ++s)
+      running.push_back(std::async(std::launch::async, [&problem, &options, &x0, s] {
+        return local_fit(problem, x0[static_cast<std::size_t>(s)], options);
+      }));
+    fits[static_cast<std::size_t>(first)] =
+        local_fit(problem, x0[static_cast<std::size_t>(first)], options);
+    for (int s = first + 1; s < last; ++s)
+      fits[static_cast<std::size_t>(s)] = running[static_cast<std::size_t>(s - first - 1)].get();
+  }
   ReferenceOptimum best;
   best.fitness = std::numeric_limits<double>::infinity();
-  for (int s = 0; s < starts; ++s) {
-    Eigen::VectorXd x0 = Eigen::VectorXd::Zero(n);
-    if (s > 0)
-      for (int j = 0; j < n; ++j) x0[j] = -0.8 + 1.6 * rng.uniform();
-    LocalFitOptions options;
-    options.max_iterations = 40;
-    const LocalFitResult fit = local_fit(problem, x0, options);
+  for (const LocalFitResult& fit : fits) {
     best.evaluations += fit.evaluations;
     if (fit.fitness < best.fitness) {
       best.fitness = fit.fitness;

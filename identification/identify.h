@@ -34,9 +34,15 @@ struct ReferenceOptimum {
   static ReferenceOptimum from_json(const nlohmann::json& j, const ParameterMapping& mapping);
 };
 
-/// Multi-start local fit from the box centre and `starts - 1` seeded random points.
-ReferenceOptimum find_reference_optimum(const InsIdentificationProblem& problem, int starts = 4,
-                                        std::uint64_t seed = 12345);
+/// Multi-start local fit from the box centre and `starts - 1` seeded random points, up to
+/// `threads` starts at once (the problem is scored from several threads concurrently). The
+/// result does not depend on `threads`.
+constexpr int kReferenceOptimumStarts = 4;
+constexpr std::uint64_t kReferenceOptimumSeed = 12345;
+ReferenceOptimum find_reference_optimum(const InsIdentificationProblem& problem,
+                                        int starts = kReferenceOptimumStarts,
+                                        std::uint64_t seed = kReferenceOptimumSeed,
+                                        int threads = 1);
 
 /// Cached reference optimum in `<data_dir>/insid-optimum-cache.json` (extra files in a dataset
 /// directory are ignored by the format), keyed by the data files' SHA-256 (dataset_digest),
