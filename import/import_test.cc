@@ -165,6 +165,65 @@ TEST(CsvImu, SpecAndRowErrorsAreNamed) {
   EXPECT_EQ(imu.line[0], 2u);
 }
 
+// The optional heading roles: hdg (deg from true north; an empty or nan field: no sample) with
+// hdg_sd, or mx, my, mz (mounting applied); bad specs and values are named.
+TEST(CsvImu, HeadingColumnsAreReadWithTheirUnitsAndErrors) {
+  CsvImuSpec spec;
+  spec.columns = CsvImuSpec::parse_columns("t,ax,ay,az,gx,gy,gz,hdg,hdg_sd");
+  spec.parse_units("ms,g,deg/s");
+  EXPECT_EQ(spec.validate(), "");
+  const auto error = [&](const CsvImuSpec& sp, const std::string& text) {
+    try {
+      read_csv_imu(text, "imu.csv", sp, 2381);
+    } catch (const std::runtime_error& e) {
+      return std::string(e.what());
+    }
+    return std::string("(accepted)");
+  };
+  const std::string rows =
+      "1000,0,0,1,0,0,0,,\n1006,0,0,1,0,0,0,-30.5,0.8\n1012,0,0,1,0,0,0,nan,1\n"
+      "1018,0,0,1,0,0,0,350,0.4\n";
+  const CsvImu imu = read_csv_imu(rows, "imu.csv", spec, 2381);
+  ASSERT_TRUE(imu.heading.has_value());
+  EXPECT_EQ(imu.heading->source, HeadingSourceKind::kDualAntenna);
+  ASSERT_EQ(imu.heading->yaw_rad.size(), 2u);  // rows 2 and 4
+  EXPECT_DOUBLE_EQ(imu.heading->yaw_rad[0], -30.5 * kDegToRad);
+  EXPECT_DOUBLE_EQ(*imu.heading->sd_rad[0], 0.8 * kDegToRad);
+  EXPECT_DOUBLE_EQ(imu.heading->yaw_rad[1], 350.0 * kDegToRad);
+  EXPECT_EQ(imu.heading->line[1], 4u);
+  EXPECT_NE(error(spec, "1000,0,0,1,0,0,0,10,0\n1006,0,0,1,0,0,0,10,1\n1012,0,0,1,0,0,0,1,1\n")
+                .find("line 1, column 9 (hdg_sd): heading sd 0 deg must lie in (0, 180]"),
+            std::string::npos);
+  EXPECT_NE(error(spec, "1000,0,0,1,0,0,0,400,1\n1006,0,0,1,0,0,0,1,1\n1012,0,0,1,0,0,0,1,1\n")
+                .find("line 1, column 8 (hdg): heading 400 deg is not within [-360, 360]"),
+            std::string::npos);
+  CsvImuSpec bad = spec;
+  bad.columns = CsvImuSpec::parse_columns("t,ax,ay,az,gx,gy,gz,hdg_sd");
+  EXPECT_NE(bad.validate().find("hdg_sd (the heading's sd) needs the heading column hdg"),
+            std::string::npos);
+  bad.columns = CsvImuSpec::parse_columns("t,ax,ay,az,gx,gy,gz,mx,my");
+  EXPECT_NE(bad.validate().find("needs all three of mx, my, mz"), std::string::npos);
+  bad.columns = CsvImuSpec::parse_columns("t,ax,ay,az,gx,gy,gz,mx,my,mz,hdg");
+  EXPECT_NE(bad.validate().find("one heading source per dataset"), std::string::npos);
+  // A magnetometer in sensor axes: the mounting turns it into body axes like the IMU.
+  CsvImuSpec mag = spec;
+  mag.columns = CsvImuSpec::parse_columns("t,ax,ay,az,gx,gy,gz,mx,my,mz");
+  mag.mounting_rpy_deg = {180.0, 0.0, -90.0};
+  const CsvImu m = read_csv_imu(
+      "1000,0,0,1,0,0,0,0.2,0.1,-0.4\n1006,0,0,1,0,0,0,0.2,0.1,-0.4\n1012,0,0,1,0,0,0,0.2,0.1,-0."
+      "4\n",
+      "imu.csv", mag, 2381);
+  ASSERT_TRUE(m.heading && m.heading->source == HeadingSourceKind::kMagnetometer);
+  ASSERT_EQ(m.heading->mag_b.size(), 3u);
+  const Eigen::Vector3d expected =
+      mounting_matrix(mag.mounting_rpy_deg) * Eigen::Vector3d(0.2, 0.1, -0.4);
+  EXPECT_NEAR((m.heading->mag_b[0] - expected).norm(), 0.0, 1e-15);
+  EXPECT_NEAR(
+      (m.accel_b[0] - mounting_matrix(mag.mounting_rpy_deg) * Eigen::Vector3d(0, 0, 9.80665))
+          .norm(),
+      0.0, 1e-12);
+}
+
 // --imu-time relative: stamps from the logger's own zero, placed on GPST by the GPS time of week
 // of that zero (--imu-time-offset-s) in the given week (or the GNSS file's); the offset must be a
 // time of week, and a week must be known.
