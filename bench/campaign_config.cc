@@ -158,6 +158,7 @@ NavigationOptions CampaignConfig::navigation_options() const {
   if (initial_attitude) {
     options.initial_attitude.mode = *initial_attitude;
     options.initial_attitude.heading_deg = heading_deg;
+    options.initial_attitude.heading_source = heading_source;
     // The feasibility check meets the estimated gyro biases' box, as in `insid identify`.
     double allowance = 0.0;
     for (const EstimatedParameter& p : estimated_parameters(*this))
@@ -216,6 +217,7 @@ nlohmann::json CampaignConfig::to_json() const {
   j["alignment"] = insid::to_string(alignment);
   if (initial_attitude) j["initial_attitude"] = insid::to_string(*initial_attitude);
   if (heading_deg) j["heading_deg"] = *heading_deg;
+  if (heading_source) j["heading_source"] = insid::to_string(*heading_source);
   if (window_s != 0.0) j["window_s"] = window_s;
   if (estimation_grade) j["estimation_grade"] = *estimation_grade;
   j["estimate"] = nlohmann::json::array();
@@ -312,6 +314,13 @@ CampaignConfig parse_campaign(const nlohmann::json& j, const std::string& origin
     }
   }
   if (r.has("heading_deg")) c.heading_deg = r.number("heading_deg");
+  if (r.has("heading_source")) {
+    try {
+      c.heading_source = heading_source_from_string(r.string("heading_source"));
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(origin + ": heading_source: " + e.what());
+    }
+  }
   if (r.has("window_s")) c.window_s = r.number("window_s");
   if (r.has("estimation_grade")) c.estimation_grade = r.string("estimation_grade");
   if (r.has("estimate"))
@@ -328,9 +337,9 @@ CampaignConfig parse_campaign(const nlohmann::json& j, const std::string& origin
   if (r.has("target_fitness_gap"))
     c.target_fitness_gap = r.array_of("target_fitness_gap", "number").get<std::vector<double>>();
   r.finish({"name", "scenarios", "algorithms", "seeds", "max_iterations", "max_evaluations",
-            "alignment", "initial_attitude", "heading_deg", "window_s", "estimation_grade",
-            "estimate", "record_positions_seeds", "target_error_sigma", "target_fitness_gap",
-            "uncertainty_replicas"});
+            "alignment", "initial_attitude", "heading_deg", "heading_source", "window_s",
+            "estimation_grade", "estimate", "record_positions_seeds", "target_error_sigma",
+            "target_fitness_gap", "uncertainty_replicas"});
   c.validate(origin);
   return c;
 }
@@ -361,6 +370,16 @@ void CampaignConfig::validate(const std::string& origin) const {
                                 ": heading_deg must be a finite angle in [-360, 360] "
                                 "deg, got " +
                                 opt::format_number(*heading_deg));
+  if (heading_source) {
+    // The same rules as the command line (InitialAttitudeOptions::validate).
+    InitialAttitudeOptions o;
+    o.mode = initial_attitude.value_or(InitialAttitudeMode::kGyrocompass);
+    o.heading_deg = heading_deg;
+    o.heading_source = heading_source;
+    if (const std::string why = o.validate(); !why.empty())
+      throw std::invalid_argument(origin + ": heading_source " + insid::to_string(*heading_source) +
+                                  ": " + why);
+  }
   if (estimation_grade) {
     const std::vector<std::string> grades = sensor_grade_names();
     if (std::find(grades.begin(), grades.end(), *estimation_grade) == grades.end())

@@ -59,6 +59,9 @@ struct CampaignConfig {
   /// does, and the key in the resolved config and every run file.
   std::optional<InitialAttitudeMode> initial_attitude;
   std::optional<double> heading_deg;  ///< level+heading only: the heading (deg); absent: course
+  /// level+heading only: "course" | "given" | "measured" (--heading-source); absent: given with
+  /// heading_deg, else course (not written, as before the key existed).
+  std::optional<HeadingSource> heading_source;
   /// Windowed fitness (core/fitness.h; `--window-s`): 0 = one run (default, not written).
   double window_s = 0.0;
   /// The navigation options of every scenario (alignment, initial attitude, window).

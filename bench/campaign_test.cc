@@ -676,6 +676,43 @@ TEST(Campaign, MemsCampaignRunsWithLevelHeadingAndAWindow) {
   bad["window_s"] = -1.0;
   EXPECT_NE(invalid_argument_of([&] { parse_campaign(bad, "m.json"); }).find("window_s = -1"),
             std::string::npos);
+  // "heading_source" (level+heading's --heading-source): checked up front by the command line's
+  // rules, recorded only when given; "measured" on data without heading.csv is refused by the
+  // run with the command line's message.
+  EXPECT_FALSE(old_style.to_json().contains("heading_source"));
+  bad = nlohmann::json::parse(kMemsConfig);
+  bad["heading_source"] = "measured";
+  EXPECT_NE(invalid_argument_of([&] { parse_campaign(bad, "m.json"); })
+                .find("m.json: heading_source measured: a heading source (--heading-source "
+                      "measured) is only used by --initial-attitude level+heading"),
+            std::string::npos);
+  bad["initial_attitude"] = "level+heading";
+  bad["heading_source"] = "compass";
+  EXPECT_NE(invalid_argument_of([&] {
+              parse_campaign(bad, "m.json");
+            }).find("m.json: heading_source: --heading-source must be 'course'"),
+            std::string::npos);
+  bad["heading_source"] = "given";
+  EXPECT_NE(invalid_argument_of([&] {
+              parse_campaign(bad, "m.json");
+            }).find("--heading-source given needs the heading"),
+            std::string::npos);
+  bad["heading_source"] = "measured";
+  const CampaignConfig measured = parse_campaign(bad, "m.json");
+  EXPECT_EQ(measured.to_json()["heading_source"], "measured");
+  EXPECT_EQ(measured.navigation_options().initial_attitude.heading_source,
+            HeadingSource::kMeasured);
+  const fs::path dir2 = fresh_dir("mems-measured");
+  options.out_dir = dir2.string();
+  std::string no_heading;
+  try {
+    run_campaign(measured, options);
+  } catch (const std::exception& e) {
+    no_heading = e.what();
+  }
+  EXPECT_NE(no_heading.find("this dataset has no measured heading"), std::string::npos)
+      << no_heading;
+  fs::remove_all(dir2);
 }
 
 // GIVEN the MEMS campaign with "estimation_grade": "mems" and no "estimate" THEN it estimates

@@ -338,6 +338,7 @@ struct LockstepRunner::Impl {
     if (config_.initial_attitude)
       j["initial_attitude"] = insid::to_string(*config_.initial_attitude);
     if (config_.heading_deg) j["heading_deg"] = *config_.heading_deg;
+    if (config_.heading_source) j["heading_source"] = insid::to_string(*config_.heading_source);
     if (config_.window_s != 0.0) j["window_s"] = config_.window_s;
     if (config_.estimation_grade) j["estimation_grade"] = *config_.estimation_grade;
     j["parameters"] = nlohmann::json::array();

@@ -41,6 +41,7 @@ struct SharedImportArgs {
   double static_speed_mps = import::AssembleOptions{}.static_speed_mps;
   double static_rate_dps = import::AssembleOptions{}.static_rate_dps;
   double static_accel_sd_mps2 = import::AssembleOptions{}.static_accel_sd_mps2;
+  std::optional<double> declination_deg;
   std::string out;
   bool force = false;
   Verbosity verbosity = Verbosity::kNormal;
@@ -51,6 +52,7 @@ struct SharedImportArgs {
   options.static_speed_mps = static_speed_mps;
   options.static_rate_dps = static_rate_dps;
   options.static_accel_sd_mps2 = static_accel_sd_mps2;
+  options.declination_deg = declination_deg;
   return options;
 }
   /// Added to the recorded options of provenance.json.
@@ -59,6 +61,7 @@ struct SharedImportArgs {
   options["static_speed_mps"] = static_speed_mps;
   options["static_rate_dps"] = static_rate_dps;
   options["static_accel_sd_mps2"] = static_accel_sd_mps2;
+  if (declination_deg) options["declination_deg"] = *declination_deg;  // only when given
 }
 };  // namespace
 
@@ -81,6 +84,11 @@ void add_shared_import_options(CLI::App* sub, SharedImportArgs& a) {
                   "window (steps, handling; raise it for a platform vibrating while still)")
       ->capture_default_str()
       ->check(number_in(1e-6, 100));
+  sub->add_option("--declination-deg", a.declination_deg,
+                  "magnetic declination (deg, east +) at the flight: required with a "
+                  "magnetometer heading (csv mx,my,mz columns; ulog --heading mag), which it "
+                  "turns into a true heading; insid has no world magnetic model")
+      ->check(number_in(-180, 180));
   sub->add_option("--out", a.out, "output dataset directory (new, empty or an insid dataset)")
       ->required();
   sub->add_flag("--force", a.force, "write into a --out directory that holds other files");
@@ -272,7 +280,8 @@ void run_import_ulog(const ImportUlogArgs& args) {
   const nlohmann::json source = source_json("ulog", args.log, bytes);
   const import::UlogFile log = import::UlogFile::parse(std::move(bytes), args.log);
   import::UlogSeries series = import::extract_ulog(log, args.log, args.ulog);
-  import::Assembled result = import::assemble_dataset(series.imu, series.gnss, options);
+  import::Assembled result = import::assemble_dataset(series.imu, series.gnss, options,
+                                                      series.heading ? &*series.heading : nullptr);
   // The ULog clock is PX4's boot clock, not GPST: name the origin accordingly.
   nlohmann::json& prov = result.provenance;
   prov["time_origin_boot_s"] = prov["time_origin_gpst_unix_s"];
@@ -283,6 +292,10 @@ void run_import_ulog(const ImportUlogArgs& args) {
                          {"imu_instance", args.ulog.imu_instance},
                          {"gnss_instance", args.ulog.gnss_instance},
                          {"min_fix_type", args.ulog.min_fix_type}};
+  if (!args.ulog.heading.empty()) {  // only when given: earlier records stay as they were
+    opts["heading"] = args.ulog.heading;
+    if (args.ulog.heading == "mag") opts["mag_instance"] = args.ulog.mag_instance;
+  }
   args.shared.record(opts);
   finish_import("insid import ulog", std::move(result), std::move(opts), {source}, args.shared.out,
                 args.shared.force, t0, args.shared.verbosity);
@@ -379,7 +392,9 @@ void add_import_command(CLI::App& app) {
       ->required();
   csv->add_option("--columns", a->columns,
                   "role of each column in order: t,ax,ay,az,gx,gy,gz or - to ignore "
-                  "(e.g. t,ax,ay,az,gx,gy,gz,-,-,-,-)")
+                  "(e.g. t,ax,ay,az,gx,gy,gz,-,-,-,-); optional heading: hdg (dual-antenna "
+                  "heading, deg from true north; empty/nan = none on that row) and hdg_sd (deg), "
+                  "or mx,my,mz (magnetometer, sensor axes; needs --declination-deg)")
       ->required();
   csv->add_option("--units", a->units,
                   "TIME,ACCEL,GYRO: s|ms|us, g|g-local|m/s^2|m/s (m/s = increments), "
@@ -442,6 +457,12 @@ void add_import_command(CLI::App& app) {
   ul->add_option("--min-fix-type", u->ulog.min_fix_type,
                  "PX4 fix_type kept: 3 = 3D (default), 4 = DGPS, 5 = RTK float, 6 = RTK fixed")
       ->check(whole_in(0, 8));
+  ul->add_option("--heading", u->ulog.heading,
+                 "a measured heading into heading.csv: gps (the GNSS topic's dual-antenna "
+                 "'heading') | mag (sensor_mag or vehicle_magnetometer; needs --declination-deg)");
+  ul->add_option("--mag-instance", u->ulog.mag_instance,
+                 "--heading mag: which magnetometer instance (default 0)")
+      ->check(whole_in(0, 255));
   add_shared_import_options(ul, u->shared);
   ul->callback([u] { run_import_ulog(*u); });
 }

@@ -32,6 +32,8 @@ struct SimulateArgs {
   bool print_config = false;
   bool force = false;
   Verbosity verbosity = Verbosity::kNormal;
+  std::string heading;  ///< "" | dual_antenna | magnetometer
+  insid::scenarios::HeadingStreamSpec heading_spec;
 };
 
 void run_simulate(const SimulateArgs& args) {
@@ -51,6 +53,17 @@ void run_simulate(const SimulateArgs& args) {
   overrides.set = parse_effect_assignments(args.set, "--set");  // on top of the preset's
   const sc::ScenarioConfig cfg = sc::with_overrides(base, overrides);
   const sc::ScenarioPlan plan = sc::plan_scenario(cfg);  // all checks before any work
+  sc::HeadingStreamSpec heading_spec = args.heading_spec;
+  if (!args.heading.empty()) {
+    if (args.heading == "dual_antenna")
+      heading_spec.source = HeadingSourceKind::kDualAntenna;
+    else if (args.heading == "magnetometer")
+      heading_spec.source = HeadingSourceKind::kMagnetometer;
+    else
+      throw UsageError("--heading '" + args.heading + "': must be dual_antenna or magnetometer");
+    heading_spec.seed = cfg.seed;
+    if (const std::string why = heading_spec.validate(); !why.empty()) throw UsageError(why);
+  }
 
   if (args.print_config) {
     std::cout << sc::scenario_to_json(cfg).dump(2) << "\n";
@@ -69,7 +82,8 @@ void run_simulate(const SimulateArgs& args) {
                 static_cast<unsigned long long>(cfg.seed));
   progress.note(line);
   const auto t0 = std::chrono::steady_clock::now();
-  const Dataset ds = sc::simulate(cfg, plan, !args.no_injected);
+  Dataset ds = sc::simulate(cfg, plan, !args.no_injected);
+  if (!args.heading.empty()) sc::add_heading_stream(ds, heading_spec);
   DatasetWriteOptions write_options;
   write_options.into_foreign_directory = args.force;
   if (args.no_injected)
@@ -115,6 +129,25 @@ void add_simulate_command(CLI::App& app) {
   cmd->add_flag("--print-config", args->print_config,
                 "print the effective scenario JSON (after the options) and exit");
   add_verbosity_flags(cmd, args->verbosity);
+  cmd->add_option("--heading", args->heading,
+                  "also write a measured heading (heading.csv): dual_antenna (truth yaw + white "
+                  "noise of --heading-sd-deg) | magnetometer (the Earth field in the body with "
+                  "noise, levelled on the static window and --declination-deg added, as insid "
+                  "import does; static window only)");
+  cmd->add_option("--heading-rate-hz", args->heading_spec.rate_hz, "heading samples per second")
+      ->capture_default_str();
+  cmd->add_option("--heading-sd-deg", args->heading_spec.sd_deg,
+                  "dual antenna: the heading's white noise sd (deg)")
+      ->capture_default_str();
+  cmd->add_option("--declination-deg", args->heading_spec.declination_deg,
+                  "magnetometer: the field's declination (deg, east +)")
+      ->capture_default_str();
+  cmd->add_option("--inclination-deg", args->heading_spec.inclination_deg,
+                  "magnetometer: the field's inclination (deg, down +)")
+      ->capture_default_str();
+  cmd->add_option("--mag-noise", args->heading_spec.mag_noise_fraction,
+                  "magnetometer: white noise per axis, a fraction of the field")
+      ->capture_default_str();
   cmd->callback([args] { run_simulate(*args); });
 }
 

@@ -20,6 +20,10 @@ void add_initial_attitude_options(CLI::App* cmd, InitialAttitudeArgs& args) {
                   "level+heading: heading at the navigation start (deg, clockwise from north); "
                   "default: the GNSS course carried back to the start")
       ->check(number_in(-360.0, 360.0));
+  cmd->add_option("--heading-source", args.heading_source,
+                  "level+heading: course (the GNSS course) | given (--heading-deg) | measured "
+                  "(the dataset's heading.csv: dual antenna or magnetometer); default: given "
+                  "with --heading-deg, else course");
   cmd->add_option("--course-min-speed", args.course_min_speed_mps,
                   "level+heading: GNSS horizontal speed (m/s) from which the course is used")
       ->capture_default_str()
@@ -39,6 +43,8 @@ InitialAttitudeOptions initial_attitude_options(const InitialAttitudeArgs& args)
   InitialAttitudeOptions o;
   o.mode = initial_attitude_mode_from_string(args.mode);
   if (!std::isnan(args.heading_deg)) o.heading_deg = args.heading_deg;
+  if (!args.heading_source.empty())
+    o.heading_source = heading_source_from_string(args.heading_source);
   o.course_min_speed_mps = args.course_min_speed_mps;
   o.course_span_s = args.course_span_s;
   o.gyrocompass_max_heading_sd_deg = args.gyrocompass_max_sd_deg;
@@ -78,7 +84,41 @@ nlohmann::json initial_attitude_json(const NavigationProblem& problem,
       }
       break;
     case InitialAttitudeMode::kLevelHeading:
-      if (o.heading_deg) {
+      if (const auto& m = source.measured_heading()) {
+        j["heading_source"] = "measured";
+        nlohmann::json h = {
+            {"kind", to_string(m->kind)},
+            {"samples", m->count},
+            {"heading_csv_first_line", m->first_line},
+            {"t_first_s", m->t_first_s},
+            {"t_last_s", m->t_last_s},
+            {"span_s", m->t_last_s - m->t_first_s},
+            {"where", m->carried ? "after the navigation start, carried back "
+                                   "to it with the compensated gyros"
+                                 : "static window"},
+            {"mean_deg", wrap_two_pi(m->mean_rad) * kRadToDeg},
+            {"scatter_deg", m->scatter_rad * kRadToDeg},
+            {"sample_sd_deg", m->sample_sd_rad ? nlohmann::json(*m->sample_sd_rad * kRadToDeg)
+                                               : nlohmann::json(nullptr)},
+            {"heading_sd_deg", m->sd_rad * kRadToDeg},
+            {"sd_assumption",
+             "max(sample sd, scatter) / sqrt(samples): independent samples; a "
+             "slowly varying error (multipath, a magnetometer's hard iron) is "
+             "not averaged out and not in it"}};
+        if (m->declination_deg) h["declination_deg"] = *m->declination_deg;
+        if (m->carried) {
+          const ImuCompensator compensator(candidate);
+          nlohmann::json samples = nlohmann::json::array();
+          for (const CourseFix& f : source.course_fixes())
+            samples.push_back(
+                {{"t_s", f.t_s},
+                 {"heading_csv_line", f.gnss_index + 2},
+                 {"heading_deg", wrap_two_pi(f.course_rad) * kRadToDeg},
+                 {"yaw_change_since_start_deg", source.yaw_change_to(f, compensator) * kRadToDeg}});
+          h["carried_samples"] = samples;
+        }
+        j["measured_heading"] = h;
+      } else if (o.heading_deg) {
         j["heading_source"] = "given";
         j["heading_given_deg"] = *o.heading_deg;
       } else {

@@ -17,12 +17,13 @@ namespace insid::cli {
 struct InitialAttitudeArgs {
   std::string mode = "gyrocompass";
   double heading_deg = std::numeric_limits<double>::quiet_NaN();  ///< NaN: not given
+  std::string heading_source;  ///< "": given with --heading-deg, else course
   double course_min_speed_mps = InitialAttitudeOptions{}.course_min_speed_mps;
   double course_span_s = InitialAttitudeOptions{}.course_span_s;
   double gyrocompass_max_sd_deg = InitialAttitudeOptions{}.gyrocompass_max_heading_sd_deg;
 };
 
-/// --initial-attitude, --heading-deg, --course-min-speed, --course-span-s,
+/// --initial-attitude, --heading-deg, --heading-source, --course-min-speed, --course-span-s,
 /// --gyrocompass-max-sd-deg.
 void add_initial_attitude_options(CLI::App* cmd, InitialAttitudeArgs& args);
 

@@ -103,12 +103,42 @@ InitialAttitudeMode initial_attitude_mode_from_string(const std::string& text) {
       text + "'");
 }
 
+std::string to_string(HeadingSource source) {
+  switch (source) {
+    case HeadingSource::kCourse:
+      return "course";
+    case HeadingSource::kGiven:
+      return "given";
+    case HeadingSource::kMeasured:
+      return "measured";
+  }
+  return "?";
+}
+
+HeadingSource heading_source_from_string(const std::string& text) {
+  if (text == "course") return HeadingSource::kCourse;
+  if (text == "given") return HeadingSource::kGiven;
+  if (text == "measured") return HeadingSource::kMeasured;
+  throw std::invalid_argument(
+      "--heading-source must be 'course' (the GNSS course), 'given' (--heading-deg H) or "
+      "'measured' (the dataset's heading.csv: dual antenna or magnetometer), got '" +
+      text + "'");
+}
+
 std::string InitialAttitudeOptions::validate() const {
   if (heading_deg && !std::isfinite(*heading_deg))
     return "heading_deg must be finite, got " + num(*heading_deg);
   if (heading_deg && mode != InitialAttitudeMode::kLevelHeading)
     return "a heading (--heading-deg " + num(*heading_deg, 10) +
            ") is only used by --initial-attitude level+heading, not " + to_string(mode);
+  if (heading_source && mode != InitialAttitudeMode::kLevelHeading)
+    return "a heading source (--heading-source " + to_string(*heading_source) +
+           ") is only used by --initial-attitude level+heading, not " + to_string(mode);
+  if (heading_source == HeadingSource::kGiven && !heading_deg)
+    return "--heading-source given needs the heading: --heading-deg H";
+  if (heading_source && *heading_source != HeadingSource::kGiven && heading_deg)
+    return "--heading-deg " + num(*heading_deg, 10) + " gives the heading, but --heading-source " +
+           to_string(*heading_source) + " takes it from elsewhere; give one of them";
   if (!(course_min_speed_mps > 0.0) || !std::isfinite(course_min_speed_mps))
     return "course_min_speed_mps must be a finite number > 0, got " + num(course_min_speed_mps);
   if (!(course_span_s >= 0.0) || !std::isfinite(course_span_s))
@@ -126,6 +156,9 @@ std::string InitialAttitudeOptions::validate() const {
 std::string InitialAttitudeOptions::describe() const {
   if (mode != InitialAttitudeMode::kLevelHeading) return to_string(mode);
   if (heading_deg) return "level+heading (heading " + num(*heading_deg, 10) + " deg given)";
+  if (effective_heading_source() == HeadingSource::kMeasured)
+    return "level+heading (measured heading: heading.csv in the static window, else over " +
+           num(course_span_s, 10) + " s after the navigation start)";
   return "level+heading (GNSS course >= " + num(course_min_speed_mps, 10) + " m/s over " +
          num(course_span_s, 10) + " s)";
 }
@@ -199,6 +232,17 @@ Eigen::Matrix3d level_with_yaw(const Eigen::Vector3d& f_ib_b, double yaw_rad) {
   e.roll_rad = std::atan2(-up_b.y(), -up_b.z());
   e.yaw_rad = yaw_rad;
   return C_b_n_from_euler(e);
+}
+
+double magnetometer_true_heading_rad(const Eigen::Vector3d& mag_b, const Eigen::Vector3d& f_ib_b,
+                                     double declination_rad) {
+  const Eigen::Vector3d m_level = level_with_yaw(f_ib_b, 0.0) * mag_b;  // (E, N, U), yaw 0
+  const double horizontal = std::hypot(m_level.x(), m_level.y());
+  if (!(horizontal > 1e-3 * mag_b.norm()) || !std::isfinite(horizontal))
+    throw std::invalid_argument(
+        "magnetometer heading: the field is vertical or zero in the levelled frame (a magnetic "
+        "pole, or no field)");
+  return wrap_pi(declination_rad - std::atan2(m_level.x(), m_level.y()));
 }
 
 double yaw_change_rad(const YawCarry& carry, const ImuCompensator& compensator,
@@ -308,31 +352,98 @@ InitialAttitude::InitialAttitude(const Dataset& ds, const InitialAttitudeOptions
   }
 
   // level+heading. A given heading needs nothing more.
-  if (options.heading_deg) return;
-  // The GNSS course: the first epoch after the navigation start with a horizontal speed of at
-  // least course_min_speed_mps, and the fast ones within course_span_s after it.
-  const double t_last = ds.imu.back().t_s;
-  double max_speed = 0.0, t_max_speed = t_nav0;
-  for (std::size_t i = 0; i < ds.gnss.size(); ++i) {
-    const GnssSample& g = ds.gnss[i];
-    if (g.t_s <= t_nav0 + 1e-9 || g.t_s > t_last + 1e-9) continue;
-    const double speed = std::hypot(g.v_eb_n_mps.x(), g.v_eb_n_mps.y());
-    if (speed > max_speed) max_speed = speed, t_max_speed = g.t_s;
-    if (!fixes_.empty() && g.t_s > fixes_.front().t_s + options.course_span_s + 1e-9) break;
-    if (!(speed >= options.course_min_speed_mps)) continue;
-    CourseFix fix;
-    fix.gnss_index = i;
-    fix.t_s = g.t_s;
-    fix.course_rad = std::atan2(g.v_eb_n_mps.x(), g.v_eb_n_mps.y());
-    fix.speed_mps = speed;
-    fixes_.push_back(fix);
+  if (options.effective_heading_source() == HeadingSource::kGiven) return;
+  if (options.effective_heading_source() == HeadingSource::kMeasured) {
+    if (ds.heading.empty() || !ds.meta.heading)
+      throw std::invalid_argument(
+          mode +
+          " --heading-source measured: this dataset has no measured heading (no heading.csv); "
+          "bring one with insid import (csv: a hdg column, or mx,my,mz with --declination-deg; "
+          "ulog: --heading gps|mag) or insid simulate --heading, or take the heading from "
+          "--heading-source course or --heading-deg H");
+    MeasuredHeading m;
+    m.kind = ds.meta.heading->source;
+    m.declination_deg = ds.meta.heading->declination_deg;
+    // The samples in the static window (the body does not turn there), else the first ones after
+    // the navigation start, carried back like the course.
+    std::vector<std::size_t> used;
+    for (std::size_t i = 0; i < ds.heading.size(); ++i)
+      if (ds.heading[i].t_s >= window_start_t_s - 1e-9 && ds.heading[i].t_s <= t_nav0 + 1e-9)
+        used.push_back(i);
+    m.carried = used.empty();
+    if (m.carried) {
+      const double t_last = ds.imu.back().t_s;
+      for (std::size_t i = 0; i < ds.heading.size(); ++i) {
+        const double t = ds.heading[i].t_s;
+        if (t <= t_nav0 + 1e-9 || t > t_last + 1e-9) continue;
+        if (!used.empty() && t > ds.heading[used.front()].t_s + options.course_span_s + 1e-9) break;
+        used.push_back(i);
+      }
+    }
+    if (used.empty())
+      throw std::invalid_argument(
+          mode +
+          " --heading-source measured: heading.csv has no sample in the static window (t = " +
+          num(window_start_t_s, 12) + " to " + num(t_nav0, 12) +
+          " s) nor between the navigation start and the last IMU row (its samples run from t = " +
+          num(ds.heading.front().t_s, 12) + " to " + num(ds.heading.back().t_s, 12) + " s)");
+    double s = 0.0, c = 0.0, sum_var = 0.0;
+    bool all_sd = true;
+    for (std::size_t i : used) {
+      s += std::sin(ds.heading[i].yaw_rad);
+      c += std::cos(ds.heading[i].yaw_rad);
+      if (ds.heading[i].sd_rad)
+        sum_var += *ds.heading[i].sd_rad * *ds.heading[i].sd_rad;
+      else
+        all_sd = false;
+    }
+    const double n = static_cast<double>(used.size());
+    m.count = used.size();
+    m.first_line = used.front() + 2;
+    m.t_first_s = ds.heading[used.front()].t_s;
+    m.t_last_s = ds.heading[used.back()].t_s;
+    m.mean_rad = std::atan2(s, c);
+    const double R = std::min(1.0, std::hypot(s, c) / n);
+    m.scatter_rad = R > 0.0 ? std::sqrt(std::max(0.0, -2.0 * std::log(R))) : kPi;
+    if (all_sd) m.sample_sd_rad = std::sqrt(sum_var / n);
+    m.sd_rad = std::max(m.sample_sd_rad.value_or(0.0), m.scatter_rad) / std::sqrt(n);
+    measured_ = m;
+    if (!m.carried) return;
+    for (std::size_t i : used) {
+      CourseFix fix;
+      fix.gnss_index = i;  // the heading.csv row
+      fix.t_s = ds.heading[i].t_s;
+      fix.course_rad = ds.heading[i].yaw_rad;
+      fix.speed_mps = 0.0;
+      fixes_.push_back(fix);
+    }
   }
-  if (fixes_.empty())
-    throw std::invalid_argument(
-        mode + ": the GNSS horizontal speed never reaches " + num(options.course_min_speed_mps) +
-        " m/s after the navigation start (t = " + num(t_nav0, 12) + " s; the fastest is " +
-        num(max_speed) + " m/s at t = " + num(t_max_speed, 12) +
-        " s), so the course gives no heading; give it with --heading-deg H");
+  if (fixes_.empty()) {
+    // The GNSS course: the first epoch after the navigation start with a horizontal speed of at
+    // least course_min_speed_mps, and the fast ones within course_span_s after it.
+    const double t_last = ds.imu.back().t_s;
+    double max_speed = 0.0, t_max_speed = t_nav0;
+    for (std::size_t i = 0; i < ds.gnss.size(); ++i) {
+      const GnssSample& g = ds.gnss[i];
+      if (g.t_s <= t_nav0 + 1e-9 || g.t_s > t_last + 1e-9) continue;
+      const double speed = std::hypot(g.v_eb_n_mps.x(), g.v_eb_n_mps.y());
+      if (speed > max_speed) max_speed = speed, t_max_speed = g.t_s;
+      if (!fixes_.empty() && g.t_s > fixes_.front().t_s + options.course_span_s + 1e-9) break;
+      if (!(speed >= options.course_min_speed_mps)) continue;
+      CourseFix fix;
+      fix.gnss_index = i;
+      fix.t_s = g.t_s;
+      fix.course_rad = std::atan2(g.v_eb_n_mps.x(), g.v_eb_n_mps.y());
+      fix.speed_mps = speed;
+      fixes_.push_back(fix);
+    }
+    if (fixes_.empty())
+      throw std::invalid_argument(
+          mode + ": the GNSS horizontal speed never reaches " + num(options.course_min_speed_mps) +
+          " m/s after the navigation start (t = " + num(t_nav0, 12) + " s; the fastest is " +
+          num(max_speed) + " m/s at t = " + num(t_max_speed, 12) +
+          " s), so the course gives no heading; give it with --heading-deg H");
+  }
 
   // Carry each course back to the start along a reference attitude track from the levelled start
   // (yaw 0: the track's tilt, which is all the carry uses, does not depend on it),
@@ -446,6 +557,8 @@ double InitialAttitude::yaw_change_to(const CourseFix& fix,
 
 double InitialAttitude::level_heading_yaw_rad(const ImuCompensator& compensator) const {
   if (options_.heading_deg) return *options_.heading_deg * kDegToRad;
+  // A measured heading in the static window holds at the navigation start for every candidate.
+  if (measured_ && !measured_->carried) return measured_->mean_rad;
   const EulerAngles offset = tilt_offset(compensator);
   // Circular mean of the courses carried back to the start: psi_0 = course - delta psi.
   double s = 0.0, c = 0.0;

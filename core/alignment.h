@@ -40,8 +40,9 @@ Eigen::Matrix3d align_window(const AlignmentWindow& window, const ImuCompensator
 // ---------------------------------------------------------------------------------------------
 // Initial-attitude modes (issue 14). README.md, "Initial attitude", says what each assumes.
 //   gyrocompass    levelling + gyrocompassing on the static window (the paper; nav grade);
-//   level+heading  levelling on the static window, heading given (--heading-deg) or from the
-//                  GNSS course once the speed exceeds a threshold, carried back to the start;
+//   level+heading  levelling on the static window, heading given (--heading-deg), from the
+//                  GNSS course once the speed exceeds a threshold, carried back to the start,
+//                  or measured (heading.csv: dual antenna / magnetometer; --heading-source);
 //   given          roll/pitch/yaw of meta.json `initial` (the data's own attitude);
 //   truth          truth.csv at the navigation start, else meta.json `initial` (simulations).
 // gyrocompass and level+heading depend on the candidate (levelling on the compensated window,
@@ -53,8 +54,19 @@ std::string to_string(InitialAttitudeMode mode);
 /// throws std::invalid_argument naming the value otherwise.
 InitialAttitudeMode initial_attitude_mode_from_string(const std::string& text);
 
+/// Where level+heading takes its heading (--heading-source).
+enum class HeadingSource { kCourse, kGiven, kMeasured };
+std::string to_string(HeadingSource source);
+/// "course" | "given" | "measured"; throws std::invalid_argument naming the value otherwise.
+HeadingSource heading_source_from_string(const std::string& text);
+
 struct InitialAttitudeOptions {
   InitialAttitudeMode mode = InitialAttitudeMode::kGyrocompass;
+  /// level+heading: where the heading comes from; unset: given when heading_deg is set, else
+  /// the course (the behaviour before --heading-source). kMeasured: heading.csv, the circular
+  /// mean of its samples in the static window, or where it has none there, of the samples
+  /// within course_span_s after the first one after the navigation start, carried back.
+  std::optional<HeadingSource> heading_source;
   /// level+heading: the heading at the navigation start (deg, clockwise from north); when
   /// absent, the GNSS course carried back to the start.
   std::optional<double> heading_deg;
@@ -75,6 +87,11 @@ struct InitialAttitudeOptions {
 
   /// "" when valid, else the reason naming the bad value.
   std::string validate() const;
+  /// level+heading: the source in effect (heading_source, else given / course).
+  HeadingSource effective_heading_source() const {
+    return heading_source ? *heading_source
+                          : (heading_deg ? HeadingSource::kGiven : HeadingSource::kCourse);
+  }
   /// Short description for results and cache keys, e.g. "level+heading (course >= 1 m/s, 2 s)".
   std::string describe() const;
 };
@@ -110,6 +127,15 @@ double estimate_arw_rad_rts(const std::vector<ImuSample>& imu, std::size_t begin
 /// from north): roll and pitch from the levelling, yaw given.
 Eigen::Matrix3d level_with_yaw(const Eigen::Vector3d& f_ib_b, double yaw_rad);
 
+/// True heading (rad, clockwise from true north) of the body x axis from a magnetometer
+/// reading mag_b (body FRD, any unit) and the specific force f_ib_b of a static IMU (tilt
+/// compensation): the field is levelled with the roll and pitch of level_with_yaw(f_ib_b, 0)
+/// (C_b_n with yaw 0, Groves 2013 sec. 6.1.1), its azimuth in that frame is alpha = atan2(m_E,
+/// m_N) = declination - yaw, so yaw = declination - alpha (declination east of true north +).
+/// Throws std::invalid_argument when the field is (nearly) vertical or zero.
+double magnetometer_true_heading_rad(const Eigen::Vector3d& mag_b, const Eigen::Vector3d& f_ib_b,
+                                     double declination_rad);
+
 /// Sums that carry a heading measured later back to the navigation start (level+heading from
 /// the GNSS course), with the candidate's gyro compensation applied in O(1). The Euler yaw
 /// changes at psi_dot = d + sin(theta) phi_dot (ZYX kinematics), d the rotation rate of the
@@ -128,6 +154,25 @@ struct YawCarry {
 /// Yaw change (rad, clockwise +) from the navigation start over the carry's span.
 double yaw_change_rad(const YawCarry& carry, const ImuCompensator& compensator,
                       double earth_up_rate_rad_s);
+
+/// The measured heading level+heading used (--heading-source measured): the circular mean of
+/// heading.csv samples, its sd, and where they were taken.
+struct MeasuredHeading {
+  HeadingSourceKind kind = HeadingSourceKind::kDualAntenna;
+  std::optional<double> declination_deg;  ///< magnetometer: as meta.json records it
+  bool carried = false;   ///< samples after the navigation start, carried back (course_fixes())
+  std::size_t count = 0;  ///< samples averaged
+  std::size_t first_line = 0;  ///< heading.csv line of the first sample used
+  double t_first_s = 0.0, t_last_s = 0.0;
+  double mean_rad = 0.0;  ///< circular mean of the samples (before any carry)
+  /// Circular sd of the samples, sqrt(-2 ln R) (R the mean resultant length).
+  double scatter_rad = 0.0;
+  std::optional<double> sample_sd_rad;  ///< rms of the samples' own sd (heading.csv sd_deg)
+  /// sd of the mean: max(sample sd, scatter) / sqrt(count), the samples taken as independent (a
+  /// slowly varying error, multipath or a magnetometer's hard iron, is not averaged out and is
+  /// not in it).
+  double sd_rad = 0.0;
+};
 
 /// One GNSS epoch whose course sets the heading (level+heading without --heading-deg).
 struct CourseFix {
@@ -170,8 +215,12 @@ class InitialAttitude {
   /// its compensated gyros on the reference track, plus the track's sensitivity to the start
   /// tilt times the candidate's levelling minus the track's. O(1).
   double yaw_change_to(const CourseFix& fix, const ImuCompensator& compensator) const;
-  /// Course epochs used (level+heading without --heading-deg), in time order.
+  /// Course epochs used (level+heading without --heading-deg), in time order; with a measured
+  /// heading carried back, its samples (course_rad the measured heading, speed_mps 0,
+  /// gnss_index the heading.csv row).
   const std::vector<CourseFix>& course_fixes() const { return fixes_; }
+  /// --heading-source measured: the samples used and their mean and sd.
+  const std::optional<MeasuredHeading>& measured_heading() const { return measured_; }
   /// Gyrocompass only: the feasibility figures (heading sd and what went into it).
   const std::optional<GyrocompassFeasibility>& feasibility() const { return feasibility_; }
 
@@ -185,6 +234,7 @@ class InitialAttitude {
   double earth_up_rate_rad_s_ = 0.0;
   EulerAngles reference_tilt_;  // roll/pitch where the reference track starts
   std::vector<CourseFix> fixes_;
+  std::optional<MeasuredHeading> measured_;
   std::optional<GyrocompassFeasibility> feasibility_;
 };
 

@@ -33,6 +33,7 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <string_view>
 #include <system_error>
@@ -56,6 +57,7 @@ constexpr std::string_view kImuFile = "imu.csv";
 constexpr std::string_view kGnssFile = "gnss.csv";
 constexpr std::string_view kTruthFile = "truth.csv";
 constexpr std::string_view kMetaFile = "meta.json";
+constexpr std::string_view kHeadingFile = "heading.csv";
 
 constexpr std::array<std::string_view, 7> kImuColumns = {
     "t_s", "dtheta_x_rad", "dtheta_y_rad", "dtheta_z_rad", "dv_x_mps", "dv_y_mps", "dv_z_mps"};
@@ -64,6 +66,10 @@ constexpr std::array<std::string_view, 7> kGnssColumns = {"t_s",    "lat_deg", "
 constexpr std::array<std::string_view, 10> kTruthColumns = {
     "t_s",    "lat_deg", "lon_deg",  "h_m",       "vE_mps",
     "vN_mps", "vU_mps",  "roll_deg", "pitch_deg", "yaw_deg"};
+
+// heading.csv: with or without the per-sample sd (the header says which).
+constexpr std::array<std::string_view, 2> kHeadingColumns = {"t_s", "heading_deg"};
+constexpr std::array<std::string_view, 3> kHeadingSdColumns = {"t_s", "heading_deg", "sd_deg"};
 
 constexpr double kImuRateTolerance = 0.01;  // each IMU dt within 1% of 1 / imu_rate_hz
 constexpr double kGnssEndAllowance = 1.5;   // GNSS may end 1.5 GNSS periods before the IMU
@@ -316,6 +322,22 @@ RecordedFile parse_csv_recorded(const std::string& text,
   return record;
 }
 
+// heading.csv, with or without its sd column: the header's field count picks the column set
+// (the header check then names any wrong or missing column). on_row(t_s, heading_deg, sd_deg or
+// NaN, line).
+template <class OnRow>
+RecordedFile parse_heading_csv(const std::string& text, const CsvWhere& where, OnRow&& on_row) {
+  std::string_view body(text);
+  if (body.size() >= 3 && body.substr(0, 3) == "\xEF\xBB\xBF") body.remove_prefix(3);
+  const std::string_view header = body.substr(0, body.find('\n'));
+  if (std::count(header.begin(), header.end(), ',') >= 2)
+    return parse_csv_recorded(text, kHeadingSdColumns, where,
+                              [&](const double* v, std::size_t l) { on_row(v[0], v[1], v[2], l); });
+  return parse_csv_recorded(text, kHeadingColumns, where, [&](const double* v, std::size_t l) {
+    on_row(v[0], v[1], std::numeric_limits<double>::quiet_NaN(), l);
+  });
+}
+
 // ------------------------------------------------------------------------------------------
 // meta.json
 
@@ -443,13 +465,32 @@ DatasetMeta parse_meta(const std::string& text, const std::string& dir_prefix,
     n.gnss_pos_sigma_m = r.number(*noise, "gnss_pos_sigma_m", "noise");
     m.noise = n;
   }
+  if (const json* heading = r.find(j, "heading"); heading && !heading->is_null()) {
+    r.object(*heading, "heading");
+    for (const auto& [key, value] : heading->items())
+      if (key != "source" && key != "declination_deg")
+        r.fail_at("field \"heading." + key +
+                  "\": unknown field (heading has \"source\" and \"declination_deg\")");
+    const json& source = r.require(*heading, "source", "heading.source");
+    HeadingMeta h;
+    if (source == "dual_antenna")
+      h.source = HeadingSourceKind::kDualAntenna;
+    else if (source == "magnetometer")
+      h.source = HeadingSourceKind::kMagnetometer;
+    else
+      r.fail_at("field \"heading.source\" must be \"dual_antenna\" or \"magnetometer\", got " +
+                source.dump());
+    if (const json* d = r.find(*heading, "declination_deg"); d && !d->is_null())
+      h.declination_deg = r.number(*d, "heading.declination_deg");
+    m.heading = h;
+  }
   if (const json* recorded = r.find(j, "files"); recorded && !recorded->is_null()) {
     r.object(*recorded, "files");
     for (const auto& [name, record] : recorded->items()) {
       const std::string path = "files." + name;
-      if (name != kImuFile && name != kGnssFile && name != kTruthFile)
+      if (name != kImuFile && name != kGnssFile && name != kTruthFile && name != kHeadingFile)
         r.fail_at("field \"" + path +
-                  "\": not a data file of a dataset (imu.csv, gnss.csv, truth.csv)");
+                  "\": not a data file of a dataset (imu.csv, gnss.csv, truth.csv, heading.csv)");
       r.object(record, path);
       const double rows = r.number(record, "rows", path);
       if (rows < 0 || rows != std::floor(rows))
@@ -740,6 +781,45 @@ struct Validator {
       position_velocity(kTruthFile, i, s.lon_rad, s.h_m, s.v_eb_n_mps);
     }
     times(kTruthFile, ds.truth);
+
+    // Heading (optional): heading.csv and meta.json "heading" come together.
+    if (m.heading && ds.heading.empty())
+      meta_fail(
+          "field \"heading\" describes a measured heading, but there is no heading.csv (or it "
+          "has no data rows); add the file or remove the field");
+    if (!m.heading && !ds.heading.empty())
+      fail(prefix + std::string(kHeadingFile) +
+           ": a measured heading needs its source in meta.json: \"heading\": {\"source\": "
+           "\"dual_antenna\"} or {\"source\": \"magnetometer\", \"declination_deg\": D}");
+    if (m.heading) {
+      const bool magnetometer = m.heading->source == HeadingSourceKind::kMagnetometer;
+      if (magnetometer && !m.heading->declination_deg)
+        meta_fail(
+            "field \"heading.declination_deg\" is required for a magnetometer heading (the "
+            "declination the importer applied to make it a true heading)");
+      if (!magnetometer && m.heading->declination_deg)
+        meta_fail("field \"heading.declination_deg\" is only for a magnetometer heading, not " +
+                  to_string(m.heading->source));
+      if (m.heading->declination_deg && !(std::fabs(*m.heading->declination_deg) <= 180.0))
+        meta_fail("field \"heading.declination_deg\" = " + num_text(*m.heading->declination_deg) +
+                  " must lie in [-180, 180] deg");
+    }
+    const bool with_sd = !ds.heading.empty() && ds.heading.front().sd_rad.has_value();
+    for (std::size_t i = 0; i < ds.heading.size(); ++i) {
+      using B = PlausibilityBounds;
+      const HeadingSample& s = ds.heading[i];
+      finite(kHeadingFile, i, "t_s", s.t_s);
+      finite(kHeadingFile, i, "heading_deg", s.yaw_rad);
+      bounded(kHeadingFile, i, "heading_deg", s.yaw_rad * kRadToDeg, B::kMaxHeadingAbs_deg,
+              "heading", "deg", "headings lie in [-180, 360] deg");
+      if (s.sd_rad.has_value() != with_sd)
+        fail(at(kHeadingFile, i, "sd_deg") + "every row or none gives an sd (the first row " +
+             (with_sd ? "does" : "does not") + ")");
+      if (s.sd_rad && !(*s.sd_rad > 0.0 && *s.sd_rad * kRadToDeg <= B::kMaxHeadingSd_deg))
+        fail(at(kHeadingFile, i, "sd_deg") + "heading sd " + num_text(*s.sd_rad * kRadToDeg) +
+             " deg must lie in (0, " + num_text(B::kMaxHeadingSd_deg) + "] deg");
+    }
+    times(kHeadingFile, ds.heading);
   }
 };
 
@@ -832,6 +912,21 @@ std::string truth_text(const std::vector<TruthSample>& truth) {
   return s;
 }
 
+std::string heading_text(const std::vector<HeadingSample>& heading) {
+  std::string s;
+  const bool with_sd = !heading.empty() && heading.front().sd_rad.has_value();
+  s.reserve(64 + heading.size() * 3 * 24);
+  if (with_sd) {
+    append_header(s, kHeadingSdColumns);
+    for (const HeadingSample& r : heading)
+      append_row<3>(s, {r.t_s, degrees_for(r.yaw_rad), degrees_for(*r.sd_rad)});
+  } else {
+    append_header(s, kHeadingColumns);
+    for (const HeadingSample& r : heading) append_row<2>(s, {r.t_s, degrees_for(r.yaw_rad)});
+  }
+  return s;
+}
+
 std::string meta_text(const DatasetMeta& m, const std::map<std::string, RecordedFile>& files) {
   nlohmann::ordered_json j;
   j["format"] = m.format == DatasetFormat::kV1 ? kFormat : kFormat2;
@@ -865,6 +960,10 @@ std::string meta_text(const DatasetMeta& m, const std::map<std::string, Recorded
                   {"vrw_mps_rth", m.noise->vrw_mps_rth},
                   {"gnss_vel_sigma_mps", m.noise->gnss_vel_sigma_mps},
                   {"gnss_pos_sigma_m", m.noise->gnss_pos_sigma_m}};
+  }
+  if (m.heading) {
+    j["heading"] = {{"source", to_string(m.heading->source)}};
+    if (m.heading->declination_deg) j["heading"]["declination_deg"] = *m.heading->declination_deg;
   }
   for (const auto& [name, record] : files)
     j["files"][name] = {{"rows", record.rows}, {"sha256", record.sha256}};
@@ -932,7 +1031,8 @@ fs::path normalized_target(const fs::path& dir) {
 void write_dataset_files_into(const fs::path& dir, const std::map<std::string, std::string>& files,
                               const std::string& where) {
   std::error_code ec;
-  for (const std::string& name : {std::string(kTruthFile), std::string("answer.json")}) {
+  for (const std::string& name :
+       {std::string(kTruthFile), std::string(kHeadingFile), std::string("answer.json")}) {
     if (!files.count(name) && fs::exists(fs::symlink_status(dir / name, ec)))
       fail(where + ": it holds '" + name +
            "', which the new dataset does not have and insid "
@@ -1041,12 +1141,27 @@ Dataset load_dataset(const fs::path& dir) {
         });
   }
 
+  if (const fs::path p = dir / kHeadingFile; present(kHeadingFile)) {
+    const std::string text = read_whole_file(p, prefix + std::string(kHeadingFile));
+    found[std::string(kHeadingFile)] = parse_heading_csv(
+        text, CsvWhere{prefix, kHeadingFile}, [&](double t, double deg, double sd, std::size_t) {
+          HeadingSample& s = ds.heading.emplace_back();
+          s.t_s = t;
+          s.yaw_rad = deg * kDegToRad;
+          if (!std::isnan(sd)) s.sd_rad = sd * kDegToRad;
+        });
+  }
+
   Validator{prefix}.run(ds);
   for (const auto& [name, record] : found) check_recorded(recorded, name, record, prefix);
   return ds;
 }
 
 void validate_dataset(const Dataset& dataset) { Validator{""}.run(dataset); }
+
+std::string to_string(HeadingSourceKind kind) {
+  return kind == HeadingSourceKind::kMagnetometer ? "magnetometer" : "dual_antenna";
+}
 
 std::vector<ImuGap> imu_gaps(const Dataset& dataset) {
   std::vector<ImuGap> gaps;
@@ -1060,9 +1175,10 @@ std::vector<ImuGap> imu_gaps(const Dataset& dataset) {
 
 const std::vector<std::string>& dataset_directory_entries() {
   static const std::vector<std::string> entries = {
-      std::string(kMetaFile),  std::string(kImuFile), std::string(kGnssFile),
-      std::string(kTruthFile), "answer.json",         "insid-optimum-cache.json",
-      "provenance.json"};
+      std::string(kMetaFile), std::string(kImuFile),
+      std::string(kGnssFile), std::string(kTruthFile),
+      "answer.json",          "insid-optimum-cache.json",
+      "provenance.json",      std::string(kHeadingFile)};
   return entries;
 }
 
@@ -1124,6 +1240,8 @@ RecordedFile record_of(const std::string& name, const std::string& text) {
   const auto nothing = [](const double*, std::size_t) {};
   if (name == kImuFile) return parse_csv_recorded(text, kImuColumns, where, nothing);
   if (name == kGnssFile) return parse_csv_recorded(text, kGnssColumns, where, nothing);
+  if (name == kHeadingFile)
+    return parse_heading_csv(text, where, [](double, double, double, std::size_t) {});
   return parse_csv_recorded(text, kTruthColumns, where, nothing);
 }
 
@@ -1140,7 +1258,7 @@ void write_dataset(const fs::path& dir, const Dataset& dataset,
   for (const auto& [name, contents] : options.extra_files) {
     const auto& own = dataset_directory_entries();
     if (std::find(own.begin(), own.end(), name) == own.end() || name == kMetaFile ||
-        name == kImuFile || name == kGnssFile || name == kTruthFile)
+        name == kImuFile || name == kGnssFile || name == kTruthFile || name == kHeadingFile)
       fail(where + ": '" + name + "' is not an extra file a dataset directory may hold");
   }
 
@@ -1149,8 +1267,9 @@ void write_dataset(const fs::path& dir, const Dataset& dataset,
   files[std::string(kImuFile)] = imu_text(dataset.imu);
   files[std::string(kGnssFile)] = gnss_text(dataset.gnss);
   if (!dataset.truth.empty()) files[std::string(kTruthFile)] = truth_text(dataset.truth);
+  if (!dataset.heading.empty()) files[std::string(kHeadingFile)] = heading_text(dataset.heading);
   std::map<std::string, RecordedFile> records;
-  for (const std::string_view name : {kImuFile, kGnssFile, kTruthFile})
+  for (const std::string_view name : {kImuFile, kGnssFile, kTruthFile, kHeadingFile})
     if (const auto it = files.find(std::string(name)); it != files.end())
       records[it->first] = record_of(it->first, it->second);
   files[std::string(kMetaFile)] = meta_text(dataset.meta, records);
@@ -1257,7 +1376,10 @@ void write_file_atomic(const fs::path& path, const std::string& contents) {
 
 std::string dataset_digest(const fs::path& dir) {
   std::string listing;
-  for (const std::string_view name : {kMetaFile, kImuFile, kGnssFile}) {
+  for (const std::string_view name : {kMetaFile, kImuFile, kGnssFile, kHeadingFile}) {
+    // heading.csv enters only when present: the digest of a dataset without one is unchanged.
+    std::error_code ec;
+    if (name == kHeadingFile && !fs::exists(dir / name, ec)) continue;
     try {
       listing += std::string(name) + ":" + sha256_file_hex(dir / name) + "\n";
     } catch (const std::runtime_error& e) {

@@ -1,5 +1,6 @@
 // Dataset format `insid-dataset/1` (docs/design.md sec. 5): a directory with imu.csv, gnss.csv,
-// optional truth.csv and meta.json. Units are converted once here: angles are radians inside.
+// optional truth.csv, optional heading.csv (a measured heading) and meta.json. Units are converted
+// once here: angles are radians inside.
 #pragma once
 
 #include <filesystem>
@@ -49,6 +50,26 @@ struct NoiseLevels {
   double gnss_pos_sigma_m = 0.0;    ///< GNSS position white noise (m)
 };
 
+/// A measured heading (heading.csv, optional): the yaw of the body x axis at t_s, clockwise from
+/// true north (the frame insid navigates in). A magnetometer heading is stored as true heading:
+/// the importer has applied the declination and the tilt compensation (meta.json "heading").
+struct HeadingSample {
+  double t_s = 0.0;
+  double yaw_rad = 0.0;
+  std::optional<double> sd_rad;  ///< the sample's sd when the source gives one (column sd_deg)
+};
+
+/// Where heading.csv comes from (meta.json "heading").
+enum class HeadingSourceKind { kDualAntenna, kMagnetometer };
+std::string to_string(HeadingSourceKind kind);  ///< "dual_antenna" | "magnetometer"
+
+struct HeadingMeta {
+  HeadingSourceKind source = HeadingSourceKind::kDualAntenna;
+  /// Magnetometer only (required there): the magnetic declination (deg, east of true north +)
+  /// the importer added to the magnetic heading; recorded, never applied again.
+  std::optional<double> declination_deg;
+};
+
 /// insid-dataset/1 (simulated data: IMU steps within 1 % of 1/imu_rate_hz, alignment window of
 /// round(align_s * imu_rate_hz) rows, initial attitude given) or insid-dataset/2 (measured data,
 /// what `insid import` writes: each IMU row's own interval is used, steps may jitter; alignment
@@ -66,13 +87,15 @@ struct DatasetMeta {
   bool initial_attitude_known = true;  ///< /2 only may say false (roll/pitch/yaw null)
   std::optional<std::map<std::string, double>> injected;  ///< catalogue name -> SI value
   std::optional<NoiseLevels> noise;
+  std::optional<HeadingMeta> heading;  ///< present exactly when heading.csv is
 };
 
 struct Dataset {
   DatasetMeta meta;
   std::vector<ImuSample> imu;
   std::vector<GnssSample> gnss;
-  std::vector<TruthSample> truth;  ///< empty when truth.csv is absent
+  std::vector<TruthSample> truth;      ///< empty when truth.csv is absent
+  std::vector<HeadingSample> heading;  ///< empty when heading.csv is absent
 };
 
 /// Plausibility bounds checked at load (generous: beyond them no real IMU, GNSS receiver or
@@ -90,6 +113,9 @@ struct PlausibilityBounds {
   static constexpr double kImuRateTolerance2 = 0.10;  ///< declared IMU rate vs the median step
   static constexpr double kMaxImuStep_s = 1.0;        ///< longest IMU step (a longer one: refused)
   static constexpr double kImuGapSteps = 3.0;  ///< a step above this many nominal steps is a gap
+  // heading.csv:
+  static constexpr double kMaxHeadingAbs_deg = 360.0;  ///< [-180, 180] or [0, 360)
+  static constexpr double kMaxHeadingSd_deg = 180.0;   ///< a larger sd says nothing
 };
 
 /// A stretch without IMU samples longer than kImuGapSteps nominal steps (insid-dataset/2).
@@ -153,8 +179,8 @@ void validate_dataset(const Dataset& dataset);
 void write_file_atomic(const std::filesystem::path& path, const std::string& contents);
 
 /// SHA-256 over the files of a dataset directory that determine every result computed from it
-/// (meta.json, imu.csv, gnss.csv; truth.csv and other files do not enter): the key of caches
-/// kept about the data. Throws DatasetError naming an unreadable file.
+/// (meta.json, imu.csv, gnss.csv, and heading.csv when present; truth.csv and other files do not
+/// enter): the key of caches kept about the data. Throws DatasetError naming an unreadable file.
 std::string dataset_digest(const std::filesystem::path& dir);
 
 }  // namespace insid

@@ -76,7 +76,147 @@ struct Case {
   std::string name;
   std::function<void(const fs::path&)> mutate;
   std::vector<std::string> expected;  // substrings of the error message
+  bool with_heading = false;          // mutates the valid dataset that has a heading.csv
 };
+
+// meta.json text with `from` replaced by `to` (once; the test fails when `from` is absent).
+void replace_in_meta(const fs::path& dir, const std::string& from, const std::string& to) {
+  std::string meta = read_text(dir / "meta.json");
+  const auto at = meta.find(from);
+  ASSERT_NE(at, std::string::npos) << from;
+  meta.replace(at, from.size(), to);
+  write_text(dir / "meta.json", meta);
+}
+
+// meta.json without its "heading" block.
+void remove_meta_heading(const fs::path& dir) {
+  std::string meta = read_text(dir / "meta.json");
+  const auto at = meta.find("\"heading\"");
+  ASSERT_NE(at, std::string::npos);
+  const auto close = meta.find('}', at);
+  const auto comma = meta.find(',', close);
+  meta.erase(at, comma + 1 - at);
+  write_text(dir / "meta.json", meta);
+}
+
+const std::vector<std::string> kHeadingColumns = {"t_s", "heading_deg", "sd_deg"};
+
+// heading.csv and its meta.json block, one mutation each.
+void add_heading_cases(std::vector<Case>& cases) {
+  const std::vector<std::pair<std::string, std::string>> not_numbers = {
+      {"nan", "nan"}, {"inf", "inf"}, {"word", "abc"}, {"empty", ""}, {"overflow", "1e999"}};
+  for (std::size_t c = 0; c < kHeadingColumns.size(); ++c)
+    for (const auto& [label, text] : not_numbers) {
+      const int col = static_cast<int>(c);
+      const std::string value = text;
+      cases.push_back(
+          {"heading_" + kHeadingColumns[c] + "_" + label,
+           [col, value](const fs::path& d) { set_field(d / "heading.csv", 7, col, value); },
+           {"heading.csv line 7", kHeadingColumns[c]},
+           true});
+    }
+  for (const std::string value : {"400", "-361", "1e9"})
+    cases.push_back({"heading_beyond_" + value,
+                     [value](const fs::path& d) { set_field(d / "heading.csv", 9, 1, value); },
+                     {"heading.csv line 9", "heading_deg", "plausibility bound"},
+                     true});
+  for (const std::string value : {"0", "-1", "200"})
+    cases.push_back({"heading_sd_" + value,
+                     [value](const fs::path& d) { set_field(d / "heading.csv", 9, 2, value); },
+                     {"heading.csv line 9", "sd_deg", "must lie in (0, 180] deg"},
+                     true});
+  cases.push_back({"heading_time_repeats",
+                   [](const fs::path& d) {
+                     edit_lines(d / "heading.csv", [](std::vector<std::string>& l) {
+                       auto f = split(l[9], ',');
+                       f[0] = split(l[8], ',')[0];
+                       l[9] = join(f, ',');
+                     });
+                   },
+                   {"heading.csv line 10", "t_s", "repeats"},
+                   true});
+  cases.push_back({"heading_time_backwards",
+                   [](const fs::path& d) { set_field(d / "heading.csv", 10, 0, "-1"); },
+                   {"heading.csv line 10", "t_s", "strictly increasing"},
+                   true});
+  cases.push_back({"heading_header_renamed",
+                   [](const fs::path& d) { set_field(d / "heading.csv", 1, 1, "yaw_deg"); },
+                   {"heading.csv line 1", "heading_deg", "header"},
+                   true});
+  cases.push_back({"heading_header_without_sd_rows_with",
+                   [](const fs::path& d) {
+                     edit_lines(d / "heading.csv",
+                                [](std::vector<std::string>& l) { l[0] = "t_s,heading_deg"; });
+                   },
+                   {"heading.csv line 2", "too many fields"},
+                   true});
+  cases.push_back({"heading_short_line",
+                   [](const fs::path& d) {
+                     edit_lines(d / "heading.csv", [](std::vector<std::string>& l) {
+                       l[19] = l[19].substr(0, l[19].rfind(','));
+                     });
+                   },
+                   {"heading.csv line 20", "sd_deg", "truncated row"},
+                   true});
+  cases.push_back(
+      {"heading_only_header",
+       [](const fs::path& d) { write_text(d / "heading.csv", "t_s,heading_deg,sd_deg\n"); },
+       {"meta.json", "\"heading\"", "no heading.csv"},
+       true});
+  cases.push_back({"heading_file_without_meta",
+                   [](const fs::path& d) { remove_meta_heading(d); },
+                   {"heading.csv", "needs its source in meta.json"},
+                   true});
+  cases.push_back({"heading_meta_without_file",
+                   [](const fs::path& d) { fs::remove(d / "heading.csv"); },
+                   {"meta.json", "\"heading\"", "no heading.csv"},
+                   true});
+  cases.push_back(
+      {"heading_source_unknown",
+       [](const fs::path& d) { replace_in_meta(d, "\"dual_antenna\"", "\"compass\""); },
+       {"meta.json", "heading.source", "\"dual_antenna\" or \"magnetometer\"", "compass"},
+       true});
+  cases.push_back(
+      {"heading_magnetometer_without_declination",
+       [](const fs::path& d) { replace_in_meta(d, "\"dual_antenna\"", "\"magnetometer\""); },
+       {"meta.json", "heading.declination_deg", "required for a magnetometer"},
+       true});
+  cases.push_back({"heading_dual_antenna_with_declination",
+                   [](const fs::path& d) {
+                     replace_in_meta(d, "\"dual_antenna\"",
+                                     "\"dual_antenna\", \"declination_deg\": 3");
+                   },
+                   {"meta.json", "heading.declination_deg", "only for a magnetometer"},
+                   true});
+  cases.push_back({"heading_declination_beyond",
+                   [](const fs::path& d) {
+                     replace_in_meta(d, "\"dual_antenna\"",
+                                     "\"magnetometer\", \"declination_deg\": 200");
+                   },
+                   {"meta.json", "heading.declination_deg", "[-180, 180]"},
+                   true});
+  cases.push_back({"heading_unknown_field",
+                   [](const fs::path& d) {
+                     replace_in_meta(d, "\"dual_antenna\"", "\"dual_antenna\", \"frame\": 1");
+                   },
+                   {"meta.json", "heading.frame", "unknown field"},
+                   true});
+  cases.push_back({"heading_value_edited",
+                   [](const fs::path& d) {
+                     edit_lines(d / "heading.csv", [](std::vector<std::string>& l) {
+                       l[5].back() = l[5].back() == '1' ? '2' : '1';
+                     });
+                   },
+                   {"heading.csv: its values differ", "files.heading.csv.sha256"},
+                   true});
+  cases.push_back({"heading_fifo",
+                   [](const fs::path& d) {
+                     fs::remove(d / "heading.csv");
+                     ASSERT_EQ(::mkfifo((d / "heading.csv").c_str(), 0644), 0);
+                   },
+                   {"heading.csv", "not a regular file (a FIFO)"},
+                   true});
+}
 
 const std::vector<std::string> kImuColumns = {
     "t_s", "dtheta_x_rad", "dtheta_y_rad", "dtheta_z_rad", "dv_x_mps", "dv_y_mps", "dv_z_mps"};
@@ -281,6 +421,7 @@ std::vector<Case> make_cases() {
                      fs::create_directory(d / "gnss.csv");
                    },
                    {"gnss.csv", "not a regular file"}});
+  add_heading_cases(cases);
   return cases;
 }
 
@@ -293,18 +434,35 @@ class DatasetBattery : public ::testing::Test {
     scenarios::ScenarioConfig flight = scenarios::preset_scenario("straight");
     flight.align_s = 20.0;
     flight.flight_s = 100.0;
-    write_dataset(*valid_, scenarios::simulate(flight));
+    const Dataset dataset = scenarios::simulate(flight);
+    write_dataset(*valid_, dataset);
+    valid_heading_ = new fs::path(valid_->string() + "-heading");
+    fs::remove_all(*valid_heading_);
+    write_dataset(*valid_heading_, with_heading(dataset));
+  }
+  // The dataset with a dual-antenna heading every 10th truth row (truth yaw, sd 0.5 deg).
+  static Dataset with_heading(Dataset dataset) {
+    for (std::size_t i = 0; i < dataset.truth.size(); i += 10)
+      dataset.heading.push_back(
+          {dataset.truth[i].t_s, dataset.truth[i].attitude.yaw_rad, 0.5 * 3.14159265358979 / 180});
+    dataset.meta.heading = HeadingMeta{};
+    return dataset;
   }
   static void TearDownTestSuite() {
     fs::remove_all(*valid_);
+    fs::remove_all(*valid_heading_);
     delete valid_;
+    delete valid_heading_;
   }
   static fs::path* valid_;
+  static fs::path* valid_heading_;
 };
 fs::path* DatasetBattery::valid_ = nullptr;
+fs::path* DatasetBattery::valid_heading_ = nullptr;
 
 TEST_F(DatasetBattery, EveryMalformedCaseIsRefusedWithFileLineAndExpectation) {
   ASSERT_NO_THROW(load_dataset(*valid_));
+  ASSERT_NO_THROW(load_dataset(*valid_heading_));
   const std::vector<Case> cases = make_cases();
   EXPECT_GE(cases.size(), 100u);
   const fs::path work = valid_->string() + "-case";
@@ -312,7 +470,7 @@ TEST_F(DatasetBattery, EveryMalformedCaseIsRefusedWithFileLineAndExpectation) {
   for (const Case& c : cases) {
     SCOPED_TRACE(c.name);
     fs::remove_all(work);
-    fs::copy(*valid_, work);
+    fs::copy(c.with_heading ? *valid_heading_ : *valid_, work);
     c.mutate(work);
     try {
       load_dataset(work);
@@ -328,6 +486,45 @@ TEST_F(DatasetBattery, EveryMalformedCaseIsRefusedWithFileLineAndExpectation) {
   }
   fs::remove_all(work);
   std::printf("[ measured ] %d of %zu malformed datasets refused\n", refused, cases.size());
+}
+
+// A heading round-trips bit for bit (with and without the sd column, both source kinds), and a
+// dataset without one writes no heading.csv, no "heading" block, and keeps its digest.
+TEST_F(DatasetBattery, HeadingRoundTripsAndItsAbsenceChangesNothing) {
+  const Dataset plain = load_dataset(*valid_);
+  EXPECT_TRUE(plain.heading.empty());
+  EXPECT_FALSE(plain.meta.heading.has_value());
+  EXPECT_FALSE(fs::exists(*valid_ / "heading.csv"));
+  EXPECT_EQ(read_text(*valid_ / "meta.json").find("heading"), std::string::npos);
+
+  const Dataset written = with_heading(plain);
+  const Dataset back = load_dataset(*valid_heading_);
+  ASSERT_EQ(back.heading.size(), written.heading.size());
+  for (std::size_t i = 0; i < back.heading.size(); ++i) {
+    EXPECT_EQ(back.heading[i].t_s, written.heading[i].t_s);
+    EXPECT_EQ(back.heading[i].yaw_rad, written.heading[i].yaw_rad) << i;
+    ASSERT_TRUE(back.heading[i].sd_rad.has_value());
+    EXPECT_EQ(*back.heading[i].sd_rad, *written.heading[i].sd_rad);
+  }
+  ASSERT_TRUE(back.meta.heading.has_value());
+  EXPECT_EQ(back.meta.heading->source, HeadingSourceKind::kDualAntenna);
+  // The heading enters the digest only when present.
+  EXPECT_NE(dataset_digest(*valid_heading_), dataset_digest(*valid_));
+
+  Dataset mag = written;
+  for (HeadingSample& h : mag.heading) h.sd_rad.reset();
+  mag.meta.heading = HeadingMeta{HeadingSourceKind::kMagnetometer, -2.5};
+  const fs::path dir = valid_->string() + "-mag";
+  write_dataset(dir, mag);
+  EXPECT_EQ(read_text(dir / "heading.csv").substr(0, 16), "t_s,heading_deg\n");
+  const Dataset mag_back = load_dataset(dir);
+  ASSERT_EQ(mag_back.heading.size(), mag.heading.size());
+  EXPECT_FALSE(mag_back.heading[3].sd_rad.has_value());
+  EXPECT_EQ(mag_back.heading[3].yaw_rad, mag.heading[3].yaw_rad);
+  ASSERT_TRUE(mag_back.meta.heading && mag_back.meta.heading->declination_deg);
+  EXPECT_EQ(mag_back.meta.heading->source, HeadingSourceKind::kMagnetometer);
+  EXPECT_EQ(*mag_back.meta.heading->declination_deg, -2.5);
+  fs::remove_all(dir);
 }
 
 }  // namespace

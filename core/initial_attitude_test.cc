@@ -353,5 +353,165 @@ TEST(InitialAttitudeModes, ShortAbsentAndMovingWindows) {
   EXPECT_NE(m3.find("--heading-deg"), std::string::npos) << m3;
 }
 
+// --- level+heading --heading-source measured (heading.csv) ---------------------------------
+
+NavigationOptions measured_heading() {
+  NavigationOptions o = with_mode(InitialAttitudeMode::kLevelHeading);
+  o.initial_attitude.heading_source = HeadingSource::kMeasured;
+  return o;
+}
+
+// GIVEN a MEMS flight (heading 30 deg on the pad) with a simulated dual-antenna heading (truth
+// yaw + white noise of 0.5 deg at 5 Hz) WHEN level+heading takes the measured heading THEN the
+// 150 samples of the 30 s static window are averaged, the recorded sd is max(0.5 deg, scatter) /
+// sqrt(150),
+// and the yaw at the start lies within 3 of that sd of truth.csv, over 4 noise seeds; the
+// candidate's compensation does not move it (a heading in the static window holds at the start).
+TEST(MeasuredHeading, DualAntennaInTheStaticWindowGivesTheYawAtTheStartWithinItsSd) {
+  for (std::uint64_t seed : {1u, 2u, 3u, 4u}) {
+    const scenarios::ScenarioConfig cfg = mems_flight(seed);
+    Dataset data = scenarios::simulate(cfg);
+    scenarios::HeadingStreamSpec spec;
+    spec.seed = seed;
+    scenarios::add_heading_stream(data, spec);
+    const auto ds = std::make_shared<const Dataset>(std::move(data));
+    const NavigationProblem problem(ds, measured_heading());
+    const auto& m = problem.initial_attitude_source().measured_heading();
+    ASSERT_TRUE(m.has_value());
+    EXPECT_FALSE(m->carried);
+    EXPECT_EQ(m->count, 150u);  // 5 Hz over the 30 s window (t = 0 is the first row's start)
+    EXPECT_EQ(m->sd_rad, std::max(*m->sample_sd_rad, m->scatter_rad) / std::sqrt(150.0));
+    EXPECT_NEAR(*m->sample_sd_rad, 0.5 * kDegToRad, 1e-12);
+    const double yaw = euler_from_C_b_n(problem.initial_attitude(cfg.injected)).yaw_rad;
+    const double truth_yaw = truth_at(*ds, problem.nav_start_t_s()).attitude.yaw_rad;
+    std::cout << "[ measured ] seed " << seed << ": yaw error "
+              << wrap_pi(yaw - truth_yaw) / kDegToRad << " deg, sd " << m->sd_rad / kDegToRad
+              << " deg\n";
+    EXPECT_LE(std::abs(wrap_pi(yaw - truth_yaw)), 3.0 * m->sd_rad) << "seed " << seed;
+    EXPECT_EQ(yaw, euler_from_C_b_n(problem.initial_attitude(SensorErrors{})).yaw_rad);
+  }
+}
+
+// GIVEN the same flight whose heading samples start only after the navigation start (the
+// receiver's heading came late) WHEN level+heading takes the measured heading THEN the samples
+// within course_span_s after the first are carried back with the candidate's compensated gyros,
+// through the 90 deg turn, and the yaw at the start lies within 3 sd of truth.csv, the sd from the
+// samples and the ARW of the carry (sd0^2 + ARW^2 t), over 4 noise seeds.
+TEST(MeasuredHeading, SamplesAfterTheStartAreCarriedBackThroughTheTurn) {
+  for (std::uint64_t seed : {1u, 2u, 3u, 4u}) {
+    const scenarios::ScenarioConfig cfg = mems_flight(seed);
+    Dataset data = scenarios::simulate(cfg);
+    scenarios::HeadingStreamSpec spec;
+    spec.seed = seed;
+    scenarios::add_heading_stream(data, spec);
+    // Only the samples from 8 s after the navigation start (after the turn).
+    std::vector<HeadingSample> late;
+    for (const HeadingSample& h : data.heading)
+      if (h.t_s >= data.meta.align_s + 8.0) late.push_back(h);
+    data.heading = late;
+    const auto ds = std::make_shared<const Dataset>(std::move(data));
+    const NavigationProblem problem(ds, measured_heading());
+    const InitialAttitude& source = problem.initial_attitude_source();
+    ASSERT_TRUE(source.measured_heading().has_value());
+    const MeasuredHeading& m = *source.measured_heading();
+    EXPECT_TRUE(m.carried);
+    EXPECT_EQ(m.count, 11u);  // 2 s at 5 Hz
+    ASSERT_EQ(source.course_fixes().size(), 11u);
+    const double t_carry = m.t_last_s - problem.nav_start_t_s();
+    const double arw = ds->meta.noise->arw_deg_rth * kDegToRad * kRthToRts;
+    const double sd = std::sqrt(m.sd_rad * m.sd_rad + arw * arw * t_carry);
+    const double yaw = euler_from_C_b_n(problem.initial_attitude(cfg.injected)).yaw_rad;
+    const double truth_yaw = truth_at(*ds, problem.nav_start_t_s()).attitude.yaw_rad;
+    std::cout << "[ measured carried ] seed " << seed << ": yaw error "
+              << wrap_pi(yaw - truth_yaw) / kDegToRad << " deg, sd " << sd / kDegToRad << " deg\n";
+    EXPECT_LE(std::abs(wrap_pi(yaw - truth_yaw)), 3.0 * sd) << "seed " << seed;
+    // The turn is in the carry: uncompensated gyros (0.25 deg/s on z over 10 s) move the start.
+    const double yaw_raw = euler_from_C_b_n(problem.initial_attitude(SensorErrors{})).yaw_rad;
+    EXPECT_GT(std::abs(wrap_pi(yaw_raw - truth_yaw)), 10.0 * sd) << "seed " << seed;
+  }
+}
+
+// GIVEN a MEMS flight (no accelerometer biases: the levelling that tilt-compensates the
+// magnetometer is then exact up to the VRW) with a simulated magnetometer (declination 10 deg,
+// inclination 60 deg, noise 0.5 % of the field per axis) WHEN level+heading takes the measured
+// heading THEN the heading is the true heading (within 3 sd of the scatter plus the levelling's
+// VRW tilt times tan(inclination)), and the declination recorded in meta.json is the one added.
+TEST(MeasuredHeading, MagnetometerWithDeclinationGivesTheTrueHeading) {
+  for (std::uint64_t seed : {1u, 2u}) {
+    scenarios::ScenarioConfig cfg = mems_flight(seed);
+    cfg.injected.accel.bias.setZero();
+    Dataset data = scenarios::simulate(cfg);
+    scenarios::HeadingStreamSpec spec;
+    spec.source = HeadingSourceKind::kMagnetometer;
+    spec.declination_deg = 10.0;
+    spec.seed = seed;
+    scenarios::add_heading_stream(data, spec);
+    ASSERT_TRUE(data.meta.heading && data.meta.heading->declination_deg);
+    EXPECT_EQ(*data.meta.heading->declination_deg, 10.0);
+    EXPECT_FALSE(data.heading.front().sd_rad.has_value());
+    const auto ds = std::make_shared<const Dataset>(std::move(data));
+    const NavigationProblem problem(ds, measured_heading());
+    const MeasuredHeading& m = *problem.initial_attitude_source().measured_heading();
+    EXPECT_EQ(m.kind, HeadingSourceKind::kMagnetometer);
+    const double g = 9.80665;
+    const double tilt_sd = ds->meta.noise->vrw_mps_rth * kRthToRts /
+                           (g * std::sqrt(problem.alignment_window().sum_dt_s));
+    const double sd = std::hypot(m.sd_rad, tilt_sd * std::tan(60.0 * kDegToRad));
+    const double yaw = euler_from_C_b_n(problem.initial_attitude(cfg.injected)).yaw_rad;
+    const double truth_yaw = truth_at(*ds, problem.nav_start_t_s()).attitude.yaw_rad;
+    std::cout << "[ measured magnetometer ] seed " << seed << ": yaw error "
+              << wrap_pi(yaw - truth_yaw) / kDegToRad << " deg, sd " << sd / kDegToRad << " deg\n";
+    EXPECT_LE(std::abs(wrap_pi(yaw - truth_yaw)), 3.0 * sd) << "seed " << seed;
+  }
+}
+
+// The tilt compensation alone, at random attitudes: a field rotated into the body with the exact
+// specific force gives back the yaw (and a flipped sign or a dropped declination does not).
+TEST(MeasuredHeading, MagnetometerTiltCompensationInvertsTheRotation) {
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int i = 0; i < 200; ++i) {
+    const EulerAngles e{0.6 * u(rng), 0.6 * u(rng), kPi * u(rng)};
+    const double D = 0.3 * u(rng), I = 1.2 * u(rng);
+    const Eigen::Matrix3d C_b_n = C_b_n_from_euler(e);
+    const Eigen::Vector3d B_n(std::cos(I) * std::sin(D), std::cos(I) * std::cos(D), -std::sin(I));
+    const Eigen::Vector3d f_b = C_b_n.transpose() * Eigen::Vector3d(0, 0, 9.8);
+    const double yaw = magnetometer_true_heading_rad(C_b_n.transpose() * B_n, f_b, D);
+    EXPECT_NEAR(wrap_pi(yaw - e.yaw_rad), 0.0, 1e-9) << i;
+  }
+}
+
+// Refusals and option checks, naming what to give instead.
+TEST(MeasuredHeading, RefusedWithoutHeadingDataAndWithContradictoryOptions) {
+  const auto ds = simulate_shared(mems_flight(1));
+  const std::string no_data =
+      message_of([&] { NavigationProblem problem(ds, measured_heading()); });
+  EXPECT_NE(no_data.find("--heading-source measured: this dataset has no measured heading (no "
+                         "heading.csv)"),
+            std::string::npos)
+      << no_data;
+  EXPECT_NE(no_data.find("--heading gps|mag"), std::string::npos) << no_data;
+  EXPECT_NE(no_data.find("--heading-source course"), std::string::npos) << no_data;
+
+  InitialAttitudeOptions o;
+  o.mode = InitialAttitudeMode::kLevelHeading;
+  o.heading_source = HeadingSource::kGiven;
+  EXPECT_NE(o.validate().find("needs the heading: --heading-deg H"), std::string::npos);
+  o.heading_source = HeadingSource::kMeasured;
+  o.heading_deg = 12.0;
+  EXPECT_NE(o.validate().find("give one of them"), std::string::npos) << o.validate();
+  o.heading_deg.reset();
+  EXPECT_EQ(o.validate(), "");
+  o.mode = InitialAttitudeMode::kGyrocompass;
+  EXPECT_NE(o.validate().find("only used by --initial-attitude level+heading"), std::string::npos);
+  EXPECT_THROW(heading_source_from_string("compass"), std::invalid_argument);
+  EXPECT_EQ(heading_source_from_string("measured"), HeadingSource::kMeasured);
+  // Unset keeps the behaviour before the option: given with a heading, else the course.
+  InitialAttitudeOptions d;
+  EXPECT_EQ(d.effective_heading_source(), HeadingSource::kCourse);
+  d.heading_deg = 3.0;
+  EXPECT_EQ(d.effective_heading_source(), HeadingSource::kGiven);
+}
+
 }  // namespace
 }  // namespace insid

@@ -1,7 +1,8 @@
 // libFuzzer target for the dataset reader (core/dataset.h): the input's first byte picks the
-// file it replaces in a small valid dataset (imu.csv, gnss.csv, truth.csv or meta.json), the
-// rest is that file's contents. load_dataset must either load the dataset or throw
-// DatasetError; any other exception, a crash or a sanitizer report is a finding.
+// file it replaces in a small valid dataset (imu.csv, gnss.csv, truth.csv, meta.json or
+// heading.csv, the dataset holding a dual-antenna heading), the rest is that file's contents.
+// load_dataset must either load the dataset or throw DatasetError; any other exception, a crash or
+// a sanitizer report is a finding.
 #include <unistd.h>
 
 #include <cstdint>
@@ -27,6 +28,9 @@ const fs::path& valid_dataset() {
         insid::testing::make_static_dataset(insid::EarthModel::paper(kLat, 50.0), kLat, 2.0, 50.0,
                                             {0.0, 0.0, 0.7}, 3.0, 1.0, {}, 100.0, 10.0);
     ds.truth.clear();
+    for (std::size_t k = 0; k < ds.imu.size(); k += 10)
+      ds.heading.push_back({ds.imu[k].t_s, 0.7, 0.01});
+    ds.meta.heading = insid::HeadingMeta{};
     insid::write_dataset(d, ds);
     return d;
   }();
@@ -37,12 +41,12 @@ const fs::path& valid_dataset() {
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size == 0) return 0;
-  static const char* kFiles[] = {"imu.csv", "gnss.csv", "truth.csv", "meta.json"};
+  static const char* kFiles[] = {"imu.csv", "gnss.csv", "truth.csv", "meta.json", "heading.csv"};
   const fs::path work = valid_dataset().string() + "-case";
   fs::remove_all(work);
   fs::copy(valid_dataset(), work);
   {
-    std::ofstream out(work / kFiles[data[0] % 4], std::ios::binary | std::ios::trunc);
+    std::ofstream out(work / kFiles[data[0] % 5], std::ios::binary | std::ios::trunc);
     out.write(reinterpret_cast<const char*>(data + 1), static_cast<std::streamsize>(size - 1));
   }
   try {

@@ -3,7 +3,10 @@
 // (t,ax,ay,az,gx,gy,gz,- in ms, g, deg/s with a mounting rotation) — the rest is the file. Byte 4
 // assembles a dataset from a KF-GINS IMU text and a fixed valid GNSS solution. Readers must accept
 // the text or throw std::runtime_error / std::invalid_argument with a message; anything else is a
-// finding. INSID_FUZZ_READER=N (0-5) pins the reader, whatever the first byte says (one reader per
+// finding. Byte 6: the mapped CSV with a dual-antenna heading (t,ax,ay,az,gx,gy,gz,hdg,hdg_sd)
+// assembled with the fixed GNSS; byte 7: with a magnetometer (mx,my,mz) and a declination. The
+// ULog reader also extracts the GNSS heading and the magnetometer (--heading gps, mag).
+// INSID_FUZZ_READER=N (0-7) pins the reader, whatever the first byte says (one reader per
 // run, e.g. scripts/fuzz.sh's per-reader runs of the ULog and CSV readers).
 #include <cstdint>
 #include <cstdio>
@@ -36,7 +39,7 @@ const insid::import::GnssSolution& fixed_gnss() {
 static int pinned_reader() {
   static const int reader = [] {
     const char* text = std::getenv("INSID_FUZZ_READER");
-    return text == nullptr ? -1 : std::atoi(text) % 6;
+    return text == nullptr ? -1 : std::atoi(text) % 8;
   }();
   return reader;
 }
@@ -46,7 +49,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const std::string text(reinterpret_cast<const char*>(data + 1), size - 1);
   namespace im = insid::import;
   try {
-    switch (pinned_reader() >= 0 ? pinned_reader() : data[0] % 6) {
+    switch (pinned_reader() >= 0 ? pinned_reader() : data[0] % 8) {
       case 0:
         im::parse_rtklib_pos(text, "fuzz.pos");
         break;
@@ -70,6 +73,28 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
              {"vehicle_imu", "sensor_combined", "vehicle_gps_position", "sensor_gps"})
           for (const auto& [instance, n] : log.instances(topic)) (void)n, (void)instance;
         im::extract_ulog(log, "fuzz.ulg", im::UlogImportOptions{});
+        for (const char* heading : {"gps", "mag"}) {
+          im::UlogImportOptions options;
+          options.heading = heading;
+          try {
+            im::extract_ulog(log, "fuzz.ulg", options);
+          } catch (const std::runtime_error&) {
+          }
+        }
+        break;
+      }
+      case 6:
+      case 7: {
+        const bool mag = (pinned_reader() >= 0 ? pinned_reader() : data[0] % 8) == 7;
+        im::CsvImuSpec spec;
+        spec.columns = im::CsvImuSpec::parse_columns(mag ? "t,ax,ay,az,gx,gy,gz,mx,my,mz"
+                                                         : "t,ax,ay,az,gx,gy,gz,hdg,hdg_sd");
+        spec.parse_units("s,g,deg/s");
+        spec.time_scale = "gps-sow";
+        im::AssembleOptions options;
+        options.align_s = 1.0;
+        if (mag) options.declination_deg = 7.5;
+        im::assemble_dataset(im::read_csv_imu(text, "imu.csv", spec, 2381), fixed_gnss(), options);
         break;
       }
       default: {

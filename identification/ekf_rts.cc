@@ -182,6 +182,14 @@ AttitudeErrorModel attitude_error_model(const NavigationProblem& navigation,
         m.heading_sd_rad = 1.0 * kDegToRad;  // a given heading: taken to 1 deg
         break;
       }
+      if (const auto& measured = source.measured_heading()) {
+        // The mean's own sd, and the carry's gyro noise when taken after the start.
+        const double t_carry =
+            measured->carried ? measured->t_last_s - navigation.nav_start_t_s() : 0.0;
+        m.heading_sd_rad =
+            std::sqrt(std::pow(measured->sd_rad, 2) + arw_rts * arw_rts * std::max(t_carry, 0.0));
+        break;
+      }
       double var_course = 0.0, t_carry = 0.0;
       const auto& fixes = source.course_fixes();
       for (const CourseFix& f : fixes) {

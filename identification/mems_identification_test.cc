@@ -21,6 +21,7 @@
 
 #include <gtest/gtest.h>
 
+#include "core/rotation.h"
 #include "identification/ekf_rts.h"
 #include "identification/grade.h"
 #include "identification/mems_study.h"
@@ -89,6 +90,46 @@ TEST(MemsIdentification, LmOnTheWindowedFitnessRecoversTheBiasesWithinItsSd) {
 // step of Eq. 15 from the final point moves none by more than 1 sd).
 TEST(MemsIdentification, DvpioOnTheWindowedFitnessRecoversTheBiasesWithinItsSd) {
   expect_within_stated_sd(&mems_study::swarm_windowed, "dvpio windowed");
+}
+
+// GIVEN 4 noise seeds of the MEMS flight with a simulated dual-antenna heading (truth yaw +
+// white noise of 0.5 deg at 5 Hz) WHEN EKF-RTS identifies the biases with level+heading
+// --heading-source measured (the heading averaged over the 30 s static window; its sd is the
+// filter's initial heading sd) THEN each of the 5 x 4 estimates lies within 3 of its smoothed sd
+// (each sd below 0.05 sigma), and the heading at the start lies within 3 of its recorded sd of
+// truth.csv.
+TEST(MemsIdentification, EkfRtsWithAMeasuredHeadingRecoversTheBiasesAndTheStartHeading) {
+  mems_study::Spec spec;
+  spec.heading_sd_deg = 0.5;
+  spec.heading_source = "measured";
+  const auto& names = mems_study::parameter_names();
+  const Eigen::VectorXd truth = mems_study::truth_si();
+  const SensorGrade& mems = sensor_grade("mems");
+  for (std::uint64_t seed = 1; seed <= 4; ++seed) {
+    const auto data = mems_study::flight(spec, seed);
+    ASSERT_FALSE(data->heading.empty());
+    const mems_study::Answer a = mems_study::ekf_rts(data, spec);
+    for (int k = 0; k < 5; ++k) {
+      const std::string& name = names[static_cast<std::size_t>(k)];
+      const double z = (a.estimate_si[k] - truth[k]) / a.sd_si[k];
+      std::cout << "[ ekf-rts measured heading ] seed " << seed << " " << name << ": error/sd " << z
+                << ", sd " << a.sd_si[k] / mems.sigma(name) << " sigma\n";
+      EXPECT_LT(a.sd_si[k], 0.05 * mems.sigma(name)) << "seed " << seed << " " << name;
+      EXPECT_LE(std::abs(z), 3.0) << "seed " << seed << " " << name;
+    }
+    const InsIdentificationProblem p = mems_study::problem(data, 0.0, 1, spec.heading_source);
+    const NavigationProblem& nav = p.navigation();
+    const auto& measured = nav.initial_attitude_source().measured_heading();
+    ASSERT_TRUE(measured.has_value());
+    const double yaw = euler_from_C_b_n(nav.initial_attitude(SensorErrors{})).yaw_rad;
+    double truth_yaw = data->truth.front().attitude.yaw_rad;
+    for (const TruthSample& t : data->truth)
+      if (std::abs(t.t_s - nav.nav_start_t_s()) < 0.006) truth_yaw = t.attitude.yaw_rad;
+    std::cout << "[ ekf-rts measured heading ] seed " << seed << " heading error "
+              << wrap_pi(yaw - truth_yaw) / kDegToRad << " deg, sd " << measured->sd_rad / kDegToRad
+              << " deg\n";
+    EXPECT_LE(std::abs(wrap_pi(yaw - truth_yaw)), 3.0 * measured->sd_rad) << "seed " << seed;
+  }
 }
 
 // GIVEN one seed of the MEMS flight WHEN `ekf-rts` runs through the registry (as `insid identify`

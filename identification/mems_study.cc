@@ -45,14 +45,23 @@ std::shared_ptr<const Dataset> flight(const Spec& spec, std::uint64_t seed) {
   const Eigen::VectorXd t = truth_si();
   for (std::size_t k = 0; k < parameter_names().size(); ++k)
     set_effect(cfg.injected, parameter_names()[k], t[static_cast<Eigen::Index>(k)]);
-  return std::make_shared<const Dataset>(scenarios::simulate(cfg));
+  Dataset data = scenarios::simulate(cfg);
+  if (spec.heading_sd_deg > 0.0) {
+    scenarios::HeadingStreamSpec heading;
+    heading.sd_deg = spec.heading_sd_deg;
+    heading.seed = seed;
+    scenarios::add_heading_stream(data, heading);
+  }
+  return std::make_shared<const Dataset>(std::move(data));
 }
 
 InsIdentificationProblem problem(const std::shared_ptr<const Dataset>& data, double window_s,
-                                 int threads) {
+                                 int threads, const std::string& heading_source) {
   NavigationOptions options;
   options.window_s = window_s;
   options.initial_attitude.mode = InitialAttitudeMode::kLevelHeading;
+  if (!heading_source.empty())
+    options.initial_attitude.heading_source = heading_source_from_string(heading_source);
   auto navigation = std::make_shared<const NavigationProblem>(data, options);
   const SensorGrade& mems = sensor_grade("mems");
   std::vector<EstimatedParameter> estimated;
@@ -69,6 +78,8 @@ Answer ekf_rts(const std::shared_ptr<const Dataset>& data, const Spec& spec) {
   // The EKF runs on the data itself; the window only matters to the fitness methods.
   NavigationOptions options;
   options.initial_attitude.mode = initial_attitude_mode_from_string(spec.ekf_attitude);
+  if (!spec.heading_source.empty())
+    options.initial_attitude.heading_source = heading_source_from_string(spec.heading_source);
   const auto navigation = std::make_shared<const NavigationProblem>(data, options);
   const SensorGrade& grade = grade_for(*data);  // declared by meta.json's noise: mems
   if (grade.name != "mems")
@@ -121,7 +132,8 @@ Answer answer_from_uncertainty(const InsIdentificationProblem& p, const Eigen::V
 
 Answer lm_windowed(const std::shared_ptr<const Dataset>& data, const Spec& spec) {
   const auto t0 = std::chrono::steady_clock::now();
-  const InsIdentificationProblem p = problem(data, spec.window_s, spec.threads);
+  const InsIdentificationProblem p =
+      problem(data, spec.window_s, spec.threads, spec.heading_source);
   opt::RunConfig config;
   config.max_iterations = 0;
   config.max_evaluations = 200;
@@ -134,7 +146,8 @@ Answer lm_windowed(const std::shared_ptr<const Dataset>& data, const Spec& spec)
 
 Answer swarm_windowed(const std::shared_ptr<const Dataset>& data, const Spec& spec) {
   const auto t0 = std::chrono::steady_clock::now();
-  const InsIdentificationProblem p = problem(data, spec.window_s, spec.threads);
+  const InsIdentificationProblem p =
+      problem(data, spec.window_s, spec.threads, spec.heading_source);
   opt::RunConfig config;
   config.seed = spec.swarm_seed;
   config.max_iterations = 0;

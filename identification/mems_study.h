@@ -39,6 +39,11 @@ struct Spec {
   double ekf_propagation_interval_s = 0.1;  ///< EKF-RTS covariance propagation step (s)
   int ekf_use_position = 1;                 ///< EKF-RTS: 1 GNSS position and velocity, 0 velocity
   std::string ekf_attitude = "level+heading";  ///< EKF-RTS initial-attitude mode
+  /// A simulated dual-antenna heading in the flight (heading.csv: truth yaw + white noise of
+  /// heading_sd_deg at 5 Hz; scenarios::add_heading_stream); 0 = none (the default).
+  double heading_sd_deg = 0.0;
+  /// level+heading's --heading-source for every method; "" = the course (the default).
+  std::string heading_source;
 };
 
 /// The five estimated parameters, in this order.
@@ -52,7 +57,7 @@ std::shared_ptr<const Dataset> flight(const Spec& spec, std::uint64_t seed);
 /// The identification problem on `data`: level+heading from the course, per-candidate
 /// alignment, windowed fitness of `window_s` (0 = one run), the mems grade's box.
 InsIdentificationProblem problem(const std::shared_ptr<const Dataset>& data, double window_s,
-                                 int threads);
+                                 int threads, const std::string& heading_source = "");
 
 /// One method's answer: estimate and reported sd per parameter (SI, parameter_names() order),
 /// and flags per parameter (LM: the uncertainty report's; EKF-RTS: none).

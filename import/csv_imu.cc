@@ -17,6 +17,7 @@ namespace insid::import {
 namespace {
 
 constexpr std::array<const char*, 7> kRoles = {"t", "ax", "ay", "az", "gx", "gy", "gz"};
+constexpr std::array<const char*, 5> kOptionalRoles = {"hdg", "hdg_sd", "mx", "my", "mz"};
 constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
 
 std::vector<std::string> split(const std::string& text, char sep) {
@@ -71,9 +72,11 @@ std::vector<std::string> CsvImuSpec::parse_columns(const std::string& text) {
     const std::string role = trim(r);
     bool known = role == "-";
     for (const char* k : kRoles) known = known || role == k;
+    for (const char* k : kOptionalRoles) known = known || role == k;
     if (!known)
       throw std::invalid_argument("--columns: unknown role '" + role +
-                                  "' (allowed: t, ax, ay, az, gx, gy, gz, - to ignore a column)");
+                                  "' (allowed: t, ax, ay, az, gx, gy, gz, - to ignore a column; "
+                                  "optional: hdg, hdg_sd, mx, my, mz)");
     roles.push_back(role);
   }
   return roles;
@@ -97,6 +100,17 @@ std::string CsvImuSpec::validate() const {
     if (count[role] != 1)
       return std::string("--columns: role '") + role + "' must appear exactly once, got " +
              std::to_string(count[role]) + " (roles: t, ax, ay, az, gx, gy, gz, -)";
+  for (const char* role : kOptionalRoles)
+    if (count[role] > 1)
+      return std::string("--columns: role '") + role + "' may appear at most once, got " +
+             std::to_string(count[role]);
+  if (count["hdg_sd"] && !count["hdg"])
+    return "--columns: hdg_sd (the heading's sd) needs the heading column hdg";
+  const int mag = count["mx"] + count["my"] + count["mz"];
+  if (mag != 0 && mag != 3) return "--columns: a magnetometer needs all three of mx, my, mz";
+  if (mag && count["hdg"])
+    return "--columns: one heading source per dataset: hdg (dual antenna) or mx, my, mz "
+           "(magnetometer), not both";
   if (time_unit != "s" && time_unit != "ms" && time_unit != "us")
     return "--units: time unit '" + time_unit + "' is not s, ms or us";
   if (accel_unit != "g" && accel_unit != "g-local" && accel_unit != "m/s^2" && accel_unit != "m/s")
@@ -147,6 +161,20 @@ CsvImu read_csv_imu(const std::string& text, const std::string& where, const Csv
   const Eigen::Matrix3d C_s_b = mounting_matrix(spec.mounting_rpy_deg);
 
   CsvImu out;
+  if (index.count("hdg")) {
+    out.heading.emplace();
+    out.heading->origin =
+        "CSV column " + std::to_string(index.at("hdg") + 1) + " (hdg, deg from true north)" +
+        (index.count("hdg_sd") ? ", sd in column " + std::to_string(index.at("hdg_sd") + 1)
+                               : std::string());
+  } else if (index.count("mx")) {
+    out.heading.emplace();
+    out.heading->source = HeadingSourceKind::kMagnetometer;
+    out.heading->origin = "CSV columns " + std::to_string(index.at("mx") + 1) + ", " +
+                          std::to_string(index.at("my") + 1) + ", " +
+                          std::to_string(index.at("mz") + 1) +
+                          " (mx, my, mz; sensor axes, mounting applied)";
+  }
   out.accel_in_g_local = spec.accel_unit == "g-local";
   out.accel_is_increment = spec.accel_is_increment();
   out.gyro_is_increment = spec.gyro_is_increment();
@@ -190,6 +218,34 @@ CsvImu read_csv_imu(const std::string& text, const std::string& where, const Csv
     out.accel_b.push_back(C_s_b * Eigen::Vector3d(value("ax"), value("ay"), value("az")) * a_scale);
     out.gyro_b.push_back(C_s_b * Eigen::Vector3d(value("gx"), value("gy"), value("gz")) * g_scale);
     out.line.push_back(line_no);
+    if (out.heading) {
+      // An empty or nan heading field: no sample on this row (receivers log fewer headings).
+      HeadingInput& h = *out.heading;
+      if (h.source == HeadingSourceKind::kMagnetometer) {
+        h.t_gpst_unix_s.push_back(t);
+        h.mag_b.push_back(C_s_b * Eigen::Vector3d(value("mx"), value("my"), value("mz")));
+        h.line.push_back(line_no);
+      } else if (const std::string f = trim(fields[index.at("hdg")]);
+                 !f.empty() && f != "nan" && f != "NaN") {
+        const double deg = value("hdg");
+        if (!(std::fabs(deg) <= 360.0))
+          throw std::runtime_error(at + ", column " + std::to_string(index.at("hdg") + 1) +
+                                   " (hdg): heading " + f + " deg is not within [-360, 360]");
+        std::optional<double> sd;
+        if (index.count("hdg_sd")) {
+          const double sd_deg = value("hdg_sd");
+          if (!(sd_deg > 0.0 && sd_deg <= 180.0))
+            throw std::runtime_error(at + ", column " + std::to_string(index.at("hdg_sd") + 1) +
+                                     " (hdg_sd): heading sd " + trim(fields[index.at("hdg_sd")]) +
+                                     " deg must lie in (0, 180]");
+          sd = sd_deg * kDegToRad;
+        }
+        h.t_gpst_unix_s.push_back(t);
+        h.yaw_rad.push_back(deg * kDegToRad);
+        h.sd_rad.push_back(sd);
+        h.line.push_back(line_no);
+      }
+    }
   }
   if (out.line.size() < 3)
     throw std::runtime_error(where + ": " + std::to_string(out.line.size()) +

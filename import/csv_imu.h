@@ -9,6 +9,7 @@
 
 #include <Eigen/Core>
 
+#include "core/dataset.h"
 #include "import/gnss_solution.h"
 
 namespace insid::import {
@@ -17,7 +18,10 @@ namespace insid::import {
 /// then validate() (called by read_csv_imu).
 struct CsvImuSpec {
   /// One role per CSV column, in order: t, ax, ay, az, gx, gy, gz, or "-" (ignored). Each of
-  /// the seven roles exactly once.
+  /// the seven roles exactly once. Optional, at most once each, one heading source only:
+  /// hdg (a dual-antenna heading of the body x axis, deg clockwise from true north; an empty or
+  /// nan field: no sample on that row) with optional hdg_sd (its sd, deg); or mx, my, mz (a
+  /// magnetometer in sensor axes, any unit: only the direction is used).
   std::vector<std::string> columns;
   std::string time_unit = "s";       ///< s | ms | us
   std::string accel_unit = "m/s^2";  ///< g (9.80665 m/s^2) | g-local (local normal gravity) |
@@ -50,6 +54,18 @@ struct CsvImuSpec {
   bool gyro_is_increment() const { return gyro_unit == "rad" || gyro_unit == "deg"; }
 };
 
+/// A heading read with the IMU (CSV hdg / mx,my,mz columns; a ULog's GNSS heading or
+/// magnetometer), turned into heading.csv by assemble_dataset.
+struct HeadingInput {
+  HeadingSourceKind source = HeadingSourceKind::kDualAntenna;
+  std::vector<GpstTime> t_gpst_unix_s;
+  std::vector<double> yaw_rad;                ///< dual antenna: body x, clockwise from true north
+  std::vector<std::optional<double>> sd_rad;  ///< dual antenna: the sample's sd when given
+  std::vector<Eigen::Vector3d> mag_b;         ///< magnetometer: field in body FRD (any unit)
+  std::vector<std::size_t> line;              ///< source line / message of each sample
+  std::string origin;                         ///< for the provenance, e.g. "CSV column 8 (hdg)"
+};
+
 /// C_s^b of the mounting: v_b = C_s_b * v_s.
 Eigen::Matrix3d mounting_matrix(const Eigen::Vector3d& rpy_deg);
 
@@ -64,6 +80,7 @@ struct CsvImu {
   bool accel_is_increment = false;
   bool gyro_is_increment = false;
   bool rates_are_interval_means = false;  ///< spec.rate_samples == "interval-mean"
+  std::optional<HeadingInput> heading;    ///< when the spec maps hdg or mx, my, mz
 };
 
 /// Reads `path` with `spec` (comma separated; an optional header line is skipped when its

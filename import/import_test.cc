@@ -165,6 +165,65 @@ TEST(CsvImu, SpecAndRowErrorsAreNamed) {
   EXPECT_EQ(imu.line[0], 2u);
 }
 
+// The optional heading roles: hdg (deg from true north; an empty or nan field: no sample) with
+// hdg_sd, or mx, my, mz (mounting applied); bad specs and values are named.
+TEST(CsvImu, HeadingColumnsAreReadWithTheirUnitsAndErrors) {
+  CsvImuSpec spec;
+  spec.columns = CsvImuSpec::parse_columns("t,ax,ay,az,gx,gy,gz,hdg,hdg_sd");
+  spec.parse_units("ms,g,deg/s");
+  EXPECT_EQ(spec.validate(), "");
+  const auto error = [&](const CsvImuSpec& sp, const std::string& text) {
+    try {
+      read_csv_imu(text, "imu.csv", sp, 2381);
+    } catch (const std::runtime_error& e) {
+      return std::string(e.what());
+    }
+    return std::string("(accepted)");
+  };
+  const std::string rows =
+      "1000,0,0,1,0,0,0,,\n1006,0,0,1,0,0,0,-30.5,0.8\n1012,0,0,1,0,0,0,nan,1\n"
+      "1018,0,0,1,0,0,0,350,0.4\n";
+  const CsvImu imu = read_csv_imu(rows, "imu.csv", spec, 2381);
+  ASSERT_TRUE(imu.heading.has_value());
+  EXPECT_EQ(imu.heading->source, HeadingSourceKind::kDualAntenna);
+  ASSERT_EQ(imu.heading->yaw_rad.size(), 2u);  // rows 2 and 4
+  EXPECT_DOUBLE_EQ(imu.heading->yaw_rad[0], -30.5 * kDegToRad);
+  EXPECT_DOUBLE_EQ(*imu.heading->sd_rad[0], 0.8 * kDegToRad);
+  EXPECT_DOUBLE_EQ(imu.heading->yaw_rad[1], 350.0 * kDegToRad);
+  EXPECT_EQ(imu.heading->line[1], 4u);
+  EXPECT_NE(error(spec, "1000,0,0,1,0,0,0,10,0\n1006,0,0,1,0,0,0,10,1\n1012,0,0,1,0,0,0,1,1\n")
+                .find("line 1, column 9 (hdg_sd): heading sd 0 deg must lie in (0, 180]"),
+            std::string::npos);
+  EXPECT_NE(error(spec, "1000,0,0,1,0,0,0,400,1\n1006,0,0,1,0,0,0,1,1\n1012,0,0,1,0,0,0,1,1\n")
+                .find("line 1, column 8 (hdg): heading 400 deg is not within [-360, 360]"),
+            std::string::npos);
+  CsvImuSpec bad = spec;
+  bad.columns = CsvImuSpec::parse_columns("t,ax,ay,az,gx,gy,gz,hdg_sd");
+  EXPECT_NE(bad.validate().find("hdg_sd (the heading's sd) needs the heading column hdg"),
+            std::string::npos);
+  bad.columns = CsvImuSpec::parse_columns("t,ax,ay,az,gx,gy,gz,mx,my");
+  EXPECT_NE(bad.validate().find("needs all three of mx, my, mz"), std::string::npos);
+  bad.columns = CsvImuSpec::parse_columns("t,ax,ay,az,gx,gy,gz,mx,my,mz,hdg");
+  EXPECT_NE(bad.validate().find("one heading source per dataset"), std::string::npos);
+  // A magnetometer in sensor axes: the mounting turns it into body axes like the IMU.
+  CsvImuSpec mag = spec;
+  mag.columns = CsvImuSpec::parse_columns("t,ax,ay,az,gx,gy,gz,mx,my,mz");
+  mag.mounting_rpy_deg = {180.0, 0.0, -90.0};
+  const CsvImu m = read_csv_imu(
+      "1000,0,0,1,0,0,0,0.2,0.1,-0.4\n1006,0,0,1,0,0,0,0.2,0.1,-0.4\n1012,0,0,1,0,0,0,0.2,0.1,-0."
+      "4\n",
+      "imu.csv", mag, 2381);
+  ASSERT_TRUE(m.heading && m.heading->source == HeadingSourceKind::kMagnetometer);
+  ASSERT_EQ(m.heading->mag_b.size(), 3u);
+  const Eigen::Vector3d expected =
+      mounting_matrix(mag.mounting_rpy_deg) * Eigen::Vector3d(0.2, 0.1, -0.4);
+  EXPECT_NEAR((m.heading->mag_b[0] - expected).norm(), 0.0, 1e-15);
+  EXPECT_NEAR(
+      (m.accel_b[0] - mounting_matrix(mag.mounting_rpy_deg) * Eigen::Vector3d(0, 0, 9.80665))
+          .norm(),
+      0.0, 1e-12);
+}
+
 // --imu-time relative: stamps from the logger's own zero, placed on GPST by the GPS time of week
 // of that zero (--imu-time-offset-s) in the given week (or the GNSS file's); the offset must be a
 // time of week, and a week must be known.
@@ -658,6 +717,171 @@ TEST(Ulog, SimulatedFlightRoundTripNavigatesAsTheOriginal) {
     const double f1 =
         NavigationProblem(std::make_shared<const Dataset>(back.dataset)).fitness(candidate);
     EXPECT_NEAR(f1, f0, 1e-5 * f0) << f0 << " vs " << f1;
+  }
+}
+
+// A flight as vehicle_imu, vehicle_gps_position with PX4's dual-antenna fields (heading: the
+// body x axis from north, rad, NaN when not available; heading_offset: the baseline's yaw in the
+// body; heading_accuracy: its sd) and sensor_mag (gauss, body FRD) at a tenth of the IMU rate.
+// The first 3 GNSS epochs carry a NaN heading (the receiver had no heading fix yet).
+std::string ulog_with_heading(const Dataset& ds, double declination_rad, double inclination_rad) {
+  UlogWriter w(0);
+  w.message('F', kImuFormat);
+  w.message('F',
+            "vehicle_gps_position:uint64_t timestamp;int32_t lat;int32_t lon;int32_t alt;"
+            "int32_t alt_ellipsoid;float vel_n_m_s;float vel_e_m_s;float vel_d_m_s;float heading;"
+            "float heading_offset;float heading_accuracy;uint8_t fix_type;bool vel_ned_valid;"
+            "uint8_t[2] _padding0;");
+  w.message('F',
+            "sensor_mag:uint64_t timestamp;uint64_t timestamp_sample;uint32_t device_id;float x;"
+            "float y;float z;float temperature;uint32_t error_count;");
+  w.subscribe(0, 7, "vehicle_imu");
+  w.subscribe(0, 3, "vehicle_gps_position");
+  w.subscribe(0, 5, "sensor_mag");
+  const Eigen::Vector3d B_n =
+      0.5 * Eigen::Vector3d(std::cos(inclination_rad) * std::sin(declination_rad),
+                            std::cos(inclination_rad) * std::cos(declination_rad),
+                            -std::sin(inclination_rad));
+  const auto truth_at = [&](double t) {
+    const TruthSample* best = &ds.truth.front();
+    for (const TruthSample& s : ds.truth)
+      if (std::abs(s.t_s - t) < std::abs(best->t_s - t)) best = &s;
+    return *best;
+  };
+  std::size_t g = 0;
+  for (std::size_t k = 0; k < ds.imu.size(); ++k) {
+    const ImuSample& s = ds.imu[k];
+    const auto t_us = static_cast<std::uint64_t>(std::llround(s.t_s * 1e6));
+    std::string p;
+    UlogWriter::put(p, t_us);
+    UlogWriter::put(p, t_us);
+    UlogWriter::put(p, std::uint32_t{1});
+    UlogWriter::put(p, std::uint32_t{2});
+    for (int i = 0; i < 3; ++i) UlogWriter::put(p, static_cast<float>(s.dtheta_b_rad[i]));
+    for (int i = 0; i < 3; ++i) UlogWriter::put(p, static_cast<float>(s.dv_b_mps[i]));
+    UlogWriter::put(p, std::uint16_t{10000});
+    UlogWriter::put(p, std::uint16_t{10000});
+    p.append(4, '\0');
+    w.data(7, p);
+    if (k % 10 == 0) {
+      const Eigen::Vector3d m_b = C_b_n_from_euler(truth_at(s.t_s).attitude).transpose() * B_n;
+      std::string m;
+      UlogWriter::put(m, t_us);
+      UlogWriter::put(m, t_us);
+      UlogWriter::put(m, std::uint32_t{3});
+      for (int i = 0; i < 3; ++i) UlogWriter::put(m, static_cast<float>(m_b[i]));
+      UlogWriter::put(m, 25.0f);
+      UlogWriter::put(m, std::uint32_t{0});
+      w.data(5, m);
+    }
+    while (g < ds.gnss.size() && ds.gnss[g].t_s <= s.t_s + 1e-9) {
+      const GnssSample& e = ds.gnss[g++];
+      std::string q;
+      UlogWriter::put(q, static_cast<std::uint64_t>(std::llround(e.t_s * 1e6)));
+      UlogWriter::put(q, static_cast<std::int32_t>(std::llround(e.lat_rad / kDegToRad * 1e7)));
+      UlogWriter::put(q, static_cast<std::int32_t>(std::llround(e.lon_rad / kDegToRad * 1e7)));
+      UlogWriter::put(q, static_cast<std::int32_t>(std::llround(e.h_m * 1e3)));
+      UlogWriter::put(q, static_cast<std::int32_t>(std::llround(e.h_m * 1e3)));
+      UlogWriter::put(q, static_cast<float>(e.v_eb_n_mps.y()));
+      UlogWriter::put(q, static_cast<float>(e.v_eb_n_mps.x()));
+      UlogWriter::put(q, static_cast<float>(-e.v_eb_n_mps.z()));
+      UlogWriter::put(q, g <= 3 ? std::nanf("")
+                                : static_cast<float>(wrap_pi(truth_at(e.t_s).attitude.yaw_rad)));
+      UlogWriter::put(q, static_cast<float>(kPi / 2));  // baseline across the body
+      UlogWriter::put(q, 0.01f);
+      q.push_back('\x06');
+      q.push_back('\x01');
+      w.data(3, q);
+    }
+  }
+  return w.bytes();
+}
+
+// GIVEN a ULog of a clean flight headed 30 deg (then turning) with PX4's GPS heading and a
+// magnetometer (declination 10 deg, inclination 60 deg) WHEN imported with --heading gps THEN
+// heading.csv holds the non-NaN samples at the GNSS times with the truth yaw (float32) in rad ->
+// deg, clockwise from north (30 deg at the start, not -30), and heading_accuracy as the sd;
+// WITH --heading mag and --declination-deg 10 THEN the static window's samples give the true
+// heading (the tilt compensated with the levelling); without the declination it is refused.
+TEST(Ulog, GpsAndMagnetometerHeadingsImportWithUnitsAndSign) {
+  scenarios::ScenarioConfig cfg = scenarios::preset_scenario("straight");
+  cfg.align_s = 20.0;
+  cfg.initial.attitude = {1.5 * kDegToRad, -2.0 * kDegToRad, 30.0 * kDegToRad};
+  cfg.segments = nlohmann::json::array(
+      {{{"type", "turn"}, {"turn_deg", 45.0}, {"direction", "left"}, {"rate_deg_s", 15.0}},
+       {{"type", "speed"}, {"speed_mps", 5.0}, {"accel_mps2", 1.0}}});
+  cfg.flight_s = 20.0;
+  cfg.noise = scenarios::noise_grade("none");
+  cfg.injected = SensorErrors{};
+  Dataset original = scenarios::simulate(cfg);
+  original.meta.earth = EarthModel::wgs84();
+  const double D = 10.0 * kDegToRad;
+  const UlogFile log = UlogFile::parse(ulog_with_heading(original, D, 60.0 * kDegToRad), "h.ulg");
+  AssembleOptions options;
+  options.gnss_quality = {1};
+  options.align_s = cfg.align_s;
+
+  UlogImportOptions gps;
+  gps.heading = "gps";
+  const UlogSeries series = extract_ulog(log, "h.ulg", gps);
+  ASSERT_TRUE(series.heading.has_value());
+  EXPECT_EQ(series.provenance["heading_read"]["nan"], 3);
+  EXPECT_THROW(assemble_dataset(
+                   series.imu, series.gnss,
+                   [&] {
+                     AssembleOptions o = options;
+                     o.declination_deg = 10.0;  // a dual-antenna heading takes no declination
+                     return o;
+                   }(),
+                   &*series.heading),
+               std::invalid_argument);
+  const Assembled a = assemble_dataset(series.imu, series.gnss, options, &*series.heading);
+  const Dataset& ds = a.dataset;
+  ASSERT_TRUE(ds.meta.heading.has_value());
+  EXPECT_EQ(ds.meta.heading->source, HeadingSourceKind::kDualAntenna);
+  // The epochs after the first 3 (NaN), inside the IMU span.
+  EXPECT_GE(ds.heading.size(), original.gnss.size() - 5);
+  EXPECT_LE(ds.heading.size(), original.gnss.size() - 3);
+  for (std::size_t i = 0; i < ds.heading.size(); ++i) {
+    const GnssSample& e = original.gnss[i + 3];
+    EXPECT_NEAR(ds.heading[i].t_s, e.t_s, 1e-6);
+    const TruthSample* truth = &original.truth.front();
+    for (const TruthSample& t : original.truth)
+      if (std::abs(t.t_s - e.t_s) < std::abs(truth->t_s - e.t_s)) truth = &t;
+    EXPECT_NEAR(wrap_pi(ds.heading[i].yaw_rad - truth->attitude.yaw_rad), 0.0, 1e-6) << i;
+    ASSERT_TRUE(ds.heading[i].sd_rad.has_value());
+    EXPECT_EQ(*ds.heading[i].sd_rad, static_cast<double>(0.01f));
+  }
+  EXPECT_NEAR(ds.heading.front().yaw_rad, 30.0 * kDegToRad, 1e-6);  // clockwise from north
+  EXPECT_NEAR(ds.heading.back().yaw_rad, -15.0 * kDegToRad, 1e-3);  // after the left turn
+
+  UlogImportOptions mag;
+  mag.heading = "mag";
+  const UlogSeries mseries = extract_ulog(log, "h.ulg", mag);
+  ASSERT_TRUE(mseries.heading.has_value());
+  const std::string refused = [&] {
+    try {
+      assemble_dataset(mseries.imu, mseries.gnss, options, &*mseries.heading);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("(accepted)");
+  }();
+  EXPECT_NE(refused.find("--declination-deg is required"), std::string::npos) << refused;
+  AssembleOptions with_declination = options;
+  with_declination.declination_deg = 10.0;
+  const Assembled m =
+      assemble_dataset(mseries.imu, mseries.gnss, with_declination, &*mseries.heading);
+  ASSERT_TRUE(m.dataset.meta.heading && m.dataset.meta.heading->declination_deg);
+  EXPECT_EQ(*m.dataset.meta.heading->declination_deg, 10.0);
+  // Every 10th IMU row (10 Hz) inside the 20 s static window only.
+  EXPECT_GE(m.dataset.heading.size(), 190u);
+  EXPECT_LE(m.dataset.heading.size(), 201u);
+  EXPECT_LT(m.dataset.heading.size(), mseries.heading->t_gpst_unix_s.size());
+  for (const HeadingSample& h : m.dataset.heading) {
+    EXPECT_LE(h.t_s, m.dataset.imu.front().t_s + m.dataset.meta.align_s + 1e-9);
+    EXPECT_FALSE(h.sd_rad.has_value());
+    EXPECT_NEAR(wrap_pi(h.yaw_rad - 30.0 * kDegToRad), 0.0, 1e-5) << h.t_s;
   }
 }
 

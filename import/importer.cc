@@ -7,6 +7,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "core/alignment.h"
 #include "core/earth.h"
 #include "core/fitness.h"
 
@@ -26,6 +27,95 @@ double median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
+// heading.csv from a heading input (assemble_dataset's rules), into out.dataset.
+void add_heading(const HeadingInput& in, const AssembleOptions& options, GpstTime t_origin,
+                 Assembled& out) {
+  Dataset& ds = out.dataset;
+  const bool magnetometer = in.source == HeadingSourceKind::kMagnetometer;
+  const double t0 = ds.imu.front().t_s;
+  const double t1 = magnetometer ? t0 + ds.meta.align_s : ds.imu.back().t_s;
+  if (magnetometer && !(ds.meta.align_s > 0.0))
+    throw std::runtime_error(
+        "a magnetometer heading needs a static window to level it on (align_s is 0)");
+  // The static window's mean specific force (the levelling of the tilt compensation).
+  Eigen::Vector3d f_mean_b = Eigen::Vector3d::Zero();
+  if (magnetometer) {
+    Eigen::Vector3d dv = Eigen::Vector3d::Zero();
+    double dt = 0.0;
+    for (std::size_t k = 1; k < ds.imu.size() && ds.imu[k].t_s <= t1 + 1e-9; ++k) {
+      dv += ds.imu[k].dv_b_mps;
+      dt += ds.imu[k].t_s - ds.imu[k - 1].t_s;
+    }
+    if (!(dt > 0.0)) throw std::runtime_error("the static window holds fewer than 2 IMU rows");
+    f_mean_b = dv / dt;
+  }
+  const double declination_rad = options.declination_deg.value_or(0.0) * kDegToRad;
+  std::size_t outside = 0, repeated = 0;
+  bool all_sd = true;
+  for (std::size_t k = 0; k < in.t_gpst_unix_s.size(); ++k) {
+    const double t = static_cast<double>(in.t_gpst_unix_s[k] - t_origin);
+    if (t < t0 - 1e-9 || t > t1 + 1e-9) {
+      ++outside;
+      continue;
+    }
+    if (!ds.heading.empty() && !(t > ds.heading.back().t_s)) {
+      ++repeated;
+      continue;
+    }
+    HeadingSample s;
+    s.t_s = t;
+    if (magnetometer) {
+      try {
+        s.yaw_rad = magnetometer_true_heading_rad(in.mag_b[k], f_mean_b, declination_rad);
+      } catch (const std::invalid_argument& e) {
+        throw std::runtime_error(in.origin + ", sample at line/message " +
+                                 std::to_string(in.line[k]) + ": " + e.what());
+      }
+    } else {
+      s.yaw_rad = std::remainder(in.yaw_rad[k], 2.0 * 3.14159265358979323846);
+      s.sd_rad = in.sd_rad[k];
+      all_sd = all_sd && s.sd_rad.has_value();
+    }
+    ds.heading.push_back(s);
+  }
+  if (ds.heading.empty())
+    throw std::runtime_error(
+        "the heading source (" + in.origin + ") has no sample inside " +
+        (magnetometer ? "the static window (the magnetometer is levelled on it)"
+                      : "the span the dataset keeps") +
+        " of " + num(t1 - t0) + " s; import without it, or check the source's times");
+  if (!all_sd)  // heading.csv gives an sd for every row or none
+    for (HeadingSample& s : ds.heading) s.sd_rad.reset();
+  HeadingMeta meta;
+  meta.source = in.source;
+  if (magnetometer) meta.declination_deg = options.declination_deg;
+  ds.meta.heading = meta;
+  nlohmann::json& prov = out.provenance["heading"];
+  prov = {{"source", to_string(in.source)},
+          {"from", in.origin},
+          {"samples_read", in.t_gpst_unix_s.size()},
+          {"samples_used", ds.heading.size()},
+          {"outside_span", outside},
+          {"repeated_time", repeated},
+          {"sd", all_sd ? "from the source" : "none (not given for every sample)"},
+          {"frame", "true heading of the body x axis, clockwise from true north"}};
+  if (magnetometer) {
+    const EulerAngles tilt = euler_from_C_b_n(level_with_yaw(f_mean_b, 0.0));
+    prov["declination_deg"] = *options.declination_deg;
+    prov["tilt_compensation"] = {
+        {"roll_deg", tilt.roll_rad / kDegToRad},
+        {"pitch_deg", tilt.pitch_rad / kDegToRad},
+        {"how",
+         "levelled with the static window's mean specific force; samples outside the "
+         "static window are not written (the importer does not know the tilt there)"}};
+  }
+  out.notes.push_back("heading: " + std::to_string(ds.heading.size()) + " " + to_string(in.source) +
+                      " samples (" + in.origin + ")" +
+                      (magnetometer ? ", declination " + num(*options.declination_deg) +
+                                          " deg added, tilt-compensated on the static window"
+                                    : std::string()));
+}
+
 }  // namespace
 
 std::string AssembleOptions::validate() const {
@@ -41,6 +131,8 @@ std::string AssembleOptions::validate() const {
   if (!(std::isfinite(static_accel_sd_mps2) && static_accel_sd_mps2 > 0.0 &&
         static_accel_sd_mps2 <= 100.0))
     return "--static-accel-sd " + num(static_accel_sd_mps2) + ": must be in (0, 100] m/s^2";
+  if (declination_deg && !(std::isfinite(*declination_deg) && std::fabs(*declination_deg) <= 180.0))
+    return "--declination-deg " + num(*declination_deg) + ": must be within [-180, 180] deg";
   return "";
 }
 
@@ -104,8 +196,19 @@ ImuStaticEnd static_window_end(const std::vector<ImuSample>& imu, double t_limit
 }
 
 Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
-                           const AssembleOptions& options) {
+                           const AssembleOptions& options, const HeadingInput* heading) {
   if (const std::string e = options.validate(); !e.empty()) throw std::invalid_argument(e);
+  if (!heading && imu.heading) heading = &*imu.heading;
+  const bool magnetometer = heading && heading->source == HeadingSourceKind::kMagnetometer;
+  if (magnetometer && !options.declination_deg)
+    throw std::invalid_argument(
+        "--declination-deg is required with a magnetometer heading: the magnetic declination "
+        "(deg, east +) at the flight, from a world magnetic model or a chart; insid has no "
+        "magnetic model and will not guess it");
+  if (!magnetometer && options.declination_deg)
+    throw std::invalid_argument("--declination-deg " + num(*options.declination_deg) +
+                                " applies to a magnetometer heading only, and this import has " +
+                                (heading ? "a dual-antenna heading" : "no heading source"));
   Assembled out;
   nlohmann::json& prov = out.provenance;
 
@@ -297,6 +400,7 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
                           num(gap.dt_s / dt_median, 3) + " median steps)");
   }
   if (gaps.empty()) prov["imu"]["gaps"] = nlohmann::json::array();
+  if (heading) add_heading(*heading, options, t_origin, out);
   validate_dataset(ds);
   return out;
 }

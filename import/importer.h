@@ -38,6 +38,10 @@ struct AssembleOptions {
   /// ~ 10 mg: a hand-held phone scatters 0.003-0.07, walking steps 0.2-0.9). A platform that
   /// vibrates while still (motors armed) may need a larger value.
   double static_accel_sd_mps2 = 0.1;
+  /// Magnetic declination (deg, east of true north +) added to a magnetometer heading to make
+  /// it a true heading: required when the heading source is a magnetometer (no world magnetic
+  /// model here), refused otherwise; recorded in meta.json "heading".
+  std::optional<double> declination_deg;
 
   /// "" or the first bad field, its value and the allowed range.
   std::string validate() const;
@@ -66,7 +70,13 @@ struct Assembled {
 /// the first IMU row used (`time_origin_gpst_unix_s` in the provenance). Only the span both
 /// sensors cover is kept. Throws std::runtime_error (no overlap, too few epochs) or DatasetError
 /// (the result fails the dataset checks).
+/// With a heading (`heading`, else imu.heading when set): heading.csv holds the samples inside
+/// the dataset's span, times on the dataset's clock. A dual-antenna heading passes through
+/// (wrapped to (-180, 180] deg) with its sd; a magnetometer's is made a true heading with the
+/// declination and levelled with the static window's mean specific force
+/// (magnetometer_true_heading_rad), so only the samples inside the static window are written
+/// (outside it the tilt is not known to the importer).
 Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
-                           const AssembleOptions& options);
+                           const AssembleOptions& options, const HeadingInput* heading = nullptr);
 
 }  // namespace insid::import

@@ -11,6 +11,10 @@ std::string UlogImportOptions::validate() const {
   if (imu_instance < 0 || imu_instance > 255) return "--imu-instance: must be in 0-255";
   if (gnss_instance < 0 || gnss_instance > 255) return "--gnss-instance: must be in 0-255";
   if (min_fix_type < 0 || min_fix_type > 8) return "--min-fix-type: must be in 0-8";
+  if (!heading.empty() && heading != "gps" && heading != "mag")
+    return "--heading '" + heading +
+           "': must be gps (the GNSS topic's dual-antenna heading) or mag (the magnetometer)";
+  if (mag_instance < 0 || mag_instance > 255) return "--mag-instance: must be in 0-255";
   return "";
 }
 
@@ -185,6 +189,90 @@ UlogSeries extract_ulog(const UlogFile& log, const std::string& where,
                              std::to_string(out.gnss.epochs.size()) +
                              " epochs with fix_type >= " + std::to_string(options.min_fix_type) +
                              " (of " + std::to_string(rows.size()) + "); need at least 2");
+
+  if (options.heading == "gps") {
+    // PX4 (SensorGps.msg): "heading: heading angle of XYZ body frame rel to NED. Set to NaN if
+    // not available and updated (used for dual antenna GPS), (rad, [-PI, PI])"; heading_offset
+    // is the antenna baseline's yaw in the body frame, already taken out by the driver.
+    if (!log.has_field(gnss_topic, "heading"))
+      throw std::runtime_error(where + ": --heading gps: " + gnss_topic +
+                               " has no field 'heading' in this log's format (an older PX4)");
+    const bool has_accuracy = log.has_field(gnss_topic, "heading_accuracy");
+    std::vector<std::string> hf = {"timestamp", "heading"};
+    if (has_accuracy) hf.push_back("heading_accuracy");
+    const auto hrows = log.read(gnss_topic, options.gnss_instance, hf);
+    HeadingInput h;
+    h.source = HeadingSourceKind::kDualAntenna;
+    h.origin = gnss_topic + " instance " + std::to_string(options.gnss_instance) +
+               ": heading (rad, body x from true north)" +
+               (has_accuracy ? ", heading_accuracy as sd" : "");
+    std::size_t nan = 0;
+    for (std::size_t k = 0; k < hrows.size(); ++k) {
+      const auto& r = hrows[k];
+      if (!std::isfinite(r[1])) {
+        ++nan;
+        continue;
+      }
+      if (!(std::fabs(r[1]) <= 2.0 * 3.14159265358979323846))
+        throw std::runtime_error(where + ": " + gnss_topic + " message " + std::to_string(k + 1) +
+                                 ", field heading: " + std::to_string(r[1]) +
+                                 " rad is not an angle within +-2 pi");
+      const GpstTime t = static_cast<GpstTime>(r[0]) * 1e-6L;
+      if (!h.t_gpst_unix_s.empty() && !(t > h.t_gpst_unix_s.back())) continue;
+      h.t_gpst_unix_s.push_back(t);
+      h.yaw_rad.push_back(r[1]);
+      const bool sd_ok =
+          has_accuracy && std::isfinite(r[2]) && r[2] > 0.0 && r[2] <= 3.14159265358979323846;
+      h.sd_rad.push_back(sd_ok ? std::optional<double>(r[2]) : std::nullopt);
+      h.line.push_back(k + 1);
+    }
+    prov["heading_read"] = {{"topic", gnss_topic},
+                            {"messages", hrows.size()},
+                            {"nan", nan},
+                            {"kept", h.t_gpst_unix_s.size()}};
+    if (h.t_gpst_unix_s.empty())
+      throw std::runtime_error(
+          where + ": --heading gps: " + gnss_topic + " logs 'heading' but it is NaN in all " +
+          std::to_string(hrows.size()) +
+          " messages: the receiver gives no dual-antenna heading (import without --heading, "
+          "or with --heading mag)");
+    out.heading = std::move(h);
+  } else if (options.heading == "mag") {
+    std::string topic;
+    std::vector<std::string> mf;
+    if (log.instances("sensor_mag").count(options.mag_instance) &&
+        log.has_field("sensor_mag", "x")) {
+      topic = "sensor_mag";
+      mf = {"timestamp", "x", "y", "z"};
+    } else if (log.instances("vehicle_magnetometer").count(options.mag_instance) &&
+               log.has_field("vehicle_magnetometer", "magnetometer_ga[0]")) {
+      topic = "vehicle_magnetometer";
+      mf = {"timestamp", "magnetometer_ga[0]", "magnetometer_ga[1]", "magnetometer_ga[2]"};
+    }
+    if (topic.empty())
+      throw std::runtime_error(where +
+                               ": --heading mag: no magnetometer data (sensor_mag x/y/z "
+                               "or vehicle_magnetometer magnetometer_ga, instance " +
+                               std::to_string(options.mag_instance) +
+                               "); topics with data: " + log.topics_summary());
+    const auto mrows = log.read(topic, options.mag_instance, mf);
+    HeadingInput h;
+    h.source = HeadingSourceKind::kMagnetometer;
+    h.origin = topic + " instance " + std::to_string(options.mag_instance) + ": " +
+               (topic == "sensor_mag" ? "x, y, z" : "magnetometer_ga") + " (gauss, body FRD)";
+    for (std::size_t k = 0; k < mrows.size(); ++k) {
+      const auto& r = mrows[k];
+      const GpstTime t = static_cast<GpstTime>(r[0]) * 1e-6L;
+      if (!(std::isfinite(r[1]) && std::isfinite(r[2]) && std::isfinite(r[3]))) continue;
+      if (!h.t_gpst_unix_s.empty() && !(t > h.t_gpst_unix_s.back())) continue;
+      h.t_gpst_unix_s.push_back(t);
+      h.mag_b.emplace_back(r[1], r[2], r[3]);
+      h.line.push_back(k + 1);
+    }
+    prov["heading_read"] = {
+        {"topic", topic}, {"messages", mrows.size()}, {"kept", h.t_gpst_unix_s.size()}};
+    out.heading = std::move(h);
+  }
   return out;
 }
 

@@ -22,12 +22,20 @@ struct UlogImportOptions {
   int imu_instance = 0;  ///< multi_id of the IMU topic
   int gnss_instance = 0;
   int min_fix_type = 3;  ///< PX4 fix_type: 3 = 3D, 4 = DGPS/RTCM, 5 = RTK float, 6 = RTK fixed
+  /// A measured heading: "" (none, the default), "gps" (the GNSS topic's `heading`: PX4's
+  /// heading of the body x axis from a dual-antenna receiver, rad, NaN when not available, the
+  /// antenna baseline's `heading_offset` already removed by the driver; `heading_accuracy` as
+  /// its sd when logged) or "mag" (sensor_mag x/y/z, else vehicle_magnetometer magnetometer_ga;
+  /// gauss, body FRD; assemble_dataset levels it and adds --declination-deg).
+  std::string heading;
+  int mag_instance = 0;  ///< multi_id of the magnetometer topic
   std::string validate() const;
 };
 
 struct UlogSeries {
   CsvImu imu;  ///< increments in body FRD (PX4's body frame)
   GnssSolution gnss;
+  std::optional<HeadingInput> heading;  ///< options.heading "gps" or "mag"
   nlohmann::json provenance;
   std::vector<std::string> notes;
 };

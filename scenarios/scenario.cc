@@ -8,7 +8,9 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "core/alignment.h"
 #include "core/json_reader.h"
+#include "core/rotation.h"
 #include "scenarios/presets.h"
 #include "scenarios/synthesis.h"
 
@@ -473,6 +475,79 @@ ScenarioPlan plan_scenario(const ScenarioConfig& c) {
   p.num_gnss =
       static_cast<std::size_t>(std::floor((c.align_s + flight_s) * c.gnss_rate_hz + 1e-6)) + 1;
   return p;
+}
+
+std::string HeadingStreamSpec::validate() const {
+  const auto bad = [](const char* name, double v, const char* range) {
+    std::ostringstream s;
+    s << name << " " << v << ": must be " << range;
+    return s.str();
+  };
+  if (!(std::isfinite(rate_hz) && rate_hz > 0.0 && rate_hz <= 1000.0))
+    return bad("--heading-rate-hz", rate_hz, "in (0, 1000] Hz");
+  if (!(std::isfinite(sd_deg) && sd_deg > 0.0 && sd_deg <= 180.0))
+    return bad("--heading-sd-deg", sd_deg, "in (0, 180] deg");
+  if (!(std::isfinite(declination_deg) && std::abs(declination_deg) <= 180.0))
+    return bad("--declination-deg", declination_deg, "within [-180, 180] deg");
+  if (!(std::isfinite(inclination_deg) && std::abs(inclination_deg) < 89.0))
+    return bad("--inclination-deg", inclination_deg,
+               "within (-89, 89) deg (a vertical field gives no heading)");
+  if (!(std::isfinite(mag_noise_fraction) && mag_noise_fraction >= 0.0 &&
+        mag_noise_fraction <= 1.0))
+    return bad("--mag-noise", mag_noise_fraction, "in [0, 1] (a fraction of the field)");
+  return "";
+}
+
+void add_heading_stream(Dataset& ds, const HeadingStreamSpec& spec) {
+  if (const std::string why = spec.validate(); !why.empty()) throw std::invalid_argument(why);
+  if (ds.truth.empty() || ds.imu.size() < 2)
+    throw std::invalid_argument("a simulated heading needs the simulation's truth.csv");
+  GaussianRng rng(splitmix64(spec.seed ^ 0x48444EULL));  // "HDN"
+  const bool magnetometer = spec.source == HeadingSourceKind::kMagnetometer;
+  const double t0 = ds.imu.front().t_s;
+  const double t1 = magnetometer ? t0 + ds.meta.align_s : ds.imu.back().t_s;
+  // The static window's mean specific force, as the importer levels a magnetometer with it.
+  Eigen::Vector3d f_mean_b = Eigen::Vector3d::Zero();
+  if (magnetometer) {
+    Eigen::Vector3d dv = Eigen::Vector3d::Zero();
+    double dt = 0.0;
+    for (std::size_t k = 1; k < ds.imu.size() && ds.imu[k].t_s <= t1 + 1e-9; ++k) {
+      dv += ds.imu[k].dv_b_mps;
+      dt += ds.imu[k].t_s - ds.imu[k - 1].t_s;
+    }
+    if (!(dt > 0.0))
+      throw std::invalid_argument("a simulated magnetometer needs a static window (align_s > 0)");
+    f_mean_b = dv / dt;
+  }
+  const double D = spec.declination_deg * kDegToRad, I = spec.inclination_deg * kDegToRad;
+  const Eigen::Vector3d B_n(std::cos(I) * std::sin(D), std::cos(I) * std::cos(D), -std::sin(I));
+  std::size_t row = 0;
+  ds.heading.clear();
+  for (long k = 0;; ++k) {
+    const double t = t0 + static_cast<double>(k) / spec.rate_hz;
+    if (t > t1 + 1e-9) break;
+    while (row + 1 < ds.truth.size() &&
+           std::abs(ds.truth[row + 1].t_s - t) <= std::abs(ds.truth[row].t_s - t))
+      ++row;
+    const TruthSample& truth = ds.truth[row];
+    HeadingSample s;
+    s.t_s = truth.t_s;
+    if (!ds.heading.empty() && !(s.t_s > ds.heading.back().t_s)) continue;
+    if (magnetometer) {
+      // The field in body axes, C_b_n^T B_n (C_b_n: body FRD -> ENU), plus white noise.
+      Eigen::Vector3d m_b = C_b_n_from_euler(truth.attitude).transpose() * B_n;
+      for (int i = 0; i < 3; ++i) m_b[i] += spec.mag_noise_fraction * rng.normal();
+      s.yaw_rad = magnetometer_true_heading_rad(m_b, f_mean_b, D);
+    } else {
+      s.yaw_rad = wrap_pi(truth.attitude.yaw_rad + spec.sd_deg * kDegToRad * rng.normal());
+      s.sd_rad = spec.sd_deg * kDegToRad;
+    }
+    ds.heading.push_back(s);
+  }
+  HeadingMeta meta;
+  meta.source = spec.source;
+  if (magnetometer) meta.declination_deg = spec.declination_deg;
+  ds.meta.heading = meta;
 }
 
 Dataset simulate(const ScenarioConfig& cfg, bool record_truth_in_meta) {

@@ -87,6 +87,29 @@ Dataset simulate(const ScenarioConfig& cfg, const ScenarioPlan& plan,
 Dataset simulate_preset(std::string_view preset, const ScenarioOverrides& overrides,
                         bool record_truth_in_meta = true);
 
+/// A measured heading written with a simulation (insid simulate --heading; heading.csv).
+struct HeadingStreamSpec {
+  HeadingSourceKind source = HeadingSourceKind::kDualAntenna;
+  double rate_hz = 5.0;  ///< samples per second, from the first IMU row
+  /// Dual antenna: white noise on the truth yaw (deg), also written as each sample's sd.
+  double sd_deg = 0.5;
+  /// Magnetometer: the Earth field at the site, ENU: B (cos I sin D, cos I cos D, -sin I) with
+  /// declination D (east +) and inclination I (down +); white noise per body axis as a fraction
+  /// of |B|. The stream is what `insid import` writes from such a magnetometer: levelled with
+  /// the static window's mean specific force and D added (declination_deg is recorded), so only
+  /// the samples inside the static window are written.
+  double declination_deg = 0.0;
+  double inclination_deg = 60.0;
+  double mag_noise_fraction = 0.005;
+  std::uint64_t seed = 1;
+  /// "" when valid, else the reason naming the bad value.
+  std::string validate() const;
+};
+
+/// Adds heading.csv samples (and meta.json "heading") to a simulated dataset from its truth.csv
+/// attitude. Throws std::invalid_argument (invalid spec, no truth).
+void add_heading_stream(Dataset& dataset, const HeadingStreamSpec& spec);
+
 /// The ground truth of a simulation (written to answer.json with --no-injected).
 nlohmann::json answer_json(const ScenarioConfig& cfg);
 

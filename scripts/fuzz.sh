@@ -4,7 +4,8 @@
 # executions and findings per target. Findings (crash-*, leak-*, timeout-*) stay in
 # build-fuzz/findings/<target>/. Usage: scripts/fuzz.sh [SECONDS [TARGET ...]] (default: all
 # targets, 60 s each). INSID_FUZZ_READER=N pins insid_import_fuzzer to one reader (0 .pos,
-# 1 KF-GINS GNSS, 2 KF-GINS IMU, 3 mapped CSV, 4 assembly, 5 ULog), e.g.
+# 1 KF-GINS GNSS, 2 KF-GINS IMU, 3 mapped CSV, 4 assembly, 5 ULog with --heading gps and mag,
+# 6 CSV with a dual-antenna heading, 7 CSV with a magnetometer, both assembled), e.g.
 # INSID_FUZZ_READER=5 scripts/fuzz.sh 600 insid_import_fuzzer.
 set -euo pipefail
 cd "$(dirname "$0")/.."
