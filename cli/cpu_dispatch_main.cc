@@ -4,6 +4,11 @@
 // x86-64 CPU, replaces itself (execv) with the fastest one this CPU runs. The environment variable
 // INSID_CPU=avx512|avx2|baseline forces a path (refused when the CPU lacks it). The program
 // records its path in every result's build block (`cpu_path`) and prints it with --version.
+//
+// For tests only: INSID_CPU_HIDE=avx512[,avx2] makes the launcher treat those paths as missing
+// from this CPU, so that the refusal of a forced path the CPU lacks, and the fall-back to the next
+// path, can be tested on a CPU that has them (scripts/test_cpu_paths.py). It can only take paths
+// away, never claim one the CPU lacks.
 #include <unistd.h>
 
 #include <cerrno>
@@ -21,6 +26,7 @@ struct CpuPath {
   const char* level;        // GCC's x86-64 micro-architecture level
   const char* description;  // what the CPU must have
   bool supported;
+  bool hidden = false;  // by INSID_CPU_HIDE (tests)
 };
 
 [[noreturn]] void fail(const std::string& message) {
@@ -31,7 +37,9 @@ struct CpuPath {
 std::string self_directory() {
   char buffer[PATH_MAX];
   const ssize_t n = readlink("/proc/self/exe", buffer, sizeof(buffer) - 1);
-  if (n <= 0) fail(std::string("cannot find the insid binaries: readlink /proc/self/exe: ") + std::strerror(errno));
+  if (n <= 0)
+    fail(std::string("cannot find the insid binaries: readlink /proc/self/exe: ") +
+         std::strerror(errno));
   buffer[n] = '\0';
   std::string path(buffer);
   return path.substr(0, path.rfind('/'));
@@ -44,9 +52,28 @@ int main(int argc, char** argv) {
   __builtin_cpu_init();
   CpuPath paths[] = {
       {"avx512", "x86-64-v4", "AVX-512 F/BW/CD/DQ/VL", __builtin_cpu_supports("x86-64-v4") > 0},
-      {"avx2", "x86-64-v3", "AVX2, FMA, BMI1/2, F16C, LZCNT, MOVBE", __builtin_cpu_supports("x86-64-v3") > 0},
+      {"avx2", "x86-64-v3", "AVX2, FMA, BMI1/2, F16C, LZCNT, MOVBE",
+       __builtin_cpu_supports("x86-64-v3") > 0},
       {"baseline", "x86-64", "SSE2 (every x86-64 CPU)", true},
   };
+  if (const char* hide = std::getenv("INSID_CPU_HIDE"); hide != nullptr && *hide != '\0') {
+    std::string_view rest(hide);
+    while (!rest.empty()) {
+      const std::size_t comma = rest.find(',');
+      const std::string_view name = rest.substr(0, comma);
+      bool known = false;
+      for (CpuPath& p : paths)
+        if (name == p.name && name != "baseline") {
+          p.supported = false;
+          p.hidden = true;
+          known = true;
+        }
+      if (!known)
+        fail(std::string("INSID_CPU_HIDE=") + hide + ": '" + std::string(name) +
+             "' is not a path that can be hidden (expected avx512 or avx2, comma-separated)");
+      rest = comma == std::string_view::npos ? std::string_view() : rest.substr(comma + 1);
+    }
+  }
   const std::string dir = self_directory();
   auto binary = [&](const CpuPath& p) { return dir + "/insid-" + p.name; };
   const char* forced = std::getenv("INSID_CPU");
@@ -61,7 +88,8 @@ int main(int argc, char** argv) {
       for (const CpuPath& p : paths)
         if (p.supported) runs += (runs.empty() ? "" : ", ") + std::string(p.name);
       fail(std::string("INSID_CPU=") + forced + ": this CPU lacks " + chosen->level + " (" +
-           chosen->description + "); the paths it runs: " + runs);
+           chosen->description + ")" + (chosen->hidden ? " (hidden by INSID_CPU_HIDE)" : "") +
+           "; the paths it runs: " + runs);
     }
     if (access(binary(*chosen).c_str(), X_OK) != 0)
       fail(std::string("INSID_CPU=") + forced + ": " + binary(*chosen) + " is not there (" +

@@ -1,7 +1,9 @@
 #!/usr/bin/env python3
 """The CPU-dispatching `insid` (cli/cpu_dispatch_main.cc): every path this CPU runs gives the same
 results within the batched kernel's tolerance, the same path gives the same bits for 1 and 2
-threads, INSID_CPU selects the path (--version prints it), and a bad INSID_CPU is refused.
+threads, INSID_CPU selects the path (--version prints it), and a bad INSID_CPU is refused. A forced
+path the CPU lacks is refused: on this CPU through INSID_CPU_HIDE (the launcher's test-only
+override, which can only take paths away), on a CPU that lacks one for real as well.
 
 Usage: test_cpu_paths.py BUILD_DIR     (exit 0 = pass; ctest `cpu_paths`)
 """
@@ -22,16 +24,21 @@ def cpu_levels():
             if line.startswith("flags"):
                 flags = set(line.split(":", 1)[1].split())
                 break
-    v3 = {"avx", "avx2", "bmi1", "bmi2", "f16c", "fma", "abm", "movbe", "xsave"} <= flags
+    # LZCNT ("abm") is part of x86-64-v3 too, but some hypervisors leave the flag out of cpuinfo
+    # (this machine's KVM guest) while the CPUID bit the launcher reads is set.
+    v3 = {"avx", "avx2", "bmi1", "bmi2", "f16c", "fma", "movbe", "xsave"} <= flags
     v4 = v3 and {"avx512f", "avx512bw", "avx512cd", "avx512dq", "avx512vl"} <= flags
     return [p for p, ok in (("avx512", v4), ("avx2", v3), ("baseline", True)) if ok]
 
 
-def run(insid, args, cpu=None, threads=None, check=True):
+def run(insid, args, cpu=None, threads=None, check=True, hide=None):
     env = dict(os.environ)
     env.pop("INSID_CPU", None)
+    env.pop("INSID_CPU_HIDE", None)
     if cpu is not None:
         env["INSID_CPU"] = cpu
+    if hide is not None:
+        env["INSID_CPU_HIDE"] = hide
     if threads is not None:
         env["OMP_NUM_THREADS"] = str(threads)
     return subprocess.run([insid] + args, env=env, capture_output=True, text=True, check=check)
@@ -58,6 +65,20 @@ def main():
         r = run(insid, ["--version"], cpu=missing, check=False)
         if r.returncode == 0 or "this CPU lacks" not in r.stderr:
             failures.append(f"INSID_CPU={missing} on a CPU without it: rc {r.returncode}, {r.stderr!r}")
+    # The same refusal on this CPU, with the paths it has hidden from the launcher's probe, and the
+    # automatic choice falls back to the next path.
+    for hidden in [p for p in ("avx512", "avx2") if p in paths]:
+        hide = ",".join(paths[: paths.index(hidden) + 1])
+        r = run(insid, ["--version"], cpu=hidden, hide=hide, check=False)
+        if r.returncode == 0 or f"INSID_CPU={hidden}: this CPU lacks" not in r.stderr:
+            failures.append(f"INSID_CPU={hidden} with INSID_CPU_HIDE={hide}: rc {r.returncode}, {r.stderr!r}")
+        fallback = paths[paths.index(hidden) + 1]
+        v = run(insid, ["--version"], hide=hide).stdout
+        if f"CPU path:     {fallback} " not in v:
+            failures.append(f"INSID_CPU_HIDE={hide}: expected the automatic choice {fallback}, --version says:\n{v}")
+    r = run(insid, ["--version"], hide="baseline", check=False)
+    if r.returncode == 0 or "is not a path that can be hidden" not in r.stderr:
+        failures.append(f"INSID_CPU_HIDE=baseline not refused: rc {r.returncode}, {r.stderr!r}")
 
     results = {}
     for p in paths:
