@@ -42,6 +42,10 @@
 #include <mutex>
 #include <stdexcept>
 
+#if !defined(__AVX512F__)
+#include <immintrin.h>
+#endif
+
 #include <Eigen/Geometry>
 
 namespace insid {
@@ -57,10 +61,79 @@ constexpr double kMaxStepRotation = 0.06;
 
 #define INSID_AI inline __attribute__((always_inline))
 
+#if defined(__AVX512F__)
 using v8 = double __attribute__((vector_size(64)));
 using m8 = decltype(v8{} < v8{});
 
 INSID_AI v8 splat(double x) { return v8{x, x, x, x, x, x, x, x}; }
+#else
+// The AVX2 and baseline paths of the dispatching build (CMakeLists.txt, INSID_CPU_DISPATCH): a
+// 64-byte GCC vector has no register there and lived on the stack between its 256-bit halves (the
+// AVX2 build ran 11x slower than AVX-512 with its FMAs fused). An 8-lane vector is instead a
+// struct of kPieces native vectors (2 x 256-bit with AVX, 4 x 128-bit with SSE2), each its own
+// register; every operation is applied piece by piece, so each lane's arithmetic is unchanged.
+#if defined(__AVX__)
+using vpiece = double __attribute__((vector_size(32)));
+#else
+using vpiece = double __attribute__((vector_size(16)));
+#endif
+using mpiece = decltype(vpiece{} < vpiece{});
+constexpr int kPieceLanes = static_cast<int>(sizeof(vpiece) / sizeof(double));
+constexpr int kPieces = W / kPieceLanes;
+template <class Piece, class Lane>
+struct Pieces {
+  Piece h[kPieces];
+  INSID_AI Lane& operator[](int j) { return reinterpret_cast<Lane*>(h)[j]; }
+  INSID_AI Lane operator[](int j) const { return h[j / kPieceLanes][j % kPieceLanes]; }
+};
+using v8 = Pieces<vpiece, double>;
+using m8 = Pieces<mpiece, std::int64_t>;
+
+#define INSID_PIECEWISE(op)                                      \
+  INSID_AI v8 operator op(const v8& a, const v8& b) {            \
+    v8 r;                                                        \
+    for (int k = 0; k < kPieces; ++k) r.h[k] = a.h[k] op b.h[k]; \
+    return r;                                                    \
+  }
+INSID_PIECEWISE(+)
+INSID_PIECEWISE(-)
+INSID_PIECEWISE(*)
+INSID_PIECEWISE(/)
+#undef INSID_PIECEWISE
+INSID_AI v8 operator-(const v8& a) {
+  v8 r;
+  for (int k = 0; k < kPieces; ++k) r.h[k] = -a.h[k];
+  return r;
+}
+INSID_AI v8 splat(double x) {
+  v8 r;
+#if defined(__AVX__)
+  for (int k = 0; k < kPieces; ++k) r.h[k] = _mm256_set1_pd(x);
+#else
+  for (int k = 0; k < kPieces; ++k) r.h[k] = _mm_set1_pd(x);
+#endif
+  return r;
+}
+#define INSID_PIECEWISE_COMPARE(op)                               \
+  INSID_AI m8 operator op(const v8& a, double b) {                \
+    m8 r;                                                         \
+    const v8 bb = splat(b);                                       \
+    for (int k = 0; k < kPieces; ++k) r.h[k] = a.h[k] op bb.h[k]; \
+    return r;                                                     \
+  }
+INSID_PIECEWISE_COMPARE(<)
+INSID_PIECEWISE_COMPARE(>)
+#undef INSID_PIECEWISE_COMPARE
+INSID_AI v8 sqrt8(const v8& a) {
+  v8 r;
+#if defined(__AVX__)
+  for (int k = 0; k < kPieces; ++k) r.h[k] = _mm256_sqrt_pd(a.h[k]);
+#else
+  for (int k = 0; k < kPieces; ++k) r.h[k] = _mm_sqrt_pd(a.h[k]);
+#endif
+  return r;
+}
+#endif
 
 // N vectors of 8 lanes, operated on back to back.
 template <int N>
@@ -122,10 +195,18 @@ INSID_AI v8 part(const P<N>& a, int i) {
   return a.c[i];
 }
 INSID_AI v8 part(double a, int) { return splat(a); }
+// The three CPU paths of the dispatching build (CMakeLists.txt, INSID_CPU_DISPATCH) each lower
+// it to their widest FMA; one rounding per lane on both FMA paths, so they agree to the bit here.
 INSID_AI v8 fma8(v8 a, v8 b, v8 c) {
-#ifdef __FMA__
-  v8 r;
+#if defined(__AVX512F__)
+  v8 r;  // one 512-bit FMA
   for (int j = 0; j < W; ++j) r[j] = __builtin_fma(a[j], b[j], c[j]);
+  return r;
+#elif defined(__FMA__)
+  // AVX2 + FMA: GCC 12 turns the per-lane loop above into one scalar FMA per lane there (the
+  // AVX2 build ran 13x slower); one 256-bit FMA per piece.
+  v8 r;
+  for (int k = 0; k < kPieces; ++k) r.h[k] = _mm256_fmadd_pd(a.h[k], b.h[k], c.h[k]);
   return r;
 #else
   return a * b + c;  // no FMA instruction: unfused, still the same for every lane
@@ -150,15 +231,24 @@ INSID_AI P<N> bcast(double x) {
 template <int N>
 INSID_AI P<N> vsqrt(const P<N>& a) {
   P<N> r;
+#if defined(__AVX512F__)
   for (int i = 0; i < N; ++i)
     for (int j = 0; j < W; ++j) r.c[i][j] = __builtin_sqrt(a.c[i][j]);
+#else
+  for (int i = 0; i < N; ++i) r.c[i] = sqrt8(a.c[i]);
+#endif
   return r;
 }
 
 template <int N>
 INSID_AI P<N> blend(const M<N>& m, const P<N>& a, const P<N>& b) {
   P<N> r;
+#if defined(__AVX512F__)
   for (int i = 0; i < N; ++i) r.c[i] = m.c[i] ? a.c[i] : b.c[i];
+#else
+  for (int i = 0; i < N; ++i)
+    for (int k = 0; k < kPieces; ++k) r.c[i].h[k] = m.c[i].h[k] ? a.c[i].h[k] : b.c[i].h[k];
+#endif
   return r;
 }
 
