@@ -993,7 +993,7 @@ std::vector<int> BatchFitness::plan_groups(int num_vectors, int threads) {
   std::vector<int> groups;
   if (num_vectors <= 0) return groups;
   threads = std::max(threads, 1);
-  int g = (num_vectors + kMaxChains - 1) / kMaxChains;
+  int g = (num_vectors + kPlannedChains - 1) / kPlannedChains;
   if (threads > 1) {
     g = std::max(g, std::min(num_vectors, threads));
     g = std::min(num_vectors, ((g + threads - 1) / threads) * threads);

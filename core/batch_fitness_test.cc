@@ -217,7 +217,7 @@ TEST(BatchFitness, GroupPlanCoversTheVectors) {
       int total = 0;
       for (int s : g) {
         EXPECT_GE(s, 1);
-        EXPECT_LE(s, BatchFitness::kMaxChains);
+        EXPECT_LE(s, BatchFitness::kPlannedChains);
         total += s;
       }
       EXPECT_EQ(total, nv);
