@@ -234,6 +234,18 @@ Eigen::Matrix3d level_with_yaw(const Eigen::Vector3d& f_ib_b, double yaw_rad) {
   return C_b_n_from_euler(e);
 }
 
+std::optional<Eigen::Vector3d> mean_specific_force_b(const std::vector<ImuSample>& imu,
+                                                     double t_end_s) {
+  Eigen::Vector3d dv_b_mps = Eigen::Vector3d::Zero();
+  double dt_s = 0.0;
+  for (std::size_t k = 1; k < imu.size() && imu[k].t_s <= t_end_s + 1e-9; ++k) {
+    dv_b_mps += imu[k].dv_b_mps;
+    dt_s += imu[k].t_s - imu[k - 1].t_s;
+  }
+  if (!(dt_s > 0.0)) return std::nullopt;
+  return Eigen::Vector3d(dv_b_mps / dt_s);
+}
+
 double magnetometer_true_heading_rad(const Eigen::Vector3d& mag_b, const Eigen::Vector3d& f_ib_b,
                                      double declination_rad) {
   const Eigen::Vector3d m_level = level_with_yaw(f_ib_b, 0.0) * mag_b;  // (E, N, U), yaw 0

@@ -127,6 +127,13 @@ double estimate_arw_rad_rts(const std::vector<ImuSample>& imu, std::size_t begin
 /// from north): roll and pitch from the levelling, yaw given.
 Eigen::Matrix3d level_with_yaw(const Eigen::Vector3d& f_ib_b, double yaw_rad);
 
+/// Mean specific force f_ib_b [m/s^2] of the IMU rows whose time is <= t_end_s (the sum of their
+/// velocity increments over the sum of their intervals, from the second row on): the levelling
+/// of a static window for a magnetometer's tilt compensation. nullopt when fewer than two rows
+/// fall in the window.
+std::optional<Eigen::Vector3d> mean_specific_force_b(const std::vector<ImuSample>& imu,
+                                                     double t_end_s);
+
 /// True heading (rad, clockwise from true north) of the body x axis from a magnetometer
 /// reading mag_b (body FRD, any unit) and the specific force f_ib_b of a static IMU (tilt
 /// compensation): the field is levelled with the roll and pitch of level_with_yaw(f_ib_b, 0)

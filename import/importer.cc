@@ -4,6 +4,7 @@
 #include <cmath>
 #include <iomanip>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
@@ -40,14 +41,9 @@ void add_heading(const HeadingInput& in, const AssembleOptions& options, GpstTim
   // The static window's mean specific force (the levelling of the tilt compensation).
   Eigen::Vector3d f_mean_b = Eigen::Vector3d::Zero();
   if (magnetometer) {
-    Eigen::Vector3d dv = Eigen::Vector3d::Zero();
-    double dt = 0.0;
-    for (std::size_t k = 1; k < ds.imu.size() && ds.imu[k].t_s <= t1 + 1e-9; ++k) {
-      dv += ds.imu[k].dv_b_mps;
-      dt += ds.imu[k].t_s - ds.imu[k - 1].t_s;
-    }
-    if (!(dt > 0.0)) throw std::runtime_error("the static window holds fewer than 2 IMU rows");
-    f_mean_b = dv / dt;
+    const std::optional<Eigen::Vector3d> f = mean_specific_force_b(ds.imu, t1);
+    if (!f) throw std::runtime_error("the static window holds fewer than 2 IMU rows");
+    f_mean_b = *f;
   }
   const double declination_rad = options.declination_deg.value_or(0.0) * kDegToRad;
   std::size_t outside = 0, repeated = 0;

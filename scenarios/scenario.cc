@@ -4,6 +4,7 @@
 #include <cmath>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <stdexcept>
@@ -509,15 +510,10 @@ void add_heading_stream(Dataset& ds, const HeadingStreamSpec& spec) {
   // The static window's mean specific force, as the importer levels a magnetometer with it.
   Eigen::Vector3d f_mean_b = Eigen::Vector3d::Zero();
   if (magnetometer) {
-    Eigen::Vector3d dv = Eigen::Vector3d::Zero();
-    double dt = 0.0;
-    for (std::size_t k = 1; k < ds.imu.size() && ds.imu[k].t_s <= t1 + 1e-9; ++k) {
-      dv += ds.imu[k].dv_b_mps;
-      dt += ds.imu[k].t_s - ds.imu[k - 1].t_s;
-    }
-    if (!(dt > 0.0))
+    const std::optional<Eigen::Vector3d> f = mean_specific_force_b(ds.imu, t1);
+    if (!f)
       throw std::invalid_argument("a simulated magnetometer needs a static window (align_s > 0)");
-    f_mean_b = dv / dt;
+    f_mean_b = *f;
   }
   const double D = spec.declination_deg * kDegToRad, I = spec.inclination_deg * kDegToRad;
   const Eigen::Vector3d B_n(std::cos(I) * std::sin(D), std::cos(I) * std::cos(D), -std::sin(I));
