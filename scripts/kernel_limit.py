@@ -28,7 +28,7 @@ FUNC = "run_group<2, false, false>"
 LANES_PER_STEP = 16  # 2 vectors of 8 doubles
 
 
-def classify(op, args):
+def classify(op):
     if re.match(r"vf(n)?m(add|sub)", op):
         return "fma"
     if op.startswith("vmul"):
@@ -41,9 +41,6 @@ def classify(op, args):
         return "sqrt"
     return "other"
 
-
-def is_vector(args):
-    return "zmm" in args
 
 
 def parse_annotate(text):
@@ -98,7 +95,7 @@ def hot_blocks(rows, lo, hi, min_density):
     """Instructions of [lo, hi] in basic blocks with at least min_density samples per
     instruction (percent), i.e. run about once per step."""
     return [r for b in basic_blocks(rows, lo, hi)
-            if sum(x[0] for x in b) / len(b) >= min_density and sum(x[0] for x in b) > 0.0
+            if sum(x[0] for x in b) > 0.0 and sum(x[0] for x in b) / len(b) >= min_density
             for r in b]
 
 
@@ -106,8 +103,8 @@ def count(instrs):
     c = {"fma": 0, "mul": 0, "add": 0, "div": 0, "sqrt": 0, "loads": 0, "stores": 0,
          "instructions": len(instrs)}
     for _, _, op, args in instrs:
-        k = classify(op, args)
-        if k != "other" and is_vector(args):
+        k = classify(op)
+        if k != "other" and "zmm" in args:
             c[k] += 1
         if "(" in args:
             operands = [x.strip() for x in re.split(r",(?![^(]*\))", args)]
