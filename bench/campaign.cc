@@ -491,6 +491,7 @@ CampaignOutcome run_campaign(const CampaignConfig& config, const RunOptions& opt
   settings.scalar_reference = options.scalar_reference;
   settings.mpi_rank = options.cluster != nullptr;
   settings.max_wave_s = cluster == nullptr ? options.max_wave_s : 0.0;
+  if (cluster == nullptr) settings.round_finished = options.round_finished;
   if (!options.quiet && root) settings.progress = options.progress;  // rank 0 reports
   std::string run_error;
   if (cluster == nullptr) {

@@ -47,6 +47,9 @@ struct RunOptions {
   /// kernel busy, 48 candidates per round per thread); 0 = no time bound (an eighth of the runs
   /// per wave). Not applied to MPI launches, whose units are small waves already.
   double max_wave_s = 10.0;
+  /// Called after each lock-step round of this process's runs (performance analysis: insid
+  /// bench --round-log); empty: not called. Not applied to MPI launches.
+  RoundCallback round_finished;
   /// Score with the scalar reference (NavigationProblem::fitness per candidate) instead of the
   /// batched kernel, for comparisons; results agree within ~1e-12 relative.
   bool scalar_reference = false;

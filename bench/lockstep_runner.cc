@@ -5,11 +5,13 @@
 #include <exception>
 #include <filesystem>
 #include <future>
+#include <limits>
 #include <map>
 #include <optional>
 #include <thread>
 #include <utility>
 
+#include "core/batch_fitness.h"
 #include "core/json_reader.h"
 #include "core/output_dir.h"
 #include "identification/identify.h"
@@ -46,12 +48,31 @@ struct LockstepRunner::Impl {
       prepare(scenario, source);
       ScenarioState& st = states_[scenario];
       const std::size_t target = bounded_wave_target(wave_target, st.seconds_per_candidate);
+      const std::size_t cap = filled_groups_cap(target);
+      // Runs join while the wave's first round fits under the cap; the run that would overflow
+      // it is made again as the first of the next wave (unless it would be alone here).
       std::vector<Member> wave;
       std::size_t wave_candidates = 0;
-      while (next < ids.size() && runs_[ids[next]].scenario == scenario &&
-             (wave.empty() || wave_candidates < target)) {
+      while (next < ids.size() && runs_[ids[next]].scenario == scenario && wave_candidates < cap) {
+        const std::size_t before = wave_candidates, members = wave.size();
         add_member(ids[next], wave, wave_candidates);
+        if (members > 0 && wave.size() > members && wave_candidates > cap) {
+          wave.pop_back();
+          wave_candidates = before;
+          break;
+        }
         ++next;
+      }
+      // A tail of the scenario's runs smaller than a quarter of the cap (by this wave's
+      // candidates per run) joins this wave instead of running alone on a few threads.
+      std::size_t tail_runs = 0;
+      for (std::size_t i = next; i < ids.size() && runs_[ids[i]].scenario == scenario; ++i)
+        ++tail_runs;
+      if (!wave.empty() && tail_runs > 0 &&
+          static_cast<double>(tail_runs * wave_candidates) <=
+              0.25 * static_cast<double>(cap * wave.size())) {
+        while (next < ids.size() && runs_[ids[next]].scenario == scenario)
+          add_member(ids[next++], wave, wave_candidates);
       }
       const auto t_wave = std::chrono::steady_clock::now();
       run_wave(wave, *st.problem);
@@ -137,7 +158,7 @@ struct LockstepRunner::Impl {
     ScenarioState& st = states_[s];
     if (!st.problem) {
       report({.kind = ProgressEvent::Kind::kPreparingScenario, .scenario = spec.name});
-      st.dataset = scenario_dataset(spec);
+      st.dataset = scenario_dataset(spec, settings_.threads);
       st.navigation =
           std::make_shared<const NavigationProblem>(st.dataset, config_.navigation_options());
       opt::EvaluatorOptions eval;
@@ -222,6 +243,19 @@ struct LockstepRunner::Impl {
     return std::min(target, std::max(smallest, bounded));
   }
 
+  // The candidates a round of a wave may hold: the target rounded to the nearest whole number
+  // of two-vector groups for every thread (kLanes x kPlannedChains x threads candidates, 16 x
+  // threads on the AVX-512 path; the smallest wave, 48 x threads, is three). A round that
+  // overshoots such a multiple by a few candidates leaves every thread but one waiting for that
+  // one's extra group (results/perf/README.md, "Round by round").
+  std::size_t filled_groups_cap(std::size_t target) const {
+    const std::size_t unit = static_cast<std::size_t>(BatchFitness::kLanes) *
+                             static_cast<std::size_t>(BatchFitness::kPlannedChains) *
+                             static_cast<std::size_t>(std::max(settings_.threads, 1));
+    if (target >= std::numeric_limits<std::size_t>::max() - unit) return target;  // no bound
+    return std::max(unit, (target + unit / 2) / unit * unit);
+  }
+
   // The optimum of scenario s, waiting for the MPI rank that finds it when it is not there yet.
   const ReferenceOptimum& optimum(std::size_t s) {
     ScenarioState& st = states_[s];
@@ -301,7 +335,17 @@ struct LockstepRunner::Impl {
         write_run(run, wave[i].optimizer->result(), uncertainty);
     };
     hooks.failed = [&](std::size_t i, std::exception_ptr error) { errors_[wave[i].id] = error; };
+    if (settings_.round_finished) {
+      hooks.round_done = [&](std::size_t candidates, double scoring_s, double round_s) {
+        settings_.round_finished({.wave = waves_,
+                                  .wave_runs = wave.size(),
+                                  .candidates = candidates,
+                                  .scoring_s = scoring_s,
+                                  .round_s = round_s});
+      };
+    }
     opt::run_together(optimizers, problem, hooks);
+    ++waves_;
   }
 
   // How sure the run's estimate is, as in identify results (issue 15): "parameters" with sd and
@@ -378,6 +422,7 @@ struct LockstepRunner::Impl {
   std::vector<ScenarioState> states_;
   std::map<std::size_t, std::exception_ptr> errors_;  // by position in the run list
   int done_ = 0;
+  std::size_t waves_ = 0;  // waves run so far (RoundRecord::wave)
   const int skipped_runs_, runs_to_do_;
   const std::chrono::steady_clock::time_point t_start_;
 };
@@ -396,14 +441,15 @@ int LockstepRunner::new_runs() const { return impl_->new_runs(); }
 
 std::string LockstepRunner::first_error() const { return impl_->first_error(); }
 
-std::shared_ptr<const Dataset> scenario_dataset(const ScenarioSpec& spec) {
+std::shared_ptr<const Dataset> scenario_dataset(const ScenarioSpec& spec, int threads) {
   if (!spec.data_dir.empty()) return std::make_shared<const Dataset>(load_dataset(spec.data_dir));
   scenarios::ScenarioOverrides overrides;
   overrides.seed = spec.data_seed;
   overrides.grade = spec.grade;
   overrides.flight_s = spec.flight_s;
   overrides.set = spec.set;
-  return std::make_shared<const Dataset>(scenarios::simulate_preset(spec.preset, overrides));
+  return std::make_shared<const Dataset>(scenarios::simulate_preset(
+      spec.preset, overrides, /*record_truth_in_meta=*/true, std::max(threads, 1)));
 }
 
 std::size_t wave_target(int threads, std::size_t runs_to_do) {

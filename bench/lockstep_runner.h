@@ -59,6 +59,17 @@ enum class OptimumSource {
   kWait,     ///< another MPI rank is finding it: wait for its file when a run needs it
 };
 
+/// One lock-step round, as timed by run_together (for performance analysis: insid bench
+/// --round-log, scripts/perf_rounds.py).
+struct RoundRecord {
+  std::size_t wave = 0;        ///< the wave's number in this process, from 0
+  std::size_t wave_runs = 0;   ///< runs in the wave
+  std::size_t candidates = 0;  ///< candidates scored in this round
+  double scoring_s = 0.0;      ///< wall time of their scoring [s]
+  double round_s = 0.0;        ///< wall time of the whole round (asks, tells, run files) [s]
+};
+using RoundCallback = std::function<void(const RoundRecord&)>;
+
 struct RunnerSettings {
   std::string out_dir;
   int threads = 1;                ///< OpenMP threads of the fitness evaluations
@@ -73,6 +84,8 @@ struct RunnerSettings {
   /// built for and its wall time. For tests; may be empty.
   std::function<void(std::size_t runs, std::size_t candidates, std::size_t target, double wall_s)>
       wave_finished;
+  /// Called after each lock-step round; may be empty.
+  RoundCallback round_finished;
 };
 
 /// Runs lists of runs of one campaign in lock-step waves, preparing scenarios on first use.
@@ -87,7 +100,9 @@ class LockstepRunner {
   LockstepRunner& operator=(const LockstepRunner&) = delete;
 
   /// Runs `ids` (positions in the run list) in waves of consecutive runs of one scenario of
-  /// about `wave_target` candidates per round. A failed run is recorded and the others go on.
+  /// about `wave_target` candidates per round (within the wall-time bound, rounded to the
+  /// nearest whole number of two-vector groups for every thread; a tail of the scenario's runs
+  /// under a quarter of that joins the last wave). A failed run is recorded and the others go on.
   void run(const std::vector<std::size_t>& ids, std::size_t wave_target, OptimumSource source);
 
   /// Runs finished and written so far.
@@ -105,7 +120,7 @@ class LockstepRunner {
 /// keeps the waves it finished.
 std::size_t wave_target(int threads, std::size_t runs_to_do);
 
-/// Dataset of a scenario spec (simulated deterministically or loaded).
-std::shared_ptr<const Dataset> scenario_dataset(const ScenarioSpec& spec);
+/// Dataset of a scenario spec (simulated deterministically, on `threads` threads, or loaded).
+std::shared_ptr<const Dataset> scenario_dataset(const ScenarioSpec& spec, int threads = 1);
 
 }  // namespace insid::campaign

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <vector>
@@ -130,8 +131,12 @@ TEST(Lockstep, LeastSquaresRunsScoredTogetherEqualRunsDoneAlone) {
 // The runner on every run of kConfig into a fresh directory, recording its waves.
 struct Waves {
   std::vector<std::size_t> runs, candidates, targets;
+  std::vector<RoundRecord> rounds;
+  std::size_t evaluations = 0;  // of every run file
 };
-Waves run_runner_into(const fs::path& dir, double max_wave_s) {
+Waves run_runner_into(
+    const fs::path& dir, double max_wave_s,
+    const std::function<bool(const std::string&, std::uint64_t)>& keep = nullptr) {
   fs::remove_all(dir);
   fs::create_directories(dir);
   const CampaignConfig config = parse_campaign(nlohmann::json::parse(kConfig), "test");
@@ -139,6 +144,7 @@ Waves run_runner_into(const fs::path& dir, double max_wave_s) {
   std::vector<std::size_t> ids;
   for (std::size_t a = 0; a < config.algorithms.size(); ++a)
     for (std::uint64_t seed : config.seeds) {
+      if (keep && !keep(config.algorithms[a].label, seed)) continue;
       ids.push_back(runs.size());
       runs.push_back(
           {0, a, seed, run_file(dir.string(), "rich-short", config.algorithms[a].label, seed)});
@@ -153,10 +159,13 @@ Waves run_runner_into(const fs::path& dir, double max_wave_s) {
     waves.candidates.push_back(candidates);
     waves.targets.push_back(target);
   };
+  settings.round_finished = [&](const RoundRecord& r) { waves.rounds.push_back(r); };
   LockstepRunner runner(config, settings, runs, 0, static_cast<int>(runs.size()));
   runner.run(ids, std::numeric_limits<std::size_t>::max(), OptimumSource::kCompute);
   EXPECT_EQ(runner.first_error(), "");
   EXPECT_EQ(runner.new_runs(), static_cast<int>(runs.size()));
+  for (const RunSpec& run : runs)
+    waves.evaluations += read(run.path)["result"]["evaluations"].get<std::size_t>();
   return waves;
 }
 
@@ -174,16 +183,39 @@ TEST(Lockstep, WavesOfBoundedWallTimeKeepEveryResultAndTheOptimum) {
 
   // THEN without a bound every run is in one wave
   EXPECT_EQ(unbounded.runs, std::vector<std::size_t>{9});
-  // AND with the tight bound every wave is the smallest that keeps the kernel busy: it stops
-  // at the first run that brings it to `floor` candidates per round
+  // AND with the tight bound every wave is the smallest that keeps the kernel busy, filled from
+  // below: its first round holds at most `floor` candidates (whole two-vector groups), and the
+  // next run (of at most 20 candidates) would not have fitted; the nine runs (120 candidates)
+  // make three waves of 40
   ASSERT_GT(smallest.runs.size(), 2u);
   for (std::size_t w = 0; w < smallest.runs.size(); ++w) {
     EXPECT_EQ(smallest.targets[w], floor) << "wave " << w;
+    EXPECT_LE(smallest.candidates[w], floor) << "wave " << w;
     if (w + 1 < smallest.runs.size()) {
-      EXPECT_GE(smallest.candidates[w], floor) << "wave " << w;
+      EXPECT_GT(smallest.candidates[w] + 20, floor) << "wave " << w;
     }
-    EXPECT_LT(smallest.candidates[w], 2 * floor) << "wave " << w;  // all nine runs: 120
   }
+  EXPECT_EQ(smallest.candidates, (std::vector<std::size_t>{40, 40, 40}));
+  // AND the round records name each wave in turn with its runs, start with the wave's first
+  // batch and add up to the evaluations of the run files
+  ASSERT_FALSE(smallest.rounds.empty());
+  std::size_t wave = 0, scored = 0;
+  for (std::size_t k = 0; k < smallest.rounds.size(); ++k) {
+    const RoundRecord& r = smallest.rounds[k];
+    if (k > 0 && r.wave != wave) {
+      EXPECT_EQ(r.wave, wave + 1) << "round " << k;
+      wave = r.wave;
+    }
+    ASSERT_LT(r.wave, smallest.runs.size()) << "round " << k;
+    EXPECT_EQ(r.wave_runs, smallest.runs[r.wave]) << "round " << k;
+    if (k == 0 || smallest.rounds[k - 1].wave != r.wave) {
+      EXPECT_EQ(r.candidates, smallest.candidates[r.wave]) << "round " << k;
+    }
+    EXPECT_LE(r.scoring_s, r.round_s) << "round " << k;
+    scored += r.candidates;
+  }
+  EXPECT_EQ(wave + 1, smallest.runs.size());
+  EXPECT_EQ(scored, smallest.evaluations);
   // AND with the loose bound the first wave, of unknown speed, is the smallest, and the next
   // takes every other run (its measured speed fits them all into the bound)
   ASSERT_EQ(measured.runs.size(), 2u);
@@ -220,6 +252,21 @@ TEST(Lockstep, WavesOfBoundedWallTimeKeepEveryResultAndTheOptimum) {
   alone["scenario"] = "rich-short";
   EXPECT_EQ(read(optimum_file(one_wave.string(), "rich-short")), alone);
   for (const fs::path& dir : {one_wave, tight, loose}) fs::remove_all(dir);
+}
+
+TEST(Lockstep, ASmallTailOfRunsJoinsTheLastWave) {
+  // GIVEN five runs of 10 candidates (PSO seeds 1-3, DVPIO seeds 1-2) under the tight bound, whose
+  // waves hold at most 48 candidates a round on one thread
+  const fs::path dir =
+      fs::temp_directory_path() / ("insid-lockstep-tail-" + std::to_string(getpid()));
+  const Waves waves = run_runner_into(dir, 1e-9, [](const std::string& label, std::uint64_t seed) {
+    return label == "PSO" || (label == "DVPIO" && seed <= 2);
+  });
+  // THEN the fifth run, which does not fit (50 > 48) and would be a wave of its own on one
+  // thread's worth of candidates, joins the first wave
+  EXPECT_EQ(waves.runs, std::vector<std::size_t>{5});
+  EXPECT_EQ(waves.candidates, std::vector<std::size_t>{50});
+  fs::remove_all(dir);
 }
 
 }  // namespace

@@ -1,6 +1,8 @@
 // insid bench: run (or resume) a campaign of identification runs.
 #include <cmath>
+#include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <iostream>
 #include <memory>
 #include <string>
@@ -22,6 +24,7 @@ struct BenchArgs {
   int seeds = 0;
   int max_new_runs = 0;
   double flight_s = 0.0;
+  std::string round_log;
   CampaignRunArgs run;
 };
 
@@ -48,8 +51,32 @@ void run_bench(const BenchArgs& args) {
   const auto printer = std::make_shared<ProgressPrinter>("insid bench", args.run.verbosity);
   campaign::RunOptions options = campaign_run_options(args.run, cluster.get(), printer);
   options.max_new_runs = args.max_new_runs;
+  // One JSON line per lock-step round (scripts/perf_rounds.py reads them); a new file only, so
+  // that a mistyped name never replaces one of the user's files.
+  std::ofstream round_log;
+  if (!args.round_log.empty()) {
+    if (cluster != nullptr)
+      throw UsageError("--round-log: not with an MPI launch (each rank has its own rounds)");
+    std::error_code ec;
+    if (std::filesystem::exists(args.round_log, ec) || ec)
+      throw UsageError("--round-log " + args.round_log +
+                       ": the file exists; give a new file name (it is never overwritten)");
+    round_log.open(args.round_log);
+    if (!round_log)
+      throw std::runtime_error("--round-log " + args.round_log + ": cannot create the file");
+    round_log << std::setprecision(9);
+    options.round_finished = [&round_log](const campaign::RoundRecord& r) {
+      round_log << R"({"wave": )" << r.wave << R"(, "wave_runs": )" << r.wave_runs
+                << R"(, "candidates": )" << r.candidates << R"(, "scoring_s": )" << r.scoring_s
+                << R"(, "round_s": )" << r.round_s << "}\n";
+    };
+  }
   const campaign::CampaignOutcome outcome = campaign::run_campaign(config, options);
   printer->finish();
+  if (round_log.is_open()) {
+    round_log.close();
+    if (!round_log) throw std::runtime_error("--round-log " + args.round_log + ": write failed");
+  }
   if (!outcome.writes_results) return;  // MPI rank 0 reports for the launch
   if (printer->quiet()) return;
   print_campaign_closing("insid bench", "", options, outcome,
@@ -75,6 +102,9 @@ void add_bench_command(CLI::App& app) {
   cmd->add_option("--max-new-runs", args->max_new_runs,
                   "stop after this many new runs (the rest on the next invocation)")
       ->check(whole_in(1, 1000000000));
+  cmd->add_option("--round-log", args->round_log,
+                  "write one JSON line per lock-step round to this new file (candidates, "
+                  "scoring and round wall time; for scripts/perf_rounds.py)");
   add_campaign_run_options(cmd, &args->run);
   cmd->callback([args] { run_bench(*args); });
 }

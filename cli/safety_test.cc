@@ -576,6 +576,39 @@ TEST_F(CliSafety, ProgressToANonTerminalHasNoCarriageReturn) {
   EXPECT_EQ(sim.output, "");
 }
 
+// bench --round-log writes a new file only (a mistyped name must not replace a user's file), one
+// JSON line per lock-step round, whose candidates add up to the run files' evaluations.
+TEST_F(CliSafety, BenchRoundLogIsANewFileWithEveryRound) {
+  const fs::path log = root_ / "rounds.jsonl";
+  const fs::path out = root_ / "campaign";
+  std::ofstream(log) << "the user's notes\n";
+  const std::string bench =
+      "bench --preset quick --seeds 1 --flight-s 20 --threads 2 --quiet --out ";
+  const Outcome refused = insid(bench + out.string() + " --round-log " + log.string());
+  EXPECT_EQ(refused.status, 2) << refused.output;
+  EXPECT_TRUE(has(refused.output, "--round-log " + log.string() + ": the file exists"))
+      << refused.output;
+  EXPECT_EQ(text(log), "the user's notes\n");
+  EXPECT_FALSE(fs::exists(out));
+
+  fs::remove(log);
+  const Outcome o = insid(bench + out.string() + " --round-log " + log.string());
+  ASSERT_EQ(o.status, 0) << o.output;
+  std::istringstream lines(text(log));
+  std::size_t rounds = 0, candidates = 0, evaluations = 0;
+  for (std::string line; std::getline(lines, line); ++rounds) {
+    const nlohmann::json r = nlohmann::json::parse(line);
+    candidates += r.at("candidates").get<std::size_t>();
+    EXPECT_LE(r.at("scoring_s").get<double>(), r.at("round_s").get<double>()) << line;
+  }
+  for (const auto& entry : fs::recursive_directory_iterator(out / "runs"))
+    if (entry.path().extension() == ".json")
+      evaluations +=
+          nlohmann::json::parse(text(entry.path()))["result"]["evaluations"].get<std::size_t>();
+  EXPECT_GT(rounds, 0u);
+  EXPECT_EQ(candidates, evaluations);
+}
+
 // nav.csv times are fixed 6-decimal numbers, never 600.00999999999999.
 TEST_F(CliSafety, NavigationCsvTimesHaveSixDecimals) {
   const fs::path nav = root_ / "nav.csv";

@@ -1,6 +1,7 @@
 #include "optimizers/optimizer.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <iterator>
 #include <stdexcept>
@@ -315,7 +316,12 @@ void run_together(std::span<Optimizer* const> optimizers, const Problem& problem
   };
 
   SharedBatch plain, least_squares;  // fitness-only candidates; candidates whose residuals count
+  using Clock = std::chrono::steady_clock;
+  const auto seconds_since = [](Clock::time_point t0) {
+    return std::chrono::duration<double>(Clock::now() - t0).count();
+  };
   for (;;) {
+    const Clock::time_point t_round = Clock::now();
     // One round: ProblemConsumers take their own step; the others ask for their next batch, all
     // fitness-only batches are scored in one evaluate_batch call, all residual batches in one
     // evaluate_residual_batch call.
@@ -340,8 +346,10 @@ void run_together(std::span<Optimizer* const> optimizers, const Problem& problem
         fail(i);
       }
     }
+    const Clock::time_point t_scoring = Clock::now();
     score(plain, false);
     score(least_squares, true);
+    const double scoring_s = seconds_since(t_scoring);
     bool all_stopped = true;
     for (std::size_t i = 0; i < optimizers.size(); ++i) {
       if (stopped[i]) continue;
@@ -358,6 +366,9 @@ void run_together(std::span<Optimizer* const> optimizers, const Problem& problem
         }
       }
     }
+    if (hooks.round_done)
+      hooks.round_done(plain.candidates.size() + least_squares.candidates.size(), scoring_s,
+                       seconds_since(t_round));
     if (all_stopped) return;
   }
 }

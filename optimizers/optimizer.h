@@ -222,6 +222,11 @@ struct TogetherHooks {
   /// evaluation throws, its slices are evaluated again one by one to find the optimizers at
   /// fault. When unset, the exception propagates out of run_together().
   std::function<void(std::size_t i, std::exception_ptr error)> failed;
+  /// Called at the end of each round (after the `finished` calls) with the number of candidates
+  /// scored in it (fitness-only and residual batches together), the wall time of that scoring
+  /// and of the whole round (asks, tells and hooks included) [s]. For performance analysis
+  /// (`insid bench --round-log`); may be empty.
+  std::function<void(std::size_t candidates, double scoring_s, double round_s)> round_done;
 };
 
 /// Advances every optimizer one iteration at a time (lock-step). Per round, the candidates of all

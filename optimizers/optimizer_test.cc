@@ -9,6 +9,7 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -279,6 +280,43 @@ TEST(RunTogether, IsolatesAFailedRunAndReportsEachRunInTheRoundItFinishes) {
   // AND without the failed hook the error propagates
   std::vector<std::unique_ptr<Optimizer>> owners_again;
   EXPECT_THROW(run_together(make_runs(owners_again), problem), std::runtime_error);
+}
+
+TEST(RunTogether, RoundHookCountsEveryScoredCandidateOnce) {
+  // GIVEN three runs of different lengths (PIO's landmark rounds shrink its batch) advanced
+  // together with a round hook
+  const auto problem = make_benchmark("sphere", 3);
+  std::vector<std::unique_ptr<Optimizer>> owners;
+  std::vector<Optimizer*> runs;
+  for (const auto& [name, seed, iterations] :
+       std::vector<std::tuple<std::string, std::uint64_t, int>>{
+           {"pso", 1, 5}, {"pio", 2, 12}, {"ga", 3, 9}}) {
+    owners.push_back(make_optimizer(name, problem->bounds(), config_with(seed, iterations)));
+    runs.push_back(owners.back().get());
+  }
+  std::vector<std::size_t> candidates;
+  bool all_done_at_last_call = false;
+  TogetherHooks hooks;
+  hooks.round_done = [&](std::size_t n, double scoring_s, double round_s) {
+    candidates.push_back(n);
+    EXPECT_GE(scoring_s, 0.0);
+    EXPECT_GE(round_s, scoring_s);
+    all_done_at_last_call =
+        std::all_of(runs.begin(), runs.end(), [](const Optimizer* o) { return o->done(); });
+  };
+  // WHEN they run
+  run_together(runs, *problem, hooks);
+  // THEN the hook saw every round, the last one after every run had finished
+  EXPECT_TRUE(all_done_at_last_call);
+  // AND round k scored the k-th batch of every run still going (from the runs' histories)
+  std::vector<std::size_t> expected;
+  for (const Optimizer* run : runs) {
+    const auto& history = run->result().history;
+    if (expected.size() < history.size()) expected.resize(history.size(), 0);
+    for (std::size_t k = 0; k < history.size(); ++k)
+      expected[k] += static_cast<std::size_t>(history[k].batch_size);
+  }
+  EXPECT_EQ(candidates, expected);
 }
 
 TEST(Pio, LandmarkScheduleHalvesThePopulation) {

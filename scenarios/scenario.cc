@@ -352,8 +352,9 @@ ScenarioConfig with_overrides(ScenarioConfig cfg, const ScenarioOverrides& overr
 }
 
 Dataset simulate_preset(std::string_view preset, const ScenarioOverrides& overrides,
-                        bool record_truth_in_meta) {
-  return simulate(with_overrides(preset_scenario(preset), overrides), record_truth_in_meta);
+                        bool record_truth_in_meta, int threads) {
+  return simulate(with_overrides(preset_scenario(preset), overrides), record_truth_in_meta,
+                  threads);
 }
 
 ScenarioConfig preset_scenario(std::string_view name) {
@@ -546,13 +547,14 @@ void add_heading_stream(Dataset& ds, const HeadingStreamSpec& spec) {
   ds.meta.heading = meta;
 }
 
-Dataset simulate(const ScenarioConfig& cfg, bool record_truth_in_meta) {
-  return simulate(cfg, plan_scenario(cfg), record_truth_in_meta);
+Dataset simulate(const ScenarioConfig& cfg, bool record_truth_in_meta, int threads) {
+  return simulate(cfg, plan_scenario(cfg), record_truth_in_meta, threads);
 }
 
-Dataset simulate(const ScenarioConfig& cfg, const ScenarioPlan& plan, bool record_truth_in_meta) {
+Dataset simulate(const ScenarioConfig& cfg, const ScenarioPlan& plan, bool record_truth_in_meta,
+                 int threads) {
   ImuSynthesizer synth(plan.trajectory, cfg.earth, cfg.imu_rate_hz, cfg.substeps);
-  synth.run(plan.num_imu_steps);
+  synth.run(plan.num_imu_steps, threads);
 
   Dataset ds;
   DatasetMeta& m = ds.meta;

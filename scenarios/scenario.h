@@ -77,15 +77,16 @@ ScenarioPlan plan_scenario(const ScenarioConfig& cfg);
 
 /// Run the whole simulation. `record_truth_in_meta` = false leaves `injected` and `noise` out of
 /// meta.json (data that look measured; the answer goes to answer_json()).
-Dataset simulate(const ScenarioConfig& cfg, bool record_truth_in_meta = true);
+/// `threads`: OpenMP threads of the IMU synthesis (the same data for any count).
+Dataset simulate(const ScenarioConfig& cfg, bool record_truth_in_meta = true, int threads = 1);
 /// Same, reusing a plan.
 Dataset simulate(const ScenarioConfig& cfg, const ScenarioPlan& plan,
-                 bool record_truth_in_meta = true);
+                 bool record_truth_in_meta = true, int threads = 1);
 
 /// The one "preset -> overrides -> simulate" path: simulate(with_overrides(
 /// preset_scenario(preset), overrides), record_truth_in_meta).
 Dataset simulate_preset(std::string_view preset, const ScenarioOverrides& overrides,
-                        bool record_truth_in_meta = true);
+                        bool record_truth_in_meta = true, int threads = 1);
 
 /// A measured heading written with a simulation (insid simulate --heading; heading.csv).
 struct HeadingStreamSpec {

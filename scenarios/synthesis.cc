@@ -121,8 +121,10 @@ void ImuSynthesizer::advance(double t0, double t1, GeoPos& p, Eigen::Vector3d* d
   pieces(a, t1);
 }
 
-void ImuSynthesizer::run(std::size_t num_steps) {
+void ImuSynthesizer::run(std::size_t num_steps, int threads) {
   if (num_steps < 1) throw std::invalid_argument("need at least one IMU step");
+  if (threads < 1)
+    throw std::invalid_argument("threads must be >= 1, got " + std::to_string(threads));
   imu_.assign(num_steps, ImuSample{});
   truth_.assign(num_steps, TruthSample{});
   lat_grid_.assign(num_steps + 1, 0.0);
@@ -132,23 +134,104 @@ void ImuSynthesizer::run(std::size_t num_steps) {
   p.lon = traj_.initial().lon_rad;
   lat_grid_[0] = p.lat;
   lon_grid_[0] = p.lon;
-  double t_prev = 0.0;
-  for (std::size_t k = 1; k <= num_steps; ++k) {
-    const double t = static_cast<double>(k) / rate_;
-    ImuSample& s = imu_[k - 1];
-    s.t_s = t;
-    advance(t_prev, t, p, &s.dtheta_b_rad, &s.dv_b_mps);
-    lat_grid_[k] = p.lat;
-    lon_grid_[k] = p.lon;
-    const Kinematics kin = traj_.eval(t);
-    TruthSample& tr = truth_[k - 1];
-    tr.t_s = t;
-    tr.lat_rad = p.lat;
-    tr.lon_rad = p.lon;
-    tr.h_m = kin.h_m;
-    tr.v_eb_n_mps = kin.v_eb_n;
-    tr.attitude = kin.attitude;
-    t_prev = t;
+  // The arithmetic of advance() / advance_piece() from t_{k-1} to t_k, split by dependence: the
+  // trajectory (most of the cost) does not depend on the position, and the increments depend on
+  // it only through the latitudes of the RK4 stages. So, block by block of IMU steps: the
+  // sub-steps' times (as advance() cuts them), the trajectory at their mid and end points (in
+  // parallel), the position integrated in order, then the increments (in parallel). Every value
+  // is the one advance() computes, for any thread count.
+  constexpr std::size_t kBlock = 4096;  // IMU steps
+  const double dt_nominal = 1.0 / rate_;
+  std::vector<SubStep> sub;
+  std::vector<std::size_t> first_sub;  // of each step of the block, and one past the last
+  std::vector<Kinematics> k_mid, k_end;
+  Kinematics k_start = traj_.eval(0.0);  // at the first sub-step's start
+  for (std::size_t k_begin = 1; k_begin <= num_steps; k_begin += kBlock) {
+    const std::size_t k_stop = std::min(num_steps + 1, k_begin + kBlock);
+    sub.clear();
+    first_sub.clear();
+    for (std::size_t k = k_begin; k < k_stop; ++k) {
+      first_sub.push_back(sub.size());
+      const double t0 = static_cast<double>(k - 1) / rate_, t1 = static_cast<double>(k) / rate_;
+      auto pieces = [&](double a, double b) {
+        const int n = std::max(
+            1, static_cast<int>(std::ceil(substeps_ * std::fabs(b - a) / dt_nominal - 1e-9)));
+        const double h = (b - a) / n;
+        for (int i = 0; i < n; ++i)
+          sub.push_back({a + i * h, (i + 1 == n) ? b : a + (i + 1) * h, h});
+      };
+      auto first = std::upper_bound(breakpoints_.begin(), breakpoints_.end(), t0);
+      auto last = std::lower_bound(breakpoints_.begin(), breakpoints_.end(), t1);
+      double a = t0;
+      for (auto c = first; c != last; ++c) {
+        pieces(a, *c);
+        a = *c;
+      }
+      pieces(a, t1);
+    }
+    first_sub.push_back(sub.size());
+    const std::ptrdiff_t n_sub = static_cast<std::ptrdiff_t>(sub.size());
+    k_mid.resize(sub.size());
+    k_end.resize(sub.size());
+#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1)
+    for (std::ptrdiff_t j = 0; j < n_sub; ++j) {
+      const SubStep& u = sub[static_cast<std::size_t>(j)];
+      k_mid[static_cast<std::size_t>(j)] = traj_.eval(u.ta + 0.5 * u.h);
+      k_end[static_cast<std::size_t>(j)] = traj_.eval(u.tb);
+    }
+    // The position, in order (advance_piece's RK4 on lat/lon); each sub-step's stage latitudes
+    // and starting longitude are kept for the increments.
+    for (std::size_t j = 0; j < sub.size(); ++j) {
+      SubStep& u = sub[j];
+      const Kinematics& k0 = j == 0 ? k_start : k_end[j - 1];
+      u.lat = p.lat;
+      u.lon = p.lon;
+      const PosRate p1 = position_rate(earth_, u.lat, k0);
+      u.lat2 = u.lat + 0.5 * u.h * p1.lat_dot;
+      const PosRate p2 = position_rate(earth_, u.lat2, k_mid[j]);
+      u.lat3 = u.lat + 0.5 * u.h * p2.lat_dot;
+      const PosRate p3 = position_rate(earth_, u.lat3, k_mid[j]);
+      u.lat4 = u.lat + u.h * p3.lat_dot;
+      const PosRate p4 = position_rate(earth_, u.lat4, k_end[j]);
+      kahan_add(p.lat, p.lat_c,
+                u.h / 6.0 * (p1.lat_dot + 2.0 * (p2.lat_dot + p3.lat_dot) + p4.lat_dot));
+      kahan_add(p.lon, p.lon_c,
+                u.h / 6.0 * (p1.lon_dot + 2.0 * (p2.lon_dot + p3.lon_dot) + p4.lon_dot));
+      u.lat_end = p.lat;
+      u.lon_end = p.lon;
+    }
+    // The increments and the truth rows, step by step in parallel.
+    const std::ptrdiff_t n_steps = static_cast<std::ptrdiff_t>(k_stop - k_begin);
+#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1)
+    for (std::ptrdiff_t i = 0; i < n_steps; ++i) {
+      const std::size_t k = k_begin + static_cast<std::size_t>(i);
+      ImuSample& s = imu_[k - 1];
+      s.t_s = static_cast<double>(k) / rate_;
+      const std::size_t j_end = first_sub[static_cast<std::size_t>(i) + 1];
+      for (std::size_t j = first_sub[static_cast<std::size_t>(i)]; j < j_end; ++j) {
+        const SubStep& u = sub[j];
+        const Kinematics& k0 = j == 0 ? k_start : k_end[j - 1];
+        const TrueState s1 = state_from(k0, u.lat, u.lon);
+        const TrueState s2 = state_from(k_mid[j], u.lat2, u.lon);
+        const TrueState s3 = state_from(k_mid[j], u.lat3, u.lon);
+        const TrueState s4 = state_from(k_end[j], u.lat4, u.lon);
+        s.dtheta_b_rad +=
+            u.h / 6.0 * (s1.omega_ib_b + 2.0 * (s2.omega_ib_b + s3.omega_ib_b) + s4.omega_ib_b);
+        s.dv_b_mps += u.h / 6.0 * (s1.f_ib_b + 2.0 * (s2.f_ib_b + s3.f_ib_b) + s4.f_ib_b);
+      }
+      const SubStep& last = sub[j_end - 1];
+      lat_grid_[k] = last.lat_end;
+      lon_grid_[k] = last.lon_end;
+      const Kinematics& kin = k_end[j_end - 1];  // traj_.eval(t_k)
+      TruthSample& tr = truth_[k - 1];
+      tr.t_s = s.t_s;
+      tr.lat_rad = last.lat_end;
+      tr.lon_rad = last.lon_end;
+      tr.h_m = kin.h_m;
+      tr.v_eb_n_mps = kin.v_eb_n;
+      tr.attitude = kin.attitude;
+    }
+    k_start = k_end.back();
   }
 }
 

@@ -44,8 +44,9 @@ class ImuSynthesizer {
   ImuSynthesizer(Trajectory trajectory, const EarthModel& earth, double imu_rate_hz,
                  int substeps = 4);
 
-  /// Generate IMU rows k = 1..num_steps at t_k = k / imu_rate_hz (the data start at t = 0).
-  void run(std::size_t num_steps);
+  /// Generate IMU rows k = 1..num_steps at t_k = k / imu_rate_hz (the data start at t = 0), on
+  /// `threads` OpenMP threads (the same rows for any count).
+  void run(std::size_t num_steps, int threads = 1);
 
   const std::vector<ImuSample>& imu() const { return imu_; }
   const std::vector<TruthSample>& truth() const { return truth_; }
@@ -64,6 +65,14 @@ class ImuSynthesizer {
   struct GeoPos {
     double lat = 0.0, lon = 0.0;
     double lat_c = 0.0, lon_c = 0.0;
+  };
+  // One RK4 sub-step [ta, tb] of length h as advance() cuts an IMU interval, with what run()
+  // finds for it in order: the latitudes of its four stages, the longitude at its start, the
+  // position at its end.
+  struct SubStep {
+    double ta, tb, h;
+    double lat = 0.0, lat2 = 0.0, lat3 = 0.0, lat4 = 0.0, lon = 0.0;
+    double lat_end = 0.0, lon_end = 0.0;
   };
   // Integrate lat/lon from t0 to t1 (either direction), accumulating the increments when given.
   void advance(double t0, double t1, GeoPos& p, Eigen::Vector3d* dtheta, Eigen::Vector3d* dv) const;

@@ -48,6 +48,36 @@ TEST(Synthesis, StaticIncrementsAreEarthRateAndGravity) {
   EXPECT_NEAR(f.norm() / dt, 9.801, 1e-12);  // the paper's g at the start
 }
 
+TEST(Synthesis, RowsAreTheSameForAnyThreadCount) {
+  // GIVEN the short flight (more than two blocks of 4096 IMU steps; manoeuvres cut by breakpoints)
+  const ScenarioConfig cfg = parse_scenario(short_flight(), "short");
+  const ScenarioPlan plan = plan_scenario(cfg);
+  const auto rows = [&](int threads) {
+    ImuSynthesizer synth(plan.trajectory, cfg.earth, cfg.imu_rate_hz, cfg.substeps);
+    synth.run(plan.num_imu_steps, threads);
+    return synth;
+  };
+  const ImuSynthesizer one = rows(1);
+  ASSERT_GT(one.imu().size(), 2u * 4096u);
+  // WHEN it is synthesized on 2 and 3 threads THEN every IMU and truth value has the same bits
+  for (int threads : {2, 3}) {
+    const ImuSynthesizer many = rows(threads);
+    ASSERT_EQ(many.imu().size(), one.imu().size());
+    for (std::size_t k = 0; k < one.imu().size(); ++k) {
+      const ImuSample &a = one.imu()[k], &b = many.imu()[k];
+      const TruthSample &ta = one.truth()[k], &tb = many.truth()[k];
+      ASSERT_TRUE(a.t_s == b.t_s && a.dtheta_b_rad == b.dtheta_b_rad && a.dv_b_mps == b.dv_b_mps)
+          << threads << " threads, row " << k;
+      ASSERT_TRUE(ta.lat_rad == tb.lat_rad && ta.lon_rad == tb.lon_rad && ta.h_m == tb.h_m &&
+                  ta.v_eb_n_mps == tb.v_eb_n_mps)
+          << threads << " threads, row " << k;
+    }
+    // AND so are the states between rows (from the position grid)
+    EXPECT_EQ(one.state_at(123.456).lat_rad, many.state_at(123.456).lat_rad);
+  }
+  EXPECT_THROW(rows(0), std::invalid_argument);
+}
+
 TEST(Synthesis, IncrementsConvergeInTheSubstepCount) {
   ScenarioConfig coarse = parse_scenario(short_flight(), "short");
   ScenarioConfig fine = coarse;

@@ -10,7 +10,9 @@
 # and the raw measurements to the same name with .jsonl. With 31 seeds the summary of every
 # campaign is also compared with the committed results/paper-fig9-31/summary.json, all but
 # wall times (the script lists the first differences and fails when they differ); each
-# campaign's summary is kept as <out>-t<threads>-summary.json.
+# campaign's summary is kept as <out>-t<threads>-summary.json, its round log (insid bench
+# --round-log) as <out>-rounds-t<threads>.jsonl; with 1 and 2 among the thread counts the round
+# model of scripts/perf_rounds.py is appended to --out (it predicts the largest counts given).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seeds=31
@@ -35,7 +37,10 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 for t in $threads; do
   echo "perf_phases.sh: paper-fig9, $seeds seeds, $t thread(s) ..." >&2
-  /usr/bin/python3 scripts/perf_phases.py "$bin" "$t" "$work/c$t" --preset paper-fig9 --seeds "$seeds" >> "$raw"
+  rounds="${out%.md}-rounds-t$t.jsonl"
+  rm -f "$rounds"
+  /usr/bin/python3 scripts/perf_phases.py "$bin" "$t" "$work/c$t" --preset paper-fig9 --seeds "$seeds" \
+    --round-log "$rounds" >> "$raw"
   cp "$work/c$t/summary.json" "${out%.md}-t$t-summary.json"
   if [ "$seeds" = 31 ]; then
     /usr/bin/python3 - "$work/c$t/summary.json" results/paper-fig9-31/summary.json <<'PY' || status=1
@@ -140,4 +145,11 @@ lines.append("")
 open(out, "w").write("\n".join(lines))
 print("\n".join(lines))
 PY
+# Round by round (scripts/perf_rounds.py): where the threads wait, and the prediction from the
+# rounds of the largest thread count measured (e.g. --threads "1 2 16" on 2 cores).
+logs=()
+for t in $threads; do logs+=(--log "$t=${out%.md}-rounds-t$t.jsonl"); done
+if [[ " $threads " == *" 1 "* && " $threads " == *" 2 "* ]]; then
+  { echo; /usr/bin/python3 scripts/perf_rounds.py --phases "$raw" "${logs[@]}" --predict "$threads"; } | tee -a "$out"
+fi
 exit $status
