@@ -54,6 +54,7 @@ void run_bench(const BenchArgs& args) {
   // One JSON line per lock-step round (scripts/perf_rounds.py reads them); a new file only, so
   // that a mistyped name never replaces one of the user's files.
   std::ofstream round_log;
+  std::size_t rounds_logged = 0;
   if (!args.round_log.empty()) {
     if (cluster != nullptr)
       throw UsageError("--round-log: not with an MPI launch (each rank has its own rounds)");
@@ -65,13 +66,25 @@ void run_bench(const BenchArgs& args) {
     if (!round_log)
       throw std::runtime_error("--round-log " + args.round_log + ": cannot create the file");
     round_log << std::setprecision(9);
-    options.round_finished = [&round_log](const campaign::RoundRecord& r) {
+    options.round_finished = [&round_log, &rounds_logged](const campaign::RoundRecord& r) {
+      ++rounds_logged;
       round_log << R"({"wave": )" << r.wave << R"(, "wave_runs": )" << r.wave_runs
                 << R"(, "candidates": )" << r.candidates << R"(, "scoring_s": )" << r.scoring_s
                 << R"(, "round_s": )" << r.round_s << "}\n";
     };
   }
-  const campaign::CampaignOutcome outcome = campaign::run_campaign(config, options);
+  campaign::CampaignOutcome outcome;
+  try {
+    outcome = campaign::run_campaign(config, options);
+  } catch (...) {
+    // A campaign refused before its first round leaves no empty log behind.
+    if (round_log.is_open() && rounds_logged == 0) {
+      round_log.close();
+      std::error_code ec;
+      std::filesystem::remove(args.round_log, ec);
+    }
+    throw;
+  }
   printer->finish();
   if (round_log.is_open()) {
     round_log.close();

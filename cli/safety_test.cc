@@ -590,8 +590,16 @@ TEST_F(CliSafety, BenchRoundLogIsANewFileWithEveryRound) {
       << refused.output;
   EXPECT_EQ(text(log), "the user's notes\n");
   EXPECT_FALSE(fs::exists(out));
-
+  // AND a campaign refused before its first round (--out holds a user's file) leaves no log
   fs::remove(log);
+  const fs::path user_dir = root_ / "user";
+  fs::create_directories(user_dir);
+  std::ofstream(user_dir / "notes.txt") << "mine\n";
+  const Outcome foreign = insid(bench + user_dir.string() + " --round-log " + log.string());
+  EXPECT_NE(foreign.status, 0) << foreign.output;
+  EXPECT_FALSE(fs::exists(log)) << foreign.output;
+  EXPECT_EQ(text(user_dir / "notes.txt"), "mine\n");
+
   const Outcome o = insid(bench + out.string() + " --round-log " + log.string());
   ASSERT_EQ(o.status, 0) << o.output;
   std::istringstream lines(text(log));
