@@ -98,27 +98,38 @@ void ImuSynthesizer::advance_piece(double t0, double t1, int n, GeoPos& p, Eigen
   }
 }
 
-void ImuSynthesizer::advance(double t0, double t1, GeoPos& p, Eigen::Vector3d* dtheta,
-                             Eigen::Vector3d* dv) const {
-  if (t1 == t0) return;
+template <class Piece>
+void ImuSynthesizer::for_each_piece(double t0, double t1, Piece&& piece) const {
   const double dt_nominal = 1.0 / rate_;
-  auto pieces = [&](double a, double b) {
-    const int n =
-        std::max(1, static_cast<int>(std::ceil(substeps_ * std::fabs(b - a) / dt_nominal - 1e-9)));
-    advance_piece(a, b, n, p, dtheta, dv);
+  const auto cut = [&](double a, double b) {
+    piece(
+        a, b,
+        std::max(1, static_cast<int>(std::ceil(substeps_ * std::fabs(b - a) / dt_nominal - 1e-9))));
   };
   // Split at breakpoints strictly inside (t0, t1), in the direction of travel.
   const double lo = std::min(t0, t1), hi = std::max(t0, t1);
-  auto first = std::upper_bound(breakpoints_.begin(), breakpoints_.end(), lo);
-  auto last = std::lower_bound(breakpoints_.begin(), breakpoints_.end(), hi);
-  std::vector<double> cuts(first, last);
-  if (t1 < t0) std::reverse(cuts.begin(), cuts.end());
+  const auto first = std::upper_bound(breakpoints_.begin(), breakpoints_.end(), lo);
+  const auto last = std::lower_bound(breakpoints_.begin(), breakpoints_.end(), hi);
   double a = t0;
-  for (double c : cuts) {
-    pieces(a, c);
-    a = c;
+  if (t0 < t1) {
+    for (auto c = first; c != last; ++c) {
+      cut(a, *c);
+      a = *c;
+    }
+  } else {
+    for (auto c = last; c != first;) {
+      --c;
+      cut(a, *c);
+      a = *c;
+    }
   }
-  pieces(a, t1);
+  cut(a, t1);
+}
+
+void ImuSynthesizer::advance(double t0, double t1, GeoPos& p, Eigen::Vector3d* dtheta,
+                             Eigen::Vector3d* dv) const {
+  if (t1 == t0) return;
+  for_each_piece(t0, t1, [&](double a, double b, int n) { advance_piece(a, b, n, p, dtheta, dv); });
 }
 
 void ImuSynthesizer::run(std::size_t num_steps, int threads) {
@@ -141,7 +152,6 @@ void ImuSynthesizer::run(std::size_t num_steps, int threads) {
   // parallel), the position integrated in order, then the increments (in parallel). Every value
   // is the one advance() computes, for any thread count.
   constexpr std::size_t kBlock = 4096;  // IMU steps
-  const double dt_nominal = 1.0 / rate_;
   std::vector<SubStep> sub;
   std::vector<std::size_t> first_sub;  // of each step of the block, and one past the last
   std::vector<Kinematics> k_mid, k_end;
@@ -153,21 +163,11 @@ void ImuSynthesizer::run(std::size_t num_steps, int threads) {
     for (std::size_t k = k_begin; k < k_stop; ++k) {
       first_sub.push_back(sub.size());
       const double t0 = static_cast<double>(k - 1) / rate_, t1 = static_cast<double>(k) / rate_;
-      auto pieces = [&](double a, double b) {
-        const int n = std::max(
-            1, static_cast<int>(std::ceil(substeps_ * std::fabs(b - a) / dt_nominal - 1e-9)));
-        const double h = (b - a) / n;
+      for_each_piece(t0, t1, [&](double a, double b, int n) {
+        const double h = (b - a) / n;  // as advance_piece cuts it
         for (int i = 0; i < n; ++i)
           sub.push_back({a + i * h, (i + 1 == n) ? b : a + (i + 1) * h, h});
-      };
-      auto first = std::upper_bound(breakpoints_.begin(), breakpoints_.end(), t0);
-      auto last = std::lower_bound(breakpoints_.begin(), breakpoints_.end(), t1);
-      double a = t0;
-      for (auto c = first; c != last; ++c) {
-        pieces(a, *c);
-        a = *c;
-      }
-      pieces(a, t1);
+      });
     }
     first_sub.push_back(sub.size());
     const std::ptrdiff_t n_sub = static_cast<std::ptrdiff_t>(sub.size());

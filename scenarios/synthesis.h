@@ -74,6 +74,10 @@ class ImuSynthesizer {
     double lat = 0.0, lat2 = 0.0, lat3 = 0.0, lat4 = 0.0, lon = 0.0;
     double lat_end = 0.0, lon_end = 0.0;
   };
+  // Calls piece(a, b, n) for each piece of [t0, t1] (either direction) cut at the breakpoints
+  // strictly inside it, in the direction of travel, with its n RK4 sub-steps.
+  template <class Piece>
+  void for_each_piece(double t0, double t1, Piece&& piece) const;
   // Integrate lat/lon from t0 to t1 (either direction), accumulating the increments when given.
   void advance(double t0, double t1, GeoPos& p, Eigen::Vector3d* dtheta, Eigen::Vector3d* dv) const;
   void advance_piece(double t0, double t1, int n, GeoPos& p, Eigen::Vector3d* dtheta,
