@@ -156,14 +156,12 @@ def main():
     opt_share = lambda t: (opt1 / t if opt1 else 0.0)
     t2_model = serial + crit2 + opt_share(2)
     out.append(f"Modelled wall at 2 threads: {t2_model:.1f} s (measured {p2['wall']:.1f} s).")
-    predictions = {}
     for t in [int(x) for x in a.predict.split()]:
         if t not in logs:
             out.append(f"{t} threads: no round log at {t} threads; not predicted.")
             continue
         crit, ideal = modelled_scoring(logs[t], t)
         wall = sim_at(t) + rest + crit + opt_share(t)
-        predictions[t] = wall
         out.append(f"{t} threads: scoring {crit:.1f} s (even split {ideal:.1f} s) + simulation {sim_at(t):.1f} s + "
                    f"rest {rest:.1f} s + optimum {opt_share(t):.1f} s = {wall:.1f} s; T(2)/T({t}) = "
                    f"{t2_model / wall:.2f}x modelled, {p2['wall'] / wall:.2f}x from the measured T(2).")
