@@ -18,6 +18,7 @@
 #include "identification/ins_problem.h"
 #include "identification/uncertainty.h"
 #include "optimizers/external.h"
+#include "optimizers/fitness_memo.h"
 #include "optimizers/registry.h"
 #include "scenarios/scenario.h"
 
@@ -75,7 +76,7 @@ struct LockstepRunner::Impl {
           add_member(ids[next++], wave, wave_candidates);
       }
       const auto t_wave = std::chrono::steady_clock::now();
-      run_wave(wave, *st.problem);
+      run_wave(wave, *st.problem, st.memo);
       const double wave_s =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - t_wave).count();
       // The speed of this wave sizes the next one of the scenario (waves of bounded wall time).
@@ -131,6 +132,12 @@ struct LockstepRunner::Impl {
     /// Noise replicas for the runs' uncertainty (issue 15): run once per scenario at the data's
     /// optimum, shared by every run (each run adds only its own Jacobian).
     std::optional<NoiseReplicaSet> replicas;
+    /// Fitness of every candidate scored in the scenario's waves (bounded, opt::FitnessMemo):
+    /// a candidate asked again, in the same wave or a later one, is not scored again. Runs with
+    /// the same seed share their first iterations (PIO and DVPIO move by the same Eq. 8-9 draws
+    /// until DVPIO turns premature), and a GA child that was neither crossed nor mutated is its
+    /// parent.
+    opt::FitnessMemo memo;
   };
   struct Member {
     std::size_t id;  // position in the run list
@@ -321,7 +328,8 @@ struct LockstepRunner::Impl {
   // result depends only on its own fitness values, which do not depend on how candidates are
   // grouped, so results equal separate runs, whatever the waves, shards or ranks. Each run's
   // file is written as soon as the run is done; a failed run is recorded, the others go on.
-  void run_wave(std::vector<Member>& wave, const InsIdentificationProblem& problem) {
+  void run_wave(std::vector<Member>& wave, const InsIdentificationProblem& problem,
+                opt::FitnessMemo& memo) {
     std::vector<opt::Optimizer*> optimizers;
     for (Member& m : wave) optimizers.push_back(m.optimizer.get());
     opt::TogetherHooks hooks;
@@ -336,15 +344,17 @@ struct LockstepRunner::Impl {
     };
     hooks.failed = [&](std::size_t i, std::exception_ptr error) { errors_[wave[i].id] = error; };
     if (settings_.round_finished) {
-      hooks.round_done = [&](std::size_t candidates, double scoring_s, double round_s) {
+      hooks.round_done = [&](std::size_t candidates, std::size_t scored, double scoring_s,
+                             double round_s) {
         settings_.round_finished({.wave = waves_,
                                   .wave_runs = wave.size(),
                                   .candidates = candidates,
+                                  .scored = scored,
                                   .scoring_s = scoring_s,
                                   .round_s = round_s});
       };
     }
-    opt::run_together(optimizers, problem, hooks);
+    opt::run_together(optimizers, problem, hooks, &memo);
     ++waves_;
   }
 

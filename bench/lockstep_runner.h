@@ -64,7 +64,8 @@ enum class OptimumSource {
 struct RoundRecord {
   std::size_t wave = 0;        ///< the wave's number in this process, from 0
   std::size_t wave_runs = 0;   ///< runs in the wave
-  std::size_t candidates = 0;  ///< candidates scored in this round
+  std::size_t candidates = 0;  ///< candidates asked for in this round
+  std::size_t scored = 0;      ///< of them scored: the others repeat one already scored
   double scoring_s = 0.0;      ///< wall time of their scoring [s]
   double round_s = 0.0;        ///< wall time of the whole round (asks, tells, run files) [s]
 };

@@ -69,8 +69,8 @@ void run_bench(const BenchArgs& args) {
     options.round_finished = [&round_log, &rounds_logged](const campaign::RoundRecord& r) {
       ++rounds_logged;
       round_log << R"({"wave": )" << r.wave << R"(, "wave_runs": )" << r.wave_runs
-                << R"(, "candidates": )" << r.candidates << R"(, "scoring_s": )" << r.scoring_s
-                << R"(, "round_s": )" << r.round_s << "}\n";
+                << R"(, "candidates": )" << r.candidates << R"(, "scored": )" << r.scored
+                << R"(, "scoring_s": )" << r.scoring_s << R"(, "round_s": )" << r.round_s << "}\n";
     };
   }
   campaign::CampaignOutcome outcome;

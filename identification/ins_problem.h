@@ -83,6 +83,10 @@ class InsIdentificationProblem final : public opt::Problem, public opt::Residual
   /// thread count or on how the candidates are grouped; a candidate whose set-up fails (e.g.
   /// alignment) is reported as opt::EvaluationError naming it, as evaluate_each does.
   void evaluate_batch(std::span<const Eigen::VectorXd> xs, std::span<double> f_out) const override;
+  /// True: both implementations score a candidate from its bits alone (the batched kernel's
+  /// lanes do not depend on their neighbours, grouping or thread count), so a repeated candidate
+  /// is scored once by opt::run and opt::run_together (opt::FitnessMemo).
+  bool deterministic() const override { return true; }
   /// Fitness of one candidate with the scalar reference.
   double fitness(const Eigen::VectorXd& x) const;
   /// Residual vector (dvE_t, dvN_t) of NavigationProblem::residuals, for the least-squares

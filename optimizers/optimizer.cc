@@ -4,8 +4,11 @@
 #include <chrono>
 #include <cmath>
 #include <iterator>
+#include <optional>
 #include <stdexcept>
 #include <utility>
+
+#include "optimizers/fitness_memo.h"
 
 namespace insid::opt {
 
@@ -199,9 +202,8 @@ void check_same_box(const Optimizer& optimizer, const Problem& problem) {
   }
 }
 
-}  // namespace
-
-void step(Optimizer& optimizer, const Problem& problem) {
+// One ask / evaluate / tell round; a fitness-only batch goes through `memo` when given.
+void step_with(Optimizer& optimizer, const Problem& problem, FitnessMemo* memo) {
   if (optimizer.done()) return;
   if (auto* consumer = dynamic_cast<ProblemConsumer*>(&optimizer)) consumer->bind(problem);
   const std::span<const Eigen::VectorXd> batch = optimizer.ask();
@@ -216,15 +218,23 @@ void step(Optimizer& optimizer, const Problem& problem) {
     std::vector<std::vector<double>> residuals(batch.size());
     residual_problem->evaluate_residual_batch(batch, residuals, fitness);
     consumer->set_residuals(std::move(residuals));
+  } else if (memo != nullptr) {
+    memo->evaluate_batch(problem, batch, fitness);
   } else {
     problem.evaluate_batch(batch, fitness);
   }
   optimizer.tell(fitness);
 }
 
+}  // namespace
+
+void step(Optimizer& optimizer, const Problem& problem) { step_with(optimizer, problem, nullptr); }
+
 const Result& run(Optimizer& optimizer, const Problem& problem) {
   check_same_box(optimizer, problem);
-  while (!optimizer.done()) step(optimizer, problem);
+  std::optional<FitnessMemo> memo;
+  if (problem.deterministic()) memo.emplace();
+  while (!optimizer.done()) step_with(optimizer, problem, memo ? &*memo : nullptr);
   return optimizer.result();
 }
 
@@ -247,7 +257,7 @@ struct SharedBatch {
 }  // namespace
 
 void run_together(std::span<Optimizer* const> optimizers, const Problem& problem,
-                  const TogetherHooks& hooks) {
+                  const TogetherHooks& hooks, FitnessMemo* memo) {
   for (const Optimizer* optimizer : optimizers) check_same_box(*optimizer, problem);
   const auto* residual_problem = dynamic_cast<const ResidualProblem*>(&problem);
   // Finished or failed: no longer advanced. Optimizers done on entry are not reported.
@@ -265,6 +275,12 @@ void run_together(std::span<Optimizer* const> optimizers, const Problem& problem
   // one by one to find the optimizer(s) at fault; the others carry on.
   std::vector<double> fitness;
   std::vector<std::vector<double>> residuals;
+  std::optional<FitnessMemo> own_memo;  // a repeated candidate is scored once
+  if (!problem.deterministic())
+    memo = nullptr;
+  else if (memo == nullptr)
+    memo = &own_memo.emplace();
+  std::size_t scored = 0;  // this round
   const auto score = [&](const SharedBatch& batch, bool with_residuals) {
     if (batch.slices.empty()) return;
     const std::size_t n = batch.candidates.size();
@@ -282,12 +298,18 @@ void run_together(std::span<Optimizer* const> optimizers, const Problem& problem
       }
     };
     try {
-      evaluate(0, n);
+      if (memo != nullptr && !with_residuals) {
+        scored += memo->evaluate_batch(problem, batch.candidates, fitness);
+      } else {
+        evaluate(0, n);
+        scored += n;
+      }
     } catch (...) {
       if (!hooks.failed) throw;
       std::size_t offset = 0;
       for (const auto& [i, size] : batch.slices) {
         try {
+          scored += size;
           evaluate(offset, size);
         } catch (...) {
           fail(i);
@@ -347,6 +369,7 @@ void run_together(std::span<Optimizer* const> optimizers, const Problem& problem
       }
     }
     const Clock::time_point t_scoring = Clock::now();
+    scored = 0;
     score(plain, false);
     score(least_squares, true);
     const double scoring_s = seconds_since(t_scoring);
@@ -367,7 +390,7 @@ void run_together(std::span<Optimizer* const> optimizers, const Problem& problem
       }
     }
     if (hooks.round_done)
-      hooks.round_done(plain.candidates.size() + least_squares.candidates.size(), scoring_s,
+      hooks.round_done(plain.candidates.size() + least_squares.candidates.size(), scored, scoring_s,
                        seconds_since(t_round));
     if (all_stopped) return;
   }

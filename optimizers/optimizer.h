@@ -213,6 +213,8 @@ inline double euclidean_distance(const Eigen::VectorXd& a, const Eigen::VectorXd
 const Result& run(Optimizer& optimizer, const Problem& problem);
 
 /// What a caller of run_together() hears about each optimizer (by its index in the span).
+class FitnessMemo;  // optimizers/fitness_memo.h
+
 struct TogetherHooks {
   /// Called once when optimizers[i] has finished, in the round it finished (index order within
   /// a round), e.g. to write its result while the others go on.
@@ -223,10 +225,12 @@ struct TogetherHooks {
   /// fault. When unset, the exception propagates out of run_together().
   std::function<void(std::size_t i, std::exception_ptr error)> failed;
   /// Called at the end of each round (after the `finished` calls) with the number of candidates
-  /// scored in it (fitness-only and residual batches together), the wall time of that scoring
-  /// and of the whole round (asks, tells and hooks included) [s]. For performance analysis
-  /// (`insid bench --round-log`); may be empty.
-  std::function<void(std::size_t candidates, double scoring_s, double round_s)> round_done;
+  /// asked in it (fitness-only and residual batches together), how many of them were scored (the
+  /// others repeat a candidate already scored by a deterministic() problem, see FitnessMemo), the
+  /// wall time of that scoring and of the whole round (asks, tells and hooks included) [s]. For
+  /// performance analysis (`insid bench --round-log`); may be empty.
+  std::function<void(std::size_t candidates, std::size_t scored, double scoring_s, double round_s)>
+      round_done;
 };
 
 /// Advances every optimizer one iteration at a time (lock-step). Per round, the candidates of all
@@ -234,9 +238,12 @@ struct TogetherHooks {
 /// ResidualConsumers in a single ResidualProblem::evaluate_residual_batch() call; a
 /// ProblemConsumer takes its own step(). Each optimizer is told its slice. A run's result
 /// depends only on its own fitness values, so results equal separate run()s whatever the
-/// grouping. Throws std::invalid_argument when a box differs from the problem's; an optimizer
-/// that needs residuals on a problem without them fails (see hooks.failed).
+/// grouping. When the problem is deterministic(), a candidate already scored (in this call, or
+/// by earlier calls that were given the same `memo`) is not scored again; the fitness-only
+/// batches only. Without a `memo` a fresh one serves this call. Throws std::invalid_argument when
+/// a box differs from the problem's; an optimizer that needs residuals on a problem without them
+/// fails (see hooks.failed).
 void run_together(std::span<Optimizer* const> optimizers, const Problem& problem,
-                  const TogetherHooks& hooks = {});
+                  const TogetherHooks& hooks = {}, FitnessMemo* memo = nullptr);
 
 }  // namespace insid::opt

@@ -69,6 +69,11 @@ class Problem {
   virtual void evaluate_batch(std::span<const Eigen::VectorXd> xs,
                               std::span<double> f_out) const = 0;
 
+  /// True when the fitness is a function of x's bits alone: the same x scores the same value,
+  /// bit for bit, in any batch, position or thread count. run() and run_together() then score a
+  /// repeated candidate once (FitnessMemo). False unless a problem says so.
+  virtual bool deterministic() const { return false; }
+
  private:
   Bounds bounds_;
 };

@@ -2,13 +2,14 @@
 """Where a campaign's threads wait, round by round, and what that predicts for more threads.
 
 Reads the round logs of `insid bench --round-log FILE` (one JSON line per lock-step round:
-candidates, scoring and round wall time) and the phase rows of scripts/perf_phases.py for the
+candidates asked and scored, scoring and round wall time) and the phase rows of scripts/perf_phases.py for the
 same campaign at several thread counts (used by scripts/perf_phases.sh; usable alone):
 
   scripts/perf_rounds.py --phases results/perf/phases.jsonl \\
       --log 1=/tmp/r1.jsonl --log 2=/tmp/r2.jsonl --log 16=/tmp/r16.jsonl
 
-The model. A round's candidates go into SIMD vectors of 8 lanes; the batched kernel packs the
+The model. A round's scored candidates (a candidate that repeats one already scored is not scored
+again, opt::FitnessMemo; a log from before that has no "scored": all count) go into SIMD vectors of 8 lanes; the batched kernel packs the
 vectors into groups (BatchFitness::plan_groups, core/batch_fitness.cc: two vectors a group on the
 AVX-512 path, more groups of one vector when there are fewer groups than threads) and the threads
 take the groups one at a time (OpenMP dynamic schedule), so a round's scoring lasts as long as the
@@ -31,6 +32,11 @@ from memory, about 40 MB per pass at paper-fig9's 860 000 steps; the per-step st
 import argparse, json, math, sys
 
 LANES = 8
+
+
+def scored(round_row):
+    """Candidates the round scored (a log from before FitnessMemo: all it asked)."""
+    return round_row.get("scored", round_row["candidates"])
 
 
 def plan_groups(num_vectors, threads, planned_chains=2):
@@ -97,7 +103,7 @@ def main():
     units = 0.0
     scoring1 = 0.0
     for r in logs[1]:
-        nv = math.ceil(r["candidates"] / LANES)
+        nv = math.ceil(scored(r) / LANES)
         units += sum(1.0 if g == 2 else a.one_vector_cost * g / 2.0 for g in plan_groups(nv, 1))
         scoring1 += r["scoring_s"]
     c2 = scoring1 / units
@@ -111,12 +117,13 @@ def main():
         in_rounds = sum(r["round_s"] for r in rows)
         return {"sim": sim, "scoring": scoring, "round_rest": in_rounds - scoring,
                 "outside": p["wall_s"] - sim - in_rounds, "wall": p["wall_s"],
-                "rounds": len(rows), "candidates": sum(r["candidates"] for r in rows)}
+                "rounds": len(rows), "candidates": sum(r["candidates"] for r in rows),
+                "scored": sum(scored(r) for r in rows)}
 
     def modelled_scoring(rows, t):
         ideal = crit = 0.0
         for r in rows:
-            groups = plan_groups(math.ceil(r["candidates"] / LANES), t)
+            groups = plan_groups(math.ceil(scored(r) / LANES), t)
             crit += critical_path(groups, t, c2, c1)
             ideal += sum(group_cost(g, c2, c1) for g in groups) / t
         return crit, ideal
@@ -136,14 +143,14 @@ def main():
     out.append(f"Round model (scripts/perf_rounds.py): a two-vector group costs {1e3 * c2:.3f} ms, a one-vector "
                f"group {1e3 * c1:.3f} ms (fitted to the {p1['rounds']} rounds at 1 thread).")
     out.append("")
-    out.append("| threads | rounds | candidates | scoring measured | scoring modelled (critical path / even split) | "
+    out.append("| threads | rounds | candidates (scored) | scoring measured | scoring modelled (critical path / even split) | "
                "rounds' rest | outside rounds | sim | wall |")
     out.append("|---|---|---|---|---|---|---|---|---|")
     for t in sorted(logs):
         crit, ideal = modelled_scoring(logs[t], t)
         if t in phases:
             p = parts(t)
-            out.append(f"| {t} | {p['rounds']} | {p['candidates']} | {p['scoring']:.1f} | {crit:.1f} / {ideal:.1f} | "
+            out.append(f"| {t} | {p['rounds']} | {p['candidates']} ({p['scored']}) | {p['scoring']:.1f} | {crit:.1f} / {ideal:.1f} | "
                        f"{p['round_rest']:.1f} | {p['outside']:.1f} | {p['sim']:.1f} | {p['wall']:.1f} |")
     out.append("")
     crit2, ideal2 = modelled_scoring(logs[2], 2)
