@@ -16,22 +16,32 @@ double eq15(const std::vector<double>& r) {
   return sum;
 }
 
+// The Eq. 15 terms |r_t| of a residual vector (dvE_t, dvN_t, ...), and their sum in eq15's
+// order (the same bits as eq15(r)): the IRLS weights reuse the terms of the accepted point.
+double eq15_terms(const std::vector<double>& r, std::vector<double>& terms) {
+  terms.resize(r.size() / 2);
+  double sum = 0.0;
+  for (std::size_t e = 0; e < terms.size(); ++e)
+    sum += terms[e] = std::hypot(r[2 * e], r[2 * e + 1]);
+  return sum;
+}
+
 double sum_sq(const std::vector<double>& r) {
   double sum = 0.0;
   for (double v : r) sum += v * v;
   return sum;
 }
 
-// IRLS weights for Eq. 15: minimising sum_t |r_t| is a fixed point of weighted least squares
-// with w_t = 1 / |r_t| (floored to keep it finite at exact matches).
-std::vector<double> eq15_weights(const std::vector<double>& r) {
-  std::vector<double> w(r.size() / 2);
+// IRLS weights for Eq. 15, from its terms |r_t| (eq15_terms): minimising sum_t |r_t| is a fixed
+// point of weighted least squares with w_t = 1 / |r_t| (floored to keep it finite at exact
+// matches).
+std::vector<double> eq15_weights(const std::vector<double>& terms) {
+  std::vector<double> w(terms.size());
   double mean = 0.0;
-  for (std::size_t e = 0; e < w.size(); ++e) mean += std::hypot(r[2 * e], r[2 * e + 1]);
+  for (double t : terms) mean += t;
   mean /= static_cast<double>(std::max<std::size_t>(w.size(), 1));
   const double floor = std::max(1e-6 * mean, 1e-12);
-  for (std::size_t e = 0; e < w.size(); ++e)
-    w[e] = 1.0 / std::max(std::hypot(r[2 * e], r[2 * e + 1]), floor);
+  for (std::size_t e = 0; e < w.size(); ++e) w[e] = 1.0 / std::max(terms[e], floor);
   return w;
 }
 
@@ -71,12 +81,15 @@ LocalFitResult local_fit(const InsIdentificationProblem& problem, const Eigen::V
     if (options.clamp_to_box) v = v.cwiseMax(s_lo).cwiseMin(s_hi);
     return v;
   };
-  auto objective = [&](const std::vector<double>& r) { return options.eq15 ? eq15(r) : sum_sq(r); };
+  // The objective at residuals r; with Eq. 15, `terms` gets its terms for the IRLS weights.
+  auto objective = [&](const std::vector<double>& r, std::vector<double>& terms) {
+    return options.eq15 ? eq15_terms(r, terms) : sum_sq(r);
+  };
 
-  std::vector<double> r;
+  std::vector<double> r, terms, terms_step;
   residuals_at(problem, mapping.from_sigma(s), r);
   ++out.evaluations;
-  double f = objective(r);
+  double f = objective(r, terms);
   double lambda = 1e-3;
   const std::size_t m = r.size();
   Eigen::MatrixXd J(static_cast<Eigen::Index>(m), n);
@@ -104,15 +117,20 @@ LocalFitResult local_fit(const InsIdentificationProblem& problem, const Eigen::V
     }
     std::vector<double> w(m, 1.0);
     if (options.eq15) {
-      const std::vector<double> we = eq15_weights(r);
+      const std::vector<double> we = eq15_weights(terms);
       for (std::size_t e = 0; e < we.size(); ++e) w[2 * e] = w[2 * e + 1] = we[e];
     }
+    // J^T W J and J^T W r, row by row in the order (and with the products) of Eigen's
+    // JtWJ += w_i row^T row, JtWr += w_i row^T r_i, without its per-row product set-up.
     Eigen::MatrixXd JtWJ = Eigen::MatrixXd::Zero(n, n);
     Eigen::VectorXd JtWr = Eigen::VectorXd::Zero(n);
+    Eigen::VectorXd w_row(n);
     for (std::size_t i = 0; i < m; ++i) {
-      const auto row = J.row(static_cast<Eigen::Index>(i));
-      JtWJ.noalias() += w[i] * row.transpose() * row;
-      JtWr.noalias() += w[i] * row.transpose() * r[i];
+      const auto ii = static_cast<Eigen::Index>(i);
+      for (int a = 0; a < n; ++a) w_row[a] = w[i] * J(ii, a);
+      for (int b = 0; b < n; ++b)
+        for (int a = 0; a < n; ++a) JtWJ(a, b) += J(ii, b) * w_row[a];
+      for (int a = 0; a < n; ++a) JtWr[a] += w_row[a] * r[i];
     }
     bool improved = false;
     Eigen::VectorXd step;
@@ -123,11 +141,12 @@ LocalFitResult local_fit(const InsIdentificationProblem& problem, const Eigen::V
       const Eigen::VectorXd s_new = clamp(s + step);
       residuals_at(problem, mapping.from_sigma(s_new), r_step);
       ++out.evaluations;
-      const double f_new = objective(r_step);
+      const double f_new = objective(r_step, terms_step);
       if (std::isfinite(f_new) && f_new <= f) {
         step = s_new - s;
         s = s_new;
         r.swap(r_step);
+        terms.swap(terms_step);
         f = f_new;
         lambda = std::max(lambda * 0.3, 1e-9);
         improved = true;
