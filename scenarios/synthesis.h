@@ -12,6 +12,7 @@
 #pragma once
 
 #include <cstddef>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -50,6 +51,9 @@ class ImuSynthesizer {
 
   const std::vector<ImuSample>& imu() const { return imu_; }
   const std::vector<TruthSample>& truth() const { return truth_; }
+  /// The rows of run(), moved out (imu() and truth() are empty afterwards; state_at still works).
+  std::vector<ImuSample> take_imu() { return std::move(imu_); }
+  std::vector<TruthSample> take_truth() { return std::move(truth_); }
   const Trajectory& trajectory() const { return traj_; }
   const EarthModel& earth() const { return earth_; }
   double imu_rate_hz() const { return rate_; }
