@@ -92,7 +92,10 @@ LocalFitResult local_fit(const InsIdentificationProblem& problem, const Eigen::V
   double f = objective(r, terms);
   double lambda = 1e-3;
   const std::size_t m = r.size();
-  Eigen::MatrixXd J(static_cast<Eigen::Index>(m), n);
+  // The last Jacobian's residuals (its columns stay in r_columns): the result's J is built from
+  // them once, at the end, rather than stored at every iteration (1.7 M rows for paper-fig9).
+  std::vector<double> r_jacobian;
+  Eigen::VectorXd h_jacobian;
   std::vector<double> r_step;
   std::vector<Eigen::VectorXd> x_columns(static_cast<std::size_t>(n));
   std::vector<std::vector<double>> r_columns(static_cast<std::size_t>(n));
@@ -110,26 +113,22 @@ LocalFitResult local_fit(const InsIdentificationProblem& problem, const Eigen::V
     }
     problem.evaluate_residual_batch(x_columns, r_columns, f_columns);
     out.evaluations += n;
-    for (int j = 0; j < n; ++j) {
-      const std::vector<double>& r_col = r_columns[static_cast<std::size_t>(j)];
-      for (std::size_t i = 0; i < m; ++i)
-        J(static_cast<Eigen::Index>(i), j) = (r_col[i] - r[i]) / h[j];
-    }
-    std::vector<double> w(m, 1.0);
-    if (options.eq15) {
-      const std::vector<double> we = eq15_weights(terms);
-      for (std::size_t e = 0; e < we.size(); ++e) w[2 * e] = w[2 * e + 1] = we[e];
-    }
-    // J^T W J and J^T W r, row by row in the order (and with the products) of Eigen's
-    // JtWJ += w_i row^T row, JtWr += w_i row^T r_i, without its per-row product set-up.
+    r_jacobian = r;
+    h_jacobian = h;
+    // IRLS weights per epoch (both rows of an epoch share it); 1 without Eq. 15.
+    const std::vector<double> w_epoch = options.eq15 ? eq15_weights(terms) : std::vector<double>{};
+    // J^T W J and J^T W r in one pass over the rows, with the Jacobian row J_i = (r_col - r) / h
+    // and the products of Eigen's JtWJ += w_i J_i^T J_i, JtWr += w_i J_i^T r_i in its order.
     Eigen::MatrixXd JtWJ = Eigen::MatrixXd::Zero(n, n);
     Eigen::VectorXd JtWr = Eigen::VectorXd::Zero(n);
-    Eigen::VectorXd w_row(n);
+    Eigen::VectorXd J_row(n), w_row(n);
     for (std::size_t i = 0; i < m; ++i) {
-      const auto ii = static_cast<Eigen::Index>(i);
-      for (int a = 0; a < n; ++a) w_row[a] = w[i] * J(ii, a);
+      const double w_i = i / 2 < w_epoch.size() ? w_epoch[i / 2] : 1.0;
+      for (int a = 0; a < n; ++a)
+        J_row[a] = (r_columns[static_cast<std::size_t>(a)][i] - r[i]) / h[a];
+      for (int a = 0; a < n; ++a) w_row[a] = w_i * J_row[a];
       for (int b = 0; b < n; ++b)
-        for (int a = 0; a < n; ++a) JtWJ(a, b) += J(ii, b) * w_row[a];
+        for (int a = 0; a < n; ++a) JtWJ(a, b) += J_row[b] * w_row[a];
       for (int a = 0; a < n; ++a) JtWr[a] += w_row[a] * r[i];
     }
     bool improved = false;
@@ -161,7 +160,15 @@ LocalFitResult local_fit(const InsIdentificationProblem& problem, const Eigen::V
   out.fitness = eq15(r);
   out.sum_squares = sum_sq(r);
   out.residuals = r;
-  out.jacobian_sigma = J;
+  if (!r_jacobian.empty()) {
+    Eigen::MatrixXd& J = out.jacobian_sigma;
+    J.resize(static_cast<Eigen::Index>(m), n);
+    for (int j = 0; j < n; ++j) {
+      const std::vector<double>& r_col = r_columns[static_cast<std::size_t>(j)];
+      for (std::size_t i = 0; i < m; ++i)
+        J(static_cast<Eigen::Index>(i), j) = (r_col[i] - r_jacobian[i]) / h_jacobian[j];
+    }
+  }
   return out;
 }
 

@@ -35,8 +35,11 @@ struct LocalFitResult {
   double sum_squares = 0.0;      ///< sum of squared residuals at x
   std::int64_t evaluations = 0;  ///< full INS runs spent (Jacobian columns included)
   int iterations = 0;
-  Eigen::MatrixXd jacobian_sigma;  ///< d r / d value_sigma at x (m/s per sigma)
-  std::vector<double> residuals;   ///< at x
+  /// d r / d value_sigma (m/s per sigma): the last forward-difference Jacobian, taken at the
+  /// point before the last step (at x when that step was rejected); empty when max_iterations is
+  /// 0.
+  Eigen::MatrixXd jacobian_sigma;
+  std::vector<double> residuals;  ///< at x
 };
 
 /// Polishes from x0 (normalised coordinates) on the problem's residual vector.
