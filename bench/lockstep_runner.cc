@@ -85,6 +85,9 @@ struct LockstepRunner::Impl {
       if (settings_.wave_finished)
         settings_.wave_finished(wave.size(), wave_candidates, target, wave_s);
       write_parked_runs();
+      // The scenario's last wave: its memo is no longer needed (a campaign of many scenarios
+      // would otherwise keep up to two generations of candidates for each).
+      if (next >= ids.size() || runs_[ids[next]].scenario != scenario) st.memo = opt::FitnessMemo();
     }
     // The optima found alongside: wait for them, then write the runs that waited for them.
     for (std::size_t s = 0; s < states_.size(); ++s)
