@@ -99,6 +99,11 @@ LocalFitResult local_fit(const InsIdentificationProblem& problem, const Eigen::V
   std::vector<double> r_step;
   std::vector<Eigen::VectorXd> x_columns(static_cast<std::size_t>(n));
   std::vector<std::vector<double>> r_columns(static_cast<std::size_t>(n));
+  // Forward difference of row i, column j: (r_col - r_base) / h, in sigma units.
+  const auto jacobian_entry = [&](int j, std::size_t i, const std::vector<double>& r_base,
+                                  const Eigen::VectorXd& h) {
+    return (r_columns[static_cast<std::size_t>(j)][i] - r_base[i]) / h[j];
+  };
   std::vector<double> f_columns(static_cast<std::size_t>(n));
   for (int it = 0; it < options.max_iterations; ++it) {
     out.iterations = it + 1;
@@ -124,8 +129,7 @@ LocalFitResult local_fit(const InsIdentificationProblem& problem, const Eigen::V
     Eigen::VectorXd J_row(n), w_row(n);
     for (std::size_t i = 0; i < m; ++i) {
       const double w_i = i / 2 < w_epoch.size() ? w_epoch[i / 2] : 1.0;
-      for (int a = 0; a < n; ++a)
-        J_row[a] = (r_columns[static_cast<std::size_t>(a)][i] - r[i]) / h[a];
+      for (int a = 0; a < n; ++a) J_row[a] = jacobian_entry(a, i, r, h);
       for (int a = 0; a < n; ++a) w_row[a] = w_i * J_row[a];
       for (int b = 0; b < n; ++b)
         for (int a = 0; a < n; ++a) JtWJ(a, b) += J_row[b] * w_row[a];
@@ -163,11 +167,9 @@ LocalFitResult local_fit(const InsIdentificationProblem& problem, const Eigen::V
   if (!r_jacobian.empty()) {
     Eigen::MatrixXd& J = out.jacobian_sigma;
     J.resize(static_cast<Eigen::Index>(m), n);
-    for (int j = 0; j < n; ++j) {
-      const std::vector<double>& r_col = r_columns[static_cast<std::size_t>(j)];
+    for (int j = 0; j < n; ++j)
       for (std::size_t i = 0; i < m; ++i)
-        J(static_cast<Eigen::Index>(i), j) = (r_col[i] - r_jacobian[i]) / h_jacobian[j];
-    }
+        J(static_cast<Eigen::Index>(i), j) = jacobian_entry(j, i, r_jacobian, h_jacobian);
   }
   return out;
 }
