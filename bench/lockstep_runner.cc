@@ -183,16 +183,18 @@ struct LockstepRunner::Impl {
     if (st.optimum || source == OptimumSource::kWait) return;
     report({.kind = ProgressEvent::Kind::kFindingOptimum, .scenario = spec.name});
     // Alongside the runs, which do not need it (only their files' error_vs_optimum block does):
-    // one more thread beside the OpenMP team, on its own problem that scores serially. The
+    // one more thread beside the OpenMP team, on its own problem. Its starts run in lock-step,
+    // one batch a round (local_fits), scored on up to a quarter as many threads as the team (at
+    // 16 threads the optimum on one thread would outlast the runs), on one at 2 threads. The
     // kernel gives the same bits for any thread count, so the optimum equals one found first.
-    opt::EvaluatorOptions serial;
-    serial.parallelism = opt::Parallelism::kSerial;
-    st.optimum_problem = std::make_unique<InsIdentificationProblem>(
-        st.navigation, mapping_, FitnessKind::kEq15, serial,
-        settings_.scalar_reference ? FitnessEvaluator::kScalar : FitnessEvaluator::kBatched);
-    // Its four starts run on up to a quarter as many threads as the team (at 16 threads the
-    // optimum, one start after another, would outlast the runs), one at 2 threads.
     const int optimum_threads = std::clamp(settings_.threads / 4, 1, 4);
+    opt::EvaluatorOptions beside;
+    beside.parallelism =
+        optimum_threads > 1 ? opt::Parallelism::kOpenMP : opt::Parallelism::kSerial;
+    beside.num_threads = optimum_threads;
+    st.optimum_problem = std::make_unique<InsIdentificationProblem>(
+        st.navigation, mapping_, FitnessKind::kEq15, beside,
+        settings_.scalar_reference ? FitnessEvaluator::kScalar : FitnessEvaluator::kBatched);
     st.optimum_future =
         std::async(std::launch::async, [problem = st.optimum_problem.get(), optimum_threads] {
           return find_reference_optimum(*problem, kReferenceOptimumStarts, kReferenceOptimumSeed,

@@ -3,7 +3,6 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-#include <future>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
@@ -77,21 +76,9 @@ ReferenceOptimum find_reference_optimum(const InsIdentificationProblem& problem,
     for (int j = 0; j < n; ++j) x0[static_cast<std::size_t>(s)][j] = -0.8 + 1.6 * rng.uniform();
   LocalFitOptions options;
   options.max_iterations = 40;
-  std::vector<LocalFitResult> fits(static_cast<std::size_t>(starts));
-  // Up to `threads` starts at once, each on its own thread (the problem scores concurrently:
-  // its evaluations are const and keep no state).
-  for (int first = 0; first < starts; first += threads) {
-    const int last = std::min(starts, first + threads);
-    std::vector<std::future<LocalFitResult>> running;
-    for (int s = first + 1; s < last; ++s)
-      running.push_back(std::async(std::launch::async, [&problem, &options, &x0, s] {
-        return local_fit(problem, x0[static_cast<std::size_t>(s)], options);
-      }));
-    fits[static_cast<std::size_t>(first)] =
-        local_fit(problem, x0[static_cast<std::size_t>(first)], options);
-    for (int s = first + 1; s < last; ++s)
-      fits[static_cast<std::size_t>(s)] = running[static_cast<std::size_t>(s - first - 1)].get();
-  }
+  options.keep_jacobian = false;  // only the estimate and fitness are kept
+  // The starts in lock-step: one batch a round for all of them (local_fits).
+  const std::vector<LocalFitResult> fits = local_fits(problem, x0, options, threads);
   ReferenceOptimum best;
   best.fitness = std::numeric_limits<double>::infinity();
   for (const LocalFitResult& fit : fits) {

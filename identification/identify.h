@@ -34,9 +34,10 @@ struct ReferenceOptimum {
   static ReferenceOptimum from_json(const nlohmann::json& j, const ParameterMapping& mapping);
 };
 
-/// Multi-start local fit from the box centre and `starts - 1` seeded random points, up to
-/// `threads` starts at once (the problem is scored from several threads concurrently). The
-/// result does not depend on `threads`.
+/// Multi-start local fit from the box centre and `starts - 1` seeded random points, the starts
+/// in lock-step (local_fits: one batch a round for all of them, scored with the problem's own
+/// parallelism; their linear algebra on up to `threads` threads). The result does not depend on
+/// `threads` or on the problem's thread count.
 constexpr int kReferenceOptimumStarts = 4;
 constexpr std::uint64_t kReferenceOptimumSeed = 12345;
 ReferenceOptimum find_reference_optimum(const InsIdentificationProblem& problem,

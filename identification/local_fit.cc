@@ -1,6 +1,8 @@
 #include "identification/local_fit.h"
 
+#include <algorithm>
 #include <cmath>
+#include <exception>
 #include <span>
 #include <stdexcept>
 #include <string>
@@ -45,6 +47,200 @@ std::vector<double> eq15_weights(const std::vector<double>& terms) {
   return w;
 }
 
+// Fit of one start, as a state machine that the lock-step driver (local_fits) advances: it asks
+// for the candidates it waits for (request), and takes their residuals (advance). The
+// arithmetic and its order are those of the sequential Levenberg-Marquardt loop:
+//   r = residuals(s); for each iteration: Jacobian about s (n columns); up to 12 trials with
+//   growing damping until one does not raise the objective; stop when none does, when the step
+//   is below tolerance_sigma or after max_iterations.
+class FitRun {
+ public:
+  FitRun(const InsIdentificationProblem& problem, const Eigen::VectorXd& x0,
+         const LocalFitOptions& options)
+      : mapping_(problem.mapping()),
+        options_(options),
+        n_(mapping_.dimension()),
+        s_(mapping_.to_sigma(x0)),
+        s_lo_(mapping_.to_sigma(Eigen::VectorXd::Constant(n_, -1.0))),
+        s_hi_(mapping_.to_sigma(Eigen::VectorXd::Constant(n_, 1.0))),
+        x_columns_(static_cast<std::size_t>(n_)),
+        r_columns_(static_cast<std::size_t>(n_)) {
+    x_trial_ = mapping_.from_sigma(s_);  // the start point, scored first
+  }
+
+  bool done() const { return state_ == State::kDone; }
+
+  /// Appends the candidates this start waits for, and where their residuals go.
+  void request(std::vector<Eigen::VectorXd>& xs, std::vector<std::vector<double>*>& outs) {
+    if (state_ == State::kJacobian) {
+      for (int j = 0; j < n_; ++j) {
+        xs.push_back(x_columns_[static_cast<std::size_t>(j)]);
+        outs.push_back(&r_columns_[static_cast<std::size_t>(j)]);
+      }
+    } else if (state_ == State::kStart || state_ == State::kTrial) {
+      xs.push_back(x_trial_);
+      outs.push_back(&r_step_);
+    }
+  }
+
+  /// Takes the residuals of the candidates requested last (already in place) and moves on.
+  void advance() {
+    switch (state_) {
+      case State::kStart:
+        r_.swap(r_step_);
+        ++out_.evaluations;
+        f_ = objective(r_, terms_);
+        next_iteration();
+        break;
+      case State::kJacobian:
+        out_.evaluations += n_;
+        normal_equations();
+        propose_trial();
+        break;
+      case State::kTrial:
+        judge_trial();
+        break;
+      case State::kDone:
+        break;
+    }
+  }
+
+  LocalFitResult result() {
+    out_.value_sigma = s_;
+    out_.x = mapping_.from_sigma(s_);
+    out_.fitness = eq15(r_);
+    out_.sum_squares = sum_sq(r_);
+    if (options_.keep_jacobian && iteration_ > 0) {
+      // The last Jacobian's base: r itself when no step was accepted after it.
+      const std::vector<double>& r_base = base_is_r_ ? r_ : r_jacobian_;
+      const std::size_t m = r_base.size();
+      Eigen::MatrixXd& J = out_.jacobian_sigma;
+      J.resize(static_cast<Eigen::Index>(m), n_);
+      for (int j = 0; j < n_; ++j)
+        for (std::size_t i = 0; i < m; ++i)
+          J(static_cast<Eigen::Index>(i), j) = jacobian_entry(j, i, r_base, h_jacobian_);
+    }
+    out_.residuals = std::move(r_);
+    return std::move(out_);
+  }
+
+ private:
+  enum class State { kStart, kJacobian, kTrial, kDone };
+
+  // The objective at residuals r; with Eq. 15, `terms` gets its terms for the IRLS weights.
+  double objective(const std::vector<double>& r, std::vector<double>& terms) const {
+    return options_.eq15 ? eq15_terms(r, terms) : sum_sq(r);
+  }
+  Eigen::VectorXd clamp(Eigen::VectorXd v) const {
+    if (options_.clamp_to_box) v = v.cwiseMax(s_lo_).cwiseMin(s_hi_);
+    return v;
+  }
+  // Forward difference of row i, column j: (r_col - r_base) / h, in sigma units.
+  double jacobian_entry(int j, std::size_t i, const std::vector<double>& r_base,
+                        const Eigen::VectorXd& h) const {
+    return (r_columns_[static_cast<std::size_t>(j)][i] - r_base[i]) / h[j];
+  }
+
+  // Forward-difference Jacobian in sigma units (one full INS run per column) about s.
+  void next_iteration() {
+    if (iteration_ >= options_.max_iterations) {
+      state_ = State::kDone;
+      return;
+    }
+    out_.iterations = ++iteration_;
+    h_ = Eigen::VectorXd::Constant(n_, options_.step_sigma);
+    for (int j = 0; j < n_; ++j) {
+      if (options_.clamp_to_box && s_[j] + h_[j] > s_hi_[j]) h_[j] = -h_[j];
+      Eigen::VectorXd s_step = s_;
+      s_step[j] += h_[j];
+      x_columns_[static_cast<std::size_t>(j)] = mapping_.from_sigma(s_step);
+    }
+    state_ = State::kJacobian;
+  }
+
+  // J^T W J and J^T W r in one pass over the rows, with the Jacobian row J_i = (r_col - r) / h
+  // and the products of Eigen's JtWJ += w_i J_i^T J_i, JtWr += w_i J_i^T r_i in its order; IRLS
+  // weights per epoch (both rows of an epoch share it), 1 without Eq. 15.
+  void normal_equations() {
+    h_jacobian_ = h_;
+    base_is_r_ = true;
+    const std::vector<double> w_epoch =
+        options_.eq15 ? eq15_weights(terms_) : std::vector<double>{};
+    JtWJ_ = Eigen::MatrixXd::Zero(n_, n_);
+    JtWr_ = Eigen::VectorXd::Zero(n_);
+    Eigen::VectorXd J_row(n_), w_row(n_);
+    for (std::size_t i = 0; i < r_.size(); ++i) {
+      const double w_i = i / 2 < w_epoch.size() ? w_epoch[i / 2] : 1.0;
+      for (int a = 0; a < n_; ++a) J_row[a] = jacobian_entry(a, i, r_, h_);
+      for (int a = 0; a < n_; ++a) w_row[a] = w_i * J_row[a];
+      for (int b = 0; b < n_; ++b)
+        for (int a = 0; a < n_; ++a) JtWJ_(a, b) += J_row[b] * w_row[a];
+      for (int a = 0; a < n_; ++a) JtWr_[a] += w_row[a] * r_[i];
+    }
+    tries_ = 0;
+  }
+
+  void propose_trial() {
+    Eigen::MatrixXd A = JtWJ_;
+    A.diagonal() += lambda_ * JtWJ_.diagonal().cwiseMax(1e-30);
+    const Eigen::VectorXd step = -A.ldlt().solve(JtWr_);
+    s_new_ = clamp(s_ + step);
+    x_trial_ = mapping_.from_sigma(s_new_);
+    state_ = State::kTrial;
+  }
+
+  void judge_trial() {
+    ++out_.evaluations;
+    ++tries_;
+    const double f_new = objective(r_step_, terms_step_);
+    if (std::isfinite(f_new) && f_new <= f_) {
+      const Eigen::VectorXd step = s_new_ - s_;
+      s_ = s_new_;
+      // The Jacobian's base moves aside (the result's Jacobian may need it); r takes the trial.
+      r_jacobian_.swap(r_);
+      base_is_r_ = false;
+      r_.swap(r_step_);
+      terms_.swap(terms_step_);
+      f_ = f_new;
+      lambda_ = std::max(lambda_ * 0.3, 1e-9);
+      if (step.norm() < options_.tolerance_sigma)
+        state_ = State::kDone;
+      else
+        next_iteration();
+      return;
+    }
+    lambda_ *= 10.0;
+    if (tries_ < 12)
+      propose_trial();
+    else
+      state_ = State::kDone;
+  }
+
+  const ParameterMapping& mapping_;
+  const LocalFitOptions& options_;
+  const int n_;
+  State state_ = State::kStart;
+  LocalFitResult out_;
+  Eigen::VectorXd s_;  // the estimate, sigma units
+  const Eigen::VectorXd s_lo_, s_hi_;
+  std::vector<double> r_, terms_;  // residuals and Eq. 15 terms at s
+  double f_ = 0.0;                 // objective at s
+  double lambda_ = 1e-3;
+  int iteration_ = 0, tries_ = 0;
+  Eigen::VectorXd h_, h_jacobian_;
+  std::vector<Eigen::VectorXd> x_columns_;
+  std::vector<std::vector<double>> r_columns_;
+  // The last Jacobian's base residuals, once a step moved s away from it (base_is_r_ false);
+  // the result's J is built from them once, at the end, rather than stored at every iteration
+  // (1.7 M rows for paper-fig9).
+  std::vector<double> r_jacobian_;
+  bool base_is_r_ = true;
+  Eigen::MatrixXd JtWJ_;
+  Eigen::VectorXd JtWr_;
+  Eigen::VectorXd s_new_, x_trial_;
+  std::vector<double> r_step_, terms_step_;  // residuals and terms of the trial (or start) point
+};
+
 }  // namespace
 
 void residuals_at(const InsIdentificationProblem& problem, const Eigen::VectorXd& x,
@@ -68,110 +264,60 @@ std::string LocalFitOptions::validate() const {
   return "";
 }
 
-LocalFitResult local_fit(const InsIdentificationProblem& problem, const Eigen::VectorXd& x0,
-                         const LocalFitOptions& options) {
+std::vector<LocalFitResult> local_fits(const InsIdentificationProblem& problem,
+                                       std::span<const Eigen::VectorXd> x0s,
+                                       const LocalFitOptions& options, int threads) {
   if (const std::string why = options.validate(); !why.empty()) throw std::invalid_argument(why);
-  const ParameterMapping& mapping = problem.mapping();
-  const int n = mapping.dimension();
-  LocalFitResult out;
-  Eigen::VectorXd s = mapping.to_sigma(x0);  // work in sigma units
-  const Eigen::VectorXd s_lo = mapping.to_sigma(Eigen::VectorXd::Constant(n, -1.0));
-  const Eigen::VectorXd s_hi = mapping.to_sigma(Eigen::VectorXd::Constant(n, 1.0));
-  auto clamp = [&](Eigen::VectorXd v) {
-    if (options.clamp_to_box) v = v.cwiseMax(s_lo).cwiseMin(s_hi);
-    return v;
-  };
-  // The objective at residuals r; with Eq. 15, `terms` gets its terms for the IRLS weights.
-  auto objective = [&](const std::vector<double>& r, std::vector<double>& terms) {
-    return options.eq15 ? eq15_terms(r, terms) : sum_sq(r);
-  };
-
-  std::vector<double> r, terms, terms_step;
-  residuals_at(problem, mapping.from_sigma(s), r);
-  ++out.evaluations;
-  double f = objective(r, terms);
-  double lambda = 1e-3;
-  const std::size_t m = r.size();
-  // The last Jacobian's residuals (its columns stay in r_columns): the result's J is built from
-  // them once, at the end, rather than stored at every iteration (1.7 M rows for paper-fig9).
-  std::vector<double> r_jacobian;
-  Eigen::VectorXd h_jacobian;
-  std::vector<double> r_step;
-  std::vector<Eigen::VectorXd> x_columns(static_cast<std::size_t>(n));
-  std::vector<std::vector<double>> r_columns(static_cast<std::size_t>(n));
-  // Forward difference of row i, column j: (r_col - r_base) / h, in sigma units.
-  const auto jacobian_entry = [&](int j, std::size_t i, const std::vector<double>& r_base,
-                                  const Eigen::VectorXd& h) {
-    return (r_columns[static_cast<std::size_t>(j)][i] - r_base[i]) / h[j];
-  };
-  std::vector<double> f_columns(static_cast<std::size_t>(n));
-  for (int it = 0; it < options.max_iterations; ++it) {
-    out.iterations = it + 1;
-    // Forward-difference Jacobian in sigma units (one full INS run per column); the n columns
-    // are scored as one batch, so the batched kernel runs them side by side.
-    Eigen::VectorXd h = Eigen::VectorXd::Constant(n, options.step_sigma);
-    for (int j = 0; j < n; ++j) {
-      if (options.clamp_to_box && s[j] + h[j] > s_hi[j]) h[j] = -h[j];
-      Eigen::VectorXd s_step = s;
-      s_step[j] += h[j];
-      x_columns[static_cast<std::size_t>(j)] = mapping.from_sigma(s_step);
+  if (threads < 1)
+    throw std::invalid_argument("local fit: threads must be >= 1, got " + std::to_string(threads));
+  std::vector<FitRun> runs;
+  runs.reserve(x0s.size());
+  for (const Eigen::VectorXd& x0 : x0s) runs.emplace_back(problem, x0, options);
+  std::vector<Eigen::VectorXd> xs;
+  std::vector<std::vector<double>*> outs;
+  std::vector<std::vector<double>> batch;  // the residual slots of one round
+  std::vector<double> f;
+  std::vector<int> active;
+  for (;;) {
+    xs.clear();
+    outs.clear();
+    active.clear();
+    for (std::size_t i = 0; i < runs.size(); ++i) {
+      if (runs[i].done()) continue;
+      active.push_back(static_cast<int>(i));
+      runs[i].request(xs, outs);
     }
-    problem.evaluate_residual_batch(x_columns, r_columns, f_columns);
-    out.evaluations += n;
-    r_jacobian = r;
-    h_jacobian = h;
-    // IRLS weights per epoch (both rows of an epoch share it); 1 without Eq. 15.
-    const std::vector<double> w_epoch = options.eq15 ? eq15_weights(terms) : std::vector<double>{};
-    // J^T W J and J^T W r in one pass over the rows, with the Jacobian row J_i = (r_col - r) / h
-    // and the products of Eigen's JtWJ += w_i J_i^T J_i, JtWr += w_i J_i^T r_i in its order.
-    Eigen::MatrixXd JtWJ = Eigen::MatrixXd::Zero(n, n);
-    Eigen::VectorXd JtWr = Eigen::VectorXd::Zero(n);
-    Eigen::VectorXd J_row(n), w_row(n);
-    for (std::size_t i = 0; i < m; ++i) {
-      const double w_i = i / 2 < w_epoch.size() ? w_epoch[i / 2] : 1.0;
-      for (int a = 0; a < n; ++a) J_row[a] = jacobian_entry(a, i, r, h);
-      for (int a = 0; a < n; ++a) w_row[a] = w_i * J_row[a];
-      for (int b = 0; b < n; ++b)
-        for (int a = 0; a < n; ++a) JtWJ(a, b) += J_row[b] * w_row[a];
-      for (int a = 0; a < n; ++a) JtWr[a] += w_row[a] * r[i];
-    }
-    bool improved = false;
-    Eigen::VectorXd step;
-    for (int tries = 0; tries < 12 && !improved; ++tries) {
-      Eigen::MatrixXd A = JtWJ;
-      A.diagonal() += lambda * JtWJ.diagonal().cwiseMax(1e-30);
-      step = -A.ldlt().solve(JtWr);
-      const Eigen::VectorXd s_new = clamp(s + step);
-      residuals_at(problem, mapping.from_sigma(s_new), r_step);
-      ++out.evaluations;
-      const double f_new = objective(r_step, terms_step);
-      if (std::isfinite(f_new) && f_new <= f) {
-        step = s_new - s;
-        s = s_new;
-        r.swap(r_step);
-        terms.swap(terms_step);
-        f = f_new;
-        lambda = std::max(lambda * 0.3, 1e-9);
-        improved = true;
-      } else {
-        lambda *= 10.0;
+    if (active.empty()) break;
+    // One batch for every start: the slots are the starts' own buffers, lent and given back.
+    batch.resize(xs.size());
+    f.resize(xs.size());
+    for (std::size_t k = 0; k < xs.size(); ++k) batch[k].swap(*outs[k]);
+    problem.evaluate_residual_batch(xs, batch, f);
+    for (std::size_t k = 0; k < xs.size(); ++k) batch[k].swap(*outs[k]);
+    // Each start's own linear algebra touches only its own state.
+    const int n_active = static_cast<int>(active.size());
+    std::vector<std::exception_ptr> errors(active.size());
+#pragma omp parallel for schedule(dynamic, 1) \
+    num_threads(std::min(threads, n_active)) if (threads > 1 && n_active > 1)
+    for (int a = 0; a < n_active; ++a) {
+      try {
+        runs[static_cast<std::size_t>(active[a])].advance();
+      } catch (...) {
+        errors[static_cast<std::size_t>(a)] = std::current_exception();
       }
     }
-    if (!improved || step.norm() < options.tolerance_sigma) break;
+    for (const std::exception_ptr& error : errors)
+      if (error) std::rethrow_exception(error);
   }
-  out.value_sigma = s;
-  out.x = mapping.from_sigma(s);
-  out.fitness = eq15(r);
-  out.sum_squares = sum_sq(r);
-  out.residuals = r;
-  if (!r_jacobian.empty()) {
-    Eigen::MatrixXd& J = out.jacobian_sigma;
-    J.resize(static_cast<Eigen::Index>(m), n);
-    for (int j = 0; j < n; ++j)
-      for (std::size_t i = 0; i < m; ++i)
-        J(static_cast<Eigen::Index>(i), j) = jacobian_entry(j, i, r_jacobian, h_jacobian);
-  }
-  return out;
+  std::vector<LocalFitResult> results;
+  results.reserve(runs.size());
+  for (FitRun& run : runs) results.push_back(run.result());
+  return results;
+}
+
+LocalFitResult local_fit(const InsIdentificationProblem& problem, const Eigen::VectorXd& x0,
+                         const LocalFitOptions& options) {
+  return std::move(local_fits(problem, std::span<const Eigen::VectorXd>(&x0, 1), options)[0]);
 }
 
 }  // namespace insid
