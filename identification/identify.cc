@@ -1,8 +1,5 @@
 #include "identification/identify.h"
 
-#include <omp.h>
-
-#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -144,12 +141,8 @@ ReferenceOptimum cached_reference_optimum(const std::string& data_dir,
   if (note)
     note("finding the data's own optimum (multi-start local fit, cached in " + path.string() + ")");
   // The starts' linear algebra on the problem's own threads (the optimum does not depend on it).
-  const opt::EvaluatorOptions& evaluator = problem.evaluator();
-  const int threads = evaluator.parallelism != opt::Parallelism::kOpenMP ? 1
-                      : evaluator.num_threads > 0                        ? evaluator.num_threads
-                                                                         : omp_get_max_threads();
-  ReferenceOptimum opt = find_reference_optimum(problem, kReferenceOptimumStarts,
-                                                kReferenceOptimumSeed, std::max(threads, 1));
+  ReferenceOptimum opt = find_reference_optimum(
+      problem, kReferenceOptimumStarts, kReferenceOptimumSeed, problem.evaluator().threads());
   if (!cache.is_object()) cache = nlohmann::json::object();
   cache[key] = opt.to_json(problem.mapping());
   try {

@@ -1,7 +1,5 @@
 #include "identification/ins_problem.h"
 
-#include <omp.h>
-
 #include <charconv>
 #include <cmath>
 #include <exception>
@@ -213,9 +211,7 @@ void InsIdentificationProblem::score(std::span<const Eigen::VectorXd> xs, std::s
   request.fitness = f_out;
   request.kind = kind_;
   request.residuals = r_out;
-  request.threads = options_.parallelism == opt::Parallelism::kOpenMP
-                        ? (options_.num_threads > 0 ? options_.num_threads : omp_get_max_threads())
-                        : 1;
+  request.threads = options_.threads();
   std::vector<std::exception_ptr> kernel_errors(xs.size());
   request.errors = kernel_errors;
   kernel_->evaluate(request);

@@ -118,7 +118,7 @@ class FitRun {
       J.resize(static_cast<Eigen::Index>(m), n_);
       for (int j = 0; j < n_; ++j)
         for (std::size_t i = 0; i < m; ++i)
-          J(static_cast<Eigen::Index>(i), j) = jacobian_entry(j, i, r_base, h_jacobian_);
+          J(static_cast<Eigen::Index>(i), j) = jacobian_entry(j, i, r_base, h_);
     }
     out_.residuals = std::move(r_);
     return std::move(out_);
@@ -162,7 +162,6 @@ class FitRun {
   // and the products of Eigen's JtWJ += w_i J_i^T J_i, JtWr += w_i J_i^T r_i in its order; IRLS
   // weights per epoch (both rows of an epoch share it), 1 without Eq. 15.
   void normal_equations() {
-    h_jacobian_ = h_;
     base_is_r_ = true;
     const std::vector<double> w_epoch =
         options_.eq15 ? eq15_weights(terms_) : std::vector<double>{};
@@ -227,7 +226,7 @@ class FitRun {
   double f_ = 0.0;                 // objective at s
   double lambda_ = 1e-3;
   int iteration_ = 0, tries_ = 0;
-  Eigen::VectorXd h_, h_jacobian_;
+  Eigen::VectorXd h_;  // the last Jacobian's steps
   std::vector<Eigen::VectorXd> x_columns_;
   std::vector<std::vector<double>> r_columns_;
   // The last Jacobian's base residuals, once a step moved s away from it (base_is_r_ false);
@@ -242,15 +241,6 @@ class FitRun {
 };
 
 }  // namespace
-
-void residuals_at(const InsIdentificationProblem& problem, const Eigen::VectorXd& x,
-                  std::vector<double>& r) {
-  // Through the problem's residual path: the batched kernel when it covers the data (equal to
-  // NavigationProblem::residuals within ~1e-12 relative, issue 6), else the scalar reference.
-  double f = 0.0;
-  problem.evaluate_residual_batch(std::span<const Eigen::VectorXd>(&x, 1),
-                                  std::span<std::vector<double>>(&r, 1), std::span<double>(&f, 1));
-}
 
 std::string LocalFitOptions::validate() const {
   if (max_iterations < 0)

@@ -60,8 +60,4 @@ std::vector<LocalFitResult> local_fits(const InsIdentificationProblem& problem,
                                        std::span<const Eigen::VectorXd> x0s,
                                        const LocalFitOptions& options = {}, int threads = 1);
 
-/// Residual vector and Eq. 15 fitness at a normalised point.
-void residuals_at(const InsIdentificationProblem& problem, const Eigen::VectorXd& x,
-                  std::vector<double>& r);
-
 }  // namespace insid

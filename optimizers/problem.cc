@@ -92,7 +92,7 @@ void evaluate_each(std::span<const Eigen::VectorXd> xs, std::span<double> f_out,
   // One slot per candidate: no synchronisation, and the rethrown error is the lowest index
   // whatever the thread count or schedule.
   std::vector<std::exception_ptr> errors(xs.size());
-  const int threads = options.num_threads > 0 ? options.num_threads : omp_get_max_threads();
+  const int threads = options.threads();
 #pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
   for (std::ptrdiff_t i = 0; i < count; ++i) {
     try {
@@ -116,6 +116,11 @@ std::string EvaluatorOptions::validate() const {
 const EvaluatorOptions& EvaluatorOptions::validated() const {
   if (const std::string why = validate(); !why.empty()) throw std::invalid_argument(why);
   return *this;
+}
+
+int EvaluatorOptions::threads() const {
+  if (parallelism != Parallelism::kOpenMP) return 1;
+  return num_threads > 0 ? num_threads : omp_get_max_threads();
 }
 
 ScalarProblem::ScalarProblem(Bounds bounds, EvaluatorOptions options)

@@ -91,6 +91,9 @@ struct EvaluatorOptions {
   std::string validate() const;
   /// *this, or std::invalid_argument with validate()'s reason (for constructors).
   const EvaluatorOptions& validated() const;
+  /// The threads a batch is scored on: 1 serially; with OpenMP num_threads, or the OpenMP
+  /// default when it is 0.
+  int threads() const;
 };
 
 /// The per-candidate evaluator: f_out[i] = fitness(xs[i]) serially or with OpenMP. An
