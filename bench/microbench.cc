@@ -173,7 +173,7 @@ alignas(64) double probe_buffer[32 * 8];
         "xmm9", "xmm10", "xmm11", "xmm12", "xmm13", "xmm16", "xmm17", "xmm18", "xmm19", "xmm20", \
         "memory")
 
-enum class Probe { kFma, kFmaLoads, kFmaStores, kFmaLoadsStores, kKernelMix, kDiv };
+enum class Probe { kFma, kFmaLoads, kFmaStores, kFmaLoadsStores, kKernelMix, kDiv, kFmaDiv };
 
 void BM_Pipe(benchmark::State& state, Probe probe) {
   double fma_per_block = 12.0, div_per_block = 0.0;
@@ -201,6 +201,11 @@ void BM_Pipe(benchmark::State& state, Probe probe) {
             "vdivpd %%zmm12, %%zmm13, %%zmm0\n vdivpd %%zmm12, %%zmm13, %%zmm1\n"
             "vdivpd %%zmm12, %%zmm13, %%zmm2\n vdivpd %%zmm12, %%zmm13, %%zmm3\n");
         break;
+      case Probe::kFmaDiv:  // 36 FMAs and 1 independent division (the kernel: 10 per 312)
+        fma_per_block = 36.0;
+        div_per_block = 1.0;
+        INSID_PROBE(INSID_FMA12 "vdivpd %%zmm12, %%zmm13, %%zmm16\n" INSID_FMA12 INSID_FMA12);
+        break;
     }
   }
   const double blocks = static_cast<double>(kProbeBlocks);
@@ -219,6 +224,10 @@ BENCHMARK_CAPTURE(BM_Pipe, fma_store3, Probe::kFmaStores)->UseRealTime();
 BENCHMARK_CAPTURE(BM_Pipe, fma_load10_store3, Probe::kFmaLoadsStores)->UseRealTime();
 BENCHMARK_CAPTURE(BM_Pipe, kernel_mix, Probe::kKernelMix)->UseRealTime();
 BENCHMARK_CAPTURE(BM_Pipe, div, Probe::kDiv)->UseRealTime();
+// Whether the divider overlaps the FMA pipes (results/perf/xeon16/README.md): a block of fma_div
+// takes 1 / div_zmm_per_ns ns; with the probes above, 36 FMAs alone take 36 / fma and a division
+// alone 1 / div ns, so an overlapped block takes the longer of the two, a serialized one the sum.
+BENCHMARK_CAPTURE(BM_Pipe, fma_div, Probe::kFmaDiv)->UseRealTime();
 #undef INSID_PROBE
 #undef INSID_ADD3
 #undef INSID_STORE3
