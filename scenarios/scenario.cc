@@ -10,6 +10,7 @@
 #include <stdexcept>
 
 #include "core/alignment.h"
+#include "core/huge_pages.h"
 #include "core/json_reader.h"
 #include "core/rotation.h"
 #include "scenarios/presets.h"
@@ -614,7 +615,7 @@ Dataset simulate(const ScenarioConfig& cfg, const ScenarioPlan& plan, bool recor
   const Eigen::Vector3d& lever = cfg.injected.lever_arm_b_m;
   const std::size_t decim =
       static_cast<std::size_t>(std::llround(cfg.imu_rate_hz / cfg.gnss_rate_hz));
-  ds.gnss.reserve(plan.num_gnss);
+  reserve_huge_pages(ds.gnss, plan.num_gnss);  // core/huge_pages.h
   for (std::size_t j = 0; j < plan.num_gnss; ++j) {
     const double t = static_cast<double>(j) / cfg.gnss_rate_hz;
     GnssSample g;
