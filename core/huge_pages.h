@@ -1,10 +1,11 @@
 // Transparent huge pages for the few large arrays that are written once from start to end.
 //
-// A 4 KiB page faults on its first touch; the paper flight's 860 000 IMU and truth rows and
-// their GNSS epochs are about 130 MB, 32 000 faults, written by one thread before the threads
-// have work (results/perf/README.md, "Serial preparation": 0.5 s of the simulation at 2 threads
-// on this KVM machine). Where Linux sets transparent huge pages to "madvise" (Debian's default),
-// a range marked MADV_HUGEPAGE faults 2 MiB at a time.
+// A 4 KiB page faults on its first touch. The paper flight's 860 000 IMU and truth rows and its
+// latitude/longitude grids are about 130 MB, 32 000 faults, written by one thread before the
+// others have work. Where Linux sets transparent huge pages to "madvise" (Debian's default), a
+// range marked MADV_HUGEPAGE faults 2 MiB at a time: the simulation's serial start went from
+// 1.1 to 0.47 s on the 2-core KVM machine of results/perf/README.md ("The simulation's serial
+// start: huge pages").
 #pragma once
 
 #include <cstddef>
