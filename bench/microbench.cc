@@ -92,6 +92,36 @@ BENCHMARK(BM_FitnessBatched)
     ->MinTime(2.0)
     ->UseRealTime();
 
+// K candidates with their residual vectors (what Levenberg-Marquardt's Jacobians ask for: the
+// optimum of `insid bench`, `insid identify --algorithm lm`), fresh vectors each request as the
+// optimizers' bridge hands them over: state.range(0) = K, state.range(1) = threads.
+void BM_FitnessBatchedResiduals(benchmark::State& state) {
+  const int k = static_cast<int>(state.range(0));
+  const int threads = static_cast<int>(state.range(1));
+  const auto kernel = BatchFitness::shared(one_hour_problem());
+  const std::vector<SensorErrors> c = candidates(k);
+  std::vector<double> f(c.size());
+  for (auto _ : state) {
+    std::vector<std::vector<double>> residuals(c.size());
+    BatchFitness::Request request;
+    request.candidates = c;
+    request.fitness = f;
+    request.residuals = residuals;
+    request.threads = threads;
+    kernel->evaluate(request);
+    benchmark::DoNotOptimize(residuals.back().data());
+  }
+  set_counters(state,
+               static_cast<double>(k) * static_cast<double>(one_hour_problem()->num_steps()));
+  state.counters["threads"] = threads;
+}
+BENCHMARK(BM_FitnessBatchedResiduals)
+    ->ArgNames({"K", "threads"})
+    ->ArgsProduct({{8, 16}, {1, 2}})
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(1.0)
+    ->UseRealTime();
+
 // The windowed fitness (issue 14) next to the one-run fitness in the same run: the same hour of
 // data and candidates, state.range(2) = W in seconds (0 = one run). The restarts (one per W of
 // data, shared by all lanes) must keep the kernel's lock-step speed.

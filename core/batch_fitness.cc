@@ -1047,8 +1047,11 @@ void BatchFitness::evaluate_grouped(const Request& request, const std::vector<in
   std::vector<std::size_t> first(groups.size());
   for (std::size_t g = 1; g < groups.size(); ++g)
     first[g] = first[g - 1] + static_cast<std::size_t>(groups[g - 1]) * kLanes;
-  for (std::size_t i = 0; i < K; ++i)
-    if (!request.residuals.empty()) request.residuals[i].assign(2 * im.n_epochs, 0.0);
+  // The residual vectors are allocated here, on the calling thread (glibc then reuses their
+  // memory for the next request: a vector allocated on an OpenMP worker and freed on the
+  // caller made `insid identify --algo lm` 1.5x slower), and filled by the groups' threads.
+  if (!request.residuals.empty())
+    for (std::vector<double>& r : request.residuals) r.reserve(2 * im.n_epochs);
 
   const int n_groups = static_cast<int>(groups.size());
   const int threads = std::max(1, std::min(request.threads, n_groups));
@@ -1062,6 +1065,12 @@ void BatchFitness::evaluate_grouped(const Request& request, const std::vector<in
     std::map<double, EventList> latency_events;
     int valid = -1;
     bool general = false, lever = false;
+    // The group's residual vectors, zeroed by the thread that fills them (zeros stay for a
+    // candidate whose set-up fails): a long flight's vector is megabytes, and its first touch
+    // was most of a residual request while it ran serially before the groups
+    // (BM_FitnessBatchedResiduals).
+    for (std::size_t i = i0; i < std::min(K, i0 + static_cast<std::size_t>(L)); ++i)
+      if (!request.residuals.empty()) request.residuals[i].assign(2 * im.n_epochs, 0.0);
     for (int l = 0; l < L; ++l) {
       const std::size_t i = i0 + static_cast<std::size_t>(l);
       if (i >= K) break;

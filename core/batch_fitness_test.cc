@@ -159,6 +159,13 @@ TEST_P(BatchVsScalar, ResidualsAndSumOfSquaresMatchTheReference) {
               kTolerance)
         << "candidate " << i;
   }
+  // Two threads size the vectors themselves (stale contents and sizes are replaced) and give
+  // the same bits.
+  std::vector<std::vector<double>> r2(pool.size(), std::vector<double>(3, 7.0));
+  request.residuals = r2;
+  request.threads = 2;
+  kernel.evaluate(request);
+  for (std::size_t i = 0; i < pool.size(); ++i) EXPECT_EQ(r2[i], r[i]) << "candidate " << i;
 }
 
 INSTANTIATE_TEST_SUITE_P(Scenarios, BatchVsScalar,
@@ -250,6 +257,19 @@ TEST(BatchFitness, AFailingCandidateIsReportedAndTheOthersScored) {
   }
   request.errors = {};
   EXPECT_THROW(kernel.evaluate(request), std::invalid_argument);
+
+  // With residuals, on two threads: the failed candidate's vector is all zeros, at full size.
+  std::vector<std::vector<double>> r(pool.size(), std::vector<double>(5, 1.0));
+  request.residuals = r;
+  request.errors = errors;
+  request.threads = 2;
+  kernel.evaluate(request);
+  std::vector<double> ref;
+  nav->residuals(pool[0], ref);
+  ASSERT_EQ(r[4].size(), ref.size());
+  EXPECT_EQ(std::count(r[4].begin(), r[4].end(), 0.0), static_cast<std::ptrdiff_t>(ref.size()));
+  EXPECT_EQ(r[0].size(), ref.size());
+  EXPECT_NE(r[0], std::vector<double>(ref.size(), 0.0));
 }
 
 // ----- windowed fitness (issue 14) --------------------------------------------------------------
