@@ -1,6 +1,7 @@
 #include "scenarios/synthesis.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -156,50 +157,62 @@ void ImuSynthesizer::run(std::size_t num_steps, int threads) {
   // trajectory (most of the cost) does not depend on the position, and the increments depend on
   // it only through the latitudes of the RK4 stages. So, block by block of IMU steps: the
   // sub-steps' times (as advance() cuts them), the trajectory at their mid and end points (in
-  // parallel), the position integrated in order, then the increments (in parallel). Every value
-  // is the one advance() computes, for any thread count.
+  // parallel), the position integrated in order, then the increments (in parallel). The blocks
+  // are pipelined: while one thread integrates the position over block b, the others compute
+  // the increments of block b - 1 and the trajectory of block b + 1 (the position, alone, kept
+  // the second of two threads waiting about 40 % of the synthesis). Every value is the one
+  // advance() computes, for any thread count.
   constexpr std::size_t kBlock = 4096;  // IMU steps
-  std::vector<SubStep> sub;
-  std::vector<std::size_t> first_sub;  // of each step of the block, and one past the last
-  std::vector<Kinematics> k_mid, k_end;
-  Kinematics k_start = traj_.eval(0.0);  // at the first sub-step's start
-  for (std::size_t k_begin = 1; k_begin <= num_steps; k_begin += kBlock) {
-    const std::size_t k_stop = std::min(num_steps + 1, k_begin + kBlock);
-    sub.clear();
-    first_sub.clear();
-    for (std::size_t k = k_begin; k < k_stop; ++k) {
-      first_sub.push_back(sub.size());
+  struct Block {
+    std::size_t k_begin = 0, k_stop = 0;  // IMU steps [k_begin, k_stop)
+    std::vector<SubStep> sub;
+    std::vector<std::size_t> first_sub;  // of each step of the block, and one past the last
+    std::vector<Kinematics> k_mid, k_end;
+    Kinematics k_start;  // at the first sub-step's start
+  };
+  const std::size_t n_blocks = (num_steps + kBlock - 1) / kBlock;
+  std::array<Block, 3> ring;  // block b lives in ring[b % 3]
+  const auto cut = [&](std::size_t b, const Kinematics& k_start) {
+    Block& B = ring[b % 3];
+    B.k_begin = 1 + b * kBlock;
+    B.k_stop = std::min(num_steps + 1, B.k_begin + kBlock);
+    B.sub.clear();
+    B.first_sub.clear();
+    for (std::size_t k = B.k_begin; k < B.k_stop; ++k) {
+      B.first_sub.push_back(B.sub.size());
       const double t0 = static_cast<double>(k - 1) / rate_, t1 = static_cast<double>(k) / rate_;
-      for_each_piece(t0, t1, [&](double a, double b, int n) {
-        const double h = (b - a) / n;  // as advance_piece cuts it
+      for_each_piece(t0, t1, [&](double a, double b_end, int n) {
+        const double h = (b_end - a) / n;  // as advance_piece cuts it
         for (int i = 0; i < n; ++i)
-          sub.push_back({a + i * h, (i + 1 == n) ? b : a + (i + 1) * h, h});
+          B.sub.push_back({a + i * h, (i + 1 == n) ? b_end : a + (i + 1) * h, h});
       });
     }
-    first_sub.push_back(sub.size());
-    const std::ptrdiff_t n_sub = static_cast<std::ptrdiff_t>(sub.size());
-    k_mid.resize(sub.size());
-    k_end.resize(sub.size());
-#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1)
-    for (std::ptrdiff_t j = 0; j < n_sub; ++j) {
-      const SubStep& u = sub[static_cast<std::size_t>(j)];
-      k_mid[static_cast<std::size_t>(j)] = traj_.eval(u.ta + 0.5 * u.h);
-      k_end[static_cast<std::size_t>(j)] = traj_.eval(u.tb);
-    }
-    // The position, in order (advance_piece's RK4 on lat/lon); each sub-step's stage latitudes
-    // and starting longitude are kept for the increments.
-    for (std::size_t j = 0; j < sub.size(); ++j) {
-      SubStep& u = sub[j];
-      const Kinematics& k0 = j == 0 ? k_start : k_end[j - 1];
+    B.first_sub.push_back(B.sub.size());
+    B.k_mid.resize(B.sub.size());
+    B.k_end.resize(B.sub.size());
+    B.k_start = k_start;
+  };
+  // The trajectory at sub-step j's mid and end points.
+  const auto trajectory = [&](Block& B, std::size_t j) {
+    const SubStep& u = B.sub[j];
+    B.k_mid[j] = traj_.eval(u.ta + 0.5 * u.h);
+    B.k_end[j] = traj_.eval(u.tb);
+  };
+  // The position, in order (advance_piece's RK4 on lat/lon); each sub-step's stage latitudes
+  // and starting longitude are kept for the increments.
+  const auto position = [&](Block& B) {
+    for (std::size_t j = 0; j < B.sub.size(); ++j) {
+      SubStep& u = B.sub[j];
+      const Kinematics& k0 = j == 0 ? B.k_start : B.k_end[j - 1];
       u.lat = p.lat;
       u.lon = p.lon;
       const PosRate p1 = position_rate(earth_, u.lat, k0);
       u.lat2 = u.lat + 0.5 * u.h * p1.lat_dot;
-      const PosRate p2 = position_rate(earth_, u.lat2, k_mid[j]);
+      const PosRate p2 = position_rate(earth_, u.lat2, B.k_mid[j]);
       u.lat3 = u.lat + 0.5 * u.h * p2.lat_dot;
-      const PosRate p3 = position_rate(earth_, u.lat3, k_mid[j]);
+      const PosRate p3 = position_rate(earth_, u.lat3, B.k_mid[j]);
       u.lat4 = u.lat + u.h * p3.lat_dot;
-      const PosRate p4 = position_rate(earth_, u.lat4, k_end[j]);
+      const PosRate p4 = position_rate(earth_, u.lat4, B.k_end[j]);
       kahan_add(p.lat, p.lat_c,
                 u.h / 6.0 * (p1.lat_dot + 2.0 * (p2.lat_dot + p3.lat_dot) + p4.lat_dot));
       kahan_add(p.lon, p.lon_c,
@@ -207,38 +220,66 @@ void ImuSynthesizer::run(std::size_t num_steps, int threads) {
       u.lat_end = p.lat;
       u.lon_end = p.lon;
     }
-    // The increments and the truth rows, step by step in parallel.
-    const std::ptrdiff_t n_steps = static_cast<std::ptrdiff_t>(k_stop - k_begin);
-#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1)
-    for (std::ptrdiff_t i = 0; i < n_steps; ++i) {
-      const std::size_t k = k_begin + static_cast<std::size_t>(i);
-      ImuSample& s = imu_[k - 1];
-      s.t_s = static_cast<double>(k) / rate_;
-      const std::size_t j_end = first_sub[static_cast<std::size_t>(i) + 1];
-      for (std::size_t j = first_sub[static_cast<std::size_t>(i)]; j < j_end; ++j) {
-        const SubStep& u = sub[j];
-        const Kinematics& k0 = j == 0 ? k_start : k_end[j - 1];
-        const TrueState s1 = state_from(k0, u.lat, u.lon);
-        const TrueState s2 = state_from(k_mid[j], u.lat2, u.lon);
-        const TrueState s3 = state_from(k_mid[j], u.lat3, u.lon);
-        const TrueState s4 = state_from(k_end[j], u.lat4, u.lon);
-        s.dtheta_b_rad +=
-            u.h / 6.0 * (s1.omega_ib_b + 2.0 * (s2.omega_ib_b + s3.omega_ib_b) + s4.omega_ib_b);
-        s.dv_b_mps += u.h / 6.0 * (s1.f_ib_b + 2.0 * (s2.f_ib_b + s3.f_ib_b) + s4.f_ib_b);
-      }
-      const SubStep& last = sub[j_end - 1];
-      lat_grid_[k] = last.lat_end;
-      lon_grid_[k] = last.lon_end;
-      const Kinematics& kin = k_end[j_end - 1];  // traj_.eval(t_k)
-      TruthSample& tr = truth_[k - 1];
-      tr.t_s = s.t_s;
-      tr.lat_rad = last.lat_end;
-      tr.lon_rad = last.lon_end;
-      tr.h_m = kin.h_m;
-      tr.v_eb_n_mps = kin.v_eb_n;
-      tr.attitude = kin.attitude;
+  };
+  // The increments and the truth row of the block's step i.
+  const auto increments = [&](const Block& B, std::size_t i) {
+    const std::size_t k = B.k_begin + i;
+    ImuSample& s = imu_[k - 1];
+    s.t_s = static_cast<double>(k) / rate_;
+    const std::size_t j_end = B.first_sub[i + 1];
+    for (std::size_t j = B.first_sub[i]; j < j_end; ++j) {
+      const SubStep& u = B.sub[j];
+      const Kinematics& k0 = j == 0 ? B.k_start : B.k_end[j - 1];
+      const TrueState s1 = state_from(k0, u.lat, u.lon);
+      const TrueState s2 = state_from(B.k_mid[j], u.lat2, u.lon);
+      const TrueState s3 = state_from(B.k_mid[j], u.lat3, u.lon);
+      const TrueState s4 = state_from(B.k_end[j], u.lat4, u.lon);
+      s.dtheta_b_rad +=
+          u.h / 6.0 * (s1.omega_ib_b + 2.0 * (s2.omega_ib_b + s3.omega_ib_b) + s4.omega_ib_b);
+      s.dv_b_mps += u.h / 6.0 * (s1.f_ib_b + 2.0 * (s2.f_ib_b + s3.f_ib_b) + s4.f_ib_b);
     }
-    k_start = k_end.back();
+    const SubStep& last = B.sub[j_end - 1];
+    lat_grid_[k] = last.lat_end;
+    lon_grid_[k] = last.lon_end;
+    const Kinematics& kin = B.k_end[j_end - 1];  // traj_.eval(t_k)
+    TruthSample& tr = truth_[k - 1];
+    tr.t_s = s.t_s;
+    tr.lat_rad = last.lat_end;
+    tr.lon_rad = last.lon_end;
+    tr.h_m = kin.h_m;
+    tr.v_eb_n_mps = kin.v_eb_n;
+    tr.attitude = kin.attitude;
+  };
+
+  cut(0, traj_.eval(0.0));
+  {
+    Block& B0 = ring[0];
+    const std::ptrdiff_t n_sub = static_cast<std::ptrdiff_t>(B0.sub.size());
+#pragma omp parallel for schedule(static) num_threads(threads) if (threads > 1)
+    for (std::ptrdiff_t j = 0; j < n_sub; ++j) trajectory(B0, static_cast<std::size_t>(j));
+  }
+  // Stage b: the position of block b (one thread) beside the increments of block b - 1 and the
+  // trajectory of block b + 1 (shared out in chunks; the position's thread joins when done).
+  constexpr std::ptrdiff_t kChunk = 64;
+#pragma omp parallel num_threads(threads) if (threads > 1)
+  for (std::size_t b = 0; b <= n_blocks; ++b) {
+#pragma omp single
+    if (b + 1 < n_blocks) cut(b + 1, ring[b % 3].k_end.back());
+#pragma omp single nowait
+    if (b < n_blocks) position(ring[b % 3]);
+    Block* const before = b >= 1 ? &ring[(b - 1) % 3] : nullptr;
+    Block* const after = b + 1 < n_blocks ? &ring[(b + 1) % 3] : nullptr;
+    const std::ptrdiff_t n_before =
+        before ? static_cast<std::ptrdiff_t>(before->k_stop - before->k_begin) : 0;
+    const std::ptrdiff_t n_after = after ? static_cast<std::ptrdiff_t>(after->sub.size()) : 0;
+#pragma omp for schedule(dynamic, kChunk) nowait
+    for (std::ptrdiff_t w = 0; w < n_before + n_after; ++w) {
+      if (w < n_before)
+        increments(*before, static_cast<std::size_t>(w));
+      else
+        trajectory(*after, static_cast<std::size_t>(w - n_before));
+    }
+#pragma omp barrier
   }
 }
 
