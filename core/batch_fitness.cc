@@ -48,6 +48,8 @@
 
 #include <Eigen/Geometry>
 
+#include "core/huge_pages.h"
+
 namespace insid {
 
 namespace {
@@ -1047,11 +1049,12 @@ void BatchFitness::evaluate_grouped(const Request& request, const std::vector<in
   std::vector<std::size_t> first(groups.size());
   for (std::size_t g = 1; g < groups.size(); ++g)
     first[g] = first[g - 1] + static_cast<std::size_t>(groups[g - 1]) * kLanes;
-  // The residual vectors are allocated here, on the calling thread (glibc then reuses their
-  // memory for the next request: a vector allocated on an OpenMP worker and freed on the
-  // caller made `insid identify --algo lm` 1.5x slower), and filled by the groups' threads.
+  // The residual vectors are allocated here, on the calling thread, advised for huge pages
+  // (a long flight's vector is megabytes), and zeroed by the groups' threads below. Allocated
+  // in the groups' loop instead, they made `insid identify --algo lm` 1.5x slower
+  // (results/perf/README.md, "Residual requests").
   if (!request.residuals.empty())
-    for (std::vector<double>& r : request.residuals) r.reserve(2 * im.n_epochs);
+    for (std::vector<double>& r : request.residuals) reserve_huge_pages(r, 2 * im.n_epochs);
 
   const int n_groups = static_cast<int>(groups.size());
   const int threads = std::max(1, std::min(request.threads, n_groups));
