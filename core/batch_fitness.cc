@@ -1072,8 +1072,9 @@ void BatchFitness::evaluate_grouped(const Request& request, const std::vector<in
     // candidate whose set-up fails): a long flight's vector is megabytes, and its first touch
     // was most of a residual request while it ran serially before the groups
     // (BM_FitnessBatchedResiduals).
-    for (std::size_t i = i0; i < std::min(K, i0 + static_cast<std::size_t>(L)); ++i)
-      if (!request.residuals.empty()) request.residuals[i].assign(2 * im.n_epochs, 0.0);
+    if (!request.residuals.empty())
+      for (std::size_t i = i0; i < std::min(K, i0 + static_cast<std::size_t>(L)); ++i)
+        request.residuals[i].assign(2 * im.n_epochs, 0.0);
     for (int l = 0; l < L; ++l) {
       const std::size_t i = i0 + static_cast<std::size_t>(l);
       if (i >= K) break;
