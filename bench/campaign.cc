@@ -178,9 +178,9 @@ struct Holder {
   std::string host, line;
 };
 
-std::vector<Holder> read_holders(const fs::path& lock_path) {
+std::vector<Holder> read_holders(const FileLock& lock) {
   std::vector<Holder> holders;
-  std::ifstream in(lock_path);
+  std::istringstream in(lock.read_text());
   for (std::string line; std::getline(in, line);) {
     std::istringstream words(line);
     std::string pid_word, on_word;
@@ -199,9 +199,9 @@ bool may_be_running(const Holder& h) {
   return ::kill(static_cast<pid_t>(h.pid), 0) == 0 || errno == EPERM;
 }
 
-std::string live_holders(const fs::path& lock_path) {
+std::string live_holders(const FileLock& lock) {
   std::string text;
-  for (const Holder& h : read_holders(lock_path))
+  for (const Holder& h : read_holders(lock))
     if (may_be_running(h)) text += (text.empty() ? "" : "; ") + h.line;
   return text.empty() ? "holder not recorded" : text;
 }
@@ -215,26 +215,24 @@ std::string utc_now() {
   return buffer;
 }
 
-void write_holders(const fs::path& lock_path, bool alone, const Shard& shard) {
+void write_holders(FileLock& lock, bool alone, const Shard& shard) {
   std::string text;
   if (!alone)
-    for (const Holder& h : read_holders(lock_path))
+    for (const Holder& h : read_holders(lock))
       if (may_be_running(h) && h.pid != static_cast<long>(getpid())) text += h.line + "\n";
   text += "pid " + std::to_string(getpid()) + " on " + host_name() + " since " + utc_now() + ", " +
           (shard.active() ? "shard " + shard.to_string() : std::string("all runs")) + "\n";
-  // In place, not by rename: the lock lives on this file's inode.
-  std::ofstream out(lock_path, std::ios::trunc);
-  out << text;
-  if (!out.flush())
-    throw std::runtime_error("cannot write the campaign lock '" + lock_path.string() + "'");
+  // In place, not by rename: the lock lives on this file's inode (written through its
+  // descriptor, never through a path that could have become a link).
+  lock.write_text(text);
 }
 
 // A shard joining running shards: refused when a live holder runs the same shard, or a shard
 // of another split (its line ends in "shard j/M", see write_holders).
-void check_shard_joins(const fs::path& lock_path, const RunOptions& options) {
+void check_shard_joins(const FileLock& lock, const RunOptions& options) {
   const std::string mine = "shard " + options.shard.to_string();
   const std::string split = "/" + std::to_string(options.shard.count);
-  for (const Holder& h : read_holders(lock_path)) {
+  for (const Holder& h : read_holders(lock)) {
     if (!may_be_running(h)) continue;
     const std::size_t comma = h.line.rfind(", shard ");
     if (comma == std::string::npos) continue;
@@ -266,6 +264,72 @@ nlohmann::json data_digests(const CampaignConfig& config) {
   return digests;
 }
 
+// How campaign files are written. Once prepare_directory has accepted the directory (empty,
+// holding only files insid wrote, or a campaign with insid's manifest; anything else only with
+// --force) its manifest, summary, run and optimum paths are insid's own: they are replaced
+// whoever wrote the bytes there (a run file of an older insid, a damaged one being redone), but
+// never through a link (write_file_atomic_under).
+WriteOptions campaign_write_options(const RunOptions&) {
+  WriteOptions w;
+  w.replace_foreign = true;
+  return w;
+}
+
+// A campaign's own layout under runs/ and optimum/ (bench/campaign_config.cc run_file,
+// optimum_file): <scenario>/<label>/seed_<n>.json and <scenario>.json, plain names only.
+bool is_run_layout(const fs::path& rel) {
+  std::vector<std::string> parts;
+  for (const fs::path& p : rel) parts.push_back(p.string());
+  const std::string& file = parts.empty() ? std::string() : parts.back();
+  auto plain = [](const std::string& name) {
+    try {
+      checked_path_component(name, "name");
+      return true;
+    } catch (const std::invalid_argument&) {
+      return false;
+    }
+  };
+  if (parts.size() != 3 || !plain(parts[0]) || !plain(parts[1])) return false;
+  if (file.size() < 11 || file.compare(0, 5, "seed_") != 0 ||
+      file.compare(file.size() - 5, 5, ".json") != 0)
+    return false;
+  for (std::size_t i = 5; i + 5 < file.size(); ++i)
+    if (file[i] < '0' || file[i] > '9') return false;
+  return true;
+}
+
+bool is_optimum_layout(const fs::path& rel) {
+  const std::string name = rel.string();
+  return std::distance(rel.begin(), rel.end()) == 1 && name.size() > 5 &&
+         name.compare(name.size() - 5, 5, ".json") == 0;
+}
+
+// --force-new: the results of the campaign found in `dir` (a directory with insid's manifest)
+// are discarded: the files insid wrote or that sit at the campaign's own paths (run files,
+// optimum files, summary.json; never through a link). Anything else under runs/ or optimum/
+// (a user's notes, a link) stops the new campaign, named, and is kept.
+void discard_campaign_results(const fs::path& dir) {
+  std::vector<std::string> kept;
+  for (const fs::path& p : remove_own_files(dir / "runs", is_run_layout))
+    kept.push_back((fs::path("runs") / p).lexically_normal().string());
+  for (const fs::path& p : remove_own_files(dir / "optimum", is_optimum_layout))
+    kept.push_back((fs::path("optimum") / p).lexically_normal().string());
+  std::error_code ec;
+  const fs::file_status summary = fs::symlink_status(dir / "summary.json", ec);
+  if (fs::is_regular_file(summary))
+    fs::remove(dir / "summary.json");  // the campaign's own path in its own directory
+  else if (fs::exists(summary))
+    kept.push_back("summary.json");
+  if (kept.empty()) return;
+  std::string list;
+  for (std::size_t i = 0; i < kept.size() && i < 5; ++i) list += (i ? ", " : "") + kept[i];
+  if (kept.size() > 5) list += " and " + std::to_string(kept.size() - 5) + " more";
+  throw std::runtime_error(
+      dir.string() + ": --force-new removed the results insid wrote there but kept " +
+      std::to_string(kept.size()) + " entries it did not write (or that changed since): " +
+      list + ". Move them away yourself, or choose another --out.");
+}
+
 DirectoryClaim prepare_directory(const CampaignConfig& config, const RunOptions& options,
                                  int threads) {
   const nlohmann::json config_json = config.to_json();
@@ -277,7 +341,7 @@ DirectoryClaim prepare_directory(const CampaignConfig& config, const RunOptions&
     require_own_or_empty(dir, kCampaignKind,
                          "give --force to add the campaign's files and keep the rest");
   fs::create_directories(dir);
-  FileLock gate(dir);
+  FileLock gate(dir, FileLock::Target::kDirectory);
   gate.lock(FileLock::Mode::kExclusive);
   DirectoryClaim claim;
   const fs::path lock_path = dir / FileLock::kRunLockName;
@@ -287,7 +351,7 @@ DirectoryClaim prepare_directory(const CampaignConfig& config, const RunOptions&
   const bool whole_campaign = !options.shard.active();
   const std::string in_use =
       options.out_dir + " is in use by another insid process running a campaign there now (" +
-      live_holders(lock_path) + "); wait for it to finish, or choose another --out" +
+      live_holders(*claim.run_lock) + "); wait for it to finish, or choose another --out" +
       (whole_campaign ? " (only shards of one campaign, --shard i/N, share a directory)" : "");
   if (whole_campaign && !alone) throw std::runtime_error(in_use);
   // A shard joins other shards (shared), never a process that holds the directory alone.
@@ -295,7 +359,7 @@ DirectoryClaim prepare_directory(const CampaignConfig& config, const RunOptions&
     throw std::runtime_error(in_use);
   // ... and only shards of the same split, each index once: the same i/N twice, or i/N beside
   // j/M with M != N, would do runs twice.
-  if (!whole_campaign && !alone) check_shard_joins(lock_path, options);
+  if (!whole_campaign && !alone) check_shard_joins(*claim.run_lock, options);
   if (alone) {
     const int removed = remove_stale_temporaries(dir);
     if (removed > 0)
@@ -322,9 +386,7 @@ DirectoryClaim prepare_directory(const CampaignConfig& config, const RunOptions&
                                  "'; first difference at " + diff +
                                  "). Use --force-new to discard them, or choose another --out.");
       if (!alone) throw std::runtime_error(in_use);
-      fs::remove_all(dir / "runs");
-      fs::remove_all(dir / "optimum");
-      fs::remove(dir / "summary.json");
+      discard_campaign_results(dir);
     } else if (shard_count == 0) {
       shard_count = old.value("shards", 0);
     }
@@ -342,10 +404,10 @@ DirectoryClaim prepare_directory(const CampaignConfig& config, const RunOptions&
   manifest["config"] = config_json;
   if (!digests.empty()) manifest["data_sha256"] = digests;
   for (const auto& item : options.manifest_extra.items()) manifest[item.key()] = item.value();
-  write_file_atomic(manifest_path, manifest.dump(2) + "\n");
+  write_file_atomic(manifest_path, manifest.dump(2) + "\n", campaign_write_options(options));
   // A shard shares the lock with the other shards (a conversion; safe: we hold the gate).
   if (!whole_campaign) claim.run_lock->lock(FileLock::Mode::kShared);
-  write_holders(lock_path, alone, options.shard);
+  write_holders(*claim.run_lock, alone, options.shard);
   claim.shard_count = shard_count;
   return claim;
 }
@@ -536,7 +598,8 @@ CampaignOutcome run_campaign(const CampaignConfig& config, const RunOptions& opt
     }
     if (outcome.complete) {
       const nlohmann::json summary = summarize_campaign(options.out_dir, config);
-      write_file_atomic(dir / "summary.json", summary.dump(1) + "\n");
+      write_file_atomic(dir / "summary.json", summary.dump(1) + "\n",
+                        campaign_write_options(options));
     }
   }
   if (cluster != nullptr) {

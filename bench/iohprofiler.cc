@@ -94,6 +94,7 @@ IohExportOutcome export_iohprofiler(const std::string& campaign_dir, const std::
   const CampaignConfig config = config_from_manifest(manifest, manifest_path.string());
   const int dimension = static_cast<int>(estimated_parameters(config).size());
 
+  fs::create_directories(out_dir);  // the user's directory; what goes below it follows no link
   IohExportOutcome outcome;
   for (const AlgorithmSpec& algo : config.algorithms) {
     std::string alg_info = algo.name;
@@ -132,8 +133,9 @@ IohExportOutcome export_iohprofiler(const std::string& campaign_dir, const std::
         ++outcome.runs;
       }
       if (entries.empty()) continue;  // no run of this algorithm on this scenario yet
-      const fs::path folder = fs::path(out_dir) / algo.label;
-      fs::create_directories(folder / ("data_f" + fid));
+      const fs::path folder = fs::path(algo.label);  // under out_dir, links not followed
+      WriteOptions write_options;
+      write_options.create_directories = true;
       const std::string info =
           "suite = 'insid', funcId = " + fid + ", funcName = '" + header_safe(scenario.name) +
           "', DIM = " + std::to_string(dimension) + ", maximization = F, algId = '" +
@@ -142,8 +144,9 @@ IohExportOutcome export_iohprofiler(const std::string& campaign_dir, const std::
           ": f = Eq. 15 fitness (minimised); instance = the scenario's noise seed (data_seed); "
           "runs = optimizer seeds " +
           seeds + "\n" + dat_name + entries + "\n";
-      write_file_atomic(folder / ("IOHprofiler_f" + fid + "_i" + instance + ".info"), info);
-      write_file_atomic(folder / dat_name, dat);
+      write_file_atomic_under(out_dir, folder / ("IOHprofiler_f" + fid + "_i" + instance + ".info"),
+                              info, write_options);
+      write_file_atomic_under(out_dir, folder / dat_name, dat, write_options);
       ++outcome.info_files;
     }
   }

@@ -147,6 +147,18 @@ struct LockstepRunner::Impl {
     std::unique_ptr<opt::Optimizer> optimizer;
   };
 
+  // A file at one of the campaign's own paths (its directory accepted by prepare_directory,
+  // bench/campaign.cc), written without following links below it: a runs/ or optimum/ planted
+  // as a link to elsewhere is refused (core/output_dir.h). A file already there is replaced
+  // (a damaged run being redone), a link never.
+  void write_in_campaign(const fs::path& path, const std::string& text) const {
+    WriteOptions options;
+    options.create_directories = true;
+    options.replace_foreign = true;
+    write_file_atomic_under(settings_.out_dir, path.lexically_relative(settings_.out_dir), text,
+                            options);
+  }
+
   fs::path optimum_path(std::size_t s) const {
     return optimum_file(settings_.out_dir, config_.scenarios[s].name);
   }
@@ -210,8 +222,7 @@ struct LockstepRunner::Impl {
     st.optimum_problem.reset();
     nlohmann::json oj = st.optimum->to_json(mapping_);
     oj["scenario"] = config_.scenarios[s].name;
-    fs::create_directories(optimum_path(s).parent_path());
-    write_file_atomic(optimum_path(s), oj.dump(2) + "\n");
+    write_in_campaign(optimum_path(s), oj.dump(2) + "\n");
   }
 
   // Scenario s's optimum, waiting for the one being found alongside if need be (collecting it:
@@ -407,8 +418,7 @@ struct LockstepRunner::Impl {
     for (const auto& item : uncertainty.items()) j[item.key()] = item.value();
     add_run_assessment_json(j, result, mapping_, states_[run.scenario].dataset->meta.injected,
                             &opt);
-    fs::create_directories(fs::path(run.path).parent_path());
-    write_file_atomic(run.path, j.dump(1) + "\n");
+    write_in_campaign(run.path, j.dump(1) + "\n");
     const int n_done = ++done_;
     if (settings_.progress) {
       const double elapsed =

@@ -267,8 +267,12 @@ void write_sweep_results(const SweepConfig& sweep, const CampaignConfig& campaig
   std::sort(ranking.begin(), ranking.end());
   for (std::size_t r = 0; r < std::min<std::size_t>(5, ranking.size()); ++r)
     out["best"].push_back(out["settings"][ranking[r].second]);
-  write_file_atomic(fs::path(out_dir) / "sweep.json", out.dump(1) + "\n");
-  write_file_atomic(fs::path(out_dir) / "sweep.csv", csv.str());
+  // The campaign directory's own paths (accepted by the campaign, bench/campaign.cc): replaced
+  // whoever wrote the bytes there, never through a link.
+  WriteOptions own;
+  own.replace_foreign = true;
+  write_file_atomic(fs::path(out_dir) / "sweep.json", out.dump(1) + "\n", own);
+  write_file_atomic(fs::path(out_dir) / "sweep.csv", csv.str(), own);
 }
 
 int merge_results(const std::string& dir) {
@@ -281,8 +285,10 @@ int merge_results(const std::string& dir) {
   const CampaignConfig campaign = config_from_manifest(manifest, manifest_path.string());
   const std::string missing = missing_runs_report(dir, campaign, manifest.value("shards", 0));
   if (!missing.empty()) throw std::runtime_error("cannot merge: " + missing);
+  WriteOptions own;
+  own.replace_foreign = true;  // a directory with insid's manifest (checked above)
   write_file_atomic(fs::path(dir) / "summary.json",
-                    summarize_campaign(dir, campaign).dump(1) + "\n");
+                    summarize_campaign(dir, campaign).dump(1) + "\n", own);
   if (manifest.contains("sweep"))
     write_sweep_results(sweep_from_manifest(manifest.at("sweep"), manifest_path.string()), campaign,
                         dir);

@@ -1,8 +1,10 @@
 // Small helpers shared by the insid subcommands.
 #pragma once
 
+#include <filesystem>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -13,6 +15,7 @@
 #include "bench/cluster.h"
 #include "cli/progress.h"
 #include "core/sensor_errors.h"
+#include "identification/grade.h"
 
 namespace insid::cli {
 
@@ -41,6 +44,28 @@ inline constexpr const char* kWindowHelp =
     "windowed fitness: restart the INS from the GNSS position and velocity every W seconds "
     "after the navigation start, attitude carried on, Eq. 15 summed over the windows (0 = one "
     "pure-INS run over the whole flight, the paper's; W must be at least one GNSS period)";
+/// identify's and diagnose's: the same, with the default that depends on the grade.
+inline constexpr const char* kWindowWithDefaultHelp =
+    "windowed fitness: restart the INS from the GNSS position and velocity every W seconds "
+    "after the navigation start, attitude carried on, Eq. 15 summed over the windows (0 = one "
+    "pure-INS run over the whole flight, the paper's; W must be at least one GNSS period). "
+    "Default: 10 s when the grade is mems (results/window/README.md), else 0";
+
+/// The grade and fitness window identify and diagnose use on a dataset: --grade (auto: from the
+/// data, identification/grade.h choose_grade) and --window-s, or the grade's default window
+/// (default_window_s) when --window-s is not given. Both are recorded in every result and
+/// said in one line.
+struct GradeAndWindow {
+  GradeChoice grade;
+  double window_s = 0.0;
+  std::string window_source;  ///< "--window-s" | "default for mems data" | "default (one run)"
+  /// {"grade_choice": {...}, "window_s_source": ...}
+  nlohmann::json to_json() const;
+  /// "grade mems (auto: static window ...); fitness window 10 s (default for mems data)"
+  std::string line() const;
+};
+GradeAndWindow settle_grade_and_window(const Dataset& dataset, const std::string& grade_arg,
+                                       const std::optional<double>& window_arg);
 
 /// Parse "NAME=VALUE" items (catalogue names, SI values). `option` names the flag in errors.
 std::map<std::string, double> parse_effect_assignments(const std::vector<std::string>& items,
@@ -78,7 +103,31 @@ void print_campaign_closing(const std::string& command, const std::string& what,
 /// elapsed time and ETA.
 campaign::ProgressCallback campaign_progress_printer(std::shared_ptr<ProgressPrinter> printer);
 
-/// Write JSON to `path` atomically, or to stdout when path is empty or "-".
-void write_json_output(const std::string& path, const nlohmann::json& j);
+/// What a command that writes single output files (navigate, identify, diagnose) may replace:
+/// never one of `inputs` (the files it reads), and an existing file insid did not write only
+/// with `force` (the command's --force; core/output_dir.h, file_owner).
+struct OutputGuard {
+  std::vector<std::filesystem::path> inputs;
+  bool force = false;
+};
+
+/// Adds --force to a command that writes output files ("replace output files insid did not
+/// write").
+void add_output_force_flag(CLI::App* cmd, bool* force);
+
+/// The files of the dataset in `data_dir` that exist (its meta.json, CSV files and the other
+/// entries insid keeps there): the inputs of a command given --data.
+std::vector<std::filesystem::path> dataset_input_files(const std::string& data_dir);
+
+/// Throws when `path` may not be written under `guard` (checked before the work; nothing for
+/// "" or "-", stdout).
+void check_output_file(const std::string& path, const OutputGuard& guard);
+
+/// Writes an output file atomically under `guard` (a device or FIFO is written to).
+void write_output_file(const std::string& path, const std::string& text, const OutputGuard& guard);
+
+/// Write JSON to `path` atomically under `guard`, or to stdout when path is empty or "-".
+void write_json_output(const std::string& path, const nlohmann::json& j,
+                       const OutputGuard& guard);
 
 }  // namespace insid::cli

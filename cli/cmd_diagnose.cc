@@ -34,11 +34,12 @@ struct DiagnoseArgs {
   double alpha = 0.05;
   double observable_max_sigma = 30.0;
   std::string alignment = "per-candidate";
-  double window_s = 0.0;
+  std::optional<double> window_s;  ///< absent: the grade's default (settle_grade_and_window)
   InitialAttitudeArgs initial_attitude;
   int threads = 0;
   Verbosity verbosity = Verbosity::kNormal;
   bool no_plots = false;
+  bool force = false;
 };
 
 std::string shell_quote(const std::string& s) {
@@ -49,10 +50,23 @@ std::string shell_quote(const std::string& s) {
 
 void run(const DiagnoseArgs& a) {
   namespace fs = std::filesystem;
+  // The outputs are checked before the work: never an input, a file of others only with --force.
+  const OutputGuard guard{dataset_input_files(a.data_dir), a.force};
+  check_output_file(a.out, guard);
+  if (!a.report.empty()) {
+    const fs::path md = fs::absolute(a.report);
+    check_output_file(md.string(), guard);
+    check_output_file((md.parent_path() / (md.stem().string() + "_residuals.csv")).string(),
+                      guard);
+    if (a.out.empty() || a.out == "-")
+      check_output_file((md.parent_path() / (md.stem().string() + ".json")).string(), guard);
+  }
   auto dataset = std::make_shared<const Dataset>(load_dataset(a.data_dir));
   diagnose::DiagnoseOptions o;
   // --grade as identify's: every --base NAME without SIGMA gets the grade's sigma.
-  const SensorGrade& grade = grade_for(*dataset, a.grade);
+  const GradeAndWindow settled = settle_grade_and_window(*dataset, a.grade, a.window_s);
+  const SensorGrade& grade = sensor_grade(settled.grade.grade);
+  if (a.verbosity != Verbosity::kQuiet) std::cerr << "insid diagnose: " << settled.line() << "\n";
   o.grade = grade.name;
   for (const std::string& b : a.base) o.base.push_back(grade.parameter(b));
   o.candidates = a.candidates;
@@ -65,14 +79,15 @@ void run(const DiagnoseArgs& a) {
   o.alpha = a.alpha;
   o.observable_max_sigma = a.observable_max_sigma;
   o.alignment = alignment_mode_from_string(a.alignment);
-  o.window_s = a.window_s;
+  o.window_s = settled.window_s;
   o.initial_attitude = initial_attitude_options(a.initial_attitude);
   o.threads = a.threads;
   // The diagnosis prints plain timed lines, one per step (never '\r'); --verbose adds nothing.
   o.progress = a.verbosity != Verbosity::kQuiet;
   diagnose::DiagnoseResult res = diagnose::run_diagnose(dataset, o);
   res.report["data"] = a.data_dir;
-  write_json_output(a.out, res.report);
+  res.report.update(settled.to_json());
+  write_json_output(a.out, res.report, guard);
   if (a.report.empty()) return;
 
   const fs::path md_path = fs::absolute(a.report);
@@ -80,10 +95,10 @@ void run(const DiagnoseArgs& a) {
   if (!dir.empty()) fs::create_directories(dir);
   const std::string stem = md_path.stem().string();
   const fs::path csv = dir / (stem + "_residuals.csv");
-  diagnose::write_series_csv(csv.string(), res.series);
+  write_output_file(csv.string(), diagnose::series_csv_text(res.series), guard);
   // The JSON next to the report (the plots read it), unless --out already is there.
   fs::path json_path = a.out.empty() || a.out == "-" ? dir / (stem + ".json") : fs::path(a.out);
-  if (a.out.empty() || a.out == "-") write_json_output(json_path.string(), res.report);
+  if (a.out.empty() || a.out == "-") write_json_output(json_path.string(), res.report, guard);
 
   std::string prefix;
   if (!a.no_plots) {
@@ -110,7 +125,7 @@ void run(const DiagnoseArgs& a) {
       std::cerr << "insid diagnose: figures not made (" << script.string()
                 << " missing or failed); report.md has the tables only\n";
   }
-  write_file_atomic(md_path, diagnose::report_markdown(res.report, prefix));
+  write_output_file(md_path.string(), diagnose::report_markdown(res.report, prefix), guard);
 }
 
 }  // namespace
@@ -134,7 +149,8 @@ void add_diagnose_command(CLI::App& app) {
                   "sensor grade auto | nav | tactical | mems, as identify's: the sigma of every "
                   "--base NAME without SIGMA and of every candidate, and the default base (nav: "
                   "the paper's four; tactical, mems: also gyro_bias_z); auto: from meta.json's "
-                  "noise block (identification/grade.h), nav without one")
+                  "noise block, else from the static window's measured noise and gyro bias "
+                  "(identification/grade.h, choose_grade), recorded as grade_choice")
       ->capture_default_str()
       ->check(CLI::IsMember({"auto", "nav", "tactical", "mems"}));
   cmd->add_option("--max-effects", a->max_effects, "most effects added")
@@ -168,8 +184,7 @@ void add_diagnose_command(CLI::App& app) {
       ->capture_default_str()
       ->check(number_in(1e-9, 1e9));
   cmd->add_option("--alignment", a->alignment, "per-candidate | fixed")->capture_default_str();
-  cmd->add_option("--window-s", a->window_s, kWindowHelp)
-      ->capture_default_str()
+  cmd->add_option("--window-s", a->window_s, kWindowWithDefaultHelp)
       ->check(number_in(0.0, kMaxWindowS));
   add_initial_attitude_options(cmd, a->initial_attitude);
   cmd->add_option("--threads", a->threads, "OpenMP threads (0 = all)")
@@ -177,6 +192,7 @@ void add_diagnose_command(CLI::App& app) {
       ->check(whole_in(0, kMaxThreads));
   add_verbosity_flags(cmd, a->verbosity);
   cmd->add_flag("--no-plots", a->no_plots, "report.md without figures");
+  add_output_force_flag(cmd, &a->force);
   cmd->callback([a] { run(*a); });
 }
 

@@ -39,17 +39,21 @@ struct IdentifyArgs {
   int iterations = 40;
   std::int64_t evaluations = 0;
   std::string alignment = "per-candidate";
-  double window_s = 0.0;
+  std::optional<double> window_s;  ///< absent: the grade's default (settle_grade_and_window)
   InitialAttitudeArgs initial_attitude;
   int threads = 0;
   bool no_reference = false;
   bool positions = false;
   int uncertainty_replicas = 100;
   std::string out;
+  bool force = false;
   Verbosity verbosity = Verbosity::kNormal;
 };
 
 void run_identify(const IdentifyArgs& args) {
+  // The output is checked before the work: never an input, a file of others only with --force.
+  const OutputGuard guard{dataset_input_files(args.data_dir), args.force};
+  check_output_file(args.out, guard);
   if (args.uncertainty_replicas > 0 && args.uncertainty_replicas < 10)
     throw UsageError("--uncertainty-replicas " + std::to_string(args.uncertainty_replicas) +
                      ": expected 0 (no uncertainty) or at least 10 replicas");
@@ -58,7 +62,10 @@ void run_identify(const IdentifyArgs& args) {
   // nav (the catalogue) the paper's four, as always; tactical and mems the x/y/z gyro and x/y
   // accelerometer biases (the z gyro is observable once the heading comes from the GNSS course
   // or the flight turns; the uncertainty flags it not_observable when it is not).
-  const SensorGrade& grade = grade_for(*dataset, args.grade);
+  const GradeAndWindow settled = settle_grade_and_window(*dataset, args.grade, args.window_s);
+  const SensorGrade& grade = sensor_grade(settled.grade.grade);
+  ProgressPrinter progress("insid identify", args.verbosity);
+  progress.note(settled.line());
   std::vector<EstimatedParameter> estimated;
   for (const std::string& e : args.estimate) estimated.push_back(grade.parameter(e));
   if (estimated.empty()) {
@@ -74,7 +81,7 @@ void run_identify(const IdentifyArgs& args) {
   NavigationOptions nav_options;
   nav_options.alignment = alignment_mode_from_string(args.alignment);
   nav_options.initial_attitude = initial_attitude_options(args.initial_attitude);
-  nav_options.window_s = args.window_s;
+  nav_options.window_s = settled.window_s;
   // The gyrocompass feasibility check meets the search box's gyro biases.
   std::vector<std::string> names;
   std::vector<double> max_abs_si;
@@ -105,7 +112,6 @@ void run_identify(const IdentifyArgs& args) {
   // need residual vectors or the problem itself: lm, ekf-rts). The status shows the iterations
   // done; the closing line says how the run ended and where its best was found (a restarting
   // baseline such as lm spends the budget on restarts after converging).
-  ProgressPrinter progress("insid identify", args.verbosity);
   const std::string budget = args.iterations > 0 ? "/" + std::to_string(args.iterations) : "";
   int best_at_iteration = 0;
   double best_so_far = std::numeric_limits<double>::infinity();
@@ -142,6 +148,7 @@ void run_identify(const IdentifyArgs& args) {
   out["initial_attitude"] = initial_attitude_json(*navigation, mapping.to_errors(result.best_x));
   out["fitness_kind"] = "eq15";
   if (args.grade != "auto" || grade.name != "nav") out["grade"] = grade.name;
+  out.update(settled.to_json());
   for (const EstimatedParameter& p : estimated)
     out["estimated"].push_back({{"name", p.name},
                                 {"sigma", p.sigma},
@@ -163,7 +170,7 @@ void run_identify(const IdentifyArgs& args) {
     const UncertaintyReport report = add_run_uncertainty_json(out, problem, *optimizer, uo);
     if (!progress.quiet()) std::cerr << report.table();
   }
-  write_json_output(args.out, out);
+  write_json_output(args.out, out, guard);
 }
 
 }  // namespace
@@ -216,8 +223,9 @@ void add_identify_command(CLI::App& app) {
   cmd->add_option("--grade", args->grade,
                   "sensor grade auto | nav | tactical | mems: the search unit (sigma) of every "
                   "--estimate NAME without SIGMA and the default parameters (nav: the paper's "
-                  "four; tactical, mems: also gyro_bias_z); auto: from meta.json's noise block "
-                  "(identification/grade.h), nav without one")
+                  "four; tactical, mems: also gyro_bias_z); auto: from meta.json's noise block, "
+                  "else from the static window's measured noise and gyro bias "
+                  "(identification/grade.h, choose_grade), recorded as grade_choice")
       ->capture_default_str();
   cmd->add_option("--param", args->params,
                   "KEY=VALUE algorithm parameter (see optimizers/README.md); distances "
@@ -231,8 +239,7 @@ void add_identify_command(CLI::App& app) {
       ->capture_default_str()
       ->check(whole_in(0, 1000000000));
   cmd->add_option("--alignment", args->alignment, "per-candidate | fixed")->capture_default_str();
-  cmd->add_option("--window-s", args->window_s, kWindowHelp)
-      ->capture_default_str()
+  cmd->add_option("--window-s", args->window_s, kWindowWithDefaultHelp)
       ->check(number_in(0.0, kMaxWindowS));
   add_initial_attitude_options(cmd, args->initial_attitude);
   cmd->add_option("--threads", args->threads, "OpenMP threads (0 = all, 1 = serial)")
@@ -241,6 +248,7 @@ void add_identify_command(CLI::App& app) {
   cmd->add_flag("--no-reference-optimum", args->no_reference,
                 "skip the data's own optimum (multi-start local fit, cached in the dataset dir)");
   cmd->add_flag("--positions", args->positions, "record every particle's position per iteration");
+  add_output_force_flag(cmd, &args->force);
   cmd->add_option("--uncertainty-replicas", args->uncertainty_replicas,
                   "noise replicas for the estimate's sd and flags (0 = no uncertainty)")
       ->capture_default_str()

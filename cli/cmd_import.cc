@@ -168,6 +168,8 @@ void finish_import(const std::string& command, import::Assembled result, nlohman
   DatasetWriteOptions write_options;
   write_options.into_foreign_directory = force;
   write_options.extra_files["provenance.json"] = prov.dump(2) + "\n";
+  for (const nlohmann::json& source : prov["sources"])
+    write_options.inputs.emplace_back(source.at("path").get<std::string>());
   write_dataset(out, result.dataset, write_options);
   // Notes say what was dropped or derived: printed even with --quiet (also in provenance.json).
   for (const std::string& note : result.notes) std::cerr << "insid import: " << note << "\n";
@@ -184,7 +186,8 @@ void finish_import(const std::string& command, import::Assembled result, nlohman
 }
 
 void run_import_csv(const ImportCsvArgs& args) {
-  dataset_destination(args.shared.out, args.shared.force);  // refuse a directory before the work
+  // Refuse a directory before the work (its own input files included).
+  dataset_destination(args.shared.out, args.shared.force, {args.imu, args.gnss});
   import::CsvImuSpec spec;
   spec.columns = import::CsvImuSpec::parse_columns(args.columns);
   spec.parse_units(args.units);
@@ -241,7 +244,7 @@ struct ImportKfGinsArgs {
 };
 
 void run_import_kf_gins(const ImportKfGinsArgs& args) {
-  dataset_destination(args.shared.out, args.shared.force);
+  dataset_destination(args.shared.out, args.shared.force, {args.imu, args.gnss});
   const import::AssembleOptions options = args.shared.assemble_options();
   if (const std::string e = options.validate(); !e.empty()) throw std::invalid_argument(e);
   const auto t0 = std::chrono::steady_clock::now();
@@ -270,7 +273,7 @@ struct ImportUlogArgs {
 };
 
 void run_import_ulog(const ImportUlogArgs& args) {
-  dataset_destination(args.shared.out, args.shared.force);
+  dataset_destination(args.shared.out, args.shared.force, {args.log});
   if (const std::string e = args.ulog.validate(); !e.empty()) throw std::invalid_argument(e);
   import::AssembleOptions options = args.shared.assemble_options();
   options.gnss_quality = {1};  // the fix-type selection is made by extract_ulog
@@ -362,11 +365,19 @@ void run_export(const ExportArgs& args) {
                          : ds.meta.noise && ds.meta.noise->gnss_vel_sigma_mps > 0
                              ? ds.meta.noise->gnss_vel_sigma_mps
                              : 0.05;
+  // Never over the dataset's own files; imu.txt / gnss.txt of others only with --force.
+  WriteOptions write_options;
+  write_options.replace_foreign = args.force;
+  for (const char* name : {"imu.txt", "gnss.txt"}) {
+    refuse_replacing_inputs(fs::path(args.out) / name, dataset_input_files(args.data), false);
+    check_file_writable(fs::path(args.out) / name, write_options);
+  }
   std::filesystem::create_directories(args.out);
-  write_file_atomic(fs::path(args.out) / "imu.txt",
-                    import::kf_gins_imu_text(ds, args.sow_offset_s));
+  write_file_atomic(fs::path(args.out) / "imu.txt", import::kf_gins_imu_text(ds, args.sow_offset_s),
+                    write_options);
   write_file_atomic(fs::path(args.out) / "gnss.txt",
-                    import::kf_gins_gnss_text(ds, args.sow_offset_s, pos_std, vel_std));
+                    import::kf_gins_gnss_text(ds, args.sow_offset_s, pos_std, vel_std),
+                    write_options);
   std::fprintf(
       stderr,
       "insid export: wrote %s/imu.txt (%zu rows, FRD increments) and gnss.txt (%zu rows, 13 "

@@ -35,6 +35,7 @@ struct NavigateArgs {
   double window_s = 0.0;
   std::string out_csv;
   std::string summary_path;
+  bool force = false;
   Verbosity verbosity = Verbosity::kNormal;
 };
 
@@ -110,6 +111,18 @@ void require_finite_navigation(const NavigationProblem& problem, const std::stri
 }
 
 void run_navigate(const NavigateArgs& args) {
+  // The outputs are checked before the work: never an input, a file of others only with --force.
+  OutputGuard guard{dataset_input_files(args.data_dir), args.force};
+  if (!args.compensate_from.empty()) guard.inputs.emplace_back(args.compensate_from);
+  check_output_file(args.out_csv, guard);
+  check_output_file(args.summary_path, guard);
+  if (!args.out_csv.empty() && !args.summary_path.empty() && args.out_csv != "-") {
+    std::error_code ec;
+    if (std::filesystem::weakly_canonical(args.out_csv, ec) ==
+        std::filesystem::weakly_canonical(args.summary_path, ec))
+      throw UsageError("--out and --summary are the same file ('" + args.out_csv +
+                       "'): give two paths");
+  }
   auto dataset = std::make_shared<const Dataset>(load_dataset(args.data_dir));
   ProgressPrinter progress("insid navigate", args.verbosity);
   std::map<std::string, double> compensation;
@@ -206,12 +219,12 @@ void run_navigate(const NavigateArgs& args) {
                     wrap_two_pi(e.yaw_rad) * kRadToDeg);
       text += line;
     }
-    write_file_atomic(args.out_csv, text);
+    write_output_file(args.out_csv, text, guard);
     progress.detail("wrote " + args.out_csv + " (" + std::to_string(states.size()) + " rows)");
   }
   progress.detail("Eq. 15 fitness " + short_number(fitness) + " m/s over " +
                   std::to_string(problem.num_epochs()) + " GNSS epochs");
-  write_json_output(args.summary_path, summary);
+  write_json_output(args.summary_path, summary, guard);
 }
 
 }  // namespace
@@ -235,6 +248,7 @@ void add_navigate_command(CLI::App& app) {
       ->check(number_in(0.0, kMaxWindowS));
   cmd->add_option("--out", args->out_csv, "navigation solution CSV (truth.csv columns)");
   cmd->add_option("--summary", args->summary_path, "summary JSON file (default: stdout)");
+  add_output_force_flag(cmd, &args->force);
   add_verbosity_flags(cmd, args->verbosity);
   cmd->callback([args] { run_navigate(*args); });
 }

@@ -109,6 +109,23 @@ TEST(RealWalk, ImportIdentifyCutsThePureInsErrorFourfoldAndMatchesThePadGyros) {
   ASSERT_EQ(o.status, 0) << o.output;
   const nlohmann::json result = read_json(root / "lm.json");
   ASSERT_EQ(result.at("parameters").size(), 5u);
+  // --grade auto reads the imported walk's static window (no noise block in its meta.json):
+  // a MEMS unit (issue 33), the rule and its numbers recorded.
+  const nlohmann::json& grade = result.at("grade_choice");
+  EXPECT_EQ(grade.at("grade"), "mems") << grade.dump();
+  EXPECT_EQ(grade.at("source"), "static window") << grade.dump();
+  EXPECT_GT(grade.at("arw_deg_rth").get<double>(), 0.01) << grade.dump();
+  EXPECT_EQ(result.at("window_s_source"), "--window-s");
+  // Without --window-s, MEMS data get the default window (10 s), said so.
+  o = insid("identify" + common +
+            " --algo pso --iterations 1 --no-reference-optimum --uncertainty-replicas 0"
+            " --threads 1 --out " +
+            (root / "auto.json").string());
+  ASSERT_EQ(o.status, 0) << o.output;
+  EXPECT_NE(o.output.find("grade mems (auto: static window"), std::string::npos) << o.output;
+  const nlohmann::json automatic = read_json(root / "auto.json");
+  EXPECT_EQ(automatic.at("window_s").get<double>(), 10.0);
+  EXPECT_EQ(automatic.at("window_s_source"), "default for mems data");
   std::string compensate;
   for (const auto& p : result.at("parameters")) {
     const double estimate = p.at("estimate").get<double>();

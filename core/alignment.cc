@@ -189,8 +189,13 @@ GyrocompassFeasibility gyrocompass_feasibility(double arw_rad_rts, bool arw_decl
   return f;
 }
 
-double estimate_arw_rad_rts(const std::vector<ImuSample>& imu, std::size_t begin, std::size_t end,
-                            double t_start_s) {
+namespace {
+
+// White-noise density (unit/sqrt(s)) of the increments `member` (dtheta or dv) on
+// imu[begin, end): see estimate_arw_rad_rts.
+double estimate_white_noise_density(const std::vector<ImuSample>& imu, std::size_t begin,
+                                    std::size_t end, double t_start_s,
+                                    Eigen::Vector3d ImuSample::*member) {
   if (end > imu.size() || end < begin + 3) return 0.0;
   // First differences of per-sample rates: 2 sigma^2 for white rate noise, bias removed.
   std::vector<double> diffs[3];
@@ -200,7 +205,7 @@ double estimate_arw_rad_rts(const std::vector<ImuSample>& imu, std::size_t begin
     const double dt = imu[k].t_s - t_prev;
     t_prev = imu[k].t_s;
     if (!(dt > 0.0)) continue;
-    const Eigen::Vector3d rate = imu[k].dtheta_b_rad / dt;
+    const Eigen::Vector3d rate = imu[k].*member / dt;
     if (k > begin)
       for (int i = 0; i < 3; ++i) diffs[i].push_back(rate[i] - rate_prev[i]);
     rate_prev = rate;
@@ -218,6 +223,18 @@ double estimate_arw_rad_rts(const std::vector<ImuSample>& imu, std::size_t begin
   }
   // Rate noise sd on one sample of length dt is N / sqrt(dt).
   return std::sqrt(var_sum / 3.0) * std::sqrt(dt_mean);
+}
+
+}  // namespace
+
+double estimate_arw_rad_rts(const std::vector<ImuSample>& imu, std::size_t begin, std::size_t end,
+                            double t_start_s) {
+  return estimate_white_noise_density(imu, begin, end, t_start_s, &ImuSample::dtheta_b_rad);
+}
+
+double estimate_vrw_mps_rts(const std::vector<ImuSample>& imu, std::size_t begin, std::size_t end,
+                            double t_start_s) {
+  return estimate_white_noise_density(imu, begin, end, t_start_s, &ImuSample::dv_b_mps);
 }
 
 Eigen::Matrix3d level_with_yaw(const Eigen::Vector3d& f_ib_b, double yaw_rad) {

@@ -123,6 +123,10 @@ GyrocompassFeasibility gyrocompass_feasibility(double arw_rad_rts, bool arw_decl
 double estimate_arw_rad_rts(const std::vector<ImuSample>& imu, std::size_t begin, std::size_t end,
                             double t_start_s);
 
+/// Velocity random walk (m/s/sqrt(s)) estimated the same way from the specific-force increments.
+double estimate_vrw_mps_rts(const std::vector<ImuSample>& imu, std::size_t begin, std::size_t end,
+                            double t_start_s);
+
 /// C_b_n from the up direction of a mean specific force f_ib_b and a heading (yaw, clockwise
 /// from north): roll and pitch from the levelling, yaw given.
 Eigen::Matrix3d level_with_yaw(const Eigen::Vector3d& f_ib_b, double yaw_rad);

@@ -972,51 +972,6 @@ std::string meta_text(const DatasetMeta& m, const std::map<std::string, Recorded
   return j.dump(2) + "\n";
 }
 
-// Write (create/truncate) a file and fsync it. Throws std::runtime_error naming the path.
-void write_whole_file(const fs::path& path, const std::string& contents) {
-  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) throw std::runtime_error("cannot create '" + path.string() + "': " + os_error(errno));
-  const char* p = contents.data();
-  std::size_t left = contents.size();
-  while (left > 0) {
-    const ssize_t n = ::write(fd, p, left);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      const int err = errno;
-      ::close(fd);
-      throw std::runtime_error("cannot write '" + path.string() + "': " + os_error(err));
-    }
-    p += n;
-    left -= static_cast<std::size_t>(n);
-  }
-  if (::fsync(fd) != 0 && errno != EINVAL && errno != EROFS) {
-    const int err = errno;
-    ::close(fd);
-    throw std::runtime_error("cannot write '" + path.string() + "' (fsync): " + os_error(err));
-  }
-  if (::close(fd) != 0)
-    throw std::runtime_error("cannot write '" + path.string() + "' (close): " + os_error(errno));
-}
-
-// Unique sibling name: "<name><tag><pid>-<n>".
-// Unique among processes sharing a file system: host name, process id and a counter (ranks
-// of an MPI job on different hosts can have the same pid and write into one results tree).
-fs::path sibling(const fs::path& target, const char* tag) {
-  static std::atomic<unsigned> counter{0};
-  static const std::string host = [] {
-    std::array<char, 256> name{};
-    if (::gethostname(name.data(), name.size() - 1) != 0 || name[0] == '\0')
-      return std::string("host");
-    std::string h(name.data());
-    for (char& c : h)
-      if (c == '/' || c == '\\') c = '_';
-    return h;
-  }();
-  return target.parent_path() /
-         (target.filename().string() + tag + host + "-" + std::to_string(::getpid()) + "-" +
-          std::to_string(counter.fetch_add(1)));
-}
-
 // `dir` made absolute and without a trailing separator.
 fs::path normalized_target(const fs::path& dir) {
   std::error_code ec;
@@ -1040,20 +995,15 @@ void write_dataset_files_into(const fs::path& dir, const std::map<std::string, s
            "', which the new dataset does not have and insid "
            "will not delete; remove it yourself or choose another directory");
   }
+  // --force: the user's files of the same names are replaced (the command's inputs were refused
+  // before, dataset_destination).
+  WriteOptions replace;
+  replace.replace_foreign = true;
   for (const auto& [name, contents] : files) {
-    const fs::path tmp = sibling(dir / name, ".tmp-");
     try {
-      write_whole_file(tmp, contents);
+      write_file_atomic(dir / name, contents, replace);
     } catch (const std::exception& e) {
-      std::error_code ignored;
-      fs::remove(tmp, ignored);
       fail(where + ": " + e.what());
-    }
-    fs::rename(tmp, dir / name, ec);
-    if (ec) {
-      std::error_code ignored;
-      fs::remove(tmp, ignored);
-      fail(where + ": cannot rename '" + tmp.string() + "' into place: " + ec.message());
     }
   }
 }
@@ -1186,8 +1136,10 @@ const std::vector<std::string>& dataset_directory_entries() {
 
 namespace {
 
-// True when `dir` holds nothing but an insid dataset's entries, its meta.json (when present)
-// declaring the format. Throws DatasetError when it holds something else, unless `force`.
+// True when `dir` holds nothing but an insid dataset's entries, each a file insid wrote and
+// unchanged since (its mark, core/output_dir.h: a user's raw imu.csv is not one, whatever its
+// name), its meta.json (when present) declaring the format. Throws DatasetError when it holds
+// something else, unless `force`.
 bool holds_only_a_dataset(const fs::path& dir, const std::string& where, bool force) {
   const OutputKind kind{"an insid dataset", dataset_directory_entries()};
   try {
@@ -1215,7 +1167,8 @@ bool holds_only_a_dataset(const fs::path& dir, const std::string& where, bool fo
 
 }  // namespace
 
-DatasetDestination dataset_destination(const fs::path& dir, bool into_foreign_directory) {
+DatasetDestination dataset_destination(const fs::path& dir, bool into_foreign_directory,
+                                       const std::vector<fs::path>& inputs) {
   const std::string where = "cannot write dataset '" + dir.string() + "'";
   const fs::path target = normalized_target(dir);
   if (!target.has_filename() || target.filename() == "." || target.filename() == "..")
@@ -1231,7 +1184,19 @@ DatasetDestination dataset_destination(const fs::path& dir, bool into_foreign_di
     fail(where +
          ": it is the current directory or contains it; give another directory, or "
          "--force to add the dataset's files there");
-  return replaceable && !holds_cwd ? DatasetDestination::kReplace : DatasetDestination::kAddFiles;
+  const DatasetDestination destination =
+      replaceable && !holds_cwd ? DatasetDestination::kReplace : DatasetDestination::kAddFiles;
+  try {
+    if (destination == DatasetDestination::kReplace) {
+      refuse_replacing_inputs(target, inputs, /*whole_directory=*/true);
+    } else {
+      for (const std::string& name : dataset_directory_entries())
+        refuse_replacing_inputs(target / name, inputs, /*whole_directory=*/false);
+    }
+  } catch (const std::runtime_error& e) {
+    fail(where + ": " + e.what());
+  }
+  return destination;
 }
 
 namespace {
@@ -1277,7 +1242,8 @@ void write_dataset(const fs::path& dir, const Dataset& dataset,
   files[std::string(kMetaFile)] = meta_text(dataset.meta, records);
 
   const fs::path target = normalized_target(dir);
-  if (dataset_destination(dir, options.into_foreign_directory) == DatasetDestination::kAddFiles) {
+  if (dataset_destination(dir, options.into_foreign_directory, options.inputs) ==
+      DatasetDestination::kAddFiles) {
     write_dataset_files_into(target, files, where);
     return;
   }
@@ -1296,7 +1262,7 @@ void write_dataset(const fs::path& dir, const Dataset& dataset,
     fail(where + ": cannot create directory '" + parent.string() + "': " + ec.message());
   }
 
-  const fs::path tmp = sibling(target, ".tmp-");
+  const fs::path tmp = temporary_sibling(target, ".tmp-");
   auto cleanup = [&] {
     std::error_code ignored;
     fs::remove_all(tmp, ignored);
@@ -1308,7 +1274,7 @@ void write_dataset(const fs::path& dir, const Dataset& dataset,
          "': " + (ec ? ec.message() : std::string("it already exists")));
   }
   try {
-    for (const auto& [name, contents] : files) write_whole_file(tmp / name, contents);
+    for (const auto& [name, contents] : files) write_file_atomic(tmp / name, contents);
   } catch (const std::exception& e) {
     cleanup();
     fail(where + ": " + e.what());
@@ -1316,7 +1282,7 @@ void write_dataset(const fs::path& dir, const Dataset& dataset,
 
   if (fs::exists(fs::symlink_status(target, ec))) {
     // Move the old dataset aside, put the new one in place, then delete the old one.
-    const fs::path old = sibling(target, ".old-");
+    const fs::path old = temporary_sibling(target, ".old-");
     fs::rename(target, old, ec);
     if (ec) {
       cleanup();
@@ -1338,41 +1304,6 @@ void write_dataset(const fs::path& dir, const Dataset& dataset,
       cleanup();
       fail(where + ": cannot rename '" + tmp.string() + "' into place: " + ec.message());
     }
-  }
-}
-
-void write_file_atomic(const fs::path& path, const std::string& contents) {
-  if (!path.has_filename())
-    throw std::runtime_error("cannot write '" + path.string() + "': not a file name");
-  // A character device or FIFO (/dev/null, /dev/stdout, a pipe) is written to, never replaced
-  // by a rename (which would put a regular file in place of /dev/null).
-  std::error_code status_ec;
-  const fs::file_status st = fs::status(path, status_ec);
-  if (fs::is_character_file(st) || fs::is_fifo(st)) {
-    std::ofstream out(path, std::ios::binary);
-    out << contents;
-    out.flush();
-    if (!out) throw std::runtime_error("cannot write '" + path.string() + "'");
-    return;
-  }
-  if (fs::exists(st) && !fs::is_regular_file(st))
-    throw std::runtime_error("cannot write '" + path.string() +
-                             "': it exists and is not a regular file");
-  const fs::path tmp = sibling(path, ".tmp-");
-  try {
-    write_whole_file(tmp, contents);
-  } catch (const std::exception& e) {
-    std::error_code ignored;
-    fs::remove(tmp, ignored);
-    throw std::runtime_error("cannot write '" + path.string() + "': " + e.what());
-  }
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec) {
-    std::error_code ignored;
-    fs::remove(tmp, ignored);
-    throw std::runtime_error("cannot write '" + path.string() + "': cannot rename '" +
-                             tmp.string() + "' into place: " + ec.message());
   }
 }
 

@@ -13,6 +13,7 @@
 #include <Eigen/Core>
 
 #include "core/earth.h"
+#include "core/output_dir.h"  // write_file_atomic
 #include "core/rotation.h"
 
 namespace insid {
@@ -146,6 +147,9 @@ struct DatasetWriteOptions {
   /// More files written together with the dataset (plain file name -> contents), e.g.
   /// simulate's answer.json.
   std::map<std::string, std::string> extra_files;
+  /// The files the writing command read (an import's sources): the dataset is refused when
+  /// writing it would replace or delete one of them, whatever into_foreign_directory says.
+  std::vector<std::filesystem::path> inputs;
 };
 
 /// Names insid writes into a dataset directory (the format's files, simulate's answer.json,
@@ -160,12 +164,15 @@ enum class DatasetDestination {
 /// What write_dataset would do with `dir`, checked before any work (simulate calls it before
 /// simulating). Throws DatasetError when `dir` is refused (the rules below).
 DatasetDestination dataset_destination(const std::filesystem::path& dir,
-                                       bool into_foreign_directory);
+                                       bool into_foreign_directory,
+                                       const std::vector<std::filesystem::path>& inputs = {});
 
-/// Write a dataset directory. An absent or empty `dir`, or one holding only an insid dataset,
-/// is replaced atomically: everything goes to a sibling temporary directory that is renamed
-/// into place only when complete. A directory holding anything else, or the current directory
-/// (or a parent of it), is refused unless `options.into_foreign_directory`. Throws
+/// Write a dataset directory. An absent or empty `dir`, or one holding only an insid dataset
+/// (files insid wrote and that are unchanged since: file_owner(), core/output_dir.h; look-alike
+/// names are not enough), is replaced atomically: everything goes to a sibling temporary
+/// directory that is renamed into place only when complete. A directory holding anything else,
+/// or the current directory (or a parent of it), is refused unless
+/// `options.into_foreign_directory`; one of `options.inputs` in the way is always refused. Throws
 /// DatasetError on refusal or I/O failure, leaving no partial directory behind.
 void write_dataset(const std::filesystem::path& dir, const Dataset& dataset,
                    const DatasetWriteOptions& options = {});
@@ -174,9 +181,6 @@ void write_dataset(const std::filesystem::path& dir, const Dataset& dataset,
 /// times, constant IMU rate within tolerance, GNSS covering the flight, finite values.
 /// Throws DatasetError naming the file and the first offending line.
 void validate_dataset(const Dataset& dataset);
-
-/// Write a file atomically (temp file + rename). Throws std::runtime_error on failure.
-void write_file_atomic(const std::filesystem::path& path, const std::string& contents);
 
 /// SHA-256 over the files of a dataset directory that determine every result computed from it
 /// (meta.json, imu.csv, gnss.csv, and heading.csv when present; truth.csv and other files do not

@@ -706,7 +706,7 @@ TEST_F(DatasetTest, WriteRefusesAnInvalidDatasetAndWritesNothing) {
 
 TEST_F(DatasetTest, WriteOverAnExistingDatasetReplacesIt) {
   write_valid(true);
-  write_text(dir_ / "insid-optimum-cache.json", "{}");
+  write_file_atomic(dir_ / "insid-optimum-cache.json", "{}");  // as identify writes it
   const Dataset fresh = make_dataset(false, false, true, 2001);
   write_dataset(dir_, fresh);
   // The old truth.csv and the cache went with the old dataset (both are insid's own).

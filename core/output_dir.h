@@ -11,6 +11,7 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -23,22 +24,92 @@ struct OutputKind {
   std::vector<std::string> own_entries;  ///< names insid writes at the top level
 };
 
-/// Throws std::runtime_error when `dir` exists and holds an entry that is not in
-/// `kind.own_entries` (or a temporary of one: "<entry>.tmp-..."), naming the first such entry
-/// and the way out (another directory, or `force_hint`). An absent or empty directory passes.
+/// Throws std::runtime_error when `dir` exists and holds an entry that is not insid's own:
+/// a name outside `kind.own_entries` (and not a temporary of one: "<entry>.tmp-..."), or an own
+/// name held by something insid did not write (a regular file without insid's mark, see
+/// file_owner; a symbolic link). Names the first such entry and the way out (another directory,
+/// or `force_hint`). An absent or empty directory passes; so do real directories of own names
+/// (their contents are checked where insid would delete them, remove_own_files).
 void require_own_or_empty(const std::filesystem::path& dir, const OutputKind& kind,
                           std::string_view force_hint);
+
+/// Who wrote a file, as far as insid can tell. insid marks every file it writes (the extended
+/// attribute "user.insid.sha256", the SHA-256 of the bytes written, set before the file is
+/// renamed into place); a file is insid's while its contents still match the mark. A file copied
+/// without its extended attributes, edited since, or written by anyone else is not insid's, and
+/// neither is a symbolic link or anything that is not a regular file.
+enum class FileOwner {
+  kAbsent,  ///< nothing at the path (not even a dangling link)
+  kInsid,   ///< a regular file whose contents match insid's mark
+  kOther,   ///< anything else: insid does not replace or delete it unless the user says --force
+};
+FileOwner file_owner(const std::filesystem::path& path);
+
+/// How write_file_atomic treats an existing file at the destination.
+struct WriteOptions {
+  /// Replace an existing regular file that insid did not write (the command line's --force).
+  /// Symbolic links and non-regular files are never replaced.
+  bool replace_foreign = false;
+  /// Create the missing directories of `relative` (write_file_atomic_under only).
+  bool create_directories = false;
+  /// What the refusal of a foreign file tells the user to do instead.
+  std::string force_hint = "give --force to replace it";
+};
+
+/// Writes `contents` to `path` atomically (a marked temporary beside it, fsync, rename), so a
+/// reader never sees half a file. A character device or FIFO (/dev/stdout, /dev/null, a pipe)
+/// is written to instead. Throws std::runtime_error naming the path when the destination is a
+/// symbolic link, not a regular file, or a file insid did not write (unless
+/// options.replace_foreign), or when writing fails (the temporary is removed).
+void write_file_atomic(const std::filesystem::path& path, std::string_view contents,
+                       const WriteOptions& options = {});
+
+/// Throws what write_file_atomic(path, ..., options) would throw about the destination, without
+/// writing: for commands that check their outputs before the work.
+void check_file_writable(const std::filesystem::path& path, const WriteOptions& options = {});
+
+/// write_file_atomic for `root / relative` inside an output directory (a campaign's), without
+/// following links below `root`: every directory of `relative` is opened with O_NOFOLLOW from
+/// the one above it (openat), the temporary is created with O_EXCL | O_NOFOLLOW and renamed with
+/// renameat in the same directory, so a symbolic link planted anywhere under `root` (runs/,
+/// optimum/, the file itself) is refused, not followed, even if it appears while insid runs.
+/// `relative` must be relative and free of "..". `root` itself is the user's and may be a link.
+void write_file_atomic_under(const std::filesystem::path& root,
+                             const std::filesystem::path& relative, std::string_view contents,
+                             const WriteOptions& options = {});
+
+/// A name for a temporary beside `target`: "<name><tag><host>-<pid>-<n>" (tag ".tmp-" or
+/// ".old-"), unique among processes sharing a file system (MPI ranks on several hosts).
+std::filesystem::path temporary_sibling(const std::filesystem::path& target, const char* tag);
+
+/// Throws std::runtime_error when writing `output` would replace one of `inputs`, the files the
+/// same command reads (the same file, a hard link or a link to it), or, with `whole_directory`
+/// (a directory replaced as a whole), when an input lies anywhere under `output`. No --force
+/// lifts this: a command never destroys what it reads.
+void refuse_replacing_inputs(const std::filesystem::path& output,
+                             const std::vector<std::filesystem::path>& inputs,
+                             bool whole_directory);
+
+/// Removes under `dir` (recursively, never following links) the regular files insid wrote
+/// (file_owner() == kInsid), those `also_own` accepts (given the path relative to `dir`: a
+/// layout insid alone writes in a directory it owns, e.g. a campaign's run files written before
+/// files were marked) and insid's temporaries, then the directories left empty. Returns the
+/// paths of what it kept (relative to `dir`): files of others, links, changed files.
+std::vector<std::filesystem::path> remove_own_files(
+    const std::filesystem::path& dir,
+    const std::function<bool(const std::filesystem::path&)>& also_own = {});
 
 /// True when `dir` is the current working directory or one of its parents.
 bool contains_working_directory(const std::filesystem::path& dir);
 
 /// `name` when it can be one path component under an output directory: non-empty, only
-/// [A-Za-z0-9._-], not "." or "..". Otherwise throws std::invalid_argument naming `what`
+/// [A-Za-z0-9._-], not "." or "..", and not holding ".tmp-" or ".old-" (the marks of insid's
+/// temporaries, which a resume removes). Otherwise throws std::invalid_argument naming `what`
 /// (e.g. "scenario name") and the value. Every config string that becomes part of a path
 /// goes through here, so no write leaves the output directory.
 const std::string& checked_path_component(const std::string& name, std::string_view what);
 
-/// Removes, under `dir` (recursively), the temporary files of insid's atomic writes
+/// Removes, under `dir` (recursively, never following links), the temporary files of insid's atomic writes
 /// ("<name>.tmp-<host>-<pid>-<n>") and datasets ("<name>.tmp-..." / ".old-..." directories).
 /// Call it only while no other process writes there (holding the campaign lock alone).
 /// Returns the number of entries removed.
@@ -55,9 +126,12 @@ class FileLock {
   /// The file a campaign directory's run lock lives in.
   static constexpr const char* kRunLockName = ".insid-lock";
 
-  /// Opens `path` (a directory, or a regular file, created when absent); takes no lock yet.
-  /// Throws std::runtime_error naming the path.
-  explicit FileLock(const std::filesystem::path& path);
+  enum class Target {
+    kFile,       ///< a regular lock file, created when absent; a symbolic link is refused
+    kDirectory,  ///< a directory the user named (a link to one is followed)
+  };
+  /// Opens `path`; takes no lock yet. Throws std::runtime_error naming the path.
+  explicit FileLock(const std::filesystem::path& path, Target target = Target::kFile);
   ~FileLock();
   FileLock(const FileLock&) = delete;
   FileLock& operator=(const FileLock&) = delete;
@@ -68,6 +142,10 @@ class FileLock {
   /// Takes or converts the lock, waiting for conflicting holders.
   void lock(Mode mode);
   void unlock();
+  /// The lock file's text (a regular file's lock only), read and replaced through the open
+  /// descriptor: the file the lock lives on, never a path that could have been swapped for a link.
+  std::string read_text() const;
+  void write_text(const std::string& text);
 
  private:
   int fd_ = -1;

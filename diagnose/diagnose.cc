@@ -908,17 +908,15 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
   return result;
 }
 
-void write_series_csv(const std::string& path, const ResidualSeries& s) {
-  std::ofstream out(path);
-  if (!out) throw std::runtime_error("cannot write '" + path + "'");
-  out << "t_s,phase,dvE_before_mps,dvN_before_mps,dvE_after_mps,dvN_after_mps\n";
+std::string series_csv_text(const ResidualSeries& s) {
+  std::string text = "t_s,phase,dvE_before_mps,dvN_before_mps,dvE_after_mps,dvN_after_mps\n";
   char buf[256];
   for (std::size_t e = 0; e < s.t_s.size(); ++e) {
     std::snprintf(buf, sizeof buf, "%.3f,%s,%.6g,%.6g,%.6g,%.6g\n", s.t_s[e], s.phase[e].c_str(),
                   s.before[2 * e], s.before[2 * e + 1], s.after[2 * e], s.after[2 * e + 1]);
-    out << buf;
+    text += buf;
   }
-  if (!out) throw std::runtime_error("error writing '" + path + "'");
+  return text;
 }
 
 std::string report_markdown(const json& r, const std::string& figure_prefix) {

@@ -110,8 +110,8 @@ double replica_max_threshold(const std::vector<double>& sorted_max, double alpha
 /// `B` (the rule before issue 15).
 std::vector<double> gaussian_max_abs_z(const Eigen::MatrixXd& B, int draws, std::uint64_t seed);
 
-/// Write the residual series as CSV: t_s,phase,dvE_before,dvN_before,dvE_after,dvN_after.
-void write_series_csv(const std::string& path, const ResidualSeries& series);
+/// The residual series as CSV text: t_s,phase,dvE_before,dvN_before,dvE_after,dvN_after.
+std::string series_csv_text(const ResidualSeries& series);
 
 /// report.md text (tables; the figures come from scripts/diagnose_plots.py and are linked as
 /// PREFIX_residuals.png, PREFIX_phases.png, PREFIX_scores.png when `figure_prefix` is not empty).

@@ -1,8 +1,10 @@
 #include "identification/grade.h"
 
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 
+#include "core/alignment.h"
 #include "core/rotation.h"
 
 namespace insid {
@@ -73,9 +75,101 @@ std::optional<std::string> declared_grade(const Dataset& dataset) {
   return "mems";
 }
 
-const SensorGrade& grade_for(const Dataset& dataset, std::string_view explicit_grade) {
-  if (!explicit_grade.empty() && explicit_grade != "auto") return sensor_grade(explicit_grade);
-  return sensor_grade(declared_grade(dataset).value_or("nav"));
+namespace {
+
+// Coarseness order of the grades: nav < tactical < mems.
+int coarseness(std::string_view grade) { return grade == "nav" ? 0 : grade == "tactical" ? 1 : 2; }
+
+std::string figure(double value, int digits = 3) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.*g", digits, value);
+  return text;
 }
+
+}  // namespace
+
+GradeChoice choose_grade(const Dataset& dataset, std::string_view explicit_grade) {
+  GradeChoice c;
+  if (!explicit_grade.empty() && explicit_grade != "auto") {
+    c.grade = sensor_grade(explicit_grade).name;  // throws on an unknown name
+    c.source = "--grade";
+    c.rule = "grade " + c.grade + " (given)";
+    return c;
+  }
+  if (const std::optional<std::string> declared = declared_grade(dataset)) {
+    c.grade = *declared;
+    c.source = "meta.json noise";
+    c.arw_deg_rth = dataset.meta.noise->arw_deg_rth;
+    c.rule = "grade " + c.grade + " (auto: meta.json noise.arw_deg_rth " + figure(c.arw_deg_rth) +
+             " deg/sqrt(h); <= 0.01 nav, <= 0.1 tactical, above mems)";
+    return c;
+  }
+  // The static window: the rows within align_s of the first IMU row.
+  const std::vector<ImuSample>& imu = dataset.imu;
+  std::size_t end = 0;
+  const double t0 = imu.empty() ? 0.0 : imu.front().t_s;
+  while (end < imu.size() && imu[end].t_s <= t0 + dataset.meta.align_s) ++end;
+  const double window_s = end > 1 ? imu[end - 1].t_s - t0 : 0.0;
+  if (window_s < GradeChoice::kMinStaticWindowS || end < 10) {
+    c.grade = "nav";
+    c.source = "assumed";
+    c.rule = "grade nav ASSUMED (auto: no meta.json noise block and no static window of at least " +
+             figure(GradeChoice::kMinStaticWindowS) +
+             " s to measure the sensors on; give --grade nav|tactical|mems)";
+    return c;
+  }
+  c.source = "static window";
+  c.static_window_s = window_s;
+  const double arw_rad_rts = estimate_arw_rad_rts(imu, 1, end, t0);
+  c.arw_deg_rth = arw_rad_rts * kRadToDeg * 60.0;  // rad/sqrt(s) -> deg/sqrt(h)
+  c.vrw_mps_rth = estimate_vrw_mps_rts(imu, 1, end, t0) * 60.0;  // m/s/sqrt(s) -> m/s/sqrt(h)
+  Eigen::Vector3d dtheta_rad = Eigen::Vector3d::Zero();
+  for (std::size_t k = 1; k < end; ++k) dtheta_rad += imu[k].dtheta_b_rad;
+  const double mean_rate_rad_s = (dtheta_rad / window_s).norm();
+  const double kRadSToDegH = kRadToDeg * 3600.0;
+  c.gyro_bias_min_deg_h =
+      std::abs(mean_rate_rad_s - dataset.meta.earth.omega_ie_rad_s) * kRadSToDegH;
+  c.gyro_bias_noise_deg_h = arw_rad_rts / std::sqrt(window_s) * kRadSToDegH;
+
+  const std::string by_arw = c.arw_deg_rth <= 0.01 ? "nav" : c.arw_deg_rth <= 0.1 ? "tactical"
+                                                                                  : "mems";
+  const std::string by_vrw = c.vrw_mps_rth <= 0.005 ? "nav" : c.vrw_mps_rth <= 0.035 ? "tactical"
+                                                                                     : "mems";
+  const bool bias_seen = c.gyro_bias_min_deg_h > 3.0 * c.gyro_bias_noise_deg_h;
+  const std::string by_bias = !bias_seen                     ? "nav"
+                              : c.gyro_bias_min_deg_h <= 0.1 ? "nav"
+                              : c.gyro_bias_min_deg_h <= 20.0 ? "tactical"
+                                                              : "mems";
+  c.grade = by_arw;
+  for (const std::string& g : {by_vrw, by_bias})
+    if (coarseness(g) > coarseness(c.grade)) c.grade = g;
+  c.rule = "grade " + c.grade + " (auto: static window " + figure(window_s) + " s: ARW " +
+           figure(c.arw_deg_rth) + " deg/sqrt(h) -> " + by_arw + ", VRW " + figure(c.vrw_mps_rth) +
+           " m/s/sqrt(h) -> " + by_vrw + ", |gyro bias| >= " + figure(c.gyro_bias_min_deg_h) +
+           " deg/h (noise " + figure(c.gyro_bias_noise_deg_h) + ") -> " +
+           (bias_seen ? by_bias : std::string("not seen")) + "; the coarsest)";
+  return c;
+}
+
+nlohmann::json GradeChoice::to_json() const {
+  nlohmann::json j;
+  j["grade"] = grade;
+  j["source"] = source;
+  j["rule"] = rule;
+  if (std::isfinite(static_window_s)) {
+    j["static_window_s"] = static_window_s;
+    j["vrw_mps_rth"] = vrw_mps_rth;
+    j["gyro_bias_min_deg_h"] = gyro_bias_min_deg_h;
+    j["gyro_bias_noise_deg_h"] = gyro_bias_noise_deg_h;
+  }
+  if (std::isfinite(arw_deg_rth)) j["arw_deg_rth"] = arw_deg_rth;
+  return j;
+}
+
+const SensorGrade& grade_for(const Dataset& dataset, std::string_view explicit_grade) {
+  return sensor_grade(choose_grade(dataset, explicit_grade).grade);
+}
+
+double default_window_s(const GradeChoice& choice) { return choice.grade == "mems" ? 10.0 : 0.0; }
 
 }  // namespace insid

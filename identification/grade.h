@@ -16,10 +16,13 @@
 // the biases (one sigma of drift builds one sigma of bias in an hour, as in the catalogue).
 #pragma once
 
+#include <cmath>
 #include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "core/dataset.h"
 #include "identification/ins_problem.h"
@@ -54,7 +57,48 @@ std::vector<std::string> sensor_grade_names();
 /// block: nullopt (callers fall back to nav, the catalogue, as before grades existed).
 std::optional<std::string> declared_grade(const Dataset& dataset);
 
-/// `explicit_grade` when not empty and not "auto", else declared_grade, else "nav".
+/// How a grade was settled (`--grade auto` or explicit): the grade, where it came from and the
+/// figures it rests on, recorded in every result (`grade_choice`) and printed in one line.
+///
+/// auto's rule, in order:
+/// 1. meta.json's noise block, when present (declared_grade: the angle random walk);
+/// 2. else the static alignment window (the IMU rows in the first meta.align_s seconds, at least
+///    kMinStaticWindowS): three figures measured there each name a grade, and the coarsest wins
+///    (one MEMS sign is enough):
+///    - the angle random walk (core/alignment.h, estimate_arw_rad_rts):
+///      <= 0.01 deg/sqrt(h) nav, <= 0.1 tactical, else mems (declared_grade's bounds);
+///    - the velocity random walk (estimate_vrw_mps_rts): <= 0.005 m/s/sqrt(h) nav, <= 0.035
+///      tactical, else mems (between the grade table's 0.001 / 0.02 / 0.05);
+///    - a lower bound on the gyro bias: | |mean rate| - Earth rate | (a static gyro measures
+///      Earth rate plus its bias, so |bias| >= that difference), counted only above 3 times its
+///      noise (ARW / sqrt(window)): <= 0.1 deg/h nav, <= 20 deg/h tactical, else mems (between
+///      the table's 0.01 deg/h / 1 deg/h / 0.1 deg/s).
+///    Vibration on the pad counts as noise, so a vehicle with its engine running reads coarser
+///    (the safe side: a wider search box, a windowed fitness).
+/// 3. else (no static window) nav, the catalogue, said plainly as an assumption.
+struct GradeChoice {
+  static constexpr double kMinStaticWindowS = 3.0;
+  std::string grade;   ///< "nav" | "tactical" | "mems"
+  std::string source;  ///< "--grade" | "meta.json noise" | "static window" | "assumed"
+  std::string rule;    ///< the rule and the numbers, one line
+  // The static window's figures (NaN when not measured).
+  double static_window_s = std::nan("");
+  double arw_deg_rth = std::nan("");
+  double vrw_mps_rth = std::nan("");
+  double gyro_bias_min_deg_h = std::nan("");    ///< lower bound on |gyro bias|
+  double gyro_bias_noise_deg_h = std::nan("");  ///< its noise, ARW / sqrt(window)
+  nlohmann::json to_json() const;
+};
+
+/// The grade of `dataset`: `explicit_grade` when not empty and not "auto", else auto's rule.
+GradeChoice choose_grade(const Dataset& dataset, std::string_view explicit_grade = {});
+
+/// The grade choose_grade settles on.
 const SensorGrade& grade_for(const Dataset& dataset, std::string_view explicit_grade = {});
+
+/// The windowed fitness's default when the user gives no --window-s: 10 s for MEMS data (the
+/// accuracy plateau of results/window/README.md, "W = 10-20 s on MEMS data"), 0 (one run, the
+/// paper's Eq. 15) otherwise.
+double default_window_s(const GradeChoice& choice);
 
 }  // namespace insid

@@ -1,0 +1,213 @@
+// The binary never loses a user's file (issue 37, items 1, 2, 5 and 6): an import into the folder
+// of its own raw log, outputs over the command's inputs or over files insid did not write, links
+// planted in a campaign directory, and --force-new over a user's file in runs/. Each case ends
+// non-zero with the file named, and the user's file is unchanged.
+#include <sys/wait.h>
+#include <sys/xattr.h>
+#include <unistd.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <gtest/gtest.h>
+
+namespace {
+namespace fs = std::filesystem;
+
+struct Outcome {
+  int status = -1;
+  std::string output;  // stdout and stderr
+};
+
+Outcome insid(const std::string& args) {
+  Outcome o;
+  FILE* pipe = ::popen((std::string(INSID_BINARY) + " " + args + " 2>&1").c_str(), "r");
+  if (pipe == nullptr) return o;
+  std::array<char, 4096> buffer{};
+  while (std::fgets(buffer.data(), buffer.size(), pipe) != nullptr) o.output += buffer.data();
+  const int raw = ::pclose(pipe);
+  o.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+  return o;
+}
+
+std::string text(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+bool has(const std::string& text, const std::string& part) {
+  return text.find(part) != std::string::npos;
+}
+
+class CliOwnership : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    root_ = fs::temp_directory_path() / ("insid-cli-ownership-" + std::to_string(getpid()));
+    fs::remove_all(root_);
+    fs::create_directories(root_);
+    std::ofstream(root_ / "probe") << "x";
+    marks_ = ::setxattr((root_ / "probe").c_str(), "user.insid.probe", "1", 1, 0) == 0;
+    data_ = root_ / "data";
+    const Outcome o = insid("simulate --preset straight --flight-s 20 --out " + data_.string());
+    ASSERT_EQ(o.status, 0) << o.output;
+    kf_ = root_ / "kf";
+    const Outcome e = insid("export --to kf-gins --data " + data_.string() + " --out " + kf_.string());
+    ASSERT_EQ(e.status, 0) << e.output;
+  }
+  void TearDown() override { fs::remove_all(root_); }
+
+  std::string import_kf(const fs::path& imu, const fs::path& out) const {
+    return "import kf-gins --imu " + imu.string() + " --gnss " + (kf_ / "gnss.txt").string() +
+           " --align-s 600 --static-rate 5 --static-accel-sd 0.3 --out " + out.string();
+  }
+
+  fs::path root_, data_, kf_;
+  bool marks_ = false;
+};
+
+// Item 1: a folder of files with dataset names is not a dataset; the raw log stays.
+TEST_F(CliOwnership, AnImportNeverReplacesItsOwnRawLog) {
+  const fs::path walk = root_ / "walk";
+  fs::create_directories(walk);
+  fs::copy_file(kf_ / "imu.txt", walk / "imu.csv");  // the user's raw log, named like insid's
+  const std::string raw = text(walk / "imu.csv");
+  Outcome o = insid(import_kf(walk / "imu.csv", walk));
+  EXPECT_EQ(o.status, 1) << o.output;
+  EXPECT_TRUE(has(o.output, "it holds 'imu.csv'")) << o.output;
+  EXPECT_EQ(text(walk / "imu.csv"), raw);
+  // --force adds the dataset's files to a foreign folder, but never over the command's input.
+  o = insid(import_kf(walk / "imu.csv", walk) + " --force");
+  EXPECT_EQ(o.status, 1) << o.output;
+  EXPECT_TRUE(has(o.output, "which this command reads")) << o.output;
+  EXPECT_EQ(text(walk / "imu.csv"), raw);
+  EXPECT_FALSE(fs::exists(walk / "meta.json"));
+  // simulate over a folder holding only look-alike names: refused too.
+  const fs::path look = root_ / "look";
+  fs::create_directories(look);
+  std::ofstream(look / "meta.json") << "{\"format\": \"insid-dataset/1\"}";
+  std::ofstream(look / "gnss.csv") << "the user's";
+  o = insid("simulate --preset straight --flight-s 5 --out " + look.string());
+  EXPECT_EQ(o.status, 1) << o.output;
+  EXPECT_EQ(text(look / "gnss.csv"), "the user's");
+  // An insid dataset is still replaced as a whole (its files carry insid's mark).
+  if (!marks_) GTEST_SKIP() << "no user extended attributes here: insid cannot mark its files";
+  o = insid("simulate --preset straight --flight-s 10 --out " + data_.string());
+  EXPECT_EQ(o.status, 0) << o.output;
+  // ... and an import may write into the folder of a raw log it does not touch.
+  const fs::path mixed = root_ / "mixed";
+  o = insid(import_kf(kf_ / "imu.txt", mixed));
+  EXPECT_EQ(o.status, 0) << o.output;
+  o = insid(import_kf(kf_ / "imu.txt", mixed));  // again: its own dataset, replaced
+  EXPECT_EQ(o.status, 0) << o.output;
+}
+
+// Item 5: outputs over the command's inputs, or over a file insid did not write.
+TEST_F(CliOwnership, OutputsNeverReplaceInputsOrOtherFiles) {
+  const std::string imu = text(data_ / "imu.csv"), meta = text(data_ / "meta.json");
+  for (const std::string& args :
+       {"navigate --data " + data_.string() + " --out " + (data_ / "imu.csv").string(),
+        "navigate --data " + data_.string() + " --summary " + (data_ / "meta.json").string(),
+        "navigate --force --data " + data_.string() + " --summary " +
+            (data_ / "gnss.csv").string(),
+        "identify --algo pso --iterations 2 --data " + data_.string() + " --out " +
+            (data_ / "meta.json").string(),
+        "diagnose --data " + data_.string() + " --out " + (data_ / "truth.csv").string()}) {
+    const Outcome o = insid(args);
+    EXPECT_EQ(o.status, 1) << args << "\n" << o.output;
+    EXPECT_TRUE(has(o.output, "which this command reads")) << args << "\n" << o.output;
+  }
+  EXPECT_EQ(text(data_ / "imu.csv"), imu);
+  EXPECT_EQ(text(data_ / "meta.json"), meta);
+  EXPECT_EQ(insid("navigate --data " + data_.string()).status, 0);  // the dataset still loads
+
+  // A file of the user's as an output: refused before the work, replaced with --force.
+  const fs::path notes = root_ / "notes.json";
+  std::ofstream(notes) << "mine";
+  Outcome o = insid("navigate --data " + data_.string() + " --summary " + notes.string());
+  EXPECT_EQ(o.status, 1) << o.output;
+  EXPECT_TRUE(has(o.output, "insid did not write it")) << o.output;
+  EXPECT_TRUE(has(o.output, "--force")) << o.output;
+  EXPECT_EQ(text(notes), "mine");
+  o = insid("identify --algo pso --iterations 2 --data " + data_.string() + " --out " +
+            notes.string());
+  EXPECT_EQ(o.status, 1) << o.output;
+  EXPECT_EQ(text(notes), "mine");
+  o = insid("navigate --force --data " + data_.string() + " --summary " + notes.string());
+  EXPECT_EQ(o.status, 0) << o.output;
+  EXPECT_NE(text(notes), "mine");
+  // insid's own output is replaced by the next run without --force.
+  if (!marks_) GTEST_SKIP() << "no user extended attributes here: insid cannot mark its files";
+  const fs::path nav = root_ / "nav.csv";
+  for (int k = 0; k < 2; ++k) {
+    o = insid("navigate --data " + data_.string() + " --out " + nav.string());
+    EXPECT_EQ(o.status, 0) << o.output;
+  }
+}
+
+// Items 2 and 6: links planted in a campaign directory, a user's summary.json, a user's file
+// under runs/ when --force-new discards the results of another campaign.
+TEST_F(CliOwnership, CampaignDirectoriesFollowNoLinkAndDeleteOnlyInsidsFiles) {
+  if (!marks_) GTEST_SKIP() << "no user extended attributes here: insid cannot mark its files";
+  const std::string bench = "bench --preset quick --seeds 1 --flight-s 20 --threads 2 --quiet ";
+  const fs::path outside = root_ / "outside";
+  fs::create_directories(outside);
+  std::ofstream(outside / "victim") << "keep";
+
+  // A directory holding only the user's summary.json is not a campaign directory.
+  const fs::path user = root_ / "user";
+  fs::create_directories(user);
+  std::ofstream(user / "summary.json") << "{\"mine\": true}";
+  Outcome o = insid(bench + "--out " + user.string());
+  EXPECT_EQ(o.status, 1) << o.output;
+  EXPECT_TRUE(has(o.output, "it holds 'summary.json'")) << o.output;
+  EXPECT_EQ(text(user / "summary.json"), "{\"mine\": true}");
+
+  const fs::path c = root_ / "campaign";
+  o = insid(bench + "--out " + c.string());
+  ASSERT_EQ(o.status, 0) << o.output;
+  fs::path run_file;
+  for (const auto& e : fs::recursive_directory_iterator(c / "runs"))
+    if (e.is_regular_file()) run_file = e.path();
+  ASSERT_FALSE(run_file.empty());
+
+  // .insid-lock as a link to a file outside: refused, the file untouched.
+  fs::remove(c / ".insid-lock");
+  fs::create_symlink(outside / "victim", c / ".insid-lock");
+  o = insid(bench + "--out " + c.string());
+  EXPECT_EQ(o.status, 1) << o.output;
+  EXPECT_TRUE(has(o.output, "symbolic link")) << o.output;
+  EXPECT_EQ(text(outside / "victim"), "keep");
+  fs::remove(c / ".insid-lock");
+
+  // runs/ and optimum/ as links to a directory outside: nothing is written there.
+  for (const char* sub : {"runs", "optimum"}) {
+    fs::remove_all(c / "runs");  // a run to do, so that the campaign writes both
+    fs::remove_all(c / sub);
+    fs::create_directory_symlink(outside, c / sub);
+    o = insid(bench + "--out " + c.string());
+    EXPECT_EQ(o.status, 1) << sub << "\n" << o.output;
+    EXPECT_TRUE(has(o.output, "symbolic link")) << sub << "\n" << o.output;
+    EXPECT_EQ(std::distance(fs::directory_iterator(outside), fs::directory_iterator()), 1) << sub;
+    fs::remove(c / sub);
+    o = insid(bench + "--out " + c.string());  // the links gone, the campaign completes again
+    ASSERT_EQ(o.status, 0) << o.output;
+  }
+
+  // --force-new over a different campaign: insid's runs go, the user's notes stay and are named.
+  std::ofstream(c / "runs" / "notes.txt") << "mine";
+  o = insid("bench --preset quick --seeds 2 --flight-s 20 --threads 2 --quiet --force-new --out " +
+            c.string());
+  EXPECT_EQ(o.status, 1) << o.output;
+  EXPECT_TRUE(has(o.output, "runs/notes.txt")) << o.output;
+  EXPECT_EQ(text(c / "runs" / "notes.txt"), "mine");
+  EXPECT_TRUE(fs::exists(c / "manifest.json"));
+  EXPECT_FALSE(fs::exists(run_file));
+}
+
+}  // namespace

@@ -1,0 +1,76 @@
+// `--grade auto` reads the data (issue 33, item 2): the meta.json noise block when there is one,
+// else the static window's measured noise and gyro bias; nav only as a stated assumption.
+#include "identification/grade.h"
+
+#include <cmath>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "scenarios/scenario.h"
+
+namespace insid {
+namespace {
+
+// A simulated flight that looks measured: no injected answer, no noise block in meta.json.
+Dataset measured_looking(const std::string& grade, double flight_s = 20.0) {
+  scenarios::ScenarioOverrides o;
+  o.grade = grade;
+  o.flight_s = flight_s;
+  o.seed = 3;
+  return scenarios::simulate_preset("straight", o, /*record_truth_in_meta=*/false);
+}
+
+TEST(GradeChoice, AutoMeasuresTheStaticWindowWhenMetaJsonDeclaresNoNoise) {
+  const Dataset nav = measured_looking("nav");
+  ASSERT_FALSE(nav.meta.noise.has_value());
+  const GradeChoice n = choose_grade(nav);
+  EXPECT_EQ(n.grade, "nav") << n.rule;
+  EXPECT_EQ(n.source, "static window");
+  // The simulator's nav noise (scenarios/noise.cc): ARW 0.002 deg/sqrt(h), VRW 0.001 m/s/sqrt(h).
+  EXPECT_NEAR(n.arw_deg_rth, 0.002, 0.0006) << n.rule;
+  EXPECT_NEAR(n.vrw_mps_rth, 0.001, 0.0003) << n.rule;
+  EXPECT_EQ(default_window_s(n), 0.0);
+
+  const Dataset mems = measured_looking("mems");
+  const GradeChoice m = choose_grade(mems);
+  EXPECT_EQ(m.grade, "mems") << m.rule;
+  EXPECT_EQ(m.source, "static window");
+  EXPECT_NEAR(m.arw_deg_rth, 0.2, 0.06) << m.rule;  // mems: 0.2 deg/sqrt(h), 0.05 m/s/sqrt(h)
+  EXPECT_NEAR(m.vrw_mps_rth, 0.05, 0.015) << m.rule;
+  EXPECT_EQ(default_window_s(m), 10.0);
+  // The rule and its numbers are in the record and the line.
+  EXPECT_NE(m.rule.find("ARW"), std::string::npos);
+  EXPECT_EQ(m.to_json().at("source"), "static window");
+  EXPECT_NEAR(m.to_json().at("arw_deg_rth").get<double>(), m.arw_deg_rth, 1e-12);
+}
+
+TEST(GradeChoice, AGyroBiasFarAboveEarthRateIsMemsWhateverTheNoise) {
+  // A quiet gyro (nav-grade noise) with a 0.2 deg/s bias is no navigation-grade unit.
+  Dataset d = measured_looking("nav");
+  const double bias_rad_s = 0.2 * M_PI / 180.0;
+  for (std::size_t k = 1; k < d.imu.size(); ++k)
+    d.imu[k].dtheta_b_rad.x() += bias_rad_s * (d.imu[k].t_s - d.imu[k - 1].t_s);
+  const GradeChoice c = choose_grade(d);
+  EXPECT_EQ(c.grade, "mems") << c.rule;
+  EXPECT_NEAR(c.gyro_bias_min_deg_h, 720.0, 20.0) << c.rule;  // >= |bias| - Earth rate
+}
+
+TEST(GradeChoice, DeclaredNoiseWinsAndNoStaticWindowIsSaidToBeAnAssumption) {
+  Dataset d = measured_looking("mems");
+  d.meta.noise = NoiseLevels{0.002, 0.001, 0.01, 0.02};
+  EXPECT_EQ(choose_grade(d).grade, "nav");
+  EXPECT_EQ(choose_grade(d).source, "meta.json noise");
+  d.meta.noise.reset();
+  d.meta.align_s = 0.0;
+  const GradeChoice c = choose_grade(d);
+  EXPECT_EQ(c.grade, "nav");
+  EXPECT_EQ(c.source, "assumed");
+  EXPECT_NE(c.rule.find("ASSUMED"), std::string::npos);
+  EXPECT_EQ(choose_grade(d, "tactical").grade, "tactical");
+  EXPECT_EQ(choose_grade(d, "tactical").source, "--grade");
+  EXPECT_THROW(choose_grade(d, "consumer"), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace insid
