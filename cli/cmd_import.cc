@@ -119,6 +119,14 @@ std::string read_text(const std::string& path, const char* option) {
   return text;
 }
 
+// A text log: read_text, less a UTF-8 byte-order mark at its start (editors and Windows loggers
+// write one; left in, it made the first data row look like a header and dropped it silently).
+std::string read_text_log(const std::string& path, const char* option) {
+  std::string text = read_text(path, option);
+  if (text.compare(0, 3, "\xEF\xBB\xBF") == 0) text.erase(0, 3);
+  return text;
+}
+
 // "180,0,-90" -> {180, 0, -90}; throws naming the option and the bad item.
 std::vector<double> parse_number_list(const std::string& text, const char* option) {
   std::vector<double> values;
@@ -211,12 +219,12 @@ void run_import_csv(const ImportCsvArgs& args) {
   if (const std::string e = options.validate(); !e.empty()) throw std::invalid_argument(e);
 
   const auto t0 = std::chrono::steady_clock::now();
-  const std::string gnss_text = read_text(args.gnss, "--gnss");
+  const std::string gnss_text = read_text_log(args.gnss, "--gnss");
   const import::GnssSolution gnss = read_gnss_by_content(gnss_text, args.gnss, args.gps_week);
   const std::optional<int> gnss_week = static_cast<int>(
       static_cast<double>(gnss.epochs.front().t_gpst_unix_s - import::kGpsEpochGpstUnix_s) /
       import::kSecondsPerWeek);
-  const std::string imu_text = read_text(args.imu, "--imu");
+  const std::string imu_text = read_text_log(args.imu, "--imu");
   const import::CsvImu imu = import::read_csv_imu(imu_text, args.imu, spec, gnss_week);
   import::Assembled result = import::assemble_dataset(imu, gnss, options);
 
@@ -248,9 +256,9 @@ void run_import_kf_gins(const ImportKfGinsArgs& args) {
   const import::AssembleOptions options = args.shared.assemble_options();
   if (const std::string e = options.validate(); !e.empty()) throw std::invalid_argument(e);
   const auto t0 = std::chrono::steady_clock::now();
-  const std::string gnss_text = read_text(args.gnss, "--gnss");
+  const std::string gnss_text = read_text_log(args.gnss, "--gnss");
   const import::GnssSolution gnss = read_gnss_by_content(gnss_text, args.gnss, args.gps_week);
-  const std::string imu_text = read_text(args.imu, "--imu");
+  const std::string imu_text = read_text_log(args.imu, "--imu");
   const import::CsvImu imu = import::parse_kf_gins_imu(imu_text, args.imu, args.gps_week);
   import::Assembled result = import::assemble_dataset(imu, gnss, options);
   if (gnss.format.find("derived") != std::string::npos)

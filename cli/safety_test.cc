@@ -417,6 +417,17 @@ TEST_F(CliSafety, ImportAndExportRefuseBadInputAndNeverHalfWrite) {
   o = insid("navigate --data " + back.string() + " --summary " + (root_ / "s.json").string() +
             " --out " + (root_ / "n.csv").string());
   EXPECT_EQ(o.status, 0) << o.output;
+  // A UTF-8 byte-order mark at the start of a text log is skipped: every row is kept (issue 37
+  // item 13: the first data row was taken for a header and dropped silently).
+  for (const char* name : {"imu.txt", "gnss.txt"})
+    std::ofstream(root_ / ("bom-" + std::string(name))) << "\xEF\xBB\xBF" << text(kf / name);
+  const fs::path bom = root_ / "bom";
+  o = insid("import kf-gins --imu " + (root_ / "bom-imu.txt").string() + " --gnss " +
+            (root_ / "bom-gnss.txt").string() +
+            " --align-s 600 --static-rate 5 --static-accel-sd 0.3 --out " + bom.string());
+  ASSERT_EQ(o.status, 0) << o.output;
+  EXPECT_EQ(text(bom / "imu.csv"), text(back / "imu.csv"));
+  EXPECT_EQ(text(bom / "gnss.csv"), text(back / "gnss.csv"));
 
   // A user directory as --out: refused, kept.
   const fs::path proj = root_ / "proj";

@@ -62,6 +62,11 @@ GpstTime date_time_seconds(std::string_view date, std::string_view time, const s
       mo > 12 || d < 1 || d > 31 || y < 1980 || y > 2200)
     throw std::runtime_error(at + ": expected a GPST date yyyy/mm/dd, got '" + std::string(date) +
                              "'");
+  // A day the month does not have (2025/02/30, 2025/04/31) is refused, not rolled over.
+  static constexpr int kDaysInMonth[12] = {31, 29, 31, 30, 31, 30, 31, 31, 30, 31, 30, 31};
+  const bool leap = (y % 4 == 0 && y % 100 != 0) || y % 400 == 0;
+  if (d > kDaysInMonth[mo - 1] || (mo == 2 && d == 29 && !leap))
+    throw std::runtime_error(at + ": the date '" + std::string(date) + "' does not exist");
   if (!(ts >> h >> sep3 >> mi >> sep4 >> s) || sep3 != ':' || sep4 != ':' || h < 0 || h > 23 ||
       mi < 0 || mi > 59 || !(s >= 0.0 && s < 61.0))
     throw std::runtime_error(at + ": expected a GPST time hh:mm:ss.sss, got '" + std::string(time) +
@@ -170,8 +175,16 @@ GnssSolution parse_rtklib_pos(const std::string& text, const std::string& where)
     e.lat_deg = field("latitude(deg)");
     e.lon_deg = field("longitude(deg)");
     e.h_m = field("height(m)");
-    e.quality = static_cast<int>(field("Q"));
-    e.satellites = static_cast<int>(field("ns"));
+    // Q and ns are whole numbers in RTKLIB's format: 2.5 is refused, not read as 2.
+    const auto whole = [&](const char* name) {
+      const double v = field(name);
+      if (v != std::floor(v) || std::fabs(v) > 1e6)
+        throw std::runtime_error(at + ", column " + name + ": expected a whole number, got '" +
+                                 std::string(tokens[time_tokens + col.at(name)]) + "'");
+      return static_cast<int>(v);
+    };
+    e.quality = whole("Q");
+    e.satellites = whole("ns");
     e.sd_n_m = optional("sdn(m)");
     e.sd_e_m = optional("sde(m)");
     e.sd_u_m = optional("sdu(m)");

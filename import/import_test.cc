@@ -81,6 +81,26 @@ TEST(RtklibPos, ReadsDateTimeAndWeekTowOnOneGpstScale) {
   EXPECT_EQ(b.format, "rtklib-pos (week tow)");
 }
 
+// Issue 37, item 13: what was silently tolerated is refused, named.
+TEST(RtklibPos, ImpossibleDatesAndFractionalFlagsAreRefused) {
+  const std::string e1 = error_of(std::string(kPosHeader) + pos_row("2025/02/30 17:30:39.749",
+                                                                     40.1, 1, 0, 0));
+  EXPECT_NE(e1.find("the date '2025/02/30' does not exist"), std::string::npos) << e1;
+  EXPECT_NE(error_of(std::string(kPosHeader) + pos_row("2025/04/31 00:00:00.000", 40.1, 1, 0, 0))
+                .find("does not exist"),
+            std::string::npos);
+  EXPECT_NE(error_of(std::string(kPosHeader) + pos_row("2023/02/29 00:00:00.000", 40.1, 1, 0, 0))
+                .find("does not exist"),
+            std::string::npos);
+  EXPECT_EQ(error_of(std::string(kPosHeader) + pos_row("2024/02/29 00:00:00.000", 40.1, 1, 0, 0) +
+                     pos_row("2024/02/29 00:00:00.250", 40.1, 1, 0, 0)),
+            "(accepted)");  // a leap day
+  std::string row = pos_row("2025/08/28 17:30:39.749", 40.1, 1, 0, 0);
+  row.replace(row.find(" 1 25 "), 6, " 2.5 25 ");
+  const std::string e2 = error_of(std::string(kPosHeader) + row);
+  EXPECT_NE(e2.find("column Q: expected a whole number, got '2.5'"), std::string::npos) << e2;
+}
+
 TEST(RtklibPos, MalformedFilesAreNamedWithLineAndWhatIsExpected) {
   const std::string ok1 = pos_row("2025/08/28 17:30:39.749", 40.1, 1, 0, 0);
   const std::string ok2 = pos_row("2025/08/28 17:30:39.999", 40.1, 1, 0, 0);

@@ -29,7 +29,7 @@ UlogSeries extract_ulog(const UlogFile& log, const std::string& where,
                   {"topics", log.topics_summary()}};
   if (log.dropouts() > 0)
     out.notes.push_back(std::to_string(log.dropouts()) + " logger dropouts, " +
-                        std::to_string(static_cast<int>(log.dropouts_ms())) +
+                        std::to_string(std::llround(log.dropouts_ms())) +
                         " ms in all (listed as IMU gaps when they hit the IMU topic)");
   if (!log.truncation().empty()) {
     prov["ulog"]["truncation"] = log.truncation();
