@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <system_error>
 
+#include "cli/commands.h"
 #include "core/dataset.h"
 #include "optimizers/parameters.h"
 
@@ -181,7 +182,10 @@ campaign::RunOptions campaign_run_options(const CampaignRunArgs& args, campaign:
   options.threads = args.threads;
   options.force_new = args.force_new;
   options.into_foreign_directory = args.force;
-  if (!args.shard.empty()) options.shard = campaign::Shard::parse(args.shard);
+  if (!args.shard.empty())
+    options.shard = parse_option("--shard", [&] { return campaign::Shard::parse(args.shard); });
+  // The checks of the options alone (--out '', --force-new with --shard): usage errors.
+  if (const std::string why = options.validate(); !why.empty()) throw UsageError(why);
   options.cluster = cluster;
   options.progress = campaign_progress_printer(printer);
   options.quiet = printer->quiet();

@@ -66,9 +66,10 @@ void run(const DiagnoseArgs& a) {
   // --grade as identify's: every --base NAME without SIGMA gets the grade's sigma.
   const GradeAndWindow settled = settle_grade_and_window(*dataset, a.grade, a.window_s);
   const SensorGrade& grade = sensor_grade(settled.grade.grade);
-  if (a.verbosity != Verbosity::kQuiet) std::cerr << "insid diagnose: " << settled.line() << "\n";
   o.grade = grade.name;
-  for (const std::string& b : a.base) o.base.push_back(grade.parameter(b));
+  for (const std::string& b : a.base)
+    o.base.push_back(parse_option("--base", [&] { return grade.parameter(b); }));
+  if (a.verbosity != Verbosity::kQuiet) std::cerr << "insid diagnose: " << settled.line() << "\n";
   o.candidates = a.candidates;
   o.max_effects = a.max_effects;
   o.seed = a.seed;

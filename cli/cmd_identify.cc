@@ -54,6 +54,8 @@ void run_identify(const IdentifyArgs& args) {
   // The output is checked before the work: never an input, a file of others only with --force.
   const OutputGuard guard{dataset_input_files(args.data_dir), args.force};
   check_output_file(args.out, guard);
+  if (args.iterations == 0 && args.evaluations == 0)
+    throw UsageError("--iterations 0 and --evaluations 0: no budget; give at least one of them");
   if (args.uncertainty_replicas > 0 && args.uncertainty_replicas < 10)
     throw UsageError("--uncertainty-replicas " + std::to_string(args.uncertainty_replicas) +
                      ": expected 0 (no uncertainty) or at least 10 replicas");
@@ -64,10 +66,9 @@ void run_identify(const IdentifyArgs& args) {
   // or the flight turns; the uncertainty flags it not_observable when it is not).
   const GradeAndWindow settled = settle_grade_and_window(*dataset, args.grade, args.window_s);
   const SensorGrade& grade = sensor_grade(settled.grade.grade);
-  ProgressPrinter progress("insid identify", args.verbosity);
-  progress.note(settled.line());
   std::vector<EstimatedParameter> estimated;
-  for (const std::string& e : args.estimate) estimated.push_back(grade.parameter(e));
+  for (const std::string& e : args.estimate)
+    estimated.push_back(parse_option("--estimate", [&] { return grade.parameter(e); }));
   if (estimated.empty()) {
     if (grade.name == "nav") {
       estimated = EstimatedParameter::paper_four();
@@ -99,13 +100,22 @@ void run_identify(const IdentifyArgs& args) {
   const InsIdentificationProblem problem(navigation, mapping, FitnessKind::kEq15, evaluator);
 
   const opt::ParameterMap overrides =
-      parse_algorithm_params(args.params, mapping, opt::default_parameters(args.algorithm));
+      parse_option("--param", [&] {
+        return parse_algorithm_params(args.params, mapping,
+                                      parse_option("--algo", [&] {
+                                        return opt::default_parameters(args.algorithm);
+                                      }));
+      });
   opt::RunConfig config;
   config.seed = args.seed;
   config.max_iterations = args.iterations;
   config.max_evaluations = args.evaluations;
   config.record_positions = args.positions;
-  auto optimizer = opt::make_optimizer(args.algorithm, problem.bounds(), config, overrides);
+  auto optimizer = parse_option("", [&] {  // an unknown --algo, a --param it does not take
+    return opt::make_optimizer(args.algorithm, problem.bounds(), config, overrides);
+  });
+  ProgressPrinter progress("insid identify", args.verbosity);
+  progress.note(settled.line());
   if (auto* ekf = dynamic_cast<EkfRtsOptimizer*>(optimizer.get())) ekf->set_grade(grade.name);
 
   // ask / evaluate / tell, with progress on stderr (opt::step also feeds the baselines that

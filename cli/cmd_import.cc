@@ -197,8 +197,12 @@ void run_import_csv(const ImportCsvArgs& args) {
   // Refuse a directory before the work (its own input files included).
   dataset_destination(args.shared.out, args.shared.force, {args.imu, args.gnss});
   import::CsvImuSpec spec;
-  spec.columns = import::CsvImuSpec::parse_columns(args.columns);
-  spec.parse_units(args.units);
+  spec.columns =
+      parse_option("--columns", [&] { return import::CsvImuSpec::parse_columns(args.columns); });
+  parse_option("--units", [&] {
+    spec.parse_units(args.units);
+    return 0;
+  });
   spec.time_scale = args.imu_time;
   spec.rate_samples = args.rate_samples;
   spec.gps_week = args.gps_week;
@@ -208,15 +212,16 @@ void run_import_csv(const ImportCsvArgs& args) {
         "zero, so that the IMU can be paired with the GNSS solution");
   spec.time_offset_s = args.time_offset_s.value_or(0.0);
   if (!args.mounting.empty()) {
-    const std::vector<double> rpy = parse_number_list(args.mounting, "--mounting-rpy-deg");
+    const std::vector<double> rpy = parse_option(
+        "--mounting-rpy-deg", [&] { return parse_number_list(args.mounting, "--mounting-rpy-deg"); });
     if (rpy.size() != 3)
       throw UsageError("--mounting-rpy-deg: expected R,P,Y (three angles in degrees)");
     spec.mounting_rpy_deg = {rpy[0], rpy[1], rpy[2]};
   }
-  if (const std::string e = spec.validate(); !e.empty()) throw std::invalid_argument(e);
+  if (const std::string e = spec.validate(); !e.empty()) throw UsageError(e);
   import::AssembleOptions options = args.shared.assemble_options();
   options.gnss_quality = {args.gnss_quality.begin(), args.gnss_quality.end()};
-  if (const std::string e = options.validate(); !e.empty()) throw std::invalid_argument(e);
+  if (const std::string e = options.validate(); !e.empty()) throw UsageError(e);
 
   const auto t0 = std::chrono::steady_clock::now();
   const std::string gnss_text = read_text_log(args.gnss, "--gnss");
@@ -254,7 +259,7 @@ struct ImportKfGinsArgs {
 void run_import_kf_gins(const ImportKfGinsArgs& args) {
   dataset_destination(args.shared.out, args.shared.force, {args.imu, args.gnss});
   const import::AssembleOptions options = args.shared.assemble_options();
-  if (const std::string e = options.validate(); !e.empty()) throw std::invalid_argument(e);
+  if (const std::string e = options.validate(); !e.empty()) throw UsageError(e);
   const auto t0 = std::chrono::steady_clock::now();
   const std::string gnss_text = read_text_log(args.gnss, "--gnss");
   const import::GnssSolution gnss = read_gnss_by_content(gnss_text, args.gnss, args.gps_week);
@@ -282,10 +287,10 @@ struct ImportUlogArgs {
 
 void run_import_ulog(const ImportUlogArgs& args) {
   dataset_destination(args.shared.out, args.shared.force, {args.log});
-  if (const std::string e = args.ulog.validate(); !e.empty()) throw std::invalid_argument(e);
+  if (const std::string e = args.ulog.validate(); !e.empty()) throw UsageError(e);
   import::AssembleOptions options = args.shared.assemble_options();
   options.gnss_quality = {1};  // the fix-type selection is made by extract_ulog
-  if (const std::string e = options.validate(); !e.empty()) throw std::invalid_argument(e);
+  if (const std::string e = options.validate(); !e.empty()) throw UsageError(e);
   const auto t0 = std::chrono::steady_clock::now();
   std::string bytes = read_text(args.log, "LOG");
   const nlohmann::json source = source_json("ulog", args.log, bytes);

@@ -41,7 +41,9 @@ void run_simulate(const SimulateArgs& args) {
   if (args.preset.empty() == args.config.empty())
     throw UsageError("give exactly one of --preset NAME or --config FILE");
   const sc::ScenarioConfig base =
-      args.preset.empty() ? sc::load_scenario_file(args.config) : sc::preset_scenario(args.preset);
+      args.preset.empty()
+          ? sc::load_scenario_file(args.config)
+          : parse_option("--preset", [&] { return sc::preset_scenario(args.preset); });
   sc::ScenarioOverrides overrides;
   overrides.seed = args.seed;
   if (!args.grade.empty()) {

@@ -37,7 +37,8 @@ void run(const SweepArgs& args) {
   const std::unique_ptr<campaign::Cluster> cluster = campaign::join_mpi_launch("insid sweep");
   campaign::SweepConfig sweep;
   sweep.algorithm = args.algorithm;
-  for (const std::string& g : args.grid) sweep.axes.push_back(campaign::SweepAxis::parse(g));
+  for (const std::string& g : args.grid)
+    sweep.axes.push_back(parse_option("--grid", [&] { return campaign::SweepAxis::parse(g); }));
   sweep.random_settings = args.random;
   sweep.seeds = campaign::seed_range(args.seeds);
   if (!args.data_dir.empty()) {

@@ -5,6 +5,8 @@
 
 #include <stdexcept>
 #include <string>
+#include <string_view>
+#include <string>
 #include <vector>
 
 #include <CLI/CLI.hpp>
@@ -33,6 +35,24 @@ inline constexpr const char* kExitCodeHelp =
 struct UsageError : std::invalid_argument {
   using std::invalid_argument::invalid_argument;
 };
+
+/// Runs `parse`, the reading of a command-line value (an --estimate form, a --shard, a preset
+/// name), and reports a std::invalid_argument it throws as a UsageError (exit code 2), with
+/// `option` named first when the message does not name it: a value the command line got wrong
+/// is a usage error wherever in the command it is read. A message that starts with an option
+/// ("--columns: ...") names it already; "" names none (the message says what was wrong).
+template <class Parse>
+auto parse_option(std::string_view option, Parse&& parse) -> decltype(parse()) {
+  try {
+    return parse();
+  } catch (const UsageError&) {
+    throw;
+  } catch (const std::invalid_argument& e) {
+    const std::string what = e.what();
+    const bool named = what.rfind("--", 0) == 0 || what.find(option) != std::string::npos;
+    throw UsageError(named ? what : std::string(option) + ": " + what);
+  }
+}
 
 void add_navigate_command(CLI::App& app);
 void add_identify_command(CLI::App& app);

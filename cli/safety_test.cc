@@ -525,6 +525,25 @@ TEST_F(CliSafety, ExitCodesAreTheDocumentedOnesWithOneErrorPrefix) {
        "relative --out " +
            never,
        "insid import csv: error: --imu-time relative needs --imu-time-offset-s", 2},
+      // Values the command line got wrong, wherever the command reads them (issue 37 item 11).
+      {"identify --data " + d + " --estimate gyro_bias_x:0", "insid identify: error: ", 2},
+      {"identify --data " + d + " --estimate gyro_bias_x:1e-5:2:1",
+       "insid identify: error: ", 2},
+      {"identify --data " + d + " --param bogus=1", "insid identify: error: ", 2},
+      {"identify --data " + d + " --algo nonexistent", "insid identify: error: --algo", 2},
+      {"identify --data " + d + " --iterations 0 --evaluations 0", "insid identify: error: ", 2},
+      {"simulate --preset nope --out " + never, "insid simulate: error: --preset", 2},
+      {"import csv --imu x --gnss y --columns t,ax,ay,az,gx,gy,gz --units s,g,rad/s "
+       "--mounting-rpy-deg nan,0,0 --out " + never,
+       "insid import csv: error: ", 2},
+      {"import csv --imu x --gnss y --columns t,t,ay,az,gx,gy,gz --units s,g,rad/s --out " + never,
+       "insid import csv: error: --columns", 2},
+      {"import csv --imu x --gnss y --columns t,ax,ay,az,gx,gy,gz --units s,furlong,rad/s --out " +
+           never,
+       "insid import csv: error: --units", 2},
+      {"bench --preset quick --shard 3/2 --out " + never, "insid bench: error: --shard", 2},
+      {"bench --preset quick --shard 1/2 --force-new --out " + never, "insid bench: error: ", 2},
+      {"bench --preset quick --out ''", "insid bench: error: ", 2},
       {"navigate --data " + never, "insid navigate: error: dataset directory", 1},
       {"navigate --data " + d + " --compensate-from " + (data_ / "meta.json").string(),
        "insid navigate: error: --compensate-from " + (data_ / "meta.json").string() +
