@@ -31,6 +31,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/json_reader.h"
+
 extern char** environ;
 
 namespace insid::opt {
@@ -262,6 +264,28 @@ std::string ExternalOptimizer::read_line(std::string_view what) {
   }
 }
 
+void ExternalOptimizer::refuse_unasked_output(const std::string& after) {
+  // What has arrived so far, without waiting (EOF is left to the next read to report).
+  for (;;) {
+    pollfd p{fd_, POLLIN, 0};
+    if (::poll(&p, 1, 0) <= 0) break;
+    char chunk[65536];
+    const ssize_t n = ::recv(fd_, chunk, sizeof(chunk), MSG_DONTWAIT);
+    if (n <= 0) break;
+    buffer_.append(chunk, static_cast<std::size_t>(n));
+    if (buffer_.size() > kMaxLineBytes) break;
+  }
+  const std::size_t start = buffer_.find_first_not_of(" \t\r\n");
+  if (start == std::string::npos) return;
+  // The line number of the unasked output: the blank lines before it count.
+  const int line_no = lines_read_ + 1 +
+                      static_cast<int>(std::count(buffer_.begin(), buffer_.begin() + start, '\n'));
+  std::string line = buffer_.substr(start, buffer_.find('\n', start) - start);
+  if (!line.empty() && line.back() == '\r') line.pop_back();
+  fail("line " + std::to_string(line_no) + " of its output " + quoted_excerpt(line) +
+       " answers no ask (it follows " + after + "; the protocol is one reply line per ask)");
+}
+
 void ExternalOptimizer::launch() {
   if (!error_.empty()) throw ExternalOptimizerError(error_);
   if (pid_ < 0 && fd_ < 0) start();
@@ -276,16 +300,21 @@ void ExternalOptimizer::propose(std::vector<Eigen::VectorXd>& batch) {
     ask["remaining_evaluations"] = config().max_evaluations - result().evaluations;
   else
     ask["remaining_evaluations"] = nullptr;
+  refuse_unasked_output(iteration() == 0 ? "the problem message"
+                                         : "its reply to ask " + std::to_string(k - 1));
   send_line(ask.dump(), what);
 
   const std::string line = read_line(what);
   const std::string where =
       "reply to " + what + " (line " + std::to_string(lines_read_) + " of its output) ";
+  refuse_unasked_output("its reply to " + what);
+  // insid's one JSON reader, with its depth limit: no deeper value is ever built, so the
+  // messages below (which print parts of the reply) never recurse deeply.
   nlohmann::json reply;
   try {
-    reply = nlohmann::json::parse(line);
-  } catch (const nlohmann::json::exception& e) {
-    fail(where + quoted_excerpt(line) + " is not JSON: " + e.what());
+    reply = parse_json_strict(line, where + quoted_excerpt(line), {.max_bytes = kMaxLineBytes});
+  } catch (const std::runtime_error& e) {
+    fail(e.what());
   }
   if (!reply.is_object()) fail(where + quoted_excerpt(line) + " is not a JSON object");
   if (reply.contains("error")) {

@@ -14,9 +14,11 @@
 // Failures (ExternalOptimizerError, message naming the command, the run's seed and the
 // offending line): the process exits or closes its stdout before replying (with its exit
 // status or signal), does not reply within `timeout_s` (it is then killed), or replies with a
-// line that is not a JSON object with valid "points" (not JSON, points not an array of arrays
-// of `dimension` finite numbers inside the box, no point). A client may also reply
-// {"error":"text"} to give up with its own reason. After a failure the run stays failed.
+// line that is not a JSON object with valid "points" (not strict JSON within insid's reader's
+// limits, core/json_reader.h: nested deeper than 64, a key twice; points not an array of arrays
+// of `dimension` finite numbers inside the box, no point), or writes a line that no ask asked
+// for (a second reply: one reply line per ask). A client may also reply {"error":"text"} to give
+// up with its own reason. After a failure the run stays failed.
 #pragma once
 
 #include <sys/types.h>
@@ -88,6 +90,9 @@ class ExternalOptimizer final : public Optimizer {
   void send_line(const std::string& line, std::string_view what);
   /// Reads the next non-empty line within the timeout; throws on EOF or timeout.
   std::string read_line(std::string_view what);
+  /// Fails when the process has written anything but blank lines that no ask asked for (read
+  /// without waiting): after the problem message, or after `after`, the reply it already gave.
+  void refuse_unasked_output(const std::string& after);
   /// Kills the process group and reaps it; returns how it ended ("exited with status 3").
   std::string kill_and_reap();
   /// Reaps the process if it has ended within `wait_s`; returns how it ended or "".
