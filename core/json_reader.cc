@@ -28,12 +28,21 @@ std::string byte_size_error(const std::string& where, std::size_t bytes, const J
 
 // The nesting depth, in one pass over the bytes without allocating: brackets inside strings do
 // not count (a backslash escapes the next byte). Throws at the first bracket beyond the limit,
-// before anything is parsed; everything else (balance, syntax) is the parser's to judge.
-void check_depth(std::string_view text, const std::string& where, const JsonLimits& limits) {
+// before anything is parsed; everything else (balance, syntax) is the parser's to judge, except a
+// NUL byte, which nlohmann's parser takes as the end of the input (so "{}\0anything" would pass):
+// JSON text has none (RFC 8259: control characters in strings are escaped).
+void check_depth_and_nul(std::string_view text, const std::string& where,
+                         const JsonLimits& limits) {
   std::size_t depth = 0, line = 1, line_start = 0;
   bool in_string = false;
+  const auto at = [&](std::size_t i) {
+    return where + ": line " + std::to_string(line) + ", column " +
+           std::to_string(i - line_start + 1) + " (byte " + std::to_string(i) + "): ";
+  };
   for (std::size_t i = 0; i < text.size(); ++i) {
     const char c = text[i];
+    if (c == '\0')
+      throw std::runtime_error(at(i) + "a NUL byte, which JSON text never holds (not valid JSON)");
     if (in_string) {
       if (c == '\\')
         ++i;
@@ -52,9 +61,7 @@ void check_depth(std::string_view text, const std::string& where, const JsonLimi
       case '[':
       case '{':
         if (++depth > limits.max_depth)
-          throw std::runtime_error(where + ": line " + std::to_string(line) + ", column " +
-                                   std::to_string(i - line_start + 1) + " (byte " +
-                                   std::to_string(i) + "): nesting depth " + std::to_string(depth) +
+          throw std::runtime_error(at(i) + "nesting depth " + std::to_string(depth) +
                                    " exceeds the limit of " + std::to_string(limits.max_depth) +
                                    " nested arrays and objects");
         break;
@@ -81,7 +88,7 @@ std::string child_path(const std::vector<Frame>& stack) {
 json parse_json_strict(std::string_view text, const std::string& where, const JsonLimits& limits) {
   if (text.size() > limits.max_bytes)
     throw std::runtime_error(byte_size_error(where, text.size(), limits));
-  check_depth(text, where, limits);
+  check_depth_and_nul(text, where, limits);
   std::vector<Frame> stack;
   const auto element_done = [&stack] {
     if (!stack.empty() && !stack.back().is_object) ++stack.back().index;

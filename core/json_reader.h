@@ -4,7 +4,8 @@
 // Strict means RFC 8259 JSON (nlohmann::json's parser: no comments, no NaN/Infinity, no trailing
 // commas) plus one rule RFC 8259 leaves open ("names within an object SHOULD be unique"): a key
 // that appears twice in one object is an error naming the key and the object it is in, instead of
-// the last value silently winning.
+// the last value silently winning, and no NUL byte (nlohmann's parser would stop there and
+// ignore the rest).
 //
 // Limits (issue 37): a document nested deeper than max_depth arrays and objects, or longer than
 // max_bytes, is refused before it is parsed, with the line, column and byte of the first bracket

@@ -55,6 +55,12 @@ TEST(JsonReader, SyntaxErrorsAndOverflowsAreRuntimeErrorsWithTheLine) {
   EXPECT_NE(error_of(R"({"a": 1e999})").find("number overflow"), std::string::npos);
   EXPECT_NE(error_of("").find("not valid JSON"), std::string::npos);
   EXPECT_NE(error_of(R"({"a": 1} trailing)").find("not valid JSON"), std::string::npos);
+  // nlohmann's parser stops at a NUL byte: the strict reader refuses it (found by
+  // fuzz/json_fuzzer.cc).
+  EXPECT_EQ(error_of(std::string("{\"a\": 1}\0{\"b\": [", 18)),
+            "cfg.json: line 1, column 9 (byte 8): a NUL byte, which JSON text never holds (not "
+            "valid JSON)");
+  EXPECT_NE(error_of(std::string("[\"a\0\"]", 6)).find("(byte 3): a NUL byte"), std::string::npos);
 }
 
 TEST(JsonReader, FileErrorsNameTheFile) {
