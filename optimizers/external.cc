@@ -73,6 +73,53 @@ nlohmann::json vector_json(const Eigen::VectorXd& x) {
 
 }  // namespace
 
+ExternalReply parse_external_reply(std::string_view line, const Bounds& box,
+                                   const std::string& where) {
+  const std::string text(line);
+  // insid's one JSON reader, with its depth limit: no deeper value is ever built, so the
+  // messages below (which print parts of the reply) never recurse deeply.
+  const nlohmann::json reply =
+      parse_json_strict(line, where + quoted_excerpt(text), {.max_bytes = kMaxLineBytes});
+  const auto refuse = [&](const std::string& why) {
+    throw std::runtime_error(where + quoted_excerpt(text) + why);
+  };
+  if (!reply.is_object()) refuse(" is not a JSON object");
+  ExternalReply out;
+  if (reply.contains("error")) {
+    const nlohmann::json& e = reply["error"];
+    out.error = e.is_string() ? e.get<std::string>() : e.dump().substr(0, 200);
+    return out;
+  }
+  if (!reply.contains("points")) refuse(" has no \"points\"");
+  const nlohmann::json& points = reply["points"];
+  if (!points.is_array() || points.empty())
+    refuse(": \"points\" must be a non-empty array of points");
+  const int n = box.dimension();
+  out.points.reserve(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const nlohmann::json& p = points[i];
+    const std::string point = where + "point " + std::to_string(i);
+    if (!p.is_array() || static_cast<int>(p.size()) != n)
+      throw std::runtime_error(point + " " + p.dump().substr(0, 200) + " is not an array of " +
+                               std::to_string(n) + " numbers");
+    Eigen::VectorXd x(n);
+    for (int j = 0; j < n; ++j) {
+      const nlohmann::json& v = p[static_cast<std::size_t>(j)];
+      if (!v.is_number() || !std::isfinite(v.get<double>()))
+        throw std::runtime_error(point + " coordinate " + std::to_string(j) + " = " +
+                                 v.dump().substr(0, 200) + " is not a finite number");
+      x[j] = v.get<double>();
+      if (x[j] < box.lower[j] || x[j] > box.upper[j])
+        throw std::runtime_error(point + " coordinate " + std::to_string(j) + " = " +
+                                 format_number(x[j]) + " is outside the box [" +
+                                 format_number(box.lower[j]) + ", " + format_number(box.upper[j]) +
+                                 "]");
+    }
+    out.points.push_back(std::move(x));
+  }
+  return out;
+}
+
 std::span<const ParameterField<ExternalParams>> ExternalParams::fields() {
   static const ParameterField<ExternalParams> kFields[] = {
       {"timeout_s", &ExternalParams::timeout_s,
@@ -308,46 +355,15 @@ void ExternalOptimizer::propose(std::vector<Eigen::VectorXd>& batch) {
   const std::string where =
       "reply to " + what + " (line " + std::to_string(lines_read_) + " of its output) ";
   refuse_unasked_output("its reply to " + what);
-  // insid's one JSON reader, with its depth limit: no deeper value is ever built, so the
-  // messages below (which print parts of the reply) never recurse deeply.
-  nlohmann::json reply;
+  ExternalReply reply;
   try {
-    reply = parse_json_strict(line, where + quoted_excerpt(line), {.max_bytes = kMaxLineBytes});
+    reply = parse_external_reply(line, bounds(), where);
   } catch (const std::runtime_error& e) {
     fail(e.what());
   }
-  if (!reply.is_object()) fail(where + quoted_excerpt(line) + " is not a JSON object");
-  if (reply.contains("error")) {
-    const nlohmann::json& e = reply["error"];
-    fail("gave up at " + what + ": " + (e.is_string() ? e.get<std::string>() : e.dump()));
-  }
-  if (!reply.contains("points")) fail(where + quoted_excerpt(line) + " has no \"points\"");
-  const nlohmann::json& points = reply["points"];
-  if (!points.is_array() || points.empty())
-    fail(where + quoted_excerpt(line) + ": \"points\" must be a non-empty array of points");
-  const Bounds& box = bounds();
-  const int n = box.dimension();
-  batch.reserve(points.size());
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    const nlohmann::json& p = points[i];
-    const std::string point = where + "point " + std::to_string(i);
-    if (!p.is_array() || static_cast<int>(p.size()) != n)
-      fail(point + " " + p.dump().substr(0, 200) + " is not an array of " + std::to_string(n) +
-           " numbers");
-    Eigen::VectorXd x(n);
-    for (int j = 0; j < n; ++j) {
-      const nlohmann::json& v = p[static_cast<std::size_t>(j)];
-      if (!v.is_number() || !std::isfinite(v.get<double>()))
-        fail(point + " coordinate " + std::to_string(j) + " = " + v.dump() +
-             " is not a finite number");
-      x[j] = v.get<double>();
-      if (x[j] < box.lower[j] || x[j] > box.upper[j])
-        fail(point + " coordinate " + std::to_string(j) + " = " + format_number(x[j]) +
-             " is outside the box [" + format_number(box.lower[j]) + ", " +
-             format_number(box.upper[j]) + "]");
-    }
-    batch.push_back(std::move(x));
-  }
+  if (reply.error) fail("gave up at " + what + ": " + *reply.error);
+  batch.reserve(batch.size() + reply.points.size());
+  for (Eigen::VectorXd& x : reply.points) batch.push_back(std::move(x));
 }
 
 void ExternalOptimizer::accept(std::span<const Eigen::VectorXd>, std::span<const double> fitness) {

@@ -23,6 +23,7 @@
 
 #include <sys/types.h>
 
+#include <optional>
 #include <span>
 #include <stdexcept>
 #include <string>
@@ -62,6 +63,18 @@ class ExternalOptimizerError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };
+
+/// One reply line of the protocol: the points, or the client's own reason to give up.
+struct ExternalReply {
+  std::vector<Eigen::VectorXd> points;
+  std::optional<std::string> error;  ///< {"error": "..."}: the client gives up
+};
+
+/// Reads one reply line (strict JSON within core/json_reader.h's limits, the line at most
+/// 256 MiB) against `box`. Throws std::runtime_error starting with `where` (e.g. "reply to ask 1
+/// (line 1 of its output) ") and naming the point, coordinate and value at fault.
+ExternalReply parse_external_reply(std::string_view line, const Bounds& box,
+                                   const std::string& where);
 
 class ExternalOptimizer final : public Optimizer {
  public:

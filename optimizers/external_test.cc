@@ -264,6 +264,31 @@ TEST(External, ReplyNobodyAskedForIsRefused) {
                   "ask)");
 }
 
+TEST(External, ReplyParserReadsPointsOrNamesWhatIsWrong) {
+  // The reply reader alone (fuzz/external_reply_fuzzer.cc fuzzes it).
+  const Bounds box = test_box();
+  const ExternalReply r =
+      parse_external_reply(R"({"points": [[0, 0.5, 1], [1, 3, 2]]})", box, "r ");
+  ASSERT_EQ(r.points.size(), 2u);
+  EXPECT_FALSE(r.error);
+  EXPECT_EQ(r.points[1], Eigen::Vector3d(1.0, 3.0, 2.0));
+  EXPECT_EQ(*parse_external_reply(R"({"error": {"why": 1}})", box, "r ").error, R"({"why":1})");
+  const auto error = [&](const std::string& line) {
+    try {
+      parse_external_reply(line, box, "r ");
+    } catch (const std::runtime_error& e) {
+      return std::string(e.what());
+    }
+    return std::string("(accepted)");
+  };
+  EXPECT_EQ(error(R"({"points": [[0, 0, 1]], "points": []})"),
+            "r '{\"points\": [[0, 0, 1]], \"points\": []}': key \"points\" appears twice in the "
+            "top-level object (JSON objects must not repeat a key)");
+  EXPECT_EQ(error(R"({"points": [[0, "x", 1]]})"),
+            "r point 0 coordinate 1 = \"x\" is not a finite number");
+  EXPECT_EQ(error("[]"), "r '[]' is not a JSON object");
+}
+
 TEST(External, FailedRunLeavesTheOthersAlone) {
   REQUIRE_PYTHON();
   const Bounds box = test_box();
