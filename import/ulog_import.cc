@@ -289,7 +289,11 @@ UlogSeries extract_ulog(const UlogFile& log, const std::string& where,
                             "interval";
   }
   if (imu.t_gpst_unix_s.size() < 3)
-    throw std::runtime_error(where + ": IMU topic '" + imu_topic + "' has fewer than 3 samples");
+    throw std::runtime_error(
+        where + ": IMU topic '" + imu_topic + "' has " + std::to_string(imu.t_gpst_unix_s.size()) +
+        " samples with consistent timestamps (of " + std::to_string(rows.size()) +
+        " messages: " + std::to_string(imu_sel.repeated) + " repeated, " +
+        std::to_string(imu_sel.dropped_by_jumps) + " dropped in timestamp jumps); need at least 3");
   prov["imu"]["axes"] = "PX4 body frame, forward-right-down (no mounting applied)";
 
   // GNSS, either field layout.
