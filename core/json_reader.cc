@@ -1,8 +1,9 @@
 #include "core/json_reader.h"
 
+#include <cstdint>
 #include <fstream>
+#include <new>
 #include <set>
-#include <sstream>
 #include <stdexcept>
 #include <vector>
 
@@ -20,6 +21,60 @@ struct Frame {
   std::size_t index = 0;       // arrays: index of the element being parsed
 };
 
+std::string byte_size_error(const std::string& where, std::size_t bytes, const JsonLimits& limits) {
+  return where + ": " + std::to_string(bytes) + " bytes, more than the limit of " +
+         std::to_string(limits.max_bytes) + " bytes of a JSON document";
+}
+
+// The nesting depth, in one pass over the bytes without allocating: brackets inside strings do
+// not count (a backslash escapes the next byte). Throws at the first bracket beyond the limit,
+// before anything is parsed; everything else (balance, syntax) is the parser's to judge, except a
+// NUL byte, which nlohmann's parser takes as the end of the input (so "{}\0anything" would pass):
+// JSON text has none (RFC 8259: control characters in strings are escaped).
+void check_depth_and_nul(std::string_view text, const std::string& where,
+                         const JsonLimits& limits) {
+  std::size_t depth = 0, line = 1, line_start = 0;
+  bool in_string = false;
+  const auto at = [&](std::size_t i) {
+    return where + ": line " + std::to_string(line) + ", column " +
+           std::to_string(i - line_start + 1) + " (byte " + std::to_string(i) + "): ";
+  };
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (c == '\0')
+      throw std::runtime_error(at(i) + "a NUL byte, which JSON text never holds (not valid JSON)");
+    if (in_string) {
+      if (c == '\\')
+        ++i;
+      else if (c == '"')
+        in_string = false;
+      continue;
+    }
+    switch (c) {
+      case '"':
+        in_string = true;
+        break;
+      case '\n':
+        ++line;
+        line_start = i + 1;
+        break;
+      case '[':
+      case '{':
+        if (++depth > limits.max_depth)
+          throw std::runtime_error(at(i) + "nesting depth " + std::to_string(depth) +
+                                   " exceeds the limit of " + std::to_string(limits.max_depth) +
+                                   " nested arrays and objects");
+        break;
+      case ']':
+      case '}':
+        if (depth > 0) --depth;
+        break;
+      default:
+        break;
+    }
+  }
+}
+
 std::string child_path(const std::vector<Frame>& stack) {
   if (stack.empty()) return "";
   const Frame& parent = stack.back();
@@ -30,7 +85,10 @@ std::string child_path(const std::vector<Frame>& stack) {
 
 }  // namespace
 
-json parse_json_strict(std::string_view text, const std::string& where) {
+json parse_json_strict(std::string_view text, const std::string& where, const JsonLimits& limits) {
+  if (text.size() > limits.max_bytes)
+    throw std::runtime_error(byte_size_error(where, text.size(), limits));
+  check_depth_and_nul(text, where, limits);
   std::vector<Frame> stack;
   const auto element_done = [&stack] {
     if (!stack.empty() && !stack.back().is_object) ++stack.back().index;
@@ -73,20 +131,37 @@ json parse_json_strict(std::string_view text, const std::string& where) {
     // parse_error (syntax) and out_of_range (a number beyond double, e.g. 1e999), with nlohmann's
     // line and column where it gives them.
     throw std::runtime_error(where + ": not valid JSON: " + e.what());
+  } catch (const std::bad_alloc&) {
+    // The partial value is freed by now (nlohmann frees it without recursion; on an array of
+    // millions of elements that itself allocates, and a failure there terminates).
+    throw std::runtime_error(where + ": out of memory parsing a JSON document of " +
+                             std::to_string(text.size()) +
+                             " bytes (its parsed value takes many times its size)");
   }
 }
 
-json read_json_file(const std::filesystem::path& path, const std::string& where) {
+json read_json_file(const std::filesystem::path& path, const std::string& where,
+                    const JsonLimits& limits) {
   const std::string name = where.empty() ? path.string() : where;
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec))
     throw std::runtime_error(name + ": is a directory, expected a JSON file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw std::runtime_error(name + ": cannot open for reading");
-  std::ostringstream text;
-  text << in.rdbuf();
+  // The size before reading (a regular file; a pipe or device is bounded while reading).
+  if (const std::uintmax_t bytes = std::filesystem::file_size(path, ec);
+      !ec && bytes > limits.max_bytes)
+    throw std::runtime_error(byte_size_error(name, static_cast<std::size_t>(bytes), limits));
+  std::string text;
+  char chunk[65536];
+  while (in.read(chunk, sizeof chunk) || in.gcount() > 0) {
+    text.append(chunk, static_cast<std::size_t>(in.gcount()));
+    if (text.size() > limits.max_bytes)
+      throw std::runtime_error(name + ": more than the limit of " +
+                               std::to_string(limits.max_bytes) + " bytes of a JSON document");
+  }
   if (in.bad()) throw std::runtime_error(name + ": read error");
-  return parse_json_strict(text.str(), name);
+  return parse_json_strict(text, name, limits);
 }
 
 }  // namespace insid

@@ -14,12 +14,14 @@
 #include <numbers>
 #include <set>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include "core/json_reader.h"
 #include "diagnose/diagnose.h"
 #include "diagnose/hidden_effects.h"
 
@@ -87,9 +89,40 @@ struct Case {
   }
 };
 
+// Every case of OUT/cases.jsonl (empty lines skipped), each line through insid's strict JSON
+// reader and its limits; an error names the file and the line. A missing file has no cases.
+std::vector<json> read_cases(const std::filesystem::path& path) {
+  std::vector<json> rows;
+  std::ifstream in(path);
+  std::size_t line_no = 0;
+  for (std::string line; std::getline(in, line);) {
+    ++line_no;
+    if (line.empty()) continue;
+    const std::string where = path.string() + " line " + std::to_string(line_no);
+    json row = insid::parse_json_strict(line, where);
+    if (!row.is_object() || !row.contains("key") || !row["key"].is_string())
+      throw std::runtime_error(where + ": expected a case object with a string \"key\"");
+    rows.push_back(std::move(row));
+  }
+  return rows;
+}
+
+int run_campaign(int argc, char** argv);
+
 }  // namespace
 
 int main(int argc, char** argv) {
+  try {
+    return run_campaign(argc, argv);
+  } catch (const std::exception& e) {
+    std::cerr << "insid-diagnose-campaign: error: " << e.what() << "\n";
+    return 1;
+  }
+}
+
+namespace {
+
+int run_campaign(int argc, char** argv) {
   CLI::App app{"Full hidden-effect matrix for insid diagnose -> confusion matrix, power curves."};
   std::string out_dir = "results/diagnose";
   double flight_s = 1200.0;
@@ -173,11 +206,7 @@ int main(int argc, char** argv) {
   }
 
   std::set<std::string> done;
-  {
-    std::ifstream in(cases_path);
-    for (std::string line; std::getline(in, line);)
-      if (!line.empty()) done.insert(json::parse(line)["key"].get<std::string>());
-  }
+  for (const json& row : read_cases(cases_path)) done.insert(row["key"].get<std::string>());
   if (!summary_only) {
     std::ofstream out(cases_path, std::ios::app);
     int k = 0;
@@ -236,12 +265,7 @@ int main(int argc, char** argv) {
   }
 
   // Summary: confusion matrix (hidden effect -> first named effect / its class), power.
-  std::vector<json> rows;
-  {
-    std::ifstream in(cases_path);
-    for (std::string line; std::getline(in, line);)
-      if (!line.empty()) rows.push_back(json::parse(line));
-  }
+  const std::vector<json> rows = read_cases(cases_path);
   json summary;
   summary["flight_s"] = flight_s;
   json nominal = json::object();
@@ -410,3 +434,5 @@ int main(int argc, char** argv) {
   std::cout << summary.dump(2) << "\n";
   return 0;
 }
+
+}  // namespace

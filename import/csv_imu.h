@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstddef>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -81,6 +82,11 @@ struct CsvImu {
   bool gyro_is_increment = false;
   bool rates_are_interval_means = false;  ///< spec.rate_samples == "interval-mean"
   std::optional<HeadingInput> heading;    ///< when the spec maps hdg or mx, my, mz
+  /// Rows (lines, messages) of the source and those the reader did not keep, by reason (e.g.
+  /// "timestamp_jump"), for the assembly's provenance and notes; source_rows 0: every row was
+  /// kept (the CSV reader keeps every row or refuses the file).
+  std::size_t source_rows = 0;
+  std::map<std::string, std::size_t> rows_dropped;
 };
 
 /// Reads `path` with `spec` (comma separated; an optional header line is skipped when its

@@ -279,8 +279,40 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
     ds.imu.push_back(s);
     if (k > first) steps.push_back(dt);
   }
-  prov["imu"]["rows_read"] = imu.t_gpst_unix_s.size();
-  prov["imu"]["rows_used"] = ds.imu.size();
+  // Every row of the source is counted: used, or dropped with its reason (the reader's, then the
+  // span's; a rate's first row only opens the first interval).
+  {
+    const std::size_t n = imu.t_gpst_unix_s.size();
+    std::map<std::string, std::size_t> rows_dropped = imu.rows_dropped;
+    // Rates: the row before `first` opens the first interval (in or before the span).
+    const std::size_t opens_interval = increments ? 0 : 1;
+    rows_dropped["interval_start"] += opens_interval;
+    rows_dropped["before_gnss_span"] = first - opens_interval;
+    rows_dropped["after_gnss_span"] = n - 1 - last;
+    std::size_t total = 0;
+    for (const auto& [why, count] : rows_dropped) total += count;
+    const std::size_t source_rows = imu.source_rows > 0 ? imu.source_rows : n;
+    prov["imu"]["rows_read"] = source_rows;
+    prov["imu"]["rows_used"] = ds.imu.size();
+    prov["imu"]["rows_dropped"] = rows_dropped;
+    if (total + ds.imu.size() != source_rows)
+      throw std::logic_error("assemble_dataset: IMU rows used and dropped do not add up");
+    if (total > 0) {
+      std::string why;
+      const std::map<std::string, std::string> words = {
+          {"repeated_timestamp", "with a repeated timestamp"},
+          {"timestamp_jump", "in timestamp jumps"},
+          {"interval_start", "opening the first interval"},
+          {"before_gnss_span", "before the GNSS span"},
+          {"after_gnss_span", "after the GNSS span"}};
+      for (const auto& [reason, count] : rows_dropped)
+        if (count > 0)
+          why += (why.empty() ? "" : ", ") + std::to_string(count) + " " +
+                 (words.count(reason) ? words.at(reason) : reason);
+      out.notes.push_back("IMU: " + std::to_string(ds.imu.size()) + " of " +
+                          std::to_string(source_rows) + " rows used; dropped: " + why);
+    }
+  }
   prov["imu"]["first_line_used"] = imu.line[first];
   prov["imu"]["last_line_used"] = imu.line[last];
   prov["imu"]["integration"] =

@@ -280,8 +280,9 @@ bool UlogFile::has_field(const std::string& topic, const std::string& field) con
   return it != formats_.end() && find_field(it->second, field, element) != nullptr;
 }
 
-std::vector<std::vector<double>> UlogFile::read(const std::string& topic, int multi_id,
-                                                const std::vector<std::string>& fields) const {
+template <class Visit>
+void UlogFile::for_each_message(const std::string& topic, int multi_id,
+                                const std::vector<std::string>& fields, Visit visit) const {
   const auto fmt = formats_.find(topic);
   if (fmt == formats_.end()) throw std::runtime_error(where_ + ": no topic '" + topic + "'");
   std::vector<std::pair<const Field*, std::size_t>> resolved;
@@ -293,25 +294,44 @@ std::vector<std::vector<double>> UlogFile::read(const std::string& topic, int mu
                                "' in this log's format");
     resolved.emplace_back(field, element);
   }
-  std::vector<std::vector<double>> rows;
+  std::vector<std::size_t> at(resolved.size());
   for (const auto& [id, sub] : subscriptions_) {
     if (sub.topic != topic || sub.multi_id != multi_id) continue;
     const auto d = data_.find(id);
     if (d == data_.end()) continue;
     for (const auto& [offset, size] : d->second) {
-      std::vector<double>& row = rows.emplace_back();
-      for (const auto& [field, element] : resolved) {
-        const std::size_t at = field->offset + element * field->element_size;
-        if (at + field->element_size > size)
+      for (std::size_t i = 0; i < resolved.size(); ++i) {
+        const auto& [field, element] = resolved[i];
+        const std::size_t in_message = field->offset + element * field->element_size;
+        if (in_message + field->element_size > size)
           throw std::runtime_error(where_ + ": byte " + std::to_string(offset) +
                                    ", data message of '" + topic + "': " + std::to_string(size) +
                                    " bytes, too short for field '" + field->name + "' at offset " +
-                                   std::to_string(at));
-        row.push_back(decode(field->type, bytes_.data() + offset + at));
+                                   std::to_string(in_message));
+        at[i] = offset + in_message;
       }
+      visit(at, resolved);
     }
   }
+}
+
+std::vector<std::vector<double>> UlogFile::read(const std::string& topic, int multi_id,
+                                                const std::vector<std::string>& fields) const {
+  std::vector<std::vector<double>> rows;
+  for_each_message(topic, multi_id, fields, [&](const auto& at, const auto& resolved) {
+    std::vector<double>& row = rows.emplace_back();
+    for (std::size_t i = 0; i < at.size(); ++i)
+      row.push_back(decode(resolved[i].first->type, bytes_.data() + at[i]));
+  });
   return rows;
+}
+
+std::vector<std::size_t> UlogFile::field_offsets(const std::string& topic, int multi_id,
+                                                 const std::string& field) const {
+  std::vector<std::size_t> offsets;
+  for_each_message(topic, multi_id, {field},
+                   [&](const auto& at, const auto&) { offsets.push_back(at[0]); });
+  return offsets;
 }
 
 std::string UlogFile::topics_summary() const {

@@ -31,6 +31,10 @@ class UlogFile {
   /// "name[i]"), in file order. Throws naming a missing field or a message too short for it.
   std::vector<std::vector<double>> read(const std::string& topic, int multi_id,
                                         const std::vector<std::string>& fields) const;
+  /// The byte offset in the file of `field` in every data message of topic/instance, in the
+  /// order read() gives the messages (to name where a value was read). Throws as read() does.
+  std::vector<std::size_t> field_offsets(const std::string& topic, int multi_id,
+                                         const std::string& field) const;
 
   std::uint64_t start_timestamp_us() const { return start_us_; }
   int version() const { return version_; }
@@ -56,6 +60,11 @@ class UlogFile {
   };
   std::size_t format_size(const std::string& name, int depth) const;
   const Field* find_field(const Format& f, const std::string& name, std::size_t& element) const;
+  /// Calls visit(file offset of each field value, field) for every data message of
+  /// topic/instance, in order, after checking the message is long enough for every field.
+  template <class Visit>
+  void for_each_message(const std::string& topic, int multi_id,
+                        const std::vector<std::string>& fields, Visit visit) const;
 
   std::string where_;
   std::string bytes_;

@@ -1,9 +1,176 @@
 #include "import/ulog_import.h"
 
+#include <algorithm>
 #include <cmath>
+#include <iomanip>
+#include <sstream>
 #include <stdexcept>
 
 namespace insid::import {
+namespace {
+
+std::string seconds(double s) {
+  std::ostringstream out;
+  out << std::fixed << std::setprecision(6) << s << " s";  // microseconds, as logged
+  return out.str();
+}
+
+// The jumps listed one by one in the provenance (all are counted) and in a note.
+constexpr std::size_t kJumpsListed = 100;
+constexpr std::size_t kJumpsInNote = 3;
+
+// select_increasing_stamps on the `t_field` stamps of a topic's messages (`rows`, column 0),
+// recorded in `prov` ("timestamps") and, when anything was dropped or jumped, a note.
+TimestampSelection select_topic_stamps(const UlogFile& log, const std::string& topic, int instance,
+                                       const std::string& t_field,
+                                       const std::vector<std::vector<double>>& rows,
+                                       nlohmann::json& prov, std::vector<std::string>& notes) {
+  std::vector<double> stamps_us;
+  stamps_us.reserve(rows.size());
+  for (const auto& r : rows) stamps_us.push_back(r[0]);
+  TimestampSelection sel =
+      select_increasing_stamps(stamps_us, log.field_offsets(topic, instance, t_field));
+  nlohmann::json list = nlohmann::json::array();
+  std::size_t dropped_jumps = 0;
+  for (const TimestampJump& j : sel.jumps) {
+    if (j.messages_dropped > 0) ++dropped_jumps;
+    if (list.size() < kJumpsListed)
+      list.push_back({{"message", j.message},
+                      {"byte", j.byte},
+                      {"stamp_s", j.stamp_s},
+                      {"previous_s", std::isnan(j.previous_s) ? nlohmann::json(nullptr)
+                                                              : nlohmann::json(j.previous_s)},
+                      {"messages_dropped", j.messages_dropped}});
+  }
+  prov["timestamps"] = {{"field", t_field},
+                        {"messages", rows.size()},
+                        {"kept", sel.kept.size()},
+                        {"repeated", sel.repeated},
+                        {"jumps", sel.jumps.size()},
+                        {"jumps_dropped", dropped_jumps},
+                        {"dropped_by_jumps", sel.dropped_by_jumps},
+                        {"jump_list", list}};
+  if (!sel.jumps.empty()) {
+    std::string note = topic + " instance " + std::to_string(instance) + ": " +
+                       std::to_string(sel.jumps.size()) + " timestamp jump" +
+                       (sel.jumps.size() == 1 ? "" : "s") + " (" +
+                       std::to_string(sel.dropped_by_jumps) + " of " + std::to_string(rows.size()) +
+                       " messages dropped):";
+    for (std::size_t i = 0; i < sel.jumps.size() && i < kJumpsInNote; ++i) {
+      const TimestampJump& j = sel.jumps[i];
+      note += std::string(i == 0 ? " " : "; ") + "message " + std::to_string(j.message) + " (" +
+              t_field + " at byte " + std::to_string(j.byte) + ") stamped " + seconds(j.stamp_s) +
+              (std::isnan(j.previous_s)
+                   ? std::string(", before any kept stamp")
+                   : std::string(", ") + (j.stamp_s > j.previous_s ? "+" : "-") +
+                         seconds(std::fabs(j.stamp_s - j.previous_s)) +
+                         " from the message kept before it (" + seconds(j.previous_s) + ")") +
+              (j.messages_dropped > 0
+                   ? ": dropped" + (j.messages_dropped > 1
+                                        ? " with the " + std::to_string(j.messages_dropped - 1) +
+                                              " messages after it"
+                                        : std::string())
+                   : ": kept, the stamps after it continue from it (a gap)");
+    }
+    if (sel.jumps.size() > kJumpsInNote)
+      note +=
+          "; and " + std::to_string(sel.jumps.size() - kJumpsInNote) + " more (provenance.json)";
+    notes.push_back(note);
+  }
+  return sel;
+}
+
+}  // namespace
+
+TimestampSelection select_increasing_stamps(const std::vector<double>& stamps_us,
+                                            const std::vector<std::size_t>& byte_offsets) {
+  if (byte_offsets.size() != stamps_us.size())
+    throw std::logic_error("select_increasing_stamps: one byte offset per stamp");
+  const std::size_t n = stamps_us.size();
+  TimestampSelection out;
+  // 1. Repeats of the stamp right before.
+  std::vector<char> repeat(n, 0);
+  std::vector<std::size_t> candidates;
+  candidates.reserve(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    if (k > 0 && stamps_us[k] == stamps_us[k - 1]) {
+      repeat[k] = 1;
+      ++out.repeated;
+    } else {
+      candidates.push_back(k);
+    }
+  }
+  // 2. The longest strictly increasing series (patience sorting, O(n log n)), built from the end
+  //    as the longest decreasing one backwards: of equally long series it takes the earlier
+  //    messages, so after a clock that went back the stamps that repeat earlier times are dropped.
+  std::vector<std::size_t> heads;  // heads[len - 1]: candidate starting the best series of len
+  std::vector<std::ptrdiff_t> next(candidates.size(), -1);
+  for (std::size_t i = candidates.size(); i-- > 0;) {
+    const double t = stamps_us[candidates[i]];
+    const auto pos = std::lower_bound(heads.begin(), heads.end(), t, [&](std::size_t c, double v) {
+      return stamps_us[candidates[c]] > v;
+    });
+    if (pos != heads.begin()) next[i] = static_cast<std::ptrdiff_t>(*(pos - 1));
+    if (pos == heads.end())
+      heads.push_back(i);
+    else
+      *pos = i;
+  }
+  std::vector<std::size_t> kept;
+  for (std::ptrdiff_t i = heads.empty() ? -1 : static_cast<std::ptrdiff_t>(heads.back()); i >= 0;
+       i = next[static_cast<std::size_t>(i)])
+    kept.push_back(candidates[static_cast<std::size_t>(i)]);
+  // 3. Runs between long forward steps; runs too short to confirm their stamps are dropped.
+  std::vector<double> steps;
+  for (std::size_t i = 1; i < kept.size(); ++i)
+    steps.push_back(stamps_us[kept[i]] - stamps_us[kept[i - 1]]);
+  double jump_us = kJumpMinS * 1e6;
+  if (!steps.empty()) {
+    std::nth_element(steps.begin(), steps.begin() + static_cast<std::ptrdiff_t>(steps.size() / 2),
+                     steps.end());
+    jump_us = std::max(jump_us, kJumpMedianSteps * steps[steps.size() / 2]);
+  }
+  {
+    std::vector<std::pair<std::size_t, std::size_t>> runs;  // [begin, end) in kept
+    std::size_t begin = 0, longest = 0;
+    for (std::size_t i = 1; i <= kept.size(); ++i)
+      if (i == kept.size() || stamps_us[kept[i]] - stamps_us[kept[i - 1]] > jump_us) {
+        runs.emplace_back(begin, i);
+        longest = std::max(longest, i - begin);
+        begin = i;
+      }
+    if (runs.size() > 1 && longest >= kJumpMinRun) {
+      std::vector<std::size_t> confirmed;
+      for (const auto& [b, e] : runs)
+        if (e - b >= kJumpMinRun)
+          confirmed.insert(confirmed.end(), kept.begin() + b, kept.begin() + e);
+      kept = std::move(confirmed);
+    }
+  }
+  out.kept = kept;
+  // 4. The jumps, in message order: runs of dropped messages, and forward steps kept.
+  std::vector<char> is_kept(n, 0);
+  for (std::size_t k : kept) is_kept[k] = 1;
+  double last_kept = std::numeric_limits<double>::quiet_NaN();
+  for (std::size_t k = 0; k < n;) {
+    if (is_kept[k]) {
+      if (!std::isnan(last_kept) && stamps_us[k] - last_kept > jump_us)
+        out.jumps.push_back({k + 1, byte_offsets[k], stamps_us[k] * 1e-6, last_kept * 1e-6, 0});
+      last_kept = stamps_us[k++];
+      continue;
+    }
+    if (repeat[k]) {
+      ++k;
+      continue;
+    }
+    TimestampJump j{k + 1, byte_offsets[k], stamps_us[k] * 1e-6, last_kept * 1e-6, 0};
+    for (; k < n && !is_kept[k]; ++k)
+      if (!repeat[k]) ++j.messages_dropped;
+    out.dropped_by_jumps += j.messages_dropped;
+    out.jumps.push_back(j);
+  }
+  return out;
+}
 
 std::string UlogImportOptions::validate() const {
   if (!imu_topic.empty() && imu_topic != "vehicle_imu" && imu_topic != "sensor_combined")
@@ -77,16 +244,26 @@ UlogSeries extract_ulog(const UlogFile& log, const std::string& where,
   CsvImu& imu = out.imu;
   imu.accel_is_increment = true;
   imu.gyro_is_increment = true;
-  if (imu_topic == "vehicle_imu") {
-    const std::string t_field =
-        log.has_field("vehicle_imu", "timestamp_sample") ? "timestamp_sample" : "timestamp";
-    const auto rows = log.read("vehicle_imu", options.imu_instance,
-                               {t_field, "delta_angle[0]", "delta_angle[1]", "delta_angle[2]",
-                                "delta_velocity[0]", "delta_velocity[1]", "delta_velocity[2]"});
-    for (std::size_t k = 0; k < rows.size(); ++k) {
+  const bool increments = imu_topic == "vehicle_imu";
+  const std::string t_field = increments && log.has_field("vehicle_imu", "timestamp_sample")
+                                  ? "timestamp_sample"
+                                  : "timestamp";
+  const auto rows =
+      increments
+          ? log.read("vehicle_imu", options.imu_instance,
+                     {t_field, "delta_angle[0]", "delta_angle[1]", "delta_angle[2]",
+                      "delta_velocity[0]", "delta_velocity[1]", "delta_velocity[2]"})
+          : log.read("sensor_combined", options.imu_instance,
+                     {t_field, "gyro_rad[0]", "gyro_rad[1]", "gyro_rad[2]", "accelerometer_m_s2[0]",
+                      "accelerometer_m_s2[1]", "accelerometer_m_s2[2]"});
+  const TimestampSelection imu_sel = select_topic_stamps(log, imu_topic, options.imu_instance,
+                                                         t_field, rows, prov["imu"], out.notes);
+  imu.source_rows = rows.size();
+  imu.rows_dropped["repeated_timestamp"] = imu_sel.repeated;
+  imu.rows_dropped["timestamp_jump"] = imu_sel.dropped_by_jumps;
+  if (increments) {
+    for (const std::size_t k : imu_sel.kept) {
       const auto& r = rows[k];
-      if (!imu.t_gpst_unix_s.empty() && !(r[0] * 1e-6L > imu.t_gpst_unix_s.back()))
-        continue;  // repeated stamp
       imu.t_gpst_unix_s.push_back(static_cast<GpstTime>(r[0]) * 1e-6L);
       imu.gyro_b.emplace_back(r[1], r[2], r[3]);
       imu.accel_b.emplace_back(r[4], r[5], r[6]);
@@ -95,28 +272,28 @@ UlogSeries extract_ulog(const UlogFile& log, const std::string& where,
     prov["imu"]["source"] = "vehicle_imu instance " + std::to_string(options.imu_instance) +
                             ": delta_angle, delta_velocity (increments) at " + t_field;
   } else {
-    const auto rows =
-        log.read("sensor_combined", options.imu_instance,
-                 {"timestamp", "gyro_rad[0]", "gyro_rad[1]", "gyro_rad[2]", "accelerometer_m_s2[0]",
-                  "accelerometer_m_s2[1]", "accelerometer_m_s2[2]"});
-    for (std::size_t k = 1; k < rows.size(); ++k) {
-      const auto& r = rows[k];
+    // The first kept message only opens the first interval.
+    if (!imu_sel.kept.empty()) imu.rows_dropped["interval_start"] = 1;
+    for (std::size_t i = 1; i < imu_sel.kept.size(); ++i) {
+      const auto& r = rows[imu_sel.kept[i]];
       const GpstTime t = static_cast<GpstTime>(r[0]) * 1e-6L;
-      const GpstTime t_prev = imu.t_gpst_unix_s.empty() ? static_cast<GpstTime>(rows[0][0]) * 1e-6L
-                                                        : imu.t_gpst_unix_s.back();
-      if (!(t > t_prev)) continue;  // repeated stamp
+      const GpstTime t_prev = static_cast<GpstTime>(rows[imu_sel.kept[i - 1]][0]) * 1e-6L;
       const double dt = static_cast<double>(t - t_prev);
       imu.t_gpst_unix_s.push_back(t);
       imu.gyro_b.emplace_back(r[1] * dt, r[2] * dt, r[3] * dt);
       imu.accel_b.emplace_back(r[4] * dt, r[5] * dt, r[6] * dt);
-      imu.line.push_back(k + 1);
+      imu.line.push_back(imu_sel.kept[i] + 1);
     }
     prov["imu"]["source"] = "sensor_combined instance " + std::to_string(options.imu_instance) +
                             ": gyro_rad and accelerometer_m_s2 (interval means) x each row's own "
                             "interval";
   }
   if (imu.t_gpst_unix_s.size() < 3)
-    throw std::runtime_error(where + ": IMU topic '" + imu_topic + "' has fewer than 3 samples");
+    throw std::runtime_error(
+        where + ": IMU topic '" + imu_topic + "' has " + std::to_string(imu.t_gpst_unix_s.size()) +
+        " samples with consistent timestamps (of " + std::to_string(rows.size()) +
+        " messages: " + std::to_string(imu_sel.repeated) + " repeated, " +
+        std::to_string(imu_sel.dropped_by_jumps) + " dropped in timestamp jumps); need at least 3");
   prov["imu"]["axes"] = "PX4 body frame, forward-right-down (no mounting applied)";
 
   // GNSS, either field layout.
@@ -138,12 +315,14 @@ UlogSeries extract_ulog(const UlogFile& log, const std::string& where,
   if (has_valid) fields.push_back("vel_ned_valid");
   const bool has_sats = log.has_field(gnss_topic, "satellites_used");
   if (has_sats) fields.push_back("satellites_used");
-  const auto rows = log.read(gnss_topic, options.gnss_instance, fields);
+  const auto gnss_rows = log.read(gnss_topic, options.gnss_instance, fields);
+  const TimestampSelection gnss_sel = select_topic_stamps(
+      log, gnss_topic, options.gnss_instance, "timestamp", gnss_rows, prov["gnss"], out.notes);
   const double angle_scale = degrees ? 1.0 : 1e-7;
   const double height_scale = degrees ? 1.0 : 1e-3;
-  std::size_t low_fix = 0, invalid_velocity = 0, repeated = 0;
-  for (std::size_t k = 0; k < rows.size(); ++k) {
-    const auto& r = rows[k];
+  std::size_t low_fix = 0, invalid_velocity = 0;
+  for (const std::size_t k : gnss_sel.kept) {
+    const auto& r = gnss_rows[k];
     if (r[7] < options.min_fix_type) {
       ++low_fix;
       continue;
@@ -154,10 +333,6 @@ UlogSeries extract_ulog(const UlogFile& log, const std::string& where,
     }
     GnssEpoch e;
     e.t_gpst_unix_s = static_cast<GpstTime>(r[0]) * 1e-6L;
-    if (!out.gnss.epochs.empty() && !(e.t_gpst_unix_s > out.gnss.epochs.back().t_gpst_unix_s)) {
-      ++repeated;
-      continue;
-    }
     e.lat_deg = r[1] * angle_scale;
     e.lon_deg = r[2] * angle_scale;
     e.h_m = r[3] * height_scale;
@@ -175,7 +350,8 @@ UlogSeries extract_ulog(const UlogFile& log, const std::string& where,
                                : "MSL (" + height_field + "): no ellipsoidal height logged";
   prov["gnss"]["dropped"] = {{"fix_type_below_" + std::to_string(options.min_fix_type), low_fix},
                              {"vel_ned_valid_false", invalid_velocity},
-                             {"repeated_timestamp", repeated}};
+                             {"repeated_timestamp", gnss_sel.repeated},
+                             {"timestamp_jump", gnss_sel.dropped_by_jumps}};
   if (!has_ellipsoid)
     out.notes.push_back(
         "GNSS height is MSL (" + height_field +
@@ -188,7 +364,7 @@ UlogSeries extract_ulog(const UlogFile& log, const std::string& where,
     throw std::runtime_error(where + ": " + gnss_topic + " has " +
                              std::to_string(out.gnss.epochs.size()) +
                              " epochs with fix_type >= " + std::to_string(options.min_fix_type) +
-                             " (of " + std::to_string(rows.size()) + "); need at least 2");
+                             " (of " + std::to_string(gnss_rows.size()) + "); need at least 2");
 
   if (options.heading == "gps") {
     // PX4 (SensorGps.msg): "heading: heading angle of XYZ body frame rel to NED. Set to NaN if
@@ -201,13 +377,16 @@ UlogSeries extract_ulog(const UlogFile& log, const std::string& where,
     std::vector<std::string> hf = {"timestamp", "heading"};
     if (has_accuracy) hf.push_back("heading_accuracy");
     const auto hrows = log.read(gnss_topic, options.gnss_instance, hf);
+    nlohmann::json& hprov = prov["heading_read"];
+    const TimestampSelection hsel = select_topic_stamps(log, gnss_topic, options.gnss_instance,
+                                                        "timestamp", hrows, hprov, out.notes);
     HeadingInput h;
     h.source = HeadingSourceKind::kDualAntenna;
     h.origin = gnss_topic + " instance " + std::to_string(options.gnss_instance) +
                ": heading (rad, body x from true north)" +
                (has_accuracy ? ", heading_accuracy as sd" : "");
     std::size_t nan = 0;
-    for (std::size_t k = 0; k < hrows.size(); ++k) {
+    for (const std::size_t k : hsel.kept) {
       const auto& r = hrows[k];
       if (!std::isfinite(r[1])) {
         ++nan;
@@ -217,19 +396,17 @@ UlogSeries extract_ulog(const UlogFile& log, const std::string& where,
         throw std::runtime_error(where + ": " + gnss_topic + " message " + std::to_string(k + 1) +
                                  ", field heading: " + std::to_string(r[1]) +
                                  " rad is not an angle within +-2 pi");
-      const GpstTime t = static_cast<GpstTime>(r[0]) * 1e-6L;
-      if (!h.t_gpst_unix_s.empty() && !(t > h.t_gpst_unix_s.back())) continue;
-      h.t_gpst_unix_s.push_back(t);
+      h.t_gpst_unix_s.push_back(static_cast<GpstTime>(r[0]) * 1e-6L);
       h.yaw_rad.push_back(r[1]);
       const bool sd_ok =
           has_accuracy && std::isfinite(r[2]) && r[2] > 0.0 && r[2] <= 3.14159265358979323846;
       h.sd_rad.push_back(sd_ok ? std::optional<double>(r[2]) : std::nullopt);
       h.line.push_back(k + 1);
     }
-    prov["heading_read"] = {{"topic", gnss_topic},
-                            {"messages", hrows.size()},
-                            {"nan", nan},
-                            {"kept", h.t_gpst_unix_s.size()}};
+    hprov["topic"] = gnss_topic;
+    hprov["messages"] = hrows.size();
+    hprov["nan"] = nan;
+    hprov["kept"] = h.t_gpst_unix_s.size();
     if (h.t_gpst_unix_s.empty())
       throw std::runtime_error(
           where + ": --heading gps: " + gnss_topic + " logs 'heading' but it is NaN in all " +
@@ -256,21 +433,28 @@ UlogSeries extract_ulog(const UlogFile& log, const std::string& where,
                                std::to_string(options.mag_instance) +
                                "); topics with data: " + log.topics_summary());
     const auto mrows = log.read(topic, options.mag_instance, mf);
+    nlohmann::json& hprov = prov["heading_read"];
+    const TimestampSelection msel =
+        select_topic_stamps(log, topic, options.mag_instance, "timestamp", mrows, hprov, out.notes);
     HeadingInput h;
     h.source = HeadingSourceKind::kMagnetometer;
     h.origin = topic + " instance " + std::to_string(options.mag_instance) + ": " +
                (topic == "sensor_mag" ? "x, y, z" : "magnetometer_ga") + " (gauss, body FRD)";
-    for (std::size_t k = 0; k < mrows.size(); ++k) {
+    std::size_t not_finite = 0;
+    for (const std::size_t k : msel.kept) {
       const auto& r = mrows[k];
-      const GpstTime t = static_cast<GpstTime>(r[0]) * 1e-6L;
-      if (!(std::isfinite(r[1]) && std::isfinite(r[2]) && std::isfinite(r[3]))) continue;
-      if (!h.t_gpst_unix_s.empty() && !(t > h.t_gpst_unix_s.back())) continue;
-      h.t_gpst_unix_s.push_back(t);
+      if (!(std::isfinite(r[1]) && std::isfinite(r[2]) && std::isfinite(r[3]))) {
+        ++not_finite;
+        continue;
+      }
+      h.t_gpst_unix_s.push_back(static_cast<GpstTime>(r[0]) * 1e-6L);
       h.mag_b.emplace_back(r[1], r[2], r[3]);
       h.line.push_back(k + 1);
     }
-    prov["heading_read"] = {
-        {"topic", topic}, {"messages", mrows.size()}, {"kept", h.t_gpst_unix_s.size()}};
+    hprov["topic"] = topic;
+    hprov["messages"] = mrows.size();
+    hprov["not_finite"] = not_finite;
+    hprov["kept"] = h.t_gpst_unix_s.size();
     out.heading = std::move(h);
   }
   return out;

@@ -31,6 +31,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/json_reader.h"
+
 extern char** environ;
 
 namespace insid::opt {
@@ -70,6 +72,53 @@ nlohmann::json vector_json(const Eigen::VectorXd& x) {
 }
 
 }  // namespace
+
+ExternalReply parse_external_reply(std::string_view line, const Bounds& box,
+                                   const std::string& where) {
+  const std::string text(line);
+  // insid's one JSON reader, with its depth limit: no deeper value is ever built, so the
+  // messages below (which print parts of the reply) never recurse deeply.
+  const nlohmann::json reply =
+      parse_json_strict(line, where + quoted_excerpt(text), {.max_bytes = kMaxLineBytes});
+  const auto refuse = [&](const std::string& why) {
+    throw std::runtime_error(where + quoted_excerpt(text) + why);
+  };
+  if (!reply.is_object()) refuse(" is not a JSON object");
+  ExternalReply out;
+  if (reply.contains("error")) {
+    const nlohmann::json& e = reply["error"];
+    out.error = e.is_string() ? e.get<std::string>() : e.dump().substr(0, 200);
+    return out;
+  }
+  if (!reply.contains("points")) refuse(" has no \"points\"");
+  const nlohmann::json& points = reply["points"];
+  if (!points.is_array() || points.empty())
+    refuse(": \"points\" must be a non-empty array of points");
+  const int n = box.dimension();
+  out.points.reserve(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const nlohmann::json& p = points[i];
+    const std::string point = where + "point " + std::to_string(i);
+    if (!p.is_array() || static_cast<int>(p.size()) != n)
+      throw std::runtime_error(point + " " + p.dump().substr(0, 200) + " is not an array of " +
+                               std::to_string(n) + " numbers");
+    Eigen::VectorXd x(n);
+    for (int j = 0; j < n; ++j) {
+      const nlohmann::json& v = p[static_cast<std::size_t>(j)];
+      if (!v.is_number() || !std::isfinite(v.get<double>()))
+        throw std::runtime_error(point + " coordinate " + std::to_string(j) + " = " +
+                                 v.dump().substr(0, 200) + " is not a finite number");
+      x[j] = v.get<double>();
+      if (x[j] < box.lower[j] || x[j] > box.upper[j])
+        throw std::runtime_error(point + " coordinate " + std::to_string(j) + " = " +
+                                 format_number(x[j]) + " is outside the box [" +
+                                 format_number(box.lower[j]) + ", " + format_number(box.upper[j]) +
+                                 "]");
+    }
+    out.points.push_back(std::move(x));
+  }
+  return out;
+}
 
 std::span<const ParameterField<ExternalParams>> ExternalParams::fields() {
   static const ParameterField<ExternalParams> kFields[] = {
@@ -262,6 +311,28 @@ std::string ExternalOptimizer::read_line(std::string_view what) {
   }
 }
 
+void ExternalOptimizer::refuse_unasked_output(const std::string& after) {
+  // What has arrived so far, without waiting (EOF is left to the next read to report).
+  for (;;) {
+    pollfd p{fd_, POLLIN, 0};
+    if (::poll(&p, 1, 0) <= 0) break;
+    char chunk[65536];
+    const ssize_t n = ::recv(fd_, chunk, sizeof(chunk), MSG_DONTWAIT);
+    if (n <= 0) break;
+    buffer_.append(chunk, static_cast<std::size_t>(n));
+    if (buffer_.size() > kMaxLineBytes) break;
+  }
+  const std::size_t start = buffer_.find_first_not_of(" \t\r\n");
+  if (start == std::string::npos) return;
+  // The line number of the unasked output: the blank lines before it count.
+  const int line_no = lines_read_ + 1 +
+                      static_cast<int>(std::count(buffer_.begin(), buffer_.begin() + start, '\n'));
+  std::string line = buffer_.substr(start, buffer_.find('\n', start) - start);
+  if (!line.empty() && line.back() == '\r') line.pop_back();
+  fail("line " + std::to_string(line_no) + " of its output " + quoted_excerpt(line) +
+       " answers no ask (it follows " + after + "; the protocol is one reply line per ask)");
+}
+
 void ExternalOptimizer::launch() {
   if (!error_.empty()) throw ExternalOptimizerError(error_);
   if (pid_ < 0 && fd_ < 0) start();
@@ -276,49 +347,23 @@ void ExternalOptimizer::propose(std::vector<Eigen::VectorXd>& batch) {
     ask["remaining_evaluations"] = config().max_evaluations - result().evaluations;
   else
     ask["remaining_evaluations"] = nullptr;
+  refuse_unasked_output(iteration() == 0 ? "the problem message"
+                                         : "its reply to ask " + std::to_string(k - 1));
   send_line(ask.dump(), what);
 
   const std::string line = read_line(what);
   const std::string where =
       "reply to " + what + " (line " + std::to_string(lines_read_) + " of its output) ";
-  nlohmann::json reply;
+  refuse_unasked_output("its reply to " + what);
+  ExternalReply reply;
   try {
-    reply = nlohmann::json::parse(line);
-  } catch (const nlohmann::json::exception& e) {
-    fail(where + quoted_excerpt(line) + " is not JSON: " + e.what());
+    reply = parse_external_reply(line, bounds(), where);
+  } catch (const std::runtime_error& e) {
+    fail(e.what());
   }
-  if (!reply.is_object()) fail(where + quoted_excerpt(line) + " is not a JSON object");
-  if (reply.contains("error")) {
-    const nlohmann::json& e = reply["error"];
-    fail("gave up at " + what + ": " + (e.is_string() ? e.get<std::string>() : e.dump()));
-  }
-  if (!reply.contains("points")) fail(where + quoted_excerpt(line) + " has no \"points\"");
-  const nlohmann::json& points = reply["points"];
-  if (!points.is_array() || points.empty())
-    fail(where + quoted_excerpt(line) + ": \"points\" must be a non-empty array of points");
-  const Bounds& box = bounds();
-  const int n = box.dimension();
-  batch.reserve(points.size());
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    const nlohmann::json& p = points[i];
-    const std::string point = where + "point " + std::to_string(i);
-    if (!p.is_array() || static_cast<int>(p.size()) != n)
-      fail(point + " " + p.dump().substr(0, 200) + " is not an array of " + std::to_string(n) +
-           " numbers");
-    Eigen::VectorXd x(n);
-    for (int j = 0; j < n; ++j) {
-      const nlohmann::json& v = p[static_cast<std::size_t>(j)];
-      if (!v.is_number() || !std::isfinite(v.get<double>()))
-        fail(point + " coordinate " + std::to_string(j) + " = " + v.dump() +
-             " is not a finite number");
-      x[j] = v.get<double>();
-      if (x[j] < box.lower[j] || x[j] > box.upper[j])
-        fail(point + " coordinate " + std::to_string(j) + " = " + format_number(x[j]) +
-             " is outside the box [" + format_number(box.lower[j]) + ", " +
-             format_number(box.upper[j]) + "]");
-    }
-    batch.push_back(std::move(x));
-  }
+  if (reply.error) fail("gave up at " + what + ": " + *reply.error);
+  batch.reserve(batch.size() + reply.points.size());
+  for (Eigen::VectorXd& x : reply.points) batch.push_back(std::move(x));
 }
 
 void ExternalOptimizer::accept(std::span<const Eigen::VectorXd>, std::span<const double> fitness) {

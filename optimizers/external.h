@@ -14,13 +14,16 @@
 // Failures (ExternalOptimizerError, message naming the command, the run's seed and the
 // offending line): the process exits or closes its stdout before replying (with its exit
 // status or signal), does not reply within `timeout_s` (it is then killed), or replies with a
-// line that is not a JSON object with valid "points" (not JSON, points not an array of arrays
-// of `dimension` finite numbers inside the box, no point). A client may also reply
-// {"error":"text"} to give up with its own reason. After a failure the run stays failed.
+// line that is not a JSON object with valid "points" (not strict JSON within insid's reader's
+// limits, core/json_reader.h: nested deeper than 64, a key twice; points not an array of arrays
+// of `dimension` finite numbers inside the box, no point), or writes a line that no ask asked
+// for (a second reply: one reply line per ask). A client may also reply {"error":"text"} to give
+// up with its own reason. After a failure the run stays failed.
 #pragma once
 
 #include <sys/types.h>
 
+#include <optional>
 #include <span>
 #include <stdexcept>
 #include <string>
@@ -61,6 +64,18 @@ class ExternalOptimizerError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// One reply line of the protocol: the points, or the client's own reason to give up.
+struct ExternalReply {
+  std::vector<Eigen::VectorXd> points;
+  std::optional<std::string> error;  ///< {"error": "..."}: the client gives up
+};
+
+/// Reads one reply line (strict JSON within core/json_reader.h's limits, the line at most
+/// 256 MiB) against `box`. Throws std::runtime_error starting with `where` (e.g. "reply to ask 1
+/// (line 1 of its output) ") and naming the point, coordinate and value at fault.
+ExternalReply parse_external_reply(std::string_view line, const Bounds& box,
+                                   const std::string& where);
+
 class ExternalOptimizer final : public Optimizer {
  public:
   /// `command` runs under /bin/sh -c in the current directory. Throws std::invalid_argument on
@@ -88,6 +103,9 @@ class ExternalOptimizer final : public Optimizer {
   void send_line(const std::string& line, std::string_view what);
   /// Reads the next non-empty line within the timeout; throws on EOF or timeout.
   std::string read_line(std::string_view what);
+  /// Fails when the process has written anything but blank lines that no ask asked for (read
+  /// without waiting): after the problem message, or after `after`, the reply it already gave.
+  void refuse_unasked_output(const std::string& after);
   /// Kills the process group and reaps it; returns how it ended ("exited with status 3").
   std::string kill_and_reap();
   /// Reaps the process if it has ended within `wait_s`; returns how it ended or "".

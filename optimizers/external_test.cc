@@ -229,7 +229,7 @@ TEST(External, HangingClientIsKilledAfterTheTimeout) {
 TEST(External, MalformedRepliesNameTheLine) {
   REQUIRE_PYTHON();
   expect_contains(error_of("notjson"),
-                  "reply to ask 1 (line 1 of its output) 'this is not json' is not JSON: ");
+                  "reply to ask 1 (line 1 of its output) 'this is not json': not valid JSON: ");
   expect_contains(error_of("dimension"),
                   "reply to ask 1 (line 1 of its output) point 1 [0.0,0.5,1.25,0.0] is not an "
                   "array of 3 numbers");
@@ -237,6 +237,56 @@ TEST(External, MalformedRepliesNameTheLine) {
                   "reply to ask 1 (line 1 of its output) point 0 coordinate 0 = 2 is outside the "
                   "box [-1, 1]");
   expect_contains(error_of("giveup"), "(seed 11): gave up at ask 1: no idea what to do");
+}
+
+TEST(External, HostilyDeepReplyIsRefusedAtTheDepthLimit) {
+  // Issue 37 item 3: 100000 nested arrays crashed insid (SIGSEGV: a recursive dump of the
+  // deepest value); 10000 and 30000 gave a message. Every depth now stops at the reader's limit.
+  REQUIRE_PYTHON();
+  for (const int depth : {65, 10000, 100000}) {
+    const std::string e = error_of("deep " + std::to_string(depth));
+    expect_contains(e, "(seed 11): reply to ask 1 (line 1 of its output) '{\"points\": [[[[");
+    expect_contains(e,
+                    ": line 1, column 75 (byte 74): nesting depth 65 exceeds the limit of 64 "
+                    "nested arrays and objects");
+  }
+  // Within the limit (the reply object is depth 1): an ordinary complaint about the point.
+  expect_contains(error_of("deep 63"), "point 0 [[[[");
+}
+
+TEST(External, ReplyNobodyAskedForIsRefused) {
+  // Issue 37 item 13: a client that replies twice per ask was read one ask late (its second
+  // reply to ask 1 taken as the reply to ask 2). The protocol is one reply line per ask.
+  REQUIRE_PYTHON();
+  expect_contains(error_of("twice"),
+                  "(seed 11): line 2 of its output '{\"points\": [[0.0, 0.5, 1.25]]}' answers "
+                  "no ask (it follows its reply to ask 1; the protocol is one reply line per "
+                  "ask)");
+}
+
+TEST(External, ReplyParserReadsPointsOrNamesWhatIsWrong) {
+  // The reply reader alone (fuzz/external_reply_fuzzer.cc fuzzes it).
+  const Bounds box = test_box();
+  const ExternalReply r =
+      parse_external_reply(R"({"points": [[0, 0.5, 1], [1, 3, 2]]})", box, "r ");
+  ASSERT_EQ(r.points.size(), 2u);
+  EXPECT_FALSE(r.error);
+  EXPECT_EQ(r.points[1], Eigen::Vector3d(1.0, 3.0, 2.0));
+  EXPECT_EQ(*parse_external_reply(R"({"error": {"why": 1}})", box, "r ").error, R"({"why":1})");
+  const auto error = [&](const std::string& line) {
+    try {
+      parse_external_reply(line, box, "r ");
+    } catch (const std::runtime_error& e) {
+      return std::string(e.what());
+    }
+    return std::string("(accepted)");
+  };
+  EXPECT_EQ(error(R"({"points": [[0, 0, 1]], "points": []})"),
+            "r '{\"points\": [[0, 0, 1]], \"points\": []}': key \"points\" appears twice in the "
+            "top-level object (JSON objects must not repeat a key)");
+  EXPECT_EQ(error(R"({"points": [[0, "x", 1]]})"),
+            "r point 0 coordinate 1 = \"x\" is not a finite number");
+  EXPECT_EQ(error("[]"), "r '[]' is not a JSON object");
 }
 
 TEST(External, FailedRunLeavesTheOthersAlone) {
@@ -266,7 +316,7 @@ TEST(External, FailedRunLeavesTheOthersAlone) {
   run_together(pointers, problem, hooks);
   ASSERT_EQ(failures.size(), 2u);
   expect_contains(failures[1], "exited with status 3 before replying to ask 2");
-  expect_contains(failures[3], "is not JSON");
+  expect_contains(failures[3], "not valid JSON");
   expect_same_run(runs[0]->result(), optimize(client_algo(), problem, config));
   expect_same_run(runs[2]->result(), optimize("pso", problem, config));
 }

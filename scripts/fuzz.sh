@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Fuzz insid's readers (dataset; JSON configs) with libFuzzer (clang, AddressSanitizer + UBSan): builds fuzz/ into
+# Fuzz insid's readers (dataset; JSON configs; the JSON reader's limits; an external optimizer's
+# reply line) with libFuzzer (clang, AddressSanitizer + UBSan): builds fuzz/ into
 # ./build-fuzz, seeds each target's corpus, runs each for SECONDS (default 60), and prints the
 # executions and findings per target. Findings (crash-*, leak-*, timeout-*) stay in
 # build-fuzz/findings/<target>/. Usage: scripts/fuzz.sh [SECONDS [TARGET ...]] (default: all
@@ -13,7 +14,8 @@ seconds="${1:-60}"
 command -v clang++ >/dev/null || { echo "insid fuzz: needs clang++ (apt-get install clang libclang-rt-dev)" >&2; exit 1; }
 CC=clang CXX=clang++ cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DINSID_FUZZ=ON \
   -DINSID_BUILD_TESTS=OFF -DINSID_BUILD_BENCHMARKS=OFF -DINSID_WITH_MPI=OFF >&2
-targets=(insid_dataset_fuzzer insid_config_fuzzer insid_import_fuzzer)
+targets=(insid_dataset_fuzzer insid_config_fuzzer insid_import_fuzzer insid_json_fuzzer
+         insid_external_reply_fuzzer)
 if [ $# -gt 1 ]; then targets=("${@:2}"); fi
 cmake --build build-fuzz -j"$(nproc)" --target "${targets[@]}" >&2
 
@@ -69,6 +71,13 @@ for f in ../shared/data/px4-ulog/sample_log_small.ulg ../shared/data/px4-ulog/sa
     { printf "\\x05"; head -c 60000 "$f"; } > "build-fuzz/corpus/insid_import_fuzzer/seed-$(basename "$f")"
   fi
 done
+
+# JSON seeds (the presets, an escaped quote and backslash before brackets) and protocol replies.
+mkdir -p build-fuzz/corpus/insid_json_fuzzer build-fuzz/corpus/insid_external_reply_fuzzer
+cp scenarios/presets/*.json build-fuzz/corpus/insid_json_fuzzer/
+printf '{"a": "[[{\\"\\\\", "b": [[[1]]]}' > build-fuzz/corpus/insid_json_fuzzer/seed-escapes
+printf '{"points": [[0, 0.5, 1.25], [-1, -2, 0.5]]}' > build-fuzz/corpus/insid_external_reply_fuzzer/seed-points
+printf '{"error": "no idea"}' > build-fuzz/corpus/insid_external_reply_fuzzer/seed-error
 
 status=0
 for t in "${targets[@]}"; do

@@ -10,6 +10,8 @@ optimizers/external_test.cc. Usage: external_test_client.py MODE [LOG]
   dimension answer ask 1 with a point of the wrong length
   outside   answer ask 1 with a point outside the box
   giveup    answer ask 1 with {"error": "..."}
+  deep N    answer ask 1 with {"points": N nested arrays} (hostile depth, issue 37)
+  twice     answer every ask with two replies in one write (the second one nobody asked for)
 """
 import json
 import sys
@@ -59,6 +61,12 @@ def main():
             reply({"points": [[u + 1.0 for u in upper]]})
         elif mode == "giveup":
             reply({"error": "no idea what to do"})
+        elif mode == "deep":
+            depth = int(sys.argv[2])
+            reply('{"points": ' + "[" * depth + "]" * depth + "}")
+        elif mode == "twice":
+            one = json.dumps({"points": [centre]})
+            reply(one + "\n" + one)
     return 0
 
 
