@@ -35,7 +35,7 @@ void run_bench(const BenchArgs& args) {
     throw UsageError("give exactly one of --preset and --config");
   campaign::CampaignConfig config;
   if (!args.preset.empty()) {
-    config = campaign::preset_campaign(args.preset);
+    config = parse_option("--preset", [&] { return campaign::preset_campaign(args.preset); });
   } else {
     nlohmann::json j;
     try {

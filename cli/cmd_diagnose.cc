@@ -71,6 +71,8 @@ void run(const DiagnoseArgs& a) {
     o.base.push_back(parse_option("--base", [&] { return grade.parameter(b); }));
   if (a.verbosity != Verbosity::kQuiet) std::cerr << "insid diagnose: " << settled.line() << "\n";
   o.candidates = a.candidates;
+  for (const std::string& c : a.candidates)
+    if (c != "all") parse_option("--candidates", [&] { return effect_info(c); });
   o.max_effects = a.max_effects;
   o.seed = a.seed;
   o.algorithm = a.algorithm;
@@ -79,7 +81,8 @@ void run(const DiagnoseArgs& a) {
   o.replicas_calibration = a.replicas_calibration;
   o.alpha = a.alpha;
   o.observable_max_sigma = a.observable_max_sigma;
-  o.alignment = alignment_mode_from_string(a.alignment);
+  o.alignment =
+      parse_option("--alignment", [&] { return alignment_mode_from_string(a.alignment); });
   o.window_s = settled.window_s;
   o.initial_attitude = initial_attitude_options(a.initial_attitude);
   o.threads = a.threads;

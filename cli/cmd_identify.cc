@@ -80,7 +80,8 @@ void run_identify(const IdentifyArgs& args) {
   }
 
   NavigationOptions nav_options;
-  nav_options.alignment = alignment_mode_from_string(args.alignment);
+  nav_options.alignment =
+      parse_option("--alignment", [&] { return alignment_mode_from_string(args.alignment); });
   nav_options.initial_attitude = initial_attitude_options(args.initial_attitude);
   nav_options.window_s = settled.window_s;
   // The gyrocompass feasibility check meets the search box's gyro biases.

@@ -127,7 +127,9 @@ void run_navigate(const NavigateArgs& args) {
   ProgressPrinter progress("insid navigate", args.verbosity);
   std::map<std::string, double> compensation;
   if (!args.compensate_from.empty()) compensation = identify_estimates(args.compensate_from);
-  for (const auto& [name, value] : parse_effect_assignments(args.compensate, "--compensate")) {
+  const std::map<std::string, double> assignments = parse_option(
+      "--compensate", [&] { return parse_effect_assignments(args.compensate, "--compensate"); });
+  for (const auto& [name, value] : assignments) {
     if (compensation.count(name))
       throw UsageError("--compensate " + name + " is also in --compensate-from " +
                        args.compensate_from + ": give each effect once");
@@ -137,7 +139,8 @@ void run_navigate(const NavigateArgs& args) {
     progress.detail("compensating " + name + " = " + opt::format_number(value) + " (SI)");
   const SensorErrors candidate = errors_from_map(compensation);
   NavigationOptions options;
-  options.alignment = alignment_mode_from_string(args.alignment);
+  options.alignment =
+      parse_option("--alignment", [&] { return alignment_mode_from_string(args.alignment); });
   options.window_s = args.window_s;
   options.initial_attitude = initial_attitude_options(args.initial_attitude);
   const NavigationProblem problem(dataset, options);

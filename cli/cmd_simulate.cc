@@ -47,12 +47,14 @@ void run_simulate(const SimulateArgs& args) {
   sc::ScenarioOverrides overrides;
   overrides.seed = args.seed;
   if (!args.grade.empty()) {
-    sc::noise_grade(args.grade);  // an unknown grade is named before a bad --set, as always
+    // an unknown grade is named before a bad --set, as always
+    parse_option("--grade", [&] { return sc::noise_grade(args.grade); });
     overrides.grade = args.grade;
   }
   overrides.flight_s = args.flight_s;
   overrides.clean = args.clean;
-  overrides.set = parse_effect_assignments(args.set, "--set");  // on top of the preset's
+  overrides.set = parse_option(  // on top of the preset's
+      "--set", [&] { return parse_effect_assignments(args.set, "--set"); });
   const sc::ScenarioConfig cfg = sc::with_overrides(base, overrides);
   const sc::ScenarioPlan plan = sc::plan_scenario(cfg);  // all checks before any work
   sc::HeadingStreamSpec heading_spec = args.heading_spec;

@@ -10,6 +10,8 @@
 #include "bench/sweep.h"
 #include "cli/cli_util.h"
 #include "cli/commands.h"
+#include "scenarios/noise.h"
+#include "scenarios/scenario.h"
 
 namespace insid::cli {
 namespace {
@@ -50,9 +52,15 @@ void run(const SweepArgs& args) {
   }
   if (args.flight_s > 0) sweep.scenario.flight_s = args.flight_s;
   if (!args.grade.empty()) sweep.scenario.grade = args.grade;
+  // Names the command line gave, checked now (usage errors, exit 2), not deep in the campaign.
+  if (args.data_dir.empty())
+    parse_option("--preset", [&] { return scenarios::preset_scenario(args.preset); });
+  if (!args.grade.empty())
+    parse_option("--grade", [&] { return scenarios::noise_grade(args.grade); });
   sweep.max_iterations = args.iterations;
   sweep.max_evaluations = args.evaluations;
-  sweep.alignment = alignment_mode_from_string(args.alignment);
+  sweep.alignment =
+      parse_option("--alignment", [&] { return alignment_mode_from_string(args.alignment); });
   if (!args.initial_attitude.empty())
     sweep.initial_attitude = initial_attitude_mode_from_string(args.initial_attitude);
   if (!std::isnan(args.heading_deg)) sweep.heading_deg = args.heading_deg;

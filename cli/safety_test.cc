@@ -259,33 +259,35 @@ std::vector<BadInput> option_cases(const std::string& data) {
     for (const std::string& value : o.bad)
       cases.push_back({o.command + " " + o.option + " " + value, {o.option, value}, true});
   // Values inside --param, --grid, --set, --compensate.
-  cases.push_back({ident + " --param population=1e9", {"population", "1e+09", "limit"}});
-  cases.push_back({ident + " --param population=2.5", {"population", "integer"}});
-  cases.push_back({ident + " --param nosuch=1", {"nosuch", "valid parameters"}});
-  cases.push_back({sweep + " --grid R=0.1:0.2:2", {"--grid", "'R'", "twice"}});
-  cases.push_back({sim + " --set gyro_bias_x=abc", {"--set", "gyro_bias_x"}});
-  cases.push_back({sim + " --set nosuch=1", {"nosuch"}});
+  cases.push_back({ident + " --param population=1e9", {"population", "1e+09", "limit"}, true});
+  cases.push_back({ident + " --param population=2.5", {"population", "integer"}, true});
+  cases.push_back({ident + " --param nosuch=1", {"nosuch", "valid parameters"}, true});
+  cases.push_back({sweep + " --grid R=0.1:0.2:2", {"--grid", "'R'", "twice"}, true});
+  cases.push_back({sim + " --set gyro_bias_x=abc", {"--set", "gyro_bias_x"}, true});
+  cases.push_back({sim + " --set nosuch=1", {"nosuch"}, true});
   cases.push_back(
-      {"navigate --data " + data + " --compensate accel_bias_x", {"--compensate", "NAME=VALUE"}});
-  // Values checked after parsing (issue 19 audit of every command's options): exit 1, named.
+      {"navigate --data " + data + " --compensate accel_bias_x", {"--compensate", "NAME=VALUE"}, true});
+  // Values checked after parsing (issue 19 audit of every command's options), named: a value the
+  // command line got wrong is a usage error wherever the command reads it (issue 37 item 11,
+  // the README's table): exit 2.
   cases.push_back(
-      {ident + " --estimate gyro_bias_x:0", {"--estimate 'gyro_bias_x:0'", "SIGMA must be > 0"}});
-  cases.push_back({ident + " --estimate gyro_bias_x:-1e-7", {"SIGMA must be > 0"}});
-  cases.push_back({ident + " --estimate gyro_bias_x:1e-7:1:-1", {"LO must be < HI"}});
-  cases.push_back({ident + " --param population=0", {"population", "got 0"}});
-  cases.push_back({ident + " --param population=-3", {"population", "got -3"}});
-  cases.push_back({"identify --algo nosuch --data " + data, {"unknown optimizer 'nosuch'"}});
-  cases.push_back({"navigate --data " + data + " --alignment sideways", {"got 'sideways'"}});
-  cases.push_back({sweep + " --grid R=0.1:0.3:0", {"--grid 'R=0.1:0.3:0'", "N must be"}});
-  cases.push_back({sweep + " --grid R=0.3:0.1:3", {"LO must be <= HI"}});
-  cases.push_back({sweep + " --grid R=", {"--grid", "got 'R='"}});
-  cases.push_back({sweep + " --preset nosuch", {"unknown preset 'nosuch'"}});
-  cases.push_back({sweep + " --grade bogus", {"unknown noise grade 'bogus'"}});
+      {ident + " --estimate gyro_bias_x:0", {"--estimate 'gyro_bias_x:0'", "SIGMA must be > 0"}, true});
+  cases.push_back({ident + " --estimate gyro_bias_x:-1e-7", {"SIGMA must be > 0"}, true});
+  cases.push_back({ident + " --estimate gyro_bias_x:1e-7:1:-1", {"LO must be < HI"}, true});
+  cases.push_back({ident + " --param population=0", {"population", "got 0"}, true});
+  cases.push_back({ident + " --param population=-3", {"population", "got -3"}, true});
+  cases.push_back({"identify --algo nosuch --data " + data, {"unknown optimizer 'nosuch'"}, true});
+  cases.push_back({"navigate --data " + data + " --alignment sideways", {"got 'sideways'"}, true});
+  cases.push_back({sweep + " --grid R=0.1:0.3:0", {"--grid 'R=0.1:0.3:0'", "N must be"}, true});
+  cases.push_back({sweep + " --grid R=0.3:0.1:3", {"LO must be <= HI"}, true});
+  cases.push_back({sweep + " --grid R=", {"--grid", "got 'R='"}, true});
+  cases.push_back({sweep + " --preset nosuch", {"unknown preset 'nosuch'"}, true});
+  cases.push_back({sweep + " --grade bogus", {"unknown noise grade 'bogus'"}, true});
   cases.push_back(
-      {"bench --preset nosuch --out " + data + "-never", {"unknown campaign preset 'nosuch'"}});
-  cases.push_back({sim + " --set gyro_bias_x=nan", {"--set gyro_bias_x", "'nan'"}});
-  cases.push_back({diag + " --candidates nosuch", {"unknown effect name 'nosuch'"}});
-  cases.push_back({diag + " --base gyro_bias_x:0", {"SIGMA must be > 0"}});
+      {"bench --preset nosuch --out " + data + "-never", {"unknown campaign preset 'nosuch'"}, true});
+  cases.push_back({sim + " --set gyro_bias_x=nan", {"--set gyro_bias_x", "'nan'"}, true});
+  cases.push_back({diag + " --candidates nosuch", {"unknown effect name 'nosuch'"}, true});
+  cases.push_back({diag + " --base gyro_bias_x:0", {"SIGMA must be > 0"}, true});
   // A window shorter than one GNSS period (10 Hz here) is refused by the problem, named.
   cases.push_back({"navigate --data " + data + " --window-s 0.05",
                    {"window_s = 0.05 s is shorter than one GNSS period (0.1 s"}});
