@@ -299,8 +299,32 @@ EventList make_events(const NavigationProblem& nav, double latency) {
   return out;
 }
 
+// The GNSS solution a window of the windowed fitness restarts from, for one latency L: the
+// solution tagged t_k + L (the antenna at the restart epoch t_k), one per restart of the problem
+// (core/fitness.h, "Start state"; the lever arm is removed in the kernel, per lane).
+struct RestartGnss {
+  double lat_rad;  ///< antenna latitude [rad]
+  double vE_mps;   ///< antenna velocity, east component of n = ENU [m/s]
+  double vN_mps;   ///< antenna velocity, north component [m/s]
+};
+using RestartList = std::vector<RestartGnss>;
+
+RestartList make_restarts(const NavigationProblem& nav, double latency) {
+  RestartList out;
+  out.reserve(nav.window_restarts().size());
+  for (const WindowRestart& r : nav.window_restarts()) {
+    if (latency == 0.0) {
+      out.push_back({r.lat_rad, r.vE_mps, r.vN_mps});
+    } else {
+      const GnssSample g = interpolate_gnss(nav.dataset().gnss, r.t_s + latency);
+      out.push_back({g.lat_rad, g.v_eb_n_mps.x(), g.v_eb_n_mps.y()});
+    }
+  }
+  return out;
+}
+
 // Everything one lane needs, set up in scalar code from the candidate (O(1) except the
-// events of a non-zero latency).
+// events and restarts of a non-zero latency).
 struct LaneInit {
   double gyro_distortion_inv[9];       ///< (I + S_g + M_g)^-1, row-major [1]
   double accel_distortion_inv[9];      ///< (I + S_a + M_a)^-1, row-major [1]
@@ -322,7 +346,8 @@ struct LaneInit {
   double v_ant_n_north_mps;            ///< antenna velocity at the navigation start, north [m/s]
   double eq15_sum_at_start = 0.0;  ///< epochs clamped to the start, already summed (Eq. 15 terms)
   const EventList* events = nullptr;
-  std::size_t cursor = 0;  ///< first event not yet emitted
+  std::size_t cursor = 0;                 ///< first event not yet emitted
+  const RestartList* restarts = nullptr;  ///< the windows' GNSS start values for its latency
   std::vector<double>* residuals = nullptr;
 };
 
@@ -331,7 +356,8 @@ struct LaneInit {
 struct BatchFitness::Impl {
   std::size_t nb = 0, n = 0;
   std::vector<double> ref_lat, ref_sin, ref_cos;
-  EventList events0;  // latency 0
+  EventList events0;      // latency 0
+  RestartList restarts0;  // latency 0
   double h0 = 0.0, vz0 = 0.0;
   std::size_t n_epochs = 0;
 };
@@ -340,13 +366,18 @@ namespace {
 
 // Scalar set-up of one lane, following NavigationProblem::run line by line.
 void setup_lane(const NavigationProblem& nav, const SensorErrors& c, const EventList* events,
-                bool sum_squares, std::vector<double>* residuals, LaneInit& li) {
+                const RestartList* restarts, bool sum_squares, std::vector<double>* residuals,
+                LaneInit& li) {
   const Dataset& ds = nav.dataset();
   const EarthModel& earth = ds.meta.earth;
   const std::size_t nb = nav.nav_begin();
   const ImuCompensator compensator(c);
   const Eigen::Matrix3d C0 = nav.initial_attitude(c);
-  const NavState s0 = nav.initial_state(C0);
+  ImuSample prev = ds.imu[nb - 1];
+  const double t_before = nb >= 2 ? ds.imu[nb - 2].t_s : prev.t_s - 1.0 / ds.meta.imu_rate_hz;
+  compensator.compensate(prev.t_s, prev.t_s - t_before, prev.dtheta_b_rad, prev.dv_b_mps);
+  const Eigen::Vector3d omega_mid_prev = prev.dtheta_b_rad / (prev.t_s - t_before);
+  const NavState s0 = nav.initial_state(C0, c, omega_mid_prev);
 
   const Eigen::Matrix3d Gi = c.gyro.distortion().inverse();
   const Eigen::Matrix3d Ai = c.accel.distortion().inverse();
@@ -373,10 +404,6 @@ void setup_lane(const NavigationProblem& nav, const SensorErrors& c, const Event
   li.q_b_n[2] = s0.q_b_n.y();
   li.q_b_n[3] = s0.q_b_n.z();
 
-  ImuSample prev = ds.imu[nb - 1];
-  const double t_before = nb >= 2 ? ds.imu[nb - 2].t_s : prev.t_s - 1.0 / ds.meta.imu_rate_hz;
-  compensator.compensate(prev.t_s, prev.t_s - t_before, prev.dtheta_b_rad, prev.dv_b_mps);
-  const Eigen::Vector3d omega_mid_prev = prev.dtheta_b_rad / (prev.t_s - t_before);
   for (int i = 0; i < 3; ++i) {
     li.dtheta_prev_b_rad[i] = prev.dtheta_b_rad[i];
     li.dv_prev_b_mps[i] = prev.dv_b_mps[i];
@@ -392,6 +419,7 @@ void setup_lane(const NavigationProblem& nav, const SensorErrors& c, const Event
   li.v_ant_n_north_mps = v_ant.y();
 
   li.events = events;
+  li.restarts = restarts;
   li.residuals = residuals;
   li.eq15_sum_at_start = 0.0;
   li.cursor = 0;
@@ -627,7 +655,8 @@ void run_group(const NavigationProblem& nav, const BatchFitness::Impl& im, LaneI
   auto previous_dt = [&](std::size_t k) {
     return k >= 2 ? imu[k - 1].t_s - imu[k - 2].t_s : 1.0 / ds.meta.imu_rate_hz;
   };
-  // Windowed fitness: the restarts, shared by all lanes (IMU epochs fixed by the problem).
+  // Windowed fitness: the restart epochs, shared by all lanes (fixed by the problem); the start
+  // values per lane (its latency's RestartList, its lever arm).
   const std::vector<WindowRestart>& restarts = nav.window_restarts();
   std::size_t restart_cursor = 0;
   std::int64_t next_restart =
@@ -883,24 +912,47 @@ void run_group(const NavigationProblem& nav, const BatchFitness::Impl& im, LaneI
         next_step = next_event_step();
       }
       if (restart_here) {
-        // Windowed fitness (core/fitness.h): the epochs up to this step closed the window; the
-        // lanes restart as NavigationProblem::run does, from the GNSS solution at this epoch
-        // (shared by all lanes), attitude and coning/sculling memory carried on, previous state
-        // = restart state (no mid-point extrapolation: em = 0, vEp = vE, h_pv = h_old), Earth
-        // terms exact at the new latitude.
-        const WindowRestart& restart = restarts[restart_cursor++];
+        // Windowed fitness (core/fitness.h, "Start state"): the epochs up to this step closed
+        // the window; the lanes restart as NavigationProblem::run does, each from the GNSS
+        // solution tagged t_k + its latency less its lever arm (NavigationProblem::set_from_gnss),
+        // attitude and coning/sculling memory carried on, previous state = restart state (no
+        // mid-point extrapolation: em = 0, vEp = vE, h_pv = h_old), Earth terms exact at the new
+        // latitude.
+        const std::size_t jr = restart_cursor++;
         next_restart = restart_cursor < restarts.size()
                            ? static_cast<std::int64_t>(restarts[restart_cursor].imu_index)
                            : kNever;
-        lat = bcast<N>(restart.lat_rad);
-        vE = bcast<N>(restart.vE_mps);
-        vN = bcast<N>(restart.vN_mps);
-        vEp = vE;
-        vNp = vN;
+        lat = gather([jr](const LaneInit& li) { return (*li.restarts)[jr].lat_rad; });
+        vE = gather([jr](const LaneInit& li) { return (*li.restarts)[jr].vE_mps; });
+        vN = gather([jr](const LaneInit& li) { return (*li.restarts)[jr].vN_mps; });
         em = bcast<N>(0.0);
         h_pv = h_old;
         vz_pv = vz_old;
         anchor((k - nb) >> kRefShift);
+        if constexpr (kLever) {
+          // The IMU is the antenna less the lever arm C_b_n l_b (attitude carried on): latitude
+          // less its north component over RM(antenna latitude) + h, then the Earth terms at the
+          // IMU's latitude, and the velocity less C_b_n (omega_ib_b x l_b) - omega_ie_n x
+          // (C_b_n l_b), omega_ib_b extrapolated to the epoch (oex, oey, oez).
+          const PN Tx = 2.0 * qx, Ty = 2.0 * qy, Tz = 2.0 * qz;
+          const PN Twx = Tx * qw, Twy = Ty * qw, Twz = Tz * qw;
+          const PN Txx = Tx * qx, Txy = Ty * qx, Txz = Tz * qx;
+          const PN Tyy = Ty * qy, Tyz = Tz * qy, Tzz = Tz * qz;
+          const PN C00 = 1.0 - (Tyy + Tzz), C01 = Txy - Twz, C02 = Txz + Twy;
+          const PN C10 = Txy + Twz, C11 = 1.0 - (Txx + Tzz), C12 = Tyz - Twx;
+          const PN C20 = Txz - Twy, C21 = Tyz + Twx, C22 = 1.0 - (Txx + Tyy);
+          const PN bx = C00 * lx + C01 * ly + C02 * lz;
+          const PN by = C10 * lx + C11 * ly + C12 * lz;
+          const PN bz = C20 * lx + C21 * ly + C22 * lz;
+          lat = lat - by / (eRM + h_old);
+          anchor((k - nb) >> kRefShift);
+          const V3<N> wl = cross(oex, oey, oez, lx, ly, lz);
+          const PN Oy = wie * ec, Oz = wie * es;  // Earth rate at the IMU's latitude
+          vE = vE - ((C00 * wl.x + C01 * wl.y + C02 * wl.z) - (Oy * bz - Oz * by));
+          vN = vN - ((C10 * wl.x + C11 * wl.y + C12 * wl.z) - (Oz * bx));
+        }
+        vEp = vE;
+        vNp = vN;
         vaE = vE;
         vaN = vN;
         if constexpr (kLever) antenna(vaE, vaN);
@@ -969,6 +1021,7 @@ BatchFitness::BatchFitness(std::shared_ptr<const NavigationProblem> problem)
       impl->ref_cos[b] = std::cos(lat);
     }
     impl->events0 = make_events(nav, 0.0);
+    impl->restarts0 = make_restarts(nav, 0.0);
     const NavState s0 = nav.initial_state(Eigen::Matrix3d::Identity());
     impl->h0 = s0.h_m;
     impl->vz0 = s0.v_eb_n.z();
@@ -1066,6 +1119,7 @@ void BatchFitness::evaluate_grouped(const Request& request, const std::vector<in
     std::vector<LaneInit> inits(static_cast<std::size_t>(L));
     std::vector<bool> ok(static_cast<std::size_t>(L), false);
     std::map<double, EventList> latency_events;
+    std::map<double, RestartList> latency_restarts;
     int valid = -1;
     bool general = false, lever = false;
     // The group's residual vectors, zeroed by the thread that fills them (zeros stay for a
@@ -1081,13 +1135,19 @@ void BatchFitness::evaluate_grouped(const Request& request, const std::vector<in
       const SensorErrors& c = request.candidates[i];
       try {
         const EventList* events = &im.events0;
+        const RestartList* restarts = &im.restarts0;
         if (c.gnss_latency_s != 0.0) {
           auto it = latency_events.find(c.gnss_latency_s);
           if (it == latency_events.end())
             it = latency_events.emplace(c.gnss_latency_s, make_events(nav, c.gnss_latency_s)).first;
           events = &it->second;
+          auto ir = latency_restarts.find(c.gnss_latency_s);
+          if (ir == latency_restarts.end())
+            ir = latency_restarts.emplace(c.gnss_latency_s, make_restarts(nav, c.gnss_latency_s))
+                     .first;
+          restarts = &ir->second;
         }
-        setup_lane(nav, c, events, sum_squares,
+        setup_lane(nav, c, events, restarts, sum_squares,
                    request.residuals.empty() ? nullptr : &request.residuals[i],
                    inits[static_cast<std::size_t>(l)]);
         ok[static_cast<std::size_t>(l)] = true;

@@ -177,16 +177,50 @@ Eigen::Matrix3d NavigationProblem::aligned(const SensorErrors& candidate) const 
 }
 
 NavState NavigationProblem::initial_state(const Eigen::Matrix3d& C_b_n) const {
+  return initial_state(C_b_n, SensorErrors{}, Eigen::Vector3d::Zero());
+}
+
+NavState NavigationProblem::initial_state(const Eigen::Matrix3d& C_b_n,
+                                          const SensorErrors& candidate,
+                                          const Eigen::Vector3d& omega_ib_b) const {
   const double t0 = nav_start_t_s();
   const GnssSample g = interpolate_gnss(dataset_->gnss, t0);
   NavState s;
   s.t_s = t0;
-  s.lat_rad = g.lat_rad;
-  s.lon_rad = g.lon_rad;
   s.h_m = h_ref_m_[nav_begin_ - 1];
-  s.v_eb_n = g.v_eb_n_mps;
+  s.v_eb_n = g.v_eb_n_mps;  // vU: the GNSS one at t0, as the aided references (candidate-free)
   s.q_b_n = Eigen::Quaterniond(C_b_n).normalized();
+  const double latency = candidate.gnss_latency_s;
+  set_from_gnss(latency == 0.0 ? g : interpolate_gnss(dataset_->gnss, t0 + latency),
+                candidate.lever_arm_b_m, omega_ib_b, s);
   return s;
+}
+
+void NavigationProblem::set_from_gnss(const GnssSample& g_ant, const Eigen::Vector3d& l_b,
+                                      const Eigen::Vector3d& omega_ib_b, NavState& s) const {
+  s.lat_rad = g_ant.lat_rad;
+  s.lon_rad = g_ant.lon_rad;
+  s.v_eb_n.x() = g_ant.v_eb_n_mps.x();
+  s.v_eb_n.y() = g_ant.v_eb_n_mps.y();
+  if (l_b.isZero(0)) return;  // the antenna is the IMU: nothing to remove (same bits as before)
+  const EarthModel& earth = dataset_->meta.earth;
+  // Antenna position r_ant = r_imu + C_b_n l_b, in curvilinear form to first order in |l_b| / R
+  // (Groves 2013 sec. 2.5.5, transposition of navigation solutions): the IMU's latitude and
+  // longitude are the antenna's less the lever arm's north and east components over the radii
+  // of curvature, at the height s.h_m.
+  const Eigen::Matrix3d C_b_n = s.q_b_n.toRotationMatrix();
+  const Eigen::Vector3d l_n = C_b_n * l_b;  // (E, N, U) of the lever arm [m]
+  s.lat_rad = g_ant.lat_rad - l_n.y() / (earth.meridian_radius_m(g_ant.lat_rad) + s.h_m);
+  s.lon_rad = g_ant.lon_rad - l_n.x() / ((earth.prime_vertical_radius_m(s.lat_rad) + s.h_m) *
+                                         std::cos(s.lat_rad));
+  // Antenna velocity v_ant_n = v_eb_n + C_b_n (omega_ib_b x l_b) - omega_ie_n x (C_b_n l_b)
+  // (Groves 2013 sec. 2.5.5; the comparison in `run`): the IMU's horizontal velocity is the
+  // antenna's less the lever-arm term, Earth rate at the IMU's latitude, so that the antenna
+  // velocity `run` compares at this epoch is the GNSS one again.
+  const Eigen::Vector3d lever_n =
+      C_b_n * omega_ib_b.cross(l_b) - earth.omega_ie_n(s.lat_rad).cross(l_n);
+  s.v_eb_n.x() = g_ant.v_eb_n_mps.x() - lever_n.x();
+  s.v_eb_n.y() = g_ant.v_eb_n_mps.y() - lever_n.y();
 }
 
 double fitness_from_residuals(std::span<const double> r, FitnessKind kind) {
@@ -250,12 +284,15 @@ void NavigationProblem::run(const SensorErrors& candidate,
   const ImuCompensator compensator(candidate);
   const Eigen::Matrix3d C_b_n0 = C_b_n_override ? *C_b_n_override : initial_attitude(candidate);
 
-  // The increment ending at the navigation start seeds the coning/sculling corrections.
+  // The increment ending at the navigation start seeds the coning/sculling corrections and
+  // gives the rate of the start's lever-arm term.
   ImuSample prev = ds.imu[nav_begin_ - 1];
   const double t_before =
       nav_begin_ >= 2 ? ds.imu[nav_begin_ - 2].t_s : prev.t_s - 1.0 / ds.meta.imu_rate_hz;
   compensator.compensate(prev.t_s, prev.t_s - t_before, prev.dtheta_b_rad, prev.dv_b_mps);
-  Strapdown ins(earth, initial_state(C_b_n0), prev, prev.t_s - t_before);
+  Eigen::Vector3d omega_mid_prev = prev.dtheta_b_rad / (prev.t_s - t_before);
+  Strapdown ins(earth, initial_state(C_b_n0, candidate, omega_mid_prev), prev,
+                prev.t_s - t_before);
 
   // INS velocity at the GNSS antenna (lever arm, docs/design.md sec. 4):
   //   v_ant_n = v_eb_n + C_b_n (omega_ib_b x l_b) - omega_ie_n x (C_b_n l_b),
@@ -283,7 +320,6 @@ void NavigationProblem::run(const SensorErrors& candidate,
   auto epoch_time = [&](std::size_t i) { return ds.gnss[epoch_gnss_index_[i]].t_s - latency; };
 
   double t_prev = ins.state().t_s;
-  Eigen::Vector3d omega_mid_prev = prev.dtheta_b_rad / (prev.t_s - t_before);
   Eigen::Vector3d v_prev = antenna_velocity(ins.state(), omega_mid_prev);
   while (e < n_epochs && epoch_time(e) <= t_prev) emit(v_prev);  // clamped to the start
 
@@ -305,14 +341,13 @@ void NavigationProblem::run(const SensorErrors& candidate,
     t_prev = s.t_s;
     if (next_restart < restarts_.size() && restarts_[next_restart].imu_index == k) {
       // Windowed fitness: the epochs up to t_k closed the window; restart as at the navigation
-      // start (GNSS position and horizontal velocity, aided h and vU, attitude carried on, this
-      // compensated increment as the coning/sculling memory, previous state = restart state).
+      // start (core/fitness.h): position and horizontal velocity of the IMU from the GNSS
+      // solution tagged t_k + latency (the antenna at t_k) less the candidate's lever arm, with
+      // the attitude carried on and the rate extrapolated to t_k; aided h and vU; this
+      // compensated increment as the coning/sculling memory, previous state = restart state.
       const WindowRestart& restart = restarts_[next_restart++];
       NavState s0 = s;
-      s0.lat_rad = restart.lat_rad;
-      s0.lon_rad = restart.lon_rad;
-      s0.v_eb_n.x() = restart.vE_mps;
-      s0.v_eb_n.y() = restart.vN_mps;
+      set_from_gnss(interpolate_gnss(ds.gnss, restart.t_s + latency), l_b, omega_at_epoch, s0);
       ins = Strapdown(earth, s0, inc, inc.t_s - ds.imu[k - 1].t_s);
       v_now = antenna_velocity(ins.state(), omega_at_epoch);
     }

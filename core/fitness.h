@@ -72,7 +72,10 @@ struct NavigationOptions {
 };
 
 /// One INS restart of the windowed fitness: after IMU step `imu_index`, the position and
-/// horizontal velocity are replaced by the GNSS solution interpolated to that epoch.
+/// horizontal velocity are replaced by those the GNSS solution gives for the IMU at that epoch
+/// (top of this file, "Start state"). The GNSS values here are the solution interpolated to t_s
+/// itself, what a candidate without latency starts from (a latency L takes the solution at
+/// t_s + L); a lever arm is removed per candidate.
 struct WindowRestart {
   std::size_t imu_index = 0;  ///< index into Dataset::imu of the step the restart follows
   double t_s = 0.0;           ///< its time (s)
@@ -115,7 +118,14 @@ class NavigationProblem {
   Eigen::Matrix3d initial_attitude(const SensorErrors& candidate) const;
   /// The initial-attitude mode set up for this dataset (course epochs, feasibility figures).
   const InitialAttitude& initial_attitude_source() const { return attitude_source_; }
-  /// Initial state at the navigation start for a given attitude (position, velocity from GNSS).
+  /// State at the navigation start for a given attitude (see the top of this file, "Start
+  /// state"): position and horizontal velocity from the GNSS solution tagged t0 + latency (the
+  /// antenna at t0) less the candidate's lever arm, its velocity term with the body rate
+  /// `omega_ib_b` (run passes the compensated increment's mean rate of the step ending at t0);
+  /// height and vU the candidate-independent references at t0.
+  NavState initial_state(const Eigen::Matrix3d& C_b_n, const SensorErrors& candidate,
+                         const Eigen::Vector3d& omega_ib_b) const;
+  /// The same for a candidate without latency or lever arm (the GNSS solution at t0 as it is).
   NavState initial_state(const Eigen::Matrix3d& C_b_n) const;
 
   /// Eq. 15 fitness of a candidate.
@@ -138,6 +148,11 @@ class NavigationProblem {
 
  private:
   Eigen::Matrix3d aligned(const SensorErrors& candidate) const;
+  /// Start state of the navigation or of a window (top of this file): latitude, longitude, vE
+  /// and vN of `s` from the antenna solution `g_ant` less the lever arm `l_b` (with the attitude
+  /// and height of `s` and the body rate `omega_ib_b`); the other fields are kept.
+  void set_from_gnss(const GnssSample& g_ant, const Eigen::Vector3d& l_b,
+                     const Eigen::Vector3d& omega_ib_b, NavState& s) const;
   static std::string seconds_text(double value);
   std::shared_ptr<const Dataset> dataset_;
   NavigationOptions options_;
