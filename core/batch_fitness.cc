@@ -299,32 +299,8 @@ EventList make_events(const NavigationProblem& nav, double latency) {
   return out;
 }
 
-// The GNSS solution a window of the windowed fitness restarts from, for one latency L: the
-// solution tagged t_k + L (the antenna at the restart epoch t_k), one per restart of the problem
-// (core/fitness.h, "Start state"; the lever arm is removed in the kernel, per lane).
-struct RestartGnss {
-  double lat_rad;  ///< antenna latitude [rad]
-  double vE_mps;   ///< antenna velocity, east component of n = ENU [m/s]
-  double vN_mps;   ///< antenna velocity, north component [m/s]
-};
-using RestartList = std::vector<RestartGnss>;
-
-RestartList make_restarts(const NavigationProblem& nav, double latency) {
-  RestartList out;
-  out.reserve(nav.window_restarts().size());
-  for (const WindowRestart& r : nav.window_restarts()) {
-    if (latency == 0.0) {
-      out.push_back({r.lat_rad, r.vE_mps, r.vN_mps});
-    } else {
-      const GnssSample g = interpolate_gnss(nav.dataset().gnss, r.t_s + latency);
-      out.push_back({g.lat_rad, g.v_eb_n_mps.x(), g.v_eb_n_mps.y()});
-    }
-  }
-  return out;
-}
-
 // Everything one lane needs, set up in scalar code from the candidate (O(1) except the
-// events and restarts of a non-zero latency).
+// events of a non-zero latency).
 struct LaneInit {
   double gyro_distortion_inv[9];       ///< (I + S_g + M_g)^-1, row-major [1]
   double accel_distortion_inv[9];      ///< (I + S_a + M_a)^-1, row-major [1]
@@ -345,9 +321,9 @@ struct LaneInit {
   double v_ant_n_east_mps;             ///< antenna velocity at the navigation start, east [m/s]
   double v_ant_n_north_mps;            ///< antenna velocity at the navigation start, north [m/s]
   double eq15_sum_at_start = 0.0;  ///< epochs clamped to the start, already summed (Eq. 15 terms)
+  double gnss_latency_s = 0.0;         ///< GNSS latency (window starts shifted by it) [s]
   const EventList* events = nullptr;
-  std::size_t cursor = 0;                 ///< first event not yet emitted
-  const RestartList* restarts = nullptr;  ///< the windows' GNSS start values for its latency
+  std::size_t cursor = 0;  ///< first event not yet emitted
   std::vector<double>* residuals = nullptr;
 };
 
@@ -356,8 +332,7 @@ struct LaneInit {
 struct BatchFitness::Impl {
   std::size_t nb = 0, n = 0;
   std::vector<double> ref_lat, ref_sin, ref_cos;
-  EventList events0;      // latency 0
-  RestartList restarts0;  // latency 0
+  EventList events0;  // latency 0
   double h0 = 0.0, vz0 = 0.0;
   std::size_t n_epochs = 0;
 };
@@ -366,8 +341,7 @@ namespace {
 
 // Scalar set-up of one lane, following NavigationProblem::run line by line.
 void setup_lane(const NavigationProblem& nav, const SensorErrors& c, const EventList* events,
-                const RestartList* restarts, bool sum_squares, std::vector<double>* residuals,
-                LaneInit& li) {
+                bool sum_squares, std::vector<double>* residuals, LaneInit& li) {
   const Dataset& ds = nav.dataset();
   const EarthModel& earth = ds.meta.earth;
   const std::size_t nb = nav.nav_begin();
@@ -377,7 +351,7 @@ void setup_lane(const NavigationProblem& nav, const SensorErrors& c, const Event
   const double t_before = nb >= 2 ? ds.imu[nb - 2].t_s : prev.t_s - 1.0 / ds.meta.imu_rate_hz;
   compensator.compensate(prev.t_s, prev.t_s - t_before, prev.dtheta_b_rad, prev.dv_b_mps);
   const Eigen::Vector3d omega_mid_prev = prev.dtheta_b_rad / (prev.t_s - t_before);
-  const NavState s0 = nav.initial_state(C0, c, omega_mid_prev);
+  const NavState s0 = nav.initial_state(C0, c, prev, prev.t_s - t_before);
 
   const Eigen::Matrix3d Gi = c.gyro.distortion().inverse();
   const Eigen::Matrix3d Ai = c.accel.distortion().inverse();
@@ -396,6 +370,7 @@ void setup_lane(const NavigationProblem& nav, const SensorErrors& c, const Event
     li.lever_arm_b_m[i] = c.lever_arm_b_m[i];
   }
   li.lever = !c.lever_arm_b_m.isZero(0);
+  li.gnss_latency_s = c.gnss_latency_s;
   li.lat_rad = s0.lat_rad;
   li.v_eb_n_east_mps = s0.v_eb_n.x();
   li.v_eb_n_north_mps = s0.v_eb_n.y();
@@ -419,7 +394,6 @@ void setup_lane(const NavigationProblem& nav, const SensorErrors& c, const Event
   li.v_ant_n_north_mps = v_ant.y();
 
   li.events = events;
-  li.restarts = restarts;
   li.residuals = residuals;
   li.eq15_sum_at_start = 0.0;
   li.cursor = 0;
@@ -655,10 +629,18 @@ void run_group(const NavigationProblem& nav, const BatchFitness::Impl& im, LaneI
   auto previous_dt = [&](std::size_t k) {
     return k >= 2 ? imu[k - 1].t_s - imu[k - 2].t_s : 1.0 / ds.meta.imu_rate_hz;
   };
-  // Windowed fitness: the restart epochs, shared by all lanes (fixed by the problem); the start
-  // values per lane (its latency's RestartList, its lever arm).
+  // Windowed fitness: the restarts, shared by all lanes (epochs and GNSS values fixed by the
+  // problem); each lane shifts the start by its latency and lever arm. `shifted`: the lanes with
+  // a latency (the others keep the GNSS values bit for bit, whatever their INS state).
   const std::vector<WindowRestart>& restarts = nav.window_restarts();
   std::size_t restart_cursor = 0;
+  const PN latency = gather([](const LaneInit& li) { return li.gnss_latency_s; });
+  M<N> shifted{};
+  bool any_shift = false;
+  for (int l = 0; l < L; ++l) {
+    shifted.c[l / W][l % W] = lanes[l]->gnss_latency_s != 0.0 ? -1 : 0;
+    any_shift = any_shift || lanes[l]->gnss_latency_s != 0.0;
+  }
   std::int64_t next_restart =
       restarts.empty() ? kNever : static_cast<std::int64_t>(restarts[0].imu_index);
   for (std::size_t k0 = nb; k0 < n; k0 += kBlock) {
@@ -914,40 +896,51 @@ void run_group(const NavigationProblem& nav, const BatchFitness::Impl& im, LaneI
       if (restart_here) {
         // Windowed fitness (core/fitness.h, "Start state"): the epochs up to this step closed
         // the window; the lanes restart as NavigationProblem::run does, each from the GNSS
-        // solution tagged t_k + its latency less its lever arm (NavigationProblem::set_from_gnss),
-        // attitude and coning/sculling memory carried on, previous state = restart state (no
-        // mid-point extrapolation: em = 0, vEp = vE, h_pv = h_old), Earth terms exact at the new
-        // latitude.
-        const std::size_t jr = restart_cursor++;
+        // solution at this epoch shifted by its latency (velocity with its INS's acceleration over
+        // this step) less its lever arm (NavigationProblem::set_from_gnss), attitude and
+        // coning/sculling memory carried on, previous state = restart state (no mid-point
+        // extrapolation: em = 0, vEp = vE, h_pv = h_old), Earth terms exact at the new latitude.
+        const WindowRestart& restart = restarts[restart_cursor++];
         next_restart = restart_cursor < restarts.size()
                            ? static_cast<std::int64_t>(restarts[restart_cursor].imu_index)
                            : kNever;
-        lat = gather([jr](const LaneInit& li) { return (*li.restarts)[jr].lat_rad; });
-        vE = gather([jr](const LaneInit& li) { return (*li.restarts)[jr].vE_mps; });
-        vN = gather([jr](const LaneInit& li) { return (*li.restarts)[jr].vN_mps; });
+        // The INS's acceleration over this step (vE, vN are the new state, vEp, vNp the old).
+        const PN aE = (vE - vEp) / dt, aN = (vN - vNp) / dt;
+        const PN gE = bcast<N>(restart.vE_mps), gN = bcast<N>(restart.vN_mps);
+        lat = bcast<N>(restart.lat_rad);
         em = bcast<N>(0.0);
         h_pv = h_old;
         vz_pv = vz_old;
-        anchor((k - nb) >> kRefShift);
+        anchor((k - nb) >> kRefShift);  // Earth terms at the GNSS latitude (its RM)
+        // North shift of the start [m]: latency * vN (GNSS), less the lever arm's north part.
+        PN shift_N = latency * gN;
+        PN C00{}, C01{}, C02{}, C10{}, C11{}, C12{}, bx{}, by{}, bz{};
         if constexpr (kLever) {
-          // The IMU is the antenna less the lever arm C_b_n l_b (attitude carried on): latitude
-          // less its north component over RM(antenna latitude) + h, then the Earth terms at the
-          // IMU's latitude, and the velocity less C_b_n (omega_ib_b x l_b) - omega_ie_n x
-          // (C_b_n l_b), omega_ib_b extrapolated to the epoch (oex, oey, oez).
           const PN Tx = 2.0 * qx, Ty = 2.0 * qy, Tz = 2.0 * qz;
           const PN Twx = Tx * qw, Twy = Ty * qw, Twz = Tz * qw;
           const PN Txx = Tx * qx, Txy = Ty * qx, Txz = Tz * qx;
           const PN Tyy = Ty * qy, Tyz = Tz * qy, Tzz = Tz * qz;
-          const PN C00 = 1.0 - (Tyy + Tzz), C01 = Txy - Twz, C02 = Txz + Twy;
-          const PN C10 = Txy + Twz, C11 = 1.0 - (Txx + Tzz), C12 = Tyz - Twx;
+          C00 = 1.0 - (Tyy + Tzz), C01 = Txy - Twz, C02 = Txz + Twy;
+          C10 = Txy + Twz, C11 = 1.0 - (Txx + Tzz), C12 = Tyz - Twx;
           const PN C20 = Txz - Twy, C21 = Tyz + Twx, C22 = 1.0 - (Txx + Tyy);
-          const PN bx = C00 * lx + C01 * ly + C02 * lz;
-          const PN by = C10 * lx + C11 * ly + C12 * lz;
-          const PN bz = C20 * lx + C21 * ly + C22 * lz;
-          lat = lat - by / (eRM + h_old);
+          bx = C00 * lx + C01 * ly + C02 * lz;
+          by = C10 * lx + C11 * ly + C12 * lz;
+          bz = C20 * lx + C21 * ly + C22 * lz;
+          shift_N = shift_N - by;
+        }
+        if (kLever || any_shift) {
+          // lat = lat_GNSS + (latency vN - (C_b_n l_b)_N) / (RM(lat_GNSS) + h); then the Earth
+          // terms at the IMU's latitude (a lane with neither effect shifts by exactly 0).
+          lat = lat + shift_N / (eRM + h_old);
           anchor((k - nb) >> kRefShift);
+        }
+        vE = blend(shifted, gE + latency * aE, gE);
+        vN = blend(shifted, gN + latency * aN, gN);
+        if constexpr (kLever) {
+          // less C_b_n (omega_ib_b x l_b) - omega_ie_n x (C_b_n l_b), omega_ib_b extrapolated to
+          // the epoch (oex, oey, oez), Earth rate at the IMU's latitude.
           const V3<N> wl = cross(oex, oey, oez, lx, ly, lz);
-          const PN Oy = wie * ec, Oz = wie * es;  // Earth rate at the IMU's latitude
+          const PN Oy = wie * ec, Oz = wie * es;
           vE = vE - ((C00 * wl.x + C01 * wl.y + C02 * wl.z) - (Oy * bz - Oz * by));
           vN = vN - ((C10 * wl.x + C11 * wl.y + C12 * wl.z) - (Oz * bx));
         }
@@ -1021,7 +1014,6 @@ BatchFitness::BatchFitness(std::shared_ptr<const NavigationProblem> problem)
       impl->ref_cos[b] = std::cos(lat);
     }
     impl->events0 = make_events(nav, 0.0);
-    impl->restarts0 = make_restarts(nav, 0.0);
     const NavState s0 = nav.initial_state(Eigen::Matrix3d::Identity());
     impl->h0 = s0.h_m;
     impl->vz0 = s0.v_eb_n.z();
@@ -1119,7 +1111,6 @@ void BatchFitness::evaluate_grouped(const Request& request, const std::vector<in
     std::vector<LaneInit> inits(static_cast<std::size_t>(L));
     std::vector<bool> ok(static_cast<std::size_t>(L), false);
     std::map<double, EventList> latency_events;
-    std::map<double, RestartList> latency_restarts;
     int valid = -1;
     bool general = false, lever = false;
     // The group's residual vectors, zeroed by the thread that fills them (zeros stay for a
@@ -1135,19 +1126,13 @@ void BatchFitness::evaluate_grouped(const Request& request, const std::vector<in
       const SensorErrors& c = request.candidates[i];
       try {
         const EventList* events = &im.events0;
-        const RestartList* restarts = &im.restarts0;
         if (c.gnss_latency_s != 0.0) {
           auto it = latency_events.find(c.gnss_latency_s);
           if (it == latency_events.end())
             it = latency_events.emplace(c.gnss_latency_s, make_events(nav, c.gnss_latency_s)).first;
           events = &it->second;
-          auto ir = latency_restarts.find(c.gnss_latency_s);
-          if (ir == latency_restarts.end())
-            ir = latency_restarts.emplace(c.gnss_latency_s, make_restarts(nav, c.gnss_latency_s))
-                     .first;
-          restarts = &ir->second;
         }
-        setup_lane(nav, c, events, restarts, sum_squares,
+        setup_lane(nav, c, events, sum_squares,
                    request.residuals.empty() ? nullptr : &request.residuals[i],
                    inits[static_cast<std::size_t>(l)]);
         ok[static_cast<std::size_t>(l)] = true;

@@ -177,12 +177,12 @@ Eigen::Matrix3d NavigationProblem::aligned(const SensorErrors& candidate) const 
 }
 
 NavState NavigationProblem::initial_state(const Eigen::Matrix3d& C_b_n) const {
-  return initial_state(C_b_n, SensorErrors{}, Eigen::Vector3d::Zero());
+  return initial_state(C_b_n, SensorErrors{}, ImuSample{}, 0.0);
 }
 
 NavState NavigationProblem::initial_state(const Eigen::Matrix3d& C_b_n,
                                           const SensorErrors& candidate,
-                                          const Eigen::Vector3d& omega_ib_b) const {
+                                          const ImuSample& previous, double previous_dt_s) const {
   const double t0 = nav_start_t_s();
   const GnssSample g = interpolate_gnss(dataset_->gnss, t0);
   NavState s;
@@ -191,36 +191,61 @@ NavState NavigationProblem::initial_state(const Eigen::Matrix3d& C_b_n,
   s.v_eb_n = g.v_eb_n_mps;  // vU: the GNSS one at t0, as the aided references (candidate-free)
   s.q_b_n = Eigen::Quaterniond(C_b_n).normalized();
   const double latency = candidate.gnss_latency_s;
-  set_from_gnss(latency == 0.0 ? g : interpolate_gnss(dataset_->gnss, t0 + latency),
-                candidate.lever_arm_b_m, omega_ib_b, s);
+  const Eigen::Vector3d& l_b = candidate.lever_arm_b_m;
+  if (latency == 0.0 && l_b.isZero(0)) {  // the GNSS solution as it is (the same bits as before)
+    set_from_gnss(g, 0.0, Eigen::Vector3d::Zero(), l_b, Eigen::Vector3d::Zero(), s);
+    return s;
+  }
+  // The acceleration at t0 from the increment ending there (no INS state before t0): Eq. 1 row 2
+  // without the sculling terms, dv_n/dt = C_b_n f_ib_b + g_n - (2 omega_ie_n + omega_en_n) x v_n,
+  // at the GNSS position and velocity.
+  const EarthModel& earth = dataset_->meta.earth;
+  const Eigen::Vector3d a_n =
+      C_b_n * (previous.dv_b_mps / previous_dt_s) + earth.gravity_n(g.lat_rad, s.h_m) -
+      (2.0 * earth.omega_ie_n(g.lat_rad) + earth.omega_en_n(g.lat_rad, s.h_m, g.v_eb_n_mps))
+          .cross(g.v_eb_n_mps);
+  set_from_gnss(g, latency, a_n, l_b, previous.dtheta_b_rad / previous_dt_s, s);
   return s;
 }
 
-void NavigationProblem::set_from_gnss(const GnssSample& g_ant, const Eigen::Vector3d& l_b,
+void NavigationProblem::set_from_gnss(const GnssSample& g, double latency,
+                                      const Eigen::Vector3d& a_n, const Eigen::Vector3d& l_b,
                                       const Eigen::Vector3d& omega_ib_b, NavState& s) const {
-  s.lat_rad = g_ant.lat_rad;
-  s.lon_rad = g_ant.lon_rad;
-  s.v_eb_n.x() = g_ant.v_eb_n_mps.x();
-  s.v_eb_n.y() = g_ant.v_eb_n_mps.y();
-  if (l_b.isZero(0)) return;  // the antenna is the IMU: nothing to remove (same bits as before)
   const EarthModel& earth = dataset_->meta.earth;
-  // Antenna position r_ant = r_imu + C_b_n l_b, in curvilinear form to first order in |l_b| / R
-  // (Groves 2013 sec. 2.5.5, transposition of navigation solutions): the IMU's latitude and
-  // longitude are the antenna's less the lever arm's north and east components over the radii
-  // of curvature, at the height s.h_m.
+  // The antenna at t_k is the GNSS solution tagged t_k + latency: to first order in the latency,
+  // g(t_k) + latency * (its rate), the velocity's rate the IMU's acceleration a_n at t_k (not the
+  // GNSS solution's own slope: that is the difference of two noisy epochs over 0.1 s, and it
+  // would make the start velocity move with the latency by noise that the window's residuals
+  // share, biasing the latency; the 300 s test flight of window_gnss_effects_test.cc gave 4.3 sd
+  // at W = 10 s with the interpolated g(t_k + latency)). The lever arm: r_ant = r_imu + C_b_n l_b,
+  // in curvilinear form to first order in |l_b| / R (Groves 2013 sec. 2.5.5, transposition of
+  // navigation solutions), and the antenna velocity of `run`'s comparison,
+  // v_ant_n = v_eb_n + C_b_n (omega_ib_b x l_b) - omega_ie_n x (C_b_n l_b) (ibid.), with the
+  // rate the comparison uses at t_k and the Earth rate at the IMU's latitude, so that the antenna
+  // velocity compared at t_k is the shifted GNSS one again.
+  const bool lever = !l_b.isZero(0);
+  s.lat_rad = g.lat_rad;
+  s.lon_rad = g.lon_rad;
+  s.v_eb_n.x() = g.v_eb_n_mps.x();
+  s.v_eb_n.y() = g.v_eb_n_mps.y();
+  if (latency == 0.0 && !lever) return;  // the GNSS solution as it is (the same bits as before)
   const Eigen::Matrix3d C_b_n = s.q_b_n.toRotationMatrix();
-  const Eigen::Vector3d l_n = C_b_n * l_b;  // (E, N, U) of the lever arm [m]
-  s.lat_rad = g_ant.lat_rad - l_n.y() / (earth.meridian_radius_m(g_ant.lat_rad) + s.h_m);
-  s.lon_rad = g_ant.lon_rad - l_n.x() / ((earth.prime_vertical_radius_m(s.lat_rad) + s.h_m) *
-                                         std::cos(s.lat_rad));
-  // Antenna velocity v_ant_n = v_eb_n + C_b_n (omega_ib_b x l_b) - omega_ie_n x (C_b_n l_b)
-  // (Groves 2013 sec. 2.5.5; the comparison in `run`): the IMU's horizontal velocity is the
-  // antenna's less the lever-arm term, Earth rate at the IMU's latitude, so that the antenna
-  // velocity `run` compares at this epoch is the GNSS one again.
+  const Eigen::Vector3d l_n = lever ? Eigen::Vector3d(C_b_n * l_b) : Eigen::Vector3d::Zero();
+  const Eigen::Vector3d& v_g = g.v_eb_n_mps;
+  s.lat_rad = g.lat_rad + (latency * v_g.y() - l_n.y()) /
+                              (earth.meridian_radius_m(g.lat_rad) + s.h_m);
+  s.lon_rad = g.lon_rad + (latency * v_g.x() - l_n.x()) /
+                              ((earth.prime_vertical_radius_m(s.lat_rad) + s.h_m) *
+                               std::cos(s.lat_rad));
+  if (latency != 0.0) {
+    s.v_eb_n.x() = v_g.x() + latency * a_n.x();
+    s.v_eb_n.y() = v_g.y() + latency * a_n.y();
+  }
+  if (!lever) return;
   const Eigen::Vector3d lever_n =
       C_b_n * omega_ib_b.cross(l_b) - earth.omega_ie_n(s.lat_rad).cross(l_n);
-  s.v_eb_n.x() = g_ant.v_eb_n_mps.x() - lever_n.x();
-  s.v_eb_n.y() = g_ant.v_eb_n_mps.y() - lever_n.y();
+  s.v_eb_n.x() -= lever_n.x();
+  s.v_eb_n.y() -= lever_n.y();
 }
 
 double fitness_from_residuals(std::span<const double> r, FitnessKind kind) {
@@ -290,8 +315,7 @@ void NavigationProblem::run(const SensorErrors& candidate,
   const double t_before =
       nav_begin_ >= 2 ? ds.imu[nav_begin_ - 2].t_s : prev.t_s - 1.0 / ds.meta.imu_rate_hz;
   compensator.compensate(prev.t_s, prev.t_s - t_before, prev.dtheta_b_rad, prev.dv_b_mps);
-  Eigen::Vector3d omega_mid_prev = prev.dtheta_b_rad / (prev.t_s - t_before);
-  Strapdown ins(earth, initial_state(C_b_n0, candidate, omega_mid_prev), prev,
+  Strapdown ins(earth, initial_state(C_b_n0, candidate, prev, prev.t_s - t_before), prev,
                 prev.t_s - t_before);
 
   // INS velocity at the GNSS antenna (lever arm, docs/design.md sec. 4):
@@ -320,6 +344,7 @@ void NavigationProblem::run(const SensorErrors& candidate,
   auto epoch_time = [&](std::size_t i) { return ds.gnss[epoch_gnss_index_[i]].t_s - latency; };
 
   double t_prev = ins.state().t_s;
+  Eigen::Vector3d omega_mid_prev = prev.dtheta_b_rad / (prev.t_s - t_before);
   Eigen::Vector3d v_prev = antenna_velocity(ins.state(), omega_mid_prev);
   while (e < n_epochs && epoch_time(e) <= t_prev) emit(v_prev);  // clamped to the start
 
@@ -327,6 +352,7 @@ void NavigationProblem::run(const SensorErrors& candidate,
   for (std::size_t k = nav_begin_; k < ds.imu.size(); ++k) {
     ImuSample inc = ds.imu[k];
     compensator.compensate(inc.t_s, inc.t_s - ds.imu[k - 1].t_s, inc.dtheta_b_rad, inc.dv_b_mps);
+    const Eigen::Vector3d v_before = ins.state().v_eb_n;
     ins.step_aided(inc, h_ref_m_[k], vU_ref_mps_[k]);
     const NavState& s = ins.state();
     const Eigen::Vector3d omega_at_epoch = 1.5 * ins.omega_ib_b() - 0.5 * omega_mid_prev;
@@ -341,13 +367,19 @@ void NavigationProblem::run(const SensorErrors& candidate,
     t_prev = s.t_s;
     if (next_restart < restarts_.size() && restarts_[next_restart].imu_index == k) {
       // Windowed fitness: the epochs up to t_k closed the window; restart as at the navigation
-      // start (core/fitness.h): position and horizontal velocity of the IMU from the GNSS
-      // solution tagged t_k + latency (the antenna at t_k) less the candidate's lever arm, with
-      // the attitude carried on and the rate extrapolated to t_k; aided h and vU; this
-      // compensated increment as the coning/sculling memory, previous state = restart state.
+      // start (core/fitness.h, "Start state"): position and horizontal velocity of the IMU from
+      // the GNSS solution at t_k shifted by the latency (with the INS's acceleration over this
+      // step) less the candidate's lever arm (attitude carried on, the rate extrapolated to
+      // t_k); aided h and vU; this compensated increment as the coning/sculling memory,
+      // previous state = restart state.
       const WindowRestart& restart = restarts_[next_restart++];
       NavState s0 = s;
-      set_from_gnss(interpolate_gnss(ds.gnss, restart.t_s + latency), l_b, omega_at_epoch, s0);
+      GnssSample g;
+      g.lat_rad = restart.lat_rad;
+      g.lon_rad = restart.lon_rad;
+      g.v_eb_n_mps = Eigen::Vector3d(restart.vE_mps, restart.vN_mps, 0.0);
+      const Eigen::Vector3d a_n = (s.v_eb_n - v_before) / (inc.t_s - ds.imu[k - 1].t_s);
+      set_from_gnss(g, latency, a_n, l_b, omega_at_epoch, s0);
       ins = Strapdown(earth, s0, inc, inc.t_s - ds.imu[k - 1].t_s);
       v_now = antenna_velocity(ins.state(), omega_at_epoch);
     }

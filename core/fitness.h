@@ -119,12 +119,12 @@ class NavigationProblem {
   /// The initial-attitude mode set up for this dataset (course epochs, feasibility figures).
   const InitialAttitude& initial_attitude_source() const { return attitude_source_; }
   /// State at the navigation start for a given attitude (see the top of this file, "Start
-  /// state"): position and horizontal velocity from the GNSS solution tagged t0 + latency (the
-  /// antenna at t0) less the candidate's lever arm, its velocity term with the body rate
-  /// `omega_ib_b` (run passes the compensated increment's mean rate of the step ending at t0);
-  /// height and vU the candidate-independent references at t0.
+  /// state"): position and horizontal velocity from the GNSS solution at t0 shifted by the
+  /// candidate's latency and less its lever arm; `previous` is the compensated increment ending
+  /// at t0 (its rate and specific force give the lever-arm term and the acceleration), over
+  /// `previous_dt_s`; height and vU the candidate-independent references at t0.
   NavState initial_state(const Eigen::Matrix3d& C_b_n, const SensorErrors& candidate,
-                         const Eigen::Vector3d& omega_ib_b) const;
+                         const ImuSample& previous, double previous_dt_s) const;
   /// The same for a candidate without latency or lever arm (the GNSS solution at t0 as it is).
   NavState initial_state(const Eigen::Matrix3d& C_b_n) const;
 
@@ -148,11 +148,14 @@ class NavigationProblem {
 
  private:
   Eigen::Matrix3d aligned(const SensorErrors& candidate) const;
-  /// Start state of the navigation or of a window (top of this file): latitude, longitude, vE
-  /// and vN of `s` from the antenna solution `g_ant` less the lever arm `l_b` (with the attitude
-  /// and height of `s` and the body rate `omega_ib_b`); the other fields are kept.
-  void set_from_gnss(const GnssSample& g_ant, const Eigen::Vector3d& l_b,
-                     const Eigen::Vector3d& omega_ib_b, NavState& s) const;
+  /// Start state of the navigation or of a window (top of this file, "Start state"): latitude,
+  /// longitude, vE and vN of `s` from the GNSS solution `g` at the start epoch, shifted by
+  /// `latency` (position with g's velocity, velocity with the IMU's acceleration `a_n`) and less
+  /// the lever arm `l_b` (with the attitude and height of `s` and the body rate `omega_ib_b`);
+  /// the other fields are kept.
+  void set_from_gnss(const GnssSample& g, double latency, const Eigen::Vector3d& a_n,
+                     const Eigen::Vector3d& l_b, const Eigen::Vector3d& omega_ib_b,
+                     NavState& s) const;
   static std::string seconds_text(double value);
   std::shared_ptr<const Dataset> dataset_;
   NavigationOptions options_;
