@@ -11,11 +11,11 @@
 //     nominal time t0 + j W (t0 = nav_start_t_s(), 1e-9 s tolerance), for every nominal time
 //     before the last IMU epoch (no restart after the last step). Nominal times that fall on an
 //     IMU epoch already restarted at are skipped, so every k_j is distinct and increasing.
-//   - The state after step k_j is replaced as at the navigation start: latitude, longitude and
-//     (vE, vN) from the GNSS solution interpolated to t_{k_j} (interpolate_gnss), height and vU
-//     the aided references (the GNSS ones, as at the start); the attitude and the previous
-//     compensated increment (coning/sculling memory) are carried on; the mid-point
-//     extrapolation restarts as at the start (previous state = restart state).
+//   - The state after step k_j is replaced as at the navigation start ("Start state" below):
+//     latitude, longitude and (vE, vN) per candidate from the GNSS solution at t_{k_j}, height
+//     and vU the aided references; the attitude and the previous compensated increment
+//     (coning/sculling memory) are carried on; the mid-point extrapolation restarts as at the
+//     start (previous state = restart state).
 //   - GNSS epoch e, compared at tau_e = t_e - gnss_latency, belongs to window j when
 //     t_{k_j} < tau_e <= t_{k_{j+1}} (k_0 = nav_begin() - 1; the epochs clamped to the start
 //     belong to window 0, those past the data end to the last window): an epoch at a restart
@@ -24,6 +24,42 @@
 //     epoch) are therefore summed over all windows.
 //   - W shorter than one GNSS period (1 / gnss_rate_hz) is refused (windows without an epoch).
 //     W at or beyond the navigated span gives no restart: the result is bit-identical to W = 0.
+//
+// Start state (the navigation start t0 and every restart epoch t_k; NavigationProblem::
+// set_from_gnss; issue 33). The GNSS solution tagged t is the antenna at t - latency
+// (core/sensor_errors.h), and the comparison above sees the candidate's antenna velocity at
+// t_e - latency. The start must hold the same model, per candidate, or it carries the effects'
+// own signal into the window and cancels most of it there (a start at the GNSS solution tagged
+// t_k, as IMU velocity, found a hidden 0.2 s latency as 38 +- 8 ms and a (1.0, 0.5) m lever
+// arm as (-0.14, 0.17) m at W = 10 s). From g = the GNSS solution interpolated to t_k
+// (interpolate_gnss; candidate-independent), the start is:
+//   - latency L, to first order: the antenna at t_k is g tagged t_k + L, so position
+//     g + L v_g (north over RM(lat_g) + h, east over (RN + h) cos(lat)) and velocity
+//     g + L a_n, a_n the IMU's horizontal acceleration at t_k: at a restart the candidate's INS
+//     velocity change over the step ending at t_k / its interval; at t0 (no INS state before)
+//     the compensated increment ending at t0, C_b_n dv_b / dt + g_n - (2 omega_ie_n +
+//     omega_en_n) x v_g. Not g interpolated to t_k + L: its slope is the difference of two noisy
+//     epochs over one GNSS period, so the start would move with L by noise that the whole
+//     window's residuals share, a bias (4.3 sd at W = 10 s on a 300 s nav flight, issue 33).
+//     The second-order term, L^2 / 2 times the rate of change of the acceleration, is left out
+//     (about 1 mm/s at L = 0.2 s in a 3 deg/s turn at 20 m/s).
+//   - lever arm l_b: the IMU is the antenna less the lever arm, with the attitude C_b_n at t_k
+//     (at t0 the aligned one, at a restart the one carried on): position less C_b_n l_b (north
+//     over RM(lat_g) + h, east over (RN + h) cos(lat); Groves 2013 sec. 2.5.5), velocity less
+//     C_b_n (omega_ib_b x l_b) - omega_ie_n x (C_b_n l_b) at the IMU's latitude, with the rate
+//     the comparison uses at t_k (at t0 the mean rate of the compensated increment ending at t0,
+//     at a restart the mid-interval rates extrapolated to t_k): the antenna velocity compared at
+//     t_k is then g + L a_n again.
+//   - height and vU: the aided references (GNSS h and vU at t_k, the same for every candidate;
+//     at t0 vU is the GNSS one at t0). The latency and the lever arm leave them unshifted: their
+//     error (L times the vertical acceleration, the vertical lever-arm terms: cm and cm/s on
+//     these flights) reaches the horizontal channels only through the Coriolis term
+//     2 omega_ie cos(lat) vU (~1e-4 of it) and the radii (h / R), far below the GNSS noise.
+//   - the IMU-side effects enter through the attitude C_b_n (per-candidate alignment, and the
+//     window's navigation), the compensated rate and increment, and a_n (the candidate's own
+//     navigation); the GNSS-side effects are only the latency and the lever arm.
+//   - without latency and lever arm, the start is g as it is: the same bits as before issue 33
+//     (W = 0 results included).
 #pragma once
 
 #include <functional>
