@@ -448,6 +448,36 @@ TEST(BatchFitnessWindowed, TheFitnessIsLeastAtTheHiddenLatencyAndLeverArm) {
   }
 }
 
+TEST(BatchFitnessWindowed, TheFitnessIsContinuousInTheLatencyAcrossWindowBoundaries) {
+  // GIVEN the noise-free flight with 10 s windows (boundaries on GNSS epochs: at a latency of
+  // 0.2 s the antenna time of an epoch falls on every boundary) and the truth with a 2 sigma
+  // accelerometer bias error (the windows drift, so an epoch compared before or after a restart
+  // differs by what its window built)
+  NavigationOptions options;
+  options.window_s = 10.0;
+  const auto nav = std::make_shared<const NavigationProblem>(gnss_effects_flight(), options);
+  const BatchFitness kernel(nav);
+  SensorErrors c = testing::paper_errors();
+  c.accel.bias.x() += 2.0 * kSigmaAccelMps2;
+  c.lever_arm_b_m = Eigen::Vector3d(1.0, 0.5, 0.0);
+  // WHEN it is scored at latencies 0.2 s -+ 1e-7 s and -+ 1e-3 s
+  std::vector<SensorErrors> pool;
+  for (double d : {-1e-7, 1e-7, -1e-3, 1e-3}) {
+    pool.push_back(c);
+    pool.back().gnss_latency_s = 0.2 + d;
+  }
+  std::vector<double> ref;
+  for (const SensorErrors& p : pool) ref.push_back(nav->fitness(p));
+  const std::vector<double> f = batched(kernel, pool, 1);
+  // THEN across 2e-7 s the fitness changes by less than 1e-3 of its change across 2e-3 s (it
+  // is continuous: each window starts at the antenna time of its boundary, so no epoch moves to
+  // another window as the latency passes a boundary), in the reference and the kernel
+  std::cout << "fitness at 0.2 s -+1e-7: " << ref[0] << " " << ref[1] << ", -+1e-3: " << ref[2]
+            << " " << ref[3] << "\n";
+  EXPECT_LT(std::abs(ref[1] - ref[0]), 1e-3 * std::abs(ref[3] - ref[2]));
+  EXPECT_LT(std::abs(f[1] - f[0]), 1e-3 * std::abs(f[3] - f[2]));
+}
+
 TEST(BatchFitnessWindowed, PerLaneRestartsMatchTheReferenceForLargeLatenciesAndLeverArms) {
   // GIVEN the noise-free flight, 10 s windows and 13 candidates that differ in latency (of both
   // signs, up to 0.3 s: thirty IMU steps) and lever arm (up to 2 m on every axis), some with

@@ -208,38 +208,61 @@ NavState NavigationProblem::initial_state(const Eigen::Matrix3d& C_b_n,
   return s;
 }
 
-void NavigationProblem::set_from_gnss(const GnssSample& g, double latency,
+std::vector<WindowStart> NavigationProblem::window_starts(double gnss_latency_s) const {
+  std::vector<WindowStart> out;
+  out.reserve(restarts_.size());
+  const std::vector<ImuSample>& imu = dataset_->imu;
+  constexpr double kTimeTol = 1e-9;
+  for (std::size_t j = 0; j < restarts_.size(); ++j) {
+    if (gnss_latency_s == 0.0) {  // the problem's restarts as they are
+      out.push_back({restarts_[j].imu_index, j, 0.0});
+      continue;
+    }
+    // The boundary's antenna time T_j - latency; the first IMU epoch at or after it.
+    const double target = restarts_[j].t_s - gnss_latency_s;
+    if (target <= nav_start_t_s() + kTimeTol) continue;  // before the navigation: no window
+    const auto it = std::partition_point(
+        imu.begin() + static_cast<std::ptrdiff_t>(nav_begin_), imu.end(),
+        [&](const ImuSample& m) { return m.t_s < target - kTimeTol; });
+    const auto k = static_cast<std::size_t>(it - imu.begin());
+    if (k + 1 >= imu.size()) break;  // no restart at or after the last epoch
+    if (!out.empty() && k <= out.back().imu_index) continue;  // restarted at already
+    out.push_back({k, j, imu[k].t_s - target});
+  }
+  return out;
+}
+
+void NavigationProblem::set_from_gnss(const GnssSample& g, double shift_s,
                                       const Eigen::Vector3d& a_n, const Eigen::Vector3d& l_b,
                                       const Eigen::Vector3d& omega_ib_b, NavState& s) const {
   const EarthModel& earth = dataset_->meta.earth;
-  // The antenna at t_k is the GNSS solution tagged t_k + latency: to first order in the latency,
-  // g(t_k) + latency * (its rate), the velocity's rate the IMU's acceleration a_n at t_k (not the
-  // GNSS solution's own slope: that is the difference of two noisy epochs over 0.1 s, and it
-  // would make the start velocity move with the latency by noise that the window's residuals
-  // share, biasing the latency; the 300 s test flight of window_gnss_effects_test.cc gave 4.3 sd
-  // at W = 10 s with the interpolated g(t_k + latency)). The lever arm: r_ant = r_imu + C_b_n l_b,
-  // in curvilinear form to first order in |l_b| / R (Groves 2013 sec. 2.5.5, transposition of
-  // navigation solutions), and the antenna velocity of `run`'s comparison,
-  // v_ant_n = v_eb_n + C_b_n (omega_ib_b x l_b) - omega_ie_n x (C_b_n l_b) (ibid.), with the
-  // rate the comparison uses at t_k and the Earth rate at the IMU's latitude, so that the antenna
-  // velocity compared at t_k is the shifted GNSS one again.
+  // The start epoch t_k is shift_s after the antenna time of g (g describes the antenna at
+  // t_k - shift_s): to first order in shift_s, position g + shift_s v_g and velocity
+  // g + shift_s a_n with a_n the IMU's acceleration at t_k (not g's own slope between GNSS
+  // epochs: the difference of two noisy epochs over one GNSS period, which would move the start
+  // with the latency by noise that the window's residuals share, a bias). The lever arm:
+  // r_ant = r_imu + C_b_n l_b, in curvilinear form to first order in |l_b| / R (Groves 2013 sec.
+  // 2.5.5, transposition of navigation solutions), and the antenna velocity of `run`'s
+  // comparison, v_ant_n = v_eb_n + C_b_n (omega_ib_b x l_b) - omega_ie_n x (C_b_n l_b) (ibid.),
+  // with the rate the comparison uses at t_k and the Earth rate at the IMU's latitude, so that
+  // the antenna velocity compared at t_k is the shifted GNSS one again.
   const bool lever = !l_b.isZero(0);
   s.lat_rad = g.lat_rad;
   s.lon_rad = g.lon_rad;
   s.v_eb_n.x() = g.v_eb_n_mps.x();
   s.v_eb_n.y() = g.v_eb_n_mps.y();
-  if (latency == 0.0 && !lever) return;  // the GNSS solution as it is (the same bits as before)
+  if (shift_s == 0.0 && !lever) return;  // the GNSS solution as it is (the same bits as before)
   const Eigen::Matrix3d C_b_n = s.q_b_n.toRotationMatrix();
   const Eigen::Vector3d l_n = lever ? Eigen::Vector3d(C_b_n * l_b) : Eigen::Vector3d::Zero();
   const Eigen::Vector3d& v_g = g.v_eb_n_mps;
-  s.lat_rad = g.lat_rad + (latency * v_g.y() - l_n.y()) /
+  s.lat_rad = g.lat_rad + (shift_s * v_g.y() - l_n.y()) /
                               (earth.meridian_radius_m(g.lat_rad) + s.h_m);
-  s.lon_rad = g.lon_rad + (latency * v_g.x() - l_n.x()) /
+  s.lon_rad = g.lon_rad + (shift_s * v_g.x() - l_n.x()) /
                               ((earth.prime_vertical_radius_m(s.lat_rad) + s.h_m) *
                                std::cos(s.lat_rad));
-  if (latency != 0.0) {
-    s.v_eb_n.x() = v_g.x() + latency * a_n.x();
-    s.v_eb_n.y() = v_g.y() + latency * a_n.y();
+  if (shift_s != 0.0) {
+    s.v_eb_n.x() = v_g.x() + shift_s * a_n.x();
+    s.v_eb_n.y() = v_g.y() + shift_s * a_n.y();
   }
   if (!lever) return;
   const Eigen::Vector3d lever_n =
@@ -348,11 +371,12 @@ void NavigationProblem::run(const SensorErrors& candidate,
   Eigen::Vector3d v_prev = antenna_velocity(ins.state(), omega_mid_prev);
   while (e < n_epochs && epoch_time(e) <= t_prev) emit(v_prev);  // clamped to the start
 
-  std::size_t next_restart = 0;  // windowed fitness: the next restart in restarts_
+  // Windowed fitness: this candidate's window starts (restarts_ moved by its latency).
+  const std::vector<WindowStart> starts = window_starts(latency);
+  std::size_t next_restart = 0;  // the next in starts
   for (std::size_t k = nav_begin_; k < ds.imu.size(); ++k) {
     ImuSample inc = ds.imu[k];
     compensator.compensate(inc.t_s, inc.t_s - ds.imu[k - 1].t_s, inc.dtheta_b_rad, inc.dv_b_mps);
-    const Eigen::Vector3d v_before = ins.state().v_eb_n;
     ins.step_aided(inc, h_ref_m_[k], vU_ref_mps_[k]);
     const NavState& s = ins.state();
     const Eigen::Vector3d omega_at_epoch = 1.5 * ins.omega_ib_b() - 0.5 * omega_mid_prev;
@@ -365,21 +389,24 @@ void NavigationProblem::run(const SensorErrors& candidate,
     }
     if (on_step) on_step(s);
     t_prev = s.t_s;
-    if (next_restart < restarts_.size() && restarts_[next_restart].imu_index == k) {
+    if (next_restart < starts.size() && starts[next_restart].imu_index == k) {
       // Windowed fitness: the epochs up to t_k closed the window; restart as at the navigation
       // start (core/fitness.h, "Start state"): position and horizontal velocity of the IMU from
-      // the GNSS solution at t_k shifted by the latency (with the INS's acceleration over this
-      // step) less the candidate's lever arm (attitude carried on, the rate extrapolated to
-      // t_k); aided h and vU; this compensated increment as the coning/sculling memory,
-      // previous state = restart state.
-      const WindowRestart& restart = restarts_[next_restart++];
+      // the GNSS solution at the boundary T_j, shifted by t_k - (T_j - latency) (with the
+      // antenna's INS acceleration over this step), less the candidate's lever arm (attitude carried on, the
+      // rate extrapolated to t_k); aided h and vU; this compensated increment as the
+      // coning/sculling memory, previous state = restart state.
+      const WindowStart& start = starts[next_restart++];
+      const WindowRestart& restart = restarts_[start.restart];
       NavState s0 = s;
       GnssSample g;
       g.lat_rad = restart.lat_rad;
       g.lon_rad = restart.lon_rad;
       g.v_eb_n_mps = Eigen::Vector3d(restart.vE_mps, restart.vN_mps, 0.0);
-      const Eigen::Vector3d a_n = (s.v_eb_n - v_before) / (inc.t_s - ds.imu[k - 1].t_s);
-      set_from_gnss(g, latency, a_n, l_b, omega_at_epoch, s0);
+      // The antenna's acceleration over this step (so that a start one step later, shifted by
+      // one more step, lands where this one's INS goes: the fitness is continuous in latency).
+      const Eigen::Vector3d a_n = (v_now - v_prev) / (inc.t_s - ds.imu[k - 1].t_s);
+      set_from_gnss(g, start.shift_s, a_n, l_b, omega_at_epoch, s0);
       ins = Strapdown(earth, s0, inc, inc.t_s - ds.imu[k - 1].t_s);
       v_now = antenna_velocity(ins.state(), omega_at_epoch);
     }

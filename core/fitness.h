@@ -121,6 +121,17 @@ struct WindowRestart {
   double vN_mps = 0.0;        ///< GNSS north velocity at t_s (m/s)
 };
 
+/// One window start of a candidate with GNSS latency L (top of this file, "Windowed fitness"):
+/// restart `restart` of NavigationProblem::window_restarts() (epoch T_j) moved to the antenna
+/// time of its boundary, T_j - L. It follows IMU step `imu_index`, the first at or after
+/// T_j - L, and starts from the GNSS solution at T_j shifted by `shift_s` = t_imu_index -
+/// (T_j - L), in [0, one IMU interval).
+struct WindowStart {
+  std::size_t imu_index = 0;  ///< index into Dataset::imu of the step the restart follows
+  std::size_t restart = 0;    ///< index into window_restarts()
+  double shift_s = 0.0;       ///< start time minus the boundary's antenna time (s)
+};
+
 /// Everything about one dataset that does not depend on the candidate, computed once:
 /// alignment window sums, the navigation start, the height reference at every IMU epoch and
 /// the GNSS epochs that are compared. Thread-safe to evaluate from several threads.
@@ -149,6 +160,10 @@ class NavigationProblem {
   const std::vector<WindowRestart>& window_restarts() const { return restarts_; }
   /// Number of fitness windows (1 + the restarts).
   std::size_t num_windows() const { return restarts_.size() + 1; }
+  /// The window starts of a candidate with this GNSS latency, in time order (the restarts as
+  /// they are for 0; a boundary whose antenna time falls at or before the navigation start, or
+  /// at or after the last IMU epoch, or on an IMU epoch started at already, is dropped).
+  std::vector<WindowStart> window_starts(double gnss_latency_s) const;
 
   /// Initial attitude the candidate would get from alignment (per options).
   Eigen::Matrix3d initial_attitude(const SensorErrors& candidate) const;
@@ -185,11 +200,11 @@ class NavigationProblem {
  private:
   Eigen::Matrix3d aligned(const SensorErrors& candidate) const;
   /// Start state of the navigation or of a window (top of this file, "Start state"): latitude,
-  /// longitude, vE and vN of `s` from the GNSS solution `g` at the start epoch, shifted by
-  /// `latency` (position with g's velocity, velocity with the IMU's acceleration `a_n`) and less
+  /// longitude, vE and vN of `s` from the GNSS solution `g` at the boundary, shifted in time by
+  /// `shift_s` (position with g's velocity, velocity with the IMU's acceleration `a_n`) and less
   /// the lever arm `l_b` (with the attitude and height of `s` and the body rate `omega_ib_b`);
   /// the other fields are kept.
-  void set_from_gnss(const GnssSample& g, double latency, const Eigen::Vector3d& a_n,
+  void set_from_gnss(const GnssSample& g, double shift_s, const Eigen::Vector3d& a_n,
                      const Eigen::Vector3d& l_b, const Eigen::Vector3d& omega_ib_b,
                      NavState& s) const;
   static std::string seconds_text(double value);
