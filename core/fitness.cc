@@ -238,7 +238,7 @@ void NavigationProblem::set_from_gnss(const GnssSample& g, double shift_s,
   const EarthModel& earth = dataset_->meta.earth;
   // The start epoch t_k is shift_s after the antenna time of g (g describes the antenna at
   // t_k - shift_s): to first order in shift_s, position g + shift_s v_g and velocity
-  // g + shift_s a_n with a_n the IMU's acceleration at t_k (not g's own slope between GNSS
+  // g + shift_s a_n with a_n the acceleration at t_k from the IMU (not g's own slope between GNSS
   // epochs: the difference of two noisy epochs over one GNSS period, which would move the start
   // with the latency by noise that the window's residuals share, a bias). The lever arm:
   // r_ant = r_imu + C_b_n l_b, in curvilinear form to first order in |l_b| / R (Groves 2013 sec.
