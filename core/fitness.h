@@ -70,7 +70,11 @@
 //     leave them unshifted: their error (L times the vertical velocity or acceleration, the
 //     vertical lever-arm terms: cm and cm/s on these flights) reaches the horizontal channels
 //     only through the Coriolis term 2 omega_ie cos(lat) vU (~1e-4 of it) and the radii
-//     (h / R), far below the GNSS noise.
+//     (h / R), far below the GNSS noise. Measured on the noise-free 300 s racetrack of
+//     core/batch_fitness_test.cc (latency 0.2 s, lever arm (1, 0.5, 0) m) with the references
+//     taken per candidate at t_k + L less the vertical lever-arm terms: Eq. 15 at the truth
+//     0.0116 -> 0.0011 at W = 10 s, 0.030 -> 0.0045 at W = 0 (over 2900 epochs: ~4 um/s
+//     each), the values 20 ms and 0.1 m to either side within 0.05 %; the minimum stays put.
 //   - the IMU-side effects enter through the attitude C_b_n (per-candidate alignment, and the
 //     window's navigation), the compensated rate and increment, and a_n (the candidate's own
 //     navigation); the GNSS-side effects are only the latency and the lever arm.
