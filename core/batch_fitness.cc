@@ -299,8 +299,28 @@ EventList make_events(const NavigationProblem& nav, double latency) {
   return out;
 }
 
+// The window starts of one latency (NavigationProblem::window_starts) with their GNSS values:
+// after IMU step `step`, from the GNSS solution at the boundary shifted by shift_s.
+struct Start {
+  std::int64_t step;  ///< IMU index of the step the restart follows
+  double lat_rad;     ///< GNSS latitude at the boundary [rad]
+  double vE_mps;      ///< GNSS velocity at the boundary, east component of n = ENU [m/s]
+  double vN_mps;      ///< north component [m/s]
+  double shift_s;     ///< start time minus the boundary's antenna time [s]
+};
+using StartList = std::vector<Start>;
+
+StartList make_starts(const NavigationProblem& nav, double latency) {
+  StartList out;
+  for (const WindowStart& w : nav.window_starts(latency)) {
+    const WindowRestart& r = nav.window_restarts()[w.restart];
+    out.push_back({static_cast<std::int64_t>(w.imu_index), r.lat_rad, r.vE_mps, r.vN_mps, w.shift_s});
+  }
+  return out;
+}
+
 // Everything one lane needs, set up in scalar code from the candidate (O(1) except the
-// events of a non-zero latency).
+// events and window starts of a non-zero latency).
 struct LaneInit {
   double gyro_distortion_inv[9];       ///< (I + S_g + M_g)^-1, row-major [1]
   double accel_distortion_inv[9];      ///< (I + S_a + M_a)^-1, row-major [1]
@@ -322,7 +342,8 @@ struct LaneInit {
   double v_ant_n_north_mps;            ///< antenna velocity at the navigation start, north [m/s]
   double eq15_sum_at_start = 0.0;  ///< epochs clamped to the start, already summed (Eq. 15 terms)
   const EventList* events = nullptr;
-  std::size_t cursor = 0;  ///< first event not yet emitted
+  std::size_t cursor = 0;             ///< first event not yet emitted
+  const StartList* starts = nullptr;  ///< its window starts (windowed fitness)
   std::vector<double>* residuals = nullptr;
 };
 
@@ -332,6 +353,7 @@ struct BatchFitness::Impl {
   std::size_t nb = 0, n = 0;
   std::vector<double> ref_lat, ref_sin, ref_cos;
   EventList events0;  // latency 0
+  StartList starts0;  // latency 0
   double h0 = 0.0, vz0 = 0.0;
   std::size_t n_epochs = 0;
 };
@@ -340,13 +362,18 @@ namespace {
 
 // Scalar set-up of one lane, following NavigationProblem::run line by line.
 void setup_lane(const NavigationProblem& nav, const SensorErrors& c, const EventList* events,
-                bool sum_squares, std::vector<double>* residuals, LaneInit& li) {
+                const StartList* starts, bool sum_squares, std::vector<double>* residuals,
+                LaneInit& li) {
   const Dataset& ds = nav.dataset();
   const EarthModel& earth = ds.meta.earth;
   const std::size_t nb = nav.nav_begin();
   const ImuCompensator compensator(c);
   const Eigen::Matrix3d C0 = nav.initial_attitude(c);
-  const NavState s0 = nav.initial_state(C0);
+  ImuSample prev = ds.imu[nb - 1];
+  const double t_before = nb >= 2 ? ds.imu[nb - 2].t_s : prev.t_s - 1.0 / ds.meta.imu_rate_hz;
+  compensator.compensate(prev.t_s, prev.t_s - t_before, prev.dtheta_b_rad, prev.dv_b_mps);
+  const Eigen::Vector3d omega_mid_prev = prev.dtheta_b_rad / (prev.t_s - t_before);
+  const NavState s0 = nav.initial_state(C0, c, prev, prev.t_s - t_before);
 
   const Eigen::Matrix3d Gi = c.gyro.distortion().inverse();
   const Eigen::Matrix3d Ai = c.accel.distortion().inverse();
@@ -373,10 +400,6 @@ void setup_lane(const NavigationProblem& nav, const SensorErrors& c, const Event
   li.q_b_n[2] = s0.q_b_n.y();
   li.q_b_n[3] = s0.q_b_n.z();
 
-  ImuSample prev = ds.imu[nb - 1];
-  const double t_before = nb >= 2 ? ds.imu[nb - 2].t_s : prev.t_s - 1.0 / ds.meta.imu_rate_hz;
-  compensator.compensate(prev.t_s, prev.t_s - t_before, prev.dtheta_b_rad, prev.dv_b_mps);
-  const Eigen::Vector3d omega_mid_prev = prev.dtheta_b_rad / (prev.t_s - t_before);
   for (int i = 0; i < 3; ++i) {
     li.dtheta_prev_b_rad[i] = prev.dtheta_b_rad[i];
     li.dv_prev_b_mps[i] = prev.dv_b_mps[i];
@@ -392,6 +415,7 @@ void setup_lane(const NavigationProblem& nav, const SensorErrors& c, const Event
   li.v_ant_n_north_mps = v_ant.y();
 
   li.events = events;
+  li.starts = starts;
   li.residuals = residuals;
   li.eq15_sum_at_start = 0.0;
   li.cursor = 0;
@@ -627,11 +651,26 @@ void run_group(const NavigationProblem& nav, const BatchFitness::Impl& im, LaneI
   auto previous_dt = [&](std::size_t k) {
     return k >= 2 ? imu[k - 1].t_s - imu[k - 2].t_s : 1.0 / ds.meta.imu_rate_hz;
   };
-  // Windowed fitness: the restarts, shared by all lanes (IMU epochs fixed by the problem).
-  const std::vector<WindowRestart>& restarts = nav.window_restarts();
-  std::size_t restart_cursor = 0;
-  std::int64_t next_restart =
-      restarts.empty() ? kNever : static_cast<std::int64_t>(restarts[0].imu_index);
+  // Windowed fitness: each lane's window starts (its latency's StartList); `fresh`: the lanes
+  // restarted after the step before, whose height and vertical velocity are not extrapolated to
+  // the mid-point (the reference's previous state is the restart state).
+  const StartList* lst[L];
+  std::size_t scur[L];
+  for (int l = 0; l < L; ++l) {
+    lst[l] = lanes[l]->starts;
+    scur[l] = 0;
+  }
+  auto lane_next_start = [&](int l) {
+    return scur[l] < lst[l]->size() ? (*lst[l])[scur[l]].step : kNever;
+  };
+  auto next_start_step = [&]() {
+    std::int64_t m = kNever;
+    for (int l = 0; l < L; ++l) m = std::min(m, lane_next_start(l));
+    return m;
+  };
+  std::int64_t next_restart = next_start_step();
+  M<N> fresh{};
+  bool any_fresh = false;
   for (std::size_t k0 = nb; k0 < n; k0 += kBlock) {
     const int kb = static_cast<int>(std::min<std::size_t>(kBlock, n - k0));
 
@@ -708,8 +747,13 @@ void run_group(const NavigationProblem& nav, const BatchFitness::Impl& im, LaneI
       const std::size_t k = k0 + static_cast<std::size_t>(j);
       const Pre& p = pre[j];
       const double dt = imu[k].t_s - imu[k - 1].t_s;
-      const double h_mid = 1.5 * h_old - 0.5 * h_pv;
-      const double vz_mid = 1.5 * vz_old - 0.5 * vz_pv;
+      PN h_mid = bcast<N>(1.5 * h_old - 0.5 * h_pv);
+      PN vz_mid = bcast<N>(1.5 * vz_old - 0.5 * vz_pv);
+      if (any_fresh) {
+        h_mid = blend(fresh, bcast<N>(1.5 * h_old - 0.5 * h_old), h_mid);
+        vz_mid = blend(fresh, bcast<N>(1.5 * vz_old - 0.5 * vz_old), vz_mid);
+        any_fresh = false;
+      }
       // Trapezoidal mid-height, shared: the reference's per-candidate h_avg differs by a
       // quarter step of the candidate's unaided vertical velocity error (< 1e-4 m: 2e-11 of R,
       // zero-mean).
@@ -861,7 +905,7 @@ void run_group(const NavigationProblem& nav, const BatchFitness::Impl& im, LaneI
       if constexpr (kLever) {
         const double inv_dt = 1.0 / dt;
         const PN omx = p.dthx * inv_dt, omy = p.dthy * inv_dt, omz = p.dthz * inv_dt;
-        if (next_step <= kk64 + 1 || restart_here) {
+        if (next_step <= kk64 + 1 || next_restart <= kk64 + 1) {
           oex = 1.5 * omx - 0.5 * ompx;
           oey = 1.5 * omy - 0.5 * ompy;
           oez = 1.5 * omz - 0.5 * ompz;
@@ -883,27 +927,84 @@ void run_group(const NavigationProblem& nav, const BatchFitness::Impl& im, LaneI
         next_step = next_event_step();
       }
       if (restart_here) {
-        // Windowed fitness (core/fitness.h): the epochs up to this step closed the window; the
-        // lanes restart as NavigationProblem::run does, from the GNSS solution at this epoch
-        // (shared by all lanes), attitude and coning/sculling memory carried on, previous state
-        // = restart state (no mid-point extrapolation: em = 0, vEp = vE, h_pv = h_old), Earth
-        // terms exact at the new latitude.
-        const WindowRestart& restart = restarts[restart_cursor++];
-        next_restart = restart_cursor < restarts.size()
-                           ? static_cast<std::int64_t>(restarts[restart_cursor].imu_index)
-                           : kNever;
-        lat = bcast<N>(restart.lat_rad);
-        vE = bcast<N>(restart.vE_mps);
-        vN = bcast<N>(restart.vN_mps);
-        vEp = vE;
-        vNp = vN;
-        em = bcast<N>(0.0);
-        h_pv = h_old;
-        vz_pv = vz_old;
+        // Windowed fitness (core/fitness.h, "Windowed fitness", "Start state"): the lanes whose
+        // window start follows this step (the boundary's antenna time; their epochs up to this
+        // step closed the window) restart as NavigationProblem::run does: from the GNSS solution
+        // at the boundary shifted by the start's shift (velocity with the antenna's INS
+        // acceleration over this step), less the lever arm (NavigationProblem::set_from_gnss), attitude and
+        // coning/sculling memory carried on, previous state = restart state (no mid-point
+        // extrapolation: em = 0, vEp = vE, `fresh` for h and vU), Earth terms exact at the new
+        // latitude. The other lanes are left as they are, bit for bit.
+        M<N> rm{}, sm{};  // lanes restarting here; those with a non-zero shift
+        PN rlat = lat, rgE{}, rgN{}, rshift{};
+        for (int l = 0; l < L; ++l) {
+          if (lane_next_start(l) != kk64) continue;
+          const Start& st = (*lst[l])[scur[l]++];
+          rm.c[l / W][l % W] = -1;
+          sm.c[l / W][l % W] = st.shift_s != 0.0 ? -1 : 0;
+          rlat.c[l / W][l % W] = st.lat_rad;
+          rgE.c[l / W][l % W] = st.vE_mps;
+          rgN.c[l / W][l % W] = st.vN_mps;
+          rshift.c[l / W][l % W] = st.shift_s;
+        }
+        next_restart = next_start_step();
+        // The antenna's acceleration over this step (vaE, vaN at this step, vaEp, vaNp at the one
+        // before: the antenna is computed on the step before a restart too).
+        const PN aE = (vaE - vaEp) / dt, aN = (vaN - vaNp) / dt;
+        // The other lanes keep their state and carried Earth terms bit for bit.
+        const PN lat0 = lat, es0 = es, ec0 = ec, eRN0 = eRN, eRM0 = eRM, edRN0 = edRN,
+                 edRM0 = edRM, ekk0 = ekk, ekk30 = ekk3;
+        lat = rlat;
+        anchor((k - nb) >> kRefShift);  // Earth terms at the GNSS latitude (its RM)
+        // North shift of the start [m]: shift * vN (GNSS), less the lever arm's north part.
+        PN shift_N = rshift * rgN;
+        PN C00{}, C01{}, C02{}, C10{}, C11{}, C12{}, bx{}, by{}, bz{};
+        if constexpr (kLever) {
+          const PN Tx = 2.0 * qx, Ty = 2.0 * qy, Tz = 2.0 * qz;
+          const PN Twx = Tx * qw, Twy = Ty * qw, Twz = Tz * qw;
+          const PN Txx = Tx * qx, Txy = Ty * qx, Txz = Tz * qx;
+          const PN Tyy = Ty * qy, Tyz = Tz * qy, Tzz = Tz * qz;
+          C00 = 1.0 - (Tyy + Tzz), C01 = Txy - Twz, C02 = Txz + Twy;
+          C10 = Txy + Twz, C11 = 1.0 - (Txx + Tzz), C12 = Tyz - Twx;
+          const PN C20 = Txz - Twy, C21 = Tyz + Twx, C22 = 1.0 - (Txx + Tyy);
+          bx = C00 * lx + C01 * ly + C02 * lz;
+          by = C10 * lx + C11 * ly + C12 * lz;
+          bz = C20 * lx + C21 * ly + C22 * lz;
+          shift_N = shift_N - by;
+        }
+        // lat = lat_GNSS + (shift vN - (C_b_n l_b)_N) / (RM(lat_GNSS) + h), then the Earth terms
+        // at the IMU's latitude (a lane with neither effect shifts by exactly 0).
+        lat = lat + shift_N / (eRM + h_old);
         anchor((k - nb) >> kRefShift);
-        vaE = vE;
-        vaN = vN;
-        if constexpr (kLever) antenna(vaE, vaN);
+        PN vEs = blend(sm, rgE + rshift * aE, rgE), vNs = blend(sm, rgN + rshift * aN, rgN);
+        if constexpr (kLever) {
+          // less C_b_n (omega_ib_b x l_b) - omega_ie_n x (C_b_n l_b), omega_ib_b extrapolated to
+          // the epoch (oex, oey, oez), Earth rate at the IMU's latitude.
+          const V3<N> wl = cross(oex, oey, oez, lx, ly, lz);
+          const PN Oy = wie * ec, Oz = wie * es;
+          vEs = vEs - ((C00 * wl.x + C01 * wl.y + C02 * wl.z) - (Oy * bz - Oz * by));
+          vNs = vNs - ((C10 * wl.x + C11 * wl.y + C12 * wl.z) - (Oz * bx));
+        }
+        lat = blend(rm, lat, lat0);
+        es = blend(rm, es, es0);
+        ec = blend(rm, ec, ec0);
+        eRN = blend(rm, eRN, eRN0);
+        eRM = blend(rm, eRM, eRM0);
+        edRN = blend(rm, edRN, edRN0);
+        edRM = blend(rm, edRM, edRM0);
+        ekk = blend(rm, ekk, ekk0);
+        ekk3 = blend(rm, ekk3, ekk30);
+        vE = blend(rm, vEs, vE);
+        vN = blend(rm, vNs, vN);
+        vEp = blend(rm, vE, vEp);
+        vNp = blend(rm, vN, vNp);
+        em = blend(rm, bcast<N>(0.0), em);
+        fresh = rm;
+        any_fresh = true;
+        PN vaEs = vE, vaNs = vN;
+        if constexpr (kLever) antenna(vaEs, vaNs);
+        vaE = blend(rm, vaEs, vaE);
+        vaN = blend(rm, vaNs, vaN);
       }
       vaEp = vaE;
       vaNp = vaN;
@@ -969,6 +1070,7 @@ BatchFitness::BatchFitness(std::shared_ptr<const NavigationProblem> problem)
       impl->ref_cos[b] = std::cos(lat);
     }
     impl->events0 = make_events(nav, 0.0);
+    impl->starts0 = make_starts(nav, 0.0);
     const NavState s0 = nav.initial_state(Eigen::Matrix3d::Identity());
     impl->h0 = s0.h_m;
     impl->vz0 = s0.v_eb_n.z();
@@ -1066,6 +1168,7 @@ void BatchFitness::evaluate_grouped(const Request& request, const std::vector<in
     std::vector<LaneInit> inits(static_cast<std::size_t>(L));
     std::vector<bool> ok(static_cast<std::size_t>(L), false);
     std::map<double, EventList> latency_events;
+    std::map<double, StartList> latency_starts;
     int valid = -1;
     bool general = false, lever = false;
     // The group's residual vectors, zeroed by the thread that fills them (zeros stay for a
@@ -1081,13 +1184,18 @@ void BatchFitness::evaluate_grouped(const Request& request, const std::vector<in
       const SensorErrors& c = request.candidates[i];
       try {
         const EventList* events = &im.events0;
+        const StartList* starts = &im.starts0;
         if (c.gnss_latency_s != 0.0) {
           auto it = latency_events.find(c.gnss_latency_s);
           if (it == latency_events.end())
             it = latency_events.emplace(c.gnss_latency_s, make_events(nav, c.gnss_latency_s)).first;
           events = &it->second;
+          auto is = latency_starts.find(c.gnss_latency_s);
+          if (is == latency_starts.end())
+            is = latency_starts.emplace(c.gnss_latency_s, make_starts(nav, c.gnss_latency_s)).first;
+          starts = &is->second;
         }
-        setup_lane(nav, c, events, sum_squares,
+        setup_lane(nav, c, events, starts, sum_squares,
                    request.residuals.empty() ? nullptr : &request.residuals[i],
                    inits[static_cast<std::size_t>(l)]);
         ok[static_cast<std::size_t>(l)] = true;

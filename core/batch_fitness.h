@@ -8,10 +8,10 @@
 // O(1) from the window sums, two-sample coning/sculling, height aiding, the antenna lever arm,
 // GNSS latency (epoch bracketing per candidate) and Eq. 15 / sum-of-squares accumulation;
 // optionally the residual vector; the windowed fitness (NavigationOptions::window_s: every lane
-// restarted from the GNSS solution at the problem's restart epochs, core/fitness.h). Results equal
-// the scalar reference up to floating-point rounding (the kernel reassociates some arithmetic and
-// evaluates the Earth model by series about exactly computed values instead of libm calls; see
-// batch_fitness.cc).
+// restarted at the problem's restart epochs from the GNSS solution shifted by its latency, less
+// its lever arm, core/fitness.h). Results equal the scalar reference up to floating-point
+// rounding (the kernel reassociates some arithmetic and evaluates the Earth model by series about
+// exactly computed values instead of libm calls; see batch_fitness.cc).
 //
 // Determinism: a lane's arithmetic never depends on the other lanes, on how candidates are
 // grouped into vectors or on the thread count, so results are bit-identical for any batching.

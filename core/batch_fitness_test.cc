@@ -375,5 +375,149 @@ TEST(BatchFitnessWindowed, NoRestartIsTheOneRunKernelBitForBit) {
   for (std::size_t i = 0; i < pool.size(); ++i) EXPECT_NE(a[i], b[i]) << i;
 }
 
+// ----- GNSS latency and lever arm under the windowed fitness (issue 33) -----------------------
+
+// A noise-free racetrack flight (60 s legs: takeoff, a speed-up to 20 m/s, two 180 deg turns at
+// 3 deg/s; 300 s after the 600 s alignment) with the paper's four, a GNSS latency of 0.2 s and a
+// lever arm of (1.0, 0.5, 0) m, and the truth candidate.
+std::shared_ptr<const Dataset> gnss_effects_flight() {
+  static const std::shared_ptr<const Dataset> ds = [] {
+    scenarios::ScenarioConfig cfg = scenarios::preset_scenario("racetrack");
+    cfg.flight_s = 300.0;
+    for (auto& segment : cfg.repeat)
+      if (segment["type"] == "straight") segment["duration_s"] = 60.0;
+    cfg.noise = scenarios::noise_grade("none");
+    cfg.injected.gnss_latency_s = 0.2;
+    cfg.injected.lever_arm_b_m = Eigen::Vector3d(1.0, 0.5, 0.0);
+    return std::make_shared<const Dataset>(scenarios::simulate(cfg));
+  }();
+  return ds;
+}
+
+TEST(BatchFitnessWindowed, TheFitnessIsLeastAtTheHiddenLatencyAndLeverArm) {
+  // GIVEN the noise-free flight and the truth candidate
+  const auto ds = gnss_effects_flight();
+  SensorErrors truth = testing::paper_errors();
+  truth.gnss_latency_s = 0.2;
+  truth.lever_arm_b_m = Eigen::Vector3d(1.0, 0.5, 0.0);
+  // The truth moved along one GNSS-side effect by `step` (latency in s, lever arm in m).
+  const auto moved = [&](int effect, double step) {
+    SensorErrors c = truth;
+    if (effect == 0) c.gnss_latency_s += step;
+    if (effect > 0) c.lever_arm_b_m[effect - 1] += step;
+    return c;
+  };
+  const char* names[] = {"gnss_latency", "lever_arm_x", "lever_arm_y"};
+  const double steps[] = {0.02, 0.1, 0.1};  // 10 % of the latency, 0.1 m of the arms
+  for (double window_s : {0.0, 10.0, 20.0}) {
+    NavigationOptions options;
+    options.window_s = window_s;
+    const auto nav = std::make_shared<const NavigationProblem>(ds, options);
+    const BatchFitness kernel(nav);
+    ASSERT_TRUE(kernel.supported()) << kernel.unsupported_reason();
+    // WHEN the truth and the truth moved by +-step along each effect are scored, all in one
+    // batch (lanes of different latencies and lever arms), by the kernel and the reference
+    std::vector<SensorErrors> pool = {truth};
+    for (int effect = 0; effect < 3; ++effect)
+      for (double sign : {-1.0, 1.0}) pool.push_back(moved(effect, sign * steps[effect]));
+    for (FitnessKind kind : {FitnessKind::kEq15, FitnessKind::kSumSquares}) {
+      const std::vector<double> f = batched(kernel, pool, 2, kind);
+      std::vector<double> ref;
+      for (const SensorErrors& c : pool) ref.push_back(nav->fitness(c, kind));
+      // THEN both agree within the kernel's tolerance, and along every effect the truth scores
+      // lower than a step to either side (the fitness is least within a step of the truth; a
+      // window start that cancels the effects' signal puts the least far below it)
+      for (std::size_t i = 0; i < pool.size(); ++i)
+        EXPECT_LE(relative_difference(f[i], ref[i]), kTolerance)
+            << "W=" << window_s << " candidate " << i << ": " << f[i] << " vs " << ref[i];
+      for (int effect = 0; effect < 3; ++effect)
+        for (int side = 0; side < 2; ++side) {
+          const std::size_t i = 1 + 2 * static_cast<std::size_t>(effect) +
+                                static_cast<std::size_t>(side);
+          EXPECT_LT(ref[0], ref[i]) << "W=" << window_s << " " << names[effect]
+                                    << (side == 0 ? " -" : " +") << steps[effect];
+          EXPECT_LT(f[0], f[i]) << "W=" << window_s << " kernel " << names[effect]
+                                << (side == 0 ? " -" : " +") << steps[effect];
+        }
+      if (kind == FitnessKind::kEq15)
+        std::cout << "W = " << window_s << " s: Eq. 15 at the truth " << ref[0]
+                  << ", latency -+20 ms " << ref[1] << " " << ref[2] << ", lever_arm_x -+0.1 m "
+                  << ref[3] << " " << ref[4] << ", lever_arm_y -+0.1 m " << ref[5] << " "
+                  << ref[6] << "\n";
+    }
+  }
+}
+
+TEST(BatchFitnessWindowed, TheFitnessIsContinuousInTheLatencyAcrossWindowBoundaries) {
+  // GIVEN the noise-free flight with 10 s windows (boundaries on GNSS epochs: at a latency of
+  // 0.2 s the antenna time of an epoch falls on every boundary) and the truth with a 2 sigma
+  // accelerometer bias error (the windows drift, so an epoch compared before or after a restart
+  // differs by what its window built)
+  NavigationOptions options;
+  options.window_s = 10.0;
+  const auto nav = std::make_shared<const NavigationProblem>(gnss_effects_flight(), options);
+  const BatchFitness kernel(nav);
+  SensorErrors c = testing::paper_errors();
+  c.accel.bias.x() += 2.0 * kSigmaAccelMps2;
+  c.lever_arm_b_m = Eigen::Vector3d(1.0, 0.5, 0.0);
+  // WHEN it is scored at latencies 0.2 s -+ 1e-7 s and -+ 1e-3 s
+  std::vector<SensorErrors> pool;
+  for (double d : {-1e-7, 1e-7, -1e-3, 1e-3}) {
+    pool.push_back(c);
+    pool.back().gnss_latency_s = 0.2 + d;
+  }
+  std::vector<double> ref;
+  for (const SensorErrors& p : pool) ref.push_back(nav->fitness(p));
+  const std::vector<double> f = batched(kernel, pool, 1);
+  // THEN across 2e-7 s the fitness changes by less than 1e-3 of its change across 2e-3 s (it
+  // is continuous: each window starts at the antenna time of its boundary, so no epoch moves to
+  // another window as the latency passes a boundary), in the reference and the kernel
+  std::cout << "fitness at 0.2 s -+1e-7: " << ref[0] << " " << ref[1] << ", -+1e-3: " << ref[2]
+            << " " << ref[3] << "\n";
+  EXPECT_LT(std::abs(ref[1] - ref[0]), 1e-3 * std::abs(ref[3] - ref[2]));
+  EXPECT_LT(std::abs(f[1] - f[0]), 1e-3 * std::abs(f[3] - f[2]));
+}
+
+TEST(BatchFitnessWindowed, PerLaneRestartsMatchTheReferenceForLargeLatenciesAndLeverArms) {
+  // GIVEN the noise-free flight, 10 s windows and 13 candidates that differ in latency (of both
+  // signs, up to 0.3 s: thirty IMU steps) and lever arm (up to 2 m on every axis), some with
+  // neither, and the IMU errors of the random pool
+  NavigationOptions options;
+  options.window_s = 10.0;
+  const auto nav = std::make_shared<const NavigationProblem>(gnss_effects_flight(), options);
+  ASSERT_GE(nav->window_restarts().size(), 25u);
+  const BatchFitness kernel(nav);
+  std::vector<SensorErrors> pool = random_candidates(13, 41);
+  std::mt19937_64 rng(43);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (std::size_t i = 0; i < pool.size(); ++i) {
+    if (i % 4 == 3) continue;
+    if (i % 4 != 1) pool[i].gnss_latency_s = 0.3 * u(rng);
+    if (i % 4 != 2)
+      for (int j = 0; j < 3; ++j) pool[i].lever_arm_b_m[j] = 2.0 * u(rng);
+  }
+  // WHEN they are scored in one batch with their residuals
+  std::vector<std::vector<double>> r(pool.size());
+  std::vector<double> f(pool.size());
+  BatchFitness::Request request;
+  request.candidates = pool;
+  request.fitness = f;
+  request.residuals = r;
+  kernel.evaluate(request);
+  // THEN every fitness and residual matches the reference's within the kernel's tolerance
+  for (std::size_t i = 0; i < pool.size(); ++i) {
+    std::vector<double> ref;
+    nav->residuals(pool[i], ref);
+    ASSERT_EQ(r[i].size(), ref.size());
+    double scale = 0.0, diff = 0.0;
+    for (std::size_t j = 0; j < ref.size(); ++j) {
+      scale = std::max(scale, std::abs(ref[j]));
+      diff = std::max(diff, std::abs(r[i][j] - ref[j]));
+    }
+    EXPECT_LE(diff, 1e-9 * scale) << "candidate " << i;
+    EXPECT_LE(relative_difference(f[i], nav->fitness(pool[i])), kTolerance) << "candidate " << i;
+  }
+}
+
 }  // namespace
 }  // namespace insid

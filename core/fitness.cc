@@ -177,16 +177,98 @@ Eigen::Matrix3d NavigationProblem::aligned(const SensorErrors& candidate) const 
 }
 
 NavState NavigationProblem::initial_state(const Eigen::Matrix3d& C_b_n) const {
+  return initial_state(C_b_n, SensorErrors{}, ImuSample{}, 0.0);
+}
+
+NavState NavigationProblem::initial_state(const Eigen::Matrix3d& C_b_n,
+                                          const SensorErrors& candidate,
+                                          const ImuSample& previous, double previous_dt_s) const {
   const double t0 = nav_start_t_s();
   const GnssSample g = interpolate_gnss(dataset_->gnss, t0);
   NavState s;
   s.t_s = t0;
+  s.h_m = h_ref_m_[nav_begin_ - 1];
+  s.v_eb_n = g.v_eb_n_mps;  // vU: the GNSS one at t0, as the aided references (candidate-free)
+  s.q_b_n = Eigen::Quaterniond(C_b_n).normalized();
+  const double latency = candidate.gnss_latency_s;
+  const Eigen::Vector3d& l_b = candidate.lever_arm_b_m;
+  if (latency == 0.0 && l_b.isZero(0)) {  // the GNSS solution as it is (the same bits as before)
+    set_from_gnss(g, 0.0, Eigen::Vector3d::Zero(), l_b, Eigen::Vector3d::Zero(), s);
+    return s;
+  }
+  // The acceleration at t0 from the increment ending there (no INS state before t0): Eq. 1 row 2
+  // without the sculling terms, dv_n/dt = C_b_n f_ib_b + g_n - (2 omega_ie_n + omega_en_n) x v_n,
+  // at the GNSS position and velocity.
+  const EarthModel& earth = dataset_->meta.earth;
+  const Eigen::Vector3d a_n =
+      C_b_n * (previous.dv_b_mps / previous_dt_s) + earth.gravity_n(g.lat_rad, s.h_m) -
+      (2.0 * earth.omega_ie_n(g.lat_rad) + earth.omega_en_n(g.lat_rad, s.h_m, g.v_eb_n_mps))
+          .cross(g.v_eb_n_mps);
+  set_from_gnss(g, latency, a_n, l_b, previous.dtheta_b_rad / previous_dt_s, s);
+  return s;
+}
+
+std::vector<WindowStart> NavigationProblem::window_starts(double gnss_latency_s) const {
+  std::vector<WindowStart> out;
+  out.reserve(restarts_.size());
+  const std::vector<ImuSample>& imu = dataset_->imu;
+  constexpr double kTimeTol = 1e-9;
+  for (std::size_t j = 0; j < restarts_.size(); ++j) {
+    if (gnss_latency_s == 0.0) {  // the problem's restarts as they are
+      out.push_back({restarts_[j].imu_index, j, 0.0});
+      continue;
+    }
+    // The boundary's antenna time T_j - latency; the first IMU epoch at or after it.
+    const double target = restarts_[j].t_s - gnss_latency_s;
+    if (target <= nav_start_t_s() + kTimeTol) continue;  // before the navigation: no window
+    const auto it = std::partition_point(
+        imu.begin() + static_cast<std::ptrdiff_t>(nav_begin_), imu.end(),
+        [&](const ImuSample& m) { return m.t_s < target - kTimeTol; });
+    const auto k = static_cast<std::size_t>(it - imu.begin());
+    if (k + 1 >= imu.size()) break;  // no restart at or after the last epoch
+    if (!out.empty() && k <= out.back().imu_index) continue;  // restarted at already
+    out.push_back({k, j, imu[k].t_s - target});
+  }
+  return out;
+}
+
+void NavigationProblem::set_from_gnss(const GnssSample& g, double shift_s,
+                                      const Eigen::Vector3d& a_n, const Eigen::Vector3d& l_b,
+                                      const Eigen::Vector3d& omega_ib_b, NavState& s) const {
+  const EarthModel& earth = dataset_->meta.earth;
+  // The start epoch t_k is shift_s after the antenna time of g (g describes the antenna at
+  // t_k - shift_s): to first order in shift_s, position g + shift_s v_g and velocity
+  // g + shift_s a_n with a_n the acceleration at t_k from the IMU (not g's own slope between GNSS
+  // epochs: the difference of two noisy epochs over one GNSS period, which would move the start
+  // with the latency by noise that the window's residuals share, a bias). The lever arm:
+  // r_ant = r_imu + C_b_n l_b, in curvilinear form to first order in |l_b| / R (Groves 2013 sec.
+  // 2.5.5, transposition of navigation solutions), and the antenna velocity of `run`'s
+  // comparison, v_ant_n = v_eb_n + C_b_n (omega_ib_b x l_b) - omega_ie_n x (C_b_n l_b) (ibid.),
+  // with the rate the comparison uses at t_k and the Earth rate at the IMU's latitude, so that
+  // the antenna velocity compared at t_k is the shifted GNSS one again.
+  const bool lever = !l_b.isZero(0);
   s.lat_rad = g.lat_rad;
   s.lon_rad = g.lon_rad;
-  s.h_m = h_ref_m_[nav_begin_ - 1];
-  s.v_eb_n = g.v_eb_n_mps;
-  s.q_b_n = Eigen::Quaterniond(C_b_n).normalized();
-  return s;
+  s.v_eb_n.x() = g.v_eb_n_mps.x();
+  s.v_eb_n.y() = g.v_eb_n_mps.y();
+  if (shift_s == 0.0 && !lever) return;  // the GNSS solution as it is (the same bits as before)
+  const Eigen::Matrix3d C_b_n = s.q_b_n.toRotationMatrix();
+  const Eigen::Vector3d l_n = lever ? Eigen::Vector3d(C_b_n * l_b) : Eigen::Vector3d::Zero();
+  const Eigen::Vector3d& v_g = g.v_eb_n_mps;
+  s.lat_rad = g.lat_rad + (shift_s * v_g.y() - l_n.y()) /
+                              (earth.meridian_radius_m(g.lat_rad) + s.h_m);
+  s.lon_rad = g.lon_rad + (shift_s * v_g.x() - l_n.x()) /
+                              ((earth.prime_vertical_radius_m(s.lat_rad) + s.h_m) *
+                               std::cos(s.lat_rad));
+  if (shift_s != 0.0) {
+    s.v_eb_n.x() = v_g.x() + shift_s * a_n.x();
+    s.v_eb_n.y() = v_g.y() + shift_s * a_n.y();
+  }
+  if (!lever) return;
+  const Eigen::Vector3d lever_n =
+      C_b_n * omega_ib_b.cross(l_b) - earth.omega_ie_n(s.lat_rad).cross(l_n);
+  s.v_eb_n.x() -= lever_n.x();
+  s.v_eb_n.y() -= lever_n.y();
 }
 
 double fitness_from_residuals(std::span<const double> r, FitnessKind kind) {
@@ -250,12 +332,14 @@ void NavigationProblem::run(const SensorErrors& candidate,
   const ImuCompensator compensator(candidate);
   const Eigen::Matrix3d C_b_n0 = C_b_n_override ? *C_b_n_override : initial_attitude(candidate);
 
-  // The increment ending at the navigation start seeds the coning/sculling corrections.
+  // The increment ending at the navigation start seeds the coning/sculling corrections and
+  // gives the rate of the start's lever-arm term.
   ImuSample prev = ds.imu[nav_begin_ - 1];
   const double t_before =
       nav_begin_ >= 2 ? ds.imu[nav_begin_ - 2].t_s : prev.t_s - 1.0 / ds.meta.imu_rate_hz;
   compensator.compensate(prev.t_s, prev.t_s - t_before, prev.dtheta_b_rad, prev.dv_b_mps);
-  Strapdown ins(earth, initial_state(C_b_n0), prev, prev.t_s - t_before);
+  Strapdown ins(earth, initial_state(C_b_n0, candidate, prev, prev.t_s - t_before), prev,
+                prev.t_s - t_before);
 
   // INS velocity at the GNSS antenna (lever arm, docs/design.md sec. 4):
   //   v_ant_n = v_eb_n + C_b_n (omega_ib_b x l_b) - omega_ie_n x (C_b_n l_b),
@@ -287,7 +371,9 @@ void NavigationProblem::run(const SensorErrors& candidate,
   Eigen::Vector3d v_prev = antenna_velocity(ins.state(), omega_mid_prev);
   while (e < n_epochs && epoch_time(e) <= t_prev) emit(v_prev);  // clamped to the start
 
-  std::size_t next_restart = 0;  // windowed fitness: the next restart in restarts_
+  // Windowed fitness: this candidate's window starts (restarts_ moved by its latency).
+  const std::vector<WindowStart> starts = window_starts(latency);
+  std::size_t next_restart = 0;  // the next in starts
   for (std::size_t k = nav_begin_; k < ds.imu.size(); ++k) {
     ImuSample inc = ds.imu[k];
     compensator.compensate(inc.t_s, inc.t_s - ds.imu[k - 1].t_s, inc.dtheta_b_rad, inc.dv_b_mps);
@@ -303,16 +389,24 @@ void NavigationProblem::run(const SensorErrors& candidate,
     }
     if (on_step) on_step(s);
     t_prev = s.t_s;
-    if (next_restart < restarts_.size() && restarts_[next_restart].imu_index == k) {
+    if (next_restart < starts.size() && starts[next_restart].imu_index == k) {
       // Windowed fitness: the epochs up to t_k closed the window; restart as at the navigation
-      // start (GNSS position and horizontal velocity, aided h and vU, attitude carried on, this
-      // compensated increment as the coning/sculling memory, previous state = restart state).
-      const WindowRestart& restart = restarts_[next_restart++];
+      // start (core/fitness.h, "Start state"): position and horizontal velocity of the IMU from
+      // the GNSS solution at the boundary T_j, shifted by t_k - (T_j - latency) (with the
+      // antenna's INS acceleration over this step), less the candidate's lever arm (attitude carried on, the
+      // rate extrapolated to t_k); aided h and vU; this compensated increment as the
+      // coning/sculling memory, previous state = restart state.
+      const WindowStart& start = starts[next_restart++];
+      const WindowRestart& restart = restarts_[start.restart];
       NavState s0 = s;
-      s0.lat_rad = restart.lat_rad;
-      s0.lon_rad = restart.lon_rad;
-      s0.v_eb_n.x() = restart.vE_mps;
-      s0.v_eb_n.y() = restart.vN_mps;
+      GnssSample g;
+      g.lat_rad = restart.lat_rad;
+      g.lon_rad = restart.lon_rad;
+      g.v_eb_n_mps = Eigen::Vector3d(restart.vE_mps, restart.vN_mps, 0.0);
+      // The antenna's acceleration over this step (so that a start one step later, shifted by
+      // one more step, lands where this one's INS goes: the fitness is continuous in latency).
+      const Eigen::Vector3d a_n = (v_now - v_prev) / (inc.t_s - ds.imu[k - 1].t_s);
+      set_from_gnss(g, start.shift_s, a_n, l_b, omega_at_epoch, s0);
       ins = Strapdown(earth, s0, inc, inc.t_s - ds.imu[k - 1].t_s);
       v_now = antenna_velocity(ins.state(), omega_at_epoch);
     }
