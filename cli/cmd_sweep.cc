@@ -68,6 +68,11 @@ void run(const SweepArgs& args) {
   if (!args.estimation_grade.empty()) sweep.estimation_grade = args.estimation_grade;
   // Labelled "insid sweep" (the campaign runner behind it is bench's).
   const auto printer = std::make_shared<ProgressPrinter>("insid sweep", args.run.verbosity);
+  // The sweep is the command line's: what its check refuses is a usage error (exit 2).
+  parse_option("", [&] {
+    sweep.validate();
+    return 0;
+  });
   const campaign::RunOptions options = campaign_run_options(args.run, cluster.get(), printer);
   const auto outcome = campaign::run_sweep(sweep, options);
   printer->finish();
