@@ -179,6 +179,9 @@ TEST(RealWalk, ImportIdentifyCutsThePureInsErrorFourfoldAndMatchesThePadGyros) {
 // through the same import and LM on the W = 10 s windowed fitness as the plain log; the
 // difference of the estimates must equal the injected value within 3 sd + 20 % (sd: both runs'
 // combined). The sd must also be below half the injected size: the walk has to pin it down.
+// Measured (2-core Zen 4): latency difference -0.316 s, sd 0.052 (the code before issue 33's
+// window-start fix: -0.223 s, sd 0.015, also inside the bound, so this case is no red test of
+// that fix: WindowGnssEffects is); gyro_bias_y -0.09998 deg/s, sd 0.034.
 TEST(RealWalk, InjectedClockShiftAndGyroBiasAreRecoveredBySize) {
   const fs::path walk = fs::path(INSID_SHARED_DATA) / "rtklib-walk";
   if (!fs::exists(walk / "imu_1730_sf.csv") || !fs::exists(walk / "gnss_1730_sf.pos"))
