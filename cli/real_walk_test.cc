@@ -19,24 +19,13 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "cli/cli_test_support.h"
+
 namespace {
 namespace fs = std::filesystem;
 
-struct Outcome {
-  int status = -1;
-  std::string output;  // stdout and stderr
-};
-
-Outcome insid(const std::string& args) {
-  Outcome o;
-  FILE* pipe = ::popen((std::string(INSID_BINARY) + " " + args + " 2>&1").c_str(), "r");
-  if (pipe == nullptr) return o;
-  std::array<char, 4096> buffer{};
-  while (std::fgets(buffer.data(), buffer.size(), pipe) != nullptr) o.output += buffer.data();
-  const int raw = ::pclose(pipe);
-  o.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  return o;
-}
+using insid::cli_test::insid;
+using insid::cli_test::Outcome;
 
 nlohmann::json read_json(const fs::path& p) {
   std::ifstream in(p);

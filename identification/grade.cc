@@ -136,10 +136,8 @@ GradeChoice choose_grade(const Dataset& dataset, std::string_view explicit_grade
   const std::string by_vrw = c.vrw_mps_rth <= 0.005 ? "nav" : c.vrw_mps_rth <= 0.035 ? "tactical"
                                                                                      : "mems";
   const bool bias_seen = c.gyro_bias_min_deg_h > 3.0 * c.gyro_bias_noise_deg_h;
-  const std::string by_bias = !bias_seen                     ? "nav"
-                              : c.gyro_bias_min_deg_h <= 0.1 ? "nav"
-                              : c.gyro_bias_min_deg_h <= 20.0 ? "tactical"
-                                                              : "mems";
+  // Only a bias no box but mems' holds votes (see grade.h); smaller ones are what identify is for.
+  const std::string by_bias = bias_seen && c.gyro_bias_min_deg_h > 20.0 ? "mems" : "nav";
   c.grade = by_arw;
   for (const std::string& g : {by_vrw, by_bias})
     if (coarseness(g) > coarseness(c.grade)) c.grade = g;
@@ -147,7 +145,10 @@ GradeChoice choose_grade(const Dataset& dataset, std::string_view explicit_grade
            figure(c.arw_deg_rth) + " deg/sqrt(h) -> " + by_arw + ", VRW " + figure(c.vrw_mps_rth) +
            " m/s/sqrt(h) -> " + by_vrw + ", |gyro bias| >= " + figure(c.gyro_bias_min_deg_h) +
            " deg/h (noise " + figure(c.gyro_bias_noise_deg_h) + ") -> " +
-           (bias_seen ? by_bias : std::string("not seen")) + "; the coarsest)";
+           (!bias_seen ? std::string("not seen")
+            : by_bias == "mems" ? std::string("mems")
+                                : std::string("no vote (<= 20 deg/h)")) +
+           "; the coarsest)";
   return c;
 }
 
