@@ -59,6 +59,23 @@ void write_bytes(const fs::path& p, const std::string& bytes) {
   std::ofstream(p, std::ios::binary) << bytes;
 }
 
+// Options are checked before any file is read (exit 2, the README's table); no shared data needed.
+TEST(ArduPilotCli, UsageErrorsBeforeReading) {
+  TempDir tmp;
+  ASSERT_FALSE(tmp.path.empty());
+  const std::string out = " --out " + (tmp.path / "ds").string();
+  Outcome o = insid("import ardupilot " + (tmp.path / "none.bin").string() + " --imu IMU4" + out);
+  EXPECT_EQ(o.status, 2) << o.output;
+  EXPECT_NE(o.output.find("--imu 'IMU4': must be IMU, IMU2 or IMU3"), std::string::npos)
+      << o.output;
+  o = insid("import ardupilot " + (tmp.path / "none.bin").string() + " --t-start 100 --t-end 50" +
+            out);
+  EXPECT_EQ(o.status, 2) << o.output;
+  EXPECT_NE(o.output.find("--t-start 100 must be before --t-end 50"), std::string::npos)
+      << o.output;
+  EXPECT_FALSE(fs::exists(tmp.path / "ds"));
+}
+
 // The whole log has a 2.0 s logging gap (boot 72.606-74.628 s): refused, naming where to cut.
 // After it and before the flip (README: from ~239 s; Acro from 217.2 s) the import succeeds and
 // navigate runs on it.
