@@ -200,7 +200,7 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
     e.v_e_mps = r[kSpd] * std::sin(course_rad);
     e.v_u_mps = vz.down_positive ? -r[kVz] : r[kVz];
     e.quality = 1;  // accepted here (Status), kept by assemble_dataset
-    e.satellites = static_cast<int>(r[kSats]);
+    e.satellites = r[kSats] >= 0.0 && r[kSats] <= 255.0 ? static_cast<int>(r[kSats]) : 0;
     e.line = k + 1;
     out.gnss.epochs.push_back(e);
   }
