@@ -73,7 +73,7 @@ std::string quoted(const std::string& s) {
   if (printable(s)) return "'" + s + "'";
   std::ostringstream out;
   out << "(not printable:";
-  for (const unsigned char c : s) out << ' ' << static_cast<int>(c);
+  for (const char c : s) out << ' ' << static_cast<int>(static_cast<unsigned char>(c));
   out << ')';
   return out.str();
 }
