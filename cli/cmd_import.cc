@@ -1,5 +1,6 @@
 // insid import: a user's recording -> insid-dataset/2 directory with a provenance record
-// (import/). Formats: csv (an IMU CSV with a mapping spec + an RTKLIB .pos GNSS solution).
+// (import/). Formats: csv (an IMU CSV with a mapping spec + an RTKLIB .pos GNSS solution), kf-gins,
+// ulog (PX4) and ardupilot (DataFlash .bin).
 #include <charconv>
 #include <chrono>
 #include <cmath>
