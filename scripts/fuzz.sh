@@ -77,6 +77,10 @@ done
 f=../shared/data/ardupilot-copter/log171.bin
 if [ -f "$f" ]; then
   { printf "\\x08"; head -c 60000 "$f"; } > build-fuzz/corpus/insid_import_fuzzer/seed-log171
+  # Its FMT block (bytes 0-6407) and 40 kB from the IMU record at byte 1499984 (in flight: 3D fixes).
+  { printf "\\x08"; head -c 6408 "$f"
+    dd if="$f" iflag=skip_bytes,count_bytes skip=1499984 count=40000 bs=4096 status=none; } \
+    > build-fuzz/corpus/insid_import_fuzzer/seed-log171-flight
 fi
 
 # JSON seeds (the presets, an escaped quote and backslash before brackets) and protocol replies.
