@@ -1,5 +1,6 @@
 // insid import: a user's recording -> insid-dataset/2 directory with a provenance record
-// (import/). Formats: csv (an IMU CSV with a mapping spec + an RTKLIB .pos GNSS solution).
+// (import/). Formats: csv (an IMU CSV with a mapping spec + an RTKLIB .pos GNSS solution), kf-gins,
+// ulog (PX4) and ardupilot (DataFlash .bin).
 #include <charconv>
 #include <chrono>
 #include <cmath>
@@ -23,7 +24,9 @@
 #include "core/json_reader.h"
 #include "core/output_dir.h"
 #include "identification/identify.h"
+#include "import/ardupilot_import.h"
 #include "import/csv_imu.h"
+#include "import/dataflash.h"
 #include "import/gnss_solution.h"
 #include "import/importer.h"
 #include "import/kf_gins.h"
@@ -317,6 +320,51 @@ void run_import_ulog(const ImportUlogArgs& args) {
                 args.shared.force, t0, args.shared.verbosity);
 }
 
+struct ImportArduPilotArgs {
+  std::string log;
+  import::ArduPilotImportOptions ardupilot;
+  SharedImportArgs shared;
+};
+
+void run_import_ardupilot(const ImportArduPilotArgs& args) {
+  dataset_destination(args.shared.out, args.shared.force, {args.log});
+  if (const std::string e = args.ardupilot.validate(); !e.empty()) throw UsageError(e);
+  import::AssembleOptions options = args.shared.assemble_options();
+  options.gnss_quality = {1};  // the Status selection is made by extract_ardupilot
+  if (const std::string e = options.validate(); !e.empty()) throw UsageError(e);
+  const auto t0 = std::chrono::steady_clock::now();
+  std::string bytes = read_text(args.log, "LOG");
+  const nlohmann::json source = source_json("dataflash", args.log, bytes);
+  const import::DataFlashFile log = import::DataFlashFile::parse(std::move(bytes), args.log);
+  import::ArduPilotSeries series = import::extract_ardupilot(log, args.log, args.ardupilot);
+  for (const auto& [boot_s, gap_s] : series.imu_gaps_boot_s)
+    if (gap_s > PlausibilityBounds::kMaxImuStep_s) {
+      char text[512];
+      std::snprintf(text, sizeof text,
+                    "%s: %s has a logging gap of %.3f s after boot time %.3f s, longer than the "
+                    "%g s insid integrates across: import the part before it (--t-end %.3f) or "
+                    "after it (--t-start %.3f)",
+                    args.log.c_str(), args.ardupilot.imu.c_str(), gap_s, boot_s,
+                    PlausibilityBounds::kMaxImuStep_s, boot_s, boot_s + gap_s);
+      throw std::runtime_error(text);
+    }
+  import::Assembled result = import::assemble_dataset(series.imu, series.gnss, options);
+  result.provenance.update(series.provenance, true);
+  result.notes.insert(result.notes.begin(), series.notes.begin(), series.notes.end());
+  nlohmann::json opts = {
+      {"imu", args.ardupilot.imu},
+      {"min_status", args.ardupilot.min_status},
+      {"t_start_boot_s", args.ardupilot.t_start_s ? nlohmann::json(*args.ardupilot.t_start_s)
+                                                  : nlohmann::json(nullptr)},
+      {"t_end_boot_s", args.ardupilot.t_end_s ? nlohmann::json(*args.ardupilot.t_end_s)
+                                              : nlohmann::json(nullptr)},
+      {"rate_samples", "point"},
+      {"axes", "ArduPilot body frame, forward-right-down (no mounting applied)"}};
+  args.shared.record(opts);
+  finish_import("insid import ardupilot", std::move(result), std::move(opts), {source},
+                args.shared.out, args.shared.force, t0, args.shared.verbosity);
+}
+
 struct ExportArgs {
   std::string to, data, campaign, out;
   double sow_offset_s = 0.0;
@@ -489,6 +537,26 @@ void add_import_command(CLI::App& app) {
       ->check(whole_in(0, 255));
   add_shared_import_options(ul, u->shared);
   ul->callback([u] { run_import_ulog(*u); });
+
+  auto ap = std::make_shared<ImportArduPilotArgs>();
+  CLI::App* apc = cmd->add_subcommand(
+      "ardupilot",
+      "an ArduPilot DataFlash log (.bin): IMU, IMU2 or IMU3 (sampled rates and specific forces), "
+      "GPS fixes (Spd along GCrs, VZ), layouts read from the file's own FMT records");
+  apc->add_option("log", ap->log, "the .bin file")->required();
+  apc->add_option("--imu", ap->ardupilot.imu, "IMU | IMU2 | IMU3: which IMU (default IMU)")
+      ->capture_default_str();
+  apc->add_option("--min-status", ap->ardupilot.min_status,
+                  "GPS Status kept: 3 = 3D fix (default) and above")
+      ->check(whole_in(0, 6));
+  apc->add_option("--t-start", ap->ardupilot.t_start_s,
+                  "boot time (s) from which records are kept")
+      ->check(number_in(0, 1e7));
+  apc->add_option("--t-end", ap->ardupilot.t_end_s,
+                  "boot time (s) after which records are cut (e.g. before a crash)")
+      ->check(number_in(0, 1e7));
+  add_shared_import_options(apc, ap->shared);
+  apc->callback([ap] { run_import_ardupilot(*ap); });
 }
 
 void add_export_command(CLI::App& app) {

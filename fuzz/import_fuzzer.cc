@@ -6,7 +6,8 @@
 // finding. Byte 6: the mapped CSV with a dual-antenna heading (t,ax,ay,az,gx,gy,gz,hdg,hdg_sd)
 // assembled with the fixed GNSS; byte 7: with a magnetometer (mx,my,mz) and a declination. The
 // ULog reader also extracts the GNSS heading and the magnetometer (--heading gps, mag).
-// INSID_FUZZ_READER=N (0-7) pins the reader, whatever the first byte says (one reader per
+// Byte 8: an ArduPilot DataFlash log (.bin), read and imported with IMU and with IMU3 cut.
+// INSID_FUZZ_READER=N (0-8) pins the reader, whatever the first byte says (one reader per
 // run, e.g. scripts/fuzz.sh's per-reader runs of the ULog and CSV readers).
 #include <cstdint>
 #include <cstdio>
@@ -14,7 +15,9 @@
 #include <stdexcept>
 #include <string>
 
+#include "import/ardupilot_import.h"
 #include "import/csv_imu.h"
+#include "import/dataflash.h"
 #include "import/gnss_solution.h"
 #include "import/importer.h"
 #include "import/kf_gins.h"
@@ -39,7 +42,7 @@ const insid::import::GnssSolution& fixed_gnss() {
 static int pinned_reader() {
   static const int reader = [] {
     const char* text = std::getenv("INSID_FUZZ_READER");
-    return text == nullptr ? -1 : std::atoi(text) % 8;
+    return text == nullptr ? -1 : std::atoi(text) % 9;
   }();
   return reader;
 }
@@ -49,7 +52,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const std::string text(reinterpret_cast<const char*>(data + 1), size - 1);
   namespace im = insid::import;
   try {
-    switch (pinned_reader() >= 0 ? pinned_reader() : data[0] % 8) {
+    switch (pinned_reader() >= 0 ? pinned_reader() : data[0] % 9) {
       case 0:
         im::parse_rtklib_pos(text, "fuzz.pos");
         break;
@@ -85,7 +88,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       }
       case 6:
       case 7: {
-        const bool mag = (pinned_reader() >= 0 ? pinned_reader() : data[0] % 8) == 7;
+        const bool mag = (pinned_reader() >= 0 ? pinned_reader() : data[0] % 9) == 7;
         im::CsvImuSpec spec;
         spec.columns = im::CsvImuSpec::parse_columns(mag ? "t,ax,ay,az,gx,gy,gz,mx,my,mz"
                                                          : "t,ax,ay,az,gx,gy,gz,hdg,hdg_sd");
@@ -95,6 +98,20 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         options.align_s = 1.0;
         if (mag) options.declination_deg = 7.5;
         im::assemble_dataset(im::read_csv_imu(text, "imu.csv", spec, 2381), fixed_gnss(), options);
+        break;
+      }
+      case 8: {
+        const im::DataFlashFile log = im::DataFlashFile::parse(text, "fuzz.bin");
+        (void)log.messages_summary();
+        im::ArduPilotImportOptions cut;
+        cut.imu = "IMU3";
+        cut.t_start_s = 1.0;
+        cut.t_end_s = 100.0;
+        try {
+          im::extract_ardupilot(log, "fuzz.bin", cut);
+        } catch (const std::runtime_error&) {
+        }
+        im::extract_ardupilot(log, "fuzz.bin", im::ArduPilotImportOptions{});
         break;
       }
       default: {

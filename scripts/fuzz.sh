@@ -6,7 +6,8 @@
 # build-fuzz/findings/<target>/. Usage: scripts/fuzz.sh [SECONDS [TARGET ...]] (default: all
 # targets, 60 s each). INSID_FUZZ_READER=N pins insid_import_fuzzer to one reader (0 .pos,
 # 1 KF-GINS GNSS, 2 KF-GINS IMU, 3 mapped CSV, 4 assembly, 5 ULog with --heading gps and mag,
-# 6 CSV with a dual-antenna heading, 7 CSV with a magnetometer, both assembled), e.g.
+# 6 CSV with a dual-antenna heading, 7 CSV with a magnetometer, both assembled, 8 ArduPilot
+# DataFlash), e.g.
 # INSID_FUZZ_READER=5 scripts/fuzz.sh 600 insid_import_fuzzer.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -71,6 +72,16 @@ for f in ../shared/data/px4-ulog/sample_log_small.ulg ../shared/data/px4-ulog/sa
     { printf "\\x05"; head -c 60000 "$f"; } > "build-fuzz/corpus/insid_import_fuzzer/seed-$(basename "$f")"
   fi
 done
+
+# DataFlash seed (byte 8): the head of the shared ArduPilot log (FMT records, first data).
+f=../shared/data/ardupilot-copter/log171.bin
+if [ -f "$f" ]; then
+  { printf "\\x08"; head -c 60000 "$f"; } > build-fuzz/corpus/insid_import_fuzzer/seed-log171
+  # Its FMT block (bytes 0-6407) and 40 kB from the IMU record at byte 1499984 (in flight: 3D fixes).
+  { printf "\\x08"; head -c 6408 "$f"
+    dd if="$f" iflag=skip_bytes,count_bytes skip=1499984 count=40000 bs=4096 status=none; } \
+    > build-fuzz/corpus/insid_import_fuzzer/seed-log171-flight
+fi
 
 # JSON seeds (the presets, an escaped quote and backslash before brackets) and protocol replies.
 mkdir -p build-fuzz/corpus/insid_json_fuzzer build-fuzz/corpus/insid_external_reply_fuzzer

@@ -1,0 +1,307 @@
+#include "import/ardupilot_import.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+
+namespace insid::import {
+namespace {
+
+std::string num(double v, int digits = 4) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*g", digits, v);
+  return buf;
+}
+
+// Least squares y = a + b x on the rows `use` of x, y (boot s, GPST s since the GPS epoch).
+void fit_line(const std::vector<long double>& x, const std::vector<long double>& y,
+              const std::vector<char>& use, long double& a, long double& b) {
+  long double n = 0, mx = 0, my = 0;
+  for (std::size_t k = 0; k < x.size(); ++k)
+    if (use[k]) n += 1, mx += x[k], my += y[k];
+  mx /= n, my /= n;
+  long double sxx = 0, sxy = 0;
+  for (std::size_t k = 0; k < x.size(); ++k)
+    if (use[k]) sxx += (x[k] - mx) * (x[k] - mx), sxy += (x[k] - mx) * (y[k] - my);
+  b = sxx > 0 ? sxy / sxx : 1.0L;
+  a = my - b * mx;
+}
+
+}  // namespace
+
+std::string ArduPilotImportOptions::validate() const {
+  if (imu != "IMU" && imu != "IMU2" && imu != "IMU3")
+    return "--imu '" + imu + "': must be IMU, IMU2 or IMU3 (the log's IMU messages)";
+  if (min_status < 0 || min_status > 6) return "--min-status: must be in 0-6";
+  for (const auto& [name, v] : {std::pair{"--t-start", t_start_s}, std::pair{"--t-end", t_end_s}})
+    if (v && !(std::isfinite(*v) && *v >= 0.0 && *v <= 1e7))
+      return std::string(name) + ": must be boot seconds in 0-1e7";
+  if (t_start_s && t_end_s && !(*t_start_s < *t_end_s))
+    return "--t-start " + num(*t_start_s) + " must be before --t-end " + num(*t_end_s);
+  return "";
+}
+
+ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& where,
+                                  const ArduPilotImportOptions& options) {
+  if (const std::string e = options.validate(); !e.empty()) throw std::invalid_argument(e);
+  ArduPilotSeries out;
+  nlohmann::json& prov = out.provenance;
+  prov["dataflash"] = {{"messages", log.messages_summary()}};
+  if (!log.truncation().empty()) {
+    prov["dataflash"]["truncation"] = log.truncation();
+    out.notes.push_back(log.truncation());
+  }
+  const double t_start_ms = options.t_start_s ? *options.t_start_s * 1e3 : -1.0;
+  const double t_end_ms = options.t_end_s ? *options.t_end_s * 1e3 : 1e300;
+  const auto inside = [&](double boot_ms) { return boot_ms >= t_start_ms && boot_ms <= t_end_ms; };
+
+  // GPS first: without it there is nothing to identify against.
+  if (log.count("GPS") == 0)
+    throw std::runtime_error(where + ": no GPS records: insid identifies sensor errors against "
+                                     "GNSS velocity, so this log cannot be imported; messages: " +
+                             log.messages_summary());
+  if (log.count(options.imu) == 0)
+    throw std::runtime_error(where + ": no " + options.imu +
+                             " records; messages: " + log.messages_summary());
+  const auto gps = log.read("GPS", {"Status", "TimeMS", "Week", "NSats", "Lat", "Lng", "Alt",
+                                    "Spd", "GCrs", "VZ", "T"});
+  enum { kStatus, kTow, kWeek, kSats, kLat, kLng, kAlt, kSpd, kCrs, kVz, kBoot };
+  std::vector<std::size_t> fixes;  // GPS records with Status >= min_status
+  for (std::size_t k = 0; k < gps.size(); ++k)
+    if (gps[k][kStatus] >= options.min_status) fixes.push_back(k);
+  if (fixes.size() < 2)
+    throw std::runtime_error(where + ": " + std::to_string(fixes.size()) + " GPS records with "
+                             "Status >= " + std::to_string(options.min_status) + " (of " +
+                             std::to_string(gps.size()) + "); need at least 2");
+  const auto gpst_since_epoch = [&](std::size_t k) {
+    return static_cast<long double>(gps[k][kWeek]) * kSecondsPerWeek +
+           static_cast<long double>(gps[k][kTow]) * 1e-3L;
+  };
+
+  // The boot clock on GPST: fit over every fix of the log, then again without the fixes beyond
+  // kBootFitOutlierS (records logged late, e.g. in a burst after a logging gap).
+  BootClockFit& clock = out.clock;
+  {
+    std::vector<long double> x, y;
+    for (const std::size_t k : fixes) {
+      x.push_back(static_cast<long double>(gps[k][kBoot]) * 1e-3L);
+      y.push_back(gpst_since_epoch(k));
+    }
+    std::vector<char> use(x.size(), 1);
+    long double a = 0, b = 1;
+    fit_line(x, y, use, a, b);
+    for (std::size_t k = 0; k < x.size(); ++k)
+      if (std::fabs(static_cast<double>(y[k] - (a + b * x[k]))) > kBootFitOutlierS) {
+        use[k] = 0;
+        ++clock.excluded;
+      }
+    if (x.size() - clock.excluded < 2)
+      throw std::runtime_error(where + ": GPS boot times (T) and GPS times (Week, TimeMS) do not "
+                                       "follow a line: fewer than 2 fixes within " +
+                               num(kBootFitOutlierS) + " s of the fit");
+    fit_line(x, y, use, a, b);
+    double ss = 0;
+    for (std::size_t k = 0; k < x.size(); ++k)
+      if (use[k]) {
+        const double r = static_cast<double>(y[k] - (a + b * x[k]));
+        ss += r * r;
+        clock.max_abs_s = std::max(clock.max_abs_s, std::fabs(r));
+      }
+    clock.fixes = x.size() - clock.excluded;
+    clock.rms_s = std::sqrt(ss / static_cast<double>(clock.fixes));
+    clock.gpst_at_boot_zero_s = kGpsEpochGpstUnix_s + a;
+    clock.slope = static_cast<double>(b);
+  }
+  const auto boot_to_gpst = [&](double boot_ms) {
+    return clock.gpst_at_boot_zero_s + static_cast<long double>(clock.slope) *
+                                           static_cast<long double>(boot_ms) * 1e-3L;
+  };
+  prov["clock"] = {
+      {"model", "GPST = gpst_at_boot_zero + slope * boot (GPS T, IMU TimeMS), least squares over "
+                "the GPS fixes, refitted without residuals beyond " + num(kBootFitOutlierS) + " s"},
+      {"gpst_at_boot_zero_unix_s", static_cast<double>(clock.gpst_at_boot_zero_s)},
+      {"slope", clock.slope},
+      {"fixes", clock.fixes},
+      {"excluded", clock.excluded},
+      {"residual_rms_s", clock.rms_s},
+      {"residual_max_abs_s", clock.max_abs_s}};
+  out.notes.push_back("boot clock tied to GPST by a linear fit over " +
+                      std::to_string(clock.fixes) + " GPS fixes: slope " +
+                      num(clock.slope, 8) + ", residual rms " + num(clock.rms_s * 1e3, 3) +
+                      " ms, max " + num(clock.max_abs_s * 1e3, 3) + " ms" +
+                      (clock.excluded > 0 ? "; " + std::to_string(clock.excluded) +
+                                                " fixes logged more than " +
+                                                num(kBootFitOutlierS) + " s off it left out"
+                                          : std::string()));
+
+  // VZ's sign: the altitude's rate against VZ over the fixes.
+  VzSign& vz = out.vz;
+  {
+    double sxy = 0, sxx = 0, syy = 0, mx = 0, my = 0;
+    std::vector<std::pair<double, double>> pairs;  // (VZ, dAlt/dt)
+    for (std::size_t i = 1; i + 1 < fixes.size(); ++i) {
+      const std::size_t p = fixes[i - 1], k = fixes[i], q = fixes[i + 1];
+      const double dt = static_cast<double>(gpst_since_epoch(q) - gpst_since_epoch(p));
+      if (!(dt > 0.0 && dt <= 1.0)) continue;
+      pairs.emplace_back(gps[k][kVz], (gps[q][kAlt] - gps[p][kAlt]) / dt);
+    }
+    for (const auto& [v, d] : pairs) mx += v, my += d;
+    vz.pairs = pairs.size();
+    if (!pairs.empty()) {
+      mx /= static_cast<double>(pairs.size()), my /= static_cast<double>(pairs.size());
+      double sx0 = 0;
+      for (const auto& [v, d] : pairs) {
+        sx0 += v * d;
+        sxx += (v - mx) * (v - mx), syy += (d - my) * (d - my), sxy += (v - mx) * (d - my);
+      }
+      double svv = 0;
+      for (const auto& [v, d] : pairs) svv += v * v;
+      vz.s = svv > 0 ? sx0 / svv : 0.0;
+      vz.correlation = sxx > 0 && syy > 0 ? sxy / std::sqrt(sxx * syy) : 0.0;
+    }
+    vz.conclusive = vz.pairs >= 20 && std::fabs(vz.correlation) >= 0.5;
+    vz.down_positive = vz.conclusive ? vz.s < 0.0 : true;
+    const std::string evidence = "d(Alt)/dt = " + num(vz.s, 3) + " x VZ (correlation " +
+                                 num(vz.correlation, 3) + ", " + std::to_string(vz.pairs) +
+                                 " central differences of Alt over the fixes)";
+    prov["gnss"]["vz_sign"] = {{"down_positive", vz.down_positive},
+                               {"conclusive", vz.conclusive},
+                               {"fit_s", vz.s},
+                               {"correlation", vz.correlation},
+                               {"pairs", vz.pairs}};
+    out.notes.push_back(
+        vz.conclusive
+            ? std::string("GPS VZ is ") + (vz.down_positive ? "positive down" : "positive up") +
+                  " (v_u = " + (vz.down_positive ? "-VZ" : "VZ") + "): " + evidence
+            : "GPS VZ taken as positive down (ArduPilot's convention): the altitude does not "
+              "tell its sign (" + evidence + ")");
+  }
+
+  // GNSS epochs.
+  std::size_t outside = 0, not_increasing = 0;
+  for (const std::size_t k : fixes) {
+    const auto& r = gps[k];
+    if (!inside(r[kBoot])) {
+      ++outside;
+      continue;
+    }
+    GnssEpoch e;
+    e.t_gpst_unix_s = kGpsEpochGpstUnix_s + gpst_since_epoch(k);
+    if (!out.gnss.epochs.empty() && !(e.t_gpst_unix_s > out.gnss.epochs.back().t_gpst_unix_s)) {
+      ++not_increasing;
+      continue;
+    }
+    const double course_rad = r[kCrs] * (3.14159265358979323846 / 180.0);
+    e.lat_deg = r[kLat];
+    e.lon_deg = r[kLng];
+    e.h_m = r[kAlt];
+    e.v_n_mps = r[kSpd] * std::cos(course_rad);
+    e.v_e_mps = r[kSpd] * std::sin(course_rad);
+    e.v_u_mps = vz.down_positive ? -r[kVz] : r[kVz];
+    e.quality = 1;  // accepted here (Status), kept by assemble_dataset
+    e.satellites = r[kSats] >= 0.0 && r[kSats] <= 255.0 ? static_cast<int>(r[kSats]) : 0;
+    e.line = k + 1;
+    out.gnss.epochs.push_back(e);
+  }
+  out.gnss.format = "ardupilot dataflash GPS";
+  prov["gnss"]["source"] = "GPS: Week + TimeMS (GPS time of week, ms) as GPST; Lat, Lng; Alt "
+                           "(MSL); v_n, v_e = Spd cos(GCrs), Spd sin(GCrs); v_u from VZ";
+  prov["gnss"]["records"] = gps.size();
+  prov["gnss"]["dropped"] = {
+      {"status_below_" + std::to_string(options.min_status), gps.size() - fixes.size()},
+      {"outside_t_range", outside},
+      {"time_not_increasing", not_increasing}};
+  prov["gnss"]["height"] = "MSL (Alt): the GPS record has no ellipsoidal height";
+  out.notes.push_back("GNSS height is MSL (GPS Alt): the log has no ellipsoidal height; heights "
+                      "only enter as the vertical reference");
+  if (gps.size() > fixes.size())
+    out.notes.push_back("dropped " + std::to_string(gps.size() - fixes.size()) +
+                        " GPS records with Status below " + std::to_string(options.min_status));
+  if (not_increasing > 0)
+    out.notes.push_back("dropped " + std::to_string(not_increasing) +
+                        " GPS fixes whose time (Week, TimeMS) does not increase (a repeated "
+                        "time of week: the first record is kept)");
+  if (out.gnss.epochs.size() < 2)
+    throw std::runtime_error(where + ": " + std::to_string(out.gnss.epochs.size()) +
+                             " GPS fixes within the boot-time range; need at least 2");
+
+  // IMU.
+  const auto rows = log.read(options.imu, {"TimeMS", "GyrX", "GyrY", "GyrZ", "AccX", "AccY", "AccZ"});
+  CsvImu& imu = out.imu;
+  imu.source_rows = rows.size();
+  std::size_t imu_outside = 0, imu_not_increasing = 0;
+  double last_ms = -1.0;
+  for (std::size_t k = 0; k < rows.size(); ++k) {
+    const auto& r = rows[k];
+    if (!inside(r[0])) {
+      ++imu_outside;
+      continue;
+    }
+    if (!(r[0] > last_ms)) {
+      ++imu_not_increasing;
+      continue;
+    }
+    last_ms = r[0];
+    imu.t_gpst_unix_s.push_back(boot_to_gpst(r[0]));
+    imu.gyro_b.emplace_back(r[1], r[2], r[3]);
+    imu.accel_b.emplace_back(r[4], r[5], r[6]);
+    imu.line.push_back(k + 1);
+  }
+  imu.rows_dropped["outside_t_range"] = imu_outside;
+  imu.rows_dropped["time_not_increasing"] = imu_not_increasing;
+  if (imu.t_gpst_unix_s.size() < 3)
+    throw std::runtime_error(where + ": " + options.imu + " has " +
+                             std::to_string(imu.t_gpst_unix_s.size()) +
+                             " records within the boot-time range; need at least 3");
+  double median_step_ms = 0.0;
+  {
+    std::vector<double> steps;
+    std::vector<double> boot_ms;
+    for (const std::size_t line : imu.line) boot_ms.push_back(rows[line - 1][0]);
+    for (std::size_t k = 1; k < boot_ms.size(); ++k) steps.push_back(boot_ms[k] - boot_ms[k - 1]);
+    std::vector<double> sorted = steps;
+    std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2),
+                     sorted.end());
+    const double median_ms = sorted[sorted.size() / 2];
+    median_step_ms = median_ms;
+    nlohmann::json list = nlohmann::json::array();
+    for (std::size_t k = 0; k < steps.size(); ++k)
+      if (steps[k] > kImuGapMedianSteps * median_ms) {
+        out.imu_gaps_boot_s.emplace_back(boot_ms[k] * 1e-3, steps[k] * 1e-3);
+        list.push_back({{"after_boot_s", boot_ms[k] * 1e-3}, {"gap_s", steps[k] * 1e-3}});
+      }
+    prov["imu"]["boot_gaps"] = list;
+  }
+  prov["imu"]["source"] = options.imu + ": TimeMS (boot ms), GyrX/Y/Z (rad/s), AccX/Y/Z (m/s^2): "
+                                        "sampled values, integrated as point samples";
+  prov["imu"]["axes"] = "ArduPilot body frame, forward-right-down (no mounting applied)";
+  std::string others;
+  for (const char* name : {"IMU", "IMU2", "IMU3"})
+    if (log.count(name) > 0)
+      others += (others.empty() ? "" : ", ") + std::string(name) + " (" +
+                std::to_string(log.count(name)) + ")";
+  out.notes.push_back("IMU from " + options.imu + " (the log has " + others +
+                      "; --imu picks another)");
+  const double rate_hz = median_step_ms > 0 ? 1e3 / median_step_ms : 0.0;  // median step
+  prov["imu"]["logged_rate_hz"] = rate_hz;
+  out.notes.push_back(options.imu + " logs sampled rates and specific forces at " +
+                      num(rate_hz, 3) +
+                      " Hz, not increments: on a multicopter, motor and frame vibration above " +
+                      num(rate_hz / 2, 3) +
+                      " Hz aliases into them and what happens between samples is lost to the "
+                      "integration; treat identified gyro and accelerometer errors with care");
+  if (options.t_start_s || options.t_end_s) {
+    prov["cut_boot_s"] = {
+        {"t_start", options.t_start_s ? nlohmann::json(*options.t_start_s) : nlohmann::json(nullptr)},
+        {"t_end", options.t_end_s ? nlohmann::json(*options.t_end_s) : nlohmann::json(nullptr)}};
+    out.notes.push_back("cut to boot time " +
+                        (options.t_start_s ? num(*options.t_start_s, 6) : std::string("start")) +
+                        " - " + (options.t_end_s ? num(*options.t_end_s, 6) : std::string("end")) +
+                        " s: " + std::to_string(imu_outside) + " IMU records and " +
+                        std::to_string(outside) + " GPS fixes outside");
+  }
+  return out;
+}
+
+}  // namespace insid::import
