@@ -467,6 +467,9 @@ TEST_F(CliSafety, ImportAndExportRefuseBadInputAndNeverHalfWrite) {
 namespace manners {  // issue 19: command-line manners
 
 using insid::cli_test::has;
+using insid::cli_test::insid;
+using insid::cli_test::Outcome;
+using insid::cli_test::text;
 
 // `insid --version` prints the git revision the binary was built from (and exits 0).
 TEST(CliManners, VersionPrintsTheGitRevision) {

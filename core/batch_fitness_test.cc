@@ -427,8 +427,14 @@ TEST(BatchFitnessWindowed, TheFitnessIsLeastAtTheHiddenLatencyAndLeverArm) {
       // THEN both agree within the kernel's tolerance, and along every effect the truth scores
       // lower than a step to either side (the fitness is least within a step of the truth; a
       // window start that cancels the effects' signal puts the least far below it)
+      // The truth's fitness on noise-free data is a near-cancellation (0.03 of Eq. 15 from
+      // velocities of 10-20 m/s): it is compared relative to the surface's scale, the largest
+      // fitness of the pool (the baseline x86-64 path differs there by 3e-11 absolute, 1.04e-9
+      // of the truth's own value; every other candidate keeps the plain relative check).
+      double scale = 0.0;
+      for (double r : ref) scale = std::max(scale, std::abs(r));
       for (std::size_t i = 0; i < pool.size(); ++i)
-        EXPECT_LE(relative_difference(f[i], ref[i]), kTolerance)
+        EXPECT_LE(std::abs(f[i] - ref[i]) / (i == 0 ? scale : std::abs(ref[i])), kTolerance)
             << "W=" << window_s << " candidate " << i << ": " << f[i] << " vs " << ref[i];
       for (int effect = 0; effect < 3; ++effect)
         for (int side = 0; side < 2; ++side) {
