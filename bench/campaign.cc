@@ -269,7 +269,7 @@ nlohmann::json data_digests(const CampaignConfig& config) {
 // --force) its manifest, summary, run and optimum paths are insid's own: they are replaced
 // whoever wrote the bytes there (a run file of an older insid, a damaged one being redone), but
 // never through a link (write_file_atomic_under).
-WriteOptions campaign_write_options(const RunOptions&) {
+WriteOptions own_campaign_path() {
   WriteOptions w;
   w.replace_foreign = true;
   return w;
@@ -404,7 +404,7 @@ DirectoryClaim prepare_directory(const CampaignConfig& config, const RunOptions&
   manifest["config"] = config_json;
   if (!digests.empty()) manifest["data_sha256"] = digests;
   for (const auto& item : options.manifest_extra.items()) manifest[item.key()] = item.value();
-  write_file_atomic(manifest_path, manifest.dump(2) + "\n", campaign_write_options(options));
+  write_file_atomic(manifest_path, manifest.dump(2) + "\n", own_campaign_path());
   // A shard shares the lock with the other shards (a conversion; safe: we hold the gate).
   if (!whole_campaign) claim.run_lock->lock(FileLock::Mode::kShared);
   write_holders(*claim.run_lock, alone, options.shard);
@@ -599,7 +599,7 @@ CampaignOutcome run_campaign(const CampaignConfig& config, const RunOptions& opt
     if (outcome.complete) {
       const nlohmann::json summary = summarize_campaign(options.out_dir, config);
       write_file_atomic(dir / "summary.json", summary.dump(1) + "\n",
-                        campaign_write_options(options));
+                        own_campaign_path());
     }
   }
   if (cluster != nullptr) {
