@@ -46,7 +46,7 @@ struct ScenarioConfig {
 ScenarioConfig parse_scenario(const nlohmann::json& j, const std::string& origin);
 /// Read and parse a scenario file.
 ScenarioConfig load_scenario_file(const std::filesystem::path& path);
-/// Named presets: paper, racetrack, rich, straight.
+/// Named presets: paper, racetrack, rich, straight, multicopter.
 std::vector<std::string> preset_names();
 /// Preset by name; throws std::invalid_argument listing the names when unknown.
 ScenarioConfig preset_scenario(std::string_view name);
