@@ -529,11 +529,28 @@ void check_recorded(const std::map<std::string, RecordedFile>& files, std::strin
 
 struct Validator {
   std::string prefix;  // "<dir>: " or ""
+  const DatasetSources* sources = nullptr;
 
   [[noreturn]] void meta_fail(const std::string& msg) const {
     fail(prefix + std::string(kMetaFile) + ": " + msg);
   }
+  // `field` ("align_s") and `rest` (" = 1000 s must ..."): "meta.json: field "align_s" = ..."
+  // or, where the sources name what set the field, "--align-s = 1000 s must ...".
+  [[noreturn]] void field_fail(std::string_view field, const std::string& rest) const {
+    if (sources && sources->field)
+      if (const std::string by = sources->field(field); !by.empty()) fail(prefix + by + rest);
+    meta_fail("field \"" + std::string(field) + "\"" + rest);
+  }
+  // The row `index` of `file`: "imu.csv line 7" (header = line 1), or where it came from.
+  std::string row(std::string_view file, std::size_t index) const {
+    if (sources && sources->row)
+      if (const std::string s = sources->row(file, index); !s.empty()) return s;
+    return prefix + std::string(file) + " line " + std::to_string(index + 2);
+  }
   std::string at(std::string_view file, std::size_t index, std::string_view column) const {
+    if (sources && sources->row)
+      if (const std::string s = sources->row(file, index); !s.empty())
+        return s + " (" + std::string(column) + "): ";
     return CsvWhere{prefix, file}.at(index + 2, column);  // header is line 1
   }
 
@@ -580,7 +597,7 @@ struct Validator {
       if (!(rows[i].t_s > rows[i - 1].t_s))
         fail(at(file, i, "t_s") + "time " + num_text(rows[i].t_s) +
              (rows[i].t_s == rows[i - 1].t_s ? " repeats" : " is before") + " the time " +
-             num_text(rows[i - 1].t_s) + " on line " + std::to_string(i + 1) +
+             num_text(rows[i - 1].t_s) + " of " + row(file, i - 1) +
              " (times must be strictly increasing)");
     }
   }
@@ -598,7 +615,7 @@ struct Validator {
       meta_fail("field \"imu_rate_hz\" must be > 0, got " + num_text(m.imu_rate_hz));
     if (!(m.gnss_rate_hz > 0))
       meta_fail("field \"gnss_rate_hz\" must be > 0, got " + num_text(m.gnss_rate_hz));
-    if (!(m.align_s >= 0)) meta_fail("field \"align_s\" must be >= 0, got " + num_text(m.align_s));
+    if (!(m.align_s >= 0)) field_fail("align_s", " must be >= 0, got " + num_text(m.align_s));
     if (const std::string e = m.earth.validate(); !e.empty())
       meta_fail("invalid Earth model: " + e);
 
@@ -681,8 +698,8 @@ struct Validator {
       for (std::size_t i = 1; i < ds.imu.size(); ++i) {
         const double dt = ds.imu[i].t_s - ds.imu[i - 1].t_s;
         if (dt > B::kMaxImuStep_s)
-          fail(at(kImuFile, i, "t_s") + "IMU gap of " + num_text(dt) + " s from line " +
-               std::to_string(i + 1) + " (t = " + num_text(ds.imu[i - 1].t_s) +
+          fail(at(kImuFile, i, "t_s") + "IMU gap of " + num_text(dt) + " s from " +
+               row(kImuFile, i - 1) + " (t = " + num_text(ds.imu[i - 1].t_s) +
                ") is longer than the " + num_text(B::kMaxImuStep_s) +
                " s insid integrates across; cut the data there");
         steps.push_back(dt);
@@ -706,9 +723,10 @@ struct Validator {
     const double imu_t0 = ds.imu.front().t_s;
     const double imu_t1 = ds.imu.back().t_s;
     if (!(m.align_s < imu_t1 - imu_t0))
-      meta_fail("field \"align_s\" = " + num_text(m.align_s) +
-                " s must be shorter than the IMU data span " + num_text(imu_t1 - imu_t0) +
-                " s (imu.csv lines 2-" + std::to_string(ds.imu.size() + 1) + ")");
+      field_fail("align_s", " = " + num_text(m.align_s) +
+                                " s must be shorter than the IMU data span " +
+                                num_text(imu_t1 - imu_t0) + " s (" + row(kImuFile, 0) + " to " +
+                                row(kImuFile, ds.imu.size() - 1) + ")");
 
     // GNSS.
     if (ds.gnss.size() < 2)
@@ -739,9 +757,9 @@ struct Validator {
       const double max_gap = std::max(B::kMaxGnssGap_s, 20.0 * declared_step);
       for (std::size_t i = 0; i < steps.size(); ++i)
         if (!(steps[i] <= max_gap))
-          fail(at(kGnssFile, i + 1, "t_s") + "GNSS gap of " + num_text(steps[i]) + " s from line " +
-               std::to_string(i + 2) + " (t = " + num_text(ds.gnss[i].t_s) + " s) to line " +
-               std::to_string(i + 3) + " (t = " + num_text(ds.gnss[i + 1].t_s) +
+          fail(at(kGnssFile, i + 1, "t_s") + "GNSS gap of " + num_text(steps[i]) + " s from " +
+               row(kGnssFile, i) + " (t = " + num_text(ds.gnss[i].t_s) + " s) to " +
+               row(kGnssFile, i + 1) + " (t = " + num_text(ds.gnss[i + 1].t_s) +
                " s) is longer than the allowed " + num_text(max_gap) +
                " s (the larger of 10 s and 20 GNSS periods)");
       if (!(std::fabs(median_step - declared_step) <= B::kRateTolerance * declared_step))
@@ -753,7 +771,11 @@ struct Validator {
     if (!(ds.gnss.front().t_s <= nav_start))
       fail(at(kGnssFile, 0, "t_s") + "GNSS does not cover the start of navigation: the first " +
            "GNSS time " + num_text(ds.gnss.front().t_s) + " s is after the alignment end " +
-           num_text(nav_start) + " s (first IMU time " + num_text(imu_t0) + " s + align_s " +
+           num_text(nav_start) + " s (first IMU time " + num_text(imu_t0) + " s + " +
+           (sources && sources->field && !sources->field("align_s").empty()
+                ? sources->field("align_s")
+                : std::string("align_s")) +
+           " " +
            num_text(m.align_s) + " s); uncovered: [" + num_text(nav_start) + ", " +
            num_text(ds.gnss.front().t_s) + ") s");
     const double allowed_gap = kGnssEndAllowance / m.gnss_rate_hz;
@@ -761,8 +783,8 @@ struct Validator {
       fail(at(kGnssFile, ds.gnss.size() - 1, "t_s") + "GNSS does not cover the end of the " +
            "flight: the last GNSS time " + num_text(ds.gnss.back().t_s) +
            " s is more than 1.5/gnss_rate_hz = " + num_text(allowed_gap) +
-           " s before the last IMU time " + num_text(imu_t1) + " s (imu.csv line " +
-           std::to_string(ds.imu.size() + 1) + "); uncovered: (" + num_text(ds.gnss.back().t_s) +
+           " s before the last IMU time " + num_text(imu_t1) + " s (" +
+           row(kImuFile, ds.imu.size() - 1) + "); uncovered: (" + num_text(ds.gnss.back().t_s) +
            ", " + num_text(imu_t1) + "] s");
 
     // Truth (optional).
@@ -1109,7 +1131,9 @@ Dataset load_dataset(const fs::path& dir) {
   return ds;
 }
 
-void validate_dataset(const Dataset& dataset) { Validator{""}.run(dataset); }
+void validate_dataset(const Dataset& dataset, const DatasetSources& sources) {
+  Validator{"", &sources}.run(dataset);
+}
 
 std::string to_string(HeadingSourceKind kind) {
   return kind == HeadingSourceKind::kMagnetometer ? "magnetometer" : "dual_antenna";

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <optional>
 #include <stdexcept>
@@ -177,10 +178,22 @@ DatasetDestination dataset_destination(const std::filesystem::path& dir,
 void write_dataset(const std::filesystem::path& dir, const Dataset& dataset,
                    const DatasetWriteOptions& options = {});
 
+/// Where an in-memory dataset's rows and meta fields came from, so that validate_dataset's
+/// errors name the user's input rather than the dataset files insid has not written yet (an
+/// import validates before it writes). Either function may return "" (unknown: the dataset's
+/// own name is used).
+struct DatasetSources {
+  /// ("imu.csv" | "gnss.csv" | "heading.csv" | "truth.csv", 0-based data row) ->
+  /// e.g. "walk.pos line 201".
+  std::function<std::string(std::string_view file, std::size_t row)> row;
+  /// meta.json field (e.g. "align_s") -> what set it, e.g. "--align-s".
+  std::function<std::string(std::string_view field)> field;
+};
+
 /// Semantic checks on an in-memory dataset (also run by load_dataset): strictly increasing
 /// times, constant IMU rate within tolerance, GNSS covering the flight, finite values.
-/// Throws DatasetError naming the file and the first offending line.
-void validate_dataset(const Dataset& dataset);
+/// Throws DatasetError naming the file (or `sources`' name for it) and the first offending line.
+void validate_dataset(const Dataset& dataset, const DatasetSources& sources = {});
 
 /// SHA-256 over the files of a dataset directory that determine every result computed from it
 /// (meta.json, imu.csv, gnss.csv, and heading.csv when present; truth.csv and other files do not

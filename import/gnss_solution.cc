@@ -91,6 +91,7 @@ bool looks_like_rtklib_pos(const std::string& text) {
 
 GnssSolution parse_rtklib_pos(const std::string& text, const std::string& where) {
   GnssSolution out;
+  out.source = where;
   std::vector<std::string_view> header;
   std::size_t header_line = 0;
   std::map<std::string, std::size_t> col;  // column name -> token index (after the time tokens)

@@ -35,6 +35,9 @@ struct GnssEpoch {
 struct GnssSolution {
   std::vector<GnssEpoch> epochs;
   std::string format;  ///< "rtklib-pos (date time)" or "rtklib-pos (week tow)"
+  /// As CsvImu::source / row_unit: what errors call the file and what GnssEpoch::line counts.
+  std::string source;
+  std::string row_unit = "line";
 };
 
 /// Reads an RTKLIB solution file (rnx2rtkp / rtkpost output, "llh" position format): `%`

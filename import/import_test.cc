@@ -509,6 +509,86 @@ std::vector<double> csv_pos_round_trip(const Dataset& original, const Rates* rat
   return relative;
 }
 
+// The dataset checks an import runs before it writes name the user's files and options, not
+// the imu.csv / gnss.csv / meta.json insid has not written (issue 37, item 10: a .pos line 201
+// was reported as "gnss.csv line 196", --align-s 1000 as "meta.json: field align_s").
+TEST(CsvImport, DatasetCheckErrorsNameTheUsersFileLineAndOption) {
+  scenarios::ScenarioConfig cfg = scenarios::preset_scenario("straight");
+  cfg.flight_s = 30.0;
+  cfg.align_s = 20.0;
+  const Dataset original = scenarios::simulate(cfg);
+  const int week = 2381;
+  const double tow0 = 100000.0;
+  std::string csv = "time_ms,gx,gy,gz,ax,ay,az\n";
+  for (std::size_t k = 0; k < original.imu.size(); ++k) {
+    const ImuSample& m = original.imu[k];
+    const Eigen::Vector3d w = m.dtheta_b_rad * original.meta.imu_rate_hz / kDegToRad;
+    const Eigen::Vector3d f = m.dv_b_mps * original.meta.imu_rate_hz / 9.80665;
+    char line[300];
+    std::snprintf(line, sizeof line, "%.3f,%.12g,%.12g,%.12g,%.12g,%.12g,%.12g\n",
+                  (315964800.0 + week * 604800.0 + tow0 + m.t_s) * 1000.0, w.x(), w.y(), w.z(),
+                  f.x(), f.y(), f.z());
+    csv += line;
+  }
+  // The .pos with one implausible height on the epoch at t = 25 s; its line in the file.
+  std::string pos = kPosHeader;
+  std::size_t bad_line = 0, line_no = std::count(pos.begin(), pos.end(), '\n');
+  for (const GnssSample& g : original.gnss) {
+    ++line_no;
+    const bool bad = std::fabs(g.t_s - 25.0) < 1e-6;
+    if (bad) bad_line = line_no;
+    char line[400];
+    std::snprintf(line, sizeof line,
+                  "%d %.3f %.9f %.9f %.4f 1 20 0.01 0.01 0.02 0 0 0 0 0 %.5f %.5f %.5f 0.01 0.01 "
+                  "0.01 0 0 0\n",
+                  week, tow0 + g.t_s, g.lat_rad / kDegToRad, g.lon_rad / kDegToRad,
+                  bad ? 1e9 : g.h_m, g.v_eb_n_mps.y(), g.v_eb_n_mps.x(), g.v_eb_n_mps.z());
+    pos += line;
+  }
+  ASSERT_GT(bad_line, 0u);
+  CsvImuSpec spec;
+  spec.columns = CsvImuSpec::parse_columns("t,gx,gy,gz,ax,ay,az");
+  spec.parse_units("ms,g,deg/s");
+  const CsvImu imu = read_csv_imu(csv, "logger.csv", spec, std::nullopt);
+  const GnssSolution gnss = parse_rtklib_pos(pos, "rover.pos");
+  AssembleOptions options;
+  options.align_s = 10.0;
+  const auto error_of = [&](const AssembleOptions& o) -> std::string {
+    try {
+      assemble_dataset(imu, gnss, o);
+    } catch (const DatasetError& e) {
+      return e.what();
+    }
+    return "(accepted)";
+  };
+  const std::string height = error_of(options);
+  EXPECT_NE(height.find("rover.pos line " + std::to_string(bad_line) + " "), std::string::npos)
+      << height;
+  EXPECT_NE(height.find("height 1e+09 m"), std::string::npos) << height;
+  EXPECT_EQ(height.find("gnss.csv"), std::string::npos) << height;
+
+  // A window longer than the data: the option is named, and the IMU rows by the logger's lines.
+  const std::string fixed = [&] {
+    std::string p = pos;
+    const std::size_t at = p.find("1000000000.0000");
+    p.replace(at, 15, std::to_string(original.gnss[0].h_m));
+    return p;
+  }();
+  const GnssSolution good = parse_rtklib_pos(fixed, "rover.pos");
+  AssembleOptions too_long = options;
+  too_long.align_s = 1000.0;
+  std::string align;
+  try {
+    assemble_dataset(imu, good, too_long);
+  } catch (const DatasetError& e) {
+    align = e.what();
+  }
+  EXPECT_NE(align.find("--align-s = 1000 s"), std::string::npos) << align;
+  EXPECT_NE(align.find("logger.csv line "), std::string::npos) << align;
+  EXPECT_EQ(align.find("meta.json"), std::string::npos) << align;
+  EXPECT_EQ(align.find("imu.csv"), std::string::npos) << align;
+}
+
 TEST(CsvImport, SimulatedFlightRoundTripThroughAMappedCsvAndAPos) {
   scenarios::ScenarioConfig cfg = scenarios::preset_scenario("straight");
   cfg.flight_s = 120.0;

@@ -261,7 +261,9 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
   }
   Dataset& ds = out.dataset;
   std::vector<double> steps;
+  std::vector<std::size_t> imu_lines, gnss_lines;  // the source line of each dataset row
   for (std::size_t k = first; k <= last; ++k) {
+    imu_lines.push_back(k < imu.line.size() ? imu.line[k] : 0);
     const double dt =
         k > 0 ? static_cast<double>(imu.t_gpst_unix_s[k] - imu.t_gpst_unix_s[k - 1]) : 0.0;
     ImuSample s;
@@ -339,6 +341,7 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
     g.v_eb_n_mps = {e.v_e_mps, e.v_n_mps, e.v_u_mps};
     if (!ds.gnss.empty()) gsteps.push_back(t - ds.gnss.back().t_s);
     ds.gnss.push_back(g);
+    gnss_lines.push_back(e.line);
     sd_v.push_back(std::hypot(e.sd_vn_mps, e.sd_ve_mps));
   }
   if (ds.gnss.size() < 2) throw std::runtime_error("fewer than 2 GNSS epochs inside the IMU span");
@@ -429,7 +432,23 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
   }
   if (gaps.empty()) prov["imu"]["gaps"] = nlohmann::json::array();
   if (heading) add_heading(*heading, options, t_origin, out);
-  validate_dataset(ds);
+  // Errors name the user's files and options: nothing has been written yet.
+  DatasetSources sources;
+  sources.row = [&](std::string_view file, std::size_t row) -> std::string {
+    const auto name = [](const std::string& source, const std::string& unit,
+                         const std::vector<std::size_t>& lines, std::size_t r) -> std::string {
+      if (source.empty() || r >= lines.size() || lines[r] == 0) return "";
+      return source + " " + unit + " " + std::to_string(lines[r]);
+    };
+    if (file == "imu.csv") return name(imu.source, imu.row_unit, imu_lines, row);
+    if (file == "gnss.csv") return name(gnss.source, gnss.row_unit, gnss_lines, row);
+    return "";
+  };
+  sources.field = [&](std::string_view field) -> std::string {
+    if (field != "align_s") return "";
+    return options.align_s ? "--align-s" : "the detected static window (align_s)";
+  };
+  validate_dataset(ds, sources);
   return out;
 }
 

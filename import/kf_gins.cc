@@ -94,6 +94,7 @@ void append_number(std::string& out, double v, const char* separator) {
 CsvImu parse_kf_gins_imu(const std::string& text, const std::string& where,
                          std::optional<int> gps_week) {
   CsvImu out;
+  out.source = where;
   out.accel_is_increment = true;
   out.gyro_is_increment = true;
   const GpstTime base = week_base(gps_week);
@@ -128,6 +129,7 @@ bool looks_like_kf_gins_gnss(const std::string& text) {
 GnssSolution parse_kf_gins_gnss(const std::string& text, const std::string& where,
                                 std::optional<int> gps_week) {
   GnssSolution out;
+  out.source = where;
   const GpstTime base = week_base(gps_week);
   std::size_t columns = 0;
   parse_rows(text, where, {7, 13}, [&](const std::vector<double>& v, std::size_t line) {
