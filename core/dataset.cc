@@ -486,6 +486,8 @@ DatasetMeta parse_meta(const std::string& text, const std::string& dir_prefix,
       h.declination_deg = r.number(*d, "heading.declination_deg");
     m.heading = h;
   }
+  if (const json* ap = r.find(j, "autopilot_estimates"); ap && !ap->is_null())
+    m.autopilot_estimates_json = r.object(*ap, "autopilot_estimates").dump();
   if (const json* recorded = r.find(j, "files"); recorded && !recorded->is_null()) {
     r.object(*recorded, "files");
     for (const auto& [name, record] : recorded->items()) {
@@ -967,6 +969,8 @@ std::string meta_text(const DatasetMeta& m, const std::map<std::string, Recorded
     j["heading"] = {{"source", to_string(m.heading->source)}};
     if (m.heading->declination_deg) j["heading"]["declination_deg"] = *m.heading->declination_deg;
   }
+  if (!m.autopilot_estimates_json.empty())
+    j["autopilot_estimates"] = nlohmann::ordered_json::parse(m.autopilot_estimates_json);
   for (const auto& [name, record] : files)
     j["files"][name] = {{"rows", record.rows}, {"sha256", record.sha256}};
   return j.dump(2) + "\n";

@@ -87,6 +87,8 @@ struct CsvImu {
   /// kept (the CSV reader keeps every row or refuses the file).
   std::size_t source_rows = 0;
   std::map<std::string, std::size_t> rows_dropped;
+  /// Where the rows come from, for messages ("LOG.ulg, sensor_combined"); "" says "the IMU".
+  std::string origin;
 };
 
 /// Reads `path` with `spec` (comma separated; an optional header line is skipped when its

@@ -242,6 +242,7 @@ UlogSeries extract_ulog(const UlogFile& log, const std::string& where,
 
   // IMU.
   CsvImu& imu = out.imu;
+  imu.origin = where + ", " + imu_topic + " instance " + std::to_string(options.imu_instance);
   imu.accel_is_increment = true;
   imu.gyro_is_increment = true;
   const bool increments = imu_topic == "vehicle_imu";
