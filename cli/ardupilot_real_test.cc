@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
@@ -248,6 +249,54 @@ TEST(ArduPilotCli, AutopilotBiasesMatchBytesDecodedByHand) {
     EXPECT_GT(e.at("airborne_records").get<int>(), 1000) << source;
   }
   EXPECT_EQ(ap.at("imported_imu"), "IMU");
+}
+
+// identify on the imported copter flight puts insid's estimates next to the autopilot EKF's
+// (meta.json autopilot_estimates): each compared value is the one the import recorded (the
+// airborne mean, its scatter plus one logging step's rounding as its sd), insid's is the result's
+// own estimate and sd, and IMU2's accelerometer bias is listed as not compared (another IMU).
+TEST(ArduPilotCli, IdentifyShowsTheAutopilotEstimatesBesideInsids) {
+  if (!fs::exists(kLog)) GTEST_SKIP() << kNoLog;
+  TempDir tmp;
+  ASSERT_FALSE(tmp.path.empty());
+  const fs::path ds = tmp.path / "ds";
+  Outcome o = insid("import ardupilot " + kLog.string() + " --t-start 74.7 --t-end 215 --out " +
+                    ds.string());
+  ASSERT_EQ(o.status, 0) << o.output;
+  o = insid("identify --data " + ds.string() +
+            " --algo ekf-rts --initial-attitude level+heading --window-s 20 --grade mems "
+            "--estimate gyro_bias_x --estimate gyro_bias_y --estimate gyro_bias_z "
+            "--estimate accel_bias_z --threads 1 --out " + (tmp.path / "r.json").string());
+  ASSERT_EQ(o.status, 0) << o.output;
+  EXPECT_NE(o.output.find("insid against the autopilot"), std::string::npos) << o.output;
+  std::ifstream rin(tmp.path / "r.json");
+  const nlohmann::json r = nlohmann::json::parse(rin);
+  std::ifstream min(ds / "meta.json");
+  const nlohmann::json ap = nlohmann::json::parse(min).at("autopilot_estimates");
+  const nlohmann::json& cmp = r.at("autopilot_comparison");
+  ASSERT_EQ(cmp.at("compared").size(), 4u);
+  for (const nlohmann::json& c : cmp["compared"]) {
+    const std::string name = c.at("name");
+    const nlohmann::json* e = nullptr;
+    for (const nlohmann::json& x : ap.at("estimates"))
+      if (x.at("effect") == name && x.at("imu") == "IMU") e = &x;
+    ASSERT_NE(e, nullptr) << name;
+    EXPECT_EQ(c.at("autopilot_value_si").get<double>(), e->at("airborne_mean_si").get<double>());
+    EXPECT_NEAR(c.at("autopilot_sd_si").get<double>(),
+                std::hypot(e->at("airborne_sd_si").get<double>(),
+                           e->at("resolution_si").get<double>() / std::sqrt(12.0)),
+                1e-15);
+    const nlohmann::json* p = nullptr;
+    for (const nlohmann::json& x : r.at("parameters"))
+      if (x.at("name") == name) p = &x;
+    ASSERT_NE(p, nullptr) << name;
+    EXPECT_EQ(c.at("insid_estimate_si").get<double>(), p->at("estimate").get<double>());
+    EXPECT_EQ(c.at("insid_sd_si"), p->at("sd"));
+    EXPECT_NEAR(c.at("difference_si").get<double>(),
+                p->at("estimate").get<double>() - e->at("airborne_mean_si").get<double>(), 1e-15);
+  }
+  ASSERT_EQ(cmp.at("not_compared").size(), 1u);
+  EXPECT_EQ(cmp["not_compared"][0]["autopilot"], "EKF2.AZ2bias (IMU2)");
 }
 
 }  // namespace
