@@ -386,6 +386,7 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
     std::vector<double> gap_ends_s;
     for (const auto& r : rows) {
       if (!(r[0] > previous_ms)) continue;
+      if (!std::all_of(r.begin(), r.end(), [](double v) { return std::isfinite(v); })) continue;
       if (previous_ms >= 0.0 && (r[0] - previous_ms) * 1e-3 > PlausibilityBounds::kMaxImuStep_s)
         gap_ends_s.push_back(r[0] * 1e-3);
       previous_ms = r[0];
@@ -395,7 +396,9 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
     }
     double last_fix_ms = -1.0;
     for (const std::size_t k : fixes) {
-      if (!(gps[k][kBoot] > last_fix_ms)) continue;
+      if (!(gps[k][kBoot] > last_fix_ms) || !std::isfinite(gps[k][kAlt]) ||
+          !std::isfinite(gps[k][kSpd]))
+        continue;
       last_fix_ms = gps[k][kBoot];
       in.gnss_boot_s.push_back(gps[k][kBoot] * 1e-3);
       in.gnss_alt_m.push_back(gps[k][kAlt]);
