@@ -5,10 +5,13 @@
 #include <unistd.h>
 
 #include <array>
+#include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <map>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -128,6 +131,172 @@ TEST(ArduPilotCli, TruncatedAndCorruptedCopies) {
             std::string::npos)
       << o.output;
   EXPECT_FALSE(fs::exists(tmp.path / "bad"));
+}
+
+// The real PX4 ULog whose sensor_combined was decimated by the logger to ~8.6 Hz (README of
+// ../shared/data/px4-ulog-real): refused with the measured rate and the minimum, exit 1, nothing
+// written; with --min-imu-rate-hz below its rate the rate is no longer the reason (the log then
+// fails on its own static window, which starts moving at once: that message, not the rate's).
+TEST(LowRateCli, EightHertzUlogIsRefusedNamingTheRateAndTheMinimum) {
+  const fs::path log = fs::path(INSID_SHARED_DATA) / "px4-ulog-real" / "esc_status_log.ulg";
+  if (!fs::exists(log))
+    GTEST_SKIP() << "../shared/data/px4-ulog-real/esc_status_log.ulg is absent (tests that need "
+                    "the shared real data skip without it)";
+  TempDir tmp;
+  ASSERT_FALSE(tmp.path.empty());
+  const fs::path out = tmp.path / "ds";
+  Outcome o = insid("import ulog " + log.string() + " --out " + out.string());
+  EXPECT_EQ(o.status, 1) << o.output;
+  // Python (the ULog's sensor_combined stamps): 341 messages, median step 104 ms, 8.6 Hz on
+  // average over the span the GNSS covers.
+  EXPECT_NE(o.output.find("esc_status_log.ulg, sensor_combined instance 0: IMU rate 9.62 Hz "
+                          "(median step 104 ms; 8.61 Hz on average"),
+            std::string::npos)
+      << o.output;
+  EXPECT_NE(o.output.find("is below the 20 Hz insid accepts for strapdown integration"),
+            std::string::npos)
+      << o.output;
+  EXPECT_NE(o.output.find("--min-imu-rate-hz R (R <= 9.62)"), std::string::npos) << o.output;
+  EXPECT_FALSE(fs::exists(out));
+  o = insid("import ulog " + log.string() + " --min-imu-rate-hz 9 --out " + out.string());
+  EXPECT_EQ(o.output.find("insid accepts for strapdown integration"), std::string::npos)
+      << o.output;
+}
+
+// Flight phases of the shared copter log, against times read independently of the IMU and GPS
+// rules (Python, struct.unpack on the FMT layouts, /usr/bin/python3, while writing this test):
+// the four motor outputs (RCOU Ch1-4) all above 1100 from 82.864 s and above 1150 from 83.509 s;
+// the barometer (BARO Alt) 1 m above its 70-83 s mean from 85.151 s; IMU2 and IMU3 (other
+// physical sensors than the IMU the phases are found on) first above 4 g at 239.140 s; the
+// autopilot's attitude (ATT Roll) beyond +-150 deg for good from 240.995 s. The suggested
+// window starts after the 2.0 s logging gap (74.628 s) and ends 2 s before the crash.
+TEST(ArduPilotCli, FlightPhasesMatchTimesReadFromOtherMessages) {
+  if (!fs::exists(kLog)) GTEST_SKIP() << kNoLog;
+  TempDir tmp;
+  ASSERT_FALSE(tmp.path.empty());
+  const fs::path ds = tmp.path / "ds";
+  Outcome o = insid("import ardupilot " + kLog.string() + " --t-start 74.7 --t-end 215 --out " +
+                    ds.string());
+  ASSERT_EQ(o.status, 0) << o.output;
+  EXPECT_NE(o.output.find("  crash        239.14 s (impact)"), std::string::npos) << o.output;
+  std::ifstream in(ds / "provenance.json");
+  const nlohmann::json ph = nlohmann::json::parse(in).at("flight_phases");
+  EXPECT_GE(ph.at("motors_on_boot_s").get<double>(), 82.864 - 0.5);
+  EXPECT_LE(ph.at("motors_on_boot_s").get<double>(), 83.509 + 0.5);
+  EXPECT_NEAR(ph.at("takeoff_boot_s").get<double>(), 85.151, 1.0);
+  EXPECT_NEAR(ph.at("crash_boot_s").get<double>(), 239.140, 0.021);  // one 50 Hz step
+  EXPECT_NEAR(ph.at("inverted_boot_s").get<double>(), 240.995, 1.0);
+  EXPECT_EQ(ph.at("airborne").at("ended_by"), "crash");
+  EXPECT_NEAR(ph.at("suggested_window_boot_s").at("t_start").get<double>(), 74.628, 1e-9);
+  EXPECT_NEAR(ph.at("suggested_window_boot_s").at("t_end").get<double>(), 239.140 - 2.0, 0.021);
+  // The log's own flight without the crash imports with the suggested window.
+  o = insid("import ardupilot " + kLog.string() + " --t-start 74.628 --t-end 237.14 --out " +
+            (tmp.path / "flight").string());
+  EXPECT_EQ(o.status, 0) << o.output;
+}
+
+// The autopilot EKF's bias estimates in meta.json, against values decoded by hand from the bytes
+// of log171.bin: the last EKF1 record at or before boot 215 s is at byte 2513736 (a3 95 8c, then
+// TimeMS 214979 = 0x000347c3); GX, GY, GZ are its int16 at bytes +37, +39, +41 = 20, 2, 6
+// (FMT "IccCffffffccc": 3 + 4 + 2 + 2 + 2 + 6 x 4 = 37), i.e. 0.20, 0.02, 0.06 deg/s;
+// the EKF2 record at byte 2513779 holds AZ1bias, AZ2bias as int8 at +8, +9 = 21, 41 cm/s^2
+// (FMT "Ibbbcchhhhhh": Ratio at +7). A wrong scale (x1, x0.01 twice) or a swapped axis or IMU
+// fails here. The test re-reads those bytes so that the offsets themselves are checked.
+TEST(ArduPilotCli, AutopilotBiasesMatchBytesDecodedByHand) {
+  if (!fs::exists(kLog)) GTEST_SKIP() << kNoLog;
+  const std::string bytes = file_bytes(kLog);
+  ASSERT_GT(bytes.size(), 2513790u);
+  const auto i16 = [&](std::size_t at) {
+    return static_cast<std::int16_t>(static_cast<unsigned char>(bytes[at]) |
+                                     (static_cast<unsigned char>(bytes[at + 1]) << 8));
+  };
+  ASSERT_EQ(bytes.compare(2513736, 3, "\xA3\x95\x8C"), 0);
+  ASSERT_EQ(bytes.compare(2513779, 3, "\xA3\x95\x8D"), 0);
+  ASSERT_EQ(i16(2513736 + 37), 20);
+  ASSERT_EQ(i16(2513736 + 39), 2);
+  ASSERT_EQ(i16(2513736 + 41), 6);
+  ASSERT_EQ(static_cast<std::int8_t>(bytes[2513779 + 8]), 21);
+  ASSERT_EQ(static_cast<std::int8_t>(bytes[2513779 + 9]), 41);
+
+  TempDir tmp;
+  ASSERT_FALSE(tmp.path.empty());
+  const fs::path ds = tmp.path / "ds";
+  const Outcome o = insid("import ardupilot " + kLog.string() +
+                          " --t-start 74.7 --t-end 215 --out " + ds.string());
+  ASSERT_EQ(o.status, 0) << o.output;
+  std::ifstream in(ds / "meta.json");
+  const nlohmann::json ap = nlohmann::json::parse(in).at("autopilot_estimates");
+  constexpr double kCentiDegS = 0.01 * 3.14159265358979323846 / 180.0;  // rad/s
+  std::map<std::string, double> want = {{"EKF1.GX", 20 * kCentiDegS},
+                                        {"EKF1.GY", 2 * kCentiDegS},
+                                        {"EKF1.GZ", 6 * kCentiDegS},
+                                        {"EKF2.AZ1bias", 0.21},
+                                        {"EKF2.AZ2bias", 0.41}};
+  const std::map<std::string, std::string> effect = {{"EKF1.GX", "gyro_bias_x"},
+                                                     {"EKF1.GY", "gyro_bias_y"},
+                                                     {"EKF1.GZ", "gyro_bias_z"},
+                                                     {"EKF2.AZ1bias", "accel_bias_z"},
+                                                     {"EKF2.AZ2bias", "accel_bias_z"}};
+  ASSERT_EQ(ap.at("estimates").size(), 5u);
+  for (const nlohmann::json& e : ap.at("estimates")) {
+    const std::string source = e.at("source");
+    ASSERT_TRUE(want.count(source)) << source;
+    EXPECT_NEAR(e.at("end_si").get<double>(), want.at(source), 1e-12) << source;
+    EXPECT_EQ(e.at("effect"), effect.at(source)) << source;
+    EXPECT_NEAR(e.at("end_boot_s").get<double>(), 214.979, 1e-9) << source;
+    EXPECT_EQ(e.at("imu"), source == "EKF2.AZ2bias" ? "IMU2" : "IMU") << source;
+    EXPECT_EQ(e.at("applies_to_imported_imu").get<bool>(), source != "EKF2.AZ2bias") << source;
+    EXPECT_GT(e.at("airborne_records").get<int>(), 1000) << source;
+  }
+  EXPECT_EQ(ap.at("imported_imu"), "IMU");
+}
+
+// identify on the imported copter flight puts insid's estimates next to the autopilot EKF's
+// (meta.json autopilot_estimates): each compared value is the one the import recorded (the
+// airborne mean, its scatter plus one logging step's rounding as its sd), insid's is the result's
+// own estimate and sd, and IMU2's accelerometer bias is listed as not compared (another IMU).
+TEST(ArduPilotCli, IdentifyShowsTheAutopilotEstimatesBesideInsids) {
+  if (!fs::exists(kLog)) GTEST_SKIP() << kNoLog;
+  TempDir tmp;
+  ASSERT_FALSE(tmp.path.empty());
+  const fs::path ds = tmp.path / "ds";
+  Outcome o = insid("import ardupilot " + kLog.string() + " --t-start 74.7 --t-end 215 --out " +
+                    ds.string());
+  ASSERT_EQ(o.status, 0) << o.output;
+  o = insid("identify --data " + ds.string() +
+            " --algo ekf-rts --initial-attitude level+heading --window-s 20 --grade mems "
+            "--estimate gyro_bias_x --estimate gyro_bias_y --estimate gyro_bias_z "
+            "--estimate accel_bias_z --threads 1 --out " + (tmp.path / "r.json").string());
+  ASSERT_EQ(o.status, 0) << o.output;
+  EXPECT_NE(o.output.find("insid against the autopilot"), std::string::npos) << o.output;
+  std::ifstream rin(tmp.path / "r.json");
+  const nlohmann::json r = nlohmann::json::parse(rin);
+  std::ifstream min(ds / "meta.json");
+  const nlohmann::json ap = nlohmann::json::parse(min).at("autopilot_estimates");
+  const nlohmann::json& cmp = r.at("autopilot_comparison");
+  ASSERT_EQ(cmp.at("compared").size(), 4u);
+  for (const nlohmann::json& c : cmp["compared"]) {
+    const std::string name = c.at("name");
+    const nlohmann::json* e = nullptr;
+    for (const nlohmann::json& x : ap.at("estimates"))
+      if (x.at("effect") == name && x.at("imu") == "IMU") e = &x;
+    ASSERT_NE(e, nullptr) << name;
+    EXPECT_EQ(c.at("autopilot_value_si").get<double>(), e->at("airborne_mean_si").get<double>());
+    EXPECT_NEAR(c.at("autopilot_sd_si").get<double>(),
+                std::hypot(e->at("airborne_sd_si").get<double>(),
+                           e->at("resolution_si").get<double>() / std::sqrt(12.0)),
+                1e-15);
+    const nlohmann::json* p = nullptr;
+    for (const nlohmann::json& x : r.at("parameters"))
+      if (x.at("name") == name) p = &x;
+    ASSERT_NE(p, nullptr) << name;
+    EXPECT_EQ(c.at("insid_estimate_si").get<double>(), p->at("estimate").get<double>());
+    EXPECT_EQ(c.at("insid_sd_si"), p->at("sd"));
+    EXPECT_NEAR(c.at("difference_si").get<double>(),
+                p->at("estimate").get<double>() - e->at("airborne_mean_si").get<double>(), 1e-15);
+  }
+  ASSERT_EQ(cmp.at("not_compared").size(), 1u);
+  EXPECT_EQ(cmp["not_compared"][0]["autopilot"], "EKF2.AZ2bias (IMU2)");
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 #include <charconv>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <iostream>
 #include <limits>
 #include <memory>
@@ -28,6 +29,93 @@
 
 namespace insid::cli {
 namespace {
+
+// insid's estimates next to the autopilot's own (meta.json "autopilot_estimates", written by
+// `insid import ardupilot`), for each autopilot estimate of the imported IMU: both values with
+// both sides' uncertainties. insid's sd is the result's "parameters" sd (its sd_source says
+// which); the autopilot's is the scatter of its logged estimate over the airborne part, with one
+// logging step's rounding (resolution / sqrt 12) added: the EKF logs no variance. The difference
+// is insid minus the autopilot's airborne mean (its value at the window's end when there is no
+// airborne part), over the root sum of squares of the two sd.
+nlohmann::json autopilot_comparison_json(const nlohmann::json& result, const nlohmann::json& ap) {
+  nlohmann::json compared = nlohmann::json::array(), not_compared = nlohmann::json::array();
+  for (const nlohmann::json& e : ap.at("estimates")) {
+    const std::string name = e.at("effect");
+    const std::string label = e.at("source").get<std::string>() + " (" +
+                              e.at("imu").get<std::string>() + ")";
+    if (!e.at("applies_to_imported_imu").get<bool>()) {
+      not_compared.push_back({{"autopilot", label}, {"why", "another IMU than the imported one"}});
+      continue;
+    }
+    const nlohmann::json* mine = nullptr;
+    if (result.contains("parameters"))
+      for (const nlohmann::json& p : result["parameters"])
+        if (p.at("name") == name) mine = &p;
+    if (mine == nullptr) {
+      not_compared.push_back(
+          {{"autopilot", label}, {"why", "not estimated by this run (--estimate " + name + ")"}});
+      continue;
+    }
+    const bool has_mean = !e.at("airborne_mean_si").is_null();
+    const double ap_value = has_mean ? e["airborne_mean_si"].get<double>() : e.at("end_si").get<double>();
+    const double rounding = e.at("resolution_si").get<double>() / std::sqrt(12.0);
+    const double ap_sd = std::hypot(e["airborne_sd_si"].is_null() ? 0.0 : e["airborne_sd_si"].get<double>(),
+                                    rounding);
+    const double insid_value = mine->at("estimate").get<double>();
+    nlohmann::json c = {{"name", name},
+                        {"si_unit", e.at("si_unit")},
+                        {"insid_estimate_si", insid_value},
+                        {"insid_sd_si", mine->value("sd", nlohmann::json(nullptr))},
+                        {"insid_sd_source", mine->value("sd_source", nlohmann::json(nullptr))},
+                        {"autopilot_source", label},
+                        {"autopilot_value_si", ap_value},
+                        {"autopilot_value_is", has_mean ? "airborne mean" : "value at the window's end"},
+                        {"autopilot_sd_si", ap_sd},
+                        {"autopilot_end_si", e.at("end_si")},
+                        {"difference_si", insid_value - ap_value}};
+    if (!c["insid_sd_si"].is_null()) {
+      const double combined = std::hypot(c["insid_sd_si"].get<double>(), ap_sd);
+      c["combined_sd_si"] = combined;
+      c["difference_over_combined_sd"] = combined > 0 ? (insid_value - ap_value) / combined : 0.0;
+    }
+    compared.push_back(c);
+  }
+  return {{"autopilot", ap.value("autopilot", "")},
+          {"autopilot_sd", "scatter of the logged estimate over the airborne part with one logging "
+                           "step's rounding (resolution / sqrt 12): the autopilot logs no variance"},
+          {"compared", compared},
+          {"not_compared", not_compared}};
+}
+
+std::string autopilot_comparison_table(const nlohmann::json& cmp) {
+  std::string t = "insid against the autopilot (" + cmp.at("autopilot").get<std::string>() +
+                  "; autopilot sd = its estimate's scatter in flight):\n";
+  char line[256];
+  std::snprintf(line, sizeof line, "  %-13s %-26s %-40s %s\n", "parameter", "insid +- sd",
+                "autopilot +- sd (source)", "diff/sd");
+  t += line;
+  for (const nlohmann::json& c : cmp.at("compared")) {
+    const bool gyro = c.at("name").get<std::string>().rfind("gyro", 0) == 0;
+    const double k = gyro ? 180.0 / 3.14159265358979323846 : 1e3 / 9.80665;
+    const char* unit = gyro ? "deg/s" : "mg";
+    char mine[64], theirs[96], ratio[32] = "-";
+    if (c.at("insid_sd_si").is_null())
+      std::snprintf(mine, sizeof mine, "%.4g (no sd) %s", c["insid_estimate_si"].get<double>() * k, unit);
+    else
+      std::snprintf(mine, sizeof mine, "%.4g +- %.2g %s", c["insid_estimate_si"].get<double>() * k,
+                    c["insid_sd_si"].get<double>() * k, unit);
+    std::snprintf(theirs, sizeof theirs, "%.4g +- %.2g (%s)", c["autopilot_value_si"].get<double>() * k,
+                  c["autopilot_sd_si"].get<double>() * k, c["autopilot_source"].get<std::string>().c_str());
+    if (c.contains("difference_over_combined_sd"))
+      std::snprintf(ratio, sizeof ratio, "%.2f", c["difference_over_combined_sd"].get<double>());
+    std::snprintf(line, sizeof line, "  %-13s %-26s %-40s %s\n", c["name"].get<std::string>().c_str(),
+                  mine, theirs, ratio);
+    t += line;
+  }
+  for (const nlohmann::json& n : cmp.at("not_compared"))
+    t += "  not compared: " + n.at("autopilot").get<std::string>() + ": " + n.at("why").get<std::string>() + "\n";
+  return t;
+}
 
 struct IdentifyArgs {
   std::string data_dir;
@@ -180,6 +268,12 @@ void run_identify(const IdentifyArgs& args) {
     uo.threads = args.threads;
     const UncertaintyReport report = add_run_uncertainty_json(out, problem, *optimizer, uo);
     if (!progress.quiet()) std::cerr << report.table();
+  }
+  // The autopilot's own estimates of the same errors, when the import recorded them.
+  if (!dataset->meta.autopilot_estimates_json.empty()) {
+    out["autopilot_comparison"] = autopilot_comparison_json(
+        out, nlohmann::json::parse(dataset->meta.autopilot_estimates_json));
+    if (!progress.quiet()) std::cerr << autopilot_comparison_table(out["autopilot_comparison"]);
   }
   write_json_output(args.out, out, guard);
 }

@@ -45,6 +45,7 @@ struct SharedImportArgs {
   double static_rate_dps = import::AssembleOptions{}.static_rate_dps;
   double static_accel_sd_mps2 = import::AssembleOptions{}.static_accel_sd_mps2;
   std::optional<double> declination_deg;
+  double min_imu_rate_hz = import::kDefaultMinImuRateHz;
   std::string out;
   bool force = false;
   Verbosity verbosity = Verbosity::kNormal;
@@ -56,6 +57,7 @@ struct SharedImportArgs {
   options.static_rate_dps = static_rate_dps;
   options.static_accel_sd_mps2 = static_accel_sd_mps2;
   options.declination_deg = declination_deg;
+  options.min_imu_rate_hz = min_imu_rate_hz;
   return options;
 }
   /// Added to the recorded options of provenance.json.
@@ -65,6 +67,7 @@ struct SharedImportArgs {
   options["static_rate_dps"] = static_rate_dps;
   options["static_accel_sd_mps2"] = static_accel_sd_mps2;
   if (declination_deg) options["declination_deg"] = *declination_deg;  // only when given
+  options["min_imu_rate_hz"] = min_imu_rate_hz;
 }
 };  // namespace
 
@@ -92,6 +95,12 @@ void add_shared_import_options(CLI::App* sub, SharedImportArgs& a) {
                   "magnetometer heading (csv mx,my,mz columns; ulog --heading mag), which it "
                   "turns into a true heading; insid has no world magnetic model")
       ->check(number_in(-180, 180));
+  sub->add_option("--min-imu-rate-hz", a.min_imu_rate_hz,
+                  "lowest IMU rate (Hz) integrated; a slower log is refused (default 20: a "
+                  "multicopter's motion reaches ~5 Hz, and the Nyquist frequency should be twice "
+                  "that; lower it only for a platform whose motion stays below a quarter of it)")
+      ->capture_default_str()
+      ->check(number_in(1e-3, 10000));
   sub->add_option("--out", a.out, "output dataset directory (new, empty or an insid dataset)")
       ->required();
   sub->add_flag("--force", a.force, "write into a --out directory that holds other files");
@@ -337,6 +346,8 @@ void run_import_ardupilot(const ImportArduPilotArgs& args) {
   const nlohmann::json source = source_json("dataflash", args.log, bytes);
   const import::DataFlashFile log = import::DataFlashFile::parse(std::move(bytes), args.log);
   import::ArduPilotSeries series = import::extract_ardupilot(log, args.log, args.ardupilot);
+  // The phases first, even when the import is refused below: they say where to cut.
+  for (const std::string& line : series.phases.lines()) std::cerr << "insid import: " << line << "\n";
   for (const auto& [boot_s, gap_s] : series.imu_gaps_boot_s)
     if (gap_s > PlausibilityBounds::kMaxImuStep_s) {
       char text[512];
@@ -351,6 +362,8 @@ void run_import_ardupilot(const ImportArduPilotArgs& args) {
   import::Assembled result = import::assemble_dataset(series.imu, series.gnss, options);
   result.provenance.update(series.provenance, true);
   result.notes.insert(result.notes.begin(), series.notes.begin(), series.notes.end());
+  if (!series.autopilot_estimates.is_null())
+    result.dataset.meta.autopilot_estimates_json = series.autopilot_estimates.dump();
   nlohmann::json opts = {
       {"imu", args.ardupilot.imu},
       {"min_status", args.ardupilot.min_status},

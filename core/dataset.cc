@@ -486,6 +486,8 @@ DatasetMeta parse_meta(const std::string& text, const std::string& dir_prefix,
       h.declination_deg = r.number(*d, "heading.declination_deg");
     m.heading = h;
   }
+  if (const json* ap = r.find(j, "autopilot_estimates"); ap && !ap->is_null())
+    m.autopilot_estimates_json = r.object(*ap, "autopilot_estimates").dump();
   if (const json* recorded = r.find(j, "files"); recorded && !recorded->is_null()) {
     r.object(*recorded, "files");
     for (const auto& [name, record] : recorded->items()) {
@@ -541,11 +543,18 @@ struct Validator {
       if (const std::string by = sources->field(field); !by.empty()) fail(prefix + by + rest);
     meta_fail("field \"" + std::string(field) + "\"" + rest);
   }
-  // The row `index` of `file`: "imu.csv line 7" (header = line 1), or where it came from.
+  // The row `index` of `file` inside a message about that file: "line 7" (header = line 1), or
+  // where the row came from ("rover.pos line 201").
   std::string row(std::string_view file, std::size_t index) const {
     if (sources && sources->row)
       if (const std::string s = sources->row(file, index); !s.empty()) return s;
-    return prefix + std::string(file) + " line " + std::to_string(index + 2);
+    return "line " + std::to_string(index + 2);
+  }
+  // The same with the file named: "imu.csv line 7", or where the row came from.
+  std::string file_row(std::string_view file, std::size_t index) const {
+    if (sources && sources->row)
+      if (const std::string s = sources->row(file, index); !s.empty()) return s;
+    return std::string(file) + " line " + std::to_string(index + 2);
   }
   std::string at(std::string_view file, std::size_t index, std::string_view column) const {
     if (sources && sources->row)
@@ -597,7 +606,7 @@ struct Validator {
       if (!(rows[i].t_s > rows[i - 1].t_s))
         fail(at(file, i, "t_s") + "time " + num_text(rows[i].t_s) +
              (rows[i].t_s == rows[i - 1].t_s ? " repeats" : " is before") + " the time " +
-             num_text(rows[i - 1].t_s) + " of " + row(file, i - 1) +
+             num_text(rows[i - 1].t_s) + " on " + row(file, i - 1) +
              " (times must be strictly increasing)");
     }
   }
@@ -725,8 +734,8 @@ struct Validator {
     if (!(m.align_s < imu_t1 - imu_t0))
       field_fail("align_s", " = " + num_text(m.align_s) +
                                 " s must be shorter than the IMU data span " +
-                                num_text(imu_t1 - imu_t0) + " s (" + row(kImuFile, 0) + " to " +
-                                row(kImuFile, ds.imu.size() - 1) + ")");
+                                num_text(imu_t1 - imu_t0) + " s (" + file_row(kImuFile, 0) +
+                                " to " + row(kImuFile, ds.imu.size() - 1) + ")");
 
     // GNSS.
     if (ds.gnss.size() < 2)
@@ -784,8 +793,8 @@ struct Validator {
            "flight: the last GNSS time " + num_text(ds.gnss.back().t_s) +
            " s is more than 1.5/gnss_rate_hz = " + num_text(allowed_gap) +
            " s before the last IMU time " + num_text(imu_t1) + " s (" +
-           row(kImuFile, ds.imu.size() - 1) + "); uncovered: (" + num_text(ds.gnss.back().t_s) +
-           ", " + num_text(imu_t1) + "] s");
+           file_row(kImuFile, ds.imu.size() - 1) + "); uncovered: (" +
+           num_text(ds.gnss.back().t_s) + ", " + num_text(imu_t1) + "] s");
 
     // Truth (optional).
     for (std::size_t i = 0; i < ds.truth.size(); ++i) {
@@ -989,6 +998,8 @@ std::string meta_text(const DatasetMeta& m, const std::map<std::string, Recorded
     j["heading"] = {{"source", to_string(m.heading->source)}};
     if (m.heading->declination_deg) j["heading"]["declination_deg"] = *m.heading->declination_deg;
   }
+  if (!m.autopilot_estimates_json.empty())
+    j["autopilot_estimates"] = nlohmann::ordered_json::parse(m.autopilot_estimates_json);
   for (const auto& [name, record] : files)
     j["files"][name] = {{"rows", record.rows}, {"sha256", record.sha256}};
   return j.dump(2) + "\n";

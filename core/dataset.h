@@ -90,6 +90,11 @@ struct DatasetMeta {
   std::optional<std::map<std::string, double>> injected;  ///< catalogue name -> SI value
   std::optional<NoiseLevels> noise;
   std::optional<HeadingMeta> heading;  ///< present exactly when heading.csv is
+  /// meta.json "autopilot_estimates": what the recording's own autopilot estimated (e.g. the
+  /// ArduPilot EKF's gyro and accelerometer biases), written by the importer for comparison and
+  /// never used by insid's computations. Kept verbatim (a JSON object's text, "" when absent)
+  /// so that every command that rewrites a dataset carries it along.
+  std::string autopilot_estimates_json;
 };
 
 struct Dataset {

@@ -5,6 +5,8 @@
 #include <cstdio>
 #include <stdexcept>
 
+#include "core/dataset.h"  // PlausibilityBounds::kMaxImuStep_s
+
 namespace insid::import {
 namespace {
 
@@ -28,7 +30,110 @@ void fit_line(const std::vector<long double>& x, const std::vector<long double>&
   a = my - b * mx;
 }
 
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kG0 = 9.80665;
+
 }  // namespace
+
+nlohmann::json autopilot_bias_estimates(const DataFlashFile& log, const FlightPhases& phases,
+                                        const ArduPilotImportOptions& options,
+                                        std::vector<std::string>& notes) {
+  struct Field {
+    const char* message;
+    const char* field;
+    char letter;            // the FMT letter ArduPilot writes it with
+    double to_si;           // from the reader's value (letter scaling applied) to SI
+    const char* effect;     // insid's catalogue name
+    const char* imu;        // the IMU it refers to
+    const char* logged;     // how it is logged
+    double resolution_si;   // one logged step
+  };
+  constexpr double kDegS = kPi / 180.0;  // deg/s -> rad/s
+  const Field fields[] = {
+      {"EKF1", "GX", 'c', kDegS, "gyro_bias_x", "IMU", "int16 centi-deg/s (FMT c: x 0.01 deg/s)", 0.01 * kDegS},
+      {"EKF1", "GY", 'c', kDegS, "gyro_bias_y", "IMU", "int16 centi-deg/s (FMT c: x 0.01 deg/s)", 0.01 * kDegS},
+      {"EKF1", "GZ", 'c', kDegS, "gyro_bias_z", "IMU", "int16 centi-deg/s (FMT c: x 0.01 deg/s)", 0.01 * kDegS},
+      {"EKF2", "AZ1bias", 'b', 0.01, "accel_bias_z", "IMU", "int8 cm/s^2 (FMT b, 100 x m/s^2)", 0.01},
+      {"EKF2", "AZ2bias", 'b', 0.01, "accel_bias_z", "IMU2", "int8 cm/s^2 (FMT b, 100 x m/s^2)", 0.01},
+  };
+  if (log.count("EKF1") == 0 && log.count("EKF2") == 0) return nullptr;
+  const double t_start_s = options.t_start_s.value_or(-1.0);
+  const double t_end_s = options.t_end_s.value_or(1e300);
+  const bool airborne = phases.airborne();
+  const double air_from_s = airborne ? std::max(*phases.takeoff_s, t_start_s) : 0.0;
+  const double air_to_s = airborne ? std::min(phases.airborne_end_s, t_end_s) : 0.0;
+  nlohmann::json list = nlohmann::json::array();
+  std::string summary;
+  for (const Field& f : fields) {
+    if (log.count(f.message) == 0 || !log.has_field(f.message, "TimeMS")) continue;
+    const char letter = log.field_type(f.message, f.field);
+    if (letter == 0) continue;
+    if (letter != f.letter) {
+      notes.push_back(std::string("autopilot estimate ") + f.message + "." + f.field +
+                      " left out: its FMT letter is '" + letter + "', not the '" + f.letter +
+                      "' whose scale ArduPilot's Log_Write_EKF documents");
+      continue;
+    }
+    const auto rows = log.read(f.message, {"TimeMS", f.field});
+    std::optional<double> end_si, end_boot_s;
+    double sum = 0, sum2 = 0;
+    std::size_t n = 0;
+    for (const auto& r : rows) {
+      const double t = r[0] * 1e-3, v = r[1] * f.to_si;
+      if (t < t_start_s || t > t_end_s) continue;
+      end_si = v, end_boot_s = t;
+      if (airborne && t >= air_from_s && t <= air_to_s) sum += v, sum2 += v * v, ++n;
+    }
+    if (!end_si) continue;
+    const double mean = n > 0 ? sum / static_cast<double>(n) : 0.0;
+    const double sd = n > 1 ? std::sqrt(std::max(0.0, (sum2 - static_cast<double>(n) * mean * mean) /
+                                                          static_cast<double>(n - 1)))
+                            : 0.0;
+    const bool gyro = f.effect[0] == 'g';
+    const double display = gyro ? 180.0 / kPi : 1e3 / kG0;  // SI -> deg/s or mg
+    nlohmann::json e = {
+        {"effect", f.effect},
+        {"source", std::string(f.message) + "." + f.field},
+        {"imu", f.imu},
+        {"applies_to_imported_imu", options.imu == f.imu},
+        {"logged_as", f.logged},
+        {"si_unit", gyro ? "rad/s" : "m/s^2"},
+        {"end_boot_s", *end_boot_s},
+        {"end_si", *end_si},
+        {"airborne_records", n},
+        {"airborne_mean_si", n > 0 ? nlohmann::json(mean) : nlohmann::json(nullptr)},
+        {"airborne_sd_si", n > 1 ? nlohmann::json(sd) : nlohmann::json(nullptr)},
+        {"resolution_si", f.resolution_si},
+        {"display_unit", gyro ? "deg/s" : "mg"},
+        {"end_display", *end_si * display},
+        {"airborne_mean_display", n > 0 ? nlohmann::json(mean * display) : nlohmann::json(nullptr)},
+        {"airborne_sd_display", n > 1 ? nlohmann::json(sd * display) : nlohmann::json(nullptr)}};
+    list.push_back(e);
+    summary += (summary.empty() ? "" : "; ") + std::string(f.effect) + " (" + f.imu + ") " +
+               num(*end_si * display, 3) +
+               (n > 1 ? ", airborne " + num(mean * display, 3) + " +- " + num(sd * display, 2)
+                      : std::string()) +
+               " " + (gyro ? "deg/s" : "mg");
+  }
+  if (list.empty()) return nullptr;
+  notes.push_back("autopilot EKF bias estimates (meta.json autopilot_estimates; at the end of the "
+                  "window" + std::string(airborne ? ", airborne mean +- sd" : "") + "): " + summary);
+  return {
+      {"autopilot", "ArduPilot NavEKF (EKF1/EKF2 log messages)"},
+      {"frame", "body forward-right-down: ArduPilot's body axes, insid's b (no mounting applied)"},
+      {"sign", "bias = measured - true, as insid's sensor model (the EKF subtracts its bias "
+               "states from the IMU's increments)"},
+      {"imported_imu", options.imu},
+      {"which_imu", "EKF1 GX/GY/GZ: the one gyro the NavEKF integrates (the primary, normally "
+                    "IMU); EKF2 AZ1bias/AZ2bias: the z accelerometers of IMU and IMU2"},
+      {"window_boot_s", {options.t_start_s ? nlohmann::json(*options.t_start_s) : nlohmann::json(nullptr),
+                         options.t_end_s ? nlohmann::json(*options.t_end_s) : nlohmann::json(nullptr)}},
+      {"airborne_boot_s", airborne ? nlohmann::json{air_from_s, air_to_s} : nlohmann::json(nullptr)},
+      {"uncertainty", "the EKF logs no variance of its bias states: airborne_sd_si is the sample sd "
+                      "of the logged estimate over the airborne part (how far it wanders, not a "
+                      "standard error); resolution_si is one logged step"},
+      {"estimates", list}};
+}
 
 std::string ArduPilotImportOptions::validate() const {
   if (imu != "IMU" && imu != "IMU2" && imu != "IMU3")
@@ -205,6 +310,8 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
     out.gnss.epochs.push_back(e);
   }
   out.gnss.format = "ardupilot dataflash GPS";
+  out.gnss.source = where + ", GPS";
+  out.gnss.row_unit = "record";
   prov["gnss"]["source"] = "GPS: Week + TimeMS (GPS time of week, ms) as GPST; Lat, Lng; Alt "
                            "(MSL); v_n, v_e = Spd cos(GCrs), Spd sin(GCrs); v_u from VZ";
   prov["gnss"]["records"] = gps.size();
@@ -229,6 +336,8 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
   // IMU.
   const auto rows = log.read(options.imu, {"TimeMS", "GyrX", "GyrY", "GyrZ", "AccX", "AccY", "AccZ"});
   CsvImu& imu = out.imu;
+  imu.origin = where + ", " + options.imu;
+  imu.row_unit = "record";
   imu.source_rows = rows.size();
   std::size_t imu_outside = 0, imu_not_increasing = 0;
   double last_ms = -1.0;
@@ -273,6 +382,37 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
       }
     prov["imu"]["boot_gaps"] = list;
   }
+  // The flight's phases over the whole log: the chosen IMU's every record, every fix.
+  {
+    FlightPhaseInput in;
+    double previous_ms = -1.0;
+    std::vector<double> gap_ends_s;
+    for (const auto& r : rows) {
+      if (!(r[0] > previous_ms)) continue;
+      if (!std::all_of(r.begin(), r.end(), [](double v) { return std::isfinite(v); })) continue;
+      if (previous_ms >= 0.0 && (r[0] - previous_ms) * 1e-3 > PlausibilityBounds::kMaxImuStep_s)
+        gap_ends_s.push_back(r[0] * 1e-3);
+      previous_ms = r[0];
+      in.imu_boot_s.push_back(r[0] * 1e-3);
+      in.omega_b_rad_s.emplace_back(r[1], r[2], r[3]);
+      in.f_b_mps2.emplace_back(r[4], r[5], r[6]);
+    }
+    double last_fix_ms = -1.0;
+    for (const std::size_t k : fixes) {
+      if (!(gps[k][kBoot] > last_fix_ms) || !std::isfinite(gps[k][kAlt]) ||
+          !std::isfinite(gps[k][kSpd]))
+        continue;
+      last_fix_ms = gps[k][kBoot];
+      in.gnss_boot_s.push_back(gps[k][kBoot] * 1e-3);
+      in.gnss_alt_m.push_back(gps[k][kAlt]);
+      in.gnss_speed_mps.push_back(gps[k][kSpd]);
+    }
+    out.phases = find_flight_phases(in, FlightPhaseOptions{}, gap_ends_s);
+    prov["flight_phases"] = out.phases.to_json();
+    prov["flight_phases"]["imu"] = options.imu;
+  }
+  out.autopilot_estimates = autopilot_bias_estimates(log, out.phases, options, out.notes);
+
   prov["imu"]["source"] = options.imu + ": TimeMS (boot ms), GyrX/Y/Z (rad/s), AccX/Y/Z (m/s^2): "
                                         "sampled values, integrated as point samples";
   prov["imu"]["axes"] = "ArduPilot body frame, forward-right-down (no mounting applied)";

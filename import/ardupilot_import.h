@@ -14,6 +14,7 @@
 
 #include "import/csv_imu.h"
 #include "import/dataflash.h"
+#include "import/flight_phases.h"
 #include "import/gnss_solution.h"
 
 namespace insid::import {
@@ -53,9 +54,35 @@ struct ArduPilotSeries {
   /// record before the gap, gap s). Longer than PlausibilityBounds::kMaxImuStep_s, the dataset
   /// refuses them: the caller cuts them out (--t-start / --t-end).
   std::vector<std::pair<double, double>> imu_gaps_boot_s;
+  /// The flight's phases over the whole log (not only the --t-start/--t-end cut), from the
+  /// chosen IMU and every GPS fix (find_flight_phases); also in provenance "flight_phases".
+  FlightPhases phases;
+  /// meta.json "autopilot_estimates": the autopilot EKF's logged bias estimates (null when the
+  /// log has none), see autopilot_bias_estimates.
+  nlohmann::json autopilot_estimates;
   nlohmann::json provenance;
   std::vector<std::string> notes;
 };
+
+/// The bias estimates ArduPilot's EKF logged, for comparison with insid's, in insid's frame (body
+/// forward-right-down, ArduPilot's body axes: no rotation) and SI units (rad/s, m/s^2), with the
+/// sign of insid's sensor model (measured = true + bias: the EKF subtracts its biases from the
+/// IMU's increments). Read (ArduPilot 3.x NavEKF, libraries/DataFlash/DataFlash.cpp
+/// Log_Write_EKF; AP_NavEKF.h getGyroBias "rad/sec", getAccelZBias "m/s^2"):
+///   EKF1 GX, GY, GZ: gyrX = (int16_t)(100 * degrees(gyroBias.x)), "cd/sec, displayed as deg/sec
+///     due to format string": FMT letter c, so the reader's x 0.01 gives deg/s; the one gyro the
+///     NavEKF integrates (the primary, normally IMU).
+///   EKF2 AZ1bias, AZ2bias: (int8_t)(100 * az1bias): FMT letter b (no scaling), so cm/s^2; the
+///     z accelerometer biases of IMU1 and IMU2 (NavEKF's two accelerometer channels: IMU, IMU2).
+/// A field whose FMT letter is not the one above (another firmware's layout) is left out with a
+/// note rather than read with a guessed scale. For each: the value at the end of the cut window
+/// (the last record at or before t_end), and the mean and sample sd over the airborne part of
+/// the window (phases). The EKF logs no variance of these states: the sd is how much the
+/// estimate wanders in flight, and the logging step (0.01 deg/s, 0.01 m/s^2) bounds the
+/// resolution. Returns null when the log has neither EKF1 nor EKF2.
+nlohmann::json autopilot_bias_estimates(const DataFlashFile& log, const FlightPhases& phases,
+                                        const ArduPilotImportOptions& options,
+                                        std::vector<std::string>& notes);
 
 /// Reads options.imu and GPS. IMU: TimeMS, GyrX/Y/Z, AccX/Y/Z (sampled values, not increments:
 /// assemble_dataset integrates them as point samples by the trapezoid); records whose TimeMS does

@@ -1,6 +1,7 @@
 // The DataFlash reader and the ArduPilot import (issue 34): synthetic records for every type
 // letter and every refusal, and the shared real log (../shared/data/ardupilot-copter/log171.bin,
 // read in place, never copied; the tests that need it skip where it is absent).
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -13,6 +14,7 @@
 
 #include <gtest/gtest.h>
 
+#include "core/earth.h"
 #include "import/ardupilot_import.h"
 #include "import/dataflash.h"
 
@@ -263,6 +265,150 @@ TEST(ArduPilotImport, OptionsValidated) {
   o.t_start_s = 100.0;
   o.t_end_s = 50.0;
   EXPECT_NE(o.validate().find("must be before --t-end"), std::string::npos);
+}
+
+// GIVEN a synthetic 50 Hz multicopter log from boot 10 s to 70 s: still until 30 s (|f| = g,
+// scatter 0), the motors on from 30 s (a 0.5 m/s^2 vibration at 17 Hz on f_z), GPS at 5 Hz level
+// at 100 m until 35 s and climbing 1 m/s after, an impact of 8 g at 60 s and upside down
+// (f_z = +g) from 61 s WHEN its phases are found THEN the motors start at 30 s, the take-off is
+// the first fix more than 1 m up (36.2 s), the crash at 60 s ends the flight, upside down from
+// 61 s, and the suggested window ends 2 s before the crash. Without the crash, climbing to 5 m
+// at 40 s, back on the ground at 45 s and the motors off at 50 s, it ends with a landing at 50 s.
+TEST(FlightPhases, SyntheticFlightGivesItsPhases) {
+  const auto make = [](bool crash) {
+    FlightPhaseInput in;
+    for (int k = 0; k <= 60 * 50; ++k) {
+      const double t = 10.0 + k * 0.02;
+      Eigen::Vector3d f(0.0, 0.0, -9.80665);
+      const bool motors = t >= 30.0 && (crash || t < 50.0);
+      if (motors) f.z() += 0.5 * std::sin(2.0 * 3.14159265358979323846 * 17.0 * t);
+      if (crash && std::fabs(t - 60.0) < 1e-9) f = {0.0, 0.0, -8.0 * 9.80665};
+      if (crash && t >= 61.0) f.z() = 9.80665;
+      in.imu_boot_s.push_back(t);
+      in.f_b_mps2.push_back(f);
+      in.omega_b_rad_s.emplace_back(0.0, 0.0, 0.0);
+    }
+    for (int k = 0; k <= 60 * 5; ++k) {
+      const double t = 10.0 + k * 0.2;
+      in.gnss_boot_s.push_back(t);
+      const double up = crash ? std::max(0.0, t - 35.0) : std::clamp(t - 35.0, 0.0, 45.0 - t);
+      in.gnss_alt_m.push_back(100.0 + std::max(0.0, up));
+      in.gnss_speed_mps.push_back(0.0);
+    }
+    return in;
+  };
+  const FlightPhases p = find_flight_phases(make(true), FlightPhaseOptions{});
+  ASSERT_TRUE(p.motors_on_s && p.takeoff_s && p.crash_s && p.inverted_s);
+  EXPECT_NEAR(*p.motors_on_s, 30.0, 1e-9);
+  EXPECT_NEAR(p.ground_alt_m, 100.0, 1e-9);
+  EXPECT_NEAR(*p.takeoff_s, 36.2, 1e-9);  // 1.2 m up: the first fix beyond 1 m
+  EXPECT_NEAR(*p.crash_s, 60.0, 1e-9);
+  EXPECT_NEAR(*p.inverted_s, 61.0, 1e-9);
+  EXPECT_EQ(p.ended_by, "crash");
+  EXPECT_NEAR(p.airborne_end_s, 60.0, 1e-9);
+  EXPECT_NEAR(p.suggest_t_end_s, 58.0, 1e-9);
+  EXPECT_NEAR(p.peak_airborne_g, 1.0 + 0.5 / 9.80665, 1e-3);
+  const FlightPhases l = find_flight_phases(make(false), FlightPhaseOptions{});
+  ASSERT_TRUE(l.takeoff_s && l.landed_s);
+  EXPECT_FALSE(l.crash_s);
+  EXPECT_NEAR(*l.landed_s, 50.0, 1e-9);
+  EXPECT_EQ(l.ended_by, "landing");
+  EXPECT_NEAR(l.suggest_t_end_s, l.log_end_s, 1e-9);
+  FlightPhaseOptions bad;
+  bad.spin_fraction = 0.0;
+  EXPECT_NE(bad.validate().find("spin_fraction"), std::string::npos);
+}
+
+// The EKF bias fields of a crafted log (ArduPilot 3.x layouts "IccCffffffccc" and
+// "Ibbbcchhhhhh", LogStructure.h) with distinct values per axis: GX = -150, GY = 250, GZ = -5
+// centi-deg/s and AZ1bias = -7, AZ2bias = 12 cm/s^2 give -1.5, 2.5, -0.05 deg/s and -0.07,
+// 0.12 m/s^2 on gyro_bias_x/y/z and accel_bias_z of IMU and IMU2. A GX written with another
+// letter is left out with a note, never read with a guessed scale.
+TEST(ArduPilotImport, AutopilotBiasesFromCraftedEkfRecords) {
+  const auto crafted = [](const std::string& ekf1_letters) {
+    std::string log = fmt_of_fmt();
+    log += fmt_record(140, 43, "EKF1", ekf1_letters,
+                      "TimeMS,Roll,Pitch,Yaw,VN,VE,VD,PN,PE,PD,GX,GY,GZ");
+    log += fmt_record(141, 26, "EKF2", "Ibbbcchhhhhh", "TimeMS,Ratio,AZ1bias,AZ2bias,VWN,VWE,MN,ME,MD,MX,MY,MZ");
+    for (std::uint32_t t_ms : {1000u, 2000u}) {
+      std::string r = "\xA3\x95\x8C";
+      put<std::uint32_t>(r, t_ms);
+      put<std::int16_t>(r, 0), put<std::int16_t>(r, 0), put<std::uint16_t>(r, 0);
+      for (int i = 0; i < 6; ++i) put<float>(r, 0.0f);
+      put<std::int16_t>(r, t_ms == 2000u ? -150 : 0);
+      put<std::int16_t>(r, t_ms == 2000u ? 250 : 0);
+      put<std::int16_t>(r, t_ms == 2000u ? -5 : 0);
+      log += r;
+      std::string r2 = "\xA3\x95\x8D";
+      put<std::uint32_t>(r2, t_ms);
+      put<std::int8_t>(r2, 50), put<std::int8_t>(r2, t_ms == 2000u ? -7 : 0);
+      put<std::int8_t>(r2, t_ms == 2000u ? 12 : 0);
+      for (int i = 0; i < 8; ++i) put<std::int16_t>(r2, 0);
+      log += r2;
+    }
+    return DataFlashFile::parse(log, "ekf.bin");
+  };
+  std::vector<std::string> notes;
+  ArduPilotImportOptions options;
+  const nlohmann::json ap =
+      autopilot_bias_estimates(crafted("IccCffffffccc"), FlightPhases{}, options, notes);
+  ASSERT_EQ(ap.at("estimates").size(), 5u);
+  constexpr double kDegS = 3.14159265358979323846 / 180.0;
+  const double want[] = {-1.5 * kDegS, 2.5 * kDegS, -0.05 * kDegS, -0.07, 0.12};
+  const char* effects[] = {"gyro_bias_x", "gyro_bias_y", "gyro_bias_z", "accel_bias_z",
+                           "accel_bias_z"};
+  for (std::size_t k = 0; k < 5; ++k) {
+    EXPECT_EQ(ap["estimates"][k]["effect"], effects[k]) << k;
+    EXPECT_NEAR(ap["estimates"][k]["end_si"].get<double>(), want[k], 1e-12) << k;
+    EXPECT_NEAR(ap["estimates"][k]["end_boot_s"].get<double>(), 2.0, 1e-12) << k;
+  }
+  EXPECT_EQ(ap["estimates"][4]["imu"], "IMU2");
+  EXPECT_TRUE(ap["estimates"][4]["airborne_mean_si"].is_null());  // no flight found
+
+  notes.clear();
+  const nlohmann::json other =
+      autopilot_bias_estimates(crafted("IccCffffffhcc"), FlightPhases{}, options, notes);
+  ASSERT_EQ(other.at("estimates").size(), 4u);
+  EXPECT_EQ(other["estimates"][0]["source"], "EKF1.GY");
+  bool named = false;
+  for (const std::string& n : notes) named |= n.find("EKF1.GX left out: its FMT letter is 'h'") != std::string::npos;
+  EXPECT_TRUE(named);
+}
+
+// A physical check of which IMU each EKF2 accelerometer bias belongs to and of its scale: on the
+// ground before the motors start (boot 75-82 s) the |specific force| of IMU and IMU2 falls short
+// of the normal gravity there (WGS-84 at the first fix, ~9.795 m/s^2) by 0.206 and 0.383 m/s^2
+// (a body z down with a positive z bias reads |f| short by the bias: FRD f_z = -g + b_z). The
+// EKF's estimates wander on the ground (at 82 s: 0.27, 0.50) and settle in flight: their
+// airborne means (74.7-215 s cut) are 0.221 and 0.435 m/s^2, within 0.06 of their own IMU's
+// deficit and more than 0.1 from the other's. Swapped IMUs, or a scale off by 10, fail.
+TEST(ArduPilotReal, EkfAccelZBiasesMatchEachImusGroundDeficit) {
+  const std::string bytes = shared_log_bytes();
+  if (bytes.empty()) GTEST_SKIP() << kNoSharedLog;
+  const DataFlashFile log = DataFlashFile::parse(bytes, "log171.bin");
+  ArduPilotImportOptions options;
+  options.t_start_s = 74.7;
+  options.t_end_s = 215.0;
+  const ArduPilotSeries s = extract_ardupilot(log, "log171.bin", options);
+  const double g = EarthModel::wgs84().normal_gravity_mps2(-35.362 * 3.14159265358979323846 / 180.0,
+                                                           590.7);
+  const auto deficit = [&](const char* imu) {
+    double sum = 0.0;
+    int n = 0;
+    for (const auto& r : log.read(imu, {"TimeMS", "AccX", "AccY", "AccZ"}))
+      if (r[0] >= 75000.0 && r[0] <= 82000.0)
+        sum += std::sqrt(r[1] * r[1] + r[2] * r[2] + r[3] * r[3]), ++n;
+    return g - sum / n;
+  };
+  double az1 = 0.0, az2 = 0.0;
+  for (const nlohmann::json& e : s.autopilot_estimates.at("estimates")) {
+    if (e["source"] == "EKF2.AZ1bias") az1 = e["airborne_mean_si"];
+    if (e["source"] == "EKF2.AZ2bias") az2 = e["airborne_mean_si"];
+  }
+  EXPECT_NEAR(az1, deficit("IMU"), 0.06);
+  EXPECT_NEAR(az2, deficit("IMU2"), 0.06);
+  EXPECT_GT(std::fabs(az1 - deficit("IMU2")), 0.1);
+  EXPECT_GT(std::fabs(az2 - deficit("IMU")), 0.1);
 }
 
 }  // namespace

@@ -161,7 +161,7 @@ CsvImu read_csv_imu(const std::string& text, const std::string& where, const Csv
   const Eigen::Matrix3d C_s_b = mounting_matrix(spec.mounting_rpy_deg);
 
   CsvImu out;
-  out.source = where;
+  out.origin = where;
   if (index.count("hdg")) {
     out.heading.emplace();
     out.heading->origin =

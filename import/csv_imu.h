@@ -77,10 +77,6 @@ struct CsvImu {
   std::vector<Eigen::Vector3d> accel_b;  ///< m/s^2 or m/s (increments), per accel_is_increment
   std::vector<Eigen::Vector3d> gyro_b;   ///< rad/s or rad (increments), per gyro_is_increment
   std::vector<std::size_t> line;         ///< source line of each row
-  /// The source as errors name it (the reader's `where`: the file, or file and topic) and what
-  /// `line` counts there ("line", "message", "record"); empty: unknown (the dataset's names).
-  std::string source;
-  std::string row_unit = "line";
   bool accel_in_g_local = false;         ///< accel_b is in units of local gravity still
   bool accel_is_increment = false;
   bool gyro_is_increment = false;
@@ -91,6 +87,10 @@ struct CsvImu {
   /// kept (the CSV reader keeps every row or refuses the file).
   std::size_t source_rows = 0;
   std::map<std::string, std::size_t> rows_dropped;
+  /// Where the rows come from, for messages ("LOG.ulg, sensor_combined"); "" says "the IMU".
+  std::string origin;
+  /// What `line` counts in `origin` ("line", "message", "record"), for errors that name a row.
+  std::string row_unit = "line";
 };
 
 /// Reads `path` with `spec` (comma separated; an optional header line is skipped when its

@@ -232,6 +232,14 @@ bool DataFlashFile::has_field(const std::string& name, const std::string& field)
   return false;
 }
 
+char DataFlashFile::field_type(const std::string& name, const std::string& field) const {
+  for (const auto& [id, f] : formats_)
+    if (f.name == name)
+      for (const Field& x : f.fields)
+        if (x.name == field) return x.type;
+  return 0;
+}
+
 std::vector<std::vector<double>> DataFlashFile::read(const std::string& name,
                                                      const std::vector<std::string>& fields) const {
   const Format& f = format(name);

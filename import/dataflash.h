@@ -28,6 +28,9 @@ class DataFlashFile {
   /// Records of the message named `name` (e.g. "IMU2"); 0 when none or not defined.
   std::size_t count(const std::string& name) const;
   bool has_field(const std::string& name, const std::string& field) const;
+  /// The FMT type letter of a field (e.g. 'c' for int16 x 0.01), 0 when the message or field is
+  /// not defined: for fields whose unit depends on how the autopilot filled them.
+  char field_type(const std::string& name, const std::string& field) const;
   /// Every record of `name`, the named fields as doubles scaled by their letter (c C e E x 0.01,
   /// L x 1e-7), in file order. Throws naming an undefined message, a missing field or a field
   /// that is not a number (n N Z a).

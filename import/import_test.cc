@@ -391,6 +391,63 @@ TEST(StaticWindow, ThresholdsAreValidatedNamingTheValue) {
       << o.validate();
 }
 
+// The lowest IMU rate insid integrates (kDefaultMinImuRateHz, 20 Hz): GIVEN the straight flight's
+// 100 Hz increments summed in groups of 10 (10 Hz increments, the same motion) WHEN imported
+// with the defaults THEN refused naming the measured rate and the minimum (and nothing is
+// assembled); with --min-imu-rate-hz 5 the same rows import. At 20 Hz (groups of 5) the
+// default accepts them.
+TEST(ImuRate, BelowTheMinimumIsRefusedNamingTheRateAndTheMinimum) {
+  scenarios::ScenarioConfig cfg = scenarios::preset_scenario("straight");
+  cfg.flight_s = 60.0;
+  cfg.align_s = 30.0;
+  Dataset ds = scenarios::simulate(cfg);
+  ds.meta.earth = EarthModel::wgs84();
+  ds.meta.format = DatasetFormat::kV2;
+  ASSERT_NEAR(ds.meta.imu_rate_hz, 100.0, 1e-9);
+  const auto decimated = [&](std::size_t group) {
+    Dataset d = ds;
+    d.imu.clear();
+    ImuSample sum;
+    for (std::size_t k = 1; k < ds.imu.size(); ++k) {
+      sum.dtheta_b_rad += ds.imu[k].dtheta_b_rad;
+      sum.dv_b_mps += ds.imu[k].dv_b_mps;
+      if (k % group == 0) {
+        sum.t_s = ds.imu[k].t_s;
+        d.imu.push_back(sum);
+        sum = ImuSample{};
+      }
+    }
+    return parse_kf_gins_imu(kf_gins_imu_text(d, 1000.0), "imu" + std::to_string(100 / group) + ".txt",
+                             2381);
+  };
+  const GnssSolution gnss =
+      parse_kf_gins_gnss(kf_gins_gnss_text(ds, 1000.0, 0.02, 0.03), "gnss.txt", 2381);
+  AssembleOptions options;
+  options.align_s = 20.0;
+  try {
+    assemble_dataset(decimated(10), gnss, options);
+    ADD_FAILURE() << "10 Hz must be refused by default";
+  } catch (const std::runtime_error& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("imu10.txt: IMU rate 10 Hz (median step 100 ms"), std::string::npos) << m;
+    EXPECT_NE(m.find("is below the 20 Hz insid accepts for strapdown integration"),
+              std::string::npos) << m;
+    EXPECT_NE(m.find("--min-imu-rate-hz"), std::string::npos) << m;
+  }
+  options.min_imu_rate_hz = 5.0;
+  const Assembled slow = assemble_dataset(decimated(10), gnss, options);
+  EXPECT_NEAR(slow.dataset.meta.imu_rate_hz, 10.0, 1e-6);
+  EXPECT_EQ(slow.provenance["imu"]["min_rate_hz"], 5.0);
+  AssembleOptions defaults;
+  defaults.align_s = 20.0;
+  const Assembled twenty = assemble_dataset(decimated(5), gnss, defaults);
+  EXPECT_NEAR(twenty.dataset.meta.imu_rate_hz, 20.0, 1e-6);
+  AssembleOptions bad;
+  bad.min_imu_rate_hz = 0.0;
+  EXPECT_NE(bad.validate().find("--min-imu-rate-hz 0: must be in (0, 10000] Hz"), std::string::npos)
+      << bad.validate();
+}
+
 TEST(KfGins, PositionOnlyGnssGetsCentralDifferenceVelocities) {
   // A straight line at 10 m/s north, 1 Hz: the derived north velocity is exact (no jerk).
   std::string text;

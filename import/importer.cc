@@ -122,6 +122,8 @@ std::string AssembleOptions::validate() const {
     return "--align-s " + num(*align_s) + ": must be a finite number of seconds in [0, 86400]";
   if (!(std::isfinite(static_speed_mps) && static_speed_mps > 0.0 && static_speed_mps <= 10.0))
     return "--static-speed " + num(static_speed_mps) + ": must be in (0, 10] m/s";
+  if (!(std::isfinite(min_imu_rate_hz) && min_imu_rate_hz > 0.0 && min_imu_rate_hz <= 10000.0))
+    return "--min-imu-rate-hz " + num(min_imu_rate_hz) + ": must be in (0, 10000] Hz";
   if (!(std::isfinite(static_rate_dps) && static_rate_dps > 0.0 && static_rate_dps <= 1000.0))
     return "--static-rate " + num(static_rate_dps) + ": must be in (0, 1000] deg/s";
   if (!(std::isfinite(static_accel_sd_mps2) && static_accel_sd_mps2 > 0.0 &&
@@ -324,6 +326,22 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
           : "rates integrated over each row's own interval by the trapezoidal rule, "
             "(w[k-1] + w[k]) / 2 * (t[k] - t[k-1])";
   const double dt_median = median(steps);
+  // The IMU's rate against the lowest insid integrates (kDefaultMinImuRateHz: why).
+  // (A relative 1e-6 below the minimum still passes: time tags printed with 6-9 digits.)
+  if (const double rate_hz = 1.0 / dt_median; !(rate_hz >= options.min_imu_rate_hz * (1.0 - 1e-6)))
+    throw std::runtime_error(
+        (imu.origin.empty() ? std::string("the IMU") : imu.origin) + ": IMU rate " +
+        num(rate_hz, 3) + " Hz (median step " + num(dt_median * 1e3, 4) + " ms; " +
+        num(static_cast<double>(steps.size()) / (ds.imu.back().t_s - ds.imu.front().t_s), 3) +
+        " Hz on average over " + std::to_string(steps.size()) + " steps) is below the " +
+        num(options.min_imu_rate_hz, 4) +
+        " Hz insid accepts for strapdown integration: a multicopter moves at up to ~5 Hz, and at " +
+        num(rate_hz, 3) + " Hz everything above " + num(rate_hz / 2, 3) +
+        " Hz (the Nyquist frequency) is aliased and what happens between the samples is lost; "
+        "nothing was written. Log the IMU faster (PX4: SDLOG_PROFILE high-rate, or the "
+        "vehicle_imu topic; ArduPilot: the IMU logging rate), or give --min-imu-rate-hz R "
+        "(R <= " + num(rate_hz, 3) + ") for a platform whose motion stays below R / 4 Hz");
+  prov["imu"]["min_rate_hz"] = options.min_imu_rate_hz;
   prov["imu"]["step_s"] = {{"median", dt_median},
                            {"min", *std::min_element(steps.begin(), steps.end())},
                            {"max", *std::max_element(steps.begin(), steps.end())}};
@@ -440,7 +458,7 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
       if (source.empty() || r >= lines.size() || lines[r] == 0) return "";
       return source + " " + unit + " " + std::to_string(lines[r]);
     };
-    if (file == "imu.csv") return name(imu.source, imu.row_unit, imu_lines, row);
+    if (file == "imu.csv") return name(imu.origin, imu.row_unit, imu_lines, row);
     if (file == "gnss.csv") return name(gnss.source, gnss.row_unit, gnss_lines, row);
     return "";
   };

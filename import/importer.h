@@ -16,6 +16,22 @@
 
 namespace insid::import {
 
+/// The default lowest IMU rate (Hz) for strapdown integration. A multicopter's rigid-body motion
+/// (attitude manoeuvres, the attitude controller's corrections) reaches ~5 Hz. Sampled at f_s,
+/// everything above the Nyquist frequency f_s / 2 folds back onto lower frequencies (aliasing),
+/// and below it the trapezoid integrates a rate oscillating at f with the gain
+/// (w h / 2) / tan(w h / 2), w = 2 pi f, h = 1 / f_s (exact for a line, low for curvature):
+///   f_s = 20 Hz: a 5 Hz motion sits at half the Nyquist frequency, integrated at 0.79 of its
+///                amplitude (a 2 Hz manoeuvre at 0.97);
+///   f_s = 50 Hz (ArduPilot's logged IMU): 5 Hz at 0.97 (imported, with an aliasing note);
+///   f_s =  8.6 Hz (px4-ulog-real: sensor_combined decimated by the logger): the Nyquist
+///                frequency, 4.3 Hz, lies inside the manoeuvre band, so the logged samples
+///                cannot describe the motion between them at all.
+/// 20 Hz = 4 x 5 Hz: the Nyquist frequency twice the top of the band. A decimated log of
+/// per-sample means (sensor_combined) is no better than point samples at its logged rate: each
+/// logged mean covers its own ~4 ms sample, not the ~100 ms to the next logged row.
+inline constexpr double kDefaultMinImuRateHz = 20.0;
+
 struct AssembleOptions {
   /// RTKLIB quality flags kept (1 fix, 2 float, 3 SBAS, 4 DGPS, 5 single, 6 PPP); the others are
   /// dropped (and counted in the provenance). Velocities are not re-weighted by their std.
@@ -42,6 +58,11 @@ struct AssembleOptions {
   /// it a true heading: required when the heading source is a magnetometer (no world magnetic
   /// model here), refused otherwise; recorded in meta.json "heading".
   std::optional<double> declination_deg;
+  /// The lowest IMU rate (Hz: 1 / the median step of the rows used) insid integrates
+  /// (`--min-imu-rate-hz`): a slower log is refused before anything is written. The default,
+  /// kDefaultMinImuRateHz, is set for multicopters; a platform whose motion is slower (a ship, a
+  /// car on a smooth road) may lower it, to four times its highest manoeuvre frequency.
+  double min_imu_rate_hz = kDefaultMinImuRateHz;
 
   /// "" or the first bad field, its value and the allowed range.
   std::string validate() const;

@@ -94,7 +94,7 @@ void append_number(std::string& out, double v, const char* separator) {
 CsvImu parse_kf_gins_imu(const std::string& text, const std::string& where,
                          std::optional<int> gps_week) {
   CsvImu out;
-  out.source = where;
+  out.origin = where;
   out.accel_is_increment = true;
   out.gyro_is_increment = true;
   const GpstTime base = week_base(gps_week);

@@ -242,6 +242,8 @@ UlogSeries extract_ulog(const UlogFile& log, const std::string& where,
 
   // IMU.
   CsvImu& imu = out.imu;
+  imu.origin = where + ", " + imu_topic + " instance " + std::to_string(options.imu_instance);
+  imu.row_unit = "message";
   imu.accel_is_increment = true;
   imu.gyro_is_increment = true;
   const bool increments = imu_topic == "vehicle_imu";
@@ -342,6 +344,8 @@ UlogSeries extract_ulog(const UlogFile& log, const std::string& where,
     e.line = k + 1;
     out.gnss.epochs.push_back(e);
   }
+  out.gnss.source = where + ", " + gnss_topic + " instance " + std::to_string(options.gnss_instance);
+  out.gnss.row_unit = "message";
   out.gnss.format =
       "ulog " + gnss_topic + (degrees ? " (latitude_deg layout)" : " (1e-7 deg integer layout)");
   prov["gnss"]["source"] = gnss_topic + " instance " + std::to_string(options.gnss_instance);
