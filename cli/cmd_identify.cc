@@ -59,8 +59,13 @@ nlohmann::json autopilot_comparison_json(const nlohmann::json& result, const nlo
     const bool has_mean = !e.at("airborne_mean_si").is_null();
     const double ap_value = has_mean ? e["airborne_mean_si"].get<double>() : e.at("end_si").get<double>();
     const double rounding = e.at("resolution_si").get<double>() / std::sqrt(12.0);
-    const double ap_sd = std::hypot(e["airborne_sd_si"].is_null() ? 0.0 : e["airborne_sd_si"].get<double>(),
-                                    rounding);
+    // The estimator's own sd where it logs one (PX4's *_bias_variance), else the scatter of the
+    // estimate in flight with one logging step's rounding (ArduPilot logs no variance).
+    const bool own_sd = e.contains("sd_si") && !e["sd_si"].is_null();
+    const double ap_sd =
+        own_sd ? e["sd_si"].get<double>()
+               : std::hypot(e["airborne_sd_si"].is_null() ? 0.0 : e["airborne_sd_si"].get<double>(),
+                            rounding);
     const double insid_value = mine->at("estimate").get<double>();
     nlohmann::json c = {{"name", name},
                         {"si_unit", e.at("si_unit")},
@@ -71,6 +76,8 @@ nlohmann::json autopilot_comparison_json(const nlohmann::json& result, const nlo
                         {"autopilot_value_si", ap_value},
                         {"autopilot_value_is", has_mean ? "airborne mean" : "value at the window's end"},
                         {"autopilot_sd_si", ap_sd},
+                        {"autopilot_sd_is", own_sd ? "the estimator's own sd"
+                                                   : "scatter in flight with the logging step's rounding"},
                         {"autopilot_end_si", e.at("end_si")},
                         {"difference_si", insid_value - ap_value}};
     if (!c["insid_sd_si"].is_null()) {
@@ -81,15 +88,17 @@ nlohmann::json autopilot_comparison_json(const nlohmann::json& result, const nlo
     compared.push_back(c);
   }
   return {{"autopilot", ap.value("autopilot", "")},
-          {"autopilot_sd", "scatter of the logged estimate over the airborne part with one logging "
-                           "step's rounding (resolution / sqrt 12): the autopilot logs no variance"},
+          {"autopilot_sd", "the estimator's own sd where it logs a variance (PX4); else the "
+                           "scatter of the logged estimate over the airborne part with one "
+                           "logging step's rounding (resolution / sqrt 12: ArduPilot logs no "
+                           "variance); per row: autopilot_sd_is"},
           {"compared", compared},
           {"not_compared", not_compared}};
 }
 
 std::string autopilot_comparison_table(const nlohmann::json& cmp) {
   std::string t = "insid against the autopilot (" + cmp.at("autopilot").get<std::string>() +
-                  "; autopilot sd = its estimate's scatter in flight):\n";
+                  "; autopilot sd = its own where logged, else its scatter in flight):\n";
   char line[256];
   std::snprintf(line, sizeof line, "  %-13s %-26s %-40s %s\n", "parameter", "insid +- sd",
                 "autopilot +- sd (source)", "diff/sd");

@@ -316,6 +316,8 @@ void run_import_ulog(const ImportUlogArgs& args) {
   prov.erase("time_origin_gpst_unix_s");
   prov.update(series.provenance, true);
   result.notes.insert(result.notes.begin(), series.notes.begin(), series.notes.end());
+  if (!series.autopilot_estimates.is_null())
+    result.dataset.meta.autopilot_estimates_json = series.autopilot_estimates.dump();
   nlohmann::json opts = {{"imu_topic", args.ulog.imu_topic.empty() ? "auto" : args.ulog.imu_topic},
                          {"imu_instance", args.ulog.imu_instance},
                          {"gnss_instance", args.ulog.gnss_instance},

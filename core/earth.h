@@ -8,6 +8,10 @@
 
 namespace insid {
 
+/// Standard gravity g_n (m/s^2; CGPM 1901, ISO 80000-3): the unit "g" of accelerometer data
+/// sheets and logs (1 mg = kStandardGravity_mps2 * 1e-3 m/s^2), not a local gravity.
+inline constexpr double kStandardGravity_mps2 = 9.80665;
+
 /// Reference ellipsoid given by its semi-major axis and flattening.
 struct Ellipsoid {
   double a_m = 6378137.0;          ///< semi-major axis (m)

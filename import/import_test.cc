@@ -1272,6 +1272,50 @@ TEST(SharedData, Px4LogsImportOrAreRefusedWithTheDocumentedMessage) {
   }
 }
 
+// Issue 34: the PX4 estimator's own biases (estimator_sensor_bias, instance 0) go to
+// autopilot_estimates in insid's names, axes and SI units: each compared with the float32 read
+// by hand at its byte offset in the file (the last message), so a swapped axis, a wrong field or
+// a unit conversion (deg/s, mg) fails; sd_si is the square root of the logged variance.
+TEST(SharedData, Px4EstimatorBiasesAreReadWithTheirAxesUnitsAndVariance) {
+  const fs::path source = fs::path(INSID_SHARED_DATA) / "px4-ulog" / "sample_px4_events.ulg";
+  if (!fs::exists(source))
+    GTEST_SKIP() << "../shared/data/px4-ulog is absent (tests that need the shared real data skip "
+                    "outside CI)";
+  std::string bytes;
+  {
+    std::ifstream in(source, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  const UlogFile log = UlogFile::parse(bytes, source.string());
+  std::vector<std::string> notes;
+  const nlohmann::json ap = px4_bias_estimates(log, "sensor_combined", 0, notes);
+  ASSERT_FALSE(ap.is_null());
+  ASSERT_EQ(ap["estimates"].size(), 6u) << ap.dump();
+  const auto float_at = [&](const std::string& field) {
+    const std::size_t offset = log.field_offsets("estimator_sensor_bias", 0, field).back();
+    float v;
+    std::memcpy(&v, bytes.data() + offset, sizeof v);  // ULog is little-endian, as this host
+    return static_cast<double>(v);
+  };
+  const char* names[6] = {"gyro_bias_x",  "gyro_bias_y",  "gyro_bias_z",
+                          "accel_bias_x", "accel_bias_y", "accel_bias_z"};
+  for (int k = 0; k < 6; ++k) {
+    const std::string base = k < 3 ? "gyro_bias" : "accel_bias";
+    const std::string index = "[" + std::to_string(k % 3) + "]";
+    const nlohmann::json& e = ap["estimates"][static_cast<std::size_t>(k)];
+    EXPECT_EQ(e["effect"], names[k]);
+    EXPECT_EQ(e["si_unit"], k < 3 ? "rad/s" : "m/s^2");
+    EXPECT_EQ(e["end_si"].get<double>(), float_at(base + index)) << names[k];
+    EXPECT_DOUBLE_EQ(e["sd_si"].get<double>(), std::sqrt(float_at(base + "_variance" + index)))
+        << names[k];
+    EXPECT_TRUE(e["applies_to_imported_imu"].get<bool>());
+  }
+  // Another IMU instance than the estimator's primary: listed, not compared.
+  EXPECT_FALSE(px4_bias_estimates(log, "vehicle_imu", 1, notes)["estimates"][0]
+                   ["applies_to_imported_imu"]
+                       .get<bool>());
+}
+
 // Issue 37 item 4: one corrupted sensor_combined timestamp (a flipped bit 48, 2^48 us ahead)
 // imported 301 of 5487 IMU rows (1.2 s of 21.9 s), exit 0, no note, and rows_read hid the drop.
 // Now the message is dropped as a timestamp jump, named with its byte offset, and every other row

@@ -2,9 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <iomanip>
 #include <sstream>
 #include <stdexcept>
+
+#include "core/earth.h"
+#include "core/rotation.h"
 
 namespace insid::import {
 namespace {
@@ -461,7 +465,97 @@ UlogSeries extract_ulog(const UlogFile& log, const std::string& where,
     hprov["kept"] = h.t_gpst_unix_s.size();
     out.heading = std::move(h);
   }
+  out.autopilot_estimates =
+      px4_bias_estimates(log, imu_topic, options.imu_instance, out.notes);
   return out;
+}
+
+namespace {
+std::string figure(double v, int digits) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.*g", digits, v);
+  return text;
+}
+}  // namespace
+
+nlohmann::json px4_bias_estimates(const UlogFile& log, const std::string& imu_topic,
+                                  int imu_instance, std::vector<std::string>& notes) {
+  const std::string topic = "estimator_sensor_bias";
+  if (log.instances(topic).count(0) == 0) return nullptr;
+  const bool primary = imu_instance == 0;
+  nlohmann::json list = nlohmann::json::array();
+  std::string summary;
+  for (const char* sensor : {"gyro", "accel"}) {
+    const bool gyro = sensor[0] == 'g';
+    const std::string base = std::string(sensor) + "_bias";
+    const bool has_variance = log.has_field(topic, base + "_variance[0]");
+    for (int axis = 0; axis < 3; ++axis) {
+      const std::string field = base + "[" + std::to_string(axis) + "]";
+      if (!log.has_field(topic, field)) continue;
+      std::vector<std::string> fields = {"timestamp", field};
+      if (has_variance) fields.push_back(base + "_variance[" + std::to_string(axis) + "]");
+      const auto rows = log.read(topic, 0, fields);
+      double sum = 0, sum2 = 0;
+      std::size_t n = 0;
+      const std::vector<double>* last = nullptr;
+      for (const auto& r : rows) {
+        if (!std::isfinite(r[1])) continue;
+        sum += r[1], sum2 += r[1] * r[1], ++n;
+        last = &r;
+      }
+      if (last == nullptr) continue;
+      const double mean = sum / static_cast<double>(n);
+      const double sd = n > 1 ? std::sqrt(std::max(0.0, (sum2 - static_cast<double>(n) * mean * mean) /
+                                                            static_cast<double>(n - 1)))
+                              : 0.0;
+      const double end = (*last)[1];
+      const double display = gyro ? kRadToDeg : 1e3 / kStandardGravity_mps2;  // deg/s or mg
+      const char xyz = static_cast<char>('x' + axis);
+      nlohmann::json e = {
+          {"effect", std::string(sensor) + "_bias_" + xyz},
+          {"source", topic + "." + field},
+          {"imu", "estimator's IMU"},
+          {"applies_to_imported_imu", primary},
+          {"logged_as", "float32 " + std::string(gyro ? "rad/s" : "m/s^2") + ", body FRD"},
+          {"si_unit", gyro ? "rad/s" : "m/s^2"},
+          {"end_log_s", ((*last)[0] - static_cast<double>(log.start_timestamp_us())) * 1e-6},
+          {"end_si", end},
+          {"sd_si", has_variance && std::isfinite((*last)[2]) && (*last)[2] >= 0
+                        ? nlohmann::json(std::sqrt((*last)[2]))
+                        : nlohmann::json(nullptr)},
+          {"messages", n},
+          {"log_mean_si", mean},
+          {"log_sd_si", sd},
+          {"airborne_mean_si", nullptr},
+          {"airborne_sd_si", nullptr},
+          {"resolution_si", 0.0},
+          {"display_unit", gyro ? "deg/s" : "mg"},
+          {"end_display", end * display}};
+      summary += (summary.empty() ? "" : "; ") + e["effect"].get<std::string>() + " " +
+                 figure(end * display, 3) +
+                 (e["sd_si"].is_null() ? std::string()
+                                       : " +- " + figure(e["sd_si"].get<double>() * display, 2)) +
+                 " " + (gyro ? "deg/s" : "mg");
+      list.push_back(e);
+    }
+  }
+  if (list.empty()) return nullptr;
+  notes.push_back("autopilot estimator bias estimates (meta.json autopilot_estimates; the last " +
+                  topic + " message" + std::string(primary ? "" : ", for the primary IMU only") +
+                  "): " + summary);
+  return {
+      {"autopilot", "PX4 estimator (" + topic + ", instance 0)"},
+      {"frame", "body forward-right-down: PX4's body frame, insid's b (no mounting applied)"},
+      {"sign", "bias = measured - true, as insid's sensor model (PX4's estimator subtracts its "
+               "bias estimates from the IMU data)"},
+      {"imported_imu", imu_topic + " instance " + std::to_string(imu_instance)},
+      {"which_imu",
+       "the IMU the estimator fuses; sensor_combined and instance 0 of vehicle_imu carry PX4's "
+       "primary IMU, normally the same one (the log's device ids would settle it)"},
+      {"uncertainty", "sd_si: the square root of the estimator's own variance of the last "
+                      "message (when the layout logs *_bias_variance); log_sd_si: the spread of "
+                      "the estimate over the log"},
+      {"estimates", list}};
 }
 
 }  // namespace insid::import

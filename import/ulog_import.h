@@ -75,7 +75,21 @@ struct UlogSeries {
   std::optional<HeadingInput> heading;  ///< options.heading "gps" or "mag"
   nlohmann::json provenance;
   std::vector<std::string> notes;
+  /// meta.json "autopilot_estimates" (the schema of the ArduPilot import): the PX4 estimator's
+  /// own gyro and accelerometer biases from estimator_sensor_bias instance 0, when logged; null
+  /// otherwise.
+  nlohmann::json autopilot_estimates;
 };
+
+/// The PX4 estimator's bias estimates of a log (estimator_sensor_bias, instance 0): for each of
+/// gyro_bias[0..2] (rad/s) and accel_bias[0..2] (m/s^2) in PX4's body frame (FRD, insid's b),
+/// the value of the last message, the sd from its *_bias_variance where the layout logs it
+/// (PX4 v1.12 and later), and the mean and sample sd over the log. `imu_topic` is the imported
+/// IMU topic: the estimator's biases apply to the IMU it fuses, which sensor_combined and
+/// vehicle_imu instance 0 carry (PX4's primary), not to other instances. null when the topic is
+/// absent. Units and frame from PX4's msg/EstimatorSensorBias.msg.
+nlohmann::json px4_bias_estimates(const UlogFile& log, const std::string& imu_topic,
+                                  int imu_instance, std::vector<std::string>& notes);
 
 /// Reads the IMU and GNSS topics. vehicle_imu gives delta_angle/delta_velocity increments (kept
 /// as they are, at timestamp_sample when logged); sensor_combined gives gyro_rad and
