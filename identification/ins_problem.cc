@@ -1,11 +1,17 @@
 #include "identification/ins_problem.h"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <exception>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
+#include <string>
 
+#include "core/dataset.h"
+#include "core/earth.h"
+#include "core/rotation.h"
 #include "optimizers/parameters.h"
 
 namespace insid {
@@ -18,6 +24,52 @@ double parse_number(const std::string& text, const std::string& what, const std:
     throw std::invalid_argument("--estimate '" + spec + "': " + what +
                                 " must be a finite number, got '" + text + "'");
   return value;
+}
+
+}  // namespace
+
+namespace {
+
+std::string short_number(double v) {
+  std::ostringstream out;
+  out.precision(3);
+  out << v;
+  return out.str();
+}
+
+// The largest size of an effect that is still physical (a search box beyond it only runs the
+// pipeline into overflow and a misleading message, e.g. a 1e300-sigma accelerometer box failed
+// as "coarse alignment ... (at a pole?)"): biases within the ranges insid accepts in data
+// (PlausibilityBounds), drifts that stay there for a minute, scale factors up to 100 %,
+// small-angle misalignments up to 1 rad, GNSS latencies up to a minute, lever arms up to 100 m.
+struct PhysicalLimit {
+  double value_si;
+  std::string why;
+};
+PhysicalLimit physical_limit(const std::string& name) {
+  using B = PlausibilityBounds;
+  const double gyro_rad_s = B::kMaxAngularRate_deg_s * kDegToRad;
+  const double accel_mps2 = B::kMaxSpecificForce_g * kStandardGravity_mps2;
+  const auto starts = [&](const char* prefix) { return name.rfind(prefix, 0) == 0; };
+  if (starts("gyro_bias_drift_"))
+    return {gyro_rad_s / 60.0, "a gyro bias drift that leaves the 2000 deg/s range within a "
+                               "minute is not physical"};
+  if (starts("accel_bias_drift_"))
+    return {accel_mps2 / 60.0, "an accelerometer bias drift that leaves the 50 g range within a "
+                               "minute is not physical"};
+  if (starts("gyro_bias_"))
+    return {gyro_rad_s, "a gyro bias beyond 2000 deg/s (the largest rate insid accepts in data) "
+                        "is not physical"};
+  if (starts("accel_bias_"))
+    return {accel_mps2, "an accelerometer bias beyond 50 g (the largest specific force insid "
+                        "accepts in data) is not physical"};
+  if (name.find("_scale_") != std::string::npos)
+    return {1.0, "a scale factor error beyond 100 % is not physical"};
+  if (name.find("_misalign_") != std::string::npos)
+    return {1.0, "the small-angle misalignment model ends well before 1 rad"};
+  if (name == "gnss_latency") return {60.0, "a GNSS latency beyond a minute is not physical"};
+  if (starts("lever_arm_")) return {100.0, "an antenna lever arm beyond 100 m is not physical"};
+  return {std::numeric_limits<double>::infinity(), ""};
 }
 
 }  // namespace
@@ -40,6 +92,14 @@ EstimatedParameter EstimatedParameter::parse(const std::string& text) {
   if (!(p.sigma > 0.0)) throw std::invalid_argument("--estimate '" + text + "': SIGMA must be > 0");
   if (!(p.lower_sigma < p.upper_sigma))
     throw std::invalid_argument("--estimate '" + text + "': LO must be < HI");
+  const double reach_si =
+      std::max(std::abs(p.lower_sigma), std::abs(p.upper_sigma)) * p.sigma;
+  const PhysicalLimit limit = physical_limit(p.name);
+  if (!(reach_si <= limit.value_si))
+    throw std::invalid_argument(
+        "--estimate '" + text + "': the search box reaches " + short_number(reach_si) + " " +
+        std::string(effect_info(p.name).unit) + "; " + limit.why + ": give a smaller SIGMA or " +
+        "LO:HI");
   return p;
 }
 

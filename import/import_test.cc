@@ -1171,6 +1171,51 @@ TEST(Ulog, GpsAndMagnetometerHeadingsImportWithUnitsAndSign) {
   }
 }
 
+// Issue 37, item 12: GNSS epochs lost to repeated stamps are named as such ("1 epochs with
+// fix_type >= 3 (of 583)" blamed the fix type for epochs dropped for their timestamps).
+TEST(Ulog, TooFewGnssEpochsSayWhyTheOthersWereDropped) {
+  UlogWriter w(0);
+  w.message('F', kImuFormat);
+  w.message('F', kGpsFormat);
+  w.subscribe(0, 7, "vehicle_imu");
+  w.subscribe(0, 3, "vehicle_gps_position");
+  for (int k = 0; k < 50; ++k) {
+    std::string p;
+    const auto t_us = static_cast<std::uint64_t>(1000000 + 10000 * k);
+    UlogWriter::put(p, t_us);
+    UlogWriter::put(p, t_us);
+    UlogWriter::put(p, std::uint32_t{1});
+    UlogWriter::put(p, std::uint32_t{2});
+    for (int i = 0; i < 6; ++i) UlogWriter::put(p, 0.0f);
+    UlogWriter::put(p, std::uint16_t{10000});
+    UlogWriter::put(p, std::uint16_t{10000});
+    p.append(4, '\0');
+    w.data(7, p);
+    if (k % 5 == 0) {  // every GNSS message with the same stamp
+      std::string g;
+      UlogWriter::put(g, std::uint64_t{1000000});
+      UlogWriter::put(g, std::int32_t{400000000});
+      UlogWriter::put(g, std::int32_t{1160000000});
+      UlogWriter::put(g, std::int32_t{50000});
+      UlogWriter::put(g, std::int32_t{50000});
+      for (int i = 0; i < 3; ++i) UlogWriter::put(g, 0.0f);
+      g.push_back('\x06');
+      g.push_back('\x01');
+      w.data(3, g);
+    }
+  }
+  const UlogFile log = UlogFile::parse(w.bytes(), "repeated.ulg");
+  std::string error;
+  try {
+    extract_ulog(log, "repeated.ulg", UlogImportOptions{});
+  } catch (const std::runtime_error& e) {
+    error = e.what();
+  }
+  EXPECT_NE(error.find("keeps 1 usable epochs of 10 messages"), std::string::npos) << error;
+  EXPECT_NE(error.find("9 with a repeated timestamp"), std::string::npos) << error;
+  EXPECT_NE(error.find("0 with fix_type below 3"), std::string::npos) << error;
+}
+
 TEST(Ulog, MalformedLogsAreNamedWithTheByteOffset) {
   const auto error = [](const std::string& bytes) {
     try {

@@ -369,10 +369,13 @@ UlogSeries extract_ulog(const UlogFile& log, const std::string& where,
                         std::to_string(options.min_fix_type) + " and " +
                         std::to_string(invalid_velocity) + " with vel_ned_valid false");
   if (out.gnss.epochs.size() < 2)
-    throw std::runtime_error(where + ": " + gnss_topic + " has " +
-                             std::to_string(out.gnss.epochs.size()) +
-                             " epochs with fix_type >= " + std::to_string(options.min_fix_type) +
-                             " (of " + std::to_string(gnss_rows.size()) + "); need at least 2");
+    throw std::runtime_error(
+        where + ": " + gnss_topic + " keeps " + std::to_string(out.gnss.epochs.size()) +
+        " usable epochs of " + std::to_string(gnss_rows.size()) + " messages (dropped: " +
+        std::to_string(gnss_sel.repeated) + " with a repeated timestamp, " +
+        std::to_string(gnss_sel.dropped_by_jumps) + " in timestamp jumps, " +
+        std::to_string(low_fix) + " with fix_type below " + std::to_string(options.min_fix_type) +
+        ", " + std::to_string(invalid_velocity) + " with vel_ned_valid false); need at least 2");
 
   if (options.heading == "gps") {
     // PX4 (SensorGps.msg): "heading: heading angle of XYZ body frame rel to NED. Set to NaN if
