@@ -30,6 +30,13 @@ constexpr const char* kNoLog =
     "../shared/data/ardupilot-copter/log171.bin is absent (tests that need the shared real data "
     "skip without it)";
 
+// `insid import ardupilot` of the shared log cut to boot time 74.7-215 s (after the 2.0 s
+// logging gap, before Acro and the flip) into `ds`.
+Outcome import_flight_window(const fs::path& ds) {
+  return insid("import ardupilot " + kLog.string() + " --t-start 74.7 --t-end 215 --out " +
+               ds.string());
+}
+
 struct TempDir {
   fs::path path;
   TempDir() {
@@ -81,8 +88,7 @@ TEST(ArduPilotCli, ImportCutAndNavigate) {
   EXPECT_FALSE(fs::exists(refused));
 
   const fs::path ds = tmp.path / "ds";
-  o = insid("import ardupilot " + kLog.string() + " --t-start 74.7 --t-end 215 --out " +
-            ds.string());
+  o = import_flight_window(ds);
   ASSERT_EQ(o.status, 0) << o.output;
   EXPECT_NE(o.output.find("IMU from IMU (the log has IMU (11916), IMU2 (11916), IMU3 (11916)"),
             std::string::npos)
@@ -98,7 +104,8 @@ TEST(ArduPilotCli, ImportCutAndNavigate) {
   EXPECT_EQ(prov.at("sources").at(0).at("sha256").get<std::string>().substr(0, 8), "a4a3883f");
 
   // A multicopter's gyros cannot gyrocompass: heading from the GNSS course at take-off.
-  o = insid("navigate --data " + ds.string() + " --initial-attitude level+heading --summary " + (tmp.path / "nav.json").string());
+  o = insid("navigate --data " + ds.string() + " --initial-attitude level+heading --summary " +
+            (tmp.path / "nav.json").string());
   EXPECT_EQ(o.status, 0) << o.output;
   EXPECT_TRUE(fs::exists(tmp.path / "nav.json"));
 }
@@ -175,8 +182,7 @@ TEST(ArduPilotCli, FlightPhasesMatchTimesReadFromOtherMessages) {
   TempDir tmp;
   ASSERT_FALSE(tmp.path.empty());
   const fs::path ds = tmp.path / "ds";
-  Outcome o = insid("import ardupilot " + kLog.string() + " --t-start 74.7 --t-end 215 --out " +
-                    ds.string());
+  Outcome o = import_flight_window(ds);
   ASSERT_EQ(o.status, 0) << o.output;
   EXPECT_NE(o.output.find("  crash        239.14 s (impact)"), std::string::npos) << o.output;
   std::ifstream in(ds / "provenance.json");
@@ -260,13 +266,13 @@ TEST(ArduPilotCli, IdentifyShowsTheAutopilotEstimatesBesideInsids) {
   TempDir tmp;
   ASSERT_FALSE(tmp.path.empty());
   const fs::path ds = tmp.path / "ds";
-  Outcome o = insid("import ardupilot " + kLog.string() + " --t-start 74.7 --t-end 215 --out " +
-                    ds.string());
+  Outcome o = import_flight_window(ds);
   ASSERT_EQ(o.status, 0) << o.output;
   o = insid("identify --data " + ds.string() +
             " --algo ekf-rts --initial-attitude level+heading --window-s 20 --grade mems "
             "--estimate gyro_bias_x --estimate gyro_bias_y --estimate gyro_bias_z "
-            "--estimate accel_bias_z --threads 1 --out " + (tmp.path / "r.json").string());
+            "--estimate accel_bias_z --threads 1 --out " +
+            (tmp.path / "r.json").string());
   ASSERT_EQ(o.status, 0) << o.output;
   EXPECT_NE(o.output.find("insid against the autopilot"), std::string::npos) << o.output;
   std::ifstream rin(tmp.path / "r.json");

@@ -41,8 +41,8 @@ nlohmann::json autopilot_comparison_json(const nlohmann::json& result, const nlo
   nlohmann::json compared = nlohmann::json::array(), not_compared = nlohmann::json::array();
   for (const nlohmann::json& e : ap.at("estimates")) {
     const std::string name = e.at("effect");
-    const std::string label = e.at("source").get<std::string>() + " (" +
-                              e.at("imu").get<std::string>() + ")";
+    const std::string label =
+        e.at("source").get<std::string>() + " (" + e.at("imu").get<std::string>() + ")";
     if (!e.at("applies_to_imported_imu").get<bool>()) {
       not_compared.push_back({{"autopilot", label}, {"why", "another IMU than the imported one"}});
       continue;
@@ -57,7 +57,8 @@ nlohmann::json autopilot_comparison_json(const nlohmann::json& result, const nlo
       continue;
     }
     const bool has_mean = !e.at("airborne_mean_si").is_null();
-    const double ap_value = has_mean ? e["airborne_mean_si"].get<double>() : e.at("end_si").get<double>();
+    const double ap_value =
+        has_mean ? e["airborne_mean_si"].get<double>() : e.at("end_si").get<double>();
     const double rounding = e.at("resolution_si").get<double>() / std::sqrt(12.0);
     // The estimator's own sd where it logs one (PX4's *_bias_variance), else the scatter of the
     // estimate in flight with one logging step's rounding (ArduPilot logs no variance).
@@ -67,19 +68,20 @@ nlohmann::json autopilot_comparison_json(const nlohmann::json& result, const nlo
                : std::hypot(e["airborne_sd_si"].is_null() ? 0.0 : e["airborne_sd_si"].get<double>(),
                             rounding);
     const double insid_value = mine->at("estimate").get<double>();
-    nlohmann::json c = {{"name", name},
-                        {"si_unit", e.at("si_unit")},
-                        {"insid_estimate_si", insid_value},
-                        {"insid_sd_si", mine->value("sd", nlohmann::json(nullptr))},
-                        {"insid_sd_source", mine->value("sd_source", nlohmann::json(nullptr))},
-                        {"autopilot_source", label},
-                        {"autopilot_value_si", ap_value},
-                        {"autopilot_value_is", has_mean ? "airborne mean" : "value at the window's end"},
-                        {"autopilot_sd_si", ap_sd},
-                        {"autopilot_sd_is", own_sd ? "the estimator's own sd"
-                                                   : "scatter in flight with the logging step's rounding"},
-                        {"autopilot_end_si", e.at("end_si")},
-                        {"difference_si", insid_value - ap_value}};
+    nlohmann::json c = {
+        {"name", name},
+        {"si_unit", e.at("si_unit")},
+        {"insid_estimate_si", insid_value},
+        {"insid_sd_si", mine->value("sd", nlohmann::json(nullptr))},
+        {"insid_sd_source", mine->value("sd_source", nlohmann::json(nullptr))},
+        {"autopilot_source", label},
+        {"autopilot_value_si", ap_value},
+        {"autopilot_value_is", has_mean ? "airborne mean" : "value at the window's end"},
+        {"autopilot_sd_si", ap_sd},
+        {"autopilot_sd_is",
+         own_sd ? "the estimator's own sd" : "scatter in flight with the logging step's rounding"},
+        {"autopilot_end_si", e.at("end_si")},
+        {"difference_si", insid_value - ap_value}};
     if (!c["insid_sd_si"].is_null()) {
       const double combined = std::hypot(c["insid_sd_si"].get<double>(), ap_sd);
       c["combined_sd_si"] = combined;
@@ -88,10 +90,11 @@ nlohmann::json autopilot_comparison_json(const nlohmann::json& result, const nlo
     compared.push_back(c);
   }
   return {{"autopilot", ap.value("autopilot", "")},
-          {"autopilot_sd", "the estimator's own sd where it logs a variance (PX4); else the "
-                           "scatter of the logged estimate over the airborne part with one "
-                           "logging step's rounding (resolution / sqrt 12: ArduPilot logs no "
-                           "variance); per row: autopilot_sd_is"},
+          {"autopilot_sd",
+           "the estimator's own sd where it logs a variance (PX4); else the "
+           "scatter of the logged estimate over the airborne part with one "
+           "logging step's rounding (resolution / sqrt 12: ArduPilot logs no "
+           "variance); per row: autopilot_sd_is"},
           {"compared", compared},
           {"not_compared", not_compared}};
 }
@@ -109,20 +112,23 @@ std::string autopilot_comparison_table(const nlohmann::json& cmp) {
     const char* unit = gyro ? "deg/s" : "mg";
     char mine[64], theirs[96], ratio[32] = "-";
     if (c.at("insid_sd_si").is_null())
-      std::snprintf(mine, sizeof mine, "%.4g (no sd) %s", c["insid_estimate_si"].get<double>() * k, unit);
+      std::snprintf(mine, sizeof mine, "%.4g (no sd) %s", c["insid_estimate_si"].get<double>() * k,
+                    unit);
     else
       std::snprintf(mine, sizeof mine, "%.4g +- %.2g %s", c["insid_estimate_si"].get<double>() * k,
                     c["insid_sd_si"].get<double>() * k, unit);
-    std::snprintf(theirs, sizeof theirs, "%.4g +- %.2g (%s)", c["autopilot_value_si"].get<double>() * k,
-                  c["autopilot_sd_si"].get<double>() * k, c["autopilot_source"].get<std::string>().c_str());
+    std::snprintf(theirs, sizeof theirs, "%.4g +- %.2g (%s)",
+                  c["autopilot_value_si"].get<double>() * k, c["autopilot_sd_si"].get<double>() * k,
+                  c["autopilot_source"].get<std::string>().c_str());
     if (c.contains("difference_over_combined_sd"))
       std::snprintf(ratio, sizeof ratio, "%.2f", c["difference_over_combined_sd"].get<double>());
-    std::snprintf(line, sizeof line, "  %-13s %-26s %-40s %s\n", c["name"].get<std::string>().c_str(),
-                  mine, theirs, ratio);
+    std::snprintf(line, sizeof line, "  %-13s %-26s %-40s %s\n",
+                  c["name"].get<std::string>().c_str(), mine, theirs, ratio);
     t += line;
   }
   for (const nlohmann::json& n : cmp.at("not_compared"))
-    t += "  not compared: " + n.at("autopilot").get<std::string>() + ": " + n.at("why").get<std::string>() + "\n";
+    t += "  not compared: " + n.at("autopilot").get<std::string>() + ": " +
+         n.at("why").get<std::string>() + "\n";
   return t;
 }
 
@@ -197,13 +203,11 @@ void run_identify(const IdentifyArgs& args) {
   evaluator.num_threads = args.threads;
   const InsIdentificationProblem problem(navigation, mapping, FitnessKind::kEq15, evaluator);
 
-  const opt::ParameterMap overrides =
-      parse_option("--param", [&] {
-        return parse_algorithm_params(args.params, mapping,
-                                      parse_option("--algo", [&] {
-                                        return opt::default_parameters(args.algorithm);
-                                      }));
-      });
+  const opt::ParameterMap overrides = parse_option("--param", [&] {
+    return parse_algorithm_params(args.params, mapping, parse_option("--algo", [&] {
+                                    return opt::default_parameters(args.algorithm);
+                                  }));
+  });
   opt::RunConfig config;
   config.seed = args.seed;
   config.max_iterations = args.iterations;

@@ -784,8 +784,7 @@ struct Validator {
            (sources && sources->field && !sources->field("align_s").empty()
                 ? sources->field("align_s")
                 : std::string("align_s")) +
-           " " +
-           num_text(m.align_s) + " s); uncovered: [" + num_text(nav_start) + ", " +
+           " " + num_text(m.align_s) + " s); uncovered: [" + num_text(nav_start) + ", " +
            num_text(ds.gnss.front().t_s) + ") s");
     const double allowed_gap = kGnssEndAllowance / m.gnss_rate_hz;
     if (!(ds.gnss.back().t_s >= imu_t1 - allowed_gap))

@@ -195,8 +195,8 @@ int run_campaign(int argc, char** argv) {
 
   std::vector<Case> cases;
   const std::vector<Nominal> effects = matrix == "extended" ? extended_effects()
-                                      : matrix == "mems"   ? mems_effects()
-                                                           : nominal_effects();
+                                       : matrix == "mems"   ? mems_effects()
+                                                            : nominal_effects();
   if (matrix == "mems") {
     // Round r: ceil(null_seeds / seeds) null seeds (5001, ...), each flown on every preset and
     // judged at every W, then every preset x effect x size x W at seed 7000 + r; so a campaign
@@ -288,7 +288,8 @@ int run_campaign(int argc, char** argv) {
       o.window_s = c.window_s;
       // MEMS gyros cannot gyrocompass (insid refuses it): level + the GNSS course, as a user
       // of a MEMS log would run it.
-      if (c.data.grade == "mems") o.initial_attitude.mode = insid::InitialAttitudeMode::kLevelHeading;
+      if (c.data.grade == "mems")
+        o.initial_attitude.mode = insid::InitialAttitudeMode::kLevelHeading;
       const auto res = insid::diagnose::run_diagnose(ds, o);
       const double wall =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -510,7 +511,7 @@ int run_campaign(int argc, char** argv) {
       std::vector<double> rel_error, z_error;  // (estimate - truth) / truth and / sd
     };
     std::map<std::string, Tally> groups;
-    std::map<std::string, Tally> by_size;  // "size detectable|below_detection_limit"
+    std::map<std::string, Tally> by_size;             // "size detectable|below_detection_limit"
     std::map<std::string, std::array<int, 2>> nulls;  // "preset W=w" -> named, n
     for (const json& r : rows) {
       std::ostringstream where;

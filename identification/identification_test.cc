@@ -107,7 +107,7 @@ TEST(Identification, EstimateSpecBeyondPhysicalLimitsIsRefusedNamingTheLimit) {
             std::string::npos)
       << accel;
   EXPECT_NE(accel.find("50 g"), std::string::npos) << accel;
-  EXPECT_NE(error_of("gyro_bias_z:40"), "(accepted)");      // 160 rad/s > 2000 deg/s
+  EXPECT_NE(error_of("gyro_bias_z:40"), "(accepted)");         // 160 rad/s > 2000 deg/s
   EXPECT_NE(error_of("gyro_scale_x:0.5:-4:4"), "(accepted)");  // 200 %
   EXPECT_NE(error_of("lever_arm_x:1e6"), "(accepted)");
   EXPECT_NE(error_of("gnss_latency:inf"), "(accepted)");

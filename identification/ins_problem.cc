@@ -52,17 +52,21 @@ PhysicalLimit physical_limit(const std::string& name) {
   const double accel_mps2 = B::kMaxSpecificForce_g * kStandardGravity_mps2;
   const auto starts = [&](const char* prefix) { return name.rfind(prefix, 0) == 0; };
   if (starts("gyro_bias_drift_"))
-    return {gyro_rad_s / 60.0, "a gyro bias drift that leaves the 2000 deg/s range within a "
-                               "minute is not physical"};
+    return {gyro_rad_s / 60.0,
+            "a gyro bias drift that leaves the 2000 deg/s range within a "
+            "minute is not physical"};
   if (starts("accel_bias_drift_"))
-    return {accel_mps2 / 60.0, "an accelerometer bias drift that leaves the 50 g range within a "
-                               "minute is not physical"};
+    return {accel_mps2 / 60.0,
+            "an accelerometer bias drift that leaves the 50 g range within a "
+            "minute is not physical"};
   if (starts("gyro_bias_"))
-    return {gyro_rad_s, "a gyro bias beyond 2000 deg/s (the largest rate insid accepts in data) "
-                        "is not physical"};
+    return {gyro_rad_s,
+            "a gyro bias beyond 2000 deg/s (the largest rate insid accepts in data) "
+            "is not physical"};
   if (starts("accel_bias_"))
-    return {accel_mps2, "an accelerometer bias beyond 50 g (the largest specific force insid "
-                        "accepts in data) is not physical"};
+    return {accel_mps2,
+            "an accelerometer bias beyond 50 g (the largest specific force insid "
+            "accepts in data) is not physical"};
   if (name.find("_scale_") != std::string::npos)
     return {1.0, "a scale factor error beyond 100 % is not physical"};
   if (name.find("_misalign_") != std::string::npos)
@@ -92,14 +96,13 @@ EstimatedParameter EstimatedParameter::parse(const std::string& text) {
   if (!(p.sigma > 0.0)) throw std::invalid_argument("--estimate '" + text + "': SIGMA must be > 0");
   if (!(p.lower_sigma < p.upper_sigma))
     throw std::invalid_argument("--estimate '" + text + "': LO must be < HI");
-  const double reach_si =
-      std::max(std::abs(p.lower_sigma), std::abs(p.upper_sigma)) * p.sigma;
+  const double reach_si = std::max(std::abs(p.lower_sigma), std::abs(p.upper_sigma)) * p.sigma;
   const PhysicalLimit limit = physical_limit(p.name);
   if (!(reach_si <= limit.value_si))
-    throw std::invalid_argument(
-        "--estimate '" + text + "': the search box reaches " + short_number(reach_si) + " " +
-        std::string(effect_info(p.name).unit) + "; " + limit.why + ": give a smaller SIGMA or " +
-        "LO:HI");
+    throw std::invalid_argument("--estimate '" + text + "': the search box reaches " +
+                                short_number(reach_si) + " " +
+                                std::string(effect_info(p.name).unit) + "; " + limit.why +
+                                ": give a smaller SIGMA or " + "LO:HI");
   return p;
 }
 

@@ -86,8 +86,8 @@ TEST(RtklibPos, ReadsDateTimeAndWeekTowOnOneGpstScale) {
 
 // Issue 37, item 13: what was silently tolerated is refused, named.
 TEST(RtklibPos, ImpossibleDatesAndFractionalFlagsAreRefused) {
-  const std::string e1 = error_of(std::string(kPosHeader) + pos_row("2025/02/30 17:30:39.749",
-                                                                     40.1, 1, 0, 0));
+  const std::string e1 =
+      error_of(std::string(kPosHeader) + pos_row("2025/02/30 17:30:39.749", 40.1, 1, 0, 0));
   EXPECT_NE(e1.find("the date '2025/02/30' does not exist"), std::string::npos) << e1;
   EXPECT_NE(error_of(std::string(kPosHeader) + pos_row("2025/04/31 00:00:00.000", 40.1, 1, 0, 0))
                 .find("does not exist"),
@@ -417,8 +417,8 @@ TEST(ImuRate, BelowTheMinimumIsRefusedNamingTheRateAndTheMinimum) {
         sum = ImuSample{};
       }
     }
-    return parse_kf_gins_imu(kf_gins_imu_text(d, 1000.0), "imu" + std::to_string(100 / group) + ".txt",
-                             2381);
+    return parse_kf_gins_imu(kf_gins_imu_text(d, 1000.0),
+                             "imu" + std::to_string(100 / group) + ".txt", 2381);
   };
   const GnssSolution gnss =
       parse_kf_gins_gnss(kf_gins_gnss_text(ds, 1000.0, 0.02, 0.03), "gnss.txt", 2381);
@@ -431,7 +431,8 @@ TEST(ImuRate, BelowTheMinimumIsRefusedNamingTheRateAndTheMinimum) {
     const std::string m = e.what();
     EXPECT_NE(m.find("imu10.txt: IMU rate 10 Hz (median step 100 ms"), std::string::npos) << m;
     EXPECT_NE(m.find("is below the 20 Hz insid accepts for strapdown integration"),
-              std::string::npos) << m;
+              std::string::npos)
+        << m;
     EXPECT_NE(m.find("--min-imu-rate-hz"), std::string::npos) << m;
   }
   options.min_imu_rate_hz = 5.0;
@@ -1317,20 +1318,27 @@ TEST(SharedData, Px4LogsImportOrAreRefusedWithTheDocumentedMessage) {
   }
 }
 
+// The shared PX4 simulator log with estimator_sensor_bias and one corruptible sensor_combined
+// (empty path when ../shared/data is absent), and a file's bytes.
+constexpr const char* kNoSharedUlogs =
+    "../shared/data/px4-ulog is absent (tests that need the shared real data skip outside CI)";
+fs::path shared_px4_events_log() {
+  const fs::path source = fs::path(INSID_SHARED_DATA) / "px4-ulog" / "sample_px4_events.ulg";
+  return fs::exists(source) ? source : fs::path();
+}
+std::string file_bytes(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
 // Issue 34: the PX4 estimator's own biases (estimator_sensor_bias, instance 0) go to
 // autopilot_estimates in insid's names, axes and SI units: each compared with the float32 read
 // by hand at its byte offset in the file (the last message), so a swapped axis, a wrong field or
 // a unit conversion (deg/s, mg) fails; sd_si is the square root of the logged variance.
 TEST(SharedData, Px4EstimatorBiasesAreReadWithTheirAxesUnitsAndVariance) {
-  const fs::path source = fs::path(INSID_SHARED_DATA) / "px4-ulog" / "sample_px4_events.ulg";
-  if (!fs::exists(source))
-    GTEST_SKIP() << "../shared/data/px4-ulog is absent (tests that need the shared real data skip "
-                    "outside CI)";
-  std::string bytes;
-  {
-    std::ifstream in(source, std::ios::binary);
-    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-  }
+  const fs::path source = shared_px4_events_log();
+  if (source.empty()) GTEST_SKIP() << kNoSharedUlogs;
+  const std::string bytes = file_bytes(source);
   const UlogFile log = UlogFile::parse(bytes, source.string());
   std::vector<std::string> notes;
   const nlohmann::json ap = px4_bias_estimates(log, "sensor_combined", 0, notes);
@@ -1356,9 +1364,9 @@ TEST(SharedData, Px4EstimatorBiasesAreReadWithTheirAxesUnitsAndVariance) {
     EXPECT_TRUE(e["applies_to_imported_imu"].get<bool>());
   }
   // Another IMU instance than the estimator's primary: listed, not compared.
-  EXPECT_FALSE(px4_bias_estimates(log, "vehicle_imu", 1, notes)["estimates"][0]
-                   ["applies_to_imported_imu"]
-                       .get<bool>());
+  EXPECT_FALSE(
+      px4_bias_estimates(log, "vehicle_imu", 1, notes)["estimates"][0]["applies_to_imported_imu"]
+          .get<bool>());
 }
 
 // Issue 37 item 4: one corrupted sensor_combined timestamp (a flipped bit 48, 2^48 us ahead)
@@ -1366,15 +1374,9 @@ TEST(SharedData, Px4EstimatorBiasesAreReadWithTheirAxesUnitsAndVariance) {
 // Now the message is dropped as a timestamp jump, named with its byte offset, and every other row
 // is kept. The corrupted copies are written to a temporary folder, never into the repository.
 TEST(SharedData, OneCorruptedUlogTimestampDropsOneRowAndIsReported) {
-  const fs::path source = fs::path(INSID_SHARED_DATA) / "px4-ulog" / "sample_px4_events.ulg";
-  if (!fs::exists(source))
-    GTEST_SKIP() << "../shared/data/px4-ulog is absent (tests that need the shared real data skip "
-                    "outside CI)";
-  std::string original;
-  {
-    std::ifstream in(source, std::ios::binary);
-    original.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-  }
+  const fs::path source = shared_px4_events_log();
+  if (source.empty()) GTEST_SKIP() << kNoSharedUlogs;
+  const std::string original = file_bytes(source);
   AssembleOptions options;
   options.gnss_quality = {1};
   options.align_s = 1.0;

@@ -340,7 +340,8 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
         " Hz (the Nyquist frequency) is aliased and what happens between the samples is lost; "
         "nothing was written. Log the IMU faster (PX4: SDLOG_PROFILE high-rate, or the "
         "vehicle_imu topic; ArduPilot: the IMU logging rate), or give --min-imu-rate-hz R "
-        "(R <= " + num(rate_hz, 3) + ") for a platform whose motion stays below R / 4 Hz");
+        "(R <= " +
+        num(rate_hz, 3) + ") for a platform whose motion stays below R / 4 Hz");
   prov["imu"]["min_rate_hz"] = options.min_imu_rate_hz;
   prov["imu"]["step_s"] = {{"median", dt_median},
                            {"min", *std::min_element(steps.begin(), steps.end())},

@@ -348,7 +348,8 @@ UlogSeries extract_ulog(const UlogFile& log, const std::string& where,
     e.line = k + 1;
     out.gnss.epochs.push_back(e);
   }
-  out.gnss.source = where + ", " + gnss_topic + " instance " + std::to_string(options.gnss_instance);
+  out.gnss.source =
+      where + ", " + gnss_topic + " instance " + std::to_string(options.gnss_instance);
   out.gnss.row_unit = "message";
   out.gnss.format =
       "ulog " + gnss_topic + (degrees ? " (latitude_deg layout)" : " (1e-7 deg integer layout)");
@@ -468,8 +469,7 @@ UlogSeries extract_ulog(const UlogFile& log, const std::string& where,
     hprov["kept"] = h.t_gpst_unix_s.size();
     out.heading = std::move(h);
   }
-  out.autopilot_estimates =
-      px4_bias_estimates(log, imu_topic, options.imu_instance, out.notes);
+  out.autopilot_estimates = px4_bias_estimates(log, imu_topic, options.imu_instance, out.notes);
   return out;
 }
 
@@ -508,9 +508,10 @@ nlohmann::json px4_bias_estimates(const UlogFile& log, const std::string& imu_to
       }
       if (last == nullptr) continue;
       const double mean = sum / static_cast<double>(n);
-      const double sd = n > 1 ? std::sqrt(std::max(0.0, (sum2 - static_cast<double>(n) * mean * mean) /
-                                                            static_cast<double>(n - 1)))
-                              : 0.0;
+      const double sd =
+          n > 1 ? std::sqrt(std::max(0.0, (sum2 - static_cast<double>(n) * mean * mean) /
+                                              static_cast<double>(n - 1)))
+                : 0.0;
       const double end = (*last)[1];
       const double display = gyro ? kRadToDeg : 1e3 / kStandardGravity_mps2;  // deg/s or mg
       const char xyz = static_cast<char>('x' + axis);
@@ -546,19 +547,20 @@ nlohmann::json px4_bias_estimates(const UlogFile& log, const std::string& imu_to
   notes.push_back("autopilot estimator bias estimates (meta.json autopilot_estimates; the last " +
                   topic + " message" + std::string(primary ? "" : ", for the primary IMU only") +
                   "): " + summary);
-  return {
-      {"autopilot", "PX4 estimator (" + topic + ", instance 0)"},
-      {"frame", "body forward-right-down: PX4's body frame, insid's b (no mounting applied)"},
-      {"sign", "bias = measured - true, as insid's sensor model (PX4's estimator subtracts its "
-               "bias estimates from the IMU data)"},
-      {"imported_imu", imu_topic + " instance " + std::to_string(imu_instance)},
-      {"which_imu",
-       "the IMU the estimator fuses; sensor_combined and instance 0 of vehicle_imu carry PX4's "
-       "primary IMU, normally the same one (the log's device ids would settle it)"},
-      {"uncertainty", "sd_si: the square root of the estimator's own variance of the last "
-                      "message (when the layout logs *_bias_variance); log_sd_si: the spread of "
-                      "the estimate over the log"},
-      {"estimates", list}};
+  return {{"autopilot", "PX4 estimator (" + topic + ", instance 0)"},
+          {"frame", "body forward-right-down: PX4's body frame, insid's b (no mounting applied)"},
+          {"sign",
+           "bias = measured - true, as insid's sensor model (PX4's estimator subtracts its "
+           "bias estimates from the IMU data)"},
+          {"imported_imu", imu_topic + " instance " + std::to_string(imu_instance)},
+          {"which_imu",
+           "the IMU the estimator fuses; sensor_combined and instance 0 of vehicle_imu carry PX4's "
+           "primary IMU, normally the same one (the log's device ids would settle it)"},
+          {"uncertainty",
+           "sd_si: the square root of the estimator's own variance of the last "
+           "message (when the layout logs *_bias_variance); log_sd_si: the spread of "
+           "the estimate over the log"},
+          {"estimates", list}};
 }
 
 }  // namespace insid::import
