@@ -35,6 +35,18 @@ namespace insid::import {
 namespace {
 namespace fs = std::filesystem;
 
+// The `straight` preset (nav grade, 100 Hz IMU, 10 Hz GNSS) as an insid-dataset/2 on WGS-84,
+// what an import produces: the reference flight of the round-trip and refusal tests.
+Dataset straight_v2_flight(double flight_s, double align_s) {
+  scenarios::ScenarioConfig cfg = scenarios::preset_scenario("straight");
+  cfg.flight_s = flight_s;
+  cfg.align_s = align_s;
+  Dataset ds = scenarios::simulate(cfg);
+  ds.meta.earth = EarthModel::wgs84();
+  ds.meta.format = DatasetFormat::kV2;
+  return ds;
+}
+
 const char* kPosHeader =
     "% program   : RTKPOST\n"
     "%  GPST                  latitude(deg) longitude(deg)  height(m)   Q  ns   sdn(m)   sde(m)   "
@@ -336,12 +348,7 @@ TEST(KfGins, ExportImportRoundTripNavigatesAsTheOriginal) {
 // Returns the import's align_s, the provenance's ended_by and the first GNSS epoch above
 // 0.2 m/s (s from the first IMU row).
 std::tuple<double, std::string, double> default_static_window(const std::string& disturbance) {
-  scenarios::ScenarioConfig cfg = scenarios::preset_scenario("straight");
-  cfg.flight_s = 60.0;
-  cfg.align_s = 60.0;
-  Dataset ds = scenarios::simulate(cfg);
-  ds.meta.earth = EarthModel::wgs84();
-  ds.meta.format = DatasetFormat::kV2;
+  Dataset ds = straight_v2_flight(60.0, 60.0);
   for (std::size_t k = 1; k < ds.imu.size(); ++k) {
     ImuSample& s = ds.imu[k];
     const double dt = s.t_s - ds.imu[k - 1].t_s;
@@ -397,12 +404,7 @@ TEST(StaticWindow, ThresholdsAreValidatedNamingTheValue) {
 // assembled); with --min-imu-rate-hz 5 the same rows import. At 20 Hz (groups of 5) the
 // default accepts them.
 TEST(ImuRate, BelowTheMinimumIsRefusedNamingTheRateAndTheMinimum) {
-  scenarios::ScenarioConfig cfg = scenarios::preset_scenario("straight");
-  cfg.flight_s = 60.0;
-  cfg.align_s = 30.0;
-  Dataset ds = scenarios::simulate(cfg);
-  ds.meta.earth = EarthModel::wgs84();
-  ds.meta.format = DatasetFormat::kV2;
+  Dataset ds = straight_v2_flight(60.0, 30.0);
   ASSERT_NEAR(ds.meta.imu_rate_hz, 100.0, 1e-9);
   const auto decimated = [&](std::size_t group) {
     Dataset d = ds;
@@ -648,12 +650,7 @@ TEST(CsvImport, DatasetCheckErrorsNameTheUsersFileLineAndOption) {
 }
 
 TEST(CsvImport, SimulatedFlightRoundTripThroughAMappedCsvAndAPos) {
-  scenarios::ScenarioConfig cfg = scenarios::preset_scenario("straight");
-  cfg.flight_s = 120.0;
-  cfg.align_s = 60.0;
-  Dataset original = scenarios::simulate(cfg);
-  original.meta.earth = EarthModel::wgs84();
-  original.meta.format = DatasetFormat::kV2;
+  Dataset original = straight_v2_flight(120.0, 60.0);
   const std::vector<double> relative = csv_pos_round_trip(original);
   for (double r : relative) EXPECT_LT(r, 1e-2);
   std::printf(
@@ -845,12 +842,7 @@ std::string ulog_of(const Dataset& ds, std::uint64_t boot_offset_us) {
 // velocities as float32 (relative 6e-8 each), positions as 1e-7 deg (1.1 cm) and heights in mm;
 // the fitness moves by relative 1e-5 at most (measured: 2.1e-8 and 1.4e-8).
 TEST(Ulog, SimulatedFlightRoundTripNavigatesAsTheOriginal) {
-  scenarios::ScenarioConfig cfg = scenarios::preset_scenario("straight");
-  cfg.flight_s = 120.0;
-  cfg.align_s = 60.0;
-  Dataset original = scenarios::simulate(cfg);
-  original.meta.earth = EarthModel::wgs84();
-  original.meta.format = DatasetFormat::kV2;
+  Dataset original = straight_v2_flight(120.0, 60.0);
   std::string bytes = ulog_of(original, 5'000'000);
   bytes += std::string{'\x20', '\x00', 'D', '\x07'};  // the logger stopped inside a message
   const UlogFile log = UlogFile::parse(bytes, "flight.ulg");
@@ -963,12 +955,7 @@ TEST(Ulog, TimestampJumpsCostTheirOwnMessagesOnly) {
 // The simulated flight's log with one flipped bit (48) in a vehicle_imu and in a GNSS stamp:
 // one IMU row and one GNSS epoch dropped, both counted and named; no shared data needed.
 TEST(Ulog, OneFlippedTimestampBitDropsOneRowOfItsTopic) {
-  scenarios::ScenarioConfig cfg = scenarios::preset_scenario("straight");
-  cfg.flight_s = 60.0;
-  cfg.align_s = 30.0;
-  Dataset original = scenarios::simulate(cfg);
-  original.meta.earth = EarthModel::wgs84();
-  original.meta.format = DatasetFormat::kV2;
+  Dataset original = straight_v2_flight(60.0, 30.0);
   const std::string clean = ulog_of(original, 5'000'000);
   const UlogFile clean_log = UlogFile::parse(clean, "flight.ulg");
   const std::size_t imu_at =
