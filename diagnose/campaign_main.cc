@@ -304,6 +304,7 @@ int run_campaign(int argc, char** argv) {
       j["grade"] = c.data.grade;
       j["window_s"] = c.window_s;
       j["found"] = res.report["found"];
+      j["withdrawn"] = res.report["withdrawn"];  // issue 33's backward check
       j["not_observable"] = res.report["not_observable"];
       j["gap"] = res.report["gap"];
       j["noise_floor"] = res.report["noise_floor"];
