@@ -817,6 +817,12 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
     start << fit.value_sigma, best->estimate_sigma;
     progress("re-fit with " + best->name);
     fit = refit(nav, params, start, evaluator);
+    {  // its z in the model it joined (the backward check's reference, same sd as there)
+      const Vec sd_added = parameter_sd(fit.J, D);
+      const Eigen::Index last = fit.value_sigma.size() - 1;
+      found.back()["z_when_added"] =
+          sd_added[last] > 0 ? fit.value_sigma[last] / sd_added[last] : 0.0;
+    }
     remaining.erase(std::find(remaining.begin(), remaining.end(), best->name));
     if (remaining.empty()) break;
   }
@@ -826,22 +832,27 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
   // that also holds the later effect's signal (MEMS `rich` flights hiding a gyro z bias drift
   // of 0.2 deg/s per hour named gyro_misalign_zy first, at z 5-9, then the drift; in the joint
   // model the misalignment was 0.5 sd from zero and the drift right). In the final joint model,
-  // an effect whose |estimate| / sd is below the threshold it was named at is withdrawn (the
-  // weakest against its threshold first), the model refitted without it, and the check
-  // repeated; a withdrawn effect is reported under "withdrawn" with its joint estimate.
+  // an effect named before others whose |estimate| / sd is below the threshold it was named at
+  // AND below half its |estimate| / sd in the model it joined (the same sd, so its own
+  // efficiency does not count: the model-sd of a lone true effect can sit below the threshold
+  // the calibrated test used) is withdrawn (the weakest against its threshold first), the model
+  // refitted without it, and the check repeated; a withdrawn effect is reported under
+  // "withdrawn" with its joint estimate. The last-named effect is never withdrawn.
   json withdrawn = json::array();
   for (;;) {
     const Vec sd = parameter_sd(fit.J, D);
     std::size_t weakest = found.size(), weakest_k = 0;
     double weakest_ratio = 1.0;  // |z| / threshold; >= 1 stays
-    for (std::size_t f = 0; f < found.size(); ++f)
+    for (std::size_t f = 0; f + 1 < found.size(); ++f)  // joined by a later name
       for (std::size_t k = 0; k < fit.params.size(); ++k) {
         if (fit.params[k].name != found[f]["effect"].get<std::string>()) continue;
         const auto i = static_cast<Eigen::Index>(k);
         const double threshold =
             iterations[found[f]["iteration"].get<std::size_t>() - 1]["threshold_z"].get<double>();
-        const double ratio = sd[i] > 0 ? std::abs(fit.value_sigma[i] / sd[i]) / threshold : 1.0;
-        if (ratio < weakest_ratio) weakest = f, weakest_k = k, weakest_ratio = ratio;
+        const double z = sd[i] > 0 ? std::abs(fit.value_sigma[i] / sd[i]) : 0.0;
+        const double collapsed = std::abs(found[f]["z_when_added"].get<double>()) / 2.0;
+        if (sd[i] > 0 && z < collapsed && z / threshold < weakest_ratio)
+          weakest = f, weakest_k = k, weakest_ratio = z / threshold;
       }
     if (weakest == found.size()) break;
     const auto i = static_cast<Eigen::Index>(weakest_k);
@@ -854,6 +865,7 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
          {"joint_estimate", fit.value_sigma[i] * sigma},
          {"joint_sd", sd[i] * sigma},
          {"joint_z", fit.value_sigma[i] / sd[i]},
+         {"z_when_added", found[weakest]["z_when_added"]},
          {"threshold_z",
           iterations[found[weakest]["iteration"].get<std::size_t>() - 1]["threshold_z"]},
          {"why", "not significant in the final joint model: a stand-in for effects named later"}});
