@@ -842,7 +842,7 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
   for (;;) {
     const Vec sd = parameter_sd(fit.J, D);
     std::size_t weakest = found.size(), weakest_k = 0;
-    double weakest_ratio = 1.0;  // |z| / threshold; >= 1 stays
+    double weakest_ratio = 1.0;                         // |z| / threshold; >= 1 stays
     for (std::size_t f = 0; f + 1 < found.size(); ++f)  // joined by a later name
       for (std::size_t k = 0; k < fit.params.size(); ++k) {
         if (fit.params[k].name != found[f]["effect"].get<std::string>()) continue;
