@@ -267,13 +267,13 @@ struct LockstepRunner::Impl {
   }
 
   // The candidates a round of a wave may hold: the target rounded to the nearest whole number
-  // of two-vector groups for every thread (kLanes x kPlannedChains x threads candidates, 16 x
+  // of two-vector groups for every thread (kLanes x planned_chains() x threads candidates, 16 x
   // threads on the AVX-512 path; the smallest wave, 48 x threads, is three). A round that
   // overshoots such a multiple by a few candidates leaves every thread but one waiting for that
   // one's extra group (results/perf/README.md, "Round by round").
   std::size_t filled_groups_cap(std::size_t target) const {
     const std::size_t unit = static_cast<std::size_t>(BatchFitness::kLanes) *
-                             static_cast<std::size_t>(BatchFitness::kPlannedChains) *
+                             static_cast<std::size_t>(BatchFitness::planned_chains()) *
                              static_cast<std::size_t>(std::max(settings_.threads, 1));
     if (target >= std::numeric_limits<std::size_t>::max() - unit) return target;  // no bound
     return std::max(unit, (target + unit / 2) / unit * unit);

@@ -8,6 +8,7 @@
 
 #include "bench/campaign.h"
 #include "cli/commands.h"
+#include "core/cpu_path.h"
 #include "identification/ekf_rts.h"
 #include "identification/identify.h"
 
@@ -34,6 +35,14 @@ int main(int argc, char** argv) {
       "insid: identify INS sensor errors from navigation data, and benchmark the optimizers "
       "(GA, PSO, PIO, DVPIO) that do it."};
   app.require_subcommand(1);
+  // The kernel's instruction-set path (core/cpu_path.h), decided here so that a bad INSID_CPU
+  // stops every command before it starts, --version included.
+  try {
+    insid::cpu_path();
+  } catch (const std::exception& e) {
+    std::cerr << "insid: error: " << e.what() << '\n';
+    return kExitFailure;
+  }
   const nlohmann::json build = insid::build_info_json();
   app.set_version_flag(
       "--version",

@@ -21,6 +21,7 @@
 #include <memory>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "core/fitness.h"
@@ -32,14 +33,10 @@ class BatchFitness {
  public:
   static constexpr int kLanes = 8;      ///< doubles per SIMD vector (one 512-bit register)
   static constexpr int kMaxChains = 2;  ///< vectors advanced together in one group, at most
-  /// Vectors per group that `evaluate` plans: two with AVX-512's 32 registers; one on the
-  /// AVX2 and baseline paths, where a vector takes 2 or 4 of 16 registers and a two-vector group
-  /// spills (results/perf/README.md, "CPU dispatch": 2.75x native at K = 16 vs 1.88x at K = 8).
-#if defined(__AVX512F__)
-  static constexpr int kPlannedChains = 2;
-#else
-  static constexpr int kPlannedChains = 1;
-#endif
+  /// Vectors per group that `evaluate` plans on the program's instruction-set path
+  /// (core/cpu_path.h): two with AVX-512's 32 registers; one on the AVX2 and baseline paths, where
+  /// a vector takes 2 or 4 of 16 registers and a two-vector group spills.
+  static int planned_chains();
 
   /// Precomputes what the kernel needs (O(data), a few milliseconds per hour of data).
   explicit BatchFitness(std::shared_ptr<const NavigationProblem> problem);
@@ -66,6 +63,10 @@ class BatchFitness {
     /// Empty: the lowest-index candidate whose set-up failed (e.g. an alignment that throws)
     /// is rethrown after the others are done. Else one slot per candidate: failures land here.
     std::span<std::exception_ptr> errors;
+    /// Empty: the program's instruction-set path (core/cpu_path.h, chosen at first use). Else
+    /// the named path (avx512, avx2, baseline, native), which the program must hold and the CPU
+    /// run: tests run every path the CPU has this way.
+    std::string_view cpu_path;
   };
   /// Scores every candidate. Throws std::invalid_argument on size mismatches or when the data
   /// are not supported().
@@ -74,7 +75,7 @@ class BatchFitness {
   std::vector<double> fitness(std::span<const SensorErrors> candidates,
                               FitnessKind kind = FitnessKind::kEq15, int threads = 1) const;
 
-  /// How `evaluate` packs `num_vectors` SIMD vectors into groups (each of 1..kPlannedChains
+  /// How `evaluate` packs `num_vectors` SIMD vectors into groups (each of 1..planned_chains()
   /// vectors) for `threads` threads. Grouping never changes a result; exposed for tests.
   static std::vector<int> plan_groups(int num_vectors, int threads);
   /// Evaluates with an explicit grouping (vectors per group, summing to ceil(K / kLanes)):

@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "core/cpu_path.h"
 #include "core/json_reader.h"
 #include "optimizers/random.h"
 
@@ -18,9 +19,6 @@
 
 #ifndef INSID_BUILD_TYPE
 #define INSID_BUILD_TYPE "unknown"
-#endif
-#ifndef INSID_CPU_PATH
-#define INSID_CPU_PATH "unknown"
 #endif
 
 namespace insid {
@@ -236,7 +234,7 @@ nlohmann::json build_info_json() {
   j["version"] = INSID_VERSION;
   j["git_revision"] = INSID_GIT_REVISION;
   j["build_type"] = INSID_BUILD_TYPE;
-  j["cpu_path"] = INSID_CPU_PATH;
+  j["cpu_path"] = cpu_path_description();  // core/cpu_path.h
 #if defined(__clang__)
   j["compiler"] = std::string("clang ") + __clang_version__;
 #elif defined(__GNUC__)

@@ -15,7 +15,7 @@ namespace {
 
 std::vector<Eigen::VectorXd> random_points(int count, int dimension, std::uint64_t seed) {
   Rng rng(seed);
-  std::vector<Eigen::VectorXd> points(count, Eigen::VectorXd(dimension));
+  std::vector<Eigen::VectorXd> points(count, Eigen::VectorXd::Zero(dimension));
   for (Eigen::VectorXd& x : points) {
     for (int j = 0; j < dimension; ++j) x[j] = rng.uniform(-1.0, 1.0);
   }

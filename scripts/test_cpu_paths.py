@@ -1,11 +1,11 @@
 #!/usr/bin/env python3
-"""The CPU-dispatching `insid` (cli/cpu_dispatch_main.cc): every path this CPU runs gives the same
+"""The CPU-dispatching `insid` (core/cpu_path.h): every kernel path this CPU runs gives the same
 results within the batched kernel's tolerance, the same path gives the same bits for 1 and 2
 threads, INSID_CPU selects the path (--version prints it), and a bad INSID_CPU is refused. A forced
-path the CPU lacks is refused: on this CPU through INSID_CPU_HIDE (the launcher's test-only
-override, which can only take paths away), on a CPU that lacks one for real as well.
+path the CPU lacks is refused: on this CPU through INSID_CPU_HIDE (the test-only override, which
+can only take paths away), on a CPU that lacks one for real as well.
 
-Usage: test_cpu_paths.py BUILD_DIR     (exit 0 = pass; ctest `cpu_paths`)
+Usage: test_cpu_paths.py PROGRAM     (exit 0 = pass; ctest `cpu_paths`)
 """
 import json
 import os
@@ -17,7 +17,7 @@ RTOL = 1e-9  # the batched-vs-scalar tolerance (core/batch_fitness_test.cc)
 
 
 def cpu_levels():
-    """Paths this CPU runs, from /proc/cpuinfo flags (independent of the launcher's own check)."""
+    """Paths this CPU runs, from /proc/cpuinfo flags (independent of insid's own check)."""
     flags = set()
     with open("/proc/cpuinfo") as f:
         for line in f:
@@ -25,7 +25,7 @@ def cpu_levels():
                 flags = set(line.split(":", 1)[1].split())
                 break
     # LZCNT ("abm") is part of x86-64-v3 too, but some hypervisors leave the flag out of cpuinfo
-    # (this machine's KVM guest) while the CPUID bit the launcher reads is set.
+    # (this machine's KVM guest) while the CPUID bit insid reads is set.
     v3 = {"avx", "avx2", "bmi1", "bmi2", "f16c", "fma", "movbe", "xsave"} <= flags
     v4 = v3 and {"avx512f", "avx512bw", "avx512cd", "avx512dq", "avx512vl"} <= flags
     return [p for p, ok in (("avx512", v4), ("avx2", v3), ("baseline", True)) if ok]
@@ -45,8 +45,7 @@ def run(insid, args, cpu=None, threads=None, check=True, hide=None):
 
 
 def main():
-    build = sys.argv[1]
-    insid = os.path.join(build, "cli", "insid")
+    insid = sys.argv[1]
     failures = []
     paths = cpu_levels()
     work = tempfile.mkdtemp(prefix="insid-cpu-")
@@ -65,7 +64,7 @@ def main():
         r = run(insid, ["--version"], cpu=missing, check=False)
         if r.returncode == 0 or "this CPU lacks" not in r.stderr:
             failures.append(f"INSID_CPU={missing} on a CPU without it: rc {r.returncode}, {r.stderr!r}")
-    # The same refusal on this CPU, with the paths it has hidden from the launcher's probe, and the
+    # The same refusal on this CPU, with the paths it has hidden from insid's probe, and the
     # automatic choice falls back to the next path.
     for hidden in [p for p in ("avx512", "avx2") if p in paths]:
         hide = ",".join(paths[: paths.index(hidden) + 1])
