@@ -23,6 +23,7 @@
 #include "bench/cluster.h"
 #include "core/json_reader.h"
 #include "core/output_dir.h"
+#include "core/threads.h"
 #include "identification/identify.h"
 
 namespace insid::campaign {
@@ -326,8 +327,8 @@ void discard_campaign_results(const fs::path& dir) {
   if (kept.size() > 5) list += " and " + std::to_string(kept.size() - 5) + " more";
   throw std::runtime_error(
       dir.string() + ": --force-new removed the results insid wrote there but kept " +
-      std::to_string(kept.size()) + " entries it did not write (or that changed since): " +
-      list + ". Move them away yourself, or choose another --out.");
+      std::to_string(kept.size()) + " entries it did not write (or that changed since): " + list +
+      ". Move them away yourself, or choose another --out.");
 }
 
 DirectoryClaim prepare_directory(const CampaignConfig& config, const RunOptions& options,
@@ -493,7 +494,7 @@ std::string RunOptions::validate() const {
 CampaignOutcome run_campaign(const CampaignConfig& config, const RunOptions& options) {
   const auto t_start = std::chrono::steady_clock::now();
   const fs::path dir(options.out_dir);
-  const int threads = options.threads > 0 ? options.threads : omp_get_max_threads();
+  const int threads = thread_count(options.threads);
   Cluster* cluster =
       options.cluster != nullptr && options.cluster->size() > 1 ? options.cluster : nullptr;
   const bool root = cluster == nullptr || cluster->rank() == 0;
@@ -598,8 +599,7 @@ CampaignOutcome run_campaign(const CampaignConfig& config, const RunOptions& opt
     }
     if (outcome.complete) {
       const nlohmann::json summary = summarize_campaign(options.out_dir, config);
-      write_file_atomic(dir / "summary.json", summary.dump(1) + "\n",
-                        own_campaign_path());
+      write_file_atomic(dir / "summary.json", summary.dump(1) + "\n", own_campaign_path());
     }
   }
   if (cluster != nullptr) {

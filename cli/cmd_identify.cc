@@ -20,6 +20,7 @@
 #include "cli/progress.h"
 #include "core/dataset.h"
 #include "core/fitness.h"
+#include "core/units.h"
 #include "identification/ekf_rts.h"
 #include "identification/grade.h"
 #include "identification/identify.h"
@@ -108,7 +109,7 @@ std::string autopilot_comparison_table(const nlohmann::json& cmp) {
   t += line;
   for (const nlohmann::json& c : cmp.at("compared")) {
     const bool gyro = c.at("name").get<std::string>().rfind("gyro", 0) == 0;
-    const double k = gyro ? 180.0 / 3.14159265358979323846 : 1e3 / 9.80665;
+    const double k = gyro ? kRadToDeg : 1e3 / kStandardGravity_mps2;
     const char* unit = gyro ? "deg/s" : "mg";
     char mine[64], theirs[96], ratio[32] = "-";
     if (c.at("insid_sd_si").is_null())

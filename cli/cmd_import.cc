@@ -1,6 +1,6 @@
 // insid import: a user's recording -> insid-dataset/2 directory with a provenance record
 // (import/). Formats: csv (an IMU CSV with a mapping spec + an RTKLIB .pos GNSS solution), kf-gins,
-// ulog (PX4) and ardupilot (DataFlash .bin).
+// ulog (PX4) and ardupilot (DataFlash .bin). The other way, `insid export`: cmd_export.cc.
 #include <charconv>
 #include <chrono>
 #include <cmath>
@@ -14,8 +14,6 @@
 
 #include <nlohmann/json.hpp>
 
-#include "bench/campaign.h"
-#include "bench/iohprofiler.h"
 #include "cli/cli_util.h"
 #include "cli/commands.h"
 #include "cli/progress.h"
@@ -38,37 +36,38 @@ namespace {
 namespace fs = std::filesystem;
 
 // What every import subcommand takes (declared once by add_shared_import_options): the static
-// window (import::AssembleOptions), the output directory and the verbosity.
+// window (importers::AssembleOptions), the output directory and the verbosity.
 struct SharedImportArgs {
   std::optional<double> align_s;
-  double static_speed_mps = import::AssembleOptions{}.static_speed_mps;
-  double static_rate_dps = import::AssembleOptions{}.static_rate_dps;
-  double static_accel_sd_mps2 = import::AssembleOptions{}.static_accel_sd_mps2;
+  double static_speed_mps = importers::AssembleOptions{}.static_speed_mps;
+  double static_rate_dps = importers::AssembleOptions{}.static_rate_dps;
+  double static_accel_sd_mps2 = importers::AssembleOptions{}.static_accel_sd_mps2;
   std::optional<double> declination_deg;
-  double min_imu_rate_hz = import::kDefaultMinImuRateHz;
+  double min_imu_rate_hz = importers::kDefaultMinImuRateHz;
   std::string out;
   bool force = false;
   Verbosity verbosity = Verbosity::kNormal;
 
   /// The static-window part of the assembly options (the caller sets the GNSS quality).
-  import::AssembleOptions assemble_options() const {import::AssembleOptions options;
-  options.align_s = align_s;
-  options.static_speed_mps = static_speed_mps;
-  options.static_rate_dps = static_rate_dps;
-  options.static_accel_sd_mps2 = static_accel_sd_mps2;
-  options.declination_deg = declination_deg;
-  options.min_imu_rate_hz = min_imu_rate_hz;
-  return options;
-}
+  importers::AssembleOptions assemble_options() const {
+    importers::AssembleOptions options;
+    options.align_s = align_s;
+    options.static_speed_mps = static_speed_mps;
+    options.static_rate_dps = static_rate_dps;
+    options.static_accel_sd_mps2 = static_accel_sd_mps2;
+    options.declination_deg = declination_deg;
+    options.min_imu_rate_hz = min_imu_rate_hz;
+    return options;
+  }
   /// Added to the recorded options of provenance.json.
   void record(nlohmann::json& options) const {
-  options["align_s"] = align_s ? nlohmann::json(*align_s) : nlohmann::json(nullptr);
-  options["static_speed_mps"] = static_speed_mps;
-  options["static_rate_dps"] = static_rate_dps;
-  options["static_accel_sd_mps2"] = static_accel_sd_mps2;
-  if (declination_deg) options["declination_deg"] = *declination_deg;  // only when given
-  options["min_imu_rate_hz"] = min_imu_rate_hz;
-}
+    options["align_s"] = align_s ? nlohmann::json(*align_s) : nlohmann::json(nullptr);
+    options["static_speed_mps"] = static_speed_mps;
+    options["static_rate_dps"] = static_rate_dps;
+    options["static_accel_sd_mps2"] = static_accel_sd_mps2;
+    if (declination_deg) options["declination_deg"] = *declination_deg;  // only when given
+    options["min_imu_rate_hz"] = min_imu_rate_hz;
+  }
 };  // namespace
 
 void add_shared_import_options(CLI::App* sub, SharedImportArgs& a) {
@@ -157,14 +156,15 @@ std::vector<double> parse_number_list(const std::string& text, const char* optio
 }
 
 // An RTKLIB .pos or a KF-GINS GNSS text file, told apart by content.
-import::GnssSolution read_gnss_by_content(const std::string& text, const std::string& path,
-                                          std::optional<int> gps_week){
-    if (import::looks_like_rtklib_pos(text)) return import::parse_rtklib_pos(text, path);
-if (import::looks_like_kf_gins_gnss(text)) return import::parse_kf_gins_gnss(text, path, gps_week);
-throw std::invalid_argument("--gnss " + path +
-                            ": neither an RTKLIB solution (a '%' header naming latitude(deg)) "
-                            "nor a KF-GINS GNSS file (7 or 13 numbers per line)");
-}  // namespace insid::cli
+importers::GnssSolution read_gnss_by_content(const std::string& text, const std::string& path,
+                                             std::optional<int> gps_week) {
+  if (importers::looks_like_rtklib_pos(text)) return importers::parse_rtklib_pos(text, path);
+  if (importers::looks_like_kf_gins_gnss(text))
+    return importers::parse_kf_gins_gnss(text, path, gps_week);
+  throw std::invalid_argument("--gnss " + path +
+                              ": neither an RTKLIB solution (a '%' header naming latitude(deg)) "
+                              "nor a KF-GINS GNSS file (7 or 13 numbers per line)");
+}
 
 nlohmann::json source_json(const std::string& role, const std::string& path,
                            const std::string& text) {
@@ -176,7 +176,7 @@ nlohmann::json source_json(const std::string& role, const std::string& path,
 }
 
 // Provenance, the atomic write, and the user's summary: common to every import format.
-void finish_import(const std::string& command, import::Assembled result, nlohmann::json options,
+void finish_import(const std::string& command, importers::Assembled result, nlohmann::json options,
                    nlohmann::json sources, const std::string& out, bool force,
                    std::chrono::steady_clock::time_point t0, Verbosity verbosity) {
   nlohmann::json& prov = result.provenance;
@@ -208,9 +208,9 @@ void finish_import(const std::string& command, import::Assembled result, nlohman
 void run_import_csv(const ImportCsvArgs& args) {
   // Refuse a directory before the work (its own input files included).
   dataset_destination(args.shared.out, args.shared.force, {args.imu, args.gnss});
-  import::CsvImuSpec spec;
+  importers::CsvImuSpec spec;
   spec.columns =
-      parse_option("--columns", [&] { return import::CsvImuSpec::parse_columns(args.columns); });
+      parse_option("--columns", [&] { return importers::CsvImuSpec::parse_columns(args.columns); });
   parse_option("--units", [&] {
     spec.parse_units(args.units);
     return 0;
@@ -224,26 +224,27 @@ void run_import_csv(const ImportCsvArgs& args) {
         "zero, so that the IMU can be paired with the GNSS solution");
   spec.time_offset_s = args.time_offset_s.value_or(0.0);
   if (!args.mounting.empty()) {
-    const std::vector<double> rpy = parse_option(
-        "--mounting-rpy-deg", [&] { return parse_number_list(args.mounting, "--mounting-rpy-deg"); });
+    const std::vector<double> rpy = parse_option("--mounting-rpy-deg", [&] {
+      return parse_number_list(args.mounting, "--mounting-rpy-deg");
+    });
     if (rpy.size() != 3)
       throw UsageError("--mounting-rpy-deg: expected R,P,Y (three angles in degrees)");
     spec.mounting_rpy_deg = {rpy[0], rpy[1], rpy[2]};
   }
   if (const std::string e = spec.validate(); !e.empty()) throw UsageError(e);
-  import::AssembleOptions options = args.shared.assemble_options();
+  importers::AssembleOptions options = args.shared.assemble_options();
   options.gnss_quality = {args.gnss_quality.begin(), args.gnss_quality.end()};
   if (const std::string e = options.validate(); !e.empty()) throw UsageError(e);
 
   const auto t0 = std::chrono::steady_clock::now();
   const std::string gnss_text = read_text_log(args.gnss, "--gnss");
-  const import::GnssSolution gnss = read_gnss_by_content(gnss_text, args.gnss, args.gps_week);
+  const importers::GnssSolution gnss = read_gnss_by_content(gnss_text, args.gnss, args.gps_week);
   const std::optional<int> gnss_week = static_cast<int>(
-      static_cast<double>(gnss.epochs.front().t_gpst_unix_s - import::kGpsEpochGpstUnix_s) /
-      import::kSecondsPerWeek);
+      static_cast<double>(gnss.epochs.front().t_gpst_unix_s - importers::kGpsEpochGpstUnix_s) /
+      importers::kSecondsPerWeek);
   const std::string imu_text = read_text_log(args.imu, "--imu");
-  const import::CsvImu imu = import::read_csv_imu(imu_text, args.imu, spec, gnss_week);
-  import::Assembled result = import::assemble_dataset(imu, gnss, options);
+  const importers::CsvImu imu = importers::read_csv_imu(imu_text, args.imu, spec, gnss_week);
+  importers::Assembled result = importers::assemble_dataset(imu, gnss, options);
 
   nlohmann::json recorded_options = {
       {"columns", spec.columns},
@@ -270,14 +271,14 @@ struct ImportKfGinsArgs {
 
 void run_import_kf_gins(const ImportKfGinsArgs& args) {
   dataset_destination(args.shared.out, args.shared.force, {args.imu, args.gnss});
-  const import::AssembleOptions options = args.shared.assemble_options();
+  const importers::AssembleOptions options = args.shared.assemble_options();
   if (const std::string e = options.validate(); !e.empty()) throw UsageError(e);
   const auto t0 = std::chrono::steady_clock::now();
   const std::string gnss_text = read_text_log(args.gnss, "--gnss");
-  const import::GnssSolution gnss = read_gnss_by_content(gnss_text, args.gnss, args.gps_week);
+  const importers::GnssSolution gnss = read_gnss_by_content(gnss_text, args.gnss, args.gps_week);
   const std::string imu_text = read_text_log(args.imu, "--imu");
-  const import::CsvImu imu = import::parse_kf_gins_imu(imu_text, args.imu, args.gps_week);
-  import::Assembled result = import::assemble_dataset(imu, gnss, options);
+  const importers::CsvImu imu = importers::parse_kf_gins_imu(imu_text, args.imu, args.gps_week);
+  importers::Assembled result = importers::assemble_dataset(imu, gnss, options);
   if (gnss.format.find("derived") != std::string::npos)
     result.notes.push_back(
         "GNSS velocity derived from positions by central differences (the "
@@ -293,23 +294,23 @@ void run_import_kf_gins(const ImportKfGinsArgs& args) {
 
 struct ImportUlogArgs {
   std::string log;
-  import::UlogImportOptions ulog;
+  importers::UlogImportOptions ulog;
   SharedImportArgs shared;
 };
 
 void run_import_ulog(const ImportUlogArgs& args) {
   dataset_destination(args.shared.out, args.shared.force, {args.log});
   if (const std::string e = args.ulog.validate(); !e.empty()) throw UsageError(e);
-  import::AssembleOptions options = args.shared.assemble_options();
+  importers::AssembleOptions options = args.shared.assemble_options();
   options.gnss_quality = {1};  // the fix-type selection is made by extract_ulog
   if (const std::string e = options.validate(); !e.empty()) throw UsageError(e);
   const auto t0 = std::chrono::steady_clock::now();
   std::string bytes = read_text(args.log, "LOG");
   const nlohmann::json source = source_json("ulog", args.log, bytes);
-  const import::UlogFile log = import::UlogFile::parse(std::move(bytes), args.log);
-  import::UlogSeries series = import::extract_ulog(log, args.log, args.ulog);
-  import::Assembled result = import::assemble_dataset(series.imu, series.gnss, options,
-                                                      series.heading ? &*series.heading : nullptr);
+  const importers::UlogFile log = importers::UlogFile::parse(std::move(bytes), args.log);
+  importers::UlogSeries series = importers::extract_ulog(log, args.log, args.ulog);
+  importers::Assembled result = importers::assemble_dataset(
+      series.imu, series.gnss, options, series.heading ? &*series.heading : nullptr);
   // The ULog clock is PX4's boot clock, not GPST: name the origin accordingly.
   nlohmann::json& prov = result.provenance;
   prov["time_origin_boot_s"] = prov["time_origin_gpst_unix_s"];
@@ -333,23 +334,24 @@ void run_import_ulog(const ImportUlogArgs& args) {
 
 struct ImportArduPilotArgs {
   std::string log;
-  import::ArduPilotImportOptions ardupilot;
+  importers::ArduPilotImportOptions ardupilot;
   SharedImportArgs shared;
 };
 
 void run_import_ardupilot(const ImportArduPilotArgs& args) {
   dataset_destination(args.shared.out, args.shared.force, {args.log});
   if (const std::string e = args.ardupilot.validate(); !e.empty()) throw UsageError(e);
-  import::AssembleOptions options = args.shared.assemble_options();
+  importers::AssembleOptions options = args.shared.assemble_options();
   options.gnss_quality = {1};  // the Status selection is made by extract_ardupilot
   if (const std::string e = options.validate(); !e.empty()) throw UsageError(e);
   const auto t0 = std::chrono::steady_clock::now();
   std::string bytes = read_text(args.log, "LOG");
   const nlohmann::json source = source_json("dataflash", args.log, bytes);
-  const import::DataFlashFile log = import::DataFlashFile::parse(std::move(bytes), args.log);
-  import::ArduPilotSeries series = import::extract_ardupilot(log, args.log, args.ardupilot);
+  const importers::DataFlashFile log = importers::DataFlashFile::parse(std::move(bytes), args.log);
+  importers::ArduPilotSeries series = importers::extract_ardupilot(log, args.log, args.ardupilot);
   // The phases first, even when the import is refused below: they say where to cut.
-  for (const std::string& line : series.phases.lines()) std::cerr << "insid import: " << line << "\n";
+  for (const std::string& line : series.phases.lines())
+    std::cerr << "insid import: " << line << "\n";
   for (const auto& [boot_s, gap_s] : series.imu_gaps_boot_s)
     if (gap_s > PlausibilityBounds::kMaxImuStep_s) {
       char text[512];
@@ -361,7 +363,7 @@ void run_import_ardupilot(const ImportArduPilotArgs& args) {
                     PlausibilityBounds::kMaxImuStep_s, boot_s, boot_s + gap_s);
       throw std::runtime_error(text);
     }
-  import::Assembled result = import::assemble_dataset(series.imu, series.gnss, options);
+  importers::Assembled result = importers::assemble_dataset(series.imu, series.gnss, options);
   result.provenance.update(series.provenance, true);
   result.notes.insert(result.notes.begin(), series.notes.begin(), series.notes.end());
   if (!series.autopilot_estimates.is_null())
@@ -371,8 +373,8 @@ void run_import_ardupilot(const ImportArduPilotArgs& args) {
       {"min_status", args.ardupilot.min_status},
       {"t_start_boot_s", args.ardupilot.t_start_s ? nlohmann::json(*args.ardupilot.t_start_s)
                                                   : nlohmann::json(nullptr)},
-      {"t_end_boot_s", args.ardupilot.t_end_s ? nlohmann::json(*args.ardupilot.t_end_s)
-                                              : nlohmann::json(nullptr)},
+      {"t_end_boot_s",
+       args.ardupilot.t_end_s ? nlohmann::json(*args.ardupilot.t_end_s) : nlohmann::json(nullptr)},
       {"rate_samples", "point"},
       {"axes", "ArduPilot body frame, forward-right-down (no mounting applied)"}};
   args.shared.record(opts);
@@ -380,89 +382,7 @@ void run_import_ardupilot(const ImportArduPilotArgs& args) {
                 args.shared.out, args.shared.force, t0, args.shared.verbosity);
 }
 
-struct ExportArgs {
-  std::string to, data, campaign, out;
-  double sow_offset_s = 0.0;
-  std::optional<double> pos_std_m, vel_std_mps;
-  bool force = false;
-};
-
-// insid export --to iohprofiler: a campaign's runs for IOHanalyzer (bench/iohprofiler.h).
-void run_export_iohprofiler(const ExportArgs& args) {
-  if (args.campaign.empty())
-    throw std::invalid_argument("--to iohprofiler needs --campaign DIR (a campaign directory)");
-  if (!args.data.empty())
-    throw UsageError("--data is for --to kf-gins; --to iohprofiler reads --campaign");
-  if (contains_working_directory(args.out))
-    throw std::invalid_argument("--out " + args.out + ": the current directory or a parent of it");
-  if (!fs::exists(fs::path(args.campaign) / "manifest.json"))
-    throw std::invalid_argument("--campaign " + args.campaign +
-                                ": no manifest.json (not a "
-                                "campaign directory written by insid bench or insid sweep)");
-  if (!args.force) {
-    // The folders an export writes: one per algorithm label of the campaign.
-    const nlohmann::json manifest =
-        read_json_file(fs::path(args.campaign) / "manifest.json", "--campaign " + args.campaign);
-    const campaign::CampaignConfig config =
-        campaign::config_from_manifest(manifest, args.campaign + "/manifest.json");
-    OutputKind kind{"an IOHprofiler export", {}};
-    for (const campaign::AlgorithmSpec& a : config.algorithms) kind.own_entries.push_back(a.label);
-    require_own_or_empty(args.out, kind, "give --force to add the algorithm folders there");
-  }
-  const campaign::IohExportOutcome outcome = campaign::export_iohprofiler(args.campaign, args.out);
-  std::fprintf(stderr,
-               "insid export: wrote %d runs in %d .info files (IOHprofiler format, one folder per "
-               "algorithm) under %s",
-               outcome.runs, outcome.info_files, args.out.c_str());
-  if (outcome.missing_runs > 0)
-    std::fprintf(stderr, "; %d runs of the campaign have no run file yet and were skipped",
-                 outcome.missing_runs);
-  std::fprintf(stderr, "\n");
-}
-
-void run_export(const ExportArgs& args) {
-  if (args.to == "iohprofiler") return run_export_iohprofiler(args);
-  if (args.to != "kf-gins") throw UsageError("--to: kf-gins or iohprofiler, got '" + args.to + "'");
-  if (args.data.empty()) throw std::invalid_argument("--to kf-gins needs --data DIR (a dataset)");
-  if (!args.campaign.empty())
-    throw UsageError("--campaign is for --to iohprofiler; --to kf-gins reads --data");
-  const OutputKind kind{"a KF-GINS export", {"imu.txt", "gnss.txt"}};
-  if (contains_working_directory(args.out))
-    throw std::invalid_argument("--out " + args.out + ": the current directory or a parent of it");
-  if (!args.force)
-    require_own_or_empty(args.out, kind, "give --force to add imu.txt and gnss.txt there");
-  const Dataset ds = load_dataset(args.data);
-  // Standard deviations: given, else the dataset's declared GNSS noise, else stated defaults.
-  const double pos_std = args.pos_std_m ? *args.pos_std_m
-                         : ds.meta.noise && ds.meta.noise->gnss_pos_sigma_m > 0
-                             ? ds.meta.noise->gnss_pos_sigma_m
-                             : 0.05;
-  const double vel_std = args.vel_std_mps ? *args.vel_std_mps
-                         : ds.meta.noise && ds.meta.noise->gnss_vel_sigma_mps > 0
-                             ? ds.meta.noise->gnss_vel_sigma_mps
-                             : 0.05;
-  // Never over the dataset's own files; imu.txt / gnss.txt of others only with --force.
-  WriteOptions write_options;
-  write_options.replace_foreign = args.force;
-  for (const char* name : {"imu.txt", "gnss.txt"}) {
-    refuse_replacing_inputs(fs::path(args.out) / name, dataset_input_files(args.data), false);
-    check_file_writable(fs::path(args.out) / name, write_options);
-  }
-  std::filesystem::create_directories(args.out);
-  write_file_atomic(fs::path(args.out) / "imu.txt", import::kf_gins_imu_text(ds, args.sow_offset_s),
-                    write_options);
-  write_file_atomic(fs::path(args.out) / "gnss.txt",
-                    import::kf_gins_gnss_text(ds, args.sow_offset_s, pos_std, vel_std),
-                    write_options);
-  std::fprintf(
-      stderr,
-      "insid export: wrote %s/imu.txt (%zu rows, FRD increments) and gnss.txt (%zu rows, 13 "
-      "columns: position, velocity NED, std %.3g m and %.3g m/s); times = t_s + %g s of "
-      "week\n",
-      args.out.c_str(), ds.imu.size(), ds.gnss.size(), pos_std, vel_std, args.sow_offset_s);
-}
-
-}  // namespace insid::cli
+}  // namespace
 
 void add_import_command(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand(
@@ -564,40 +484,13 @@ void add_import_command(CLI::App& app) {
   apc->add_option("--min-status", ap->ardupilot.min_status,
                   "GPS Status kept: 3 = 3D fix (default) and above")
       ->check(whole_in(0, 6));
-  apc->add_option("--t-start", ap->ardupilot.t_start_s,
-                  "boot time (s) from which records are kept")
+  apc->add_option("--t-start", ap->ardupilot.t_start_s, "boot time (s) from which records are kept")
       ->check(number_in(0, 1e7));
   apc->add_option("--t-end", ap->ardupilot.t_end_s,
                   "boot time (s) after which records are cut (e.g. before a crash)")
       ->check(number_in(0, 1e7));
   add_shared_import_options(apc, ap->shared);
   apc->callback([ap] { run_import_ardupilot(*ap); });
-}
-
-void add_export_command(CLI::App& app) {
-  auto a = std::make_shared<ExportArgs>();
-  CLI::App* cmd = app.add_subcommand(
-      "export",
-      "Write an insid dataset in another program's layout (KF-GINS: imu.txt, gnss.txt), or a "
-      "campaign's runs in IOHprofiler's format for IOHanalyzer (.info + .dat per algorithm)");
-  cmd->add_option("--to", a->to, "target layout: kf-gins (--data) | iohprofiler (--campaign)")
-      ->required();
-  cmd->add_option("--data", a->data, "dataset directory (--to kf-gins)");
-  cmd->add_option("--campaign", a->campaign,
-                  "campaign directory of insid bench / sweep (--to iohprofiler)");
-  cmd->add_option("--out", a->out, "output directory (new, empty, or a previous export)")
-      ->required();
-  cmd->add_option("--sow-offset-s", a->sow_offset_s,
-                  "added to t_s to give KF-GINS's seconds of week")
-      ->check(number_in(0, 604800));
-  cmd->add_option("--pos-std-m", a->pos_std_m,
-                  "GNSS position std written (default: the dataset's noise block, else 0.05)")
-      ->check(number_in(1e-9, 1e6));
-  cmd->add_option("--vel-std-mps", a->vel_std_mps,
-                  "GNSS velocity std written (default: the dataset's noise block, else 0.05)")
-      ->check(number_in(1e-9, 1e6));
-  cmd->add_flag("--force", a->force, "write into a --out directory that holds other files");
-  cmd->callback([a] { run_export(*a); });
 }
 
 }  // namespace insid::cli

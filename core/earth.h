@@ -6,11 +6,9 @@
 
 #include <Eigen/Core>
 
-namespace insid {
+#include "core/units.h"  // kStandardGravity_mps2 (included by many through this header)
 
-/// Standard gravity g_n (m/s^2; CGPM 1901, ISO 80000-3): the unit "g" of accelerometer data
-/// sheets and logs (1 mg = kStandardGravity_mps2 * 1e-3 m/s^2), not a local gravity.
-inline constexpr double kStandardGravity_mps2 = 9.80665;
+namespace insid {
 
 /// Reference ellipsoid given by its semi-major axis and flattening.
 struct Ellipsoid {

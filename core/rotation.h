@@ -6,6 +6,8 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include "core/units.h"  // kPi, kDegToRad, kRadToDeg (included by many through this header)
+
 namespace insid {
 
 struct EulerAngles {
@@ -44,9 +46,5 @@ Eigen::Vector3d rotation_vector_from_quat(const Eigen::Quaterniond& q);
 double wrap_pi(double angle_rad);
 /// Wrap an angle to [0, 2 pi).
 double wrap_two_pi(double angle_rad);
-
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDegToRad = kPi / 180.0;
-constexpr double kRadToDeg = 180.0 / kPi;
 
 }  // namespace insid

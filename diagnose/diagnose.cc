@@ -22,8 +22,9 @@
 #include <boost/math/distributions/normal.hpp>
 #include <boost/math/distributions/students_t.hpp>
 
+#include "core/noise_model.h"
+#include "core/threads.h"
 #include "diagnose/advice.h"
-#include "diagnose/noise_model.h"
 #include "identification/grade.h"
 #include "identification/identify.h"
 #include "identification/local_fit.h"
@@ -512,7 +513,7 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
   if (const std::string error = options.validate(); !error.empty())
     throw std::invalid_argument(error);
   const Progress progress(options.progress);
-  const int threads = options.threads > 0 ? options.threads : omp_get_max_threads();
+  const int threads = thread_count(options.threads);
   NavigationOptions nav_options;
   nav_options.alignment = options.alignment;
   nav_options.window_s = options.window_s;

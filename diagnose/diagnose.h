@@ -1,7 +1,7 @@
 // The discrepancy workflow (`insid diagnose`, issue 7, docs/design.md sec. 9; method and choices in
 // diagnose/README.md):
 //   1. fit the base model (optimizer, then a least-squares Levenberg-Marquardt polish);
-//   2. noise model: M noise replicas of the same flight (diagnose/noise_model.h) give draws of
+//   2. noise model: M noise replicas of the same flight (core/noise_model.h) give draws of
 //      the residuals' noise response; a low-rank + diagonal working covariance is built from
 //      one part of them, the other part calibrates every statistic;
 //   3. each candidate effect's sensitivity column by finite differences through the full

@@ -16,10 +16,10 @@
 #include <boost/math/distributions/normal.hpp>
 #include <boost/math/distributions/students_t.hpp>
 
+#include "core/noise_model.h"
 #include "diagnose/advice.h"
 #include "diagnose/diagnose.h"
 #include "diagnose/hidden_effects.h"
-#include "diagnose/noise_model.h"
 
 namespace insid::diagnose {
 namespace {

@@ -26,13 +26,13 @@
 
 namespace {
 
-const insid::import::GnssSolution& fixed_gnss() {
-  static const insid::import::GnssSolution g = [] {
+const insid::importers::GnssSolution& fixed_gnss() {
+  static const insid::importers::GnssSolution g = [] {
     std::string text;
     for (int k = 0; k < 40; ++k)
       text += std::to_string(100 + k * 0.25) +
               " 40.1 -105.1 1600 0.01 0.01 0.02 0 0 0 0.05 0.05 0.05\n";
-    return insid::import::parse_kf_gins_gnss(text, "gnss.txt", 2381);
+    return insid::importers::parse_kf_gins_gnss(text, "gnss.txt", 2381);
   }();
   return g;
 }
@@ -50,7 +50,7 @@ static int pinned_reader() {
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size == 0) return 0;
   const std::string text(reinterpret_cast<const char*>(data + 1), size - 1);
-  namespace im = insid::import;
+  namespace im = insid::importers;
   try {
     switch (pinned_reader() >= 0 ? pinned_reader() : data[0] % 9) {
       case 0:

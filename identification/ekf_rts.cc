@@ -38,6 +38,7 @@
 
 #include "core/mechanization.h"
 #include "core/rotation.h"
+#include "core/units.h"
 #include "optimizers/registry.h"
 
 namespace insid {
@@ -168,7 +169,7 @@ AttitudeErrorModel attitude_error_model(const NavigationProblem& navigation,
   }
   const Dataset& ds = navigation.dataset();
   const double window_s = navigation.alignment_window().sum_dt_s;
-  const double g = 9.80665;
+  const double g = kStandardGravity_mps2;
   const double vrw_rts = noise.vrw_mps_rth / 60.0, arw_rts = noise.arw_deg_rth * kDegToRad / 60.0;
   const InitialAttitudeOptions& options = source.options();
   switch (options.mode) {

@@ -6,17 +6,21 @@
 
 #include "core/alignment.h"
 #include "core/rotation.h"
+#include "core/units.h"
 
 namespace insid {
 namespace {
 
-constexpr double kG0 = 9.80665;  // standard gravity: 1 mg = 9.80665e-3 m/s^2
-
 const std::vector<SensorGrade>& grades() {
   static const std::vector<SensorGrade> kGrades = {
       {"nav", kSigmaGyroRadS, kSigmaAccelMps2, 1e-4, 1e-4, {0.002, 0.001, 0.01, 0.02}},
-      {"tactical", 1.0 * kDegToRad / 3600.0, 1e-3 * kG0, 3e-4, 3e-4, {0.05, 0.02, 0.02, 0.1}},
-      {"mems", 0.1 * kDegToRad, 10e-3 * kG0, 1e-3, 1e-3, {0.2, 0.05, 0.03, 0.5}},
+      {"tactical",
+       1.0 * kDegToRad / 3600.0,
+       1e-3 * kStandardGravity_mps2,
+       3e-4,
+       3e-4,
+       {0.05, 0.02, 0.02, 0.1}},
+      {"mems", 0.1 * kDegToRad, 10e-3 * kStandardGravity_mps2, 1e-3, 1e-3, {0.2, 0.05, 0.03, 0.5}},
   };
   return kGrades;
 }
@@ -121,7 +125,7 @@ GradeChoice choose_grade(const Dataset& dataset, std::string_view explicit_grade
   c.source = "static window";
   c.static_window_s = window_s;
   const double arw_rad_rts = estimate_arw_rad_rts(imu, 1, end, t0);
-  c.arw_deg_rth = arw_rad_rts * kRadToDeg * 60.0;  // rad/sqrt(s) -> deg/sqrt(h)
+  c.arw_deg_rth = arw_rad_rts * kRadToDeg * 60.0;                // rad/sqrt(s) -> deg/sqrt(h)
   c.vrw_mps_rth = estimate_vrw_mps_rts(imu, 1, end, t0) * 60.0;  // m/s/sqrt(s) -> m/s/sqrt(h)
   Eigen::Vector3d dtheta_rad = Eigen::Vector3d::Zero();
   for (std::size_t k = 1; k < end; ++k) dtheta_rad += imu[k].dtheta_b_rad;
@@ -131,10 +135,12 @@ GradeChoice choose_grade(const Dataset& dataset, std::string_view explicit_grade
       std::abs(mean_rate_rad_s - dataset.meta.earth.omega_ie_rad_s) * kRadSToDegH;
   c.gyro_bias_noise_deg_h = arw_rad_rts / std::sqrt(window_s) * kRadSToDegH;
 
-  const std::string by_arw = c.arw_deg_rth <= 0.01 ? "nav" : c.arw_deg_rth <= 0.1 ? "tactical"
-                                                                                  : "mems";
-  const std::string by_vrw = c.vrw_mps_rth <= 0.005 ? "nav" : c.vrw_mps_rth <= 0.035 ? "tactical"
-                                                                                     : "mems";
+  const std::string by_arw = c.arw_deg_rth <= 0.01  ? "nav"
+                             : c.arw_deg_rth <= 0.1 ? "tactical"
+                                                    : "mems";
+  const std::string by_vrw = c.vrw_mps_rth <= 0.005   ? "nav"
+                             : c.vrw_mps_rth <= 0.035 ? "tactical"
+                                                      : "mems";
   const bool bias_seen = c.gyro_bias_min_deg_h > 3.0 * c.gyro_bias_noise_deg_h;
   // Only a bias no box but mems' holds votes (see grade.h); smaller ones are what identify is for.
   const std::string by_bias = bias_seen && c.gyro_bias_min_deg_h > 20.0 ? "mems" : "nav";
@@ -145,7 +151,7 @@ GradeChoice choose_grade(const Dataset& dataset, std::string_view explicit_grade
            figure(c.arw_deg_rth) + " deg/sqrt(h) -> " + by_arw + ", VRW " + figure(c.vrw_mps_rth) +
            " m/s/sqrt(h) -> " + by_vrw + ", |gyro bias| >= " + figure(c.gyro_bias_min_deg_h) +
            " deg/h (noise " + figure(c.gyro_bias_noise_deg_h) + ") -> " +
-           (!bias_seen ? std::string("not seen")
+           (!bias_seen          ? std::string("not seen")
             : by_bias == "mems" ? std::string("mems")
                                 : std::string("no vote (<= 20 deg/h)")) +
            "; the coarsest)";

@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "core/rotation.h"
+#include "core/units.h"
 #include "identification/ekf_rts.h"
 #include "identification/grade.h"
 #include "identification/uncertainty.h"
@@ -14,8 +15,6 @@
 
 namespace insid::mems_study {
 namespace {
-
-constexpr double kMg = 9.80665e-3;  // m/s^2 per mg
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -31,7 +30,8 @@ const std::vector<std::string>& parameter_names() {
 
 Eigen::VectorXd truth_si() {
   Eigen::VectorXd t(5);
-  t << 0.2 * kDegToRad, -0.15 * kDegToRad, 0.2 * kDegToRad, 20.0 * kMg, -15.0 * kMg;
+  t << 0.2 * kDegToRad, -0.15 * kDegToRad, 0.2 * kDegToRad, 20.0 * kMilliG_mps2,
+      -15.0 * kMilliG_mps2;
   return t;
 }
 

@@ -15,8 +15,10 @@
 #include <Eigen/Cholesky>
 #include <Eigen/QR>
 
+#include "core/noise_model.h"
 #include "core/sensor_errors.h"
-#include "diagnose/noise_model.h"
+#include "core/threads.h"
+#include "core/units.h"
 #include "identification/ekf_rts.h"
 #include "optimizers/parameters.h"
 #include "optimizers/random.h"
@@ -78,13 +80,12 @@ class FastNormal {
 };
 
 // One noise replica into `out`, a buffer of the same shape as `source` reused between replicas
-// (no allocation, no page faults: the fresh copy per replica of diagnose::noise_replica was half
-// its cost). The noise model is diagnose::noise_replica's: per IMU axis and sample
+// (no allocation, no page faults: the fresh copy per replica of noise_replica was half
+// its cost). The noise model is noise_replica's: per IMU axis and sample
 // N(0, arw^2 dt) on dtheta and N(0, vrw^2 dt) on dv (dt = 1 / imu_rate_hz), per GNSS epoch and
 // ENU axis N(0, sv^2) on the velocity and N(0, sp^2) on the position.
 void fill_replica(const Dataset& source, const NoiseLevels& levels, std::uint64_t seed,
                   Dataset& out) {
-  constexpr double kRadToDeg = 180.0 / std::numbers::pi;
   FastNormal normal(seed);
   const double dt = 1.0 / source.meta.imu_rate_hz;
   const double s_theta = levels.arw_deg_rth / kRadToDeg / 60.0 * std::sqrt(dt);
@@ -153,7 +154,7 @@ NoiseReplicaSet run_noise_replicas(const NavigationProblem& nav, const SensorErr
   const auto t0 = std::chrono::steady_clock::now();
   NoiseReplicaSet set;
   const Dataset& dataset = nav.dataset();
-  diagnose::NoiseEstimate noise = diagnose::noise_levels_for(dataset);
+  NoiseEstimate noise = noise_levels_for(dataset);
   if (options.noise) {
     noise.levels = *options.noise;
     noise.source = "given";
@@ -166,7 +167,7 @@ NoiseReplicaSet run_noise_replicas(const NavigationProblem& nav, const SensorErr
   Mat D(m, M);
   {
     std::vector<std::string> failures(static_cast<std::size_t>(M));
-    const int threads = options.threads > 0 ? options.threads : omp_get_max_threads();
+    const int threads = thread_count(options.threads);
     // One replica buffer per thread (the data without truth.csv, which navigation never reads).
     std::vector<Dataset> buffers(static_cast<std::size_t>(threads));
     for (Dataset& b : buffers) {
@@ -269,14 +270,12 @@ std::string UncertaintyOptions::validate() const {
 }
 
 std::pair<std::string, double> engineering_unit(const std::string& si_unit) {
-  constexpr double kDeg = 180.0 / std::numbers::pi;
-  constexpr double kMicroG = 9.80665e-6;  // m/s^2
-  if (si_unit == "rad/s") return {"deg/h", kDeg * 3600.0};
-  if (si_unit == "m/s^2") return {"ug", 1.0 / kMicroG};
+  if (si_unit == "rad/s") return {"deg/h", kRadToDeg * 3600.0};
+  if (si_unit == "m/s^2") return {"ug", 1.0 / kMicroG_mps2};
   if (si_unit == "1") return {"ppm", 1e6};
-  if (si_unit == "rad") return {"arcsec", kDeg * 3600.0};
-  if (si_unit == "m/s^3") return {"ug/h", 3600.0 / kMicroG};
-  if (si_unit == "rad/s^2") return {"deg/h^2", kDeg * 3600.0 * 3600.0};
+  if (si_unit == "rad") return {"arcsec", kRadToDeg * 3600.0};
+  if (si_unit == "m/s^3") return {"ug/h", 3600.0 / kMicroG_mps2};
+  if (si_unit == "rad/s^2") return {"deg/h^2", kRadToDeg * 3600.0 * 3600.0};
   if (si_unit == "s") return {"ms", 1e3};
   return {si_unit, 1.0};
 }
@@ -328,7 +327,7 @@ UncertaintyReport estimate_uncertainty(const InsIdentificationProblem& problem,
   report.jacobian_sigma = J;
   report.residuals = r;
 
-  // 2. Noise replicas through the same pipeline at the estimate (diagnose/noise_model.h), or
+  // 2. Noise replicas through the same pipeline at the estimate (core/noise_model.h), or
   //    the caller's set run once for the data (`shared`, e.g. once per campaign scenario at the
   //    data's optimum): the noise response depends on the data and the noise model, and only
   //    weakly on the point it is run at.

@@ -6,6 +6,7 @@
 #include <Eigen/Cholesky>
 
 #include "core/rotation.h"
+#include "core/units.h"
 #include "identification/local_fit.h"
 #include "optimizers/registry.h"
 #include "scenarios/noise.h"
@@ -14,7 +15,7 @@
 namespace insid::window_study {
 
 Grade grade(const std::string& name) {
-  if (name == "mems") return {name, 0.1 * kDegToRad, 0.01 * 9.80665};
+  if (name == "mems") return {name, 0.1 * kDegToRad, 0.01 * kStandardGravity_mps2};
   if (name == "nav") return {name, kSigmaGyroRadS, kSigmaAccelMps2};
   throw std::invalid_argument("window study: grade must be 'mems' or 'nav', got '" + name + "'");
 }

@@ -6,8 +6,9 @@
 #include <stdexcept>
 
 #include "core/dataset.h"  // PlausibilityBounds::kMaxImuStep_s
+#include "core/units.h"
 
-namespace insid::import {
+namespace insid::importers {
 namespace {
 
 std::string num(double v, int digits = 4) {
@@ -30,7 +31,6 @@ void fit_line(const std::vector<long double>& x, const std::vector<long double>&
   a = my - b * mx;
 }
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr double kG0 = 9.80665;
 
 }  // namespace
@@ -41,20 +41,25 @@ nlohmann::json autopilot_bias_estimates(const DataFlashFile& log, const FlightPh
   struct Field {
     const char* message;
     const char* field;
-    char letter;            // the FMT letter ArduPilot writes it with
-    double to_si;           // from the reader's value (letter scaling applied) to SI
-    const char* effect;     // insid's catalogue name
-    const char* imu;        // the IMU it refers to
-    const char* logged;     // how it is logged
-    double resolution_si;   // one logged step
+    char letter;           // the FMT letter ArduPilot writes it with
+    double to_si;          // from the reader's value (letter scaling applied) to SI
+    const char* effect;    // insid's catalogue name
+    const char* imu;       // the IMU it refers to
+    const char* logged;    // how it is logged
+    double resolution_si;  // one logged step
   };
   constexpr double kDegS = kPi / 180.0;  // deg/s -> rad/s
   const Field fields[] = {
-      {"EKF1", "GX", 'c', kDegS, "gyro_bias_x", "IMU", "int16 centi-deg/s (FMT c: x 0.01 deg/s)", 0.01 * kDegS},
-      {"EKF1", "GY", 'c', kDegS, "gyro_bias_y", "IMU", "int16 centi-deg/s (FMT c: x 0.01 deg/s)", 0.01 * kDegS},
-      {"EKF1", "GZ", 'c', kDegS, "gyro_bias_z", "IMU", "int16 centi-deg/s (FMT c: x 0.01 deg/s)", 0.01 * kDegS},
-      {"EKF2", "AZ1bias", 'b', 0.01, "accel_bias_z", "IMU", "int8 cm/s^2 (FMT b, 100 x m/s^2)", 0.01},
-      {"EKF2", "AZ2bias", 'b', 0.01, "accel_bias_z", "IMU2", "int8 cm/s^2 (FMT b, 100 x m/s^2)", 0.01},
+      {"EKF1", "GX", 'c', kDegS, "gyro_bias_x", "IMU", "int16 centi-deg/s (FMT c: x 0.01 deg/s)",
+       0.01 * kDegS},
+      {"EKF1", "GY", 'c', kDegS, "gyro_bias_y", "IMU", "int16 centi-deg/s (FMT c: x 0.01 deg/s)",
+       0.01 * kDegS},
+      {"EKF1", "GZ", 'c', kDegS, "gyro_bias_z", "IMU", "int16 centi-deg/s (FMT c: x 0.01 deg/s)",
+       0.01 * kDegS},
+      {"EKF2", "AZ1bias", 'b', 0.01, "accel_bias_z", "IMU", "int8 cm/s^2 (FMT b, 100 x m/s^2)",
+       0.01},
+      {"EKF2", "AZ2bias", 'b', 0.01, "accel_bias_z", "IMU2", "int8 cm/s^2 (FMT b, 100 x m/s^2)",
+       0.01},
   };
   if (log.count("EKF1") == 0 && log.count("EKF2") == 0) return nullptr;
   const double t_start_s = options.t_start_s.value_or(-1.0);
@@ -86,9 +91,10 @@ nlohmann::json autopilot_bias_estimates(const DataFlashFile& log, const FlightPh
     }
     if (!end_si) continue;
     const double mean = n > 0 ? sum / static_cast<double>(n) : 0.0;
-    const double sd = n > 1 ? std::sqrt(std::max(0.0, (sum2 - static_cast<double>(n) * mean * mean) /
-                                                          static_cast<double>(n - 1)))
-                            : 0.0;
+    const double sd = n > 1
+                          ? std::sqrt(std::max(0.0, (sum2 - static_cast<double>(n) * mean * mean) /
+                                                        static_cast<double>(n - 1)))
+                          : 0.0;
     const bool gyro = f.effect[0] == 'g';
     const double display = gyro ? 180.0 / kPi : 1e3 / kG0;  // SI -> deg/s or mg
     nlohmann::json e = {
@@ -116,22 +122,29 @@ nlohmann::json autopilot_bias_estimates(const DataFlashFile& log, const FlightPh
                " " + (gyro ? "deg/s" : "mg");
   }
   if (list.empty()) return nullptr;
-  notes.push_back("autopilot EKF bias estimates (meta.json autopilot_estimates; at the end of the "
-                  "window" + std::string(airborne ? ", airborne mean +- sd" : "") + "): " + summary);
+  notes.push_back(
+      "autopilot EKF bias estimates (meta.json autopilot_estimates; at the end of the "
+      "window" +
+      std::string(airborne ? ", airborne mean +- sd" : "") + "): " + summary);
   return {
       {"autopilot", "ArduPilot NavEKF (EKF1/EKF2 log messages)"},
       {"frame", "body forward-right-down: ArduPilot's body axes, insid's b (no mounting applied)"},
-      {"sign", "bias = measured - true, as insid's sensor model (the EKF subtracts its bias "
-               "states from the IMU's increments)"},
+      {"sign",
+       "bias = measured - true, as insid's sensor model (the EKF subtracts its bias "
+       "states from the IMU's increments)"},
       {"imported_imu", options.imu},
-      {"which_imu", "EKF1 GX/GY/GZ: the one gyro the NavEKF integrates (the primary, normally "
-                    "IMU); EKF2 AZ1bias/AZ2bias: the z accelerometers of IMU and IMU2"},
-      {"window_boot_s", {options.t_start_s ? nlohmann::json(*options.t_start_s) : nlohmann::json(nullptr),
-                         options.t_end_s ? nlohmann::json(*options.t_end_s) : nlohmann::json(nullptr)}},
-      {"airborne_boot_s", airborne ? nlohmann::json{air_from_s, air_to_s} : nlohmann::json(nullptr)},
-      {"uncertainty", "the EKF logs no variance of its bias states: airborne_sd_si is the sample sd "
-                      "of the logged estimate over the airborne part (how far it wanders, not a "
-                      "standard error); resolution_si is one logged step"},
+      {"which_imu",
+       "EKF1 GX/GY/GZ: the one gyro the NavEKF integrates (the primary, normally "
+       "IMU); EKF2 AZ1bias/AZ2bias: the z accelerometers of IMU and IMU2"},
+      {"window_boot_s",
+       {options.t_start_s ? nlohmann::json(*options.t_start_s) : nlohmann::json(nullptr),
+        options.t_end_s ? nlohmann::json(*options.t_end_s) : nlohmann::json(nullptr)}},
+      {"airborne_boot_s",
+       airborne ? nlohmann::json{air_from_s, air_to_s} : nlohmann::json(nullptr)},
+      {"uncertainty",
+       "the EKF logs no variance of its bias states: airborne_sd_si is the sample sd "
+       "of the logged estimate over the airborne part (how far it wanders, not a "
+       "standard error); resolution_si is one logged step"},
       {"estimates", list}};
 }
 
@@ -163,21 +176,24 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
 
   // GPS first: without it there is nothing to identify against.
   if (log.count("GPS") == 0)
-    throw std::runtime_error(where + ": no GPS records: insid identifies sensor errors against "
-                                     "GNSS velocity, so this log cannot be imported; messages: " +
+    throw std::runtime_error(where +
+                             ": no GPS records: insid identifies sensor errors against "
+                             "GNSS velocity, so this log cannot be imported; messages: " +
                              log.messages_summary());
   if (log.count(options.imu) == 0)
     throw std::runtime_error(where + ": no " + options.imu +
                              " records; messages: " + log.messages_summary());
-  const auto gps = log.read("GPS", {"Status", "TimeMS", "Week", "NSats", "Lat", "Lng", "Alt",
-                                    "Spd", "GCrs", "VZ", "T"});
+  const auto gps = log.read(
+      "GPS", {"Status", "TimeMS", "Week", "NSats", "Lat", "Lng", "Alt", "Spd", "GCrs", "VZ", "T"});
   enum { kStatus, kTow, kWeek, kSats, kLat, kLng, kAlt, kSpd, kCrs, kVz, kBoot };
   std::vector<std::size_t> fixes;  // GPS records with Status >= min_status
   for (std::size_t k = 0; k < gps.size(); ++k)
     if (gps[k][kStatus] >= options.min_status) fixes.push_back(k);
   if (fixes.size() < 2)
-    throw std::runtime_error(where + ": " + std::to_string(fixes.size()) + " GPS records with "
-                             "Status >= " + std::to_string(options.min_status) + " (of " +
+    throw std::runtime_error(where + ": " + std::to_string(fixes.size()) +
+                             " GPS records with "
+                             "Status >= " +
+                             std::to_string(options.min_status) + " (of " +
                              std::to_string(gps.size()) + "); need at least 2");
   const auto gpst_since_epoch = [&](std::size_t k) {
     return static_cast<long double>(gps[k][kWeek]) * kSecondsPerWeek +
@@ -202,8 +218,9 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
         ++clock.excluded;
       }
     if (x.size() - clock.excluded < 2)
-      throw std::runtime_error(where + ": GPS boot times (T) and GPS times (Week, TimeMS) do not "
-                                       "follow a line: fewer than 2 fixes within " +
+      throw std::runtime_error(where +
+                               ": GPS boot times (T) and GPS times (Week, TimeMS) do not "
+                               "follow a line: fewer than 2 fixes within " +
                                num(kBootFitOutlierS) + " s of the fit");
     fit_line(x, y, use, a, b);
     double ss = 0;
@@ -219,26 +236,27 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
     clock.slope = static_cast<double>(b);
   }
   const auto boot_to_gpst = [&](double boot_ms) {
-    return clock.gpst_at_boot_zero_s + static_cast<long double>(clock.slope) *
-                                           static_cast<long double>(boot_ms) * 1e-3L;
+    return clock.gpst_at_boot_zero_s +
+           static_cast<long double>(clock.slope) * static_cast<long double>(boot_ms) * 1e-3L;
   };
   prov["clock"] = {
-      {"model", "GPST = gpst_at_boot_zero + slope * boot (GPS T, IMU TimeMS), least squares over "
-                "the GPS fixes, refitted without residuals beyond " + num(kBootFitOutlierS) + " s"},
+      {"model",
+       "GPST = gpst_at_boot_zero + slope * boot (GPS T, IMU TimeMS), least squares over "
+       "the GPS fixes, refitted without residuals beyond " +
+           num(kBootFitOutlierS) + " s"},
       {"gpst_at_boot_zero_unix_s", static_cast<double>(clock.gpst_at_boot_zero_s)},
       {"slope", clock.slope},
       {"fixes", clock.fixes},
       {"excluded", clock.excluded},
       {"residual_rms_s", clock.rms_s},
       {"residual_max_abs_s", clock.max_abs_s}};
-  out.notes.push_back("boot clock tied to GPST by a linear fit over " +
-                      std::to_string(clock.fixes) + " GPS fixes: slope " +
-                      num(clock.slope, 8) + ", residual rms " + num(clock.rms_s * 1e3, 3) +
-                      " ms, max " + num(clock.max_abs_s * 1e3, 3) + " ms" +
-                      (clock.excluded > 0 ? "; " + std::to_string(clock.excluded) +
-                                                " fixes logged more than " +
-                                                num(kBootFitOutlierS) + " s off it left out"
-                                          : std::string()));
+  out.notes.push_back(
+      "boot clock tied to GPST by a linear fit over " + std::to_string(clock.fixes) +
+      " GPS fixes: slope " + num(clock.slope, 8) + ", residual rms " + num(clock.rms_s * 1e3, 3) +
+      " ms, max " + num(clock.max_abs_s * 1e3, 3) + " ms" +
+      (clock.excluded > 0 ? "; " + std::to_string(clock.excluded) + " fixes logged more than " +
+                                num(kBootFitOutlierS) + " s off it left out"
+                          : std::string()));
 
   // VZ's sign: the altitude's rate against VZ over the fixes.
   VzSign& vz = out.vz;
@@ -280,7 +298,8 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
             ? std::string("GPS VZ is ") + (vz.down_positive ? "positive down" : "positive up") +
                   " (v_u = " + (vz.down_positive ? "-VZ" : "VZ") + "): " + evidence
             : "GPS VZ taken as positive down (ArduPilot's convention): the altitude does not "
-              "tell its sign (" + evidence + ")");
+              "tell its sign (" +
+                  evidence + ")");
   }
 
   // GNSS epochs.
@@ -312,16 +331,18 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
   out.gnss.format = "ardupilot dataflash GPS";
   out.gnss.source = where + ", GPS";
   out.gnss.row_unit = "record";
-  prov["gnss"]["source"] = "GPS: Week + TimeMS (GPS time of week, ms) as GPST; Lat, Lng; Alt "
-                           "(MSL); v_n, v_e = Spd cos(GCrs), Spd sin(GCrs); v_u from VZ";
+  prov["gnss"]["source"] =
+      "GPS: Week + TimeMS (GPS time of week, ms) as GPST; Lat, Lng; Alt "
+      "(MSL); v_n, v_e = Spd cos(GCrs), Spd sin(GCrs); v_u from VZ";
   prov["gnss"]["records"] = gps.size();
   prov["gnss"]["dropped"] = {
       {"status_below_" + std::to_string(options.min_status), gps.size() - fixes.size()},
       {"outside_t_range", outside},
       {"time_not_increasing", not_increasing}};
   prov["gnss"]["height"] = "MSL (Alt): the GPS record has no ellipsoidal height";
-  out.notes.push_back("GNSS height is MSL (GPS Alt): the log has no ellipsoidal height; heights "
-                      "only enter as the vertical reference");
+  out.notes.push_back(
+      "GNSS height is MSL (GPS Alt): the log has no ellipsoidal height; heights "
+      "only enter as the vertical reference");
   if (gps.size() > fixes.size())
     out.notes.push_back("dropped " + std::to_string(gps.size() - fixes.size()) +
                         " GPS records with Status below " + std::to_string(options.min_status));
@@ -334,7 +355,8 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
                              " GPS fixes within the boot-time range; need at least 2");
 
   // IMU.
-  const auto rows = log.read(options.imu, {"TimeMS", "GyrX", "GyrY", "GyrZ", "AccX", "AccY", "AccZ"});
+  const auto rows =
+      log.read(options.imu, {"TimeMS", "GyrX", "GyrY", "GyrZ", "AccX", "AccY", "AccZ"});
   CsvImu& imu = out.imu;
   imu.origin = where + ", " + options.imu;
   imu.row_unit = "record";
@@ -370,8 +392,8 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
     for (const std::size_t line : imu.line) boot_ms.push_back(rows[line - 1][0]);
     for (std::size_t k = 1; k < boot_ms.size(); ++k) steps.push_back(boot_ms[k] - boot_ms[k - 1]);
     std::vector<double> sorted = steps;
-    std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2),
-                     sorted.end());
+    std::nth_element(sorted.begin(),
+                     sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
     const double median_ms = sorted[sorted.size() / 2];
     median_step_ms = median_ms;
     nlohmann::json list = nlohmann::json::array();
@@ -413,8 +435,9 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
   }
   out.autopilot_estimates = autopilot_bias_estimates(log, out.phases, options, out.notes);
 
-  prov["imu"]["source"] = options.imu + ": TimeMS (boot ms), GyrX/Y/Z (rad/s), AccX/Y/Z (m/s^2): "
-                                        "sampled values, integrated as point samples";
+  prov["imu"]["source"] = options.imu +
+                          ": TimeMS (boot ms), GyrX/Y/Z (rad/s), AccX/Y/Z (m/s^2): "
+                          "sampled values, integrated as point samples";
   prov["imu"]["axes"] = "ArduPilot body frame, forward-right-down (no mounting applied)";
   std::string others;
   for (const char* name : {"IMU", "IMU2", "IMU3"})
@@ -433,7 +456,8 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
                       "integration; treat identified gyro and accelerometer errors with care");
   if (options.t_start_s || options.t_end_s) {
     prov["cut_boot_s"] = {
-        {"t_start", options.t_start_s ? nlohmann::json(*options.t_start_s) : nlohmann::json(nullptr)},
+        {"t_start",
+         options.t_start_s ? nlohmann::json(*options.t_start_s) : nlohmann::json(nullptr)},
         {"t_end", options.t_end_s ? nlohmann::json(*options.t_end_s) : nlohmann::json(nullptr)}};
     out.notes.push_back("cut to boot time " +
                         (options.t_start_s ? num(*options.t_start_s, 6) : std::string("start")) +
@@ -444,4 +468,4 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
   return out;
 }
 
-}  // namespace insid::import
+}  // namespace insid::importers

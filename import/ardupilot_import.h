@@ -6,8 +6,8 @@
 #pragma once
 
 #include <optional>
-#include <utility>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -17,7 +17,7 @@
 #include "import/flight_phases.h"
 #include "import/gnss_solution.h"
 
-namespace insid::import {
+namespace insid::importers {
 
 struct ArduPilotImportOptions {
   std::string imu = "IMU";  ///< the IMU message: IMU, IMU2 or IMU3 (one physical IMU each)
@@ -93,4 +93,4 @@ nlohmann::json autopilot_bias_estimates(const DataFlashFile& log, const FlightPh
 ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& where,
                                   const ArduPilotImportOptions& options);
 
-}  // namespace insid::import
+}  // namespace insid::importers

@@ -18,7 +18,7 @@
 #include "import/ardupilot_import.h"
 #include "import/dataflash.h"
 
-namespace insid::import {
+namespace insid::importers {
 namespace {
 namespace fs = std::filesystem;
 
@@ -68,23 +68,36 @@ TEST(DataFlash, DecodesEveryTypeLetter) {
   put<double>(r, -2.25);
   put<std::int64_t>(r, -(std::int64_t{1} << 40));
   put<std::uint64_t>(r, std::uint64_t{1} << 50);
-  put<std::int16_t>(r, -1234);       // c: -12.34
-  put<std::uint16_t>(r, 65535);      // C: 655.35
-  put<std::int32_t>(r, -123456);     // e: -1234.56
+  put<std::int16_t>(r, -1234);         // c: -12.34
+  put<std::uint16_t>(r, 65535);        // C: 655.35
+  put<std::int32_t>(r, -123456);       // e: -1234.56
   put<std::uint32_t>(r, 4000000000u);  // E: 40000000.00
-  put<std::int32_t>(r, -353623714);  // L: -35.3623714 deg
-  put<std::uint8_t>(r, 5);           // M
+  put<std::int32_t>(r, -353623714);    // L: -35.3623714 deg
+  put<std::uint8_t>(r, 5);             // M
   ASSERT_EQ(r.size(), 62u);
   log += r;
   const DataFlashFile f = DataFlashFile::parse(log, "all.bin");
   EXPECT_EQ(f.truncation(), "");
   EXPECT_EQ(f.count("ALL"), 1u);
-  const auto rows = f.read("ALL", {"b", "B", "h", "H", "i", "I", "f", "d", "q", "Q", "c", "C", "e",
-                                   "E", "L", "M"});
+  const auto rows = f.read(
+      "ALL", {"b", "B", "h", "H", "i", "I", "f", "d", "q", "Q", "c", "C", "e", "E", "L", "M"});
   ASSERT_EQ(rows.size(), 1u);
-  const std::vector<double> expected = {-5, 250, -30000, 60000, -2000000000, 4000000000.0, 1.5,
-                                        -2.25, -1099511627776.0, 1125899906842624.0, -12.34,
-                                        655.35, -1234.56, 40000000.0, -35.3623714, 5};
+  const std::vector<double> expected = {-5,
+                                        250,
+                                        -30000,
+                                        60000,
+                                        -2000000000,
+                                        4000000000.0,
+                                        1.5,
+                                        -2.25,
+                                        -1099511627776.0,
+                                        1125899906842624.0,
+                                        -12.34,
+                                        655.35,
+                                        -1234.56,
+                                        40000000.0,
+                                        -35.3623714,
+                                        5};
   for (std::size_t i = 0; i < expected.size(); ++i)
     EXPECT_NEAR(rows[0][i], expected[i], std::fabs(expected[i]) * 1e-12) << letters[i];
   EXPECT_THROW(f.read("TXT", {"N"}), std::runtime_error);     // text, not a number
@@ -329,7 +342,8 @@ TEST(ArduPilotImport, AutopilotBiasesFromCraftedEkfRecords) {
     std::string log = fmt_of_fmt();
     log += fmt_record(140, 43, "EKF1", ekf1_letters,
                       "TimeMS,Roll,Pitch,Yaw,VN,VE,VD,PN,PE,PD,GX,GY,GZ");
-    log += fmt_record(141, 26, "EKF2", "Ibbbcchhhhhh", "TimeMS,Ratio,AZ1bias,AZ2bias,VWN,VWE,MN,ME,MD,MX,MY,MZ");
+    log += fmt_record(141, 26, "EKF2", "Ibbbcchhhhhh",
+                      "TimeMS,Ratio,AZ1bias,AZ2bias,VWN,VWE,MN,ME,MD,MX,MY,MZ");
     for (std::uint32_t t_ms : {1000u, 2000u}) {
       std::string r = "\xA3\x95\x8C";
       put<std::uint32_t>(r, t_ms);
@@ -371,7 +385,8 @@ TEST(ArduPilotImport, AutopilotBiasesFromCraftedEkfRecords) {
   ASSERT_EQ(other.at("estimates").size(), 4u);
   EXPECT_EQ(other["estimates"][0]["source"], "EKF1.GY");
   bool named = false;
-  for (const std::string& n : notes) named |= n.find("EKF1.GX left out: its FMT letter is 'h'") != std::string::npos;
+  for (const std::string& n : notes)
+    named |= n.find("EKF1.GX left out: its FMT letter is 'h'") != std::string::npos;
   EXPECT_TRUE(named);
 }
 
@@ -390,8 +405,8 @@ TEST(ArduPilotReal, EkfAccelZBiasesMatchEachImusGroundDeficit) {
   options.t_start_s = 74.7;
   options.t_end_s = 215.0;
   const ArduPilotSeries s = extract_ardupilot(log, "log171.bin", options);
-  const double g = EarthModel::wgs84().normal_gravity_mps2(-35.362 * 3.14159265358979323846 / 180.0,
-                                                           590.7);
+  const double g =
+      EarthModel::wgs84().normal_gravity_mps2(-35.362 * 3.14159265358979323846 / 180.0, 590.7);
   const auto deficit = [&](const char* imu) {
     double sum = 0.0;
     int n = 0;
@@ -412,4 +427,4 @@ TEST(ArduPilotReal, EkfAccelZBiasesMatchEachImusGroundDeficit) {
 }
 
 }  // namespace
-}  // namespace insid::import
+}  // namespace insid::importers

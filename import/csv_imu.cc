@@ -10,15 +10,15 @@
 
 #include <Eigen/Geometry>
 
+#include "core/units.h"
 #include "import/gnss_solution.h"
 #include "import/text_lines.h"
 
-namespace insid::import {
+namespace insid::importers {
 namespace {
 
 constexpr std::array<const char*, 7> kRoles = {"t", "ax", "ay", "az", "gx", "gy", "gz"};
 constexpr std::array<const char*, 5> kOptionalRoles = {"hdg", "hdg_sd", "mx", "my", "mz"};
-constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
 
 std::vector<std::string> split(const std::string& text, char sep) {
   std::vector<std::string> out;
@@ -149,7 +149,8 @@ CsvImu read_csv_imu(const std::string& text, const std::string& where, const Csv
     if (spec.columns[i] != "-") index[spec.columns[i]] = i;
   const double t_scale = spec.time_unit == "s" ? 1.0 : spec.time_unit == "ms" ? 1e-3 : 1e-6;
   const double g_scale = spec.gyro_unit == "deg/s" || spec.gyro_unit == "deg" ? kDegToRad : 1.0;
-  const double a_scale = spec.accel_unit == "g" ? 9.80665 : 1.0;  // g-local: applied later
+  const double a_scale =
+      spec.accel_unit == "g" ? kStandardGravity_mps2 : 1.0;  // g-local: applied later
   GpstTime t_base = 0.0L;
   if (spec.time_scale == "gps-sow" || spec.time_scale == "relative") {
     const std::optional<int> week = spec.gps_week ? spec.gps_week : gnss_week;
@@ -254,4 +255,4 @@ CsvImu read_csv_imu(const std::string& text, const std::string& where, const Csv
   return out;
 }
 
-}  // namespace insid::import
+}  // namespace insid::importers

@@ -13,7 +13,7 @@
 #include "core/dataset.h"
 #include "import/gnss_solution.h"
 
-namespace insid::import {
+namespace insid::importers {
 
 /// How to read an IMU CSV file. Parse the command-line strings with parse_columns/parse_units,
 /// then validate() (called by read_csv_imu).
@@ -99,4 +99,4 @@ struct CsvImu {
 CsvImu read_csv_imu(const std::string& text, const std::string& where, const CsvImuSpec& spec,
                     std::optional<int> gnss_week);
 
-}  // namespace insid::import
+}  // namespace insid::importers

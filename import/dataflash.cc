@@ -6,7 +6,7 @@
 #include <sstream>
 #include <stdexcept>
 
-namespace insid::import {
+namespace insid::importers {
 namespace {
 
 constexpr unsigned char kHead1 = 0xA3, kHead2 = 0x95;
@@ -16,13 +16,34 @@ constexpr std::size_t kFmtLength = 89;  // 3 + type 1 + length 1 + name 4 + form
 // Bytes of a type letter (ArduPilot's LogStructure.h); 0 for a letter it does not define.
 std::size_t letter_size(char c) {
   switch (c) {
-    case 'b': case 'B': case 'M': return 1;
-    case 'h': case 'H': case 'c': case 'C': return 2;
-    case 'i': case 'I': case 'f': case 'e': case 'E': case 'L': case 'n': return 4;
-    case 'd': case 'q': case 'Q': return 8;
-    case 'N': return 16;
-    case 'Z': case 'a': return 64;
-    default: return 0;
+    case 'b':
+    case 'B':
+    case 'M':
+      return 1;
+    case 'h':
+    case 'H':
+    case 'c':
+    case 'C':
+      return 2;
+    case 'i':
+    case 'I':
+    case 'f':
+    case 'e':
+    case 'E':
+    case 'L':
+    case 'n':
+      return 4;
+    case 'd':
+    case 'q':
+    case 'Q':
+      return 8;
+    case 'N':
+      return 16;
+    case 'Z':
+    case 'a':
+      return 64;
+    default:
+      return 0;
   }
 }
 
@@ -37,22 +58,39 @@ T load(const char* p) {
 
 double decode(char type, const char* p) {
   switch (type) {
-    case 'b': return load<std::int8_t>(p);
-    case 'B': case 'M': return load<std::uint8_t>(p);
-    case 'h': return load<std::int16_t>(p);
-    case 'H': return load<std::uint16_t>(p);
-    case 'i': return load<std::int32_t>(p);
-    case 'I': return load<std::uint32_t>(p);
-    case 'f': return static_cast<double>(load<float>(p));
-    case 'd': return load<double>(p);
-    case 'q': return static_cast<double>(load<std::int64_t>(p));
-    case 'Q': return static_cast<double>(load<std::uint64_t>(p));
-    case 'c': return load<std::int16_t>(p) * 0.01;
-    case 'C': return load<std::uint16_t>(p) * 0.01;
-    case 'e': return load<std::int32_t>(p) * 0.01;
-    case 'E': return load<std::uint32_t>(p) * 0.01;
-    case 'L': return load<std::int32_t>(p) * 1e-7;
-    default: throw std::logic_error("DataFlash decode: not a number letter");
+    case 'b':
+      return load<std::int8_t>(p);
+    case 'B':
+    case 'M':
+      return load<std::uint8_t>(p);
+    case 'h':
+      return load<std::int16_t>(p);
+    case 'H':
+      return load<std::uint16_t>(p);
+    case 'i':
+      return load<std::int32_t>(p);
+    case 'I':
+      return load<std::uint32_t>(p);
+    case 'f':
+      return static_cast<double>(load<float>(p));
+    case 'd':
+      return load<double>(p);
+    case 'q':
+      return static_cast<double>(load<std::int64_t>(p));
+    case 'Q':
+      return static_cast<double>(load<std::uint64_t>(p));
+    case 'c':
+      return load<std::int16_t>(p) * 0.01;
+    case 'C':
+      return load<std::uint16_t>(p) * 0.01;
+    case 'e':
+      return load<std::int32_t>(p) * 0.01;
+    case 'E':
+      return load<std::uint32_t>(p) * 0.01;
+    case 'L':
+      return load<std::int32_t>(p) * 1e-7;
+    default:
+      throw std::logic_error("DataFlash decode: not a number letter");
   }
 }
 
@@ -92,7 +130,10 @@ DataFlashFile DataFlashFile::parse(std::string bytes, const std::string& where) 
   fmt.name = "FMT";
   fmt.letters = "BBnNZ";
   fmt.length = kFmtLength;
-  fmt.fields = {{'B', "Type", 3}, {'B', "Length", 4}, {'n', "Name", 5}, {'N', "Format", 9},
+  fmt.fields = {{'B', "Type", 3},
+                {'B', "Length", 4},
+                {'n', "Name", 5},
+                {'N', "Format", 9},
                 {'Z', "Columns", 25}};
   f.formats_[kFmtId] = fmt;
   std::map<std::string, std::uint8_t> ids = {{"FMT", kFmtId}};
@@ -112,8 +153,9 @@ DataFlashFile DataFlashFile::parse(std::string bytes, const std::string& where) 
     const auto id = static_cast<std::uint8_t>(b[pos + 2]);
     if (c0 != kHead1 || c1 != kHead2) {
       if (pos == 0)
-        throw std::runtime_error(where + ": byte 0: not an ArduPilot DataFlash log (expected "
-                                         "the record header 0xA3 0x95)");
+        throw std::runtime_error(where +
+                                 ": byte 0: not an ArduPilot DataFlash log (expected "
+                                 "the record header 0xA3 0x95)");
       stop(pos, "no record header (expected 0xA3 0x95)");
       break;
     }
@@ -161,10 +203,10 @@ DataFlashFile DataFlashFile::parse(std::string bytes, const std::string& where) 
         }
       }
       if (names.size() != letters.size())
-        throw std::runtime_error(named + ": field Format " + quoted(letters) + " has " +
-                                 std::to_string(letters.size()) + " type letters but field Columns " +
-                                 quoted(labels) + " names " + std::to_string(names.size()) +
-                                 " fields (expected one name per letter)");
+        throw std::runtime_error(
+            named + ": field Format " + quoted(letters) + " has " + std::to_string(letters.size()) +
+            " type letters but field Columns " + quoted(labels) + " names " +
+            std::to_string(names.size()) + " fields (expected one name per letter)");
       std::size_t offset = 3;
       for (std::size_t i = 0; i < letters.size(); ++i) {
         const std::size_t n = letter_size(letters[i]);
@@ -178,9 +220,11 @@ DataFlashFile DataFlashFile::parse(std::string bytes, const std::string& where) 
       }
       if (offset != length)
         throw std::runtime_error(named + ": field Length " + std::to_string(length) +
-                                 " disagrees with field Format " + quoted(letters) + " (3 header "
-                                 "bytes + " + std::to_string(offset - 3) + " = " +
-                                 std::to_string(offset) + " expected)");
+                                 " disagrees with field Format " + quoted(letters) +
+                                 " (3 header "
+                                 "bytes + " +
+                                 std::to_string(offset - 3) + " = " + std::to_string(offset) +
+                                 " expected)");
       const auto known = f.formats_.find(type);
       if (known != f.formats_.end()) {
         if (known->second.name != name || known->second.letters != letters ||
@@ -284,4 +328,4 @@ std::string DataFlashFile::messages_summary() const {
   return out.empty() ? "none" : out;
 }
 
-}  // namespace insid::import
+}  // namespace insid::importers

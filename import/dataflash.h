@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-namespace insid::import {
+namespace insid::importers {
 
 class DataFlashFile {
  public:
@@ -66,4 +66,4 @@ class DataFlashFile {
   std::string truncation_;
 };
 
-}  // namespace insid::import
+}  // namespace insid::importers

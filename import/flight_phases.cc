@@ -1,15 +1,13 @@
 #include "import/flight_phases.h"
+#include "core/units.h"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
 
-namespace insid::import {
+namespace insid::importers {
 namespace {
-
-constexpr double kG0 = 9.80665;  // standard gravity (m/s^2): the unit of impact_g, inverted_g
-constexpr double kRadToDeg = 180.0 / 3.14159265358979323846;
 
 std::string fixed(double v, int decimals = 2) {
   char buf[64];
@@ -31,7 +29,9 @@ nlohmann::json opt(const std::optional<double>& v) {
 }  // namespace
 
 std::string FlightPhaseOptions::validate() const {
-  const auto bad = [](double v, double lo, double hi) { return !(std::isfinite(v) && v > lo && v <= hi); };
+  const auto bad = [](double v, double lo, double hi) {
+    return !(std::isfinite(v) && v > lo && v <= hi);
+  };
   if (bad(block_s, 0.0, 10.0)) return "block_s " + fixed(block_s, 3) + ": must be in (0, 10] s";
   if (bad(spin_accel_sd_mps2, 0.0, 100.0)) return "spin_accel_sd_mps2: must be in (0, 100]";
   if (spin_window_blocks < 1 || spin_window_blocks > 1000)
@@ -71,8 +71,9 @@ FlightPhases find_flight_phases(const FlightPhaseInput& in, const FlightPhaseOpt
   std::vector<Block> blocks;
   for (std::size_t k = 0; k < n;) {
     Block b;
-    b.t_start_s = out.log_start_s +
-                  std::floor((in.imu_boot_s[k] - out.log_start_s) / options.block_s) * options.block_s;
+    b.t_start_s =
+        out.log_start_s +
+        std::floor((in.imu_boot_s[k] - out.log_start_s) / options.block_s) * options.block_s;
     double sum = 0, sum2 = 0, fz = 0;
     std::size_t j = k;
     for (; j < n && in.imu_boot_s[j] < b.t_start_s + options.block_s; ++j) {
@@ -117,8 +118,8 @@ FlightPhases find_flight_phases(const FlightPhaseInput& in, const FlightPhaseOpt
     if (in.gnss_boot_s[k] < *out.motors_on_s) ground.push_back(in.gnss_alt_m[k]);
   const bool have_ground = !ground.empty();
   if (have_ground) {
-    std::nth_element(ground.begin(), ground.begin() + static_cast<std::ptrdiff_t>(ground.size() / 2),
-                     ground.end());
+    std::nth_element(ground.begin(),
+                     ground.begin() + static_cast<std::ptrdiff_t>(ground.size() / 2), ground.end());
     out.ground_alt_m = ground[ground.size() / 2];
   }
   for (std::size_t k = 0; k < in.gnss_boot_s.size(); ++k) {
@@ -133,13 +134,14 @@ FlightPhases find_flight_phases(const FlightPhaseInput& in, const FlightPhaseOpt
 
   // How the flight ended: the first impact, upside-down block or landing after the take-off.
   for (std::size_t k = 0; k < n; ++k)
-    if (in.imu_boot_s[k] >= *out.takeoff_s && in.f_b_mps2[k].norm() > options.impact_g * kG0) {
+    if (in.imu_boot_s[k] >= *out.takeoff_s &&
+        in.f_b_mps2[k].norm() > options.impact_g * kStandardGravity_mps2) {
       out.crash_s = in.imu_boot_s[k];
       break;
     }
   for (std::size_t k = 0; k < blocks.size(); ++k)
     if (blocks[k].t_start_s >= *out.takeoff_s && blocks[k].n >= 3 &&
-        blocks[k].f_z_mean_mps2 > options.inverted_g * kG0) {
+        blocks[k].f_z_mean_mps2 > options.inverted_g * kStandardGravity_mps2) {
       out.inverted_s = blocks[k].t_start_s;
       break;
     }
@@ -167,7 +169,8 @@ FlightPhases find_flight_phases(const FlightPhaseInput& in, const FlightPhaseOpt
     }
   for (std::size_t k = 0; k < n; ++k)
     if (in.imu_boot_s[k] >= *out.takeoff_s && in.imu_boot_s[k] < out.airborne_end_s) {
-      out.peak_airborne_g = std::max(out.peak_airborne_g, in.f_b_mps2[k].norm() / kG0);
+      out.peak_airborne_g =
+          std::max(out.peak_airborne_g, in.f_b_mps2[k].norm() / kStandardGravity_mps2);
       out.peak_airborne_rate_deg_s =
           std::max(out.peak_airborne_rate_deg_s, in.omega_b_rad_s[k].norm() * kRadToDeg);
     }
@@ -175,7 +178,8 @@ FlightPhases find_flight_phases(const FlightPhaseInput& in, const FlightPhaseOpt
   // The suggested window: after the fix and any logging gap on the ground, up to the landing
   // or the log's end, or crash_margin_s before a crash.
   out.suggest_t_start_s = out.log_start_s;
-  if (out.gnss_fix_from_s) out.suggest_t_start_s = std::max(out.suggest_t_start_s, *out.gnss_fix_from_s);
+  if (out.gnss_fix_from_s)
+    out.suggest_t_start_s = std::max(out.suggest_t_start_s, *out.gnss_fix_from_s);
   for (const double end : ground_gaps_end_s)
     if (end < *out.takeoff_s) out.suggest_t_start_s = std::max(out.suggest_t_start_s, end);
   out.suggest_t_end_s = out.ended_by == "crash" || out.ended_by == "inverted"
@@ -186,9 +190,10 @@ FlightPhases find_flight_phases(const FlightPhaseInput& in, const FlightPhaseOpt
 
 nlohmann::json FlightPhases::to_json() const {
   return {{"clock", "boot s (the autopilot's time since boot, the clock of --t-start/--t-end)"},
-          {"method", "IMU: 0.5 s blocks of |specific force| scatter (motors), body-z specific "
-                     "force (upside down), |specific force| peaks (impact); GPS fixes: altitude "
-                     "above the ground median and horizontal speed (take-off)"},
+          {"method",
+           "IMU: 0.5 s blocks of |specific force| scatter (motors), body-z specific "
+           "force (upside down), |specific force| peaks (impact); GPS fixes: altitude "
+           "above the ground median and horizontal speed (take-off)"},
           {"log_start_boot_s", log_start_s},
           {"log_end_boot_s", log_end_s},
           {"gnss_fix_from_boot_s", opt(gnss_fix_from_s)},
@@ -198,13 +203,12 @@ nlohmann::json FlightPhases::to_json() const {
           {"crash_boot_s", opt(crash_s)},
           {"inverted_boot_s", opt(inverted_s)},
           {"landed_boot_s", opt(landed_s)},
-          {"airborne", airborne()
-                           ? nlohmann::json{{"from_boot_s", *takeoff_s},
-                                            {"to_boot_s", airborne_end_s},
-                                            {"ended_by", ended_by},
-                                            {"peak_specific_force_g", peak_airborne_g},
-                                            {"peak_rate_deg_s", peak_airborne_rate_deg_s}}
-                           : nlohmann::json(nullptr)},
+          {"airborne", airborne() ? nlohmann::json{{"from_boot_s", *takeoff_s},
+                                                   {"to_boot_s", airborne_end_s},
+                                                   {"ended_by", ended_by},
+                                                   {"peak_specific_force_g", peak_airborne_g},
+                                                   {"peak_rate_deg_s", peak_airborne_rate_deg_s}}
+                                  : nlohmann::json(nullptr)},
           {"suggested_window_boot_s",
            airborne() ? nlohmann::json{{"t_start", suggest_t_start_s}, {"t_end", suggest_t_end_s}}
                       : nlohmann::json(nullptr)}};
@@ -212,8 +216,9 @@ nlohmann::json FlightPhases::to_json() const {
 
 std::vector<std::string> FlightPhases::lines() const {
   std::vector<std::string> l;
-  l.push_back("flight phases (boot s; from the IMU's specific force and rates and the GPS "
-              "altitude and speed):");
+  l.push_back(
+      "flight phases (boot s; from the IMU's specific force and rates and the GPS "
+      "altitude and speed):");
   const double ground_end = motors_on_s ? *motors_on_s : log_end_s;
   l.push_back("  ground       " + fixed(log_start_s) + " - " + fixed(ground_end) + " s" +
               (gnss_fix_from_s ? " (GPS fix from " + fixed(*gnss_fix_from_s) + " s)" : ""));
@@ -226,9 +231,9 @@ std::vector<std::string> FlightPhases::lines() const {
     l.push_back("  no take-off found (no GPS fix above the ground altitude or moving)");
     return l;
   }
-  l.push_back("  take-off     " + fixed(*takeoff_s) + " s (the first GPS fix " +
-              fixed(climb_m, 1) + " m above the ground's " + fixed(ground_alt_m, 1) +
-              " m or faster than " + fixed(speed_mps, 1) + " m/s)");
+  l.push_back("  take-off     " + fixed(*takeoff_s) + " s (the first GPS fix " + fixed(climb_m, 1) +
+              " m above the ground's " + fixed(ground_alt_m, 1) + " m or faster than " +
+              fixed(speed_mps, 1) + " m/s)");
   l.push_back("  airborne     " + fixed(*takeoff_s) + " - " + fixed(airborne_end_s) + " s (" +
               fixed(airborne_end_s - *takeoff_s, 1) + " s; peak " + fixed(peak_airborne_g, 1) +
               " g, " + fixed(peak_airborne_rate_deg_s, 0) + " deg/s)");
@@ -237,10 +242,10 @@ std::vector<std::string> FlightPhases::lines() const {
   if (landed_s) l.push_back("  landed       " + fixed(*landed_s) + " s (motors stopped)");
   l.push_back("  flight without what ended it: --t-start " + fixed(suggest_t_start_s) +
               " --t-end " + fixed(suggest_t_end_s) +
-              (ended_by == "crash" || ended_by == "inverted" ? " (the " + ended_by +
-                                                                   " and the seconds before it cut)"
-                                                             : std::string()));
+              (ended_by == "crash" || ended_by == "inverted"
+                   ? " (the " + ended_by + " and the seconds before it cut)"
+                   : std::string()));
   return l;
 }
 
-}  // namespace insid::import
+}  // namespace insid::importers

@@ -14,7 +14,7 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
-namespace insid::import {
+namespace insid::importers {
 
 struct FlightPhaseOptions {
   double block_s = 0.5;  ///< IMU blocks (s) in which the scatter and the attitude are judged
@@ -50,10 +50,10 @@ struct FlightPhaseOptions {
 };
 
 struct FlightPhaseInput {
-  std::vector<double> imu_boot_s;          ///< increasing
-  std::vector<Eigen::Vector3d> f_b_mps2;   ///< specific force, body FRD
+  std::vector<double> imu_boot_s;         ///< increasing
+  std::vector<Eigen::Vector3d> f_b_mps2;  ///< specific force, body FRD
   std::vector<Eigen::Vector3d> omega_b_rad_s;
-  std::vector<double> gnss_boot_s;         ///< fixes only, increasing
+  std::vector<double> gnss_boot_s;  ///< fixes only, increasing
   std::vector<double> gnss_alt_m, gnss_speed_mps;
 };
 
@@ -66,8 +66,8 @@ struct FlightPhases {
   std::optional<double> crash_s;              ///< the first impact sample
   std::optional<double> inverted_s;           ///< start of the first upside-down block
   std::optional<double> landed_s;             ///< motors stopped near the ground
-  double airborne_end_s = 0.0;  ///< crash, upside down, landing or the log's end (s)
-  std::string ended_by;         ///< "crash" | "inverted" | "landing" | "end of log"
+  double airborne_end_s = 0.0;                ///< crash, upside down, landing or the log's end (s)
+  std::string ended_by;                       ///< "crash" | "inverted" | "landing" | "end of log"
   double peak_airborne_g = 0.0, peak_airborne_rate_deg_s = 0.0;  ///< up to airborne_end_s
   /// A window for `insid import ardupilot`: from the first record (or the end of the last IMU
   /// logging gap on the ground) to airborne_end_s less crash_margin_s after a crash.
@@ -84,4 +84,4 @@ struct FlightPhases {
 FlightPhases find_flight_phases(const FlightPhaseInput& in, const FlightPhaseOptions& options,
                                 const std::vector<double>& ground_gaps_end_s = {});
 
-}  // namespace insid::import
+}  // namespace insid::importers

@@ -10,7 +10,7 @@
 
 #include "import/text_lines.h"
 
-namespace insid::import {
+namespace insid::importers {
 namespace {
 
 std::vector<std::string_view> split_ws(std::string_view line) {
@@ -222,4 +222,4 @@ GnssSolution read_rtklib_pos(const std::filesystem::path& path) {
   return parse_rtklib_pos(text.str(), path.string());
 }
 
-}  // namespace insid::import
+}  // namespace insid::importers

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-namespace insid::import {
+namespace insid::importers {
 
 /// An instant: GPST seconds since 1970 in extended precision. A double would quantize today's
 /// instants (1.8e9 s) to 2.4e-7 s, a visible error on 6 ms IMU steps; long double keeps 1.2e-10 s
@@ -56,4 +56,4 @@ bool looks_like_rtklib_pos(const std::string& text);
 /// The same reader on text already in memory; `where` names it in messages.
 GnssSolution parse_rtklib_pos(const std::string& text, const std::string& where);
 
-}  // namespace insid::import
+}  // namespace insid::importers

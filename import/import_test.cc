@@ -31,7 +31,7 @@
 #include "import/ulog_import.h"
 #include "scenarios/scenario.h"
 
-namespace insid::import {
+namespace insid::importers {
 namespace {
 namespace fs = std::filesystem;
 
@@ -1600,4 +1600,4 @@ TEST(SharedData, RtklibWalkNavigatesWithLevelHeadingAndRefusesGyrocompass) {
 }
 
 }  // namespace
-}  // namespace insid::import
+}  // namespace insid::importers

@@ -11,11 +11,10 @@
 #include "core/alignment.h"
 #include "core/earth.h"
 #include "core/fitness.h"
+#include "core/units.h"
 
-namespace insid::import {
+namespace insid::importers {
 namespace {
-
-constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
 
 std::string num(double v, int precision = 6) {
   std::ostringstream s;
@@ -471,4 +470,4 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
   return out;
 }
 
-}  // namespace insid::import
+}  // namespace insid::importers

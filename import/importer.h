@@ -14,7 +14,7 @@
 #include "import/csv_imu.h"
 #include "import/gnss_solution.h"
 
-namespace insid::import {
+namespace insid::importers {
 
 /// The default lowest IMU rate (Hz) for strapdown integration. A multicopter's rigid-body motion
 /// (attitude manoeuvres, the attitude controller's corrections) reaches ~5 Hz. Sampled at f_s,
@@ -100,4 +100,4 @@ struct Assembled {
 Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
                            const AssembleOptions& options, const HeadingInput* heading = nullptr);
 
-}  // namespace insid::import
+}  // namespace insid::importers

@@ -8,12 +8,11 @@
 #include <vector>
 
 #include "core/earth.h"
+#include "core/units.h"
 #include "import/text_lines.h"
 
-namespace insid::import {
+namespace insid::importers {
 namespace {
-
-constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
 
 // Splits on commas, spaces and tabs, skipping empty fields (KF-GINS's rule).
 std::vector<std::string_view> fields_of(std::string_view line) {
@@ -199,7 +198,6 @@ std::string kf_gins_imu_text(const Dataset& ds, double sow_offset_s) {
 std::string kf_gins_gnss_text(const Dataset& ds, double sow_offset_s, double pos_std_m,
                               double vel_std_mps) {
   std::string out;
-  constexpr double kRadToDeg = 180.0 / 3.14159265358979323846;
   for (const GnssSample& g : ds.gnss) {
     append_number(out, g.t_s + sow_offset_s, "");
     for (const double v : {g.lat_rad * kRadToDeg, g.lon_rad * kRadToDeg, g.h_m, g.v_eb_n_mps.y(),
@@ -212,4 +210,4 @@ std::string kf_gins_gnss_text(const Dataset& ds, double sow_offset_s, double pos
   return out;
 }
 
-}  // namespace insid::import
+}  // namespace insid::importers

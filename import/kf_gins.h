@@ -15,7 +15,7 @@
 #include "import/csv_imu.h"
 #include "import/gnss_solution.h"
 
-namespace insid::import {
+namespace insid::importers {
 
 /// IMU rows as increments in body FRD; times on the GPST-since-1970 scale of `gps_week` (week 0
 /// when not given: the times then only order the rows). Throws std::runtime_error naming line
@@ -41,4 +41,4 @@ std::string kf_gins_imu_text(const Dataset& dataset, double sow_offset_s);
 std::string kf_gins_gnss_text(const Dataset& dataset, double sow_offset_s, double pos_std_m,
                               double vel_std_mps);
 
-}  // namespace insid::import
+}  // namespace insid::importers

@@ -5,7 +5,7 @@
 #include <cstddef>
 #include <string_view>
 
-namespace insid::import {
+namespace insid::importers {
 
 class TextLines {
  public:
@@ -30,4 +30,4 @@ class TextLines {
   std::size_t line_no_ = 0;
 };
 
-}  // namespace insid::import
+}  // namespace insid::importers

@@ -5,7 +5,7 @@
 #include <sstream>
 #include <stdexcept>
 
-namespace insid::import {
+namespace insid::importers {
 namespace {
 
 constexpr unsigned char kMagic[7] = {'U', 'L', 'o', 'g', 0x01, 0x12, 0x35};
@@ -344,4 +344,4 @@ std::string UlogFile::topics_summary() const {
   return out;
 }
 
-}  // namespace insid::import
+}  // namespace insid::importers

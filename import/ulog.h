@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-namespace insid::import {
+namespace insid::importers {
 
 class UlogFile {
  public:
@@ -78,4 +78,4 @@ class UlogFile {
   std::string truncation_;
 };
 
-}  // namespace insid::import
+}  // namespace insid::importers

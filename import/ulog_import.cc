@@ -10,7 +10,7 @@
 #include "core/earth.h"
 #include "core/rotation.h"
 
-namespace insid::import {
+namespace insid::importers {
 namespace {
 
 std::string seconds(double s) {
@@ -563,4 +563,4 @@ nlohmann::json px4_bias_estimates(const UlogFile& log, const std::string& imu_to
           {"estimates", list}};
 }
 
-}  // namespace insid::import
+}  // namespace insid::importers

@@ -15,7 +15,7 @@
 #include "import/gnss_solution.h"
 #include "import/ulog.h"
 
-namespace insid::import {
+namespace insid::importers {
 
 struct UlogImportOptions {
   /// "" (whichever of vehicle_imu and sensor_combined has more samples), "vehicle_imu" or
@@ -106,4 +106,4 @@ nlohmann::json px4_bias_estimates(const UlogFile& log, const std::string& imu_to
 UlogSeries extract_ulog(const UlogFile& log, const std::string& where,
                         const UlogImportOptions& options);
 
-}  // namespace insid::import
+}  // namespace insid::importers

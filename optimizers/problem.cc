@@ -6,6 +6,7 @@
 
 #include <omp.h>
 
+#include "core/threads.h"
 #include "optimizers/parameters.h"
 
 namespace insid::opt {
@@ -120,7 +121,7 @@ const EvaluatorOptions& EvaluatorOptions::validated() const {
 
 int EvaluatorOptions::threads() const {
   if (parallelism != Parallelism::kOpenMP) return 1;
-  return num_threads > 0 ? num_threads : omp_get_max_threads();
+  return insid::thread_count(num_threads);
 }
 
 ScalarProblem::ScalarProblem(Bounds bounds, EvaluatorOptions options)

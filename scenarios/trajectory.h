@@ -21,6 +21,7 @@
 #include <Eigen/Core>
 
 #include "core/rotation.h"
+#include "core/units.h"
 
 namespace insid::scenarios {
 
@@ -100,7 +101,7 @@ class Trajectory {
  private:
   friend class TrajectoryBuilder;
   InitialPose initial_;
-  double g_ref_ = 9.80665;
+  double g_ref_ = kStandardGravity_mps2;
   double end_s_ = 0.0;
   SmoothChannel speed_;  // Vh (m/s)
   SmoothChannel vup_;    // vU (m/s)

@@ -3,5 +3,5 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/install-deps.sh
-scripts/build.sh -DINSID_WERROR=ON  # the build stays warning-free
+scripts/build.sh --all -DINSID_WERROR=ON  # everything, warning-free
 ctest --test-dir build --output-on-failure -j"$(nproc)" --timeout 900

@@ -1,4 +1,4 @@
-#include "diagnose/noise_model.h"
+#include "core/noise_model.h"
 
 #include <algorithm>
 #include <cmath>
@@ -6,10 +6,8 @@
 #include <random>
 #include <vector>
 
-namespace insid::diagnose {
+namespace insid {
 namespace {
-
-constexpr double kRadToDeg = 180.0 / std::numbers::pi;
 
 // Robust standard deviation: 1.4826 * median absolute deviation from the median.
 double robust_sd(std::vector<double> v) {
@@ -169,4 +167,4 @@ Dataset noise_replica(const Dataset& dataset, const NoiseLevels& levels, std::ui
   return out;
 }
 
-}  // namespace insid::diagnose
+}  // namespace insid

@@ -1,4 +1,5 @@
-// Noise model of a dataset for the discrepancy workflow (diagnose/README.md):
+// Noise model of a dataset, for the discrepancy workflow (diagnose/README.md) and the
+// uncertainty of an identification (identification/uncertainty.h):
 //   * the noise levels (declared in meta.json "noise", or estimated from the data itself:
 //     IMU random walks and GNSS noise from the static alignment window, where the truth is
 //     constant, with a high-frequency fallback over the whole flight);
@@ -16,7 +17,7 @@
 
 #include "core/dataset.h"
 
-namespace insid::diagnose {
+namespace insid {
 
 struct NoiseEstimate {
   NoiseLevels levels;     ///< the levels used
@@ -40,4 +41,4 @@ NoiseEstimate noise_levels_for(const Dataset& dataset);
 /// the velocity and N(0, sp^2) on the position. Deterministic in `seed`.
 Dataset noise_replica(const Dataset& dataset, const NoiseLevels& levels, std::uint64_t seed);
 
-}  // namespace insid::diagnose
+}  // namespace insid
