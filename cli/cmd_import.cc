@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <new>
 #include <optional>
 #include <string>
 #include <vector>
@@ -19,6 +20,7 @@
 #include "cli/progress.h"
 #include "core/dataset.h"
 #include "core/digest.h"
+#include "core/file_read.h"
 #include "core/json_reader.h"
 #include "core/output_dir.h"
 #include "identification/identify.h"
@@ -44,6 +46,7 @@ struct SharedImportArgs {
   double static_accel_sd_mps2 = importers::AssembleOptions{}.static_accel_sd_mps2;
   std::optional<double> declination_deg;
   double min_imu_rate_hz = importers::kDefaultMinImuRateHz;
+  double max_input_mb = 4096;  ///< input files larger than this are refused before reading
   std::string out;
   bool force = false;
   Verbosity verbosity = Verbosity::kNormal;
@@ -67,6 +70,13 @@ struct SharedImportArgs {
     options["static_accel_sd_mps2"] = static_accel_sd_mps2;
     if (declination_deg) options["declination_deg"] = *declination_deg;  // only when given
     options["min_imu_rate_hz"] = min_imu_rate_hz;
+  }
+  /// How an input file is read: the size limit, and what lifts it.
+  FileReadOptions read_options() const {
+    FileReadOptions o;
+    o.max_bytes = static_cast<std::uint64_t>(max_input_mb * 1048576.0);
+    o.limit_option = "--max-input-mb";
+    return o;
   }
 };  // namespace
 
@@ -100,10 +110,27 @@ void add_shared_import_options(CLI::App* sub, SharedImportArgs& a) {
                   "that; lower it only for a platform whose motion stays below a quarter of it)")
       ->capture_default_str()
       ->check(number_in(1e-3, 10000));
+  sub->add_option("--max-input-mb", a.max_input_mb,
+                  "largest input file read (MiB; each is read whole, checked before reading: an "
+                  "honest bigger log needs about twice its size in memory)")
+      ->capture_default_str()
+      ->check(number_in(1, 1048576));
   sub->add_option("--out", a.out, "output dataset directory (new, empty or an insid dataset)")
       ->required();
   sub->add_flag("--force", a.force, "write into a --out directory that holds other files");
   add_verbosity_flags(sub, a.verbosity);
+}
+
+// Runs an import: running out of memory anywhere in it (reading, parsing, assembling) is
+// reported with its input files named, never as a bare std::bad_alloc.
+template <class Run>
+void naming_inputs_on_oom(const std::string& inputs, Run&& run) {
+  try {
+    run();
+  } catch (const std::bad_alloc&) {
+    throw std::runtime_error("out of memory while importing " + inputs +
+                             " (split the log, or give the import more memory)");
+  }
 }
 
 struct ImportCsvArgs {
@@ -114,26 +141,16 @@ struct ImportCsvArgs {
   SharedImportArgs shared;
 };
 
-std::string read_text(const std::string& path, const char* option) {
-  std::error_code ec;
-  if (!fs::is_regular_file(path, ec))
-    throw std::invalid_argument(std::string(option) + " " + path + ": not a regular file");
-  std::FILE* f = std::fopen(path.c_str(), "rb");
-  if (f == nullptr) throw std::invalid_argument(std::string(option) + " " + path + ": cannot open");
-  std::string text;
-  char buffer[1 << 16];
-  std::size_t n = 0;
-  while ((n = std::fread(buffer, 1, sizeof buffer, f)) > 0) text.append(buffer, n);
-  const bool bad = std::ferror(f) != 0;
-  std::fclose(f);
-  if (bad) throw std::runtime_error(std::string(option) + " " + path + ": read error");
-  return text;
+// A whole input file (core/file_read.h: regular files only, the size limit, out of memory named).
+std::string read_text(const std::string& path, const char* option, const FileReadOptions& read) {
+  return read_file_whole(path, std::string(option) + " " + path, read);
 }
 
 // A text log: read_text, less a UTF-8 byte-order mark at its start (editors and Windows loggers
 // write one; left in, it made the first data row look like a header and dropped it silently).
-std::string read_text_log(const std::string& path, const char* option) {
-  std::string text = read_text(path, option);
+std::string read_text_log(const std::string& path, const char* option,
+                          const FileReadOptions& read) {
+  std::string text = read_text(path, option, read);
   if (text.compare(0, 3, "\xEF\xBB\xBF") == 0) text.erase(0, 3);
   return text;
 }
@@ -237,12 +254,12 @@ void run_import_csv(const ImportCsvArgs& args) {
   if (const std::string e = options.validate(); !e.empty()) throw UsageError(e);
 
   const auto t0 = std::chrono::steady_clock::now();
-  const std::string gnss_text = read_text_log(args.gnss, "--gnss");
+  const std::string gnss_text = read_text_log(args.gnss, "--gnss", args.shared.read_options());
   const importers::GnssSolution gnss = read_gnss_by_content(gnss_text, args.gnss, args.gps_week);
   const std::optional<int> gnss_week = static_cast<int>(
       static_cast<double>(gnss.epochs.front().t_gpst_unix_s - importers::kGpsEpochGpstUnix_s) /
       importers::kSecondsPerWeek);
-  const std::string imu_text = read_text_log(args.imu, "--imu");
+  const std::string imu_text = read_text_log(args.imu, "--imu", args.shared.read_options());
   const importers::CsvImu imu = importers::read_csv_imu(imu_text, args.imu, spec, gnss_week);
   importers::Assembled result = importers::assemble_dataset(imu, gnss, options);
 
@@ -274,9 +291,9 @@ void run_import_kf_gins(const ImportKfGinsArgs& args) {
   const importers::AssembleOptions options = args.shared.assemble_options();
   if (const std::string e = options.validate(); !e.empty()) throw UsageError(e);
   const auto t0 = std::chrono::steady_clock::now();
-  const std::string gnss_text = read_text_log(args.gnss, "--gnss");
+  const std::string gnss_text = read_text_log(args.gnss, "--gnss", args.shared.read_options());
   const importers::GnssSolution gnss = read_gnss_by_content(gnss_text, args.gnss, args.gps_week);
-  const std::string imu_text = read_text_log(args.imu, "--imu");
+  const std::string imu_text = read_text_log(args.imu, "--imu", args.shared.read_options());
   const importers::CsvImu imu = importers::parse_kf_gins_imu(imu_text, args.imu, args.gps_week);
   importers::Assembled result = importers::assemble_dataset(imu, gnss, options);
   if (gnss.format.find("derived") != std::string::npos)
@@ -305,7 +322,10 @@ void run_import_ulog(const ImportUlogArgs& args) {
   options.gnss_quality = {1};  // the fix-type selection is made by extract_ulog
   if (const std::string e = options.validate(); !e.empty()) throw UsageError(e);
   const auto t0 = std::chrono::steady_clock::now();
-  std::string bytes = read_text(args.log, "LOG");
+  FileReadOptions read = args.shared.read_options();
+  read.magic = importers::kUlogMagic;
+  read.magic_name = "a PX4 ULog (magic 'ULog' 01 12 35)";
+  std::string bytes = read_text(args.log, "LOG", read);
   const nlohmann::json source = source_json("ulog", args.log, bytes);
   const importers::UlogFile log = importers::UlogFile::parse(std::move(bytes), args.log);
   importers::UlogSeries series = importers::extract_ulog(log, args.log, args.ulog);
@@ -345,7 +365,10 @@ void run_import_ardupilot(const ImportArduPilotArgs& args) {
   options.gnss_quality = {1};  // the Status selection is made by extract_ardupilot
   if (const std::string e = options.validate(); !e.empty()) throw UsageError(e);
   const auto t0 = std::chrono::steady_clock::now();
-  std::string bytes = read_text(args.log, "LOG");
+  FileReadOptions read = args.shared.read_options();
+  read.magic = importers::kDataFlashMagic;
+  read.magic_name = "an ArduPilot DataFlash log (records start with 0xA3 0x95)";
+  std::string bytes = read_text(args.log, "LOG", read);
   const nlohmann::json source = source_json("dataflash", args.log, bytes);
   const importers::DataFlashFile log = importers::DataFlashFile::parse(std::move(bytes), args.log);
   importers::ArduPilotSeries series = importers::extract_ardupilot(log, args.log, args.ardupilot);
@@ -433,7 +456,8 @@ void add_import_command(CLI::App& app) {
                   "RTKLIB quality flags kept (default 1 2: fix, float)")
       ->check(whole_in(1, 7));
   add_shared_import_options(csv, a->shared);
-  csv->callback([a] { run_import_csv(*a); });
+  csv->callback(
+      [a] { naming_inputs_on_oom(a->imu + " and " + a->gnss, [&] { run_import_csv(*a); }); });
 
   auto k = std::make_shared<ImportKfGinsArgs>();
   CLI::App* kf = cmd->add_subcommand(
@@ -446,7 +470,8 @@ void add_import_command(CLI::App& app) {
                  "GPS week of the seconds-of-week times (recorded; default 0)")
       ->check(whole_in(0, 100000));
   add_shared_import_options(kf, k->shared);
-  kf->callback([k] { run_import_kf_gins(*k); });
+  kf->callback(
+      [k] { naming_inputs_on_oom(k->imu + " and " + k->gnss, [&] { run_import_kf_gins(*k); }); });
 
   auto u = std::make_shared<ImportUlogArgs>();
   CLI::App* ul = cmd->add_subcommand(
@@ -471,7 +496,7 @@ void add_import_command(CLI::App& app) {
                  "--heading mag: which magnetometer instance (default 0)")
       ->check(whole_in(0, 255));
   add_shared_import_options(ul, u->shared);
-  ul->callback([u] { run_import_ulog(*u); });
+  ul->callback([u] { naming_inputs_on_oom(u->log, [&] { run_import_ulog(*u); }); });
 
   auto ap = std::make_shared<ImportArduPilotArgs>();
   CLI::App* apc = cmd->add_subcommand(
@@ -490,7 +515,7 @@ void add_import_command(CLI::App& app) {
                   "boot time (s) after which records are cut (e.g. before a crash)")
       ->check(number_in(0, 1e7));
   add_shared_import_options(apc, ap->shared);
-  apc->callback([ap] { run_import_ardupilot(*ap); });
+  apc->callback([ap] { naming_inputs_on_oom(ap->log, [&] { run_import_ardupilot(*ap); }); });
 }
 
 }  // namespace insid::cli

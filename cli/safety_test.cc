@@ -1,6 +1,7 @@
 // The insid binary as a careless user meets it: a user directory as --out, a corrupted value in
 // imu.csv, a compensation that blows the navigation up, an alignment window of zero. Each must
 // end non-zero with the file, line or option named, and leave nothing half-written.
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -8,6 +9,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <sstream>
 #include <string>
 #include <utility>
@@ -248,13 +250,15 @@ std::vector<BadInput> option_cases(const std::string& data) {
   cases.push_back({sweep + " --grid R=0.1:0.2:2", {"--grid", "'R'", "twice"}, true});
   cases.push_back({sim + " --set gyro_bias_x=abc", {"--set", "gyro_bias_x"}, true});
   cases.push_back({sim + " --set nosuch=1", {"nosuch"}, true});
-  cases.push_back(
-      {"navigate --data " + data + " --compensate accel_bias_x", {"--compensate", "NAME=VALUE"}, true});
+  cases.push_back({"navigate --data " + data + " --compensate accel_bias_x",
+                   {"--compensate", "NAME=VALUE"},
+                   true});
   // Values checked after parsing (issue 19 audit of every command's options), named: a value the
   // command line got wrong is a usage error wherever the command reads it (issue 37 item 11,
   // the README's table): exit 2.
-  cases.push_back(
-      {ident + " --estimate gyro_bias_x:0", {"--estimate 'gyro_bias_x:0'", "SIGMA must be > 0"}, true});
+  cases.push_back({ident + " --estimate gyro_bias_x:0",
+                   {"--estimate 'gyro_bias_x:0'", "SIGMA must be > 0"},
+                   true});
   cases.push_back({ident + " --estimate gyro_bias_x:-1e-7", {"SIGMA must be > 0"}, true});
   cases.push_back({ident + " --estimate gyro_bias_x:1e-7:1:-1", {"LO must be < HI"}, true});
   cases.push_back({ident + " --param population=0", {"population", "got 0"}, true});
@@ -266,8 +270,9 @@ std::vector<BadInput> option_cases(const std::string& data) {
   cases.push_back({sweep + " --grid R=", {"--grid", "got 'R='"}, true});
   cases.push_back({sweep + " --preset nosuch", {"unknown preset 'nosuch'"}, true});
   cases.push_back({sweep + " --grade bogus", {"unknown noise grade 'bogus'"}, true});
-  cases.push_back(
-      {"bench --preset nosuch --out " + data + "-never", {"unknown campaign preset 'nosuch'"}, true});
+  cases.push_back({"bench --preset nosuch --out " + data + "-never",
+                   {"unknown campaign preset 'nosuch'"},
+                   true});
   cases.push_back({sim + " --set gyro_bias_x=nan", {"--set gyro_bias_x", "'nan'"}, true});
   cases.push_back({diag + " --candidates nosuch", {"unknown effect name 'nosuch'"}, true});
   cases.push_back({diag + " --base gyro_bias_x:0", {"SIGMA must be > 0"}, true});
@@ -472,6 +477,48 @@ using insid::cli_test::Outcome;
 using insid::cli_test::text;
 
 // `insid --version` prints the git revision the binary was built from (and exits 0).
+// Issue 37 item 9: inputs are checked before they are read whole. A 3 GiB log of garbage cost
+// 3 GiB of memory (or a bare std::bad_alloc) before its format was looked at; now its magic is
+// read first, and any input over --max-input-mb is refused by its size.
+TEST_F(CliSafety, HugeInputsAreRefusedBeforeTheyAreReadNamingFileAndLimit) {
+  // GIVEN sparse files (no disk, no memory until read): 3 GiB of zeros as logs, 5 GiB as text
+  const fs::path big_log = root_ / "huge.ulg", big_bin = root_ / "huge.bin";
+  const fs::path big_text = root_ / "huge.txt", two_mb = root_ / "two_mb.txt";
+  for (const fs::path& p : {big_log, big_bin, big_text, two_mb}) std::ofstream(p).close();
+  fs::resize_file(big_log, 3ull << 30);
+  fs::resize_file(big_bin, 3ull << 30);
+  fs::resize_file(big_text, 5ull << 30);
+  fs::resize_file(two_mb, 2ull << 20);
+  const fs::path out = root_ / "never";
+  // WHEN each is imported THEN it is refused by its magic or size, naming the file (and the
+  // option that lifts the limit), and nothing is written
+  Outcome o = insid("import ulog " + big_log.string() + " --out " + out.string());
+  EXPECT_EQ(o.status, 1) << o.output;
+  EXPECT_TRUE(has(o.output, "LOG " + big_log.string() + ": not a PX4 ULog")) << o.output;
+  o = insid("import ardupilot " + big_bin.string() + " --out " + out.string());
+  EXPECT_EQ(o.status, 1) << o.output;
+  EXPECT_TRUE(has(o.output, "LOG " + big_bin.string() + ": not an ArduPilot DataFlash log"))
+      << o.output;
+  o = insid("import kf-gins --imu " + big_text.string() + " --gnss " + big_text.string() +
+            " --out " + out.string());
+  EXPECT_EQ(o.status, 1) << o.output;
+  EXPECT_TRUE(has(o.output, big_text.string() + ": 5120 MiB (5368709120 bytes), over the limit "
+                                                "of 4096 MiB; raise it with --max-input-mb"))
+      << o.output;
+  o = insid("import kf-gins --imu " + two_mb.string() + " --gnss " + two_mb.string() +
+            " --max-input-mb 1 --out " + out.string());
+  EXPECT_EQ(o.status, 1) << o.output;
+  EXPECT_TRUE(has(o.output, "over the limit of 1 MiB; raise it with --max-input-mb")) << o.output;
+  EXPECT_FALSE(fs::exists(out));
+  // AND no child read them: the largest resident set of the commands stays far below 1 GiB
+  // (measured, not timed: the old reader held the whole 3 GiB)
+  struct rusage usage {};
+  ASSERT_EQ(getrusage(RUSAGE_CHILDREN, &usage), 0);
+  EXPECT_LT(usage.ru_maxrss, 256 * 1024) << "KiB";  // ru_maxrss is in KiB on Linux
+  std::cout << "largest resident set of the refused imports: " << usage.ru_maxrss / 1024
+            << " MiB\n";
+}
+
 TEST(CliManners, VersionPrintsTheGitRevision) {
   const std::string revision = INSID_GIT_REVISION;
   ASSERT_NE(revision, "unknown") << "configured outside a git checkout";
@@ -513,14 +560,14 @@ TEST_F(CliSafety, ExitCodesAreTheDocumentedOnesWithOneErrorPrefix) {
        "insid import csv: error: --imu-time relative needs --imu-time-offset-s", 2},
       // Values the command line got wrong, wherever the command reads them (issue 37 item 11).
       {"identify --data " + d + " --estimate gyro_bias_x:0", "insid identify: error: ", 2},
-      {"identify --data " + d + " --estimate gyro_bias_x:1e-5:2:1",
-       "insid identify: error: ", 2},
+      {"identify --data " + d + " --estimate gyro_bias_x:1e-5:2:1", "insid identify: error: ", 2},
       {"identify --data " + d + " --param bogus=1", "insid identify: error: ", 2},
       {"identify --data " + d + " --algo nonexistent", "insid identify: error: --algo", 2},
       {"identify --data " + d + " --iterations 0 --evaluations 0", "insid identify: error: ", 2},
       {"simulate --preset nope --out " + never, "insid simulate: error: --preset", 2},
       {"import csv --imu x --gnss y --columns t,ax,ay,az,gx,gy,gz --units s,g,rad/s "
-       "--mounting-rpy-deg nan,0,0 --out " + never,
+       "--mounting-rpy-deg nan,0,0 --out " +
+           never,
        "insid import csv: error: ", 2},
       {"import csv --imu x --gnss y --columns t,t,ay,az,gx,gy,gz --units s,g,rad/s --out " + never,
        "insid import csv: error: --columns", 2},

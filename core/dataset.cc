@@ -41,6 +41,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/digest.h"
+#include "core/file_read.h"
 #include "core/json_reader.h"
 #include "core/output_dir.h"
 #include "core/sensor_errors.h"
@@ -131,50 +132,20 @@ bool all_whitespace(const char* p, const char* end) {
   return true;
 }
 
-std::string os_error(int err) { return std::strerror(err); }
 
 // ------------------------------------------------------------------------------------------
 // Reading
 
-// Whole file into memory. `where` names it in messages.
+// Whole file into memory (core/file_read.h). `where` names it in messages.
 std::string read_whole_file(const fs::path& path, const std::string& where) {
-  // O_NONBLOCK: opening a FIFO must not wait for a writer (it is refused below).
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);
-  if (fd < 0) fail(where + ": cannot open: " + os_error(errno));
-  struct stat st {};
-  if (::fstat(fd, &st) != 0) {
-    const int err = errno;
-    ::close(fd);
-    fail(where + ": cannot stat: " + os_error(err));
+  try {
+    return read_file_whole(path, where);
+  } catch (const FileReadError& e) {
+    fail(std::string(e.what()) +
+         (std::string(e.what()).find("not a regular file") != std::string::npos
+              ? "; a dataset's files must be regular files"
+              : ""));
   }
-  if (!S_ISREG(st.st_mode)) {
-    ::close(fd);
-    fail(where + ": not a regular file (" +
-         (S_ISFIFO(st.st_mode)  ? "a FIFO"
-          : S_ISDIR(st.st_mode) ? "a directory"
-                                : "a special file") +
-         "); a dataset's files must be regular files");
-  }
-  std::string data;
-  // One byte over the size: the read that finds the end then needs no room. (Sized exactly,
-  // that read grew the string first, copying the whole file: 117 MB for a 2.4 h imu.csv.)
-  data.resize(static_cast<std::size_t>(st.st_size) + 1);
-  std::size_t got = 0;
-  for (;;) {
-    if (got == data.size()) data.resize(data.size() + 65536);  // file grew / unknown size
-    const ssize_t n = ::read(fd, data.data() + got, data.size() - got);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      const int err = errno;
-      ::close(fd);
-      fail(where + ": read error: " + os_error(err));
-    }
-    if (n == 0) break;
-    got += static_cast<std::size_t>(n);
-  }
-  ::close(fd);
-  data.resize(got);
-  return data;
 }
 
 // Location prefix of a CSV message: "<dir>: imu.csv line 12, column dv_x_mps: ".

@@ -1,4 +1,5 @@
 #include "import/dataflash.h"
+#include "core/file_read.h"
 
 #include <cstring>
 #include <fstream>
@@ -107,7 +108,7 @@ bool printable(const std::string& s) {
   return true;
 }
 
-std::string quoted(const std::string& s) {
+std::string in_quotes(const std::string& s) {
   if (printable(s)) return "'" + s + "'";
   std::ostringstream out;
   out << "(not printable:";
@@ -181,7 +182,7 @@ DataFlashFile DataFlashFile::parse(std::string bytes, const std::string& where) 
       const std::string labels = fixed_string(&b[pos + 25], 64);
       const std::string about = context + " for message id " + std::to_string(type);
       if (name.empty() || !printable(name))
-        throw std::runtime_error(about + ", field Name: " + quoted(name) +
+        throw std::runtime_error(about + ", field Name: " + in_quotes(name) +
                                  " is not a message name (expected 1-4 printable characters)");
       const std::string named = about + " (" + name + ")";
       if (!printable(letters) || !printable(labels))
@@ -204,14 +205,14 @@ DataFlashFile DataFlashFile::parse(std::string bytes, const std::string& where) 
       }
       if (names.size() != letters.size())
         throw std::runtime_error(
-            named + ": field Format " + quoted(letters) + " has " + std::to_string(letters.size()) +
-            " type letters but field Columns " + quoted(labels) + " names " +
+            named + ": field Format " + in_quotes(letters) + " has " + std::to_string(letters.size()) +
+            " type letters but field Columns " + in_quotes(labels) + " names " +
             std::to_string(names.size()) + " fields (expected one name per letter)");
       std::size_t offset = 3;
       for (std::size_t i = 0; i < letters.size(); ++i) {
         const std::size_t n = letter_size(letters[i]);
         if (n == 0)
-          throw std::runtime_error(named + ": field Format " + quoted(letters) +
+          throw std::runtime_error(named + ": field Format " + in_quotes(letters) +
                                    ": unknown type letter '" + std::string(1, letters[i]) +
                                    "' for field " + names[i] +
                                    " (expected one of b B h H i I f d q Q n N Z c C e E L M a)");
@@ -220,7 +221,7 @@ DataFlashFile DataFlashFile::parse(std::string bytes, const std::string& where) 
       }
       if (offset != length)
         throw std::runtime_error(named + ": field Length " + std::to_string(length) +
-                                 " disagrees with field Format " + quoted(letters) +
+                                 " disagrees with field Format " + in_quotes(letters) +
                                  " (3 header "
                                  "bytes + " +
                                  std::to_string(offset - 3) + " = " + std::to_string(offset) +
@@ -231,7 +232,7 @@ DataFlashFile DataFlashFile::parse(std::string bytes, const std::string& where) 
             known->second.length != length)
           throw std::runtime_error(named + ": redefines message id " + std::to_string(type) +
                                    " (defined before as " + known->second.name + ", " +
-                                   quoted(known->second.letters) + ", " +
+                                   in_quotes(known->second.letters) + ", " +
                                    std::to_string(known->second.length) + " bytes)");
       } else {
         if (ids.count(name))
@@ -248,11 +249,10 @@ DataFlashFile DataFlashFile::parse(std::string bytes, const std::string& where) 
 }
 
 DataFlashFile DataFlashFile::read(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::runtime_error(path + ": cannot open");
-  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (in.bad()) throw std::runtime_error(path + ": read error");
-  return parse(std::move(bytes), path);
+  FileReadOptions options;
+  options.magic = kDataFlashMagic;
+  options.magic_name = "an ArduPilot DataFlash log (records start with 0xA3 0x95)";
+  return parse(read_file_whole(path, path, options), path);
 }
 
 const DataFlashFile::Format& DataFlashFile::format(const std::string& name) const {

@@ -12,9 +12,13 @@
 #include <cstdint>
 #include <map>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace insid::importers {
+
+/// The first bytes of a DataFlash log: a record header (0xA3 0x95).
+inline constexpr std::string_view kDataFlashMagic{"\xA3\x95", 2};
 
 class DataFlashFile {
  public:
@@ -23,6 +27,7 @@ class DataFlashFile {
   /// unknown type letter, a length that disagrees with its letters, more names than letters, or
   /// a FMT that redefines an id with another layout.
   static DataFlashFile parse(std::string bytes, const std::string& where);
+  /// Reads the file (core/file_read.h: its magic checked before the rest is read) and parses it.
   static DataFlashFile read(const std::string& path);
 
   /// Records of the message named `name` (e.g. "IMU2"); 0 when none or not defined.

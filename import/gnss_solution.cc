@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <string_view>
 
+#include "core/file_read.h"
 #include "import/text_lines.h"
 
 namespace insid::importers {
@@ -215,11 +216,7 @@ GnssSolution parse_rtklib_pos(const std::string& text, const std::string& where)
 }
 
 GnssSolution read_rtklib_pos(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::runtime_error(path.string() + ": cannot open for reading");
-  std::ostringstream text;
-  text << in.rdbuf();
-  return parse_rtklib_pos(text.str(), path.string());
+  return parse_rtklib_pos(read_file_whole(path, path.string()), path.string());
 }
 
 }  // namespace insid::importers

@@ -1,4 +1,5 @@
 #include "import/ulog.h"
+#include "core/file_read.h"
 
 #include <cstring>
 #include <fstream>
@@ -43,11 +44,10 @@ double decode(const std::string& type, const char* p) {
 }  // namespace
 
 UlogFile UlogFile::read(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::runtime_error(path + ": cannot open for reading");
-  std::ostringstream s;
-  s << in.rdbuf();
-  return parse(s.str(), path);
+  FileReadOptions options;
+  options.magic = kUlogMagic;
+  options.magic_name = "a PX4 ULog (magic 'ULog' 01 12 35)";
+  return parse(read_file_whole(path, path, options), path);
 }
 
 std::size_t UlogFile::format_size(const std::string& name, int depth) const {

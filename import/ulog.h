@@ -11,9 +11,13 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace insid::importers {
+
+/// The first bytes of every ULog file (PX4 ULog spec: "ULog", 0x01 0x12 0x35).
+inline constexpr std::string_view kUlogMagic{"ULog\x01\x12\x35", 7};
 
 class UlogFile {
  public:
@@ -21,6 +25,7 @@ class UlogFile {
   /// message and what was expected (bad magic, an unknown field type, a data message longer than
   /// its format, a subscription to an undefined format, ...).
   static UlogFile parse(std::string bytes, const std::string& where);
+  /// Reads the file (core/file_read.h: its magic checked before the rest is read) and parses it.
   static UlogFile read(const std::string& path);
 
   /// Instances (multi_id) of a topic that have data messages, with their counts.
