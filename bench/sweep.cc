@@ -200,7 +200,7 @@ SweepConfig sweep_from_manifest(const nlohmann::json& j, const std::string& orig
     sweep.seeds = j.at("seeds").get<std::vector<std::uint64_t>>();
     return sweep;
   } catch (const nlohmann::json::exception& e) {
-    throw std::runtime_error(origin + ": unreadable \"sweep\" entry (" + e.what() + ")");
+    throw std::runtime_error(origin + ": unreadable \"sweep\" entry (" + json_error_text(e) + ")");
   }
 }
 

@@ -129,8 +129,8 @@ json parse_json_strict(std::string_view text, const std::string& where, const Js
     return json::parse(text.begin(), text.end(), check);
   } catch (const json::exception& e) {
     // parse_error (syntax) and out_of_range (a number beyond double, e.g. 1e999), with nlohmann's
-    // line and column where it gives them.
-    throw std::runtime_error(where + ": not valid JSON: " + e.what());
+    // line and column where it gives them (without nlohmann's tag: issue 37 item 12).
+    throw std::runtime_error(where + ": not valid JSON: " + json_error_text(e));
   } catch (const std::bad_alloc&) {
     // The partial value is freed by now (nlohmann frees it without recursion; on an array of
     // millions of elements that itself allocates, and a failure there terminates).
@@ -138,6 +138,14 @@ json parse_json_strict(std::string_view text, const std::string& where, const Js
                              std::to_string(text.size()) +
                              " bytes (its parsed value takes many times its size)");
   }
+}
+
+std::string json_error_text(const nlohmann::json::exception& e) {
+  // "[json.exception.parse_error.101] parse error at line 3, ...": the tag means nothing to a user.
+  std::string what = e.what();
+  if (what.rfind("[json.exception.", 0) == 0)
+    if (const std::size_t end = what.find("] "); end != std::string::npos) what.erase(0, end + 2);
+  return what;
 }
 
 json read_json_file(const std::filesystem::path& path, const std::string& where,

@@ -44,4 +44,7 @@ nlohmann::json parse_json_strict(std::string_view text, const std::string& where
 nlohmann::json read_json_file(const std::filesystem::path& path, const std::string& where = "",
                               const JsonLimits& limits = {});
 
+/// What a nlohmann exception says, without its internal tag ("[json.exception.type_error.302] ").
+std::string json_error_text(const nlohmann::json::exception& e);
+
 }  // namespace insid

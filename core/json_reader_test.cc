@@ -51,6 +51,10 @@ TEST(JsonReader, KeyGivenTwiceIsNamedWithItsObject) {
 TEST(JsonReader, SyntaxErrorsAndOverflowsAreRuntimeErrorsWithTheLine) {
   EXPECT_NE(error_of("{\n\"a\": 1,\n}").find("cfg.json: not valid JSON"), std::string::npos);
   EXPECT_NE(error_of("{\n\"a\": 1,\n}").find("line 3"), std::string::npos);
+  // nlohmann's internal tag is not shown (issue 37 item 12)
+  EXPECT_EQ(error_of("{\n\"a\": 1,\n}").find("json.exception"), std::string::npos)
+      << error_of("{\n\"a\": 1,\n}");
+  EXPECT_EQ(error_of(R"({"a": 1e999})").find("json.exception"), std::string::npos);
   EXPECT_NE(error_of(R"({"a": NaN})").find("not valid JSON"), std::string::npos);
   EXPECT_NE(error_of(R"({"a": 1e999})").find("number overflow"), std::string::npos);
   EXPECT_NE(error_of("").find("not valid JSON"), std::string::npos);

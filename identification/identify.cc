@@ -8,18 +8,8 @@
 #include <stdexcept>
 #include <vector>
 
-#include "core/cpu_path.h"
 #include "core/json_reader.h"
 #include "optimizers/random.h"
-
-#ifndef INSID_VERSION
-#define INSID_VERSION "unknown"
-#endif
-#include "insid_git_revision.h"  // generated at build time (cmake/git_revision.cmake)
-
-#ifndef INSID_BUILD_TYPE
-#define INSID_BUILD_TYPE "unknown"
-#endif
 
 namespace insid {
 
@@ -227,23 +217,6 @@ void add_run_assessment_json(nlohmann::json& out, const opt::Result& result,
   out["optimum_fitness"] = optimum->fitness;
   out["fitness_gap"] = result.best_f - optimum->fitness;
   out["fitness_gap_relative"] = (result.best_f - optimum->fitness) / optimum->fitness;
-}
-
-nlohmann::json build_info_json() {
-  nlohmann::json j;
-  j["version"] = INSID_VERSION;
-  j["git_revision"] = INSID_GIT_REVISION;
-  j["build_type"] = INSID_BUILD_TYPE;
-  j["cpu_path"] = cpu_path_description();  // core/cpu_path.h
-#if defined(__clang__)
-  j["compiler"] = std::string("clang ") + __clang_version__;
-#elif defined(__GNUC__)
-  j["compiler"] = std::string("gcc ") + __VERSION__;
-#endif
-#ifdef INSID_CXX_FLAGS
-  j["flags"] = INSID_CXX_FLAGS;
-#endif
-  return j;
 }
 
 }  // namespace insid

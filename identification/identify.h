@@ -11,6 +11,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/build_info.h"  // build_info_json, recorded in every result
 #include "core/dataset.h"
 #include "core/fitness.h"
 #include "identification/ins_problem.h"
@@ -87,9 +88,5 @@ void add_run_assessment_json(nlohmann::json& out, const opt::Result& result,
                              const ParameterMapping& mapping,
                              const std::optional<std::map<std::string, double>>& injected,
                              const ReferenceOptimum* optimum);
-
-/// Version, git revision, build type, compiler, CPU path (instruction set targeted): the build
-/// that produced a result. `insid --version` prints it.
-nlohmann::json build_info_json();
 
 }  // namespace insid
