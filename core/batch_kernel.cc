@@ -891,9 +891,11 @@ GroupFn pick_group(int n_vectors, bool general, bool lever) {
 // registers and a two-vector group spills (results/perf/README.md, "CPU dispatch": 2.75x native
 // at K = 16 vs 1.88x at K = 8).
 #if defined(INSID_K_AVX512)
-extern const KernelPath kPath = {INSID_KERNEL_NAME, INSID_KERNEL_DESCRIPTION, 2, &pick_group};
+constexpr int kPlannedChains = 2;
 #else
-extern const KernelPath kPath = {INSID_KERNEL_NAME, INSID_KERNEL_DESCRIPTION, 1, &pick_group};
+constexpr int kPlannedChains = 1;
 #endif
+extern const KernelPath kPath = {INSID_KERNEL_NAME, INSID_KERNEL_DESCRIPTION, kPlannedChains,
+                                 &pick_group};
 
 }  // namespace insid::INSID_KERNEL_NS

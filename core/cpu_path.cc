@@ -2,7 +2,6 @@
 #include "core/cpu_path.h"
 
 #include <cstdlib>
-#include <mutex>
 #include <stdexcept>
 #include <string>
 
@@ -17,6 +16,7 @@ struct PathInfo {
   const char* level;        // GCC's x86-64 micro-architecture level
   const char* description;  // what the CPU must have
   bool cpu_has;
+  bool hidden = false;  // by INSID_CPU_HIDE (tests)
 };
 
 // The paths this program holds, fastest first, with whether this CPU runs them.
@@ -55,7 +55,7 @@ std::vector<PathInfo> available() {
     for (std::size_t i = 0; i + 1 < paths.size(); ++i)  // never the last (slowest) path
       if (name == paths[i].kernel->name) {
         paths[i].cpu_has = false;
-        paths[i].description = nullptr;  // marks "hidden"
+        paths[i].hidden = true;
         known = true;
       }
     if (!known)
@@ -76,15 +76,14 @@ const PathInfo* find(const std::vector<PathInfo>& paths, std::string_view name) 
 }
 
 std::string lacks(const std::vector<PathInfo>& paths, const PathInfo& p, std::string_view what) {
-  const bool hidden = p.description == nullptr;
   std::string level = p.level;
-  if (!hidden) {
+  if (!p.hidden) {
     level += " (";
     level += p.description;
     level += ")";
   }
   return std::string(what) + ": this CPU lacks " + level +
-         (hidden ? " (hidden by INSID_CPU_HIDE)" : "") +
+         (p.hidden ? " (hidden by INSID_CPU_HIDE)" : "") +
          "; the paths it runs: " + names(paths, true);
 }
 
@@ -124,11 +123,9 @@ bool cpu_runs_path(std::string_view name) {
 }
 
 const batch_kernel::KernelPath& cpu_path() {
-  static std::mutex mutex;
-  static const batch_kernel::KernelPath* chosen = nullptr;
-  std::lock_guard<std::mutex> lock(mutex);
-  if (chosen == nullptr) chosen = &choose();  // a throw leaves it unset
-  return *chosen;
+  // Initialised once, thread-safe; a throw leaves it uninitialised, so the next call tries again.
+  static const batch_kernel::KernelPath& chosen = choose();
+  return chosen;
 }
 
 const batch_kernel::KernelPath& cpu_path_named(std::string_view name) {

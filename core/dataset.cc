@@ -132,19 +132,17 @@ bool all_whitespace(const char* p, const char* end) {
   return true;
 }
 
-
 // ------------------------------------------------------------------------------------------
 // Reading
 
 // Whole file into memory (core/file_read.h). `where` names it in messages.
 std::string read_whole_file(const fs::path& path, const std::string& where) {
+  FileReadOptions options;
+  options.not_regular_hint = "; a dataset's files must be regular files";
   try {
-    return read_file_whole(path, where);
+    return read_file_whole(path, where, options);
   } catch (const FileReadError& e) {
-    fail(std::string(e.what()) +
-         (std::string(e.what()).find("not a regular file") != std::string::npos
-              ? "; a dataset's files must be regular files"
-              : ""));
+    fail(e.what());
   }
 }
 

@@ -56,7 +56,7 @@ std::string read_file_whole(const std::filesystem::path& path, const std::string
          (S_ISFIFO(st.st_mode)  ? "a FIFO"
           : S_ISDIR(st.st_mode) ? "a directory"
                                 : "a special file") +
-         ")");
+         ")" + options.not_regular_hint);
   const auto size = static_cast<std::uint64_t>(st.st_size);
   if (options.max_bytes > 0 && size > options.max_bytes)
     fail(

@@ -27,6 +27,8 @@ struct FileReadOptions {
   std::string_view magic;
   /// What the magic identifies, for the refusal (e.g. "a PX4 ULog").
   std::string magic_name;
+  /// Added to the refusal of a FIFO, directory or device (e.g. "; a dataset's files must be ...").
+  std::string not_regular_hint;
 };
 
 /// The whole of `path`. `where` names the file in every message (e.g. "--imu walk/imu.csv").
