@@ -357,6 +357,7 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
   // IMU.
   const auto rows =
       log.read(options.imu, {"TimeMS", "GyrX", "GyrY", "GyrZ", "AccX", "AccY", "AccZ"});
+  const std::vector<std::size_t> imu_bytes = log.offsets(options.imu);
   CsvImu& imu = out.imu;
   imu.origin = where + ", " + options.imu;
   imu.row_unit = "record";
@@ -378,6 +379,7 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
     imu.gyro_b.emplace_back(r[1], r[2], r[3]);
     imu.accel_b.emplace_back(r[4], r[5], r[6]);
     imu.line.push_back(k + 1);
+    imu.byte.push_back(imu_bytes.at(k));
   }
   imu.rows_dropped["outside_t_range"] = imu_outside;
   imu.rows_dropped["time_not_increasing"] = imu_not_increasing;

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -17,6 +18,7 @@
 #include "core/earth.h"
 #include "import/ardupilot_import.h"
 #include "import/dataflash.h"
+#include "import/importer.h"
 
 namespace insid::importers {
 namespace {
@@ -267,6 +269,42 @@ TEST(ArduPilotReal, TruncatedAndCorruptedCopies) {
                                         "field GyrX"),
             std::string::npos)
       << parse_error(corrupted);
+}
+
+// A NaN gyro in one IMU record of the shared log (issue 37 item 10): the dataset check names the
+// log, the IMU, the record and the byte where the record starts (the record's header and its
+// TimeMS are checked at that byte here, independently of the reader).
+TEST(ArduPilotReal, ANonFiniteGyroIsNamedWithItsRecordAndByte) {
+  std::string bytes = shared_log_bytes();
+  if (bytes.empty()) GTEST_SKIP() << kNoSharedLog;
+  const DataFlashFile clean = DataFlashFile::parse(bytes, "log171.bin");
+  const std::size_t record = 6000;  // 1-based, as the error counts; boot ~122 s, airborne
+  const std::size_t at = clean.offsets("IMU").at(record - 1);
+  // IMU is message id 131 ('IffffffIIf': TimeMS, GyrX, GyrY, ...), after the 3 header bytes.
+  ASSERT_EQ(bytes.compare(at, 3, "\xA3\x95\x83"), 0);
+  std::uint32_t time_ms = 0;
+  std::memcpy(&time_ms, &bytes[at + 3], sizeof time_ms);
+  ASSERT_EQ(static_cast<double>(time_ms), clean.read("IMU", {"TimeMS"}).at(record - 1).at(0));
+  ASSERT_GT(time_ms, 100000u);
+  ASSERT_LT(time_ms, 200000u);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  std::memcpy(&bytes[at + 3 + 4 + 4], &nan, sizeof nan);  // GyrY
+  ArduPilotImportOptions options;
+  options.t_start_s = 74.7;
+  options.t_end_s = 215.0;
+  const ArduPilotSeries s =
+      extract_ardupilot(DataFlashFile::parse(bytes, "log171.bin"), "log171.bin", options);
+  try {
+    assemble_dataset(s.imu, s.gnss, AssembleOptions{});
+    ADD_FAILURE() << "a NaN gyro was accepted";
+  } catch (const DatasetError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("log171.bin, IMU record " + std::to_string(record) + " (byte " +
+                        std::to_string(at) + ") (dtheta_y_rad)"),
+              std::string::npos)
+        << what;
+    EXPECT_NE(what.find("expected a finite number"), std::string::npos) << what;
+  }
 }
 
 TEST(ArduPilotImport, OptionsValidated) {

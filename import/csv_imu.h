@@ -77,7 +77,10 @@ struct CsvImu {
   std::vector<Eigen::Vector3d> accel_b;  ///< m/s^2 or m/s (increments), per accel_is_increment
   std::vector<Eigen::Vector3d> gyro_b;   ///< rad/s or rad (increments), per gyro_is_increment
   std::vector<std::size_t> line;         ///< source line of each row
-  bool accel_in_g_local = false;         ///< accel_b is in units of local gravity still
+  /// Byte offset in the source file of each row's record (binary logs: a ULog data message, a
+  /// DataFlash record), for errors that name a row; empty for text files.
+  std::vector<std::size_t> byte;
+  bool accel_in_g_local = false;  ///< accel_b is in units of local gravity still
   bool accel_is_increment = false;
   bool gyro_is_increment = false;
   bool rates_are_interval_means = false;  ///< spec.rate_samples == "interval-mean"

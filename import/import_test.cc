@@ -11,6 +11,8 @@
 #include <functional>
 #include <iomanip>
 #include <iostream>
+#include <iterator>
+#include <limits>
 #include <optional>
 #include <sstream>
 #include <string>
@@ -339,6 +341,68 @@ TEST(KfGins, ExportImportRoundTripNavigatesAsTheOriginal) {
   // Time: seconds of week 1000 + t_s in week 2381, origin at the whole second.
   EXPECT_DOUBLE_EQ(back.provenance["time_origin_gpst_unix_s"].get<double>(),
                    static_cast<double>(kGpsEpochGpstUnix_s + 2381 * kSecondsPerWeek + 1000.0L));
+}
+
+// Rows a KF-GINS import refuses in the dataset checks are named by the user's file and line
+// (issue 37 item 10: line 30001 of the user's file was "imu.csv line 30002"). The IMU file has no
+// header, so row k is line k + 1; the GNSS file's first epoch precedes the IMU and is not kept.
+TEST(KfGins, DatasetCheckErrorsNameTheUsersFileAndLine) {
+  scenarios::ScenarioConfig cfg = scenarios::preset_scenario("straight");
+  cfg.flight_s = 60.0;
+  cfg.align_s = 30.0;
+  const Dataset original = scenarios::simulate(cfg);
+  const std::string imu_text = kf_gins_imu_text(original, 1000.0);
+  const std::string gnss_text = kf_gins_gnss_text(original, 1000.0, 0.02, 0.03);
+  // Line `n` (1-based) of a text, and the text with that line replaced.
+  const auto line_begin = [](const std::string& text, std::size_t n) {
+    std::size_t begin = 0;
+    for (std::size_t k = 1; k < n; ++k) begin = text.find('\n', begin) + 1;
+    return begin;
+  };
+  const auto fields_of_line = [&](const std::string& text, std::size_t n) {
+    const std::size_t begin = line_begin(text, n);
+    std::istringstream line(text.substr(begin, text.find('\n', begin) - begin));
+    return std::vector<std::string>{std::istream_iterator<std::string>(line), {}};
+  };
+  const auto with_line = [&](const std::string& text, std::size_t n,
+                             const std::vector<std::string>& fields) {
+    const std::size_t begin = line_begin(text, n);
+    std::string joined;
+    for (const std::string& f : fields) joined += (joined.empty() ? "" : " ") + f;
+    return text.substr(0, begin) + joined + text.substr(text.find('\n', begin));
+  };
+  const auto error_of = [](const std::string& imu, const std::string& gnss) -> std::string {
+    try {
+      AssembleOptions options;
+      options.align_s = 30.0;
+      assemble_dataset(parse_kf_gins_imu(imu, "flight_imu.txt", 2381),
+                       parse_kf_gins_gnss(gnss, "flight_gnss.txt", 2381), options);
+    } catch (const DatasetError& e) {
+      return e.what();
+    }
+    return "(accepted)";
+  };
+  // Line 4001 (t = 1040 s): a gyro increment of 50 rad in 0.01 s.
+  const std::size_t imu_line = 4001;
+  std::vector<std::string> imu_fields = fields_of_line(imu_text, imu_line);
+  ASSERT_EQ(imu_fields.size(), 7u);
+  imu_fields[1] = "50";
+  const std::string imu_error = error_of(with_line(imu_text, imu_line, imu_fields), gnss_text);
+  EXPECT_NE(imu_error.find("flight_imu.txt line " + std::to_string(imu_line) + " "),
+            std::string::npos)
+      << imu_error;
+  EXPECT_EQ(imu_error.find("imu.csv"), std::string::npos) << imu_error;
+  // GNSS line 41 (t = 1040 s): a height of 1e9 m.
+  const std::size_t gnss_line = 41;
+  std::vector<std::string> gnss_fields = fields_of_line(gnss_text, gnss_line);
+  ASSERT_EQ(gnss_fields.size(), 13u);
+  gnss_fields[3] = "1e9";
+  const std::string bad_gnss = with_line(gnss_text, gnss_line, gnss_fields);
+  const std::string gnss_error = error_of(imu_text, bad_gnss);
+  EXPECT_NE(gnss_error.find("flight_gnss.txt line " + std::to_string(gnss_line) + " "),
+            std::string::npos)
+      << gnss_error;
+  EXPECT_EQ(gnss_error.find("gnss.csv"), std::string::npos) << gnss_error;
 }
 
 // The default static window (AssembleOptions): a simulated 60 s static start exported to
@@ -992,6 +1056,42 @@ TEST(Ulog, OneFlippedTimestampBitDropsOneRowOfItsTopic) {
       << notes;
   EXPECT_NE(notes.find("(timestamp at byte " + std::to_string(gnss_at) + ")"), std::string::npos)
       << notes;
+}
+
+// A NaN in one gyro increment (issue 37 item 10: it was named "imu.csv line 650", insid's own
+// file, with neither message nor byte): the error names the log, topic, message and the byte
+// where that message starts, so that a user can find it with a hex viewer.
+TEST(Ulog, ANonFiniteSampleIsNamedWithItsMessageAndByte) {
+  Dataset original = straight_v2_flight(60.0, 30.0);
+  const std::string clean = ulog_of(original, 5'000'000);
+  const UlogFile clean_log = UlogFile::parse(clean, "flight.ulg");
+  const std::size_t message = 650;  // 1-based, as the error counts
+  const std::size_t field_at =
+      clean_log.field_offsets("vehicle_imu", 0, "delta_angle[1]").at(message - 1);
+  const std::size_t message_at = clean_log.message_offsets("vehicle_imu", 0).at(message - 1);
+  // The message starts with its size, its type 'D' and the subscription's msg_id (7).
+  ASSERT_EQ(clean[message_at + 2], 'D');
+  ASSERT_EQ(clean[message_at + 3], '\x07');
+  std::string bytes = clean;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  std::memcpy(&bytes[field_at], &nan, sizeof nan);
+  AssembleOptions options;
+  options.gnss_quality = {1};
+  options.align_s = original.meta.align_s;
+  const UlogSeries series =
+      extract_ulog(UlogFile::parse(bytes, "flight.ulg"), "flight.ulg", UlogImportOptions{});
+  try {
+    assemble_dataset(series.imu, series.gnss, options);
+    ADD_FAILURE() << "a NaN gyro increment was accepted";
+  } catch (const DatasetError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("flight.ulg, vehicle_imu instance 0 message " + std::to_string(message) +
+                        " (byte " + std::to_string(message_at) + ") (dtheta_y_rad)"),
+              std::string::npos)
+        << what;
+    EXPECT_NE(what.find("expected a finite number"), std::string::npos) << what;
+    EXPECT_EQ(what.find("imu.csv"), std::string::npos) << what;
+  }
 }
 
 // A flight as vehicle_imu, vehicle_gps_position with PX4's dual-antenna fields (heading: the

@@ -263,8 +263,10 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
   Dataset& ds = out.dataset;
   std::vector<double> steps;
   std::vector<std::size_t> imu_lines, gnss_lines;  // the source line of each dataset row
+  std::vector<std::size_t> imu_bytes;              // and its byte offset (binary logs)
   for (std::size_t k = first; k <= last; ++k) {
     imu_lines.push_back(k < imu.line.size() ? imu.line[k] : 0);
+    if (k < imu.byte.size()) imu_bytes.push_back(imu.byte[k]);
     const double dt =
         k > 0 ? static_cast<double>(imu.t_gpst_unix_s[k] - imu.t_gpst_unix_s[k - 1]) : 0.0;
     ImuSample s;
@@ -454,12 +456,14 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
   DatasetSources sources;
   sources.row = [&](std::string_view file, std::size_t row) -> std::string {
     const auto name = [](const std::string& source, const std::string& unit,
-                         const std::vector<std::size_t>& lines, std::size_t r) -> std::string {
+                         const std::vector<std::size_t>& lines,
+                         const std::vector<std::size_t>& bytes, std::size_t r) -> std::string {
       if (source.empty() || r >= lines.size() || lines[r] == 0) return "";
-      return source + " " + unit + " " + std::to_string(lines[r]);
+      return source + " " + unit + " " + std::to_string(lines[r]) +
+             (r < bytes.size() ? " (byte " + std::to_string(bytes[r]) + ")" : "");
     };
-    if (file == "imu.csv") return name(imu.origin, imu.row_unit, imu_lines, row);
-    if (file == "gnss.csv") return name(gnss.source, gnss.row_unit, gnss_lines, row);
+    if (file == "imu.csv") return name(imu.origin, imu.row_unit, imu_lines, imu_bytes, row);
+    if (file == "gnss.csv") return name(gnss.source, gnss.row_unit, gnss_lines, {}, row);
     return "";
   };
   sources.field = [&](std::string_view field) -> std::string {

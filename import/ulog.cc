@@ -326,6 +326,18 @@ std::vector<std::vector<double>> UlogFile::read(const std::string& topic, int mu
   return rows;
 }
 
+std::vector<std::size_t> UlogFile::message_offsets(const std::string& topic, int multi_id) const {
+  // data_ keeps each message's payload, after its header (3 bytes) and its msg_id (2 bytes).
+  constexpr std::size_t kBeforePayload = 3 + 2;
+  std::vector<std::size_t> offsets;
+  for (const auto& [id, sub] : subscriptions_) {
+    if (sub.topic != topic || sub.multi_id != multi_id) continue;
+    if (const auto d = data_.find(id); d != data_.end())
+      for (const auto& [offset, size] : d->second) offsets.push_back(offset - kBeforePayload);
+  }
+  return offsets;
+}
+
 std::vector<std::size_t> UlogFile::field_offsets(const std::string& topic, int multi_id,
                                                  const std::string& field) const {
   std::vector<std::size_t> offsets;

@@ -40,6 +40,9 @@ class UlogFile {
   /// order read() gives the messages (to name where a value was read). Throws as read() does.
   std::vector<std::size_t> field_offsets(const std::string& topic, int multi_id,
                                          const std::string& field) const;
+  /// The byte offset in the file of every data message of topic/instance (where its 3-byte
+  /// header, msg_size and msg_type 'D', starts), in the order read() gives the messages.
+  std::vector<std::size_t> message_offsets(const std::string& topic, int multi_id) const;
 
   std::uint64_t start_timestamp_us() const { return start_us_; }
   int version() const { return version_; }

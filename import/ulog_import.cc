@@ -264,6 +264,7 @@ UlogSeries extract_ulog(const UlogFile& log, const std::string& where,
                       "accelerometer_m_s2[1]", "accelerometer_m_s2[2]"});
   const TimestampSelection imu_sel = select_topic_stamps(log, imu_topic, options.imu_instance,
                                                          t_field, rows, prov["imu"], out.notes);
+  const std::vector<std::size_t> imu_bytes = log.message_offsets(imu_topic, options.imu_instance);
   imu.source_rows = rows.size();
   imu.rows_dropped["repeated_timestamp"] = imu_sel.repeated;
   imu.rows_dropped["timestamp_jump"] = imu_sel.dropped_by_jumps;
@@ -274,6 +275,7 @@ UlogSeries extract_ulog(const UlogFile& log, const std::string& where,
       imu.gyro_b.emplace_back(r[1], r[2], r[3]);
       imu.accel_b.emplace_back(r[4], r[5], r[6]);
       imu.line.push_back(k + 1);
+      imu.byte.push_back(imu_bytes.at(k));
     }
     prov["imu"]["source"] = "vehicle_imu instance " + std::to_string(options.imu_instance) +
                             ": delta_angle, delta_velocity (increments) at " + t_field;
@@ -289,6 +291,7 @@ UlogSeries extract_ulog(const UlogFile& log, const std::string& where,
       imu.gyro_b.emplace_back(r[1] * dt, r[2] * dt, r[3] * dt);
       imu.accel_b.emplace_back(r[4] * dt, r[5] * dt, r[6] * dt);
       imu.line.push_back(imu_sel.kept[i] + 1);
+      imu.byte.push_back(imu_bytes.at(imu_sel.kept[i]));
     }
     prov["imu"]["source"] = "sensor_combined instance " + std::to_string(options.imu_instance) +
                             ": gyro_rad and accelerometer_m_s2 (interval means) x each row's own "
