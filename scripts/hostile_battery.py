@@ -1,0 +1,518 @@
+#!/usr/bin/python3
+"""Issue 37's hostile-input battery, as a script: run insid on inputs a careless or hostile user
+gives it and classify every outcome.
+
+    /usr/bin/python3 scripts/hostile_battery.py [--insid build/cli/insid] [--shared ../shared]
+                                                [--random-flips 24] [--seed 1] [--json FILE]
+
+Each case runs one insid command (in a scratch directory, at low priority, under a 4 GiB address
+space limit) and is classified:
+  clear     exit 1 or 2 as the case expects, the message names what it must (the file, line,
+            byte, option or limit) and holds no raw library text ("json.exception", "bad_alloc"
+            alone);
+  accepted  exit 0 where the input is valid or its damage is accounted for (e.g. a ULog with a
+            corrupted stamp: the dropped rows counted in provenance.json and printed);
+  weak      an error, but with the wrong exit code or a message that misses what it must name;
+  silent    exit 0 where an error (or a note) was due;
+  crash     killed by a signal, or an exit code outside 0-2;
+  memory    a child's peak RSS above the case's bound;
+  lost      a file the user owned changed or disappeared, or something was written outside --out.
+The script prints one line per case and the counts, and exits 1 unless every case is clear or
+accepted (so ctest can run it: `ctest -R hostile_battery`). Cases that need ../shared/data are
+skipped, and counted as such, where it is absent. Takes about a minute on 2 cores.
+"""
+
+import argparse
+import hashlib
+import json
+import os
+import random
+import resource
+import shutil
+import struct
+import subprocess
+import sys
+import tempfile
+import threading
+from pathlib import Path
+
+GIB = 1 << 30
+
+
+class Battery:
+    def __init__(self, insid, shared, work):
+        self.insid = insid
+        self.shared = shared
+        self.work = work
+        self.results = []  # (item, name, verdict, detail)
+
+    # --- running -------------------------------------------------------------------------------
+    def run(self, args, stdin=None, timeout=120):
+        """Runs insid with `args`; returns (exit code or -signal, output, its peak RSS in MB)."""
+
+        def limit():
+            os.nice(10)
+            resource.setrlimit(resource.RLIMIT_AS, (4 * GIB, 4 * GIB))
+
+        with tempfile.TemporaryFile() as out, tempfile.TemporaryFile() as inp:
+            inp.write(stdin or b"")
+            inp.seek(0)
+            proc = subprocess.Popen([self.insid] + args, cwd=self.work, stdin=inp, stdout=out,
+                                    stderr=subprocess.STDOUT, preexec_fn=limit)
+            timer = threading.Timer(timeout, proc.kill)
+            timer.start()
+            _, status, usage = os.wait4(proc.pid, 0)  # this child's own rusage
+            timer.cancel()
+            proc.returncode = os.waitstatus_to_exitcode(status)
+            out.seek(0)
+            text = out.read().decode("utf-8", "replace")
+        return proc.returncode, text, usage.ru_maxrss / 1024.0
+
+    def record(self, item, name, verdict, detail=""):
+        self.results.append((item, name, verdict, detail))
+        print(f"[{verdict:8}] item {item:>2} {name}" + (f": {detail}" if detail else ""),
+              flush=True)
+
+    def expect_error(self, item, name, args, codes=(1,), must=(), protect=(), stdin=None,
+                     rss_mb=None, outside=None):
+        """A case whose right answer is an error with exit code in `codes`, a message holding
+        every string in `must`, every file in `protect` unchanged, and nothing new in the
+        directory `outside`."""
+        before = {p: digest(p) for p in protect}
+        outside_before = listing(outside) if outside else None
+        code, out, rss = self.run(args, stdin=stdin)
+        lost = [str(p) for p in protect if digest(p) != before[p]]
+        if outside is not None and listing(outside) != outside_before:
+            lost.append(f"wrote into {outside}")
+        first = out.strip().splitlines()[-1] if out.strip() else "(no output)"
+        if code < 0 or code > 2:
+            self.record(item, name, "crash", f"exit {code}: {first}")
+        elif lost:
+            self.record(item, name, "lost", ", ".join(lost))
+        elif rss_mb is not None and rss > rss_mb:
+            self.record(item, name, "memory", f"{rss:.0f} MB > {rss_mb} MB")
+        elif code == 0:
+            self.record(item, name, "silent", "exit 0")
+        elif code not in codes or not all(m in out for m in must) or raw_library_text(out):
+            missing = [m for m in must if m not in out]
+            self.record(item, name, "weak",
+                        f"exit {code} (expected {codes}), missing {missing}: {first[:160]}")
+        else:
+            self.record(item, name, "clear", first[:160])
+
+    def expect_accept(self, item, name, args, check=None, protect=()):
+        """A case whose right answer is exit 0; `check(output)` returns "" when the output
+        accounts for what it must, else what it misses."""
+        before = {p: digest(p) for p in protect}
+        code, out, _ = self.run(args)
+        lost = [str(p) for p in protect if digest(p) != before[p]]
+        first = out.strip().splitlines()[-1] if out.strip() else "(no output)"
+        if code < 0 or code > 2:
+            self.record(item, name, "crash", f"exit {code}: {first}")
+        elif lost:
+            self.record(item, name, "lost", ", ".join(lost))
+        elif code != 0:
+            self.record(item, name, "weak", f"exit {code}: {first[:160]}")
+        else:
+            why = check(out) if check else ""
+            self.record(item, name, "silent" if why else "accepted", why)
+
+    def skip(self, item, name, why):
+        self.results.append((item, name, "skipped", why))
+        print(f"[skipped ] item {item:>2} {name}: {why}", flush=True)
+
+
+def digest(path):
+    path = Path(path)
+    if path.is_symlink():
+        return "link:" + os.readlink(path)
+    if path.is_dir():
+        return "dir:" + ",".join(sorted(p.name for p in path.iterdir()))
+    if not path.exists():
+        return None
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def listing(directory):
+    return sorted(str(p.relative_to(directory)) for p in Path(directory).rglob("*"))
+
+
+def raw_library_text(output):
+    return "[json.exception" in output or output.strip().endswith("std::bad_alloc")
+
+
+def write(path, data):
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_bytes(data if isinstance(data, bytes) else data.encode())
+    return path
+
+
+# --- the cases --------------------------------------------------------------------------------
+def ownership_cases(b, sim, walk):
+    w = b.work
+    # Item 1: an import into the folder of its own raw log, and look-alike directories.
+    if walk:
+        d = w / "own"
+        raw = shutil.copy(walk / "imu_1730_sf.csv", write(d / "x", "").parent / "imu.csv")
+        (d / "x").unlink()
+        b.expect_error(1, "import csv into the folder of its raw imu.csv",
+                       ["import", "csv", "--imu", str(raw), "--columns",
+                        "t,ax,ay,az,gx,gy,gz,-,-,-,-", "--units", "s,g-local,rad/s", "--gnss",
+                        str(walk / "gnss_1730_sf.pos"), "--align-s", "9", "--out", str(d)],
+                       codes=(1, 2), must=["imu.csv"], protect=[raw])
+        b.expect_error(1, "... with --force (inputs are never replaced)",
+                       ["import", "csv", "--imu", str(raw), "--columns",
+                        "t,ax,ay,az,gx,gy,gz,-,-,-,-", "--units", "s,g-local,rad/s", "--gnss",
+                        str(walk / "gnss_1730_sf.pos"), "--align-s", "9", "--force", "--out",
+                        str(d)], codes=(1, 2), must=["imu.csv"], protect=[raw])
+    else:
+        b.skip(1, "import csv into the folder of its raw imu.csv", "no shared walk")
+    look = w / "lookalike"
+    files = [write(look / n, f"user's own {n}\n") for n in
+             ("imu.csv", "gnss.csv", "truth.csv", "meta.json")]
+    b.expect_error(1, "simulate into a directory of look-alike names (no insid mark)",
+                   ["simulate", "--preset", "straight", "--flight-s", "20", "--out", str(look)],
+                   must=[str(look)], protect=files)
+    kf = w / "kf"
+    b.run(["export", "--to", "kf-gins", "--data", str(sim), "--out", str(kf)])
+    kf_imu = kf / "imu.txt"
+    kf_args = ["import", "kf-gins", "--imu", str(kf_imu), "--gnss", str(kf / "gnss.txt"),
+               "--out", str(kf)]
+    b.expect_error(1, "import kf-gins into the folder of its own imu.txt", kf_args,
+                   must=[str(kf)], protect=[kf_imu, kf / "gnss.txt"])
+    b.expect_accept(1, "... with --force: the dataset added beside imu.txt, gnss.txt",
+                    kf_args + ["--force"], protect=[kf_imu, kf / "gnss.txt"],
+                    check=lambda out: "" if (kf / "meta.json").exists() else "no meta.json")
+
+    # Item 5: outputs over the command's own inputs, and over a user's file.
+    data_files = [sim / "imu.csv", sim / "gnss.csv", sim / "meta.json", sim / "truth.csv"]
+    for name, args in [
+        ("navigate --out <data>/imu.csv", ["navigate", "--data", str(sim), "--out",
+                                           str(sim / "imu.csv")]),
+        ("navigate --summary <data>/meta.json", ["navigate", "--data", str(sim), "--out",
+                                                 str(w / "nav.csv"), "--summary",
+                                                 str(sim / "meta.json")]),
+        ("navigate --out <data>/truth.csv --force", ["navigate", "--data", str(sim), "--out",
+                                                     str(sim / "truth.csv"), "--force"]),
+        ("identify --out <data>/meta.json", ["identify", "--data", str(sim), "--algo", "lm",
+                                             "--no-reference-optimum", "--out",
+                                             str(sim / "meta.json")]),
+        ("diagnose --out <data>/truth.csv", ["diagnose", "--data", str(sim), "--out",
+                                             str(sim / "truth.csv")]),
+    ]:
+        b.expect_error(5, name, args, must=["which this command reads"], protect=data_files)
+    user = write(w / "notes.json", '{"mine": true}\n')
+    b.expect_error(5, "navigate --summary over a user's existing file",
+                   ["navigate", "--data", str(sim), "--out", str(w / "nav2.csv"), "--summary",
+                    str(user)], codes=(1, 2), must=["notes.json"], protect=[user])
+
+
+def campaign_config(scenario_name):
+    """A campaign of one short straight flight, PSO with 40 evaluations, one seed."""
+    return {"name": "battery", "seeds": 1, "max_iterations": 0, "max_evaluations": 40,
+            "scenarios": [{"name": scenario_name, "preset": "straight", "flight_s": 20}],
+            "algorithms": [{"label": "PSO", "name": "pso"}]}
+
+
+def campaign_cases(b):
+    w = b.work
+    config = write(w / "camp.json", json.dumps(campaign_config("straight")))
+    bench = ["bench", "--config", str(config), "--threads", "1", "--out"]
+    # Item 2: links planted where a campaign writes.
+    outside = w / "outside"
+    outside.mkdir()
+    victim = write(outside / "victim.txt", "the user's file\n")
+    for link_name in (".insid-lock", "runs", "optimum", "summary.json"):
+        d = w / f"link-{link_name.strip('.')}"
+        d.mkdir()
+        os.symlink(victim if "." in link_name else outside, d / link_name)
+        b.expect_error(2, f"campaign with {link_name} a link outside --out", bench + [str(d)],
+                       codes=(1, 2), must=[link_name], protect=[victim], outside=outside)
+    # Item 6: a directory holding only the user's summary.json; --force-new and a user's file.
+    d = w / "user-summary"
+    summary = write(d / "summary.json", '{"mine": true}\n')
+    b.expect_error(6, "campaign into a directory holding only a user's summary.json",
+                   bench + [str(d)], codes=(1, 2), must=["summary.json"], protect=[summary])
+    d = w / "camp-ok"
+    code, out, _ = b.run(bench + [str(d)])
+    if code != 0:
+        b.record(6, "a campaign runs (set-up of the --force-new case)", "weak", out[-200:])
+        return
+    notes = write(d / "runs" / "notes.txt", "the user's notes\n")
+    other = write(w / "camp2.json", json.dumps(campaign_config("straight2")))
+    b.expect_error(6, "--force-new (another campaign) with a user's runs/notes.txt",
+                   ["bench", "--config", str(other), "--threads", "1", "--out", str(d),
+                    "--force-new"], must=["notes.txt"], protect=[notes])
+    # Item 8: a scenario named like insid's temporary files.
+    tmp_named = write(w / "tmpname.json", json.dumps(campaign_config("x.tmp-host-1-2")))
+    b.expect_error(8, "scenario label x.tmp-host-1-2", ["bench", "--config", str(tmp_named),
+                                                        "--out", str(w / "tmpname")],
+                   codes=(1, 2), must=["x.tmp-host-1-2"])
+
+
+def json_cases(b, sim):
+    w = b.work
+    # Item 7: nesting depth and size, as a config and as meta.json.
+    deep = write(w / "deep.json", "[" * 100000 + "]" * 100000)
+    b.expect_error(7, "bench --config of 100 000 nested [", ["bench", "--config", str(deep),
+                                                            "--out", str(w / "deepc")],
+                   codes=(1, 2), must=["deep.json", "nesting depth"], rss_mb=256)
+    ds = w / "deepmeta"
+    shutil.copytree(sim, ds)
+    (ds / "meta.json").write_text("[" * 100000 + "]" * 100000)
+    b.expect_error(7, "meta.json of 100 000 nested [", ["navigate", "--data", str(ds), "--out",
+                                                       str(w / "deepnav.csv")],
+                   must=["meta.json", "nesting depth"], rss_mb=256)
+    flat = write(w / "flat.json", "[" + "0," * (40 << 20) + "0]")
+    b.expect_error(7, "an 80 MB config (over the 64 MiB limit)", ["bench", "--config", str(flat),
+                                                                 "--out", str(w / "flatc")],
+                   codes=(1, 2), must=["flat.json"], rss_mb=256)
+    # Item 12: bad JSON without nlohmann's tag; a duplicate key named.
+    bad = write(w / "bad.json", '{"name": "battery", "seeds": 1,}')
+    b.expect_error(12, "config with a trailing comma", ["bench", "--config", str(bad), "--out",
+                                                        str(w / "badc")], codes=(1, 2),
+                   must=["bad.json", "line 1"])
+    dup = write(w / "dup.json", '{"name": "battery", "seeds": 1, "seeds": 2}')
+    b.expect_error(12, "config with a key twice", ["bench", "--config", str(dup), "--out",
+                                                   str(w / "dupc")], codes=(1, 2),
+                   must=["dup.json", "seeds"])
+
+
+def external_cases(b, sim):
+    w = b.work
+    est = ["--estimate", "accel_bias_x", "--estimate", "accel_bias_y"]
+
+    def client(name, body):
+        return write(w / f"{name}.py", "import sys, json\n" + body)
+
+    clients = {
+        "reply 100 000 nested [": (client("deep", (
+            "for line in sys.stdin:\n"
+            "    if json.loads(line)['type'] == 'ask':\n"
+            "        print('{\"points\": ' + '[' * 100000 + ']' * 100000 + '}', flush=True)\n")),
+            ["nesting depth"]),
+        "two replies per ask": (client("twice", (
+            "for line in sys.stdin:\n"
+            "    m = json.loads(line)\n"
+            "    if m['type'] == 'problem': n = m['dimension']\n"
+            "    if m['type'] == 'ask':\n"
+            "        print(json.dumps({'points': [[0.0] * n]}), flush=True)\n"
+            "        print(json.dumps({'points': [[0.0] * n]}), flush=True)\n")),
+            ["answers no ask"]),
+        "a point outside the box": (client("outside", (
+            "for line in sys.stdin:\n"
+            "    m = json.loads(line)\n"
+            "    if m['type'] == 'problem': n = m['dimension']\n"
+            "    if m['type'] == 'ask':\n"
+            "        print(json.dumps({'points': [[1e9] * n]}), flush=True)\n")),
+            ["outside"]),
+        "exits before replying": (client("quits", "sys.exit(3)\n"), ["exit"]),
+        "a NaN in a point": (client("nan", (
+            "for line in sys.stdin:\n"
+            "    m = json.loads(line)\n"
+            "    if m['type'] == 'problem': n = m['dimension']\n"
+            "    if m['type'] == 'ask':\n"
+            "        print('{\"points\": [[' + ','.join(['NaN'] * n) + ']]}', flush=True)\n")),
+            ["line"]),
+    }
+    for name, (path, must) in clients.items():
+        b.expect_error(3 if "nested" in name else 13, f"external client: {name}",
+                       ["identify", "--data", str(sim), "--algo",
+                        f"external:/usr/bin/python3 {path}", "--no-reference-optimum",
+                        "--evaluations", "20", "--out", str(w / f"ext-{path.stem}.json")] + est,
+                       must=must, rss_mb=512)
+
+
+def reader_cases(b, sim, walk, shared):
+    w = b.work
+    # Item 9: huge inputs refused before being read.
+    huge = w / "huge.ulg"
+    with open(huge, "wb") as f:
+        f.truncate(3 * GIB)
+    b.expect_error(9, "a 3 GiB file of zeros as a ULog", ["import", "ulog", str(huge), "--out",
+                                                         str(w / "hugeu")],
+                   must=["huge.ulg"], rss_mb=256)
+    big = w / "big.csv"
+    with open(big, "wb") as f:
+        f.truncate(5 * GIB)
+    b.expect_error(9, "a 5 GiB IMU CSV (over --max-input-mb)",
+                   ["import", "csv", "--imu", str(big), "--columns", "t,ax,ay,az,gx,gy,gz",
+                    "--units", "s,g,rad/s", "--gnss", str(big), "--out", str(w / "bigc")],
+                   must=["big.csv", "--max-input-mb"], rss_mb=256)
+    big.unlink()
+    huge.unlink()
+    if not walk:
+        b.skip(10, "walk cases", "no shared walk")
+        return
+    imu, pos = walk / "imu_1730_sf.csv", walk / "gnss_1730_sf.pos"
+    walk_args = ["--columns", "t,ax,ay,az,gx,gy,gz,-,-,-,-", "--units", "s,g-local,rad/s",
+                 "--mounting-rpy-deg", "180,0,-90"]
+    pos_lines = pos.read_text().splitlines(keepends=True)
+    header = sum(1 for line in pos_lines if line.startswith("%"))
+
+    def pos_with(line_no, edit):
+        lines = list(pos_lines)
+        lines[line_no - 1] = edit(lines[line_no - 1])
+        return write(w / f"rover-{line_no}-{len(b.results)}.pos", "".join(lines))
+
+    def import_walk(name, gnss, extra=(), item=10, must=(), codes=(1,), imu_file=imu):
+        b.expect_error(item, name, ["import", "csv", "--imu", str(imu_file)] + walk_args +
+                       ["--gnss", str(gnss)] + list(extra) + ["--out",
+                                                             str(w / f"walk{len(b.results)}")],
+                       codes=codes, must=must)
+
+    # Item 10: the user's file, line and option named.
+    line = header + 200
+    fields = pos_lines[line - 1].split()
+    bad_h = pos_with(line, lambda s: s.replace(fields[4], "1000000000.0", 1))
+    import_walk(".pos with a 1e9 m height on one line", bad_h,
+                must=[f"{bad_h.name} line {line}"])
+    import_walk("--align-s 1000 on a 132 s log", pos, ["--align-s", "1000"], must=["--align-s"])
+    rows = imu.read_text().splitlines(keepends=True)
+    bad_row = 650
+    rows_nan = list(rows)
+    parts = rows_nan[bad_row - 1].split(",")
+    parts[4] = "nan"
+    nan_imu = write(w / "imu_nan.csv", ",".join(parts))
+    nan_imu.write_text("".join(rows[: bad_row - 1]) + ",".join(parts) + "".join(rows[bad_row:]))
+    import_walk("IMU CSV with nan in one gyro", pos, ["--align-s", "9"],
+                must=[f"imu_nan.csv line {bad_row}"], imu_file=nan_imu)
+    # Item 12 / 13: times that do not increase, a BOM, fractional Q, impossible dates.
+    same_t = write(w / "imu_same_t.csv", "".join(
+        "1756402240.0," + ",".join(r.split(",")[1:]) for r in rows[:1300]))
+    import_walk("IMU CSV whose times never increase", pos, ["--align-s", "9"],
+                must=["imu_same_t.csv", "increas"], imu_file=same_t)
+    q25 = pos_with(header + 10, lambda s: s.replace(" 1.0000000 25.0", " 2.5000000 25.0", 1))
+    import_walk(".pos with Q = 2.5", q25, ["--align-s", "9"], must=[f"line {header + 10}"])
+    feb30 = pos_with(header + 10, lambda s: "2025/02/30" + s[10:])
+    import_walk(".pos dated 2025/02/30", feb30, ["--align-s", "9"], must=[f"line {header + 10}"])
+    bom = write(w / "imu_bom.csv", b"\xef\xbb\xbf" + imu.read_bytes())
+    code, out, _ = b.run(["import", "csv", "--imu", str(bom)] + walk_args +
+                         ["--gnss", str(pos), "--align-s", "9", "--out", str(w / "bomds")])
+    plain = w / "plainds"
+    b.run(["import", "csv", "--imu", str(imu)] + walk_args +
+          ["--gnss", str(pos), "--align-s", "9", "--out", str(plain)])
+    same = code == 0 and (w / "bomds" / "imu.csv").exists() and \
+        (w / "bomds" / "imu.csv").read_bytes() == (plain / "imu.csv").read_bytes()
+    b.record(13, "IMU CSV with a UTF-8 BOM imports as without it",
+             "accepted" if same else ("crash" if code < 0 else "weak" if code else "silent"),
+             "" if same else f"exit {code}: {out.strip()[-160:]}")
+    # Item 11: exit codes of bad command-line values (the README's table: 2).
+    for args, must in ((["--estimate", "gyro_bias_x:0"], "gyro_bias_x:0"),
+                       (["--estimate", "gyro_bias_x:1:2:1"], "gyro_bias_x:1:2:1"),
+                       (["--param", "bogus=1"], "bogus"), (["--algo", "nonexistent"], "--algo"),
+                       (["--window-s", "nan"], "--window-s"), (["--threads", "-1"], "--threads"),
+                       (["--estimate", "no_such_effect"], "no_such_effect"),
+                       (["--estimate", "gyro_bias_x:1e300"], "gyro_bias_x")):
+        b.expect_error(11, "identify " + " ".join(args),
+                       ["identify", "--data", str(sim), "--out", str(w / "x.json")] + args,
+                       codes=(2,), must=[must])
+    csv = ["import", "csv", "--imu", str(imu), "--gnss", str(pos), "--out", str(w / "c")]
+    for name, args, must in (
+            ("simulate --preset nope", ["simulate", "--preset", "nope", "--out", str(w / "s")],
+             "nope"),
+            ("import csv --columns with t twice",
+             csv + ["--columns", "t,t,ax,ay,az,gx,gy,gz", "--units", "s,g,rad/s"], "--columns"),
+            ("import csv --units s,furlong,rad/s",
+             csv + walk_args[:2] + ["--units", "s,furlong,rad/s"], "furlong"),
+            ("import csv --mounting-rpy-deg nan,0,0",
+             csv + walk_args[:4] + ["--mounting-rpy-deg", "nan,0,0"], "--mounting-rpy-deg"),
+            ("bench --shard 3/2", ["bench", "--preset", "quick", "--shard", "3/2", "--out",
+                                   str(w / "b")], "--shard"),
+            ("bench --out ''", ["bench", "--preset", "quick", "--out", ""], "--out")):
+        b.expect_error(11, name, args, codes=(2,), must=[must])
+
+
+def corruption_cases(b, shared, flips, rng):
+    """Random damage to the shared binary logs: each either refused naming a byte offset, or
+    imported with every dropped row counted in provenance.json (rows_read = rows_used +
+    dropped) and a note printed when anything was dropped."""
+    w = b.work
+    logs = []
+    ulog = shared / "data" / "px4-ulog" / "sample_px4_events.ulg"
+    bin_log = shared / "data" / "ardupilot-copter" / "log171.bin"
+    if ulog.exists():
+        logs.append(("ulog", ulog, []))
+    if bin_log.exists():
+        logs.append(("ardupilot", bin_log, ["--t-start", "74.7", "--t-end", "215"]))
+    if not logs:
+        b.skip(4, "random damage to binary logs", "no shared logs")
+        return
+    for k in range(flips):
+        kind, path, extra = logs[k % len(logs)]
+        data = bytearray(path.read_bytes())
+        at = rng.randrange(64, len(data) - 8)
+        width = rng.choice((1, 5))
+        for i in range(width):
+            data[at + i] ^= 1 << rng.randrange(8)
+        damaged = write(w / f"damaged{k}{path.suffix}", bytes(data))
+        out_dir = w / f"damaged{k}"
+        code, out, _ = b.run(["import", kind, str(damaged)] + extra + ["--out", str(out_dir)])
+        name = f"{kind} with {width} byte(s) flipped at {at}"
+        if code < 0 or code > 2:
+            b.record(4, name, "crash", f"exit {code}")
+        elif code != 0:
+            clear = "byte" in out or "record" in out or "message" in out
+            if out_dir.exists() and any(out_dir.iterdir()):
+                b.record(4, name, "lost", "an error, yet files were written")
+            else:
+                b.record(4, name, "clear" if clear else "weak", out.strip().splitlines()[-1][:160])
+        elif not (out_dir / "provenance.json").exists():
+            b.record(4, name, "silent", "exit 0 without provenance.json")
+        else:
+            prov = json.loads((out_dir / "provenance.json").read_text())
+            imu = prov.get("imu", {})
+            dropped = sum(v for v in imu.get("rows_dropped", {}).values()
+                          if isinstance(v, int))
+            read = imu.get("rows_read")
+            used = imu.get("rows_used")
+            accounted = read is None or used is None or read == used + dropped
+            noted = dropped == 0 or "note" in out.lower() or "dropped" in out
+            b.record(4, name, "accepted" if accounted and noted else "silent",
+                     "" if accounted and noted else
+                     f"rows_read {read}, used {used}, dropped {dropped}")
+        damaged.unlink()
+        shutil.rmtree(out_dir, ignore_errors=True)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    root = Path(__file__).resolve().parent.parent
+    parser.add_argument("--insid", default=str(root / "build" / "cli" / "insid"))
+    parser.add_argument("--shared", default=str(root.parent / "shared"))
+    parser.add_argument("--random-flips", type=int, default=24)
+    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--json", help="write the cases and verdicts here")
+    args = parser.parse_args()
+    shared = Path(args.shared).resolve()
+    walk = shared / "data" / "rtklib-walk"
+    walk = walk if (walk / "imu_1730_sf.csv").exists() else None
+    with tempfile.TemporaryDirectory(prefix="insid-battery-") as tmp:
+        b = Battery(str(Path(args.insid).resolve()), shared, Path(tmp))
+        sim = b.work / "sim"
+        code, out, _ = b.run(["simulate", "--preset", "straight", "--flight-s", "30", "--seed",
+                              "1", "--out", str(sim)])
+        if code != 0:
+            sys.exit(f"hostile_battery: simulate failed: {out}")
+        ownership_cases(b, sim, walk)
+        campaign_cases(b)
+        json_cases(b, sim)
+        external_cases(b, sim)
+        reader_cases(b, sim, walk, shared)
+        corruption_cases(b, shared, args.random_flips, random.Random(args.seed))
+    counts = {}
+    for _, _, verdict, _ in b.results:
+        counts[verdict] = counts.get(verdict, 0) + 1
+    print("\n" + ", ".join(f"{n} {v}" for v, n in sorted(counts.items())) +
+          f" ({len(b.results)} cases)")
+    if args.json:
+        Path(args.json).write_text(json.dumps(
+            [{"item": i, "case": n, "verdict": v, "detail": d} for i, n, v, d in b.results],
+            indent=1))
+    bad = {v for v in counts if v not in ("clear", "accepted", "skipped")}
+    sys.exit(1 if bad else 0)
+
+
+if __name__ == "__main__":
+    main()
