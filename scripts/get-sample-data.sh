@@ -2,14 +2,16 @@
 # The public recordings the README's worked examples read, where they read them
 # (../shared/data/<folder>/ beside the repository, or --dest DIR).
 #
-#   scripts/get-sample-data.sh [--dest DIR] [--check]
+#   scripts/get-sample-data.sh [--dest DIR] [--check] [--base-url URL]
 #
 # Each file is named by its public repository, commit and path (the folder READMEs of
 # ../shared/data say where each comes from) and checked against its SHA-256. A file already
 # present with the right checksum is used as it is (CI and tests never download: they have
 # ../shared/data); one present with another checksum is an error and is left alone; an absent one
 # is downloaded (curl or wget) to a temporary name, checked, then moved into place.
-# --check only verifies what is present and says what is missing. Nothing is ever written into
+# --check only verifies what is present and says what is missing. --base-url (default
+# https://github.com) serves URL/<repository>/raw/<commit>/<path>: a mirror, or the local server
+# of scripts/test_get_sample_data.sh. Nothing is ever written into
 # this repository: the recordings carry their own licences (CC BY-SA 3.0, BSD-3, MIT), recorded in
 # an ATTRIBUTION.txt beside each downloaded folder.
 set -euo pipefail
@@ -17,12 +19,14 @@ set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 dest="$root/../shared/data"
 check_only=0
+base_url="https://github.com"
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --dest) dest="${2:?--dest needs a directory}"; shift 2 ;;
     --check) check_only=1; shift ;;
-    -h|--help) sed -n '2,14p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
-    *) echo "get-sample-data: unknown option '$1' (--dest DIR, --check)" >&2; exit 2 ;;
+    --base-url) base_url="${2:?--base-url needs a URL}"; shift 2 ;;
+    -h|--help) sed -n '2,16p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    *) echo "get-sample-data: unknown option '$1' (--dest DIR, --check, --base-url URL)" >&2; exit 2 ;;
   esac
 done
 
@@ -72,7 +76,7 @@ for row in "${files[@]}"; do
     continue
   fi
   mkdir -p "$dest/$folder"
-  url="https://github.com/$repo/raw/$commit/$path"
+  url="$base_url/$repo/raw/$commit/$path"
   tmp="$target.download-$$"
   echo "get-sample-data: $url -> $target"
   if ! download "$url" "$tmp"; then
