@@ -45,7 +45,11 @@ nlohmann::json autopilot_comparison_json(const nlohmann::json& result, const nlo
     const std::string label =
         e.at("source").get<std::string>() + " (" + e.at("imu").get<std::string>() + ")";
     if (!e.at("applies_to_imported_imu").get<bool>()) {
-      not_compared.push_back({{"autopilot", label}, {"why", "another IMU than the imported one"}});
+      // "refers_to" says which sensor the estimate belongs to (imports before it: one IMU).
+      not_compared.push_back(
+          {{"autopilot", label},
+           {"why", "refers to " + e.value("refers_to", std::string("another IMU")) +
+                       ", not to the imported " + ap.value("imported_imu", std::string("IMU"))}});
       continue;
     }
     const nlohmann::json* mine = nullptr;

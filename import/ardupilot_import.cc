@@ -44,18 +44,24 @@ nlohmann::json autopilot_bias_estimates(const DataFlashFile& log, const FlightPh
     char letter;           // the FMT letter ArduPilot writes it with
     double to_si;          // from the reader's value (letter scaling applied) to SI
     const char* effect;    // insid's catalogue name
-    const char* imu;       // the IMU it refers to
+    const char* imu;       // the IMU (or IMUs) it refers to
     const char* logged;    // how it is logged
     double resolution_si;  // one logged step
   };
   constexpr double kDegS = kPi / 180.0;  // deg/s -> rad/s
+  // Which gyro EKF1's biases belong to: NavEKF of the Copter 3.3 era (AP_NavEKF readIMUData,
+  // June-November 2015 versions) integrates the mean of the first two gyros' delta angles when
+  // both are healthy ("dual gyro mode - average first two gyros"), the primary gyro's alone
+  // otherwise; its gyro bias states are therefore the biases of that mean. EKF2's AZ1bias and
+  // AZ2bias are the z biases of the first and second accelerometer (the EKF fuses both).
+  constexpr const char* kGyroMean = "IMU+IMU2";
   const Field fields[] = {
-      {"EKF1", "GX", 'c', kDegS, "gyro_bias_x", "IMU", "int16 centi-deg/s (FMT c: x 0.01 deg/s)",
-       0.01 * kDegS},
-      {"EKF1", "GY", 'c', kDegS, "gyro_bias_y", "IMU", "int16 centi-deg/s (FMT c: x 0.01 deg/s)",
-       0.01 * kDegS},
-      {"EKF1", "GZ", 'c', kDegS, "gyro_bias_z", "IMU", "int16 centi-deg/s (FMT c: x 0.01 deg/s)",
-       0.01 * kDegS},
+      {"EKF1", "GX", 'c', kDegS, "gyro_bias_x", kGyroMean,
+       "int16 centi-deg/s (FMT c: x 0.01 deg/s)", 0.01 * kDegS},
+      {"EKF1", "GY", 'c', kDegS, "gyro_bias_y", kGyroMean,
+       "int16 centi-deg/s (FMT c: x 0.01 deg/s)", 0.01 * kDegS},
+      {"EKF1", "GZ", 'c', kDegS, "gyro_bias_z", kGyroMean,
+       "int16 centi-deg/s (FMT c: x 0.01 deg/s)", 0.01 * kDegS},
       {"EKF2", "AZ1bias", 'b', 0.01, "accel_bias_z", "IMU", "int8 cm/s^2 (FMT b, 100 x m/s^2)",
        0.01},
       {"EKF2", "AZ2bias", 'b', 0.01, "accel_bias_z", "IMU2", "int8 cm/s^2 (FMT b, 100 x m/s^2)",
@@ -102,6 +108,9 @@ nlohmann::json autopilot_bias_estimates(const DataFlashFile& log, const FlightPh
         {"source", std::string(f.message) + "." + f.field},
         {"imu", f.imu},
         {"applies_to_imported_imu", options.imu == f.imu},
+        {"refers_to", f.imu == std::string(kGyroMean)
+                          ? "the mean of IMU's and IMU2's gyros (NavEKF's dual-gyro mode)"
+                          : f.imu + std::string("'s accelerometer")},
         {"logged_as", f.logged},
         {"si_unit", gyro ? "rad/s" : "m/s^2"},
         {"end_boot_s", *end_boot_s},

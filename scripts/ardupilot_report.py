@@ -117,8 +117,9 @@ def main():
     L.append(
         "insid: estimate +- its sd (Gauss-Newton replicas, scaled by the model misfit where the "
         "residual exceeds the noise replicas'); flags as insid reports them. Autopilot: the "
-        "NavEKF's logged estimate (EKF1 GX/GY/GZ for the primary gyro, EKF2 AZ1bias for IMU and "
-        "AZ2bias for IMU2), airborne mean +- its scatter in flight (the EKF logs no variance). "
+        "NavEKF's logged estimate (EKF2 AZ1bias for IMU and AZ2bias for IMU2; its gyro biases "
+        "EKF1 GX/GY/GZ are those of the mean of IMU's and IMU2's gyros: the next table), "
+        "airborne mean +- its scatter in flight (the EKF logs no variance). "
         "`d/sd`: the difference over the combined sd.\n")
     L.append("| IMU | bias | EKF-RTS | DVPIO | autopilot | EKF-RTS - autopilot (d/sd) |")
     L.append("|---|---|---|---|---|---|")
@@ -146,6 +147,45 @@ def main():
             else:
                 cells += ["-", "-"]
             L.append(f"| {imu} | {b} | " + " | ".join(cells) + " |")
+
+    # EKF1's gyro biases belong to the mean of the first two gyros.
+    L.append("\n## The autopilot's gyro biases against insid's mean of IMU and IMU2\n")
+    L.append(
+        "Copter 3.3's NavEKF integrates the mean of the first two gyros' delta angles when both "
+        "are healthy (AP_NavEKF `readIMUData`, the 2015 versions: \"dual gyro mode - average "
+        "first two gyros\"), so its gyro bias states, logged as EKF1 GX/GY/GZ, are the biases of "
+        "that mean: (b_IMU + b_IMU2) / 2. insid's side is the mean of its two estimates, sd "
+        "sqrt(sd_IMU^2 + sd_IMU2^2) / 2 (the two IMUs' runs are independent fits); the "
+        "autopilot's is its airborne mean, sd its scatter and one logging step's rounding "
+        "(resolution / sqrt 12), as `insid identify` compares. Rows with a flagged estimate (box "
+        "edge, not converged) say so.\n")
+    L.append("| bias | method | IMU | IMU2 | mean | autopilot | mean - autopilot (d/sd) |")
+    L.append("|---|---|---|---|---|---|---|")
+    ap_est = {e["source"]: e for e in runs["IMU"]["meta"].get("autopilot_estimates", {}).get(
+        "estimates", [])}
+    gyro_mean_rows = []
+    for b, source in zip(BIASES[:3], ["EKF1.GX", "EKF1.GY", "EKF1.GZ"]):
+        e = ap_est.get(source)
+        if e is None or e.get("airborne_mean_si") is None:
+            continue
+        a_si = e["airborne_mean_si"]
+        a_sd = math.hypot(e.get("airborne_sd_si") or 0.0, e["resolution_si"] / math.sqrt(12.0))
+        for method, label in (("ekf", "EKF-RTS"), ("dvpio", "DVPIO")):
+            p1, p2 = params(runs["IMU"][method]).get(b), params(runs["IMU2"][method]).get(b)
+            if p1 is None or p2 is None or p1.get("sd") is None or p2.get("sd") is None:
+                continue
+            mean = 0.5 * (p1["estimate"] + p2["estimate"])
+            sd = 0.5 * math.hypot(p1["sd"], p2["sd"])
+            d = mean - a_si
+            z = d / math.hypot(sd, a_sd)
+            flags = sorted(set(p1.get("flags", [])) | set(p2.get("flags", [])))
+            gyro_mean_rows.append((b, label, z, bool(flags)))
+            cell = lambda p: (f"{fmt(p['estimate'] * DEG)} +- {fmt(p['sd'] * DEG, 2)}" +
+                              (f" ({' '.join(p['flags'])})" if p.get("flags") else ""))
+            L.append(f"| {b} | {label} | {cell(p1)} | {cell(p2)} | {fmt(mean * DEG)} +- "
+                     f"{fmt(sd * DEG, 2)} | {fmt(a_si * DEG)} +- {fmt(a_sd * DEG, 2)} | "
+                     f"{fmt(d * DEG)} deg/s ({fmt(z, 2)}) |")
+    runs["_gyro_mean_rows"] = gyro_mean_rows
 
     # Spread between the IMUs (same airframe).
     L.append("\n## The three IMUs against each other\n")
@@ -222,6 +262,10 @@ def main():
     plot(runs, a, wtag)
 
 
+def fmt_list(values):
+    return ", ".join(f"{v:.1f}" for v in values)
+
+
 def plain_words(runs, wtag):
     """The plain-words reading, its numbers computed from the run (so it follows a re-run)."""
     misfit = [runs[i]["ekf"].get("uncertainty", {}).get("residual_vs_noise_rms") for i in IMUS]
@@ -232,7 +276,10 @@ def plain_words(runs, wtag):
         return [abs(c["difference_over_combined_sd"]) for i in IMUS
                 for c in runs[i]["ekf"].get("autopilot_comparison", {}).get("compared", [])
                 if c["name"].startswith(prefix) and c.get("difference_over_combined_sd") is not None]
-    dz_gyro, dz_accel = dz("gyro_bias"), dz("accel_bias")
+    dz_accel = dz("accel_bias")
+    gyro_rows = runs.get("_gyro_mean_rows", [])
+    dz_gyro_clean = [abs(z) for b, m, z, flagged in gyro_rows if m == "EKF-RTS" and not flagged]
+    dz_gyro_all = [abs(z) for b, m, z, flagged in gyro_rows if m == "EKF-RTS"]
     daz = [abs(eng("accel_bias_z", c["difference_si"])[0]) for i in IMUS
            for c in runs[i]["ekf"].get("autopilot_comparison", {}).get("compared", [])
            if c["name"] == "accel_bias_z"]
@@ -258,8 +305,11 @@ def plain_words(runs, wtag):
   not: the gyro-bias estimates of the three IMUs, which share the airframe and the flight, spread
   by {min(gyro_spread):.2f}-{max(gyro_spread):.2f} deg/s per axis, far beyond their sd, and
   {flagged} of {total} EKF-RTS estimates are flagged (box edge, not converged, not observable).
-- **Against the autopilot's EKF** the gyro biases of the primary IMU differ by
-  {min(dz_gyro):.1f}-{max(dz_gyro):.1f} combined sd; the accelerometer z biases (IMU and IMU2)
+- **Against the autopilot's EKF**: its gyro biases are those of the mean of IMU's and IMU2's
+  gyros (the EKF averages the two), and insid's mean of its IMU and IMU2 estimates (EKF-RTS)
+  differs from them by {fmt_list(dz_gyro_all)} combined sd on x, y, z
+  ({len(dz_gyro_clean)} of the three without a flagged estimate behind them:
+  {fmt_list(dz_gyro_clean) or "none"} sd); the accelerometer z biases (IMU and IMU2)
   by {min(daz):.1f}-{max(daz):.1f} mg ({min(dz_accel):.1f}-{max(dz_accel):.1f} sd). These
   differences are listed as open, not tuned away: the autopilot's EKF uses the IMU at the flight
   controller's own rate, not the 50 Hz of the log, and fuses the barometer and magnetometer;
@@ -307,6 +357,22 @@ def plot(runs, a, wtag):
                     asd = eng(b, cmp[b]["autopilot_sd_si"])[0]
                     ax.errorbar(x + 0.07, av, yerr=2 * asd, fmt="s", mfc="white", color=f"C{k}",
                                 label=f"autopilot EKF, {imu}" if not ax.get_legend_handles_labels()[1].count(f"autopilot EKF, {imu}") else None)
+        if kind == "gyro":  # EKF1: the biases of the mean of IMU's and IMU2's gyros
+            ap_est = {e["source"]: e for e in runs["IMU"]["meta"].get(
+                "autopilot_estimates", {}).get("estimates", [])}
+            for i, (b, source) in enumerate(zip(names, ["EKF1.GX", "EKF1.GY", "EKF1.GZ"])):
+                e = ap_est.get(source)
+                p1, p2 = params(runs["IMU"]["ekf"]).get(b), params(runs["IMU2"]["ekf"]).get(b)
+                if e is None or e.get("airborne_mean_si") is None or p1 is None or p2 is None:
+                    continue
+                a_sd = math.hypot(e.get("airborne_sd_si") or 0.0,
+                                  e["resolution_si"] / math.sqrt(12.0))
+                ax.errorbar(i + 0.36, 0.5 * (p1["estimate"] + p2["estimate"]) * DEG,
+                            yerr=2 * 0.5 * math.hypot(p1["sd"] or 0.0, p2["sd"] or 0.0) * DEG,
+                            fmt="D", color="k", label="insid, mean of IMU, IMU2" if i == 0 else None)
+                ax.errorbar(i + 0.43, e["airborne_mean_si"] * DEG, yerr=2 * a_sd * DEG, fmt="s",
+                            mfc="white", color="k",
+                            label="autopilot EKF1 (IMU+IMU2 mean)" if i == 0 else None)
         ax.set_xticks(range(len(names)))
         ax.set_xticklabels(names)
         ax.axhline(0.0, color="0.6", lw=0.6)
