@@ -169,6 +169,140 @@ std::string ArduPilotImportOptions::validate() const {
   return "";
 }
 
+namespace {
+
+// The GPS records' fields extract_ardupilot reads, in this order.
+enum GpsField { kStatus, kTow, kWeek, kSats, kLat, kLng, kAlt, kSpd, kCrs, kVz, kBoot };
+using Records = std::vector<std::vector<double>>;
+
+// GPST seconds since the GPS epoch of GPS record k (Week, TimeMS).
+long double gpst_since_epoch(const Records& gps, std::size_t k) {
+  return static_cast<long double>(gps[k][kWeek]) * kSecondsPerWeek +
+         static_cast<long double>(gps[k][kTow]) * 1e-3L;
+}
+
+// The boot clock on GPST: a line fitted over every fix of the log (`fixes`: indices into gps),
+// then again without the fixes beyond kBootFitOutlierS (records logged late, e.g. in a burst
+// after a logging gap).
+BootClockFit fit_boot_clock(const Records& gps, const std::vector<std::size_t>& fixes,
+                            const std::string& where) {
+  BootClockFit clock;
+  std::vector<long double> x, y;
+  for (const std::size_t k : fixes) {
+    x.push_back(static_cast<long double>(gps[k][kBoot]) * 1e-3L);
+    y.push_back(gpst_since_epoch(gps, k));
+  }
+  std::vector<char> use(x.size(), 1);
+  long double a = 0, b = 1;
+  fit_line(x, y, use, a, b);
+  for (std::size_t k = 0; k < x.size(); ++k)
+    if (std::fabs(static_cast<double>(y[k] - (a + b * x[k]))) > kBootFitOutlierS) {
+      use[k] = 0;
+      ++clock.excluded;
+    }
+  if (x.size() - clock.excluded < 2)
+    throw std::runtime_error(where +
+                             ": GPS boot times (T) and GPS times (Week, TimeMS) do not "
+                             "follow a line: fewer than 2 fixes within " +
+                             num(kBootFitOutlierS) + " s of the fit");
+  fit_line(x, y, use, a, b);
+  double ss = 0;
+  for (std::size_t k = 0; k < x.size(); ++k)
+    if (use[k]) {
+      const double r = static_cast<double>(y[k] - (a + b * x[k]));
+      ss += r * r;
+      clock.max_abs_s = std::max(clock.max_abs_s, std::fabs(r));
+    }
+  clock.fixes = x.size() - clock.excluded;
+  clock.rms_s = std::sqrt(ss / static_cast<double>(clock.fixes));
+  clock.gpst_at_boot_zero_s = kGpsEpochGpstUnix_s + a;
+  clock.slope = static_cast<double>(b);
+  return clock;
+}
+
+// VZ's sign: the altitude's rate (central differences over fixes at most 1 s apart) against VZ.
+VzSign vz_sign_of(const Records& gps, const std::vector<std::size_t>& fixes) {
+  VzSign vz;
+  double sxy = 0, sxx = 0, syy = 0, mx = 0, my = 0;
+  std::vector<std::pair<double, double>> pairs;  // (VZ, dAlt/dt)
+  for (std::size_t i = 1; i + 1 < fixes.size(); ++i) {
+    const std::size_t p = fixes[i - 1], k = fixes[i], q = fixes[i + 1];
+    const double dt = static_cast<double>(gpst_since_epoch(gps, q) - gpst_since_epoch(gps, p));
+    if (!(dt > 0.0 && dt <= 1.0)) continue;
+    pairs.emplace_back(gps[k][kVz], (gps[q][kAlt] - gps[p][kAlt]) / dt);
+  }
+  for (const auto& [v, d] : pairs) mx += v, my += d;
+  vz.pairs = pairs.size();
+  if (!pairs.empty()) {
+    mx /= static_cast<double>(pairs.size()), my /= static_cast<double>(pairs.size());
+    double sx0 = 0;
+    for (const auto& [v, d] : pairs) {
+      sx0 += v * d;
+      sxx += (v - mx) * (v - mx), syy += (d - my) * (d - my), sxy += (v - mx) * (d - my);
+    }
+    double svv = 0;
+    for (const auto& [v, d] : pairs) svv += v * v;
+    vz.s = svv > 0 ? sx0 / svv : 0.0;
+    vz.correlation = sxx > 0 && syy > 0 ? sxy / std::sqrt(sxx * syy) : 0.0;
+  }
+  vz.conclusive = vz.pairs >= 20 && std::fabs(vz.correlation) >= 0.5;
+  vz.down_positive = vz.conclusive ? vz.s < 0.0 : true;
+  return vz;
+}
+
+// The median step of the kept IMU records (ms) and the steps longer than kImuGapMedianSteps of
+// it, into out.imu_gaps_boot_s and provenance imu.boot_gaps.
+double median_step_and_gaps_ms(const Records& rows, ArduPilotSeries& out) {
+  std::vector<double> steps;
+  std::vector<double> boot_ms;
+  for (const std::size_t line : out.imu.line) boot_ms.push_back(rows[line - 1][0]);
+  for (std::size_t k = 1; k < boot_ms.size(); ++k) steps.push_back(boot_ms[k] - boot_ms[k - 1]);
+  std::vector<double> sorted = steps;
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2),
+                   sorted.end());
+  const double median_ms = sorted[sorted.size() / 2];
+  nlohmann::json list = nlohmann::json::array();
+  for (std::size_t k = 0; k < steps.size(); ++k)
+    if (steps[k] > kImuGapMedianSteps * median_ms) {
+      out.imu_gaps_boot_s.emplace_back(boot_ms[k] * 1e-3, steps[k] * 1e-3);
+      list.push_back({{"after_boot_s", boot_ms[k] * 1e-3}, {"gap_s", steps[k] * 1e-3}});
+    }
+  out.provenance["imu"]["boot_gaps"] = list;
+  return median_ms;
+}
+
+// The flight's phases over the whole log: the chosen IMU's every record (`rows`: TimeMS, gyro,
+// accelerometer), every fix.
+FlightPhases phases_of_log(const Records& rows, const Records& gps,
+                           const std::vector<std::size_t>& fixes) {
+  FlightPhaseInput in;
+  double previous_ms = -1.0;
+  std::vector<double> gap_ends_s;
+  for (const auto& r : rows) {
+    if (!(r[0] > previous_ms)) continue;
+    if (!std::all_of(r.begin(), r.end(), [](double v) { return std::isfinite(v); })) continue;
+    if (previous_ms >= 0.0 && (r[0] - previous_ms) * 1e-3 > PlausibilityBounds::kMaxImuStep_s)
+      gap_ends_s.push_back(r[0] * 1e-3);
+    previous_ms = r[0];
+    in.imu_boot_s.push_back(r[0] * 1e-3);
+    in.omega_b_rad_s.emplace_back(r[1], r[2], r[3]);
+    in.f_b_mps2.emplace_back(r[4], r[5], r[6]);
+  }
+  double last_fix_ms = -1.0;
+  for (const std::size_t k : fixes) {
+    if (!(gps[k][kBoot] > last_fix_ms) || !std::isfinite(gps[k][kAlt]) ||
+        !std::isfinite(gps[k][kSpd]))
+      continue;
+    last_fix_ms = gps[k][kBoot];
+    in.gnss_boot_s.push_back(gps[k][kBoot] * 1e-3);
+    in.gnss_alt_m.push_back(gps[k][kAlt]);
+    in.gnss_speed_mps.push_back(gps[k][kSpd]);
+  }
+  return find_flight_phases(in, FlightPhaseOptions{}, gap_ends_s);
+}
+
+}  // namespace
+
 ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& where,
                                   const ArduPilotImportOptions& options) {
   if (const std::string e = options.validate(); !e.empty()) throw std::invalid_argument(e);
@@ -192,9 +326,8 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
   if (log.count(options.imu) == 0)
     throw std::runtime_error(where + ": no " + options.imu +
                              " records; messages: " + log.messages_summary());
-  const auto gps = log.read(
+  const Records gps = log.read(
       "GPS", {"Status", "TimeMS", "Week", "NSats", "Lat", "Lng", "Alt", "Spd", "GCrs", "VZ", "T"});
-  enum { kStatus, kTow, kWeek, kSats, kLat, kLng, kAlt, kSpd, kCrs, kVz, kBoot };
   std::vector<std::size_t> fixes;  // GPS records with Status >= min_status
   for (std::size_t k = 0; k < gps.size(); ++k)
     if (gps[k][kStatus] >= options.min_status) fixes.push_back(k);
@@ -204,46 +337,8 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
                              "Status >= " +
                              std::to_string(options.min_status) + " (of " +
                              std::to_string(gps.size()) + "); need at least 2");
-  const auto gpst_since_epoch = [&](std::size_t k) {
-    return static_cast<long double>(gps[k][kWeek]) * kSecondsPerWeek +
-           static_cast<long double>(gps[k][kTow]) * 1e-3L;
-  };
-
-  // The boot clock on GPST: fit over every fix of the log, then again without the fixes beyond
-  // kBootFitOutlierS (records logged late, e.g. in a burst after a logging gap).
   BootClockFit& clock = out.clock;
-  {
-    std::vector<long double> x, y;
-    for (const std::size_t k : fixes) {
-      x.push_back(static_cast<long double>(gps[k][kBoot]) * 1e-3L);
-      y.push_back(gpst_since_epoch(k));
-    }
-    std::vector<char> use(x.size(), 1);
-    long double a = 0, b = 1;
-    fit_line(x, y, use, a, b);
-    for (std::size_t k = 0; k < x.size(); ++k)
-      if (std::fabs(static_cast<double>(y[k] - (a + b * x[k]))) > kBootFitOutlierS) {
-        use[k] = 0;
-        ++clock.excluded;
-      }
-    if (x.size() - clock.excluded < 2)
-      throw std::runtime_error(where +
-                               ": GPS boot times (T) and GPS times (Week, TimeMS) do not "
-                               "follow a line: fewer than 2 fixes within " +
-                               num(kBootFitOutlierS) + " s of the fit");
-    fit_line(x, y, use, a, b);
-    double ss = 0;
-    for (std::size_t k = 0; k < x.size(); ++k)
-      if (use[k]) {
-        const double r = static_cast<double>(y[k] - (a + b * x[k]));
-        ss += r * r;
-        clock.max_abs_s = std::max(clock.max_abs_s, std::fabs(r));
-      }
-    clock.fixes = x.size() - clock.excluded;
-    clock.rms_s = std::sqrt(ss / static_cast<double>(clock.fixes));
-    clock.gpst_at_boot_zero_s = kGpsEpochGpstUnix_s + a;
-    clock.slope = static_cast<double>(b);
-  }
+  clock = fit_boot_clock(gps, fixes, where);
   const auto boot_to_gpst = [&](double boot_ms) {
     return clock.gpst_at_boot_zero_s +
            static_cast<long double>(clock.slope) * static_cast<long double>(boot_ms) * 1e-3L;
@@ -268,32 +363,8 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
                           : std::string()));
 
   // VZ's sign: the altitude's rate against VZ over the fixes.
-  VzSign& vz = out.vz;
+  const VzSign& vz = out.vz = vz_sign_of(gps, fixes);
   {
-    double sxy = 0, sxx = 0, syy = 0, mx = 0, my = 0;
-    std::vector<std::pair<double, double>> pairs;  // (VZ, dAlt/dt)
-    for (std::size_t i = 1; i + 1 < fixes.size(); ++i) {
-      const std::size_t p = fixes[i - 1], k = fixes[i], q = fixes[i + 1];
-      const double dt = static_cast<double>(gpst_since_epoch(q) - gpst_since_epoch(p));
-      if (!(dt > 0.0 && dt <= 1.0)) continue;
-      pairs.emplace_back(gps[k][kVz], (gps[q][kAlt] - gps[p][kAlt]) / dt);
-    }
-    for (const auto& [v, d] : pairs) mx += v, my += d;
-    vz.pairs = pairs.size();
-    if (!pairs.empty()) {
-      mx /= static_cast<double>(pairs.size()), my /= static_cast<double>(pairs.size());
-      double sx0 = 0;
-      for (const auto& [v, d] : pairs) {
-        sx0 += v * d;
-        sxx += (v - mx) * (v - mx), syy += (d - my) * (d - my), sxy += (v - mx) * (d - my);
-      }
-      double svv = 0;
-      for (const auto& [v, d] : pairs) svv += v * v;
-      vz.s = svv > 0 ? sx0 / svv : 0.0;
-      vz.correlation = sxx > 0 && syy > 0 ? sxy / std::sqrt(sxx * syy) : 0.0;
-    }
-    vz.conclusive = vz.pairs >= 20 && std::fabs(vz.correlation) >= 0.5;
-    vz.down_positive = vz.conclusive ? vz.s < 0.0 : true;
     const std::string evidence = "d(Alt)/dt = " + num(vz.s, 3) + " x VZ (correlation " +
                                  num(vz.correlation, 3) + ", " + std::to_string(vz.pairs) +
                                  " central differences of Alt over the fixes)";
@@ -320,7 +391,7 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
       continue;
     }
     GnssEpoch e;
-    e.t_gpst_unix_s = kGpsEpochGpstUnix_s + gpst_since_epoch(k);
+    e.t_gpst_unix_s = kGpsEpochGpstUnix_s + gpst_since_epoch(gps, k);
     if (!out.gnss.epochs.empty() && !(e.t_gpst_unix_s > out.gnss.epochs.back().t_gpst_unix_s)) {
       ++not_increasing;
       continue;
@@ -364,7 +435,7 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
                              " GPS fixes within the boot-time range; need at least 2");
 
   // IMU.
-  const auto rows =
+  const Records rows =
       log.read(options.imu, {"TimeMS", "GyrX", "GyrY", "GyrZ", "AccX", "AccY", "AccZ"});
   const std::vector<std::size_t> imu_bytes = log.offsets(options.imu);
   CsvImu& imu = out.imu;
@@ -396,54 +467,10 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
     throw std::runtime_error(where + ": " + options.imu + " has " +
                              std::to_string(imu.t_gpst_unix_s.size()) +
                              " records within the boot-time range; need at least 3");
-  double median_step_ms = 0.0;
-  {
-    std::vector<double> steps;
-    std::vector<double> boot_ms;
-    for (const std::size_t line : imu.line) boot_ms.push_back(rows[line - 1][0]);
-    for (std::size_t k = 1; k < boot_ms.size(); ++k) steps.push_back(boot_ms[k] - boot_ms[k - 1]);
-    std::vector<double> sorted = steps;
-    std::nth_element(sorted.begin(),
-                     sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
-    const double median_ms = sorted[sorted.size() / 2];
-    median_step_ms = median_ms;
-    nlohmann::json list = nlohmann::json::array();
-    for (std::size_t k = 0; k < steps.size(); ++k)
-      if (steps[k] > kImuGapMedianSteps * median_ms) {
-        out.imu_gaps_boot_s.emplace_back(boot_ms[k] * 1e-3, steps[k] * 1e-3);
-        list.push_back({{"after_boot_s", boot_ms[k] * 1e-3}, {"gap_s", steps[k] * 1e-3}});
-      }
-    prov["imu"]["boot_gaps"] = list;
-  }
-  // The flight's phases over the whole log: the chosen IMU's every record, every fix.
-  {
-    FlightPhaseInput in;
-    double previous_ms = -1.0;
-    std::vector<double> gap_ends_s;
-    for (const auto& r : rows) {
-      if (!(r[0] > previous_ms)) continue;
-      if (!std::all_of(r.begin(), r.end(), [](double v) { return std::isfinite(v); })) continue;
-      if (previous_ms >= 0.0 && (r[0] - previous_ms) * 1e-3 > PlausibilityBounds::kMaxImuStep_s)
-        gap_ends_s.push_back(r[0] * 1e-3);
-      previous_ms = r[0];
-      in.imu_boot_s.push_back(r[0] * 1e-3);
-      in.omega_b_rad_s.emplace_back(r[1], r[2], r[3]);
-      in.f_b_mps2.emplace_back(r[4], r[5], r[6]);
-    }
-    double last_fix_ms = -1.0;
-    for (const std::size_t k : fixes) {
-      if (!(gps[k][kBoot] > last_fix_ms) || !std::isfinite(gps[k][kAlt]) ||
-          !std::isfinite(gps[k][kSpd]))
-        continue;
-      last_fix_ms = gps[k][kBoot];
-      in.gnss_boot_s.push_back(gps[k][kBoot] * 1e-3);
-      in.gnss_alt_m.push_back(gps[k][kAlt]);
-      in.gnss_speed_mps.push_back(gps[k][kSpd]);
-    }
-    out.phases = find_flight_phases(in, FlightPhaseOptions{}, gap_ends_s);
-    prov["flight_phases"] = out.phases.to_json();
-    prov["flight_phases"]["imu"] = options.imu;
-  }
+  const double median_step_ms = median_step_and_gaps_ms(rows, out);
+  out.phases = phases_of_log(rows, gps, fixes);
+  prov["flight_phases"] = out.phases.to_json();
+  prov["flight_phases"]["imu"] = options.imu;
   out.autopilot_estimates = autopilot_bias_estimates(log, out.phases, options, out.notes);
 
   prov["imu"]["source"] = options.imu +
