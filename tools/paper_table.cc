@@ -25,7 +25,9 @@
 #include "core/dataset.h"
 #include "core/fitness.h"
 #include "insid_git_revision.h"  // generated at build time (cmake/git_revision.cmake)
+#include "scenarios/noise.h"
 #include "scenarios/scenario.h"
+#include "tools/tool_main.h"
 
 namespace {
 
@@ -55,10 +57,9 @@ const std::vector<Case>& cases() {
   return k;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  CLI::App app{"Reproduce the paper's Sec. 3.1 table (Eq. 15 fitness for the five error cases)."};
+int paper_table_main(int argc, char** argv) {
+  CLI::App app{"Reproduce the paper's Sec. 3.1 table (Eq. 15 fitness for the five error cases).",
+               "insid-paper-table"};
   std::string out = "results/paper-table";
   std::string preset = "paper";
   std::string config_file;
@@ -79,9 +80,14 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--timing-repeats", timing_repeats, "fitness evaluations timed")
       ->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
-
-  try {
+  tools::parse(app, argc, argv);
+  // Names checked before any work (a bad one is a usage error).
+  NavigationOptions options;
+  options.alignment =
+      cli::parse_option("--alignment", [&] { return alignment_mode_from_string(alignment); });
+  if (!grade.empty()) cli::parse_option("--grade", [&] { return noise_grade(grade); });
+  if (config_file.empty()) cli::parse_option("--preset", [&] { return preset_scenario(preset); });
+  {
     ScenarioOverrides overrides;
     overrides.seed = seed;
     if (!grade.empty()) overrides.grade = grade;
@@ -99,8 +105,6 @@ int main(int argc, char** argv) {
     const double sim_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t_sim0).count();
 
-    NavigationOptions options;
-    options.alignment = alignment_mode_from_string(alignment);
     const NavigationProblem problem(ds, options);
 
     // GNSS epoch times of the residuals (same selection as NavigationProblem).
@@ -208,9 +212,12 @@ int main(int argc, char** argv) {
 
     write_file_atomic(fs::path(out) / "table.json", table.dump(2) + "\n");
     std::cout << (fs::path(out) / "table.json").string() << "\n";
-  } catch (const std::exception& e) {
-    std::cerr << "insid-paper-table: error: " << e.what() << "\n";
-    return 1;
   }
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return insid::tools::run("insid-paper-table", [&] { return paper_table_main(argc, argv); });
 }
