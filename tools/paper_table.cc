@@ -87,132 +87,130 @@ int paper_table_main(int argc, char** argv) {
       cli::parse_option("--alignment", [&] { return alignment_mode_from_string(alignment); });
   if (!grade.empty()) cli::parse_option("--grade", [&] { return noise_grade(grade); });
   if (config_file.empty()) cli::parse_option("--preset", [&] { return preset_scenario(preset); });
-  {
-    ScenarioOverrides overrides;
-    overrides.seed = seed;
-    if (!grade.empty()) overrides.grade = grade;
-    if (flight_s > 0) overrides.flight_s = flight_s;
-    const ScenarioConfig cfg = with_overrides(
-        config_file.empty() ? preset_scenario(preset) : load_scenario_file(config_file), overrides);
-    if (!config_file.empty()) preset = cfg.name;
-    const ScenarioPlan plan = plan_scenario(cfg);
-    std::fprintf(stderr,
-                 "simulating preset '%s': %.0f s alignment + %.0f s flight, %zu IMU rows, "
-                 "%zu GNSS rows ...\n",
-                 preset.c_str(), cfg.align_s, plan.flight_s, plan.num_imu_steps, plan.num_gnss);
-    const auto t_sim0 = std::chrono::steady_clock::now();
-    auto ds = std::make_shared<const Dataset>(simulate(cfg, plan));
-    const double sim_s =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - t_sim0).count();
 
-    const NavigationProblem problem(ds, options);
+  ScenarioOverrides overrides;
+  overrides.seed = seed;
+  if (!grade.empty()) overrides.grade = grade;
+  if (flight_s > 0) overrides.flight_s = flight_s;
+  const ScenarioConfig cfg = with_overrides(
+      config_file.empty() ? preset_scenario(preset) : load_scenario_file(config_file), overrides);
+  if (!config_file.empty()) preset = cfg.name;
+  const ScenarioPlan plan = plan_scenario(cfg);
+  std::fprintf(stderr,
+               "simulating preset '%s': %.0f s alignment + %.0f s flight, %zu IMU rows, "
+               "%zu GNSS rows ...\n",
+               preset.c_str(), cfg.align_s, plan.flight_s, plan.num_imu_steps, plan.num_gnss);
+  const auto t_sim0 = std::chrono::steady_clock::now();
+  auto ds = std::make_shared<const Dataset>(simulate(cfg, plan));
+  const double sim_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t_sim0).count();
 
-    // GNSS epoch times of the residuals (same selection as NavigationProblem).
-    std::vector<double> epoch_t;
-    const double t_nav0 = problem.nav_start_t_s(), t_last = ds->imu.back().t_s;
-    for (const GnssSample& g : ds->gnss)
-      if (g.t_s > t_nav0 + 1e-9 && g.t_s <= t_last + 1e-9) epoch_t.push_back(g.t_s);
+  const NavigationProblem problem(ds, options);
 
-    fs::create_directories(out);
-    json table;
-    table["schema"] = "insid-paper-table/1";
-    table["git_revision"] = INSID_GIT_REVISION;
-    table["preset"] = preset;
-    table["config"] = scenario_to_json(cfg);
-    table["alignment"] = to_string(options.alignment);
-    table["flight_s"] = plan.flight_s;
-    table["gnss_rate_hz"] = cfg.gnss_rate_hz;
-    table["epochs_compared"] = problem.num_epochs();
-    table["simulation_wall_s"] = sim_s;
-    table["case_definition"] =
-        "data carry the injected errors e; the navigation compensates with e - delta; delta is "
-        "the residual error of the case, sigma units [dA0x, dA0y, dD0x, dD0y]";
-    json rows = json::array();
+  // GNSS epoch times of the residuals (same selection as NavigationProblem).
+  std::vector<double> epoch_t;
+  const double t_nav0 = problem.nav_start_t_s(), t_last = ds->imu.back().t_s;
+  for (const GnssSample& g : ds->gnss)
+    if (g.t_s > t_nav0 + 1e-9 && g.t_s <= t_last + 1e-9) epoch_t.push_back(g.t_s);
 
-    for (const Case& c : cases()) {
-      SensorErrors candidate = cfg.injected;
-      for (int i = 0; i < 4; ++i)
-        add_effect(candidate, kParams[i], -c.delta_sigma[i] * effect_info(kParams[i]).sigma);
-      std::vector<double> r;
-      problem.residuals(candidate, r);
-      double fitness = 0, max_dv = 0, sum_sq = 0;
-      for (std::size_t e = 0; e + 1 < r.size(); e += 2) {
-        const double d = std::hypot(r[e], r[e + 1]);
-        fitness += d;  // Eq. 15
-        max_dv = std::max(max_dv, d);
-        sum_sq += d * d;
-      }
-      const double n = static_cast<double>(r.size() / 2);
-      // Velocity-error series for the figure, decimated.
-      const std::size_t step = std::max<std::size_t>(
-          1, static_cast<std::size_t>(std::llround(cfg.gnss_rate_hz / series_rate_hz)));
-      std::ofstream csv(fs::path(out) / ("velocity_error_" + c.id + ".csv"));
-      csv << "t_s,dvE_mps,dvN_mps\n";
-      char line[128];
-      for (std::size_t e = 0; e < r.size() / 2; e += step) {
-        std::snprintf(line, sizeof line, "%.2f,%.6e,%.6e\n", epoch_t[e], r[2 * e], r[2 * e + 1]);
-        csv << line;
-      }
-      if (!csv) throw std::runtime_error("cannot write the velocity-error CSV under " + out);
-      json row = {{"id", c.id},
-                  {"label", c.label},
-                  {"figure", c.figure},
-                  {"delta_sigma", c.delta_sigma},
-                  {"fitness_eq15", fitness},
-                  {"paper_fitness", c.paper_fitness},
-                  {"ratio_to_paper", fitness / c.paper_fitness},
-                  {"mean_dv_mps", fitness / n},
-                  {"rms_dv_mps", std::sqrt(sum_sq / n)},
-                  {"max_dv_mps", max_dv}};
-      rows.push_back(row);
-      std::fprintf(stderr, "%-22s fitness %.4g  (paper %.4g, ratio %.2f)  mean |dv| %.3g m/s\n",
-                   c.label.c_str(), fitness, c.paper_fitness, fitness / c.paper_fitness,
-                   fitness / n);
+  fs::create_directories(out);
+  json table;
+  table["schema"] = "insid-paper-table/1";
+  table["git_revision"] = INSID_GIT_REVISION;
+  table["preset"] = preset;
+  table["config"] = scenario_to_json(cfg);
+  table["alignment"] = to_string(options.alignment);
+  table["flight_s"] = plan.flight_s;
+  table["gnss_rate_hz"] = cfg.gnss_rate_hz;
+  table["epochs_compared"] = problem.num_epochs();
+  table["simulation_wall_s"] = sim_s;
+  table["case_definition"] =
+      "data carry the injected errors e; the navigation compensates with e - delta; delta is "
+      "the residual error of the case, sigma units [dA0x, dA0y, dD0x, dD0y]";
+  json rows = json::array();
+
+  for (const Case& c : cases()) {
+    SensorErrors candidate = cfg.injected;
+    for (int i = 0; i < 4; ++i)
+      add_effect(candidate, kParams[i], -c.delta_sigma[i] * effect_info(kParams[i]).sigma);
+    std::vector<double> r;
+    problem.residuals(candidate, r);
+    double fitness = 0, max_dv = 0, sum_sq = 0;
+    for (std::size_t e = 0; e + 1 < r.size(); e += 2) {
+      const double d = std::hypot(r[e], r[e + 1]);
+      fitness += d;  // Eq. 15
+      max_dv = std::max(max_dv, d);
+      sum_sq += d * d;
     }
-    table["cases"] = rows;
-    // Order of the four single-error cases, by fitness, ours vs the paper's.
-    std::vector<std::pair<double, std::string>> ours, paper;
-    for (const json& row : rows) {
-      const std::string id = row["id"];
-      if (id == "exact" || id == "all") continue;
-      ours.push_back({row["fitness_eq15"].get<double>(), id});
-      paper.push_back({row["paper_fitness"].get<double>(), id});
+    const double n = static_cast<double>(r.size() / 2);
+    // Velocity-error series for the figure, decimated.
+    const std::size_t step = std::max<std::size_t>(
+        1, static_cast<std::size_t>(std::llround(cfg.gnss_rate_hz / series_rate_hz)));
+    std::ofstream csv(fs::path(out) / ("velocity_error_" + c.id + ".csv"));
+    csv << "t_s,dvE_mps,dvN_mps\n";
+    char line[128];
+    for (std::size_t e = 0; e < r.size() / 2; e += step) {
+      std::snprintf(line, sizeof line, "%.2f,%.6e,%.6e\n", epoch_t[e], r[2 * e], r[2 * e + 1]);
+      csv << line;
     }
-    std::sort(ours.rbegin(), ours.rend());
-    std::sort(paper.rbegin(), paper.rend());
-    json order_ours = json::array(), order_paper = json::array();
-    for (const auto& o : ours) order_ours.push_back(o.second);
-    for (const auto& p : paper) order_paper.push_back(p.second);
-    table["single_case_order"] = order_ours;
-    table["paper_single_case_order"] = order_paper;
-    table["order_matches_paper"] = order_ours == order_paper;
-    bool within2 = true;
-    for (const json& row : rows) {
-      const double q = row["ratio_to_paper"].get<double>();
-      within2 = within2 && q >= 0.5 && q <= 2.0;
-    }
-    table["all_within_factor_2"] = within2;
-
-    // Cost of one Eq. 15 evaluation (NavigationProblem::fitness: alignment + full run).
-    std::vector<double> times;
-    for (int i = 0; i < std::max(1, timing_repeats); ++i) {
-      const auto t0 = std::chrono::steady_clock::now();
-      volatile double f = problem.fitness(cfg.injected);
-      (void)f;
-      times.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-    }
-    std::sort(times.begin(), times.end());
-    table["fitness_eval_s"] = {{"min", times.front()},
-                               {"median", times[times.size() / 2]},
-                               {"repeats", times.size()},
-                               {"imu_steps", problem.num_steps()},
-                               {"ns_per_step", 1e9 * times.front() / problem.num_steps()}};
-    std::fprintf(stderr, "one fitness evaluation: %.3f s (%zu IMU steps, %.0f ns/step)\n",
-                 times.front(), problem.num_steps(), 1e9 * times.front() / problem.num_steps());
-
-    write_file_atomic(fs::path(out) / "table.json", table.dump(2) + "\n");
-    std::cout << (fs::path(out) / "table.json").string() << "\n";
+    if (!csv) throw std::runtime_error("cannot write the velocity-error CSV under " + out);
+    json row = {{"id", c.id},
+                {"label", c.label},
+                {"figure", c.figure},
+                {"delta_sigma", c.delta_sigma},
+                {"fitness_eq15", fitness},
+                {"paper_fitness", c.paper_fitness},
+                {"ratio_to_paper", fitness / c.paper_fitness},
+                {"mean_dv_mps", fitness / n},
+                {"rms_dv_mps", std::sqrt(sum_sq / n)},
+                {"max_dv_mps", max_dv}};
+    rows.push_back(row);
+    std::fprintf(stderr, "%-22s fitness %.4g  (paper %.4g, ratio %.2f)  mean |dv| %.3g m/s\n",
+                 c.label.c_str(), fitness, c.paper_fitness, fitness / c.paper_fitness, fitness / n);
   }
+  table["cases"] = rows;
+  // Order of the four single-error cases, by fitness, ours vs the paper's.
+  std::vector<std::pair<double, std::string>> ours, paper;
+  for (const json& row : rows) {
+    const std::string id = row["id"];
+    if (id == "exact" || id == "all") continue;
+    ours.push_back({row["fitness_eq15"].get<double>(), id});
+    paper.push_back({row["paper_fitness"].get<double>(), id});
+  }
+  std::sort(ours.rbegin(), ours.rend());
+  std::sort(paper.rbegin(), paper.rend());
+  json order_ours = json::array(), order_paper = json::array();
+  for (const auto& o : ours) order_ours.push_back(o.second);
+  for (const auto& p : paper) order_paper.push_back(p.second);
+  table["single_case_order"] = order_ours;
+  table["paper_single_case_order"] = order_paper;
+  table["order_matches_paper"] = order_ours == order_paper;
+  bool within2 = true;
+  for (const json& row : rows) {
+    const double q = row["ratio_to_paper"].get<double>();
+    within2 = within2 && q >= 0.5 && q <= 2.0;
+  }
+  table["all_within_factor_2"] = within2;
+
+  // Cost of one Eq. 15 evaluation (NavigationProblem::fitness: alignment + full run).
+  std::vector<double> times;
+  for (int i = 0; i < std::max(1, timing_repeats); ++i) {
+    const auto t0 = std::chrono::steady_clock::now();
+    volatile double f = problem.fitness(cfg.injected);
+    (void)f;
+    times.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  }
+  std::sort(times.begin(), times.end());
+  table["fitness_eval_s"] = {{"min", times.front()},
+                             {"median", times[times.size() / 2]},
+                             {"repeats", times.size()},
+                             {"imu_steps", problem.num_steps()},
+                             {"ns_per_step", 1e9 * times.front() / problem.num_steps()}};
+  std::fprintf(stderr, "one fitness evaluation: %.3f s (%zu IMU steps, %.0f ns/step)\n",
+               times.front(), problem.num_steps(), 1e9 * times.front() / problem.num_steps());
+
+  write_file_atomic(fs::path(out) / "table.json", table.dump(2) + "\n");
+  std::cout << (fs::path(out) / "table.json").string() << "\n";
   return 0;
 }
 
