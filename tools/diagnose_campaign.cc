@@ -28,6 +28,7 @@
 #include "core/json_reader.h"
 #include "diagnose/diagnose.h"
 #include "diagnose/hidden_effects.h"
+#include "tools/tool_main.h"
 
 namespace {
 
@@ -139,18 +140,14 @@ int run_campaign(int argc, char** argv);
 }  // namespace
 
 int main(int argc, char** argv) {
-  try {
-    return run_campaign(argc, argv);
-  } catch (const std::exception& e) {
-    std::cerr << "insid-diagnose-campaign: error: " << e.what() << "\n";
-    return 1;
-  }
+  return insid::tools::run("insid-diagnose-campaign", [&] { return run_campaign(argc, argv); });
 }
 
 namespace {
 
 int run_campaign(int argc, char** argv) {
-  CLI::App app{"Full hidden-effect matrix for insid diagnose -> confusion matrix, power curves."};
+  CLI::App app{"Full hidden-effect matrix for insid diagnose -> confusion matrix, power curves.",
+               "insid-diagnose-campaign"};
   std::string out_dir = "results/diagnose";
   double flight_s = 1200.0;
   int seeds = 2, null_seeds = 24, threads = 0, iterations = 5, rb = 30, rc = 60;
@@ -187,7 +184,7 @@ int run_campaign(int argc, char** argv) {
   std::vector<double> windows = {10.0, 20.0};
   app.add_option("--presets", presets, "mems: the presets (nulls and effects)");
   app.add_option("--windows", windows, "mems: the fitness windows W (s)");
-  CLI11_PARSE(app, argc, argv);
+  insid::tools::parse(app, argc, argv);
 
   namespace fs = std::filesystem;
   fs::create_directories(out_dir);

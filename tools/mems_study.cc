@@ -7,20 +7,26 @@
 #include <cstdio>
 #include <fstream>
 #include <iostream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
 #include <CLI/CLI.hpp>
 
+#include "core/alignment.h"
 #include "core/fitness.h"
 #include "core/rotation.h"
 #include "identification/ekf_rts.h"
 #include "identification/grade.h"
 #include "identification/mems_study.h"
+#include "tools/tool_main.h"
 
-int main(int argc, char** argv) {
+namespace {
+
+int mems_study_main(int argc, char** argv) {
   using namespace insid;
-  CLI::App app("insid-mems-study: identification of simulated MEMS flights within their sd");
+  CLI::App app("insid-mems-study: identification of simulated MEMS flights within their sd",
+               "insid-mems-study");
   mems_study::Spec spec;
   int seeds = 10;
   double sd_scale = 1.0;
@@ -61,8 +67,20 @@ int main(int argc, char** argv) {
                "per seed: the level+heading attitude's error at the true biases against the "
                "EKF-RTS's modelled heading sd (issue 14, the z gyro's sd)");
   app.add_option("--csv", csv, "one row per seed, method and parameter");
-  CLI11_PARSE(app, argc, argv);
+  tools::parse(app, argc, argv);
   register_ekf_rts();
+  // Names checked before any work (a bad one is a usage error).
+  cli::parse_option("--ekf-attitude", [&] {
+    try {
+      return initial_attitude_mode_from_string(spec.ekf_attitude);
+    } catch (const std::invalid_argument& e) {  // it names insid's --initial-attitude
+      const std::string what = e.what(), theirs = "--initial-attitude";
+      throw std::invalid_argument(what.rfind(theirs, 0) == 0
+                                      ? "--ekf-attitude" + what.substr(theirs.size())
+                                      : "--ekf-attitude: " + what);
+    }
+  });
+  cli::parse_option("--swarm", [&] { tools::check_algorithm(spec.swarm); });
   if (heading_check) {
     // The initial attitude's own error w of phi0 = G db + w (identification/ekf_rts.cc): the
     // level+heading attitude with the TRUE biases compensated, against the simulated truth.
@@ -164,4 +182,10 @@ int main(int argc, char** argv) {
         static_cast<long long>(evaluations[m]), seeds, total_nc);
   }
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return insid::tools::run("insid-mems-study", [&] { return mems_study_main(argc, argv); });
 }

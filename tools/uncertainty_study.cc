@@ -19,7 +19,9 @@
 #include "identification/ins_problem.h"
 #include "identification/uncertainty.h"
 #include "optimizers/registry.h"
+#include "scenarios/noise.h"
 #include "scenarios/scenario.h"
+#include "tools/tool_main.h"
 
 namespace {
 
@@ -37,10 +39,9 @@ struct Tally {
   }
 };
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  CLI::App app("insid-uncertainty-study: coverage of the identification's 95 % intervals");
+int uncertainty_study_main(int argc, char** argv) {
+  CLI::App app("insid-uncertainty-study: coverage of the identification's 95 % intervals",
+               "insid-uncertainty-study");
   std::string preset = "rich", grade = "nav", jsonl;
   double flight_s = 120.0;
   int seeds = 50, replicas = 100, evaluations = 200;
@@ -55,8 +56,13 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 100000000));
   app.add_option("--algo", algorithms, "algorithms")->capture_default_str();
   app.add_option("--jsonl", jsonl, "one JSON line per run");
-  CLI11_PARSE(app, argc, argv);
+  tools::parse(app, argc, argv);
   register_ekf_rts();
+  // Names checked before any work (a bad one is a usage error).
+  cli::parse_option("--preset", [&] { return scenarios::preset_scenario(preset); });
+  cli::parse_option("--grade", [&] { return scenarios::noise_grade(grade); });
+  for (const std::string& algo : algorithms)
+    cli::parse_option("--algo", [&] { tools::check_algorithm(algo); });
 
   std::ofstream jout;
   if (!jsonl.empty()) jout.open(jsonl);
@@ -136,4 +142,11 @@ int main(int argc, char** argv) {
   for (const auto& [algo, w] : wall)
     std::printf("\nuncertainty wall time, %s: %.3f s per run\n", algo.c_str(), w / seeds);
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return insid::tools::run("insid-uncertainty-study",
+                           [&] { return uncertainty_study_main(argc, argv); });
 }
