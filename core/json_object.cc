@@ -119,10 +119,12 @@ std::string JsonField::string() const {
 }
 
 std::string JsonField::choice(std::initializer_list<std::string_view> choices) const {
-  std::string expected;
-  for (std::string_view c : choices) {
-    if (!expected.empty()) expected += " or ";
-    expected.append("\"").append(c).append("\"");
+  // "a" or "b"; one of "a", "b", "c"
+  std::string expected = choices.size() > 2 ? "one of " : "";
+  const std::string_view separator = choices.size() > 2 ? ", " : " or ";
+  for (const std::string_view* c = choices.begin(); c != choices.end(); ++c) {
+    if (c != choices.begin()) expected.append(separator);
+    expected.append("\"").append(*c).append("\"");
   }
   if (!value_ || !value_->is_string()) wrong(expected);
   const std::string v = value_->get<std::string>();

@@ -141,6 +141,12 @@ TEST(JsonObject, WrongTypeSaysWhatWasExpectedAndWhatWasFound) {
             }),
             "campaign.json: scenarios[1].imu.mode: expected \"slow\" or \"steady\", found a "
             "string \"fast\"");
+  EXPECT_EQ(error_of([&] {
+              imu.field("mode").choice({"slow", "steady", "still"});
+            }),
+            "campaign.json: scenarios[1].imu.mode: expected one of \"slow\", \"steady\", "
+            "\"still\", found a string \"fast\"");
+  EXPECT_EQ(imu.field("mode").choice({"slow", "fast"}), "fast");
   EXPECT_EQ(error_of([&] { imu.string("nothing"); }),
             "campaign.json: scenarios[1].imu.nothing: expected a string, found null");
   // A long value is cut.
