@@ -182,19 +182,19 @@ void JsonArray::fail(std::string_view what) const {
 JsonObject::JsonObject(const json& value, std::string source, std::string path,
                        std::vector<std::string> keys)
     : JsonObject(value, std::move(source), std::move(path),
-                 std::optional<std::vector<std::string>>(std::move(keys))) {}
+                 std::optional<std::vector<std::string>>(std::move(keys)), true) {}
 
 JsonObject JsonObject::any_keys(const json& value, std::string source, std::string path) {
-  return JsonObject(value, std::move(source), std::move(path), std::nullopt);
+  return JsonObject(value, std::move(source), std::move(path), std::nullopt, false);
 }
 
 JsonObject::JsonObject(const json& value, std::string source, std::string path,
-                       std::optional<std::vector<std::string>> keys)
+                       std::optional<std::vector<std::string>> keys, bool refuse_others)
     : value_(&value), source_(std::move(source)), path_(std::move(path)), keys_(std::move(keys)) {
   if (!value.is_object())
     throw JsonFieldError(json_field_message(
         source_, path_, "expected an object, found " + describe_json_value(value)));
-  if (!keys_) return;
+  if (!keys_ || !refuse_others) return;
   for (const auto& item : value.items())
     if (std::find(keys_->begin(), keys_->end(), item.key()) == keys_->end())
       fail(item.key(), "unknown key (valid keys: " + joined(*keys_) + ")");

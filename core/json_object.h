@@ -139,6 +139,12 @@ class JsonObject {
   }
   /// An object with any keys (a map).
   static JsonObject any_keys(const nlohmann::json& value, std::string source, std::string path);
+  /// An object whose keys `keys` are read and any other key is left alone: only for a format
+  /// that promises it (meta.json's top level, where a hand-made dataset may keep its notes).
+  static JsonObject with_other_keys(const nlohmann::json& value, std::string source,
+                                    std::string path, std::vector<std::string> keys) {
+    return JsonObject(value, std::move(source), std::move(path), std::move(keys), false);
+  }
 
   /// The key is in the object (with any value, null included).
   bool has(std::string_view key) const;
@@ -176,8 +182,9 @@ class JsonObject {
   std::string path_of(std::string_view key) const { return json_key_path(path_, key); }
 
  private:
+  /// `keys` nullopt: any keys; else the keys read, and others refused when `refuse_others`.
   JsonObject(const nlohmann::json& value, std::string source, std::string path,
-             std::optional<std::vector<std::string>> keys);
+             std::optional<std::vector<std::string>> keys, bool refuse_others);
   /// A programming error: reading a key not declared (the declared list is the valid keys the
   /// messages name, so every key read must be in it).
   void check_declared(std::string_view key) const;

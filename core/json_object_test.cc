@@ -81,6 +81,11 @@ TEST(JsonObject, UnknownKeyIsRefusedListingTheValidOnes) {
             "campaign.json: scenarios: unknown key (valid keys: name)");
   // A map takes any key.
   EXPECT_EQ(error_of([&] { top.array("scenarios")[1].map(); }), "(accepted)");
+  // So does an object that leaves other keys alone, but it reads only its own.
+  const JsonObject open =
+      JsonObject::with_other_keys(j["scenarios"][1], "campaign.json", "scenarios[1]", {"name"});
+  EXPECT_EQ(open.string("name"), "b");
+  EXPECT_THROW((void)open.has("colour"), std::logic_error);
 }
 
 TEST(JsonObject, MissingKeyNamesThePathAndTheExpectedType) {
