@@ -158,11 +158,10 @@ JsonField JsonArray::operator[](std::size_t index) const {
   return JsonField(&(*value_)[index], source_, json_index_path(path_, index));
 }
 
-std::vector<double> JsonArray::numbers(bool finite) const {
+std::vector<double> JsonArray::numbers() const {
   std::vector<double> out;
   out.reserve(size());
-  for (std::size_t i = 0; i < size(); ++i)
-    out.push_back(finite ? (*this)[i].finite_number() : (*this)[i].number());
+  for (std::size_t i = 0; i < size(); ++i) out.push_back((*this)[i].finite_number());
   return out;
 }
 

@@ -110,8 +110,8 @@ class JsonArray {
   JsonField operator[](std::size_t index) const;
   const nlohmann::json& value() const { return *value_; }
 
-  /// Every element a number (finite when `finite`), else the first that is not is named.
-  std::vector<double> numbers(bool finite = true) const;
+  /// Every element a finite number, else the first that is not is named.
+  std::vector<double> numbers() const;
   std::vector<std::string> strings() const;
 
   [[noreturn]] void fail(std::string_view what) const;

@@ -99,14 +99,18 @@ ExternalReply parse_external_reply(std::string_view line, const Bounds& box,
       const JsonField point = points[i];
       if (!point.value().is_array() || point.value().size() != static_cast<std::size_t>(n))
         point.fail(expected_point + ", found " + describe_json_value(point.value()));
-      const JsonArray coordinates = point.array();
+      // The coordinates read directly (a reply may hold millions); a JsonField names the one
+      // at fault.
+      const nlohmann::json& coordinates = point.value();
       Eigen::VectorXd x(n);
       for (int j = 0; j < n; ++j) {
-        const JsonField coordinate = coordinates[static_cast<std::size_t>(j)];
-        x[j] = coordinate.finite_number();
-        if (x[j] < box.lower[j] || x[j] > box.upper[j])
-          coordinate.fail("expected a number in the box [" + format_number(box.lower[j]) + ", " +
-                          format_number(box.upper[j]) + "], found " + format_number(x[j]));
+        const nlohmann::json& v = coordinates[static_cast<std::size_t>(j)];
+        x[j] = v.is_number() ? v.get<double>() : std::numeric_limits<double>::quiet_NaN();
+        if (std::isfinite(x[j]) && x[j] >= box.lower[j] && x[j] <= box.upper[j]) continue;
+        const JsonField coordinate = point.array()[static_cast<std::size_t>(j)];
+        coordinate.finite_number();  // throws for anything but a finite number
+        coordinate.fail("expected a number in the box [" + format_number(box.lower[j]) + ", " +
+                        format_number(box.upper[j]) + "], found " + format_number(x[j]));
       }
       out.points.push_back(std::move(x));
     }
