@@ -169,7 +169,7 @@ class JsonObject {
     return field(key).object(std::move(keys));
   }
 
-  /// The keys and values in the document's order (nlohmann keeps them sorted), for a map.
+  /// The object itself (a map's keys and values, sorted by key as nlohmann::json keeps them).
   const nlohmann::json& value() const { return *value_; }
 
   /// Throws JsonFieldError for the object itself: "<source>: <path>: <what>".

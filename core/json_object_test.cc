@@ -55,7 +55,7 @@ TEST(JsonObject, ReadsEveryTypeAtItsPath) {
   const JsonObject axis = axes[1].object({"bias"});
   EXPECT_EQ(axis.path(), "imu.axes[1]");
   EXPECT_EQ(axis.number("bias"), 2.0);
-  // A map: any keys, read in the document's order.
+  // A map: any keys, sorted by key.
   const JsonObject set = r.field("set").map();
   std::vector<std::string> names;
   for (const auto& item : set.value().items()) names.push_back(item.key());
