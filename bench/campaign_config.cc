@@ -8,6 +8,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "core/json_object.h"
+#include "core/json_reader.h"
 #include "core/output_dir.h"
 #include "identification/grade.h"
 #include "optimizers/registry.h"
@@ -19,66 +21,15 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// Strict JSON object reader: every key must be consumed, unknown keys are errors.
-class Reader {
- public:
-  Reader(const nlohmann::json& j, std::string where) : j_(j), where_(std::move(where)) {
-    if (!j_.is_object()) throw std::invalid_argument(where_ + ": expected a JSON object");
+// A name read by its own parser, which names the valid ones; its error at the field's path.
+template <typename Parse>
+auto parsed_name(const JsonObject& r, std::string_view key, Parse parse) {
+  const std::string name = r.string(key);
+  try {
+    return parse(name);
+  } catch (const std::invalid_argument& e) {
+    r.fail(key, e.what());
   }
-  bool has(const std::string& key) const { return j_.contains(key); }
-  const nlohmann::json& at(const std::string& key) {
-    used_.insert(key);
-    if (!j_.contains(key)) throw std::invalid_argument(where_ + ": missing key \"" + key + "\"");
-    return j_.at(key);
-  }
-  double number(const std::string& key) {
-    const nlohmann::json& v = at(key);
-    if (!v.is_number()) throw std::invalid_argument(where_ + ": \"" + key + "\" must be a number");
-    return v.get<double>();
-  }
-  const nlohmann::json& array(const std::string& key) {
-    const nlohmann::json& v = at(key);
-    if (!v.is_array())
-      throw std::invalid_argument(where_ + ": \"" + key + "\" must be an array, got " +
-                                  v.type_name() + " " + v.dump());
-    return v;
-  }
-  // An array of `type` ("string" or "number") items.
-  const nlohmann::json& array_of(const std::string& key, const std::string& type) {
-    const nlohmann::json& v = array(key);
-    for (std::size_t k = 0; k < v.size(); ++k)
-      if ((type == "string" && !v[k].is_string()) || (type == "number" && !v[k].is_number()))
-        throw std::invalid_argument(where_ + ": \"" + key + "\"[" + std::to_string(k) +
-                                    "] must be a " + type + ", got " + v[k].dump());
-    return v;
-  }
-  std::string string(const std::string& key) {
-    const nlohmann::json& v = at(key);
-    if (!v.is_string()) throw std::invalid_argument(where_ + ": \"" + key + "\" must be a string");
-    return v.get<std::string>();
-  }
-  void finish(const std::vector<std::string>& allowed) const {
-    for (const auto& item : j_.items()) {
-      if (std::find(allowed.begin(), allowed.end(), item.key()) == allowed.end()) {
-        std::string list;
-        for (const std::string& a : allowed) list += (list.empty() ? "" : ", ") + a;
-        throw std::invalid_argument(where_ + ": unknown key \"" + item.key() +
-                                    "\"; valid keys: " + list);
-      }
-    }
-  }
-
- private:
-  const nlohmann::json& j_;
-  std::string where_;
-  std::set<std::string> used_;
-};
-
-int whole(double v, const std::string& what) {
-  if (v != std::floor(v) || v < 0 || v > 1e9)
-    throw std::invalid_argument(what + " must be a non-negative whole number, got " +
-                                std::to_string(v));
-  return static_cast<int>(v);
 }
 
 std::string first_difference(const nlohmann::json& a, const nlohmann::json& b,
@@ -236,112 +187,108 @@ nlohmann::json CampaignConfig::to_json() const {
 }
 
 CampaignConfig parse_campaign(const nlohmann::json& j, const std::string& origin) {
-  Reader r(j, origin);
+  // Counts and seeds: whole numbers up to 1e9 (a seed is a run file per algorithm; validate()
+  // bounds the number of seeds further).
+  constexpr std::int64_t kMaxWhole = 1000000000;
+  const JsonObject r = JsonObject::document(
+      j, origin,
+      {"name", "scenarios", "algorithms", "seeds", "max_iterations", "max_evaluations", "alignment",
+       "initial_attitude", "heading_deg", "heading_source", "window_s", "estimation_grade",
+       "estimate", "record_positions_seeds", "target_error_sigma", "target_fitness_gap",
+       "uncertainty_replicas"});
   CampaignConfig c;
-  if (r.has("name")) c.name = r.string("name");
-  for (std::size_t i = 0; i < r.array("scenarios").size(); ++i) {
-    const std::string where = origin + ": scenarios[" + std::to_string(i) + "]";
-    Reader s(j.at("scenarios")[i], where);
+  c.name = r.string("name", c.name);
+  const JsonArray scenarios = r.array("scenarios");
+  for (std::size_t i = 0; i < scenarios.size(); ++i) {
+    const JsonObject s =
+        scenarios[i].object({"name", "preset", "data", "flight_s", "grade", "data_seed", "set"});
     ScenarioSpec spec;
     spec.name = s.string("name");
-    if (s.has("preset")) spec.preset = s.string("preset");
-    if (s.has("data")) spec.data_dir = s.string("data");
+    spec.preset = s.string("preset", "");
+    spec.data_dir = s.string("data", "");
     if (spec.preset.empty() == spec.data_dir.empty())
-      throw std::invalid_argument(where + ": give exactly one of \"preset\" and \"data\"");
-    if (s.has("flight_s")) spec.flight_s = s.number("flight_s");
+      s.fail("give exactly one of \"preset\" and \"data\"");
+    if (s.has("flight_s")) spec.flight_s = s.field("flight_s").number();
     if (s.has("grade")) spec.grade = s.string("grade");
     if (s.has("data_seed"))
-      spec.data_seed =
-          static_cast<std::uint64_t>(whole(s.number("data_seed"), where + ".data_seed"));
+      spec.data_seed = static_cast<std::uint64_t>(s.field("data_seed").integer(0, kMaxWhole));
     if (s.has("set")) {
-      for (const auto& item : s.at("set").items()) {
-        effect_info(item.key());
-        if (!item.value().is_number())
-          throw std::invalid_argument(where + ".set." + item.key() + " must be a number (SI)");
-        spec.set[item.key()] = item.value().get<double>();
+      const JsonObject set = s.field("set").map();
+      for (const auto& item : set.value().items()) {
+        try {
+          effect_info(item.key());
+        } catch (const std::invalid_argument& e) {
+          set.fail(item.key(), e.what());
+        }
+        spec.set[item.key()] = set.field(item.key()).number();  // SI
       }
     }
-    s.finish({"name", "preset", "data", "flight_s", "grade", "data_seed", "set"});
     c.scenarios.push_back(spec);
   }
-  for (std::size_t i = 0; i < r.array("algorithms").size(); ++i) {
-    const std::string where = origin + ": algorithms[" + std::to_string(i) + "]";
-    Reader a(j.at("algorithms")[i], where);
+  const JsonArray algorithms = r.array("algorithms");
+  for (std::size_t i = 0; i < algorithms.size(); ++i) {
+    const JsonObject a = algorithms[i].object({"name", "label", "parameters"});
     AlgorithmSpec spec;
     spec.name = a.string("name");
-    spec.label = a.has("label") ? a.string("label") : spec.name;
-    if (a.has("parameters"))
-      for (const auto& item : a.at("parameters").items()) {
-        if (!item.value().is_number())
-          throw std::invalid_argument(where + ".parameters." + item.key() + " must be a number");
-        spec.parameters[item.key()] = item.value().get<double>();
-      }
-    a.finish({"name", "label", "parameters"});
+    spec.label = a.string("label", spec.name);
+    if (a.has("parameters")) {
+      const JsonObject parameters = a.field("parameters").map();
+      for (const auto& item : parameters.value().items())
+        spec.parameters[item.key()] = parameters.field(item.key()).number();
+    }
     c.algorithms.push_back(spec);
   }
-  if (r.has("seeds")) {
-    const nlohmann::json& s = r.at("seeds");
-    if (s.is_number()) {
-      const int count = whole(s.get<double>(), origin + ": seeds");
+  if (const std::optional<JsonField> seeds = r.optional("seeds")) {
+    if (seeds->value().is_number()) {
+      const std::int64_t count = seeds->integer(0, kMaxWhole);
       if (count > 100000)
-        throw std::invalid_argument(origin + ": seeds = " + std::to_string(count) +
-                                    " is beyond the limit of 100000");
-      c.seeds = seed_range(count);
-    } else if (s.is_array()) {
-      for (std::size_t k = 0; k < s.size(); ++k) {
-        const std::string key = origin + ": seeds[" + std::to_string(k) + "]";
-        if (!s[k].is_number())
-          throw std::invalid_argument(key + " must be a whole number, got " + s[k].dump());
-        c.seeds.push_back(static_cast<std::uint64_t>(whole(s[k].get<double>(), key)));
-      }
+        seeds->fail(std::to_string(count) + " seeds is beyond the limit of 100000");
+      c.seeds = seed_range(static_cast<int>(count));
+    } else if (seeds->value().is_array()) {
+      const JsonArray list = seeds->array();
+      for (std::size_t k = 0; k < list.size(); ++k)
+        c.seeds.push_back(static_cast<std::uint64_t>(list[k].integer(0, kMaxWhole)));
     } else {
-      throw std::invalid_argument(origin + ": \"seeds\" must be a count or a list of seeds");
+      seeds->fail("expected a count or a list of seeds, found " +
+                  describe_json_value(seeds->value()));
     }
   } else {
     c.seeds = seed_range(31);
   }
   if (r.has("max_iterations"))
-    c.max_iterations = whole(r.number("max_iterations"), origin + ": max_iterations");
+    c.max_iterations = static_cast<int>(r.field("max_iterations").integer(0, kMaxWhole));
   if (r.has("max_evaluations"))
-    c.max_evaluations = whole(r.number("max_evaluations"), origin + ": max_evaluations");
-  if (r.has("alignment")) c.alignment = alignment_mode_from_string(r.string("alignment"));
-  if (r.has("initial_attitude")) {
-    const std::string mode = r.string("initial_attitude");
-    try {
-      c.initial_attitude = initial_attitude_mode_from_string(mode);
-    } catch (const std::invalid_argument& e) {
-      throw std::invalid_argument(origin + ": initial_attitude: " + e.what());
-    }
-  }
-  if (r.has("heading_deg")) c.heading_deg = r.number("heading_deg");
-  if (r.has("heading_source")) {
-    try {
-      c.heading_source = heading_source_from_string(r.string("heading_source"));
-    } catch (const std::invalid_argument& e) {
-      throw std::invalid_argument(origin + ": heading_source: " + e.what());
-    }
-  }
-  if (r.has("window_s")) c.window_s = r.number("window_s");
+    c.max_evaluations = static_cast<int>(r.field("max_evaluations").integer(0, kMaxWhole));
+  // Each name is read by its own parser (the old name "align" of gyrocompass among them).
+  if (r.has("alignment")) c.alignment = parsed_name(r, "alignment", alignment_mode_from_string);
+  if (r.has("initial_attitude"))
+    c.initial_attitude = parsed_name(r, "initial_attitude", initial_attitude_mode_from_string);
+  if (r.has("heading_deg")) c.heading_deg = r.field("heading_deg").number();
+  if (r.has("heading_source"))
+    c.heading_source = parsed_name(r, "heading_source", heading_source_from_string);
+  if (r.has("window_s")) c.window_s = r.field("window_s").number();
   if (r.has("estimation_grade")) c.estimation_grade = r.string("estimation_grade");
-  if (r.has("estimate"))
-    for (const auto& e : r.array_of("estimate", "string"))
-      c.estimate.push_back(e.get<std::string>());
+  if (r.has("estimate")) c.estimate = r.array("estimate").strings();
   if (r.has("record_positions_seeds"))
     c.record_positions_seeds =
-        whole(r.number("record_positions_seeds"), origin + ": record_positions_seeds");
+        static_cast<int>(r.field("record_positions_seeds").integer(0, kMaxWhole));
   if (r.has("uncertainty_replicas"))
     c.uncertainty_replicas =
-        whole(r.number("uncertainty_replicas"), origin + ": uncertainty_replicas");
-  if (r.has("target_error_sigma"))
-    c.target_error_sigma = r.array_of("target_error_sigma", "number").get<std::vector<double>>();
-  if (r.has("target_fitness_gap"))
-    c.target_fitness_gap = r.array_of("target_fitness_gap", "number").get<std::vector<double>>();
-  r.finish({"name", "scenarios", "algorithms", "seeds", "max_iterations", "max_evaluations",
-            "alignment", "initial_attitude", "heading_deg", "heading_source", "window_s",
-            "estimation_grade", "estimate", "record_positions_seeds", "target_error_sigma",
-            "target_fitness_gap", "uncertainty_replicas"});
+        static_cast<int>(r.field("uncertainty_replicas").integer(0, kMaxWhole));
+  if (r.has("target_error_sigma")) c.target_error_sigma = r.array("target_error_sigma").numbers();
+  if (r.has("target_fitness_gap")) c.target_fitness_gap = r.array("target_fitness_gap").numbers();
   c.validate(origin);
   return c;
+}
+
+CampaignConfig read_campaign_file(const std::string& path) {
+  nlohmann::json j;
+  try {
+    j = read_json_file(path);
+  } catch (const std::runtime_error& e) {
+    throw std::invalid_argument(e.what());  // the file's content is the argument
+  }
+  return parse_campaign(j, path);
 }
 
 void CampaignConfig::validate(const std::string& origin) const {

@@ -96,8 +96,13 @@ struct CampaignConfig {
   void validate(const std::string& origin) const;
 };
 
-/// Parse a campaign JSON (documented keys; unknown keys rejected, naming the key and `origin`).
+/// Parse a campaign JSON (documented keys) with insid's one typed reader (core/json_object.h):
+/// throws std::invalid_argument "<origin>: <path>: <what>" for an unknown key (naming the valid
+/// ones), a missing one, a wrong type (what was expected and what was found) or a bad value.
 CampaignConfig parse_campaign(const nlohmann::json& j, const std::string& origin);
+/// Reads and parses the campaign config file `path`; every error (unreadable, not strict JSON, a
+/// key given twice, a field) is a std::invalid_argument starting with the path.
+CampaignConfig read_campaign_file(const std::string& path);
 /// Presets: "paper-fig9" (the paper scenario, Table 4 GA/PSO/PIO/DVPIO), "quick" (a short
 /// flight for tests and a quick look).
 CampaignConfig preset_campaign(const std::string& name);

@@ -18,6 +18,7 @@
 #include <gtest/gtest.h>
 
 #include "bench/sweep.h"
+#include "core/json_reader.h"
 #include "identification/ekf_rts.h"
 
 namespace insid::campaign {
@@ -367,6 +368,75 @@ TEST(Campaign, KilledCampaignResumesWithoutTouchingFinishedRuns) {
   fs::remove(config_path);
 }
 
+// The message of the std::invalid_argument that reading the config file with `text` throws, or
+// "(accepted)".
+std::string config_file_error(const std::string& text) {
+  const fs::path path = fresh_dir("config-file").string() + ".json";
+  std::ofstream(path) << text;
+  std::string error = "(accepted)";
+  try {
+    read_campaign_file(path.string());
+  } catch (const std::invalid_argument& e) {
+    error = e.what();
+  }
+  fs::remove(path);
+  return error;
+}
+
+// The one typed reader's wording (core/json_object.h): the file, the field's path, what was
+// expected and what was found, for each kind of fault of a campaign config file.
+TEST(Campaign, ConfigFileFaultsAreNamedWithTheFieldPath) {
+  const std::string path = fresh_dir("config-file").string() + ".json";
+  const std::string algorithms = R"("algorithms": [{"name": "pso"}], "max_iterations": 2)";
+  // GIVEN a good config file THEN it reads
+  EXPECT_EQ(
+      config_file_error(R"({"scenarios": [{"name": "s", "preset": "rich"}], )" + algorithms + "}"),
+      "(accepted)");
+  // an unknown key, with the valid ones
+  EXPECT_EQ(config_file_error(R"({"scenarios": [{"name": "s", "preset": "rich"},
+                                               {"name": "t", "preset": "rich", "colour": 1}], )" +
+                              algorithms + "}"),
+            path +
+                ": scenarios[1].colour: unknown key (valid keys: name, preset, data, flight_s, "
+                "grade, data_seed, set)");
+  // a missing key
+  EXPECT_EQ(config_file_error(R"({"scenarios": [{"preset": "rich"}], )" + algorithms + "}"),
+            path + ": scenarios[0].name: missing, expected a string");
+  // a wrong type
+  EXPECT_EQ(config_file_error(R"({"scenarios": [{"name": "s", "preset": "rich",
+                                                "flight_s": "long"}], )" +
+                              algorithms + "}"),
+            path + ": scenarios[0].flight_s: expected a number, found a string \"long\"");
+  // a key given twice (refused by the strict parser, in the same wording)
+  EXPECT_EQ(config_file_error(R"({"scenarios": [{"name": "s", "preset": "rich",
+                                                "name": "t"}], )" +
+                              algorithms + "}"),
+            path +
+                ": scenarios[0].name: key given twice in one object (JSON objects must not "
+                "repeat a key)");
+}
+
+TEST(Campaign, EveryCommittedConfigAndManifestStillReads) {
+  // Files insid wrote earlier (results/: campaign configs and manifests of old schemas) read
+  // with today's reader.
+  register_ekf_rts();  // as insid's main does (paper-plus-baselines runs it)
+  int configs = 0, manifests = 0;
+  for (const auto& entry :
+       fs::recursive_directory_iterator(fs::path(INSID_SOURCE_DIR) / "results")) {
+    const fs::path& p = entry.path();
+    if (p.extension() != ".json") continue;
+    if (p.parent_path().filename() == "configs") {
+      EXPECT_NO_THROW(read_campaign_file(p.string())) << p;
+      ++configs;
+    } else if (p.filename() == "manifest.json") {
+      EXPECT_NO_THROW(config_from_manifest(read_json_file(p), p.string())) << p;
+      ++manifests;
+    }
+  }
+  EXPECT_GE(configs, 10);
+  EXPECT_GE(manifests, 10);
+}
+
 TEST(Campaign, BadConfigsGetClearErrors) {
   nlohmann::json j = nlohmann::json::parse(kConfig);
   j["colour"] = "blue";
@@ -374,7 +444,9 @@ TEST(Campaign, BadConfigsGetClearErrors) {
     parse_campaign(j, "c.json");
     FAIL();
   } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("c.json: unknown key \"colour\""), std::string::npos)
+    EXPECT_NE(std::string(e.what()).find("c.json: colour: unknown key (valid keys: name, "
+                                         "scenarios, algorithms, seeds, "),
+              std::string::npos)
         << e.what();
   }
   j = nlohmann::json::parse(kConfig);

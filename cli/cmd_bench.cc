@@ -7,13 +7,10 @@
 #include <memory>
 #include <string>
 
-#include <nlohmann/json.hpp>
-
 #include "bench/campaign.h"
 #include "bench/cluster.h"
 #include "cli/cli_util.h"
 #include "cli/commands.h"
-#include "core/json_reader.h"
 
 namespace insid::cli {
 namespace {
@@ -37,13 +34,7 @@ void run_bench(const BenchArgs& args) {
   if (!args.preset.empty()) {
     config = parse_option("--preset", [&] { return campaign::preset_campaign(args.preset); });
   } else {
-    nlohmann::json j;
-    try {
-      j = read_json_file(args.config_path, "--config " + args.config_path);
-    } catch (const std::runtime_error& e) {
-      throw std::invalid_argument(e.what());
-    }
-    config = campaign::parse_campaign(j, args.config_path);
+    config = campaign::read_campaign_file(args.config_path);
   }
   if (args.seeds > 0) config.seeds = campaign::seed_range(args.seeds);
   if (args.flight_s > 0)

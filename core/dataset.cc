@@ -42,6 +42,7 @@
 
 #include "core/digest.h"
 #include "core/file_read.h"
+#include "core/json_object.h"
 #include "core/json_reader.h"
 #include "core/output_dir.h"
 #include "core/sensor_errors.h"
@@ -312,170 +313,125 @@ RecordedFile parse_heading_csv(const std::string& text, const CsvWhere& where, O
 // ------------------------------------------------------------------------------------------
 // meta.json
 
-struct MetaReader {
-  std::string prefix;  // "<dir>: meta.json: "
+// The keys insid has written into meta.json (every one ever: a dataset written earlier reads).
+// Other keys at the top level are left alone (a dataset made by hand may carry its notes,
+// "comment"); the blocks insid defines (earth, initial, noise, heading, files) refuse a key
+// they do not have, naming theirs.
+const std::vector<std::string> kMetaKeys = {"format",  "imu_rate_hz", "gnss_rate_hz",       "earth",
+                                            "align_s", "initial",     "injected",           "noise",
+                                            "heading", "files",       "autopilot_estimates"};
 
-  [[noreturn]] void fail_at(const std::string& msg) const { fail(prefix + msg); }
-
-  static std::string join_path(const std::string& parent, const std::string& key) {
-    return parent.empty() ? key : parent + "." + key;
-  }
-
-  const json* find(const json& obj, const std::string& key) const {
-    const auto it = obj.find(key);
-    if (it == obj.end()) return nullptr;
-    return &*it;
-  }
-
-  const json& require(const json& obj, const std::string& key, const std::string& path) const {
-    const json* v = find(obj, key);
-    if (!v) fail_at("missing field \"" + path + "\"");
-    return *v;
-  }
-
-  double number(const json& v, const std::string& path) const {
-    if (!v.is_number())
-      fail_at("field \"" + path + "\" must be a number, got " + std::string(v.type_name()));
-    const double x = v.get<double>();
-    if (!std::isfinite(x)) fail_at("field \"" + path + "\" must be a finite number");
-    return x;
-  }
-
-  double number(const json& obj, const std::string& key, const std::string& parent) const {
-    const std::string path = join_path(parent, key);
-    return number(require(obj, key, path), path);
-  }
-
-  const json& object(const json& v, const std::string& path) const {
-    if (!v.is_object())
-      fail_at("field \"" + path + "\" must be an object, got " + std::string(v.type_name()));
-    return v;
-  }
-};
-
+// The fields of meta.json through insid's one typed reader (core/json_object.h): errors name the
+// field's path ("<dir>: meta.json: initial.lat_deg: expected a finite number, found ...").
 // `files` receives the "files" block (the data files' rows and digests) when meta.json has one.
-DatasetMeta parse_meta(const std::string& text, const std::string& dir_prefix,
-                       std::map<std::string, RecordedFile>& files) {
-  const MetaReader r{dir_prefix + std::string(kMetaFile) + ": "};
-  if (all_whitespace(text.data(), text.data() + text.size()))
-    r.fail_at("empty file, expected a JSON object");
-  json j;
-  try {
-    j = parse_json_strict(text, dir_prefix + std::string(kMetaFile));
-  } catch (const std::runtime_error& e) {
-    fail(e.what());  // syntax error with line and column, or a key given twice
-  }
-  if (!j.is_object())
-    r.fail_at("the top level must be a JSON object, got " + std::string(j.type_name()));
-
-  const json& format = r.require(j, "format", "format");
-  if (!format.is_string())
-    r.fail_at("field \"format\" must be a string, got " + std::string(format.type_name()));
-  if (format.get<std::string>() != kFormat && format.get<std::string>() != kFormat2)
-    r.fail_at("field \"format\" must be \"" + std::string(kFormat) + "\" or \"" +
-              std::string(kFormat2) + "\", got \"" + format.get<std::string>() + "\"");
-
+DatasetMeta read_meta_fields(const json& j, const std::string& source,
+                             std::map<std::string, RecordedFile>& files) {
+  const JsonObject r = JsonObject::with_other_keys(j, source, "", kMetaKeys);
   DatasetMeta m;
-  m.format = format.get<std::string>() == kFormat ? DatasetFormat::kV1 : DatasetFormat::kV2;
-  m.imu_rate_hz = r.number(j, "imu_rate_hz", "");
-  m.gnss_rate_hz = r.number(j, "gnss_rate_hz", "");
-  const json& earth = r.object(r.require(j, "earth", "earth"), "earth");
-  m.earth.ellipsoid.a_m = r.number(earth, "a_m", "earth");
-  m.earth.ellipsoid.f = r.number(earth, "f", "earth");
-  m.earth.omega_ie_rad_s = r.number(earth, "omega_ie_rad_s", "earth");
-  m.earth.g_eq_mps2 = r.number(earth, "g_eq_mps2", "earth");
-  m.align_s = r.number(j, "align_s", "");
+  m.format = r.field("format").choice({kFormat, kFormat2}) == kFormat ? DatasetFormat::kV1
+                                                                      : DatasetFormat::kV2;
+  m.imu_rate_hz = r.number("imu_rate_hz");
+  m.gnss_rate_hz = r.number("gnss_rate_hz");
+  const JsonObject earth = r.object("earth", {"a_m", "f", "omega_ie_rad_s", "g_eq_mps2"});
+  m.earth.ellipsoid.a_m = earth.number("a_m");
+  m.earth.ellipsoid.f = earth.number("f");
+  m.earth.omega_ie_rad_s = earth.number("omega_ie_rad_s");
+  m.earth.g_eq_mps2 = earth.number("g_eq_mps2");
+  m.align_s = r.number("align_s");
 
-  const json& ini = r.object(r.require(j, "initial", "initial"), "initial");
-  m.initial.t_s = r.number(ini, "t_s", "initial");
-  m.initial.lat_rad = r.number(ini, "lat_deg", "initial") * kDegToRad;
-  m.initial.lon_rad = r.number(ini, "lon_deg", "initial") * kDegToRad;
-  m.initial.h_m = r.number(ini, "h_m", "initial");
-  m.initial.v_eb_n_mps = {r.number(ini, "vE_mps", "initial"), r.number(ini, "vN_mps", "initial"),
-                          r.number(ini, "vU_mps", "initial")};
+  const JsonObject ini =
+      r.object("initial", {"t_s", "lat_deg", "lon_deg", "h_m", "vE_mps", "vN_mps", "vU_mps",
+                           "roll_deg", "pitch_deg", "yaw_deg"});
+  m.initial.t_s = ini.number("t_s");
+  m.initial.lat_rad = ini.number("lat_deg") * kDegToRad;
+  m.initial.lon_rad = ini.number("lon_deg") * kDegToRad;
+  m.initial.h_m = ini.number("h_m");
+  m.initial.v_eb_n_mps = {ini.number("vE_mps"), ini.number("vN_mps"), ini.number("vU_mps")};
   // insid-dataset/2: an unknown initial attitude is written as roll/pitch/yaw null.
-  const bool attitude_null = m.format == DatasetFormat::kV2 && r.find(ini, "roll_deg") &&
-                             r.find(ini, "roll_deg")->is_null();
-  if (attitude_null) {
+  if (m.format == DatasetFormat::kV2 && ini.has("roll_deg") && ini.field("roll_deg").is_null()) {
     for (const char* key : {"pitch_deg", "yaw_deg"})
-      if (!r.find(ini, key) || !r.find(ini, key)->is_null())
-        r.fail_at(std::string("field \"initial.") + key +
-                  "\" must be null like initial.roll_deg (an unknown attitude is unknown whole)");
+      if (!ini.field(key).is_null())
+        ini.fail(key, "must be null like initial.roll_deg (an unknown attitude is unknown whole)");
     m.initial_attitude_known = false;
   } else {
-    m.initial.attitude.roll_rad = r.number(ini, "roll_deg", "initial") * kDegToRad;
-    m.initial.attitude.pitch_rad = r.number(ini, "pitch_deg", "initial") * kDegToRad;
-    m.initial.attitude.yaw_rad = r.number(ini, "yaw_deg", "initial") * kDegToRad;
+    m.initial.attitude.roll_rad = ini.number("roll_deg") * kDegToRad;
+    m.initial.attitude.pitch_rad = ini.number("pitch_deg") * kDegToRad;
+    m.initial.attitude.yaw_rad = ini.number("yaw_deg") * kDegToRad;
   }
 
   // Optional parts: absent or null means "not given".
-  if (const json* inj = r.find(j, "injected"); inj && !inj->is_null()) {
-    r.object(*inj, "injected");
+  if (const std::optional<JsonField> injected = r.optional_given("injected")) {
+    const JsonObject inj = injected->map();
     std::map<std::string, double> values;
-    for (const auto& [name, value] : inj->items()) {
-      const std::string path = "injected." + name;
+    for (const auto& item : inj.value().items()) {
+      const std::string& name = item.key();
       if (!is_effect_name(name)) {
         std::string known;
         for (const auto& e : effect_catalogue()) {
           if (!known.empty()) known += ", ";
           known += e.name;
         }
-        r.fail_at("field \"" + path + "\": unknown effect name \"" + name +
-                  "\"; the effect catalogue has: " + known);
+        inj.fail(name, "unknown effect name \"" + name + "\"; the effect catalogue has: " + known);
       }
-      values[name] = r.number(value, path);
+      values[name] = inj.number(name);
     }
     m.injected = std::move(values);
   }
-  if (const json* noise = r.find(j, "noise"); noise && !noise->is_null()) {
-    r.object(*noise, "noise");
+  if (const std::optional<JsonField> noise_field = r.optional_given("noise")) {
+    const JsonObject noise = noise_field->object(
+        {"arw_deg_rth", "vrw_mps_rth", "gnss_vel_sigma_mps", "gnss_pos_sigma_m"});
     NoiseLevels n;
-    n.arw_deg_rth = r.number(*noise, "arw_deg_rth", "noise");
-    n.vrw_mps_rth = r.number(*noise, "vrw_mps_rth", "noise");
-    n.gnss_vel_sigma_mps = r.number(*noise, "gnss_vel_sigma_mps", "noise");
-    n.gnss_pos_sigma_m = r.number(*noise, "gnss_pos_sigma_m", "noise");
+    n.arw_deg_rth = noise.number("arw_deg_rth");
+    n.vrw_mps_rth = noise.number("vrw_mps_rth");
+    n.gnss_vel_sigma_mps = noise.number("gnss_vel_sigma_mps");
+    n.gnss_pos_sigma_m = noise.number("gnss_pos_sigma_m");
     m.noise = n;
   }
-  if (const json* heading = r.find(j, "heading"); heading && !heading->is_null()) {
-    r.object(*heading, "heading");
-    for (const auto& [key, value] : heading->items())
-      if (key != "source" && key != "declination_deg")
-        r.fail_at("field \"heading." + key +
-                  "\": unknown field (heading has \"source\" and \"declination_deg\")");
-    const json& source = r.require(*heading, "source", "heading.source");
+  if (const std::optional<JsonField> heading_field = r.optional_given("heading")) {
+    const JsonObject heading = heading_field->object({"source", "declination_deg"});
     HeadingMeta h;
-    if (source == "dual_antenna")
-      h.source = HeadingSourceKind::kDualAntenna;
-    else if (source == "magnetometer")
-      h.source = HeadingSourceKind::kMagnetometer;
-    else
-      r.fail_at("field \"heading.source\" must be \"dual_antenna\" or \"magnetometer\", got " +
-                source.dump());
-    if (const json* d = r.find(*heading, "declination_deg"); d && !d->is_null())
-      h.declination_deg = r.number(*d, "heading.declination_deg");
+    h.source = heading.field("source").choice({"dual_antenna", "magnetometer"}) == "dual_antenna"
+                   ? HeadingSourceKind::kDualAntenna
+                   : HeadingSourceKind::kMagnetometer;
+    if (heading.given("declination_deg")) h.declination_deg = heading.number("declination_deg");
     m.heading = h;
   }
-  if (const json* ap = r.find(j, "autopilot_estimates"); ap && !ap->is_null())
-    m.autopilot_estimates_json = r.object(*ap, "autopilot_estimates").dump();
-  if (const json* recorded = r.find(j, "files"); recorded && !recorded->is_null()) {
-    r.object(*recorded, "files");
-    for (const auto& [name, record] : recorded->items()) {
-      const std::string path = "files." + name;
+  if (const std::optional<JsonField> ap = r.optional_given("autopilot_estimates"))
+    m.autopilot_estimates_json = ap->map().value().dump();  // kept verbatim, never computed with
+  if (const std::optional<JsonField> recorded = r.optional_given("files")) {
+    const JsonObject records = recorded->map();
+    for (const auto& item : records.value().items()) {
+      const std::string& name = item.key();
       if (name != kImuFile && name != kGnssFile && name != kTruthFile && name != kHeadingFile)
-        r.fail_at("field \"" + path +
-                  "\": not a data file of a dataset (imu.csv, gnss.csv, truth.csv, heading.csv)");
-      r.object(record, path);
-      const double rows = r.number(record, "rows", path);
-      if (rows < 0 || rows != std::floor(rows))
-        r.fail_at("field \"" + path + ".rows\" must be a whole number >= 0, got " + num_text(rows));
-      const json& digest = r.require(record, "sha256", path + ".sha256");
-      if (!digest.is_string() || digest.get<std::string>().size() != 64 ||
-          digest.get<std::string>().find_first_not_of("0123456789abcdef") != std::string::npos)
-        r.fail_at("field \"" + path + ".sha256\" must be 64 lowercase hex digits");
-      files[name] = {static_cast<std::size_t>(rows), digest.get<std::string>()};
+        records.fail(name,
+                     "not a data file of a dataset (imu.csv, gnss.csv, truth.csv, "
+                     "heading.csv)");
+      const JsonObject record = records.object(name, {"rows", "sha256"});
+      // Row counts up to 2^53, where doubles (JSON numbers) still count every integer.
+      const std::int64_t rows = record.field("rows").integer(0, std::int64_t{1} << 53);
+      const std::string digest = record.string("sha256");
+      if (digest.size() != 64 || digest.find_first_not_of("0123456789abcdef") != std::string::npos)
+        record.fail("sha256", "expected 64 lowercase hex digits, found " +
+                                  describe_json_value(record.field("sha256").value()));
+      files[name] = {static_cast<std::size_t>(rows), digest};
     }
   }
   return m;
+}
+
+// `files` receives the "files" block (the data files' rows and digests) when meta.json has one.
+DatasetMeta parse_meta(const std::string& text, const std::string& dir_prefix,
+                       std::map<std::string, RecordedFile>& files) {
+  const std::string source = dir_prefix + std::string(kMetaFile);  // "<dir>: meta.json"
+  if (all_whitespace(text.data(), text.data() + text.size()))
+    fail(json_field_message(source, "", "empty file, expected a JSON object"));
+  try {
+    return read_meta_fields(parse_json_strict(text, source), source, files);
+  } catch (const std::runtime_error& e) {
+    fail(e.what());  // not strict JSON (with line and column), or a key given twice
+  } catch (const JsonFieldError& e) {
+    fail(e.what());  // a field: unknown, missing, of the wrong type or value
+  }
 }
 
 // A data file against what meta.json recorded when insid wrote it (after every other check, so

@@ -174,7 +174,8 @@ void add_heading_cases(std::vector<Case>& cases) {
   cases.push_back(
       {"heading_source_unknown",
        [](const fs::path& d) { replace_in_meta(d, "\"dual_antenna\"", "\"compass\""); },
-       {"meta.json", "heading.source", "\"dual_antenna\" or \"magnetometer\"", "compass"},
+       {"meta.json: heading.source: expected \"dual_antenna\" or \"magnetometer\", found a string "
+        "\"compass\""},
        true});
   cases.push_back(
       {"heading_magnetometer_without_declination",
@@ -199,7 +200,7 @@ void add_heading_cases(std::vector<Case>& cases) {
                    [](const fs::path& d) {
                      replace_in_meta(d, "\"dual_antenna\"", "\"dual_antenna\", \"frame\": 1");
                    },
-                   {"meta.json", "heading.frame", "unknown field"},
+                   {"meta.json: heading.frame: unknown key (valid keys: source, declination_deg)"},
                    true});
   cases.push_back({"heading_value_edited",
                    [](const fs::path& d) {
@@ -338,7 +339,7 @@ std::vector<Case> make_cases() {
                      meta.insert(meta.find('{') + 1, "\"imu_rate_hz\": 100,");
                      write_text(d / "meta.json", meta);
                    },
-                   {"meta.json", "key \"imu_rate_hz\" appears twice"}});
+                   {"meta.json: imu_rate_hz: key given twice in one object"}});
   // A data file cut at a line boundary, or one value edited: the rows and digest insid recorded.
   cases.push_back({"imu_cut_at_line_boundary",
                    [](const fs::path& d) {

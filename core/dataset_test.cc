@@ -356,7 +356,9 @@ TEST_F(DatasetTest, MetaKeyGivenTwiceIsAnError) {
   meta.insert(meta.find('{') + 1, "\"align_s\": 5,");
   write_text(dir_ / "meta.json", meta);
   const std::string msg = load_error();
-  EXPECT_CONTAINS(msg, "meta.json: key \"align_s\" appears twice in the top-level object");
+  EXPECT_EQ(msg, dir_.string() +
+                     ": meta.json: align_s: key given twice in one object (JSON objects must not "
+                     "repeat a key)");
 }
 
 // ---- malformed input: one test each ---------------------------------------------------------
@@ -493,7 +495,28 @@ TEST_F(DatasetTest, MissingMetaFieldIsAnError) {
   ASSERT_NE(at, std::string::npos);
   meta.replace(at, 2, "\"x");  // rename the key
   write_text(dir_ / "meta.json", meta);
-  EXPECT_CONTAINS(load_error(), dir_.string() + ": meta.json: missing field \"earth.g_eq_mps2\"");
+  // The misspelt key is named (before the one it replaces is missed), with the valid ones.
+  EXPECT_EQ(load_error(), dir_.string() +
+                              ": meta.json: earth.x_eq_mps2: unknown key (valid keys: a_m, f, "
+                              "omega_ie_rad_s, g_eq_mps2)");
+  // Without it: missing.
+  nlohmann::json j = nlohmann::json::parse(read_text(dir_ / "meta.json"));
+  j["earth"].erase("x_eq_mps2");
+  write_text(dir_ / "meta.json", j.dump(2));
+  EXPECT_EQ(load_error(),
+            dir_.string() + ": meta.json: earth.g_eq_mps2: missing, expected a finite number");
+}
+
+TEST_F(DatasetTest, UnknownMetaKeyInABlockIsNamedWithTheValidOnes) {
+  // The blocks insid defines are closed (the top level is open: the test above).
+  write_valid();
+  nlohmann::json j = nlohmann::json::parse(read_text(dir_ / "meta.json"));
+  j["initial"]["lat"] = 40.0;
+  write_text(dir_ / "meta.json", j.dump(2));
+  EXPECT_EQ(load_error(), dir_.string() +
+                              ": meta.json: initial.lat: unknown key (valid keys: t_s, lat_deg, "
+                              "lon_deg, h_m, vE_mps, vN_mps, vU_mps, roll_deg, pitch_deg, "
+                              "yaw_deg)");
 }
 
 TEST_F(DatasetTest, BadJsonIsAnErrorWithPosition) {
@@ -513,7 +536,9 @@ TEST_F(DatasetTest, WrongTypeInMetaIsAnError) {
   ASSERT_NE(at, std::string::npos);
   meta.replace(at, meta.find(',', at) - at, "\"align_s\": \"10\"");
   write_text(dir_ / "meta.json", meta);
-  EXPECT_CONTAINS(load_error(), "meta.json: field \"align_s\" must be a number, got string");
+  EXPECT_EQ(load_error(), dir_.string() +
+                              ": meta.json: align_s: expected a finite number, found a string "
+                              "\"10\"");
 }
 
 TEST_F(DatasetTest, WrongFormatIsAnError) {
@@ -522,8 +547,8 @@ TEST_F(DatasetTest, WrongFormatIsAnError) {
   meta.replace(meta.find("insid-dataset/1"), 15, "insid-dataset/3");
   write_text(dir_ / "meta.json", meta);
   EXPECT_CONTAINS(load_error(),
-                  "meta.json: field \"format\" must be \"insid-dataset/1\" or "
-                  "\"insid-dataset/2\", got \"insid-dataset/3\"");
+                  "meta.json: format: expected \"insid-dataset/1\" or \"insid-dataset/2\", "
+                  "found a string \"insid-dataset/3\"");
 }
 
 // insid-dataset/2: measured timing. Jittery steps load; the declared rate must match the median
@@ -577,7 +602,7 @@ TEST_F(DatasetTest, UnknownInjectedEffectIsAnError) {
   meta.replace(meta.find("\"accel_bias_x\""), 14, "\"accel_bais_x\"");
   write_text(dir_ / "meta.json", meta);
   const std::string msg = load_error();
-  EXPECT_CONTAINS(msg, "meta.json: field \"injected.accel_bais_x\": unknown effect name");
+  EXPECT_CONTAINS(msg, "meta.json: injected.accel_bais_x: unknown effect name");
   EXPECT_CONTAINS(msg, "gyro_bias_y");  // lists the catalogue
 
   ds.meta.injected->emplace("no_such_effect", 1.0);

@@ -181,8 +181,8 @@ NavState NavigationProblem::initial_state(const Eigen::Matrix3d& C_b_n) const {
 }
 
 NavState NavigationProblem::initial_state(const Eigen::Matrix3d& C_b_n,
-                                          const SensorErrors& candidate,
-                                          const ImuSample& previous, double previous_dt_s) const {
+                                          const SensorErrors& candidate, const ImuSample& previous,
+                                          double previous_dt_s) const {
   const double t0 = nav_start_t_s();
   const GnssSample g = interpolate_gnss(dataset_->gnss, t0);
   NavState s;
@@ -221,9 +221,9 @@ std::vector<WindowStart> NavigationProblem::window_starts(double gnss_latency_s)
     // The boundary's antenna time T_j - latency; the first IMU epoch at or after it.
     const double target = restarts_[j].t_s - gnss_latency_s;
     if (target <= nav_start_t_s() + kTimeTol) continue;  // before the navigation: no window
-    const auto it = std::partition_point(
-        imu.begin() + static_cast<std::ptrdiff_t>(nav_begin_), imu.end(),
-        [&](const ImuSample& m) { return m.t_s < target - kTimeTol; });
+    const auto it =
+        std::partition_point(imu.begin() + static_cast<std::ptrdiff_t>(nav_begin_), imu.end(),
+                             [&](const ImuSample& m) { return m.t_s < target - kTimeTol; });
     const auto k = static_cast<std::size_t>(it - imu.begin());
     if (k + 1 >= imu.size()) break;  // no restart at or after the last epoch
     if (!out.empty() && k <= out.back().imu_index) continue;  // restarted at already
@@ -255,11 +255,11 @@ void NavigationProblem::set_from_gnss(const GnssSample& g, double shift_s,
   const Eigen::Matrix3d C_b_n = s.q_b_n.toRotationMatrix();
   const Eigen::Vector3d l_n = lever ? Eigen::Vector3d(C_b_n * l_b) : Eigen::Vector3d::Zero();
   const Eigen::Vector3d& v_g = g.v_eb_n_mps;
-  s.lat_rad = g.lat_rad + (shift_s * v_g.y() - l_n.y()) /
-                              (earth.meridian_radius_m(g.lat_rad) + s.h_m);
-  s.lon_rad = g.lon_rad + (shift_s * v_g.x() - l_n.x()) /
-                              ((earth.prime_vertical_radius_m(s.lat_rad) + s.h_m) *
-                               std::cos(s.lat_rad));
+  s.lat_rad =
+      g.lat_rad + (shift_s * v_g.y() - l_n.y()) / (earth.meridian_radius_m(g.lat_rad) + s.h_m);
+  s.lon_rad =
+      g.lon_rad + (shift_s * v_g.x() - l_n.x()) /
+                      ((earth.prime_vertical_radius_m(s.lat_rad) + s.h_m) * std::cos(s.lat_rad));
   if (shift_s != 0.0) {
     s.v_eb_n.x() = v_g.x() + shift_s * a_n.x();
     s.v_eb_n.y() = v_g.y() + shift_s * a_n.y();
@@ -393,9 +393,9 @@ void NavigationProblem::run(const SensorErrors& candidate,
       // Windowed fitness: the epochs up to t_k closed the window; restart as at the navigation
       // start (core/fitness.h, "Start state"): position and horizontal velocity of the IMU from
       // the GNSS solution at the boundary T_j, shifted by t_k - (T_j - latency) (with the
-      // antenna's INS acceleration over this step), less the candidate's lever arm (attitude carried on, the
-      // rate extrapolated to t_k); aided h and vU; this compensated increment as the
-      // coning/sculling memory, previous state = restart state.
+      // antenna's INS acceleration over this step), less the candidate's lever arm (attitude
+      // carried on, the rate extrapolated to t_k); aided h and vU; this compensated increment as
+      // the coning/sculling memory, previous state = restart state.
       const WindowStart& start = starts[next_restart++];
       const WindowRestart& restart = restarts_[start.restart];
       NavState s0 = s;

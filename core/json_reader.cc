@@ -107,11 +107,11 @@ json parse_json_strict(std::string_view text, const std::string& where, const Js
       case json::parse_event_t::key: {
         Frame& top = stack.back();
         top.last_key = parsed.get<std::string>();
+        // The wording of the typed reader (core/json_object.h): the source, the field's path.
         if (!top.keys.insert(top.last_key).second)
           throw std::runtime_error(
-              where + ": key \"" + top.last_key + "\" appears twice in " +
-              (top.path.empty() ? "the top-level object" : "object \"" + top.path + "\"") +
-              " (JSON objects must not repeat a key)");
+              where + ": " + (top.path.empty() ? top.last_key : top.path + "." + top.last_key) +
+              ": key given twice in one object (JSON objects must not repeat a key)");
         break;
       }
       case json::parse_event_t::object_end:

@@ -3,9 +3,9 @@
 //
 // Strict means RFC 8259 JSON (nlohmann::json's parser: no comments, no NaN/Infinity, no trailing
 // commas) plus one rule RFC 8259 leaves open ("names within an object SHOULD be unique"): a key
-// that appears twice in one object is an error naming the key and the object it is in, instead of
-// the last value silently winning, and no NUL byte (nlohmann's parser would stop there and
-// ignore the rest).
+// that appears twice in one object is an error naming the path of the key (`scenarios[1].grade`),
+// instead of the last value silently winning, and no NUL byte (nlohmann's parser would stop there
+// and ignore the rest).
 //
 // Limits (issue 37): a document nested deeper than max_depth arrays and objects, or longer than
 // max_bytes, is refused before it is parsed, with the line, column and byte of the first bracket
@@ -33,7 +33,8 @@ struct JsonLimits {
 };
 
 /// Parses `text`. Throws std::runtime_error starting with `where` on a syntax error (with
-/// nlohmann's line and column), a duplicate key (with its path, e.g. `scenarios[1].imu`), a
+/// nlohmann's line and column), a duplicate key (with its path, in the typed reader's wording,
+/// core/json_object.h: `c.json: scenarios[1].grade: key given twice in one object ...`), a
 /// document beyond `limits`, or when memory runs out.
 nlohmann::json parse_json_strict(std::string_view text, const std::string& where,
                                  const JsonLimits& limits = {});

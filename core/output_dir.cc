@@ -100,7 +100,7 @@ FileOwner owner_at(int dir_fd, const char* name) {
   const ssize_t n = ::fgetxattr(fd.get(), kMarkAttribute, mark.data(), mark.size());
   if (n != 64) return FileOwner::kOther;
   return sha256_of_fd(fd.get()) == std::string(mark.data(), 64) ? FileOwner::kInsid
-                                                                 : FileOwner::kOther;
+                                                                : FileOwner::kOther;
 }
 
 bool is_own_entry(const fs::path& dir, const std::string& name, const OutputKind& kind) {
@@ -203,7 +203,8 @@ void write_file_atomic_under(const fs::path& root, const fs::path& relative,
       if (err == ELOOP || err == ENOTDIR)
         fail("'" + walked.string() +
              "' is a symbolic link or not a directory; insid writes only into real directories "
-             "under '" + root.string() + "', never through links");
+             "under '" +
+             root.string() + "', never through links");
       fail("cannot open the directory '" + walked.string() + "': " + os_error(err));
     }
     dir = Fd(fd);
@@ -218,8 +219,8 @@ void write_file_atomic_under(const fs::path& root, const fs::path& relative,
       throw std::runtime_error(foreign_file_message(shown, options));
   }
   const std::string tmp = temporary_sibling(name, ".tmp-").string();
-  Fd out(::openat(dir.get(), tmp.c_str(),
-                  O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644));
+  Fd out(
+      ::openat(dir.get(), tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644));
   if (!out) fail("cannot create a temporary beside it: " + os_error(errno));
   auto abandon = [&](const std::string& why) {
     out = Fd();
@@ -318,9 +319,9 @@ std::vector<fs::path> remove_own_files(const fs::path& dir,
       } else {
         directories.push_back(it->path());
       }
-    } else if (fs::is_regular_file(st) && (is_temporary_name(it->path().filename().string()) ||
-                                           (also_own && also_own(rel)) ||
-                                           file_owner(it->path()) == FileOwner::kInsid)) {
+    } else if (fs::is_regular_file(st) &&
+               (is_temporary_name(it->path().filename().string()) || (also_own && also_own(rel)) ||
+                file_owner(it->path()) == FileOwner::kInsid)) {
       own_files.push_back(it->path());
     } else {
       kept.push_back(rel);
@@ -439,8 +440,7 @@ FileLock::FileLock(const fs::path& path, Target target) : path_(path) {
   if (!directory && (::fstat(fd_, &st) != 0 || !S_ISREG(st.st_mode))) {
     ::close(fd_);
     fd_ = -1;
-    throw std::runtime_error("cannot open lock '" + path.string() +
-                             "': it is not a regular file");
+    throw std::runtime_error("cannot open lock '" + path.string() + "': it is not a regular file");
   }
 }
 
@@ -467,8 +467,8 @@ void FileLock::write_text(const std::string& text) {
     if (ok) done += static_cast<std::size_t>(n);
   }
   if (!ok)
-    throw std::runtime_error("cannot write the lock '" + path_.string() + "': " +
-                             std::strerror(errno));
+    throw std::runtime_error("cannot write the lock '" + path_.string() +
+                             "': " + std::strerror(errno));
   mark_as_insid(fd_, text);
 }
 

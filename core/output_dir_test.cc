@@ -8,8 +8,8 @@
 
 #include <algorithm>
 #include <filesystem>
-#include <functional>
 #include <fstream>
+#include <functional>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -82,9 +82,9 @@ TEST_F(OutputDir, ALinkIsNeverWrittenThroughOrReplaced) {
   fs::create_symlink(target, root_ / "out.json");
   WriteOptions force;
   force.replace_foreign = true;
-  EXPECT_NE(error_of([&] { write_file_atomic(root_ / "out.json", "x", force); })
-                .find("symbolic link"),
-            std::string::npos);
+  EXPECT_NE(
+      error_of([&] { write_file_atomic(root_ / "out.json", "x", force); }).find("symbolic link"),
+      std::string::npos);
   EXPECT_EQ(text(target), "keep");
   EXPECT_TRUE(fs::is_symlink(root_ / "out.json"));
   // A link to a directory inside an output directory: refused, nothing written outside.
@@ -93,16 +93,17 @@ TEST_F(OutputDir, ALinkIsNeverWrittenThroughOrReplaced) {
   fs::create_directory_symlink(outside_, campaign / "runs");
   WriteOptions create;
   create.create_directories = true;
-  const std::string e = error_of(
-      [&] { write_file_atomic_under(campaign, "runs/s/a/seed-1.json", "{}", create); });
+  const std::string e =
+      error_of([&] { write_file_atomic_under(campaign, "runs/s/a/seed-1.json", "{}", create); });
   EXPECT_NE(e.find("is a symbolic link or not a directory"), std::string::npos) << e;
   EXPECT_EQ(std::distance(fs::directory_iterator(outside_), fs::directory_iterator()), 1);
   // ... and a real one works, creating what is missing.
   fs::remove(campaign / "runs");
   write_file_atomic_under(campaign, "runs/s/a/seed-1.json", "{}", create);
   EXPECT_EQ(text(campaign / "runs/s/a/seed-1.json"), "{}");
-  EXPECT_NE(error_of([&] { write_file_atomic_under(campaign, "../escape.json", "{}", create); })
-                .find("'..'"),
+  EXPECT_NE(error_of([&] {
+              write_file_atomic_under(campaign, "../escape.json", "{}", create);
+            }).find("'..'"),
             std::string::npos);
   EXPECT_FALSE(fs::exists(root_ / "escape.json"));
 }

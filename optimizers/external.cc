@@ -31,6 +31,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/json_object.h"
 #include "core/json_reader.h"
 
 extern char** environ;
@@ -75,49 +76,48 @@ nlohmann::json vector_json(const Eigen::VectorXd& x) {
 
 ExternalReply parse_external_reply(std::string_view line, const Bounds& box,
                                    const std::string& where) {
-  const std::string text(line);
+  // The source of every message: where the line came from and the line (cut at 200 bytes).
+  const std::string source = where + quoted_excerpt(std::string(line));
   // insid's one JSON reader, with its depth limit: no deeper value is ever built, so the
   // messages below (which print parts of the reply) never recurse deeply.
-  const nlohmann::json reply =
-      parse_json_strict(line, where + quoted_excerpt(text), {.max_bytes = kMaxLineBytes});
-  const auto refuse = [&](const std::string& why) {
-    throw std::runtime_error(where + quoted_excerpt(text) + why);
-  };
-  if (!reply.is_object()) refuse(" is not a JSON object");
-  ExternalReply out;
-  if (reply.contains("error")) {
-    const nlohmann::json& e = reply["error"];
-    out.error = e.is_string() ? e.get<std::string>() : e.dump().substr(0, 200);
-    return out;
-  }
-  if (!reply.contains("points")) refuse(" has no \"points\"");
-  const nlohmann::json& points = reply["points"];
-  if (!points.is_array() || points.empty())
-    refuse(": \"points\" must be a non-empty array of points");
-  const int n = box.dimension();
-  out.points.reserve(points.size());
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    const nlohmann::json& p = points[i];
-    const std::string point = where + "point " + std::to_string(i);
-    if (!p.is_array() || static_cast<int>(p.size()) != n)
-      throw std::runtime_error(point + " " + p.dump().substr(0, 200) + " is not an array of " +
-                               std::to_string(n) + " numbers");
-    Eigen::VectorXd x(n);
-    for (int j = 0; j < n; ++j) {
-      const nlohmann::json& v = p[static_cast<std::size_t>(j)];
-      if (!v.is_number() || !std::isfinite(v.get<double>()))
-        throw std::runtime_error(point + " coordinate " + std::to_string(j) + " = " +
-                                 v.dump().substr(0, 200) + " is not a finite number");
-      x[j] = v.get<double>();
-      if (x[j] < box.lower[j] || x[j] > box.upper[j])
-        throw std::runtime_error(point + " coordinate " + std::to_string(j) + " = " +
-                                 format_number(x[j]) + " is outside the box [" +
-                                 format_number(box.lower[j]) + ", " + format_number(box.upper[j]) +
-                                 "]");
+  const nlohmann::json reply = parse_json_strict(line, source, {.max_bytes = kMaxLineBytes});
+  try {
+    // Fields through the one typed reader (core/json_object.h): "<source>: points[1][0]: ...".
+    const JsonObject r = JsonObject::document(reply, source, {"points", "error"});
+    ExternalReply out;
+    if (r.has("error")) {
+      const nlohmann::json& e = r.field("error").value();
+      out.error = e.is_string() ? e.get<std::string>() : e.dump().substr(0, 200);
+      return out;
     }
-    out.points.push_back(std::move(x));
+    const JsonArray points = r.array("points");
+    if (points.empty()) points.fail("expected at least one point, found an empty array");
+    const int n = box.dimension();
+    const std::string expected_point = "expected an array of " + std::to_string(n) + " numbers";
+    out.points.reserve(points.size());
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      const JsonField point = points[i];
+      if (!point.value().is_array() || point.value().size() != static_cast<std::size_t>(n))
+        point.fail(expected_point + ", found " + describe_json_value(point.value()));
+      // The coordinates read directly (a reply may hold millions); a JsonField names the one
+      // at fault.
+      const nlohmann::json& coordinates = point.value();
+      Eigen::VectorXd x(n);
+      for (int j = 0; j < n; ++j) {
+        const nlohmann::json& v = coordinates[static_cast<std::size_t>(j)];
+        x[j] = v.is_number() ? v.get<double>() : std::numeric_limits<double>::quiet_NaN();
+        if (std::isfinite(x[j]) && x[j] >= box.lower[j] && x[j] <= box.upper[j]) continue;
+        const JsonField coordinate = point.array()[static_cast<std::size_t>(j)];
+        coordinate.finite_number();  // throws for anything but a finite number
+        coordinate.fail("expected a number in the box [" + format_number(box.lower[j]) + ", " +
+                        format_number(box.upper[j]) + "], found " + format_number(x[j]));
+      }
+      out.points.push_back(std::move(x));
+    }
+    return out;
+  } catch (const JsonFieldError& e) {
+    throw std::runtime_error(e.what());  // this reader's contract: a runtime_error
   }
-  return out;
 }
 
 std::span<const ParameterField<ExternalParams>> ExternalParams::fields() {

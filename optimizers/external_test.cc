@@ -231,11 +231,12 @@ TEST(External, MalformedRepliesNameTheLine) {
   expect_contains(error_of("notjson"),
                   "reply to ask 1 (line 1 of its output) 'this is not json': not valid JSON: ");
   expect_contains(error_of("dimension"),
-                  "reply to ask 1 (line 1 of its output) point 1 [0.0,0.5,1.25,0.0] is not an "
-                  "array of 3 numbers");
+                  "reply to ask 1 (line 1 of its output) '{\"points\": [[0.0, 0.5, 1.25], [0.0, "
+                  "0.5, 1.25, 0.0]]}': points[1]: expected an array of 3 numbers, found an array "
+                  "[0.0,0.5,1.25,0.0]");
   expect_contains(error_of("outside"),
-                  "reply to ask 1 (line 1 of its output) point 0 coordinate 0 = 2 is outside the "
-                  "box [-1, 1]");
+                  "reply to ask 1 (line 1 of its output) '{\"points\": [[2.0, 4.0, 3.0]]}': "
+                  "points[0][0]: expected a number in the box [-1, 1], found 2");
   expect_contains(error_of("giveup"), "(seed 11): gave up at ask 1: no idea what to do");
 }
 
@@ -251,7 +252,8 @@ TEST(External, HostilyDeepReplyIsRefusedAtTheDepthLimit) {
                     "nested arrays and objects");
   }
   // Within the limit (the reply object is depth 1): an ordinary complaint about the point.
-  expect_contains(error_of("deep 63"), "point 0 [[[[");
+  expect_contains(error_of("deep 63"),
+                  "': points[0]: expected an array of 3 numbers, found an array [[[[");
 }
 
 TEST(External, ReplyNobodyAskedForIsRefused) {
@@ -281,12 +283,34 @@ TEST(External, ReplyParserReadsPointsOrNamesWhatIsWrong) {
     }
     return std::string("(accepted)");
   };
-  EXPECT_EQ(error(R"({"points": [[0, 0, 1]], "points": []})"),
-            "r '{\"points\": [[0, 0, 1]], \"points\": []}': key \"points\" appears twice in the "
-            "top-level object (JSON objects must not repeat a key)");
+  // The one typed reader's wording (core/json_object.h): the line, the field's path, what was
+  // expected and what was found.
+  // an unknown key, with the valid ones
+  EXPECT_EQ(error(R"({"points": [[0, 0, 1]], "best": 1})"),
+            "r '{\"points\": [[0, 0, 1]], \"best\": 1}': best: unknown key (valid keys: points, "
+            "error)");
+  // a missing key
+  EXPECT_EQ(error(R"({})"), "r '{}': points: missing, expected an array");
+  // wrong types
   EXPECT_EQ(error(R"({"points": [[0, "x", 1]]})"),
-            "r point 0 coordinate 1 = \"x\" is not a finite number");
-  EXPECT_EQ(error("[]"), "r '[]' is not a JSON object");
+            "r '{\"points\": [[0, \"x\", 1]]}': points[0][1]: expected a finite number, found a "
+            "string \"x\"");
+  EXPECT_EQ(error(R"({"points": {"a": 1}})"),
+            "r '{\"points\": {\"a\": 1}}': points: expected an array, found an object {\"a\":1}");
+  EXPECT_EQ(error(R"({"points": [[0, 0, 1], 5]})"),
+            "r '{\"points\": [[0, 0, 1], 5]}': points[1]: expected an array of 3 numbers, found a "
+            "number 5");
+  EXPECT_EQ(error("[]"), "r '[]': expected an object, found an array []");
+  // a key given twice (refused by the strict parser, in the same wording)
+  EXPECT_EQ(error(R"({"points": [[0, 0, 1]], "points": []})"),
+            "r '{\"points\": [[0, 0, 1]], \"points\": []}': points: key given twice in one "
+            "object (JSON objects must not repeat a key)");
+  // values
+  EXPECT_EQ(error(R"({"points": []})"),
+            "r '{\"points\": []}': points: expected at least one point, found an empty array");
+  EXPECT_EQ(error(R"({"points": [[0, 3.5, 1]]})"),
+            "r '{\"points\": [[0, 3.5, 1]]}': points[0][1]: expected a number in the box [-2, 3], "
+            "found 3.5");
 }
 
 TEST(External, FailedRunLeavesTheOthersAlone) {

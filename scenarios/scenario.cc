@@ -11,6 +11,7 @@
 
 #include "core/alignment.h"
 #include "core/huge_pages.h"
+#include "core/json_object.h"
 #include "core/json_reader.h"
 #include "core/rotation.h"
 #include "scenarios/presets.h"
@@ -27,72 +28,6 @@ std::string num(double v) {
   s << v;
   return s.str();
 }
-
-std::string type_name(const json& v) {
-  if (v.is_number()) return "a number";
-  if (v.is_string()) return "a string";
-  if (v.is_object()) return "an object";
-  if (v.is_array()) return "an array";
-  if (v.is_boolean()) return "a boolean";
-  return "null";
-}
-
-// Reads one JSON object, checking types and rejecting unknown keys.
-class ObjectReader {
- public:
-  ObjectReader(const json& j, std::string where, std::vector<std::string> valid)
-      : j_(j), where_(std::move(where)), valid_(std::move(valid)) {
-    if (!j.is_object()) fail("expected an object, got " + type_name(j));
-    for (const auto& [key, value] : j.items()) {
-      if (std::find(valid_.begin(), valid_.end(), key) == valid_.end()) {
-        std::string list;
-        for (const auto& v : valid_) list += (list.empty() ? "" : ", ") + v;
-        fail("unknown key '" + key + "' (valid: " + list + ")");
-      }
-    }
-  }
-  [[noreturn]] void fail(const std::string& what) const {
-    throw std::invalid_argument(where_ + ": " + what);
-  }
-  bool has(const std::string& key) const { return j_.contains(key); }
-  double number(const std::string& key) const {
-    if (!has(key)) fail("missing key '" + key + "'");
-    const json& v = j_.at(key);
-    if (!v.is_number()) fail("key '" + key + "' must be a number, got " + type_name(v));
-    const double d = v.get<double>();
-    if (!std::isfinite(d)) fail("key '" + key + "' must be finite");
-    return d;
-  }
-  double number(const std::string& key, double fallback) const {
-    return has(key) ? number(key) : fallback;
-  }
-  std::optional<double> optional_number(const std::string& key) const {
-    if (!has(key)) return std::nullopt;
-    return number(key);
-  }
-  std::string string(const std::string& key, const std::string& fallback) const {
-    if (!has(key)) return fallback;
-    const json& v = j_.at(key);
-    if (!v.is_string()) fail("key '" + key + "' must be a string, got " + type_name(v));
-    return v.get<std::string>();
-  }
-  const json& object(const std::string& key) const {
-    const json& v = j_.at(key);
-    if (!v.is_object()) fail("key '" + key + "' must be an object, got " + type_name(v));
-    return v;
-  }
-  const json& array(const std::string& key) const {
-    const json& v = j_.at(key);
-    if (!v.is_array()) fail("key '" + key + "' must be an array, got " + type_name(v));
-    return v;
-  }
-  const std::string& where() const { return where_; }
-
- private:
-  const json& j_;
-  std::string where_;
-  std::vector<std::string> valid_;
-};
 
 const std::map<std::string, std::vector<std::string>>& segment_keys() {
   static const std::map<std::string, std::vector<std::string>> keys = {
@@ -111,60 +46,52 @@ const std::map<std::string, std::vector<std::string>>& segment_keys() {
   return keys;
 }
 
-// Validate one segment's keys and types (semantics are checked when it is applied).
-void check_segment(const json& seg, const std::string& where) {
-  if (!seg.is_object())
-    throw std::invalid_argument(where + ": expected an object, got " + type_name(seg));
-  if (!seg.contains("type") || !seg.at("type").is_string())
-    throw std::invalid_argument(where +
-                                ": missing string key 'type' (one of: static, straight, "
-                                "speed, turn, loiter, s_turns, climb, descend, takeoff)");
-  const std::string type = seg.at("type").get<std::string>();
-  const auto it = segment_keys().find(type);
-  if (it == segment_keys().end())
-    throw std::invalid_argument(where + ": unknown segment type '" + type +
-                                "' (valid: static, straight, speed, turn, loiter, s_turns, climb, "
-                                "descend, takeoff)");
-  ObjectReader r(seg, where + " (" + type + ")", it->second);
-  for (const auto& [key, value] : seg.items()) {
-    if (key == "type" || key == "comment" || key == "direction") {
-      if (!value.is_string()) r.fail("key '" + key + "' must be a string, got " + type_name(value));
-    } else if (!value.is_number() || !std::isfinite(value.get<double>())) {
-      r.fail("key '" + key + "' must be a finite number, got " + type_name(value));
-    }
+// One segment at `path` ("segments[2]") of `source`, with the keys of its type; its keys' types
+// checked (their meaning is checked when it is applied).
+JsonObject segment_reader(const json& seg, const std::string& source, const std::string& path) {
+  const std::string type = JsonObject::any_keys(seg, source, path)
+                               .field("type")
+                               .choice({"static", "straight", "speed", "turn", "loiter", "s_turns",
+                                        "climb", "descend", "takeoff"});
+  const JsonObject r(seg, source, path, segment_keys().at(type));
+  for (const auto& item : seg.items()) {
+    if (item.key() == "direction")
+      r.field("direction").choice({"left", "right"});
+    else if (item.key() == "type" || item.key() == "comment")
+      r.string(item.key());
+    else
+      r.number(item.key());
   }
-  if (seg.contains("direction")) {
-    const std::string d = seg.at("direction").get<std::string>();
-    if (d != "left" && d != "right") r.fail("direction must be 'left' or 'right', got '" + d + "'");
-  }
+  return r;
 }
 
-TurnDirection direction_of(const ObjectReader& r, const std::string& fallback) {
-  return r.string("direction", fallback) == "left" ? TurnDirection::kLeft : TurnDirection::kRight;
+TurnDirection direction_of(const JsonObject& r) {
+  return r.string("direction", "right") == "left" ? TurnDirection::kLeft : TurnDirection::kRight;
 }
 
-TurnSharpness sharpness_of(const ObjectReader& r) {
+TurnSharpness sharpness_of(const JsonObject& r) {
   TurnSharpness s;
   if (r.has("bank_deg")) {
     s.bank_rad = r.number("bank_deg") * kDegToRad;
     if (!(s.bank_rad > 0.0))
-      r.fail("bank_deg must be in (0, 60] deg, got " + num(r.number("bank_deg")));
+      r.fail("bank_deg", "must be in (0, 60] deg, got " + num(r.number("bank_deg")));
   }
   if (r.has("rate_deg_s")) {
     s.rate_rad_s = r.number("rate_deg_s") * kDegToRad;
     if (!(s.rate_rad_s > 0.0))
-      r.fail("rate_deg_s must be in (0, 30] deg/s, got " + num(r.number("rate_deg_s")));
+      r.fail("rate_deg_s", "must be in (0, 30] deg/s, got " + num(r.number("rate_deg_s")));
   }
   if (r.has("bank_deg") == r.has("rate_deg_s"))
     r.fail("give exactly one of bank_deg or rate_deg_s");
   return s;
 }
 
-// Apply one segment to the builder; errors carry `where`.
-void apply_segment(TrajectoryBuilder& b, const json& seg, const std::string& where) {
-  check_segment(seg, where);
-  const std::string type = seg.at("type").get<std::string>();
-  ObjectReader r(seg, where + " (" + type + ")", segment_keys().at(type));
+// Apply one segment at `path` of `source` to the builder; `context` (" (cycle 3)") follows its
+// type in the messages of the builder ("segments[2]: turn segment: bank_deg must be ...").
+void apply_segment(TrajectoryBuilder& b, const json& seg, const std::string& source,
+                   const std::string& path, const std::string& context = "") {
+  const JsonObject r = segment_reader(seg, source, path);
+  const std::string type = r.string("type");
   try {
     if (type == "static") {
       b.hold_static(r.number("duration_s"));
@@ -174,30 +101,28 @@ void apply_segment(TrajectoryBuilder& b, const json& seg, const std::string& whe
       const double target = r.number("speed_mps");
       if (target != b.speed_mps()) b.change_speed(target, r.number("accel_mps2", 1.0));
     } else if (type == "turn") {
-      b.turn(r.number("turn_deg") * kDegToRad, direction_of(r, "right"), sharpness_of(r),
+      b.turn(r.number("turn_deg") * kDegToRad, direction_of(r), sharpness_of(r),
              r.number("ramp_s", 3.0));
     } else if (type == "loiter") {
       const double circles = r.number("circles", 1.0);
-      if (!(circles > 0.0)) r.fail("circles must be > 0, got " + num(circles));
-      b.turn(circles * 360.0 * kDegToRad, direction_of(r, "right"), sharpness_of(r),
+      if (!(circles > 0.0)) r.fail("circles", "must be > 0, got " + num(circles));
+      b.turn(circles * 360.0 * kDegToRad, direction_of(r), sharpness_of(r),
              r.number("ramp_s", 3.0));
     } else if (type == "s_turns") {
-      const double count = r.number("count", 2.0);
-      if (!(count >= 1.0 && count <= 1000.0 && count == std::floor(count)))
-        r.fail("count must be a whole number in [1, 1000], got " + num(count));
+      const int count = static_cast<int>(r.has("count") ? r.field("count").integer(1, 1000) : 2);
       const double straight_s = r.number("straight_s", 0.0);
-      if (!(straight_s >= 0.0)) r.fail("straight_s must be >= 0, got " + num(straight_s));
-      TurnDirection dir = direction_of(r, "right");
-      for (int i = 0; i < static_cast<int>(count); ++i) {
+      if (!(straight_s >= 0.0)) r.fail("straight_s", "must be >= 0, got " + num(straight_s));
+      TurnDirection dir = direction_of(r);
+      for (int i = 0; i < count; ++i) {
         b.turn(r.number("turn_deg") * kDegToRad, dir, sharpness_of(r), r.number("ramp_s", 3.0));
-        if (straight_s > 0.0 && i + 1 < static_cast<int>(count)) b.straight(straight_s);
+        if (straight_s > 0.0 && i + 1 < count) b.straight(straight_s);
         dir = dir == TurnDirection::kLeft ? TurnDirection::kRight : TurnDirection::kLeft;
       }
     } else if (type == "climb" || type == "descend") {
       const double dh = r.number("dh_m");
       if (!(dh > 0.0))
-        r.fail("dh_m must be > 0 (the height " + std::string(type == "climb" ? "gained" : "lost") +
-               "), got " + num(dh));
+        r.fail("dh_m", "must be > 0 (the height " +
+                           std::string(type == "climb" ? "gained" : "lost") + "), got " + num(dh));
       const std::optional<double> pitch_deg = r.optional_number("pitch_deg");
       const double pitch_rad = pitch_deg.value_or(0.0) * kDegToRad;
       b.climb(type == "climb" ? dh : -dh, r.number("vz_mps", 2.0), r.number("ramp_s", 3.0),
@@ -205,27 +130,23 @@ void apply_segment(TrajectoryBuilder& b, const json& seg, const std::string& whe
     } else if (type == "takeoff") {
       b.takeoff(r.number("dh_m"), r.number("vz_mps", 2.0), r.number("ramp_s", 2.0));
     }
+  } catch (const JsonFieldError&) {
+    throw;  // already in the reader's wording, with the field's path
   } catch (const std::invalid_argument& e) {
-    const std::string msg = e.what();
-    if (msg.rfind(r.where(), 0) == 0) throw;
-    r.fail(msg);
+    r.fail(type + " segment" + context + ": " + e.what());  // the builder's check of a value
   }
 }
 
-EarthModel parse_earth(const ObjectReader& top, const json& j, const InitialPose& initial,
-                       std::string& model_out) {
-  ObjectReader r(j, top.where() + ": earth",
-                 {"model", "a_m", "f", "omega_ie_rad_s", "g_eq_mps2", "g0_mps2", "comment"});
-  const std::string model = r.string("model", "wgs84");
+EarthModel parse_earth(const JsonObject& r, const InitialPose& initial, std::string& model_out) {
+  const std::string model = r.has("model") ? r.field("model").choice({"wgs84", "paper"}) : "wgs84";
   EarthModel e;
   if (model == "wgs84") {
     e = EarthModel::wgs84();
-    if (r.has("g0_mps2")) r.fail("g0_mps2 is only for model 'paper'; use g_eq_mps2");
-  } else if (model == "paper") {
-    if (r.has("g_eq_mps2")) r.fail("model 'paper' sets g_eq_mps2 from g0_mps2; give g0_mps2");
-    e = EarthModel::paper(initial.lat_rad, initial.h_m, r.number("g0_mps2", 9.801));
+    if (r.has("g0_mps2")) r.fail("g0_mps2", "only for model 'paper'; use g_eq_mps2");
   } else {
-    r.fail("model must be 'wgs84' or 'paper', got '" + model + "'");
+    if (r.has("g_eq_mps2"))
+      r.fail("g_eq_mps2", "model 'paper' sets g_eq_mps2 from g0_mps2; give g0_mps2");
+    e = EarthModel::paper(initial.lat_rad, initial.h_m, r.number("g0_mps2", 9.801));
   }
   e.ellipsoid.a_m = r.number("a_m", e.ellipsoid.a_m);
   e.ellipsoid.f = r.number("f", e.ellipsoid.f);
@@ -236,15 +157,13 @@ EarthModel parse_earth(const ObjectReader& top, const json& j, const InitialPose
   return e;
 }
 
-NoiseSpec parse_noise(const ObjectReader& top, const json& j) {
-  ObjectReader r(j, top.where() + ": noise",
-                 {"grade", "arw_deg_rth", "vrw_mps_rth", "gnss_vel_sigma_mps", "gnss_pos_sigma_m",
-                  "gm_gyro_sigma_deg_h", "gm_accel_sigma_mps2", "gm_tau_s", "comment"});
+NoiseSpec parse_noise(const JsonObject& r) {
   NoiseSpec n;
+  const std::string grade = r.string("grade", "none");
   try {
-    n = noise_grade(r.string("grade", "none"));
+    n = noise_grade(grade);
   } catch (const std::invalid_argument& e) {
-    r.fail(e.what());
+    r.fail("grade", e.what());
   }
   n.arw_deg_rth = r.number("arw_deg_rth", n.arw_deg_rth);
   n.vrw_mps_rth = r.number("vrw_mps_rth", n.vrw_mps_rth);
@@ -257,19 +176,14 @@ NoiseSpec parse_noise(const ObjectReader& top, const json& j) {
   return n;
 }
 
-void parse_injected(const ObjectReader& top, const json& j, bool in_sigma, SensorErrors& errors) {
-  const std::string where = top.where() + (in_sigma ? ": injected_sigma" : ": injected");
-  if (!j.is_object())
-    throw std::invalid_argument(where + ": expected an object, got " + type_name(j));
-  for (const auto& [key, value] : j.items()) {
-    if (!is_effect_name(key))
-      throw std::invalid_argument(where + ": unknown effect name '" + key +
-                                  "' (see the effect catalogue, docs/design.md sec. 4)");
-    if (!value.is_number() || !std::isfinite(value.get<double>()))
-      throw std::invalid_argument(where + ": '" + key + "' must be a finite number, got " +
-                                  type_name(value));
-    const double v = value.get<double>() * (in_sigma ? effect_info(key).sigma : 1.0);
-    add_effect(errors, key, v);
+// "injected" (SI) or "injected_sigma" (in catalogue sigma): effect name -> value.
+void parse_injected(const JsonObject& r, bool in_sigma, SensorErrors& errors) {
+  for (const auto& item : r.value().items()) {
+    const std::string& name = item.key();
+    if (!is_effect_name(name))
+      r.fail(name, "unknown effect name '" + name +
+                       "' (see the effect catalogue, docs/design.md sec. 4)");
+    add_effect(errors, name, r.number(name) * (in_sigma ? effect_info(name).sigma : 1.0));
   }
 }
 
@@ -281,48 +195,48 @@ bool is_multiple(double duration_s, double rate_hz) {
 }  // namespace
 
 ScenarioConfig parse_scenario(const json& j, const std::string& origin) {
-  ObjectReader r(j, origin,
-                 {"name", "description", "comment", "imu_rate_hz", "gnss_rate_hz", "earth",
-                  "initial", "align_s", "flight_s", "substeps", "seed", "noise", "injected",
-                  "injected_sigma", "segments", "repeat"});
+  const JsonObject r =
+      JsonObject::document(j, origin,
+                           {"name", "description", "comment", "imu_rate_hz", "gnss_rate_hz",
+                            "earth", "initial", "align_s", "flight_s", "substeps", "seed", "noise",
+                            "injected", "injected_sigma", "segments", "repeat"});
   ScenarioConfig c;
   c.origin = origin;
   c.name = r.string("name", "custom");
   c.description = r.string("description", "");
+  if (r.has("comment")) r.string("comment");
   c.imu_rate_hz = r.number("imu_rate_hz", c.imu_rate_hz);
   c.gnss_rate_hz = r.number("gnss_rate_hz", c.gnss_rate_hz);
-  if (r.has("initial")) {
-    ObjectReader ir(r.object("initial"), origin + ": initial",
-                    {"lat_deg", "lon_deg", "h_m", "roll_deg", "pitch_deg", "yaw_deg", "comment"});
-    c.initial.lat_rad = ir.number("lat_deg") * kDegToRad;
-    c.initial.lon_rad = ir.number("lon_deg") * kDegToRad;
-    c.initial.h_m = ir.number("h_m", 0.0);
-    c.initial.attitude.roll_rad = ir.number("roll_deg", 0.0) * kDegToRad;
-    c.initial.attitude.pitch_rad = ir.number("pitch_deg", 0.0) * kDegToRad;
-    c.initial.attitude.yaw_rad = ir.number("yaw_deg", 0.0) * kDegToRad;
-  } else {
-    r.fail("missing key 'initial' (lat_deg, lon_deg, h_m, roll_deg, pitch_deg, yaw_deg)");
-  }
-  if (r.has("earth")) c.earth = parse_earth(r, r.object("earth"), c.initial, c.earth_model);
+  const JsonObject initial = r.object(
+      "initial", {"lat_deg", "lon_deg", "h_m", "roll_deg", "pitch_deg", "yaw_deg", "comment"});
+  c.initial.lat_rad = initial.number("lat_deg") * kDegToRad;
+  c.initial.lon_rad = initial.number("lon_deg") * kDegToRad;
+  c.initial.h_m = initial.number("h_m", 0.0);
+  c.initial.attitude.roll_rad = initial.number("roll_deg", 0.0) * kDegToRad;
+  c.initial.attitude.pitch_rad = initial.number("pitch_deg", 0.0) * kDegToRad;
+  c.initial.attitude.yaw_rad = initial.number("yaw_deg", 0.0) * kDegToRad;
+  if (r.has("earth"))
+    c.earth = parse_earth(r.object("earth", {"model", "a_m", "f", "omega_ie_rad_s", "g_eq_mps2",
+                                             "g0_mps2", "comment"}),
+                          c.initial, c.earth_model);
   c.align_s = r.number("align_s", c.align_s);
   c.flight_s = r.optional_number("flight_s");
-  const double substeps = r.number("substeps", 4.0);
-  if (!(substeps >= 1 && substeps <= 1000 && substeps == std::floor(substeps)))
-    r.fail("substeps must be a whole number in [1, 1000], got " + num(substeps));
-  c.substeps = static_cast<int>(substeps);
-  const double seed = r.number("seed", 1.0);
-  if (!(seed >= 0 && seed <= 9007199254740992.0 && seed == std::floor(seed)))
-    r.fail("seed must be a whole number >= 0, got " + num(seed));
-  c.seed = static_cast<std::uint64_t>(seed);
-  if (r.has("noise")) c.noise = parse_noise(r, r.object("noise"));
-  if (r.has("injected")) parse_injected(r, r.object("injected"), false, c.injected);
-  if (r.has("injected_sigma")) parse_injected(r, r.object("injected_sigma"), true, c.injected);
-  if (r.has("segments")) c.segments = r.array("segments");
-  if (r.has("repeat")) c.repeat = r.array("repeat");
+  if (r.has("substeps")) c.substeps = static_cast<int>(r.field("substeps").integer(1, 1000));
+  // Seeds up to 2^53, where doubles (JSON numbers) still count every integer.
+  if (r.has("seed"))
+    c.seed = static_cast<std::uint64_t>(r.field("seed").integer(0, std::int64_t{1} << 53));
+  if (r.has("noise"))
+    c.noise = parse_noise(r.object(
+        "noise", {"grade", "arw_deg_rth", "vrw_mps_rth", "gnss_vel_sigma_mps", "gnss_pos_sigma_m",
+                  "gm_gyro_sigma_deg_h", "gm_accel_sigma_mps2", "gm_tau_s", "comment"}));
+  if (r.has("injected")) parse_injected(r.field("injected").map(), false, c.injected);
+  if (r.has("injected_sigma")) parse_injected(r.field("injected_sigma").map(), true, c.injected);
+  if (r.has("segments")) c.segments = r.array("segments").value();
+  if (r.has("repeat")) c.repeat = r.array("repeat").value();
   for (std::size_t i = 0; i < c.segments.size(); ++i)
-    check_segment(c.segments[i], origin + ": segments[" + std::to_string(i) + "]");
+    segment_reader(c.segments[i], origin, json_index_path("segments", i));
   for (std::size_t i = 0; i < c.repeat.size(); ++i)
-    check_segment(c.repeat[i], origin + ": repeat[" + std::to_string(i) + "]");
+    segment_reader(c.repeat[i], origin, json_index_path("repeat", i));
   plan_scenario(c);  // all semantic checks now, with the origin in every message
   return c;
 }
@@ -449,7 +363,7 @@ ScenarioPlan plan_scenario(const ScenarioConfig& c) {
   }();
   b.hold_static(c.align_s);
   for (std::size_t i = 0; i < c.segments.size(); ++i)
-    apply_segment(b, c.segments[i], c.origin + ": segments[" + std::to_string(i) + "]");
+    apply_segment(b, c.segments[i], c.origin, json_index_path("segments", i));
   double flight_s = 0.0;
   if (c.flight_s) {
     flight_s = *c.flight_s;
@@ -458,9 +372,8 @@ ScenarioPlan plan_scenario(const ScenarioConfig& c) {
       for (std::size_t cycle = 0; b.now_s() < t_end; ++cycle) {
         const double before = b.now_s();
         for (std::size_t i = 0; i < c.repeat.size() && b.now_s() < t_end; ++i)
-          apply_segment(b, c.repeat[i],
-                        c.origin + ": repeat[" + std::to_string(i) + "] (cycle " +
-                            std::to_string(cycle) + ")");
+          apply_segment(b, c.repeat[i], c.origin, json_index_path("repeat", i),
+                        " (cycle " + std::to_string(cycle) + ")");
         if (!(b.now_s() > before)) fail("repeat segments take no time");
       }
     }

@@ -40,11 +40,13 @@ struct ScenarioConfig {
   std::uint64_t seed = 1;
 };
 
-/// Parse a scenario from JSON. `origin` prefixes every message (e.g. the file name). Throws
-/// std::invalid_argument naming the key, e.g. "my.json: segments[2] (turn): unknown key
-/// 'bank' (valid: type, turn_deg, direction, bank_deg, rate_deg_s, ramp_s, comment)".
+/// Parse a scenario from JSON with insid's one typed reader (core/json_object.h). `origin`
+/// prefixes every message (e.g. the file name). Throws std::invalid_argument naming the field's
+/// path, e.g. "my.json: segments[2].bank: unknown key (valid keys: type, turn_deg, direction,
+/// bank_deg, rate_deg_s, ramp_s, comment)".
 ScenarioConfig parse_scenario(const nlohmann::json& j, const std::string& origin);
-/// Read and parse a scenario file.
+/// Read and parse a scenario file (every error a std::invalid_argument starting with the path:
+/// unreadable, not strict JSON, a key given twice, a field).
 ScenarioConfig load_scenario_file(const std::filesystem::path& path);
 /// Named presets: paper, racetrack, rich, straight, multicopter.
 std::vector<std::string> preset_names();

@@ -242,22 +242,28 @@ TEST(BadInput, EachGetsAClearError) {
   };
   json j = base_json();
   j["bogus"] = 1;
-  has(expect_invalid(j), "bad.json: unknown key 'bogus'");
+  has(expect_invalid(j),
+      "bad.json: bogus: unknown key (valid keys: name, description, comment, imu_rate_hz, ");
   j = base_json();
   j["segments"][2]["bank"] = 10;
-  has(expect_invalid(j), "bad.json: segments[2] (turn): unknown key 'bank'");
+  has(expect_invalid(j),
+      "bad.json: segments[2].bank: unknown key (valid keys: type, turn_deg, direction, bank_deg, "
+      "rate_deg_s, ramp_s, comment)");
   j = base_json();
   j["segments"][1]["type"] = "warp";
-  has(expect_invalid(j), "unknown segment type 'warp'");
+  has(expect_invalid(j),
+      "bad.json: segments[1].type: expected one of \"static\", \"straight\", \"speed\", \"turn\", "
+      "\"loiter\", \"s_turns\", \"climb\", \"descend\", \"takeoff\", found a string \"warp\"");
   j = base_json();
   j["injected"] = {{"accel_bais_x", 1e-3}};
-  has(expect_invalid(j), "unknown effect name 'accel_bais_x'");
+  has(expect_invalid(j), "bad.json: injected.accel_bais_x: unknown effect name 'accel_bais_x'");
   j = base_json();
   j["segments"].push_back({{"type", "straight"}, {"duration_s", -3}});
-  has(expect_invalid(j), "segments[3] (straight): duration_s must be > 0");
+  has(expect_invalid(j), "bad.json: segments[3]: straight segment: duration_s must be > 0, got -3");
   j = base_json();
   j["segments"][2] = {{"type", "turn"}, {"turn_deg", 90}, {"bank_deg", 75}};
-  has(expect_invalid(j), "bank_deg must be in (0, 60]");
+  has(expect_invalid(j),
+      "bad.json: segments[2]: turn segment: bank_deg must be in (0, 60] deg, got 75");
   j = base_json();
   j["gnss_rate_hz"] = 30;
   has(expect_invalid(j), "does not divide");
@@ -269,10 +275,60 @@ TEST(BadInput, EachGetsAClearError) {
   has(expect_invalid(j), "flight_s must be > 0");
   j = base_json();
   j["noise"] = {{"grade", "consumer"}};
-  has(expect_invalid(j), "unknown noise grade 'consumer'");
+  has(expect_invalid(j), "bad.json: noise.grade: unknown noise grade 'consumer'");
   j = base_json();
   j["segments"][0]["dh_m"] = "ten";
-  has(expect_invalid(j), "must be a finite number, got a string");
+  has(expect_invalid(j),
+      "bad.json: segments[0].dh_m: expected a finite number, found a string \"ten\"");
+}
+
+// The message of the std::invalid_argument that loading a scenario file with `text` throws, or
+// "(accepted)"; `path` receives the file's name.
+std::string file_error(const std::string& text, std::string& path) {
+  const fs::path file =
+      fs::temp_directory_path() / ("insid_scenario_" + std::to_string(::getpid()) + ".json");
+  path = file.string();
+  std::ofstream(file) << text;
+  std::string error = "(accepted)";
+  try {
+    load_scenario_file(file);
+  } catch (const std::invalid_argument& e) {
+    error = e.what();
+  }
+  fs::remove(file);
+  return error;
+}
+
+// The one typed reader's wording (core/json_object.h) for each kind of fault of a scenario file:
+// the file, the field's path, what was expected and what was found.
+TEST(BadInput, ScenarioFileFaultsAreNamedWithTheFieldPath) {
+  std::string path;
+  const std::string segments = R"("segments": [{"type": "straight", "duration_s": 10}])";
+  // GIVEN a good file THEN it loads
+  EXPECT_EQ(file_error(R"({"initial": {"lat_deg": 40, "lon_deg": 116}, )" + segments + "}", path),
+            "(accepted)");
+  // an unknown key, with the valid ones
+  EXPECT_EQ(
+      file_error(R"({"initial": {"lat_deg": 40, "lon_deg": 116, "alt_m": 5}, )" + segments + "}",
+                 path),
+      path +
+          ": initial.alt_m: unknown key (valid keys: lat_deg, lon_deg, h_m, roll_deg, "
+          "pitch_deg, yaw_deg, comment)");
+  // a missing key
+  EXPECT_EQ(file_error(R"({"initial": {"lat_deg": 40}, )" + segments + "}", path),
+            path + ": initial.lon_deg: missing, expected a finite number");
+  // a wrong type
+  EXPECT_EQ(file_error(R"({"initial": {"lat_deg": 40, "lon_deg": 116},
+                            "segments": [{"type": "straight", "duration_s": [10]}]})",
+                       path),
+            path + ": segments[0].duration_s: expected a finite number, found an array [10]");
+  // a key given twice (refused by the strict parser, in the same wording)
+  EXPECT_EQ(
+      file_error(R"({"initial": {"lat_deg": 40, "lon_deg": 116, "lat_deg": 41}, )" + segments + "}",
+                 path),
+      path +
+          ": initial.lat_deg: key given twice in one object (JSON objects must not repeat "
+          "a key)");
 }
 
 TEST(BadInput, UnwritableOutputLeavesNothingBehind) {
