@@ -335,11 +335,8 @@ void CampaignConfig::validate(const std::string& origin) const {
                                   "estimation, identification/grade.h; the simulated noise is "
                                   "scenarios[].grade)");
   }
-  try {
-    navigation_options().validate();
-  } catch (const std::invalid_argument& e) {
-    throw std::invalid_argument(origin + ": " + e.what());
-  }
+  if (const std::string why = navigation_options().validate(); !why.empty())
+    throw std::invalid_argument(origin + ": " + why);
   if (std::string error = navigation_options().initial_attitude.validate(); !error.empty())
     throw std::invalid_argument(origin + ": " + error);
   if (max_iterations < 0)

@@ -85,37 +85,33 @@ SweepAxis SweepAxis::parse(const std::string& text) {
   return axis;
 }
 
-void SweepConfig::validate() const {
-  if (axes.empty()) throw std::invalid_argument("sweep: give at least one --grid");
+std::string SweepConfig::validate() const {
+  if (axes.empty()) return "sweep: give at least one --grid";
   for (std::size_t i = 0; i < axes.size(); ++i) {
     const SweepAxis& a = axes[i];
     for (std::size_t j = 0; j < i; ++j)
       if (a.key == axes[j].key)
-        throw std::invalid_argument("--grid: key '" + a.key +
-                                    "' given twice; give each parameter one --grid");
-    if (a.values.empty()) throw std::invalid_argument("--grid " + a.key + ": no values");
+        return "--grid: key '" + a.key + "' given twice; give each parameter one --grid";
+    if (a.values.empty()) return "--grid " + a.key + ": no values";
     for (double v : a.values)
       if (!std::isfinite(v))
-        throw std::invalid_argument("--grid " + a.key + ": value " + std::to_string(v) +
-                                    " is not a finite number");
+        return "--grid " + a.key + ": value " + std::to_string(v) + " is not a finite number";
     if (!(std::isfinite(a.lo) && std::isfinite(a.hi) && a.lo <= a.hi))
-      throw std::invalid_argument("--grid " + a.key + ": the range [" + std::to_string(a.lo) +
-                                  ", " + std::to_string(a.hi) + "] must be finite with LO <= HI");
+      return "--grid " + a.key + ": the range [" + std::to_string(a.lo) + ", " +
+             std::to_string(a.hi) + "] must be finite with LO <= HI";
   }
-  if (random_settings < 0)
-    throw std::invalid_argument("--random must be >= 0, got " + std::to_string(random_settings));
-  if (seeds.empty()) throw std::invalid_argument("sweep: no seed");
+  if (random_settings < 0) return "--random must be >= 0, got " + std::to_string(random_settings);
+  if (seeds.empty()) return "sweep: no seed";
   if (max_iterations < 0)
-    throw std::invalid_argument("sweep: --iterations must be >= 0, got " +
-                                std::to_string(max_iterations));
+    return "sweep: --iterations must be >= 0, got " + std::to_string(max_iterations);
   if (max_evaluations < 0)
-    throw std::invalid_argument("sweep: --evaluations must be >= 0, got " +
-                                std::to_string(max_evaluations));
+    return "sweep: --evaluations must be >= 0, got " + std::to_string(max_evaluations);
+  return "";
 }
 
 std::vector<std::map<std::string, double>> sweep_settings(const SweepConfig& sweep) {
   std::vector<std::map<std::string, double>> settings;
-  sweep.validate();
+  if (const std::string why = sweep.validate(); !why.empty()) throw std::invalid_argument(why);
   if (sweep.random_settings > 0) {
     opt::Rng rng(sweep.random_seed);
     for (int i = 0; i < sweep.random_settings; ++i) {
@@ -205,7 +201,7 @@ SweepConfig sweep_from_manifest(const nlohmann::json& j, const std::string& orig
 }
 
 CampaignOutcome run_sweep(const SweepConfig& sweep, const RunOptions& options) {
-  sweep.validate();
+  if (const std::string why = sweep.validate(); !why.empty()) throw std::invalid_argument(why);
   const CampaignConfig campaign = sweep_campaign(sweep);
   RunOptions sweep_options = options;
   sweep_options.manifest_extra["sweep"] = sweep_to_manifest(sweep);

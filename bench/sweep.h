@@ -42,10 +42,11 @@ struct SweepConfig {
   /// scenario.grade, the simulated noise.
   std::optional<std::string> estimation_grade;
 
-  /// Throws std::invalid_argument naming the bad value: no axis, an axis key given twice or
-  /// with no values, a non-finite value or LO > HI, negative random_settings, no seed,
-  /// negative budgets. sweep_settings and run_sweep call it before any work.
-  void validate() const;
+  /// "" when valid, else what is wrong, naming the bad value: no axis, an axis key given twice
+  /// or with no values, a non-finite value or LO > HI, negative random_settings, no seed,
+  /// negative budgets. sweep_settings and run_sweep refuse an invalid sweep before any work
+  /// (std::invalid_argument with this text).
+  std::string validate() const;
 };
 
 /// The settings (user units, keys as given), grid order or random draws.

@@ -69,10 +69,7 @@ void run(const SweepArgs& args) {
   // Labelled "insid sweep" (the campaign runner behind it is bench's).
   const auto printer = std::make_shared<ProgressPrinter>("insid sweep", args.run.verbosity);
   // The sweep is the command line's: what its check refuses is a usage error (exit 2).
-  parse_option("", [&] {
-    sweep.validate();
-    return 0;
-  });
+  if (const std::string why = sweep.validate(); !why.empty()) throw UsageError(why);
   const campaign::RunOptions options = campaign_run_options(args.run, cluster.get(), printer);
   const auto outcome = campaign::run_sweep(sweep, options);
   printer->finish();

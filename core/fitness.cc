@@ -20,14 +20,15 @@ AlignmentMode alignment_mode_from_string(const std::string& text) {
                               "'");
 }
 
-void NavigationOptions::validate() const {
+std::string NavigationOptions::validate() const {
   if (!std::isfinite(window_s) || window_s < 0.0) {
     std::ostringstream text;
     text << std::setprecision(12) << window_s;
-    throw std::invalid_argument("window_s = " + text.str() +
-                                " s: expected a finite number of seconds >= 0 (0 = one pure-INS "
-                                "run over the whole flight)");
+    return "window_s = " + text.str() +
+           " s: expected a finite number of seconds >= 0 (0 = one pure-INS run over the whole "
+           "flight)";
   }
+  return "";
 }
 
 GnssSample interpolate_gnss(const std::vector<GnssSample>& gnss, double t_s) {
@@ -51,7 +52,7 @@ GnssSample interpolate_gnss(const std::vector<GnssSample>& gnss, double t_s) {
 NavigationProblem::NavigationProblem(std::shared_ptr<const Dataset> dataset,
                                      NavigationOptions options)
     : dataset_(std::move(dataset)), options_(options) {
-  options_.validate();
+  if (const std::string why = options_.validate(); !why.empty()) throw std::invalid_argument(why);
   if (!dataset_) throw std::invalid_argument("NavigationProblem: null dataset");
   const Dataset& ds = *dataset_;
   if (ds.imu.size() < 3 || ds.gnss.size() < 2)

@@ -120,9 +120,10 @@ struct NavigationOptions {
   /// (the paper's Eq. 15, the default); W > 0 = the INS restarted from GNSS position and
   /// velocity every W seconds after the navigation start, attitude carried on (s).
   double window_s = 0.0;
-  /// Throws std::invalid_argument naming the bad value: window_s must be finite and >= 0. (The
-  /// data-dependent check, W at least one GNSS period, is NavigationProblem's.)
-  void validate() const;
+  /// "" when valid, else what is wrong, naming the bad value: window_s must be finite and >= 0
+  /// (the project's one convention for options). The data-dependent check, W at least one GNSS
+  /// period, is NavigationProblem's.
+  std::string validate() const;
   /// How the attitude at the navigation start is found (core/alignment.h; issue 14).
   InitialAttitudeOptions initial_attitude{};
 };
