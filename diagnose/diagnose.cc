@@ -514,18 +514,24 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
     throw std::invalid_argument(error);
   const Progress progress(options.progress);
   const int threads = thread_count(options.threads);
+  // The base model is identify's default set (identification/identify.h) unless given, and the
+  // gyrocompass feasibility check meets its gyro biases' box by identify's rule. The base fit
+  // below is not identify(spec): it starts the optimizer at the box centre among its first
+  // positions, polishes with least squares and needs no reference optimum, result JSON or
+  // uncertainty, only the fitted point and its residuals.
+  const SensorGrade& grade = grade_for(*dataset, options.grade);
+  std::vector<EstimatedParameter> base = options.base;
+  if (base.empty()) base = default_estimated(grade);
   NavigationOptions nav_options;
   nav_options.alignment = options.alignment;
   nav_options.window_s = options.window_s;
   nav_options.initial_attitude = options.initial_attitude;
+  nav_options.initial_attitude.gyro_bias_allowance_rad_s = gyro_bias_allowance_rad_s(base);
   auto nav = std::make_shared<const NavigationProblem>(dataset, nav_options);
   opt::EvaluatorOptions evaluator;
   evaluator.parallelism = threads == 1 ? opt::Parallelism::kSerial : opt::Parallelism::kOpenMP;
   evaluator.num_threads = threads;
 
-  const SensorGrade& grade = grade_for(*dataset, options.grade);
-  std::vector<EstimatedParameter> base = options.base;
-  if (base.empty()) base = default_estimated(grade);  // as identify's default
   std::set<std::string> in_model;
   for (const auto& p : base) in_model.insert(p.name);
   std::vector<std::string> candidates;

@@ -87,6 +87,10 @@ std::shared_ptr<const Dataset> flight(const Grade& g, double flight_s, std::uint
   return std::make_shared<const Dataset>(std::move(ds));
 }
 
+// Not identify(spec) (identification/identify_run.h): the study measures the landscape itself,
+// local fits started at the truth and at the box centre with their Gauss-Newton sd, next to one
+// PSO run, on a fixed-alignment stand-in that identify refuses for users (gyrocompassing MEMS
+// data, below).
 WindowFit fit_window(const std::shared_ptr<const Dataset>& data, const Grade& g, double window_s,
                      int threads, std::uint64_t pso_seed, SetUp set_up) {
   NavigationOptions options;
