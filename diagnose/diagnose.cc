@@ -514,11 +514,14 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
     throw std::invalid_argument(error);
   const Progress progress(options.progress);
   const int threads = thread_count(options.threads);
-  // The base model is identify's default set (identification/identify.h) unless given, and the
-  // gyrocompass feasibility check meets its gyro biases' box by identify's rule. The base fit
-  // below is not identify(spec): it starts the optimizer at the box centre among its first
+  // The base model is identify's default set (identification/identify.h) unless given. The base
+  // fit below is not identify(spec): it starts the optimizer at the box centre among its first
   // positions, polishes with least squares and needs no reference optimum, result JSON or
-  // uncertainty, only the fitted point and its residuals.
+  // uncertainty, only the fitted point and its residuals. Its gyrocompass feasibility check
+  // keeps options.initial_attitude's allowance (the catalogue's 0.01 deg/h by default), not
+  // identify's box rule (gyro_bias_allowance_rad_s): with that rule a tactical or MEMS base on
+  // gyrocompassed data would be refused, as `insid identify --grade tactical` refuses it
+  // (diagnose_test Options.TheGradeSetsTheBaseAndTheCandidatesUnits runs exactly that).
   const SensorGrade& grade = grade_for(*dataset, options.grade);
   std::vector<EstimatedParameter> base = options.base;
   if (base.empty()) base = default_estimated(grade);
@@ -526,7 +529,6 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
   nav_options.alignment = options.alignment;
   nav_options.window_s = options.window_s;
   nav_options.initial_attitude = options.initial_attitude;
-  nav_options.initial_attitude.gyro_bias_allowance_rad_s = gyro_bias_allowance_rad_s(base);
   auto nav = std::make_shared<const NavigationProblem>(dataset, nav_options);
   opt::EvaluatorOptions evaluator;
   evaluator.parallelism = threads == 1 ? opt::Parallelism::kSerial : opt::Parallelism::kOpenMP;
