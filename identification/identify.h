@@ -10,8 +10,11 @@
 
 #include <functional>
 #include <memory>
+#include <cstdint>
 #include <optional>
+#include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
