@@ -8,9 +8,9 @@
 // identification/identify_run.h (it reports the uncertainty, a library above this one).
 #pragma once
 
+#include <cstdint>
 #include <functional>
 #include <memory>
-#include <cstdint>
 #include <optional>
 #include <stdexcept>
 #include <string>
