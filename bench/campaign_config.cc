@@ -12,6 +12,7 @@
 #include "core/json_reader.h"
 #include "core/output_dir.h"
 #include "identification/grade.h"
+#include "identification/identify.h"
 #include "optimizers/registry.h"
 #include "scenarios/noise.h"
 #include "scenarios/scenario.h"
@@ -110,28 +111,19 @@ NavigationOptions CampaignConfig::navigation_options() const {
     options.initial_attitude.mode = *initial_attitude;
     options.initial_attitude.heading_deg = heading_deg;
     options.initial_attitude.heading_source = heading_source;
-    // The feasibility check meets the estimated gyro biases' box, as in `insid identify`.
-    double allowance = 0.0;
-    for (const EstimatedParameter& p : estimated_parameters(*this))
-      if (p.name == "gyro_bias_x" || p.name == "gyro_bias_y")  // the horizontal ones
-        allowance = std::max(allowance, std::max(std::abs(p.lower_sigma), std::abs(p.upper_sigma)) *
-                                            std::abs(p.sigma));
-    if (allowance > 0.0) options.initial_attitude.gyro_bias_allowance_rad_s = allowance;
   }
+  // The feasibility check meets the estimated gyro biases' box: identify's one rule
+  // (identification/identify.h), with or without an "initial_attitude" key.
+  options.initial_attitude.gyro_bias_allowance_rad_s =
+      gyro_bias_allowance_rad_s(estimated_parameters(*this));
   return options;
 }
 
 std::vector<EstimatedParameter> estimated_parameters(const CampaignConfig& config) {
-  std::vector<EstimatedParameter> params;
-  if (config.estimation_grade) {
-    const SensorGrade& grade = sensor_grade(*config.estimation_grade);
-    for (const std::string& e : config.estimate) params.push_back(grade.parameter(e));
-    if (params.empty()) params = default_estimated(grade);
-    return params;
-  }
-  for (const std::string& e : config.estimate) params.push_back(EstimatedParameter::parse(e));
-  if (params.empty()) params = EstimatedParameter::paper_four();
-  return params;
+  // identify's default set and sigmas (identification/identify.h); without an estimation_grade
+  // the catalogue's, which are nav's.
+  return identify_parameters(sensor_grade(config.estimation_grade.value_or("nav")),
+                             config.estimate);
 }
 
 std::vector<std::uint64_t> seed_range(int n) {

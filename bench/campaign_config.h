@@ -53,10 +53,10 @@ struct CampaignConfig {
   std::int64_t max_evaluations = 0;
   AlignmentMode alignment = AlignmentMode::kPerCandidate;
   /// Initial-attitude mode (core/alignment.h; `insid identify --initial-attitude`): absent =
-  /// gyrocompass with the catalogue's gyro bias allowance, exactly as before the key existed
-  /// (and not written to the resolved config, so older campaign directories still resume).
-  /// Given: the mode, the feasibility check meeting the estimated gyro biases' box as identify
-  /// does, and the key in the resolved config and every run file.
+  /// gyrocompass, as before the key existed (and not written to the resolved config, so older
+  /// campaign directories still resume). Given: the mode, and the key in the resolved config and
+  /// every run file. Either way the gyrocompass feasibility check meets the estimated gyro
+  /// biases' box, as identify's does (gyro_bias_allowance_rad_s, identification/identify.h).
   std::optional<InitialAttitudeMode> initial_attitude;
   std::optional<double> heading_deg;  ///< level+heading only: the heading (deg); absent: course
   /// level+heading only: "course" | "given" | "measured" (--heading-source); absent: given with
@@ -110,8 +110,9 @@ std::vector<std::string> preset_campaign_names();
 /// Seeds 1..n.
 std::vector<std::uint64_t> seed_range(int n);
 
-/// The estimated parameters of a campaign (its --estimate specs, or the default set; both with
-/// the estimation_grade's sigmas when it is given).
+/// The estimated parameters of a campaign: identify's (identify_parameters) for its --estimate
+/// specs, or the default set, at the estimation_grade's sigmas (nav's, the catalogue's, when
+/// absent).
 std::vector<EstimatedParameter> estimated_parameters(const CampaignConfig& config);
 
 /// Where an existing directory's resolved config first differs from `new_config` ("" when it

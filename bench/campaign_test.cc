@@ -17,9 +17,12 @@
 
 #include <gtest/gtest.h>
 
+#include "bench/lockstep_runner.h"
 #include "bench/sweep.h"
 #include "core/json_reader.h"
+#include "core/units.h"
 #include "identification/ekf_rts.h"
+#include "identification/identify.h"
 
 namespace insid::campaign {
 namespace {
@@ -652,6 +655,74 @@ TEST(Campaign, RunFileAndIdentifyRecordTheSameAssessment) {
     EXPECT_EQ(run[key], id[key]) << key;
   }
   EXPECT_EQ(run["result"]["fitness"], id["fitness"]);
+  fs::remove_all(dir);
+}
+
+// GIVEN one flight WHEN `insid identify` runs on it with its defaults and a campaign is set up on
+// it with its defaults (no "initial_attitude", no "estimate") THEN both estimate the same
+// parameters (name, sigma, box) and check gyrocompassing against the same gyro bias allowance:
+// the expected heading sd identify records equals the campaign's navigation problem's. And for
+// a grade given to both (tactical), the same set and allowance (identify's spec, which the CLI
+// fills from its arguments, against the campaign's config). Before issue 35's one rule
+// (gyro_bias_allowance_rad_s) a campaign without "initial_attitude" checked against the
+// catalogue's 0.01 deg/h where identify used the box's 0.04 deg/h (nav) or 4 deg/h (tactical).
+TEST(Campaign, IdentifyAndACampaignOnOneFlightShareDefaultSetAndGyroBiasAllowance) {
+  const fs::path dir = fresh_dir("same-flight");
+  fs::create_directories(dir);
+  const fs::path data = dir / "data";
+  const fs::path identified = dir / "identify.json";
+  const std::string insid = INSID_BINARY;
+  ASSERT_EQ(
+      std::system((insid + " simulate --preset straight --flight-s 60 --grade nav --seed 5 --out " +
+                   data.string() + " 2>/dev/null")
+                      .c_str()),
+      0);
+  ASSERT_EQ(std::system((insid + " identify --data " + data.string() +
+                         " --algo pso --iterations 1 --no-reference-optimum "
+                         "--uncertainty-replicas 0 --out " +
+                         identified.string() + " 2>/dev/null")
+                            .c_str()),
+            0);
+  const nlohmann::json id = read(identified);
+  CampaignConfig config =
+      parse_campaign({{"name", "same-flight"},
+                      {"scenarios", {{{"name", "data"}, {"data", data.string()}}}},
+                      {"algorithms", {{{"label", "PSO"}, {"name", "pso"}}}},
+                      {"seeds", {1}},
+                      {"max_iterations", 1}},
+                     "test");
+  const std::vector<EstimatedParameter> campaign_set = estimated_parameters(config);
+  ASSERT_EQ(id["estimated"].size(), campaign_set.size());
+  for (std::size_t k = 0; k < campaign_set.size(); ++k) {
+    EXPECT_EQ(id["estimated"][k]["name"], campaign_set[k].name);
+    EXPECT_EQ(id["estimated"][k]["sigma"].get<double>(), campaign_set[k].sigma);
+    EXPECT_EQ(id["estimated"][k]["lower_sigma"].get<double>(), campaign_set[k].lower_sigma);
+    EXPECT_EQ(id["estimated"][k]["upper_sigma"].get<double>(), campaign_set[k].upper_sigma);
+  }
+  const NavigationProblem campaign_navigation(scenario_dataset(config.scenarios[0]),
+                                              config.navigation_options());
+  ASSERT_TRUE(campaign_navigation.initial_attitude_source().feasibility().has_value());
+  ASSERT_TRUE(id["initial_attitude"].contains("gyrocompass_heading_sd_deg")) << id.dump();
+  EXPECT_EQ(id["initial_attitude"]["gyrocompass_heading_sd_deg"].get<double>(),
+            campaign_navigation.initial_attitude_source().feasibility()->heading_sd_rad * kRadToDeg)
+      << id["initial_attitude"]["gyrocompass_check"];
+
+  // A grade given to both: identify's spec as `insid identify --grade tactical` fills it.
+  IdentifySpec spec;
+  spec.data_dir = data.string();
+  spec.grade = "tactical";
+  const IdentifySetup setup = identify_setup(spec, *scenario_dataset(config.scenarios[0]));
+  config.estimation_grade = "tactical";
+  const std::vector<EstimatedParameter> tactical = estimated_parameters(config);
+  ASSERT_EQ(setup.estimated.size(), tactical.size());
+  for (std::size_t k = 0; k < tactical.size(); ++k) {
+    EXPECT_EQ(setup.estimated[k].name, tactical[k].name);
+    EXPECT_EQ(setup.estimated[k].sigma, tactical[k].sigma);
+  }
+  EXPECT_EQ(setup.navigation.initial_attitude.gyro_bias_allowance_rad_s,
+            config.navigation_options().initial_attitude.gyro_bias_allowance_rad_s);
+  EXPECT_DOUBLE_EQ(setup.navigation.initial_attitude.gyro_bias_allowance_rad_s,
+                   4.0 * sensor_grade("tactical").gyro_bias_rad_s);
   fs::remove_all(dir);
 }
 

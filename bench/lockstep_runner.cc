@@ -175,6 +175,11 @@ struct LockstepRunner::Impl {
   }
 
   // Dataset, problem and (unless another rank finds it) the data's own optimum of scenario s.
+  // A campaign's run is identify's (the default set and the gyro bias allowance are identify's
+  // rules, through estimated_parameters and navigation_options; the run file's assessment is
+  // add_run_assessment_json's), but not a call of identify(spec): its runs share one problem,
+  // optimum and noise-replica set per scenario and are scored together in waves (run_wave),
+  // which one run at a time cannot do.
   void prepare(std::size_t s, OptimumSource source) {
     const ScenarioSpec& spec = config_.scenarios[s];
     ScenarioState& st = states_[s];

@@ -1,9 +1,9 @@
 #include "cli/cli_util.h"
 
 #include <charconv>
-#include <cstdio>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <filesystem>
 #include <iostream>
 #include <stdexcept>
@@ -74,32 +74,6 @@ campaign::ProgressCallback campaign_progress_printer(std::shared_ptr<ProgressPri
   };
 }
 
-nlohmann::json GradeAndWindow::to_json() const {
-  return {{"grade_choice", grade.to_json()}, {"window_s_source", window_source}};
-}
-
-std::string GradeAndWindow::line() const {
-  char w[32];
-  std::snprintf(w, sizeof w, "%g", window_s);
-  return grade.rule + "; fitness window " + (window_s > 0.0 ? std::string(w) + " s" : "0 (one run)") +
-         " (" + window_source + ")";
-}
-
-GradeAndWindow settle_grade_and_window(const Dataset& dataset, const std::string& grade_arg,
-                                       const std::optional<double>& window_arg) {
-  GradeAndWindow g;
-  g.grade = choose_grade(dataset, grade_arg);
-  if (window_arg) {
-    g.window_s = *window_arg;
-    g.window_source = "--window-s";
-  } else {
-    g.window_s = default_window_s(g.grade);
-    g.window_source = g.window_s > 0.0 ? "default for " + g.grade.grade + " data"
-                                       : "default: one run";
-  }
-  return g;
-}
-
 void add_output_force_flag(CLI::App* cmd, bool* force) {
   cmd->add_flag("--force", *force,
                 "replace existing output files that insid did not write (never the command's "
@@ -124,16 +98,14 @@ void check_output_file(const std::string& path, const OutputGuard& guard) {
   check_file_writable(path, options);
 }
 
-void write_output_file(const std::string& path, const std::string& text,
-                       const OutputGuard& guard) {
+void write_output_file(const std::string& path, const std::string& text, const OutputGuard& guard) {
   refuse_replacing_inputs(path, guard.inputs, /*whole_directory=*/false);
   WriteOptions options;
   options.replace_foreign = guard.force;
   write_file_atomic(path, text, options);
 }
 
-void write_json_output(const std::string& path, const nlohmann::json& j,
-                       const OutputGuard& guard) {
+void write_json_output(const std::string& path, const nlohmann::json& j, const OutputGuard& guard) {
   const std::string text = j.dump(2) + "\n";
   if (path.empty() || path == "-") {
     std::cout << text;

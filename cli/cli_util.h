@@ -51,22 +51,6 @@ inline constexpr const char* kWindowWithDefaultHelp =
     "pure-INS run over the whole flight, the paper's; W must be at least one GNSS period). "
     "Default: 10 s when the grade is mems (results/window/README.md), else 0";
 
-/// The grade and fitness window identify and diagnose use on a dataset: --grade (auto: from the
-/// data, identification/grade.h choose_grade) and --window-s, or the grade's default window
-/// (default_window_s) when --window-s is not given. Both are recorded in every result and
-/// said in one line.
-struct GradeAndWindow {
-  GradeChoice grade;
-  double window_s = 0.0;
-  std::string window_source;  ///< "--window-s" | "default for mems data" | "default (one run)"
-  /// {"grade_choice": {...}, "window_s_source": ...}
-  nlohmann::json to_json() const;
-  /// "grade mems (auto: static window ...); fitness window 10 s (default for mems data)"
-  std::string line() const;
-};
-GradeAndWindow settle_grade_and_window(const Dataset& dataset, const std::string& grade_arg,
-                                       const std::optional<double>& window_arg);
-
 /// Parse "NAME=VALUE" items (catalogue names, SI values). `option` names the flag in errors.
 std::map<std::string, double> parse_effect_assignments(const std::vector<std::string>& items,
                                                        const std::string& option);
@@ -127,7 +111,6 @@ void check_output_file(const std::string& path, const OutputGuard& guard);
 void write_output_file(const std::string& path, const std::string& text, const OutputGuard& guard);
 
 /// Write JSON to `path` atomically under `guard`, or to stdout when path is empty or "-".
-void write_json_output(const std::string& path, const nlohmann::json& j,
-                       const OutputGuard& guard);
+void write_json_output(const std::string& path, const nlohmann::json& j, const OutputGuard& guard);
 
 }  // namespace insid::cli

@@ -6,7 +6,6 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
-#include <string>
 #include <vector>
 
 #include <CLI/CLI.hpp>
@@ -63,12 +62,5 @@ void add_diagnose_command(CLI::App& app);
 void add_merge_command(CLI::App& app);
 void add_import_command(CLI::App& app);
 void add_export_command(CLI::App& app);
-
-/// `--param KEY=VALUE` items; keys ending in _sigma are distances in sigma units, converted
-/// to the normalised box of `mapping`, unless the algorithm has a parameter of that very name
-/// (`own`, its opt::default_parameters: ekf-rts's initial_bias_sigma).
-opt::ParameterMap parse_algorithm_params(const std::vector<std::string>& items,
-                                         const ParameterMapping& mapping,
-                                         const opt::ParameterList& own = {});
 
 }  // namespace insid::cli

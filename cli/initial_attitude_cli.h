@@ -1,5 +1,5 @@
-// The --initial-attitude options shared by navigate, identify and diagnose (issue 14), and the
-// record of the mode every result carries.
+// The --initial-attitude options shared by navigate, identify and diagnose (issue 14); the
+// record of the mode every result carries is core/initial_attitude_json.h.
 #pragma once
 
 #include <limits>
@@ -11,6 +11,7 @@
 
 #include "core/alignment.h"
 #include "core/fitness.h"
+#include "core/initial_attitude_json.h"  // initial_attitude_json, recorded in every result
 
 namespace insid::cli {
 
@@ -29,16 +30,5 @@ void add_initial_attitude_options(CLI::App* cmd, InitialAttitudeArgs& args);
 
 /// The options (validated: throws std::invalid_argument naming the bad value).
 InitialAttitudeOptions initial_attitude_options(const InitialAttitudeArgs& args);
-
-/// The gyro bias allowance of an identification: the largest |box edge| of the estimated
-/// horizontal gyro biases (gyro_bias_x/y), else the catalogue default.
-double gyro_bias_allowance(const std::vector<std::string>& names,
-                           const std::vector<double>& max_abs_si);
-
-/// What the initial attitude of a run was: mode, roll/pitch/yaw at the navigation start for
-/// `candidate`, where the heading came from (given, GNSS course with its epochs and the yaw
-/// carried back, gyrocompass with its expected sd).
-nlohmann::json initial_attitude_json(const NavigationProblem& problem,
-                                     const SensorErrors& candidate);
 
 }  // namespace insid::cli

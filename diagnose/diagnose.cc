@@ -514,6 +514,17 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
     throw std::invalid_argument(error);
   const Progress progress(options.progress);
   const int threads = thread_count(options.threads);
+  // The base model is identify's default set (identification/identify.h) unless given. The base
+  // fit below is not identify(spec): it starts the optimizer at the box centre among its first
+  // positions, polishes with least squares and needs no reference optimum, result JSON or
+  // uncertainty, only the fitted point and its residuals. Its gyrocompass feasibility check
+  // keeps options.initial_attitude's allowance (the catalogue's 0.01 deg/h by default), not
+  // identify's box rule (gyro_bias_allowance_rad_s): with that rule a tactical or MEMS base on
+  // gyrocompassed data would be refused, as `insid identify --grade tactical` refuses it
+  // (diagnose_test Options.TheGradeSetsTheBaseAndTheCandidatesUnits runs exactly that).
+  const SensorGrade& grade = grade_for(*dataset, options.grade);
+  std::vector<EstimatedParameter> base = options.base;
+  if (base.empty()) base = default_estimated(grade);
   NavigationOptions nav_options;
   nav_options.alignment = options.alignment;
   nav_options.window_s = options.window_s;
@@ -523,9 +534,6 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
   evaluator.parallelism = threads == 1 ? opt::Parallelism::kSerial : opt::Parallelism::kOpenMP;
   evaluator.num_threads = threads;
 
-  const SensorGrade& grade = grade_for(*dataset, options.grade);
-  std::vector<EstimatedParameter> base = options.base;
-  if (base.empty()) base = default_estimated(grade);  // as identify's default
   std::set<std::string> in_model;
   for (const auto& p : base) in_model.insert(p.name);
   std::vector<std::string> candidates;

@@ -36,6 +36,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Dense>
 
+#include "core/grade_table.h"
 #include "core/mechanization.h"
 #include "core/rotation.h"
 #include "core/units.h"
@@ -44,9 +45,8 @@
 namespace insid {
 namespace {
 
-// Defaults when the dataset has no noise block (nav grade of scenarios/noise.cc) and floors
-// that keep the filter numerically healthy on noise-free data.
-constexpr NoiseLevels kDefaultNoise{0.002, 0.001, 0.01, 0.02};
+// Floors that keep the filter numerically healthy on noise-free data (the defaults without a
+// noise block are the nav grade's levels, core/grade_table.h).
 constexpr NoiseLevels kNoiseFloor{1e-4, 1e-4, 1e-3, 1e-2};
 
 enum : int { kR = 0, kV = 3, kPhi = 6, kBg = 9, kBa = 12, kSg = 15, kSa = 18 };
@@ -227,7 +227,7 @@ EkfRtsResult ekf_pass(const NavigationProblem& navigation, const EkfRtsParams& p
   // Noise.
   const std::optional<NoiseLevels>& dn = ds.meta.noise;
   // Defaults without a noise block: nav (the original set-up) or the grade's levels.
-  const NoiseLevels defaults = setup ? setup->grade.noise : kDefaultNoise;
+  const NoiseLevels defaults = setup ? setup->grade.noise : grade_figures("nav").noise;
   NoiseLevels noise;
   noise.arw_deg_rth = pick(params.arw_deg_rth, dn ? std::optional(dn->arw_deg_rth) : std::nullopt,
                            defaults.arw_deg_rth, kNoiseFloor.arw_deg_rth);

@@ -5,23 +5,22 @@
 #include <stdexcept>
 
 #include "core/alignment.h"
+#include "core/grade_table.h"
 #include "core/rotation.h"
 #include "core/units.h"
 
 namespace insid {
 namespace {
 
+// The estimation grades, one per row of the grade table (core/grade_table.h).
 const std::vector<SensorGrade>& grades() {
-  static const std::vector<SensorGrade> kGrades = {
-      {"nav", kSigmaGyroRadS, kSigmaAccelMps2, 1e-4, 1e-4, {0.002, 0.001, 0.01, 0.02}},
-      {"tactical",
-       1.0 * kDegToRad / 3600.0,
-       1e-3 * kStandardGravity_mps2,
-       3e-4,
-       3e-4,
-       {0.05, 0.02, 0.02, 0.1}},
-      {"mems", 0.1 * kDegToRad, 10e-3 * kStandardGravity_mps2, 1e-3, 1e-3, {0.2, 0.05, 0.03, 0.5}},
-  };
+  static const std::vector<SensorGrade> kGrades = [] {
+    std::vector<SensorGrade> out;
+    for (const GradeFigures& g : grade_table())
+      out.push_back({std::string(g.name), g.gyro_bias_rad_s, g.accel_bias_mps2, g.scale,
+                     g.misalign_rad, g.noise});
+    return out;
+  }();
   return kGrades;
 }
 
@@ -47,15 +46,6 @@ EstimatedParameter SensorGrade::parameter(const std::string& text) const {
   EstimatedParameter p = EstimatedParameter::parse(text);
   if (text.find(':') == std::string::npos) p.sigma = sigma(p.name);
   return p;
-}
-
-std::vector<EstimatedParameter> default_estimated(const SensorGrade& grade) {
-  if (grade.name == "nav") return EstimatedParameter::paper_four();
-  std::vector<EstimatedParameter> out;
-  for (const char* name :
-       {"accel_bias_x", "accel_bias_y", "gyro_bias_x", "gyro_bias_y", "gyro_bias_z"})
-    out.push_back(grade.parameter(name));
-  return out;
 }
 
 const SensorGrade& sensor_grade(std::string_view name) {
@@ -178,5 +168,31 @@ const SensorGrade& grade_for(const Dataset& dataset, std::string_view explicit_g
 }
 
 double default_window_s(const GradeChoice& choice) { return choice.grade == "mems" ? 10.0 : 0.0; }
+
+nlohmann::json GradeAndWindow::to_json() const {
+  return {{"grade_choice", grade.to_json()}, {"window_s_source", window_source}};
+}
+
+std::string GradeAndWindow::line() const {
+  char w[32];
+  std::snprintf(w, sizeof w, "%g", window_s);
+  return grade.rule + "; fitness window " +
+         (window_s > 0.0 ? std::string(w) + " s" : "0 (one run)") + " (" + window_source + ")";
+}
+
+GradeAndWindow settle_grade_and_window(const Dataset& dataset, const std::string& grade_arg,
+                                       const std::optional<double>& window_arg) {
+  GradeAndWindow g;
+  g.grade = choose_grade(dataset, grade_arg);
+  if (window_arg) {
+    g.window_s = *window_arg;
+    g.window_source = "--window-s";
+  } else {
+    g.window_s = default_window_s(g.grade);
+    g.window_source =
+        g.window_s > 0.0 ? "default for " + g.grade.grade + " data" : "default: one run";
+  }
+  return g;
+}
 
 }  // namespace insid

@@ -5,15 +5,12 @@
 // catalogue's [-4, 4] sigma box. A grade scales the IMU effects; GNSS-side effects (latency,
 // lever arm) keep their catalogue sigma.
 //
-//   grade     gyro bias    accel bias   scale / misalign   ARW (deg/sqrt(h)) VRW (m/s/sqrt(h))
-//   nav       0.01 deg/h   0.0005 m/s^2 1e-4 / 1e-4 rad    0.002             0.001
-//   tactical  1 deg/h      1 mg         3e-4 / 3e-4 rad    0.05              0.02
-//   mems      0.1 deg/s    10 mg        1e-3 / 1e-3 rad    0.2               0.05
+// The figures (one sigma of each error, the noise levels) are the grade table's,
+// core/grade_table.h, which the simulator's noise grades and the window study read too.
 //
 // The [-4, 4] sigma box of a MEMS parameter covers 0.4 deg/s and 40 mg (issue 14's realistic
-// 0.2 deg/s, 20 mg lie at 2 sigma). nav's and mems' noise are scenarios/noise.cc's grades (the
-// simulator's); tactical's are typical FOG/high-end-MEMS figures. The bias drifts scale with
-// the biases (one sigma of drift builds one sigma of bias in an hour, as in the catalogue).
+// 0.2 deg/s, 20 mg lie at 2 sigma). The bias drifts scale with the biases (one sigma of drift
+// builds one sigma of bias in an hour, as in the catalogue).
 #pragma once
 
 #include <cmath>
@@ -42,11 +39,6 @@ struct SensorGrade {
   /// with the grade's sigma as the default search unit).
   EstimatedParameter parameter(const std::string& text) const;
 };
-
-/// The parameters estimated when none are named (identify, diagnose, campaign configs with an
-/// estimation_grade): nav the paper's four at the catalogue's sigmas, as always; tactical and
-/// mems the x/y accelerometer and x/y/z gyro biases at the grade's sigmas.
-std::vector<EstimatedParameter> default_estimated(const SensorGrade& grade);
 
 /// "nav" | "tactical" | "mems"; throws std::invalid_argument naming the value otherwise.
 const SensorGrade& sensor_grade(std::string_view name);
@@ -102,5 +94,21 @@ const SensorGrade& grade_for(const Dataset& dataset, std::string_view explicit_g
 /// accuracy plateau of results/window/README.md, "W = 10-20 s on MEMS data"), 0 (one run, the
 /// paper's Eq. 15) otherwise.
 double default_window_s(const GradeChoice& choice);
+
+/// The grade and fitness window of an identification or a diagnosis on a dataset: the grade
+/// (`grade_arg`: auto from the data by choose_grade, or nav | tactical | mems) and the window
+/// (`window_arg`, or the grade's default_window_s when absent). Both are recorded in every
+/// result and said in one line.
+struct GradeAndWindow {
+  GradeChoice grade;
+  double window_s = 0.0;
+  std::string window_source;  ///< "--window-s" | "default for mems data" | "default: one run"
+  /// {"grade_choice": {...}, "window_s_source": ...}
+  nlohmann::json to_json() const;
+  /// "grade mems (auto: static window ...); fitness window 10 s (default for mems data)"
+  std::string line() const;
+};
+GradeAndWindow settle_grade_and_window(const Dataset& dataset, const std::string& grade_arg,
+                                       const std::optional<double>& window_arg);
 
 }  // namespace insid

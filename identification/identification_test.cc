@@ -2,8 +2,10 @@
 
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <set>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -332,6 +334,78 @@ TEST(Identification, ResultJsonHasEstimatesErrorsAndHistory) {
   EXPECT_NEAR(j["estimate"]["gyro_bias_y"].get<double>(),
               j["estimate_in_sigma_units"]["gyro_bias_y"].get<double>() * kSigmaGyroRadS, 1e-20);
   EXPECT_FALSE(j.contains("estimate_sigma"));  // renamed (issue 15): it read as an sd
+}
+
+// GIVEN an IdentifySpec with one bad field WHEN validated THEN IdentifySpecError names that
+// field (field()) and its value (what()), before any data is read; a good spec passes.
+TEST(Identification, IdentifySpecValidateNamesTheBadFieldAndValue) {
+  IdentifySpec good;
+  good.data_dir = "/nonexistent/never-read";  // validate() reads nothing
+  EXPECT_NO_THROW(good.validate());
+
+  struct Case {
+    const char* field;
+    std::function<void(IdentifySpec&)> spoil;
+    std::vector<std::string> said;  // in what(), besides the field
+  };
+  const std::vector<Case> cases = {
+      {"data_dir", [](IdentifySpec& s) { s.data_dir.clear(); }, {"no dataset"}},
+      {"algorithm",
+       [](IdentifySpec& s) { s.algorithm = "nosuch"; },
+       {"unknown optimizer 'nosuch'"}},
+      {"grade", [](IdentifySpec& s) { s.grade = "consumer"; }, {"'consumer'"}},
+      {"estimate", [](IdentifySpec& s) { s.estimate = {"gyro_bias_q"}; }, {"gyro_bias_q"}},
+      {"estimate",
+       [](IdentifySpec& s) { s.estimate = {"gyro_bias_x:1e-7:1:-1"}; },
+       {"LO must be < HI"}},
+      {"params", [](IdentifySpec& s) { s.params = {"w"}; }, {"KEY=VALUE", "'w'"}},
+      {"params", [](IdentifySpec& s) { s.params = {"w=inf"}; }, {"w", "'inf'"}},
+      {"iterations", [](IdentifySpec& s) { s.iterations = -1; }, {"-1"}},
+      {"evaluations", [](IdentifySpec& s) { s.evaluations = -5; }, {"-5"}},
+      {"iterations", [](IdentifySpec& s) { s.iterations = 0; }, {"evaluations 0", "no budget"}},
+      {"window_s", [](IdentifySpec& s) { s.window_s = -2.0; }, {"-2"}},
+      {"threads", [](IdentifySpec& s) { s.threads = -3; }, {"-3"}},
+      {"uncertainty_replicas", [](IdentifySpec& s) { s.uncertainty_replicas = 5; }, {"5"}},
+      {"initial_attitude",
+       [](IdentifySpec& s) { s.initial_attitude.course_min_speed_mps = -1.0; },
+       {"course_min_speed_mps"}}};
+  for (const Case& c : cases) {
+    IdentifySpec spec = good;
+    c.spoil(spec);
+    try {
+      spec.validate();
+      ADD_FAILURE() << c.field << ": no error";
+    } catch (const IdentifySpecError& e) {
+      const std::string what = e.what();
+      EXPECT_EQ(e.field(), c.field) << what;
+      for (const std::string& s : c.said) EXPECT_NE(what.find(s), std::string::npos) << what;
+    }
+  }
+  // A dataset given in memory needs no directory.
+  IdentifySpec in_memory;
+  in_memory.dataset = std::make_shared<const Dataset>(static_problem()->dataset());
+  EXPECT_NO_THROW(in_memory.validate());
+}
+
+// The default set and the allowance rule (identification/identify.h): nav the paper's four and
+// 4 catalogue sigmas of the x/y gyro bias; mems five biases and 4 x 0.1 deg/s; no horizontal
+// gyro bias estimated: the catalogue sigma.
+TEST(Identification, DefaultSetAndGyroBiasAllowanceFollowTheGradeAndTheBox) {
+  const std::vector<EstimatedParameter> nav = identify_parameters(sensor_grade("nav"), {});
+  ASSERT_EQ(nav.size(), 4u);
+  EXPECT_DOUBLE_EQ(gyro_bias_allowance_rad_s(nav), 4.0 * kSigmaGyroRadS);
+  const std::vector<EstimatedParameter> mems = identify_parameters(sensor_grade("mems"), {});
+  ASSERT_EQ(mems.size(), 5u);
+  EXPECT_EQ(mems[4].name, "gyro_bias_z");
+  EXPECT_DOUBLE_EQ(gyro_bias_allowance_rad_s(mems), 4.0 * 0.1 * kDegToRad);
+  // A wider box on gyro_bias_y alone counts; gyro_bias_z does not (it does not tilt the
+  // gyrocompass heading).
+  const std::vector<EstimatedParameter> wide = identify_parameters(
+      sensor_grade("nav"), {"gyro_bias_x", "gyro_bias_y:1e-6:-2:7", "gyro_bias_z:1:-4:4"});
+  EXPECT_DOUBLE_EQ(gyro_bias_allowance_rad_s(wide), 7e-6);
+  EXPECT_DOUBLE_EQ(
+      gyro_bias_allowance_rad_s(identify_parameters(sensor_grade("nav"), {"accel_bias_x"})),
+      InitialAttitudeOptions{}.gyro_bias_allowance_rad_s);
 }
 
 }  // namespace

@@ -1,5 +1,7 @@
 #include "identification/identify.h"
 
+#include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -10,6 +12,7 @@
 
 #include "core/json_reader.h"
 #include "optimizers/random.h"
+#include "optimizers/registry.h"
 
 namespace insid {
 
@@ -217,6 +220,149 @@ void add_run_assessment_json(nlohmann::json& out, const opt::Result& result,
   out["optimum_fitness"] = optimum->fitness;
   out["fitness_gap"] = result.best_f - optimum->fitness;
   out["fitness_gap_relative"] = (result.best_f - optimum->fitness) / optimum->fitness;
+}
+
+std::vector<EstimatedParameter> default_estimated(const SensorGrade& grade) {
+  if (grade.name == "nav") return EstimatedParameter::paper_four();
+  std::vector<EstimatedParameter> out;
+  for (const char* name :
+       {"accel_bias_x", "accel_bias_y", "gyro_bias_x", "gyro_bias_y", "gyro_bias_z"})
+    out.push_back(grade.parameter(name));
+  return out;
+}
+
+std::vector<EstimatedParameter> identify_parameters(const SensorGrade& grade,
+                                                    const std::vector<std::string>& estimate) {
+  std::vector<EstimatedParameter> out;
+  for (const std::string& e : estimate) out.push_back(grade.parameter(e));
+  if (out.empty()) out = default_estimated(grade);
+  return out;
+}
+
+double gyro_bias_allowance_rad_s(const std::vector<EstimatedParameter>& estimated) {
+  double allowance_rad_s = -1.0;  // none estimated yet
+  for (const EstimatedParameter& p : estimated)
+    if (p.name == "gyro_bias_x" || p.name == "gyro_bias_y")
+      allowance_rad_s =
+          std::max(allowance_rad_s,
+                   std::max(std::abs(p.lower_sigma), std::abs(p.upper_sigma)) * std::abs(p.sigma));
+  return allowance_rad_s >= 0.0 ? allowance_rad_s
+                                : InitialAttitudeOptions{}.gyro_bias_allowance_rad_s;
+}
+
+namespace {
+
+std::string number_text(double value) {
+  std::ostringstream text;
+  text.precision(12);
+  text << value;
+  return text.str();
+}
+
+// A parser's message as the error of `field`: named already when it starts with an option
+// ("--estimate 'x': ..."), else after the field's name.
+IdentifySpecError field_error(const std::string& field, const std::string& what) {
+  return IdentifySpecError(field, what.rfind("--", 0) == 0 ? what : field + ": " + what);
+}
+
+// KEY and finite VALUE of a KEY=VALUE item.
+std::pair<std::string, double> key_value(const std::string& item) {
+  const auto eq = item.find('=');
+  if (eq == std::string::npos || eq == 0)
+    throw IdentifySpecError("params", "params: expected KEY=VALUE, got '" + item + "'");
+  const std::string key = item.substr(0, eq);
+  const std::string text = item.substr(eq + 1);
+  double value = 0.0;
+  const auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (ec != std::errc() || ptr != text.data() + text.size() || !std::isfinite(value))
+    throw IdentifySpecError("params",
+                            "params " + key + ": expected a finite number, got '" + text + "'");
+  return {key, value};
+}
+
+}  // namespace
+
+void IdentifySpec::validate() const {
+  if (data_dir.empty() && !dataset)
+    throw IdentifySpecError("data_dir", "data_dir '': no dataset directory and no dataset given");
+  try {
+    opt::default_parameters(algorithm);
+  } catch (const std::invalid_argument& e) {
+    throw field_error("algorithm", e.what());
+  }
+  if (grade != "auto") {
+    const std::vector<std::string> names = sensor_grade_names();
+    if (std::find(names.begin(), names.end(), grade) == names.end())
+      throw IdentifySpecError("grade",
+                              "grade '" + grade + "': expected auto, nav, tactical or mems");
+  }
+  for (const std::string& e : estimate) {
+    try {
+      EstimatedParameter::parse(e);  // the form and the name; the grade's sigma comes later
+    } catch (const std::invalid_argument& error) {
+      throw field_error("estimate", error.what());
+    }
+  }
+  for (const std::string& item : params) key_value(item);
+  if (iterations < 0)
+    throw IdentifySpecError("iterations",
+                            "iterations " + std::to_string(iterations) + ": expected >= 0");
+  if (evaluations < 0)
+    throw IdentifySpecError("evaluations",
+                            "evaluations " + std::to_string(evaluations) + ": expected >= 0");
+  if (iterations == 0 && evaluations == 0)
+    throw IdentifySpecError("iterations",
+                            "iterations 0 and evaluations 0: no budget; give at least one of them");
+  if (window_s && (!std::isfinite(*window_s) || *window_s < 0.0))
+    throw IdentifySpecError("window_s", "window_s " + number_text(*window_s) +
+                                            ": expected a finite number of seconds >= 0 (0 = "
+                                            "one pure-INS run over the whole flight)");
+  if (threads < 0)
+    throw IdentifySpecError(
+        "threads", "threads " + std::to_string(threads) + ": expected >= 0 (0 = all, 1 = serial)");
+  if (uncertainty_replicas < 0 || (uncertainty_replicas > 0 && uncertainty_replicas < 10))
+    throw IdentifySpecError("uncertainty_replicas",
+                            "uncertainty_replicas " + std::to_string(uncertainty_replicas) +
+                                ": expected 0 (no uncertainty) or at least 10 replicas");
+  if (const std::string why = initial_attitude.validate(); !why.empty())
+    throw IdentifySpecError("initial_attitude", "initial_attitude: " + why);
+}
+
+IdentifySetup identify_setup(const IdentifySpec& spec, const Dataset& dataset) {
+  IdentifySetup setup;
+  // The grade sets the search unit of every NAME given without SIGMA and the default set.
+  setup.settled = settle_grade_and_window(dataset, spec.grade, spec.window_s);
+  setup.grade = &sensor_grade(setup.settled.grade.grade);
+  try {
+    setup.estimated = identify_parameters(*setup.grade, spec.estimate);
+  } catch (const std::invalid_argument& e) {
+    throw field_error("estimate", e.what());
+  }
+  setup.navigation.alignment = spec.alignment;
+  setup.navigation.initial_attitude = spec.initial_attitude;
+  setup.navigation.window_s = setup.settled.window_s;
+  // The gyrocompass feasibility check meets the search box's gyro biases.
+  setup.navigation.initial_attitude.gyro_bias_allowance_rad_s =
+      gyro_bias_allowance_rad_s(setup.estimated);
+  return setup;
+}
+
+opt::ParameterMap algorithm_params_in_box(const std::vector<std::string>& items,
+                                          const ParameterMapping& mapping,
+                                          const opt::ParameterList& own) {
+  opt::ParameterMap overrides;
+  for (const std::string& item : items) {
+    const auto [key, value] = key_value(item);
+    // Distances given in sigma units (e.g. d_initial_sigma=0.05) are converted to the
+    // optimizer's normalised box; the algorithm's own "..._sigma" settings are not.
+    try {
+      const auto [box_key, box_value] = mapping.algorithm_parameter_in_box(key, value, own);
+      overrides[box_key] = box_value;  // a key given twice: the last one counts
+    } catch (const std::invalid_argument& e) {
+      throw IdentifySpecError("params", std::string("params ") + e.what());
+    }
+  }
+  return overrides;
 }
 
 }  // namespace insid

@@ -1,12 +1,20 @@
 // One identification run on a dataset: optimizer over the INS problem, then the result as JSON
 // (estimate in SI and sigma units, errors against the injected truth and against the data's own
 // optimum, history). Shared by `insid identify` and the campaign runner.
+//
+// What an identification is (IdentifySpec) and the rules every front end shares: the default
+// parameter set of a grade (default_estimated) and the gyrocompass's gyro bias allowance
+// (gyro_bias_allowance_rad_s). The run itself, identify(spec) -> report, is
+// identification/identify_run.h (it reports the uncertainty, a library above this one).
 #pragma once
 
+#include <cstdint>
 #include <functional>
 #include <memory>
 #include <optional>
+#include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -14,6 +22,7 @@
 #include "core/build_info.h"  // build_info_json, recorded in every result
 #include "core/dataset.h"
 #include "core/fitness.h"
+#include "identification/grade.h"
 #include "identification/ins_problem.h"
 #include "identification/local_fit.h"
 #include "optimizers/optimizer.h"
@@ -88,5 +97,108 @@ void add_run_assessment_json(nlohmann::json& out, const opt::Result& result,
                              const ParameterMapping& mapping,
                              const std::optional<std::map<std::string, double>>& injected,
                              const ReferenceOptimum* optimum);
+
+/// The parameters estimated when none are named (identify, diagnose, campaign configs): nav the
+/// paper's four at the catalogue's sigmas, as always; tactical and mems the x/y accelerometer and
+/// x/y/z gyro biases at the grade's sigmas (the z gyro is observable once the heading comes from
+/// the GNSS course or the flight turns; the uncertainty flags it not_observable when it is not).
+std::vector<EstimatedParameter> default_estimated(const SensorGrade& grade);
+
+/// The parameters of an identification: each NAME[:SIGMA[:LO:HI]] of `estimate` with the grade's
+/// sigma as the unit of a NAME given alone (SensorGrade::parameter), or the grade's
+/// default_estimated when `estimate` is empty. Throws std::invalid_argument naming a bad item.
+std::vector<EstimatedParameter> identify_parameters(const SensorGrade& grade,
+                                                    const std::vector<std::string>& estimate);
+
+/// The gyro bias the gyrocompass feasibility check must allow for (core/alignment.h,
+/// InitialAttitudeOptions::gyro_bias_allowance_rad_s) when `estimated` are searched: the
+/// largest |box edge| (rad/s) of the estimated horizontal gyro biases (gyro_bias_x, gyro_bias_y:
+/// the east gyro error is what tilts a gyrocompass heading), else the catalogue sigma (the data
+/// are then taken as compensated, as navigate does). Before the identification the bias can be
+/// anywhere in that box, so a heading refused for it would be refused for the answer too.
+///
+/// The one rule of identify and campaigns (issue 35). Before, a campaign applied it only when
+/// its config named "initial_attitude", and otherwise checked gyrocompassing against the
+/// catalogue's 0.01 deg/h whatever box it searched: a tactical or MEMS box (4 deg/h, 0.4 deg/s)
+/// was then gyrocompassed where `insid identify` refused it. It also fell back to the catalogue
+/// for a zero edge, which EstimatedParameter::parse never lets through (sigma > 0, LO < HI).
+double gyro_bias_allowance_rad_s(const std::vector<EstimatedParameter>& estimated);
+
+/// A field of an IdentifySpec that cannot be run. what() names the field first (the spec's name,
+/// e.g. "uncertainty_replicas 5: ...") unless the message of the parser it came from names the
+/// command-line option already ("--estimate 'x': ..."); field() lets a front end name its own
+/// option instead.
+class IdentifySpecError : public std::invalid_argument {
+ public:
+  IdentifySpecError(std::string field, const std::string& what)
+      : std::invalid_argument(what), field_(std::move(field)) {}
+  const std::string& field() const { return field_; }
+
+ private:
+  std::string field_;
+};
+
+/// One identification of a dataset (`insid identify`, identify_run.h): what to estimate, with
+/// which optimizer and budget, and how to navigate. The defaults are `insid identify`'s.
+struct IdentifySpec {
+  /// The dataset directory: loaded unless `dataset` is given, recorded as "data", and where the
+  /// data's own optimum is cached (cached_reference_optimum).
+  std::string data_dir;
+  /// The data of data_dir already loaded (optional: a study's simulated flight has no directory
+  /// and no reference optimum, see `reference_optimum`).
+  std::shared_ptr<const Dataset> dataset;
+  /// ga | pso | pio | dvpio | a reference baseline | external:CMD (optimizers/registry.h).
+  std::string algorithm = "dvpio";
+  /// NAME[:SIGMA[:LO:HI]] (SIGMA in SI, box in sigma units; NAME alone: the grade's sigma);
+  /// empty: default_estimated(grade).
+  std::vector<std::string> estimate;
+  /// auto | nav | tactical | mems (identification/grade.h; auto: choose_grade on the data).
+  std::string grade = "auto";
+  /// KEY=VALUE algorithm parameters; distances with the suffix _sigma in sigma units
+  /// (algorithm_params_in_box).
+  std::vector<std::string> params;
+  std::uint64_t seed = 1;
+  int iterations = 40;           ///< iteration budget (0 = none)
+  std::int64_t evaluations = 0;  ///< evaluation budget (0 = none)
+  AlignmentMode alignment = AlignmentMode::kPerCandidate;
+  /// Fitness window (s, core/fitness.h); absent: the grade's default (default_window_s).
+  std::optional<double> window_s;
+  /// How the attitude at the navigation start is found; its gyro_bias_allowance_rad_s is not
+  /// read: the run sets it from the search box (gyro_bias_allowance_rad_s).
+  InitialAttitudeOptions initial_attitude;
+  int threads = 0;  ///< OpenMP threads (0 = all, 1 = serial)
+  /// Find (or read from data_dir's cache) the data's own optimum and judge the run against it.
+  bool reference_optimum = true;
+  bool record_positions = false;   ///< every particle's position per iteration
+  int uncertainty_replicas = 100;  ///< 0: no uncertainty; else at least 10 noise replicas
+
+  /// Throws IdentifySpecError naming the bad field and value: no data (neither data_dir nor
+  /// dataset), an unknown algorithm or grade, an --estimate form that does not parse, a param
+  /// not KEY=VALUE with a finite value, a negative budget or both budgets 0, a window that is
+  /// not a finite number >= 0, negative threads, 1-9 uncertainty replicas, invalid initial-
+  /// attitude options. What depends on the data (the grade's sigma, the optimizer's own
+  /// parameter names) is checked by the run.
+  void validate() const;
+};
+
+/// What an IdentifySpec comes to on its dataset: the grade and window settled, the estimated
+/// parameters and the navigation options (the gyro bias allowance set from the box).
+struct IdentifySetup {
+  GradeAndWindow settled;
+  const SensorGrade* grade = nullptr;
+  std::vector<EstimatedParameter> estimated;
+  NavigationOptions navigation;
+};
+/// Throws IdentifySpecError for a bad --estimate item (after validate(), only one whose box
+/// leaves the catalogue's range at the grade's sigma).
+IdentifySetup identify_setup(const IdentifySpec& spec, const Dataset& dataset);
+
+/// KEY=VALUE algorithm parameters; keys ending in _sigma are distances in sigma units,
+/// converted to the normalised box of `mapping`, unless the algorithm has a parameter of that
+/// very name (`own`, its opt::default_parameters: ekf-rts's initial_bias_sigma). A key given
+/// twice: the last one counts. Throws IdentifySpecError (field "params") naming the item.
+opt::ParameterMap algorithm_params_in_box(const std::vector<std::string>& items,
+                                          const ParameterMapping& mapping,
+                                          const opt::ParameterList& own = {});
 
 }  // namespace insid

@@ -8,6 +8,7 @@
 #include "core/units.h"
 #include "identification/ekf_rts.h"
 #include "identification/grade.h"
+#include "identification/identify_run.h"
 #include "identification/uncertainty.h"
 #include "optimizers/registry.h"
 #include "scenarios/noise.h"
@@ -73,6 +74,9 @@ InsIdentificationProblem problem(const std::shared_ptr<const Dataset>& data, dou
                                   evaluator);
 }
 
+// The filter itself, not identify(spec): the study sets its passes and intervals and its own
+// initial-attitude mode, and reads the smoother's sd (identify's "ekf-rts" runs the same filter
+// with the grade's set-up, as an optimizer over the Eq. 15 problem).
 Answer ekf_rts(const std::shared_ptr<const Dataset>& data, const Spec& spec) {
   const auto t0 = std::chrono::steady_clock::now();
   // The EKF runs on the data itself; the window only matters to the fitness methods.
@@ -106,57 +110,53 @@ Answer ekf_rts(const std::shared_ptr<const Dataset>& data, const Spec& spec) {
 
 namespace {
 
-// sd and flags of `best_x` (problem coordinates) from identification/uncertainty.h, the path of
-// every `insid identify` result.
-Answer answer_from_uncertainty(const InsIdentificationProblem& p, const Eigen::VectorXd& best_x,
-                               const std::string& algorithm, const Spec& spec) {
-  UncertaintyOptions uo;
-  uo.criterion = criterion_for_algorithm(algorithm);
-  uo.replicas = spec.replicas;
-  uo.threads = spec.threads;
-  const UncertaintyReport report = estimate_uncertainty(p, p.mapping().to_sigma(best_x), uo);
+// One method on the windowed fitness through the identification pipeline (identify(spec),
+// identification/identify_run.h), as `insid identify --grade mems --initial-attitude
+// level+heading --window-s W --estimate <the five>` runs it: sd and flags from the uncertainty
+// of its final point, the path of every identify result. No reference optimum (the flight has
+// no directory to cache it in, and the study judges against the truth).
+Answer identified(const std::shared_ptr<const Dataset>& data, const Spec& spec,
+                  const std::string& algorithm, std::uint64_t seed, std::int64_t evaluations) {
+  const auto t0 = std::chrono::steady_clock::now();
+  IdentifySpec is;
+  is.dataset = data;
+  is.algorithm = algorithm;
+  is.estimate = parameter_names();  // NAME alone: the mems grade's sigma, the [-4, 4] box
+  is.grade = "mems";
+  is.seed = seed;
+  is.iterations = 0;
+  is.evaluations = evaluations;
+  is.window_s = spec.window_s;
+  is.initial_attitude.mode = InitialAttitudeMode::kLevelHeading;
+  if (!spec.heading_source.empty())
+    is.initial_attitude.heading_source = heading_source_from_string(spec.heading_source);
+  is.threads = spec.threads;
+  is.reference_optimum = false;
+  is.uncertainty_replicas = spec.replicas;
+  const IdentifyReport report = identify(is);
   Answer a;
   a.method = algorithm;
   a.estimate_si.resize(5);
   a.sd_si.resize(5);
   for (std::size_t k = 0; k < 5; ++k) {
-    const ParameterUncertainty& u = report.parameters[k];
+    const ParameterUncertainty& u = report.uncertainty->parameters[k];
     a.estimate_si[static_cast<Eigen::Index>(k)] = u.estimate_si;
     a.sd_si[static_cast<Eigen::Index>(k)] = u.sd_si.value_or(std::nan(""));
     a.flags.push_back(u.flags);
   }
+  a.evaluations = report.optimizer_result.evaluations;
+  a.wall_s = seconds_since(t0);
   return a;
 }
 
 }  // namespace
 
 Answer lm_windowed(const std::shared_ptr<const Dataset>& data, const Spec& spec) {
-  const auto t0 = std::chrono::steady_clock::now();
-  const InsIdentificationProblem p =
-      problem(data, spec.window_s, spec.threads, spec.heading_source);
-  opt::RunConfig config;
-  config.max_iterations = 0;
-  config.max_evaluations = 200;
-  const opt::Result result = opt::optimize("lm", p, config);
-  Answer a = answer_from_uncertainty(p, result.best_x, "lm", spec);
-  a.evaluations = result.evaluations;
-  a.wall_s = seconds_since(t0);
-  return a;
+  return identified(data, spec, "lm", opt::RunConfig{}.seed, 200);
 }
 
 Answer swarm_windowed(const std::shared_ptr<const Dataset>& data, const Spec& spec) {
-  const auto t0 = std::chrono::steady_clock::now();
-  const InsIdentificationProblem p =
-      problem(data, spec.window_s, spec.threads, spec.heading_source);
-  opt::RunConfig config;
-  config.seed = spec.swarm_seed;
-  config.max_iterations = 0;
-  config.max_evaluations = spec.swarm_evaluations;
-  const opt::Result result = opt::optimize(spec.swarm, p, config);
-  Answer a = answer_from_uncertainty(p, result.best_x, spec.swarm, spec);
-  a.evaluations = result.evaluations;
-  a.wall_s = seconds_since(t0);
-  return a;
+  return identified(data, spec, spec.swarm, spec.swarm_seed, spec.swarm_evaluations);
 }
 
 }  // namespace insid::mems_study

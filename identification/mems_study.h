@@ -73,13 +73,14 @@ struct Answer {
 /// navigation start and the smoother's own sd.
 Answer ekf_rts(const std::shared_ptr<const Dataset>& data, const Spec& spec);
 /// LM (the registry's "lm", 200 evaluations from the box centre) on the windowed fitness, sd
-/// and flags from identification/uncertainty.h (least-squares criterion, noise replicas).
+/// and flags from identification/uncertainty.h (least-squares criterion, noise replicas): run
+/// through identify(spec) (identification/identify_run.h) as `insid identify` runs it.
 Answer lm_windowed(const std::shared_ptr<const Dataset>& data, const Spec& spec);
 /// The swarm method `spec.swarm` (the registry's, default parameters, `swarm_evaluations`
 /// evaluations, seed `swarm_seed`) on the windowed fitness (Eq. 15 summed over windows), sd and
 /// flags from identification/uncertainty.h at its final point, as `insid identify` reports
-/// them: the Gauss-Newton replica covariance, and not_converged when one IRLS step of Eq. 15
-/// from the final point moves a parameter by more than 1 sd.
+/// them (through identify(spec)): the Gauss-Newton replica covariance, and not_converged when
+/// one IRLS step of Eq. 15 from the final point moves a parameter by more than 1 sd.
 Answer swarm_windowed(const std::shared_ptr<const Dataset>& data, const Spec& spec);
 
 }  // namespace insid::mems_study
