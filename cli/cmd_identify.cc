@@ -90,11 +90,8 @@ void run_identify(const IdentifyArgs& args) {
   spec.reference_optimum = !args.no_reference;
   spec.record_positions = args.positions;
   spec.uncertainty_replicas = args.uncertainty_replicas;
-  try {
-    spec.validate();  // before the dataset is read
-  } catch (const IdentifySpecError& e) {
-    throw_usage(e);
-  }
+  if (const std::optional<IdentifySpecError> problem = spec_problem(spec))
+    throw_usage(*problem);  // before the dataset is read
   ProgressPrinter progress("insid identify", args.verbosity);
   IdentifyProgress reporting;
   reporting.note = [&progress](const std::string& text) { progress.note(text); };

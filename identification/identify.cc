@@ -282,50 +282,63 @@ std::pair<std::string, double> key_value(const std::string& item) {
 
 }  // namespace
 
-void IdentifySpec::validate() const {
-  if (data_dir.empty() && !dataset)
-    throw IdentifySpecError("data_dir", "data_dir '': no dataset directory and no dataset given");
+std::optional<IdentifySpecError> spec_problem(const IdentifySpec& spec) {
+  if (spec.data_dir.empty() && !spec.dataset)
+    return IdentifySpecError("data_dir", "data_dir '': no dataset directory and no dataset given");
   try {
-    opt::default_parameters(algorithm);
+    opt::default_parameters(spec.algorithm);
   } catch (const std::invalid_argument& e) {
-    throw field_error("algorithm", e.what());
+    return field_error("algorithm", e.what());
   }
-  if (grade != "auto") {
+  if (spec.grade != "auto") {
     const std::vector<std::string> names = sensor_grade_names();
-    if (std::find(names.begin(), names.end(), grade) == names.end())
-      throw IdentifySpecError("grade",
-                              "grade '" + grade + "': expected auto, nav, tactical or mems");
+    if (std::find(names.begin(), names.end(), spec.grade) == names.end())
+      return IdentifySpecError("grade",
+                               "grade '" + spec.grade + "': expected auto, nav, tactical or mems");
   }
-  for (const std::string& e : estimate) {
+  for (const std::string& e : spec.estimate) {
     try {
       EstimatedParameter::parse(e);  // the form and the name; the grade's sigma comes later
     } catch (const std::invalid_argument& error) {
-      throw field_error("estimate", error.what());
+      return field_error("estimate", error.what());
     }
   }
-  for (const std::string& item : params) key_value(item);
-  if (iterations < 0)
-    throw IdentifySpecError("iterations",
-                            "iterations " + std::to_string(iterations) + ": expected >= 0");
-  if (evaluations < 0)
-    throw IdentifySpecError("evaluations",
-                            "evaluations " + std::to_string(evaluations) + ": expected >= 0");
-  if (iterations == 0 && evaluations == 0)
-    throw IdentifySpecError("iterations",
-                            "iterations 0 and evaluations 0: no budget; give at least one of them");
-  if (window_s && (!std::isfinite(*window_s) || *window_s < 0.0))
-    throw IdentifySpecError("window_s", "window_s " + number_text(*window_s) +
-                                            ": expected a finite number of seconds >= 0 (0 = "
-                                            "one pure-INS run over the whole flight)");
-  if (threads < 0)
-    throw IdentifySpecError(
-        "threads", "threads " + std::to_string(threads) + ": expected >= 0 (0 = all, 1 = serial)");
-  if (uncertainty_replicas < 0 || (uncertainty_replicas > 0 && uncertainty_replicas < 10))
-    throw IdentifySpecError("uncertainty_replicas",
-                            "uncertainty_replicas " + std::to_string(uncertainty_replicas) +
-                                ": expected 0 (no uncertainty) or at least 10 replicas");
-  if (const std::string why = initial_attitude.validate(); !why.empty())
-    throw IdentifySpecError("initial_attitude", "initial_attitude: " + why);
+  for (const std::string& item : spec.params) {
+    try {
+      key_value(item);
+    } catch (const IdentifySpecError& e) {
+      return e;
+    }
+  }
+  if (spec.iterations < 0)
+    return IdentifySpecError("iterations",
+                             "iterations " + std::to_string(spec.iterations) + ": expected >= 0");
+  if (spec.evaluations < 0)
+    return IdentifySpecError("evaluations",
+                             "evaluations " + std::to_string(spec.evaluations) + ": expected >= 0");
+  if (spec.iterations == 0 && spec.evaluations == 0)
+    return IdentifySpecError(
+        "iterations", "iterations 0 and evaluations 0: no budget; give at least one of them");
+  if (spec.window_s && (!std::isfinite(*spec.window_s) || *spec.window_s < 0.0))
+    return IdentifySpecError("window_s", "window_s " + number_text(*spec.window_s) +
+                                             ": expected a finite number of seconds >= 0 (0 = "
+                                             "one pure-INS run over the whole flight)");
+  if (spec.threads < 0)
+    return IdentifySpecError("threads", "threads " + std::to_string(spec.threads) +
+                                            ": expected >= 0 (0 = all, 1 = serial)");
+  if (spec.uncertainty_replicas < 0 ||
+      (spec.uncertainty_replicas > 0 && spec.uncertainty_replicas < 10))
+    return IdentifySpecError("uncertainty_replicas",
+                             "uncertainty_replicas " + std::to_string(spec.uncertainty_replicas) +
+                                 ": expected 0 (no uncertainty) or at least 10 replicas");
+  if (const std::string why = spec.initial_attitude.validate(); !why.empty())
+    return IdentifySpecError("initial_attitude", "initial_attitude: " + why);
+  return std::nullopt;
+}
+
+std::string IdentifySpec::validate() const {
+  const std::optional<IdentifySpecError> problem = spec_problem(*this);
+  return problem ? problem->what() : "";
 }
 
 IdentifySetup identify_setup(const IdentifySpec& spec, const Dataset& dataset) {

@@ -172,14 +172,20 @@ struct IdentifySpec {
   bool record_positions = false;   ///< every particle's position per iteration
   int uncertainty_replicas = 100;  ///< 0: no uncertainty; else at least 10 noise replicas
 
-  /// Throws IdentifySpecError naming the bad field and value: no data (neither data_dir nor
-  /// dataset), an unknown algorithm or grade, an --estimate form that does not parse, a param
-  /// not KEY=VALUE with a finite value, a negative budget or both budgets 0, a window that is
-  /// not a finite number >= 0, negative threads, 1-9 uncertainty replicas, invalid initial-
-  /// attitude options. What depends on the data (the grade's sigma, the optimizer's own
-  /// parameter names) is checked by the run.
-  void validate() const;
+  /// "" when the spec can be run, else what is wrong, naming the bad field and value (the
+  /// project's convention for options; spec_problem keeps the field for a front end): no data
+  /// (neither data_dir nor dataset), an unknown algorithm or grade, an --estimate form that does
+  /// not parse, a param not KEY=VALUE with a finite value, a negative budget or both budgets 0,
+  /// a window that is not a finite number >= 0, negative threads, 1-9 uncertainty replicas,
+  /// invalid initial-attitude options. What depends on the data (the grade's sigma, the
+  /// optimizer's own parameter names) is checked by the run.
+  std::string validate() const;
 };
+
+/// validate()'s check with the field kept: the first invalid field of `spec` as an error
+/// (field() and what()), none when it can be run. identify() throws it; `insid identify` turns
+/// it into a usage error naming its own option.
+std::optional<IdentifySpecError> spec_problem(const IdentifySpec& spec);
 
 /// What an IdentifySpec comes to on its dataset: the grade and window settled, the estimated
 /// parameters and the navigation options (the gyro bias allowance set from the box).

@@ -133,7 +133,7 @@ std::string autopilot_comparison_table(const nlohmann::json& cmp) {
 }  // namespace
 
 IdentifyReport identify(const IdentifySpec& spec, const IdentifyProgress& progress) {
-  spec.validate();
+  if (std::optional<IdentifySpecError> problem = spec_problem(spec)) throw *problem;
   const auto note = [&progress](const std::string& text) {
     if (progress.note) progress.note(text);
   };
