@@ -508,6 +508,157 @@ std::string DiagnoseOptions::validate() const {
   return "";
 }
 
+namespace {
+
+// Step 1, the base fit: the optimizer from the box centre (among its first positions), then the
+// least-squares Levenberg-Marquardt polish; what was done into `procedure`.
+ModelFit fit_base_model(const std::shared_ptr<const NavigationProblem>& nav,
+                        const std::vector<EstimatedParameter>& base, const DiagnoseOptions& options,
+                        const opt::EvaluatorOptions& evaluator, const Progress& progress,
+                        json& procedure) {
+  ParameterMapping mapping(base);
+  Vec start = Vec::Zero(mapping.dimension());
+  json oj = {{"algorithm", options.algorithm}};
+  if (options.algorithm != "none") {
+    progress("base fit: " + options.algorithm + ", " +
+             std::to_string(options.optimizer_iterations) + " iterations");
+    InsIdentificationProblem problem(nav, mapping, FitnessKind::kEq15, evaluator);
+    opt::RunConfig config;
+    config.seed = options.seed;
+    config.max_iterations = options.optimizer_iterations;
+    config.initial_positions = {Vec::Zero(mapping.dimension())};  // box centre among them
+    const opt::Result res = opt::optimize(options.algorithm, problem, config);
+    start = mapping.to_sigma(res.best_x);
+    oj["iterations"] = res.iterations;
+    oj["evaluations"] = res.evaluations;
+    oj["best_fitness"] = res.best_f;
+  }
+  progress("base fit: least-squares Levenberg-Marquardt polish");
+  ModelFit fit = refit(nav, base, start, evaluator);
+  oj["polish"] = {{"method", "levenberg-marquardt least squares"},
+                  {"iterations", fit.iterations},
+                  {"evaluations", fit.evaluations}};
+  procedure = oj;
+  return fit;
+}
+
+// Step 2's replicas: column m is the residual change of replica m (the flight with fresh noise
+// at `levels`, seed mix_seed(seed, 1000 + m)) at the base fit's errors, on `threads` threads.
+Mat replica_deviations(const Dataset& dataset, const NoiseLevels& levels,
+                       const NavigationOptions& nav_options, const ModelFit& fit, int replicas,
+                       std::uint64_t seed, int threads) {
+  Mat D(fit.r.size(), replicas);
+  std::vector<std::string> failures(static_cast<std::size_t>(replicas));
+#pragma omp parallel for schedule(dynamic) num_threads(threads)
+  for (int m = 0; m < replicas; ++m) {
+    try {
+      auto rep =
+          std::make_shared<const Dataset>(noise_replica(dataset, levels, mix_seed(seed, 1000 + m)));
+      const NavigationProblem rnav(rep, nav_options);
+      std::vector<double> r;
+      rnav.residuals(fit.errors, r);
+      D.col(m) = to_vec(r) - fit.r;
+    } catch (const std::exception& e) {
+      failures[static_cast<std::size_t>(m)] = e.what();
+    }
+  }
+  for (const auto& f : failures)
+    if (!f.empty()) throw std::runtime_error("noise replica: " + f);
+  return D;
+}
+
+// Backward check (stepwise selection, issue 33). A named effect can stand in for one named
+// later: its one-at-a-time test against the model of its iteration is linear in a residual
+// that also holds the later effect's signal (MEMS `rich` flights hiding a gyro z bias drift
+// of 0.2 deg/s per hour named gyro_misalign_zy first, at z 5-9, then the drift; in the joint
+// model the misalignment was 0.5 sd from zero and the drift right). In the final joint model,
+// an effect named before others whose |estimate| / sd is below the threshold it was named at
+// AND below half its |estimate| / sd in the model it joined (the same sd, so its own
+// efficiency does not count: the model-sd of a lone true effect can sit below the threshold
+// the calibrated test used) is withdrawn (the weakest against its threshold first), the model
+// refitted without it, and the check repeated; a withdrawn effect is reported under
+// "withdrawn" with its joint estimate. The last-named effect is never withdrawn. `fit`, `found`
+// and `found_names` are updated; returns the withdrawn effects.
+json withdraw_stand_ins(const std::shared_ptr<const NavigationProblem>& nav,
+                        const opt::EvaluatorOptions& evaluator, const Mat& D,
+                        const json& iterations, const Progress& progress, ModelFit& fit,
+                        json& found, std::vector<std::string>& found_names) {
+  json withdrawn = json::array();
+  for (;;) {
+    const Vec sd = parameter_sd(fit.J, D);
+    std::size_t weakest = found.size(), weakest_k = 0;
+    double weakest_ratio = 1.0;                         // |z| / threshold; >= 1 stays
+    for (std::size_t f = 0; f + 1 < found.size(); ++f)  // joined by a later name
+      for (std::size_t k = 0; k < fit.params.size(); ++k) {
+        if (fit.params[k].name != found[f]["effect"].get<std::string>()) continue;
+        const auto i = static_cast<Eigen::Index>(k);
+        const double threshold =
+            iterations[found[f]["iteration"].get<std::size_t>() - 1]["threshold_z"].get<double>();
+        const double z = sd[i] > 0 ? std::abs(fit.value_sigma[i] / sd[i]) : 0.0;
+        const double collapsed = std::abs(found[f]["z_when_added"].get<double>()) / 2.0;
+        if (sd[i] > 0 && z < collapsed && z / threshold < weakest_ratio)
+          weakest = f, weakest_k = k, weakest_ratio = z / threshold;
+      }
+    if (weakest == found.size()) break;
+    const auto i = static_cast<Eigen::Index>(weakest_k);
+    const double sigma = fit.params[weakest_k].sigma;
+    const std::string name = found[weakest]["effect"].get<std::string>();
+    withdrawn.push_back(
+        {{"effect", name},
+         {"iteration", found[weakest]["iteration"]},
+         {"z_at_detection", found[weakest]["z"]},
+         {"joint_estimate", fit.value_sigma[i] * sigma},
+         {"joint_sd", sd[i] * sigma},
+         {"joint_z", fit.value_sigma[i] / sd[i]},
+         {"z_when_added", found[weakest]["z_when_added"]},
+         {"threshold_z",
+          iterations[found[weakest]["iteration"].get<std::size_t>() - 1]["threshold_z"]},
+         {"why", "not significant in the final joint model: a stand-in for effects named later"}});
+    progress("withdrawn: " + name + " (joint z = " + std::to_string(fit.value_sigma[i] / sd[i]) +
+             ")");
+    std::vector<EstimatedParameter> params;
+    Vec start(static_cast<Eigen::Index>(fit.params.size()) - 1);
+    for (std::size_t k = 0; k < fit.params.size(); ++k)
+      if (k != weakest_k) {
+        start[static_cast<Eigen::Index>(params.size())] =
+            fit.value_sigma[static_cast<Eigen::Index>(k)];
+        params.push_back(fit.params[k]);
+      }
+    fit = refit(nav, params, start, evaluator);
+    found.erase(found.begin() + static_cast<std::ptrdiff_t>(weakest));
+    found_names.erase(std::find(found_names.begin(), found_names.end(), name));
+  }
+  return withdrawn;
+}
+
+// Per-phase summary: the RMS of the horizontal residuals before (base model) and after (the
+// final model) and the noise floor's, for each flight phase in phase_names() order.
+json phases_json(const std::vector<std::string>& epoch_phase, const ModelFit& base_fit,
+                 const ModelFit& fit, const Floor& floor_after) {
+  std::map<std::string, std::array<double, 3>> acc;  // sum sq before, after, count
+  for (std::size_t e = 0; e < epoch_phase.size(); ++e) {
+    auto& a = acc[epoch_phase[e]];
+    a[0] += base_fit.r[2 * e] * base_fit.r[2 * e] + base_fit.r[2 * e + 1] * base_fit.r[2 * e + 1];
+    a[1] += fit.r[2 * e] * fit.r[2 * e] + fit.r[2 * e + 1] * fit.r[2 * e + 1];
+    a[2] += 1.0;
+  }
+  json pj = json::array();
+  for (const std::string& name : phase_names()) {
+    const auto it = acc.find(name);
+    if (it == acc.end()) continue;
+    const auto& a = it->second;
+    pj.push_back({{"phase", name},
+                  {"epochs", static_cast<int>(a[2])},
+                  {"rms_before_mps", std::sqrt(a[0] / a[2])},
+                  {"rms_after_mps", std::sqrt(a[1] / a[2])},
+                  {"rms_floor_mps",
+                   floor_after.phase_rms.count(name) ? floor_after.phase_rms.at(name) : 0.0}});
+  }
+  return pj;
+}
+
+}  // namespace
+
 DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
                             const DiagnoseOptions& options) {
   if (const std::string error = options.validate(); !error.empty())
@@ -566,32 +717,8 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
   report["nav_start_t_s"] = nav->nav_start_t_s();
 
   // 1. Base fit: optimizer, then the LS polish.
-  ModelFit fit;
-  {
-    ParameterMapping mapping(base);
-    Vec start = Vec::Zero(mapping.dimension());
-    json oj = {{"algorithm", options.algorithm}};
-    if (options.algorithm != "none") {
-      progress("base fit: " + options.algorithm + ", " +
-               std::to_string(options.optimizer_iterations) + " iterations");
-      InsIdentificationProblem problem(nav, mapping, FitnessKind::kEq15, evaluator);
-      opt::RunConfig config;
-      config.seed = options.seed;
-      config.max_iterations = options.optimizer_iterations;
-      config.initial_positions = {Vec::Zero(mapping.dimension())};  // box centre among them
-      const opt::Result res = opt::optimize(options.algorithm, problem, config);
-      start = mapping.to_sigma(res.best_x);
-      oj["iterations"] = res.iterations;
-      oj["evaluations"] = res.evaluations;
-      oj["best_fitness"] = res.best_f;
-    }
-    progress("base fit: least-squares Levenberg-Marquardt polish");
-    fit = refit(nav, base, start, evaluator);
-    oj["polish"] = {{"method", "levenberg-marquardt least squares"},
-                    {"iterations", fit.iterations},
-                    {"evaluations", fit.evaluations}};
-    report["base_fit_procedure"] = oj;
-  }
+  ModelFit fit =
+      fit_base_model(nav, base, options, evaluator, progress, report["base_fit_procedure"]);
   const ModelFit base_fit = fit;
 
   // 2. Noise model: replicas of the flight with the data's noise levels.
@@ -603,25 +730,8 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
   const int MA = options.replicas_basis, MB = options.replicas_calibration, M = MA + MB;
   progress("noise model: " + std::to_string(M) + " replicas (" + noise.source + ")");
   const Eigen::Index n = fit.r.size();
-  Mat D(n, M);
-  {
-    std::vector<std::string> failures(static_cast<std::size_t>(M));
-#pragma omp parallel for schedule(dynamic) num_threads(threads)
-    for (int m = 0; m < M; ++m) {
-      try {
-        auto rep = std::make_shared<const Dataset>(
-            noise_replica(*dataset, noise.levels, mix_seed(options.seed, 1000 + m)));
-        const NavigationProblem rnav(rep, nav_options);
-        std::vector<double> r;
-        rnav.residuals(fit.errors, r);
-        D.col(m) = to_vec(r) - fit.r;
-      } catch (const std::exception& e) {
-        failures[static_cast<std::size_t>(m)] = e.what();
-      }
-    }
-    for (const auto& f : failures)
-      if (!f.empty()) throw std::runtime_error("noise replica: " + f);
-  }
+  const Mat D =
+      replica_deviations(*dataset, noise.levels, nav_options, fit, M, options.seed, threads);
   const Mat D_basis = D.leftCols(MA) / std::sqrt(static_cast<double>(MA));
   const Mat D_cal = D.rightCols(MB);
   // Diagonal part: calibration replicas' mean square outside the basis span (out of sample).
@@ -836,62 +946,9 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
     if (remaining.empty()) break;
   }
 
-  // Backward check (stepwise selection, issue 33). A named effect can stand in for one named
-  // later: its one-at-a-time test against the model of its iteration is linear in a residual
-  // that also holds the later effect's signal (MEMS `rich` flights hiding a gyro z bias drift
-  // of 0.2 deg/s per hour named gyro_misalign_zy first, at z 5-9, then the drift; in the joint
-  // model the misalignment was 0.5 sd from zero and the drift right). In the final joint model,
-  // an effect named before others whose |estimate| / sd is below the threshold it was named at
-  // AND below half its |estimate| / sd in the model it joined (the same sd, so its own
-  // efficiency does not count: the model-sd of a lone true effect can sit below the threshold
-  // the calibrated test used) is withdrawn (the weakest against its threshold first), the model
-  // refitted without it, and the check repeated; a withdrawn effect is reported under
-  // "withdrawn" with its joint estimate. The last-named effect is never withdrawn.
-  json withdrawn = json::array();
-  for (;;) {
-    const Vec sd = parameter_sd(fit.J, D);
-    std::size_t weakest = found.size(), weakest_k = 0;
-    double weakest_ratio = 1.0;                         // |z| / threshold; >= 1 stays
-    for (std::size_t f = 0; f + 1 < found.size(); ++f)  // joined by a later name
-      for (std::size_t k = 0; k < fit.params.size(); ++k) {
-        if (fit.params[k].name != found[f]["effect"].get<std::string>()) continue;
-        const auto i = static_cast<Eigen::Index>(k);
-        const double threshold =
-            iterations[found[f]["iteration"].get<std::size_t>() - 1]["threshold_z"].get<double>();
-        const double z = sd[i] > 0 ? std::abs(fit.value_sigma[i] / sd[i]) : 0.0;
-        const double collapsed = std::abs(found[f]["z_when_added"].get<double>()) / 2.0;
-        if (sd[i] > 0 && z < collapsed && z / threshold < weakest_ratio)
-          weakest = f, weakest_k = k, weakest_ratio = z / threshold;
-      }
-    if (weakest == found.size()) break;
-    const auto i = static_cast<Eigen::Index>(weakest_k);
-    const double sigma = fit.params[weakest_k].sigma;
-    const std::string name = found[weakest]["effect"].get<std::string>();
-    withdrawn.push_back(
-        {{"effect", name},
-         {"iteration", found[weakest]["iteration"]},
-         {"z_at_detection", found[weakest]["z"]},
-         {"joint_estimate", fit.value_sigma[i] * sigma},
-         {"joint_sd", sd[i] * sigma},
-         {"joint_z", fit.value_sigma[i] / sd[i]},
-         {"z_when_added", found[weakest]["z_when_added"]},
-         {"threshold_z",
-          iterations[found[weakest]["iteration"].get<std::size_t>() - 1]["threshold_z"]},
-         {"why", "not significant in the final joint model: a stand-in for effects named later"}});
-    progress("withdrawn: " + name + " (joint z = " + std::to_string(fit.value_sigma[i] / sd[i]) +
-             ")");
-    std::vector<EstimatedParameter> params;
-    Vec start(static_cast<Eigen::Index>(fit.params.size()) - 1);
-    for (std::size_t k = 0; k < fit.params.size(); ++k)
-      if (k != weakest_k) {
-        start[static_cast<Eigen::Index>(params.size())] =
-            fit.value_sigma[static_cast<Eigen::Index>(k)];
-        params.push_back(fit.params[k]);
-      }
-    fit = refit(nav, params, start, evaluator);
-    found.erase(found.begin() + static_cast<std::ptrdiff_t>(weakest));
-    found_names.erase(std::find(found_names.begin(), found_names.end(), name));
-  }
+  // 7. Backward check: withdraw the names that later names made insignificant.
+  const json withdrawn =
+      withdraw_stand_ins(nav, evaluator, D, iterations, progress, fit, found, found_names);
 
   // Final estimates (SI) with sd from the noise model.
   const Vec sd_final = parameter_sd(fit.J, D);
@@ -945,29 +1002,7 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
   report["not_observable"] = not_observable;
   report["unexplained"] = unexplained;
 
-  // Per-phase summary.
-  {
-    std::map<std::string, std::array<double, 3>> acc;  // sum sq before, after, count
-    for (std::size_t e = 0; e < ph.size(); ++e) {
-      auto& a = acc[ph[e]];
-      a[0] += base_fit.r[2 * e] * base_fit.r[2 * e] + base_fit.r[2 * e + 1] * base_fit.r[2 * e + 1];
-      a[1] += fit.r[2 * e] * fit.r[2 * e] + fit.r[2 * e + 1] * fit.r[2 * e + 1];
-      a[2] += 1.0;
-    }
-    json pj = json::array();
-    for (const std::string& name : phase_names()) {
-      const auto it = acc.find(name);
-      if (it == acc.end()) continue;
-      const auto& a = it->second;
-      pj.push_back({{"phase", name},
-                    {"epochs", static_cast<int>(a[2])},
-                    {"rms_before_mps", std::sqrt(a[0] / a[2])},
-                    {"rms_after_mps", std::sqrt(a[1] / a[2])},
-                    {"rms_floor_mps",
-                     floor_after.phase_rms.count(name) ? floor_after.phase_rms.at(name) : 0.0}});
-    }
-    report["phases"] = pj;
-  }
+  report["phases"] = phases_json(ph, base_fit, fit, floor_after);
 
   series.before.assign(base_fit.r.data(), base_fit.r.data() + base_fit.r.size());
   series.after.assign(fit.r.data(), fit.r.data() + fit.r.size());
