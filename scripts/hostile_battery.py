@@ -154,8 +154,8 @@ def ownership_cases(b, sim, walk):
     # Item 1: an import into the folder of its own raw log, and look-alike directories.
     if walk:
         d = w / "own"
-        raw = shutil.copy(walk / "imu_1730_sf.csv", write(d / "x", "").parent / "imu.csv")
-        (d / "x").unlink()
+        d.mkdir()
+        raw = Path(shutil.copy(walk / "imu_1730_sf.csv", d / "imu.csv"))
         b.expect_error(1, "import csv into the folder of its raw imu.csv",
                        ["import", "csv", "--imu", str(raw), "--columns",
                         "t,ax,ay,az,gx,gy,gz,-,-,-,-", "--units", "s,g-local,rad/s", "--gnss",
