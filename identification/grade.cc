@@ -16,9 +16,7 @@ namespace {
 const std::vector<SensorGrade>& grades() {
   static const std::vector<SensorGrade> kGrades = [] {
     std::vector<SensorGrade> out;
-    for (const GradeFigures& g : grade_table())
-      out.push_back({std::string(g.name), g.gyro_bias_rad_s, g.accel_bias_mps2, g.scale,
-                     g.misalign_rad, g.noise});
+    for (const GradeFigures& g : grade_table()) out.push_back(SensorGrade{g});
     return out;
   }();
   return kGrades;
@@ -39,7 +37,8 @@ double SensorGrade::sigma(std::string_view effect) const {
   if (starts_with(effect, "accel_bias_")) return accel_bias_mps2;
   if (effect.find("_scale_") != std::string_view::npos) return scale;
   if (effect.find("_misalign_") != std::string_view::npos) return misalign_rad;
-  throw std::logic_error("grade '" + name + "': no sigma for effect '" + std::string(effect) + "'");
+  throw std::logic_error("grade '" + std::string(name) + "': no sigma for effect '" +
+                         std::string(effect) + "'");
 }
 
 EstimatedParameter SensorGrade::parameter(const std::string& text) const {
@@ -57,7 +56,7 @@ const SensorGrade& sensor_grade(std::string_view name) {
 
 std::vector<std::string> sensor_grade_names() {
   std::vector<std::string> out;
-  for (const SensorGrade& g : grades()) out.push_back(g.name);
+  for (const SensorGrade& g : grades()) out.emplace_back(g.name);
   return out;
 }
 
@@ -85,7 +84,7 @@ std::string figure(double value, int digits = 3) {
 GradeChoice choose_grade(const Dataset& dataset, std::string_view explicit_grade) {
   GradeChoice c;
   if (!explicit_grade.empty() && explicit_grade != "auto") {
-    c.grade = sensor_grade(explicit_grade).name;  // throws on an unknown name
+    c.grade = std::string(sensor_grade(explicit_grade).name);  // throws on an unknown name
     c.source = "--grade";
     c.rule = "grade " + c.grade + " (given)";
     return c;

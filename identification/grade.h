@@ -22,17 +22,14 @@
 #include <nlohmann/json.hpp>
 
 #include "core/dataset.h"
+#include "core/grade_table.h"
 #include "identification/ins_problem.h"
 
 namespace insid {
 
-struct SensorGrade {
-  std::string name;              ///< "nav" | "tactical" | "mems"
-  double gyro_bias_rad_s = 0.0;  ///< one sigma of a gyro bias (rad/s)
-  double accel_bias_mps2 = 0.0;  ///< one sigma of an accelerometer bias (m/s^2)
-  double scale = 0.0;            ///< one sigma of a scale-factor error (1)
-  double misalign_rad = 0.0;     ///< one sigma of a misalignment (rad)
-  NoiseLevels noise;             ///< typical white-noise levels of the grade
+/// An estimation grade: its row of the grade table (core/grade_table.h: name, error sizes,
+/// noise) and what identification asks of it.
+struct SensorGrade : GradeFigures {
   /// The grade's sigma (SI) of a catalogue effect; throws on an unknown name (listing them).
   double sigma(std::string_view effect) const;
   /// NAME (the grade's sigma, [-4, 4]), NAME:SIGMA, NAME:SIGMA:LO:HI (EstimatedParameter::parse

@@ -169,7 +169,8 @@ IdentifyReport identify(const IdentifySpec& spec, const IdentifyProgress& progre
     throw IdentifySpecError("params", e.what());
   }
   note(setup.settled.line());
-  if (auto* ekf = dynamic_cast<EkfRtsOptimizer*>(optimizer.get())) ekf->set_grade(grade.name);
+  if (auto* ekf = dynamic_cast<EkfRtsOptimizer*>(optimizer.get()))
+    ekf->set_grade(std::string(grade.name));
 
   // ask / evaluate / tell, with progress (opt::step also feeds the baselines that need residual
   // vectors or the problem itself: lm, ekf-rts). The status shows the iterations done; the

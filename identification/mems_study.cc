@@ -87,7 +87,8 @@ Answer ekf_rts(const std::shared_ptr<const Dataset>& data, const Spec& spec) {
   const auto navigation = std::make_shared<const NavigationProblem>(data, options);
   const SensorGrade& grade = grade_for(*data);  // declared by meta.json's noise: mems
   if (grade.name != "mems")
-    throw std::logic_error("mems study: the flight declares grade '" + grade.name + "'");
+    throw std::logic_error("mems study: the flight declares grade '" + std::string(grade.name) +
+                           "'");
   std::optional<EkfRtsGradeSetup> setup = ekf_grade_setup(*navigation, grade);
   setup->passes = spec.ekf_passes;
   EkfRtsParams params;
