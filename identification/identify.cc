@@ -252,13 +252,6 @@ double gyro_bias_allowance_rad_s(const std::vector<EstimatedParameter>& estimate
 
 namespace {
 
-std::string number_text(double value) {
-  std::ostringstream text;
-  text.precision(12);
-  text << value;
-  return text.str();
-}
-
 // A parser's message as the error of `field`: named already when it starts with an option
 // ("--estimate 'x': ..."), else after the field's name.
 IdentifySpecError field_error(const std::string& field, const std::string& what) {
@@ -319,10 +312,12 @@ std::optional<IdentifySpecError> spec_problem(const IdentifySpec& spec) {
   if (spec.iterations == 0 && spec.evaluations == 0)
     return IdentifySpecError(
         "iterations", "iterations 0 and evaluations 0: no budget; give at least one of them");
-  if (spec.window_s && (!std::isfinite(*spec.window_s) || *spec.window_s < 0.0))
-    return IdentifySpecError("window_s", "window_s " + number_text(*spec.window_s) +
-                                             ": expected a finite number of seconds >= 0 (0 = "
-                                             "one pure-INS run over the whole flight)");
+  if (spec.window_s) {  // the navigation's own check and wording
+    NavigationOptions navigation;
+    navigation.window_s = *spec.window_s;
+    if (const std::string why = navigation.validate(); !why.empty())
+      return IdentifySpecError("window_s", why);
+  }
   if (spec.threads < 0)
     return IdentifySpecError("threads", "threads " + std::to_string(spec.threads) +
                                             ": expected >= 0 (0 = all, 1 = serial)");

@@ -44,6 +44,26 @@ def params(result):
     return {p["name"]: p for p in result["parameters"]}
 
 
+def ekf1_against_imu_mean(runs, method):
+    """EKF1's gyro biases (those of the mean of IMU's and IMU2's gyros) against the mean of
+    insid's IMU and IMU2 estimates by `method` ("ekf" or "dvpio"): per axis (bias, IMU param,
+    IMU2 param, mean, its sd, autopilot value, autopilot sd), SI. The autopilot's sd is its
+    airborne scatter and one logging step's rounding, as `insid identify` compares."""
+    ap_est = {e["source"]: e for e in runs["IMU"]["meta"].get("autopilot_estimates", {}).get(
+        "estimates", [])}
+    rows = []
+    for b, source in zip(BIASES[:3], ["EKF1.GX", "EKF1.GY", "EKF1.GZ"]):
+        e = ap_est.get(source)
+        p1, p2 = params(runs["IMU"][method]).get(b), params(runs["IMU2"][method]).get(b)
+        if (e is None or e.get("airborne_mean_si") is None or p1 is None or p2 is None
+                or p1.get("sd") is None or p2.get("sd") is None):
+            continue
+        a_sd = math.hypot(e.get("airborne_sd_si") or 0.0, e["resolution_si"] / math.sqrt(12.0))
+        rows.append((b, p1, p2, 0.5 * (p1["estimate"] + p2["estimate"]),
+                     0.5 * math.hypot(p1["sd"], p2["sd"]), e["airborne_mean_si"], a_sd))
+    return rows
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--work", required=True)
@@ -161,21 +181,14 @@ def main():
         "edge, not converged) say so.\n")
     L.append("| bias | method | IMU | IMU2 | mean | autopilot | mean - autopilot (d/sd) |")
     L.append("|---|---|---|---|---|---|---|")
-    ap_est = {e["source"]: e for e in runs["IMU"]["meta"].get("autopilot_estimates", {}).get(
-        "estimates", [])}
     gyro_mean_rows = []
-    for b, source in zip(BIASES[:3], ["EKF1.GX", "EKF1.GY", "EKF1.GZ"]):
-        e = ap_est.get(source)
-        if e is None or e.get("airborne_mean_si") is None:
-            continue
-        a_si = e["airborne_mean_si"]
-        a_sd = math.hypot(e.get("airborne_sd_si") or 0.0, e["resolution_si"] / math.sqrt(12.0))
-        for method, label in (("ekf", "EKF-RTS"), ("dvpio", "DVPIO")):
-            p1, p2 = params(runs["IMU"][method]).get(b), params(runs["IMU2"][method]).get(b)
-            if p1 is None or p2 is None or p1.get("sd") is None or p2.get("sd") is None:
+    methods = (("ekf", "EKF-RTS"), ("dvpio", "DVPIO"))
+    by_method = {m: {row[0]: row for row in ekf1_against_imu_mean(runs, m)} for m, _ in methods}
+    for bias in BIASES[:3]:
+        for method, label in methods:
+            if bias not in by_method[method]:
                 continue
-            mean = 0.5 * (p1["estimate"] + p2["estimate"])
-            sd = 0.5 * math.hypot(p1["sd"], p2["sd"])
+            b, p1, p2, mean, sd, a_si, a_sd = by_method[method][bias]
             d = mean - a_si
             z = d / math.hypot(sd, a_sd)
             flags = sorted(set(p1.get("flags", [])) | set(p2.get("flags", [])))
@@ -358,21 +371,12 @@ def plot(runs, a, wtag):
                     ax.errorbar(x + 0.07, av, yerr=2 * asd, fmt="s", mfc="white", color=f"C{k}",
                                 label=f"autopilot EKF, {imu}" if not ax.get_legend_handles_labels()[1].count(f"autopilot EKF, {imu}") else None)
         if kind == "gyro":  # EKF1: the biases of the mean of IMU's and IMU2's gyros
-            ap_est = {e["source"]: e for e in runs["IMU"]["meta"].get(
-                "autopilot_estimates", {}).get("estimates", [])}
-            for i, (b, source) in enumerate(zip(names, ["EKF1.GX", "EKF1.GY", "EKF1.GZ"])):
-                e = ap_est.get(source)
-                p1, p2 = params(runs["IMU"]["ekf"]).get(b), params(runs["IMU2"]["ekf"]).get(b)
-                if e is None or e.get("airborne_mean_si") is None or p1 is None or p2 is None:
-                    continue
-                a_sd = math.hypot(e.get("airborne_sd_si") or 0.0,
-                                  e["resolution_si"] / math.sqrt(12.0))
-                ax.errorbar(i + 0.36, 0.5 * (p1["estimate"] + p2["estimate"]) * DEG,
-                            yerr=2 * 0.5 * math.hypot(p1["sd"] or 0.0, p2["sd"] or 0.0) * DEG,
-                            fmt="D", color="k", label="insid, mean of IMU, IMU2" if i == 0 else None)
-                ax.errorbar(i + 0.43, e["airborne_mean_si"] * DEG, yerr=2 * a_sd * DEG, fmt="s",
-                            mfc="white", color="k",
-                            label="autopilot EKF1 (IMU+IMU2 mean)" if i == 0 else None)
+            for b, _, _, mean, sd, a_si, a_sd in ekf1_against_imu_mean(runs, "ekf"):
+                i = names.index(b)
+                ax.errorbar(i + 0.36, mean * DEG, yerr=2 * sd * DEG, fmt="D", color="k",
+                            label="insid, mean of IMU, IMU2" if i == 0 else None)
+                ax.errorbar(i + 0.43, a_si * DEG, yerr=2 * a_sd * DEG, fmt="s", mfc="white",
+                            color="k", label="autopilot EKF1 (IMU+IMU2 mean)" if i == 0 else None)
         ax.set_xticks(range(len(names)))
         ax.set_xticklabels(names)
         ax.axhline(0.0, color="0.6", lw=0.6)
