@@ -74,6 +74,17 @@ PROGRAMS = {
             (["--grade", "tactical"], "--grade"),
         ],
     ),
+    "insid-kernel-budget": (
+        ["--presets", "--grades", "--flight-s", "--mems-window-s", "--candidates", "--seed",
+         "--threads", "--out"],
+        [
+            (["--presets", "paper,nowhere"], "--presets"),
+            (["--grades", "tactical"], "--grades"),
+            (["--flight-s", "nan"], "--flight-s"),
+            (["--candidates", "1"], "--candidates"),
+            (["--threads", "0"], "--threads"),
+        ],
+    ),
 }
 
 
