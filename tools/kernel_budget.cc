@@ -12,6 +12,13 @@
 //     candidates and axes: the systematic error per IMU step (rad, m/s) that moves Eq. 15 by the
 //     tolerance (1e-7 relative at navigation grade, 1e-5 at MEMS grade: issue 36).
 //
+//  3. The size of the first approximation a preintegrated kernel makes: the body rotation over an
+//     interval of N IMU steps taken to first order in the gyro bias. For the box corner b (4
+//     sigma on each axis) the exact rotation of the bias-compensated, coning-corrected steps
+//     (as the kernel forms them) is compared with the uncompensated one: eps(b) = log(B(0)^-1
+//     B(b)); its part even in b, (eps(b) + eps(-b)) / 2, is what a first-order Jacobian leaves
+//     out (second order and up). Largest over the flight's intervals, per interval and per step.
+//
 // Writes OUT/budget.json and prints one line per case.
 #include <algorithm>
 #include <cmath>
@@ -31,6 +38,8 @@
 #include "core/cpu_path.h"
 #include "core/fitness.h"
 #include "core/grade_table.h"
+#include "core/mechanization.h"
+#include "core/rotation.h"
 #include "core/sensor_errors.h"
 #include "scenarios/scenario.h"
 #include "tools/tool_main.h"
@@ -76,6 +85,37 @@ std::vector<double> kernel_fitness(const BatchFitness& kernel, std::span<const S
   r.cpu_path = path;
   kernel.evaluate(r);
   return f;
+}
+
+// The body rotation of IMU steps [begin, end) with the gyro bias b removed, coning-corrected
+// as the kernel and Strapdown do (two-sample form, the measured steps' divisor).
+Eigen::Quaterniond body_rotation(const Dataset& ds, std::size_t begin, std::size_t end,
+                                 const Eigen::Vector3d& b_rad_s) {
+  Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
+  for (std::size_t k = begin; k < end; ++k) {
+    const double dt = ds.imu[k].t_s - ds.imu[k - 1].t_s;
+    const double dt_prev = k >= 2 ? ds.imu[k - 1].t_s - ds.imu[k - 2].t_s : dt;
+    const Eigen::Vector3d dth = ds.imu[k].dtheta_b_rad - b_rad_s * dt;
+    const Eigen::Vector3d dth_prev = ds.imu[k - 1].dtheta_b_rad - b_rad_s * dt_prev;
+    const Eigen::Vector3d phi = dth + dth_prev.cross(dth) / two_sample_divisor(dt_prev, dt);
+    q = q * quat_from_rotation_vector(phi);
+  }
+  return q;
+}
+
+// Item 3: the largest even-in-b part of log(B(0)^-1 B(b)) over intervals of n steps.
+double largest_second_order_rotation(const Dataset& ds, std::size_t first, std::size_t n,
+                                     const Eigen::Vector3d& b_rad_s) {
+  double worst = 0.0;
+  for (std::size_t k = first; k + n <= ds.imu.size(); k += n) {
+    const Eigen::Quaterniond q0 = body_rotation(ds, k, k + n, Eigen::Vector3d::Zero());
+    const Eigen::Vector3d plus =
+        rotation_vector_from_quat(q0.conjugate() * body_rotation(ds, k, k + n, b_rad_s));
+    const Eigen::Vector3d minus =
+        rotation_vector_from_quat(q0.conjugate() * body_rotation(ds, k, k + n, -b_rad_s));
+    worst = std::max(worst, (0.5 * (plus + minus)).norm());
+  }
+  return worst;
 }
 
 double worst_relative(const std::vector<double>& a, const std::vector<double>& b) {
@@ -150,6 +190,19 @@ json run_case(const Case& cs, double flight_s, int n, std::uint64_t seed, int th
         }
       }
   const double gyro_budget = tolerance / max_per_gyro, accel_budget = tolerance / max_per_accel;
+
+  // 3. The first-order body rotation's leftover over intervals of 8 and 10 steps (the box
+  // corner; the navigation's first step onwards).
+  const Eigen::Vector3d corner = Eigen::Vector3d::Constant(4.0 * g.gyro_bias_rad_s);
+  const std::size_t first = std::max<std::size_t>(nav->nav_begin(), 2);
+  json second_order = json::array();
+  for (std::size_t steps : {8, 10}) {
+    const double per_interval = largest_second_order_rotation(*ds, first, steps, corner);
+    second_order.push_back({{"steps", steps},
+                            {"largest_rad_per_interval", per_interval},
+                            {"per_step_rad", per_interval / static_cast<double>(steps)},
+                            {"share_of_budget", per_interval / steps / (gyro_budget * dt_s)}});
+  }
   json out = {{"preset", cs.preset},
               {"grade", cs.grade},
               {"window_s", cs.window_s},
@@ -165,7 +218,8 @@ json run_case(const Case& cs, double flight_s, int n, std::uint64_t seed, int th
               {"budget_rate_error_rad_s", gyro_budget},
               {"budget_rate_error_rad_per_step", gyro_budget * dt_s},
               {"budget_force_error_mps2", accel_budget},
-              {"budget_force_error_mps_per_step", accel_budget * dt_s}};
+              {"budget_force_error_mps_per_step", accel_budget * dt_s},
+              {"first_order_body_rotation_leftover", second_order}};
   std::printf(
       "%s %s W=%g: floor FMA-vs-unfused %.2e, unfused-vs-scalar %.2e; tolerance %.0e <- rate "
       "error %.2e rad/s (%.2e rad per step), force error %.2e m/s^2 (%.2e m/s per step); "
@@ -174,6 +228,11 @@ json run_case(const Case& cs, double flight_s, int n, std::uint64_t seed, int th
       floor.value("fma_vs_baseline", std::nan("")), floor["baseline_vs_scalar"].get<double>(),
       tolerance, gyro_budget, gyro_budget * dt_s, accel_budget, accel_budget * dt_s,
       gyro_linearity, accel_linearity);
+  for (const json& so : second_order)
+    std::printf("  body rotation to first order in b over %d steps leaves %.2e rad (%.2e per step, "
+                "%.2g of the budget)\n",
+                so["steps"].get<int>(), so["largest_rad_per_interval"].get<double>(),
+                so["per_step_rad"].get<double>(), so["share_of_budget"].get<double>());
   std::fflush(stdout);
   return out;
 }
