@@ -213,6 +213,10 @@ json run_case(const Case& cs, double flight_s, int n, std::uint64_t seed, int th
               {"floor", floor},
               {"relative_change_per_rad_s", max_per_gyro},
               {"relative_change_per_mps2", max_per_accel},
+              // The same slopes per sigma of the grade's bias box: how far (in sigma) a
+              // candidate must move to change Eq. 15 by the tolerance.
+              {"relative_change_per_gyro_bias_sigma", max_per_gyro * g.gyro_bias_rad_s},
+              {"relative_change_per_accel_bias_sigma", max_per_accel * g.accel_bias_mps2},
               {"change_ratio_at_twice_the_rate_error", gyro_linearity},
               {"change_ratio_at_twice_the_force_error", accel_linearity},
               {"budget_rate_error_rad_s", gyro_budget},
