@@ -5,7 +5,9 @@
 // confusion matrix and detection power per size. Figures: scripts/diagnose_campaign_report.py.
 // `--matrix mems` (issue 33): MEMS grade, windowed fitness (--windows), rich / racetrack /
 // multicopter, scored on names *and sizes* (a case is right only if the truth is named, its class
-// first, and its estimate lies within 3 sd + 10 % of the injected value).
+// first, and its estimate lies within 3 sd + 10 % of the injected value), and a second scoring
+// of the detectable cases by whether the truth is separable from its collinear class
+// (diagnose/campaign_scoring.h; `size_scoring.separability`).
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -26,6 +28,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/json_reader.h"
+#include "diagnose/campaign_scoring.h"
 #include "diagnose/diagnose.h"
 #include "diagnose/hidden_effects.h"
 #include "tools/tool_main.h"
@@ -511,6 +514,16 @@ int run_campaign(int argc, char** argv) {
     std::map<std::string, Tally> groups;
     std::map<std::string, Tally> by_size;             // "size detectable|below_detection_limit"
     std::map<std::string, std::array<int, 2>> nulls;  // "preset W=w" -> named, n
+    // Issue 33's second scoring: detectable cases split by separability from the truth's
+    // collinear class.
+    struct SepTally {
+      int n = 0, right = 0, strict = 0;
+      std::array<int, 5> first{};  // by insid::diagnose::FirstName
+    };
+    std::map<std::string, std::map<std::string, SepTally>> sep_by_size, sep_by_effect;
+    // Cases with a partner: whole class recorded, classification changed by it, not recorded.
+    std::array<int, 3> class_check{};
+    int sep_no_row = 0;
     for (const json& r : rows) {
       std::ostringstream where;
       where << r["preset"].get<std::string>() << " W=" << window_of(r);
@@ -528,14 +541,46 @@ int run_campaign(int argc, char** argv) {
       // The truth's own minimum detectable size on this flight (95 % power, the first
       // iteration's row): at or above it the case is "detectable", below it the flight cannot
       // be expected to tell (and naming the effect with a wrong size is still wrong).
-      bool detectable = true;
-      if (r.contains("hidden_rows") && r["hidden_rows"].contains(h)) {
-        const json& row = r["hidden_rows"][h];
-        const double mde = row["min_detectable_sigma"].get<double>() * row["sd"].get<double>() /
-                           row["sd_sigma"].get<double>();
-        detectable = row["observable"].get<bool>() && std::abs(truth) >= mde;
-      }
+      // The second scoring: "separable" when the size is also detectable with the truth's most
+      // correlated collinear partner estimated jointly (diagnose/campaign_scoring.h).
+      const bool has_row = r.contains("hidden_rows") && r["hidden_rows"].contains(h);
+      const insid::diagnose::CaseLimits lim =
+          insid::diagnose::case_limits(has_row ? r["hidden_rows"][h] : json(), truth);
+      const bool detectable = lim.detectable;
       const std::string kind = detectable ? "detectable" : "below_detection_limit";
+      // Right in name and size (the issue-33 rule), computed once for both scorings.
+      bool right = false, strict = false;
+      for (const auto& x : found)
+        if (x["effect"] == h) {
+          const double est = x["estimate"], sd = x["sd"];
+          const bool size_ok = std::abs(est - truth) <= 3.0 * sd + 0.1 * std::abs(truth);
+          right = in_class(found[0], h) && size_ok;
+          strict = found[0]["effect"] == h && size_ok;
+          break;
+        }
+      if (detectable && lim.has_row) {
+        const std::string sep = lim.separable ? "separable" : "not_separable";
+        const std::string fs = opt_format(f);
+        for (SepTally* t : {&sep_by_size[fs][sep], &sep_by_effect[h + " x" + fs][sep]}) {
+          ++t->n;
+          t->right += right;
+          t->strict += strict;
+          t->first[static_cast<int>(insid::diagnose::first_name(found, h))]++;
+        }
+        // The whole recorded class (where all its mutual correlations are recorded) against
+        // the one-partner bound the definition uses; cases with a partner only.
+        if (!lim.partner.empty() && r.contains("first_candidates")) {
+          const double ci = insid::diagnose::class_inflation(r["first_candidates"], h);
+          if (std::isfinite(ci)) {
+            ++class_check[0];
+            class_check[1] += (std::abs(truth) >= lim.min_detectable * ci) != lim.separable;
+          } else {
+            ++class_check[2];
+          }
+        }
+      } else if (detectable) {
+        ++sep_no_row;
+      }
       for (Tally* t : {&groups[where.str() + " " + h + " x" + opt_format(f)],
                        &by_size[opt_format(f) + " " + kind]}) {
         ++t->n;
@@ -556,9 +601,8 @@ int run_campaign(int argc, char** argv) {
         if (entry == nullptr) continue;
         ++t->named;
         const double est = (*entry)["estimate"], sd = (*entry)["sd"];
-        const bool size_ok = std::abs(est - truth) <= 3.0 * sd + 0.1 * std::abs(truth);
-        t->right += class_first && size_ok;
-        t->strict += found[0]["effect"] == h && size_ok;
+        t->right += right;
+        t->strict += strict;
         t->rel_error.push_back((est - truth) / truth);
         t->z_error.push_back(sd > 0 ? (est - truth) / sd : 0.0);
       }
@@ -599,6 +643,37 @@ int run_campaign(int argc, char** argv) {
     }
     const auto [lo, hi] = wilson(fa, nn);
     sz["nulls_all"] = {{"n", nn}, {"with_found", fa}, {"wilson95", {lo, hi}}};
+    using insid::diagnose::FirstName;
+    auto sep_json = [](const SepTally& t) {
+      const auto [l2, h2] = wilson(t.right, t.n);
+      return json{
+          {"n", t.n},
+          {"right", t.right},
+          {"right_wilson95", {l2, h2}},
+          {"right_strict", t.strict},
+          {"truth_first", t.first[static_cast<int>(FirstName::kTruth)]},
+          {"truth_in_flagged_first_set", t.first[static_cast<int>(FirstName::kTruthInFlaggedSet)]},
+          {"wrong_first_flagged", t.first[static_cast<int>(FirstName::kWrongFlagged)]},
+          {"wrong_first_unflagged", t.first[static_cast<int>(FirstName::kWrongUnflagged)]},
+          {"nothing_named", t.first[static_cast<int>(FirstName::kNothing)]}};
+    };
+    json sep = json::object();
+    sep["rule"] =
+        "among detectable cases: separable when |injected| >= the truth's minimum detectable "
+        "size alone x 1/sqrt(1 - rho^2), rho the largest |correlation| of a recorded collinear "
+        "partner (|rho| > 0.95) in the truth's first-iteration row; a lower bound of the "
+        "inflation with the whole class, so it errs towards separable. right: as above; "
+        "truth_first / truth_in_flagged_first_set / wrong_first_flagged / "
+        "wrong_first_unflagged / nothing_named: the first name";
+    for (const auto& [k, by] : sep_by_size)
+      for (const auto& [s2, t] : by) sep["by_size_factor"][k][s2] = sep_json(t);
+    for (const auto& [k, by] : sep_by_effect)
+      for (const auto& [s2, t] : by) sep["by_effect"][k][s2] = sep_json(t);
+    sep["detectable_without_row"] = sep_no_row;
+    sep["class_check"] = {{"class_recorded", class_check[0]},
+                          {"classification_changed", class_check[1]},
+                          {"class_not_recorded", class_check[2]}};
+    sz["separability"] = sep;
     summary["size_scoring"] = sz;
   }
   double wall = 0;
