@@ -236,13 +236,15 @@ void BatchFitness::evaluate(const Request& request) const {
 }
 
 std::vector<double> BatchFitness::fitness(std::span<const SensorErrors> candidates,
-                                          FitnessKind kind, int threads) const {
+                                          FitnessKind kind, int threads,
+                                          std::string_view cpu_path) const {
   std::vector<double> f(candidates.size());
   Request request;
   request.candidates = candidates;
   request.fitness = f;
   request.kind = kind;
   request.threads = threads;
+  request.cpu_path = cpu_path;
   evaluate(request);
   return f;
 }

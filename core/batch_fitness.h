@@ -71,9 +71,11 @@ class BatchFitness {
   /// Scores every candidate. Throws std::invalid_argument on size mismatches or when the data
   /// are not supported().
   void evaluate(const Request& request) const;
-  /// Convenience: fitness of each candidate.
+  /// Convenience: fitness of each candidate (on the named instruction-set path: Request's
+  /// cpu_path).
   std::vector<double> fitness(std::span<const SensorErrors> candidates,
-                              FitnessKind kind = FitnessKind::kEq15, int threads = 1) const;
+                              FitnessKind kind = FitnessKind::kEq15, int threads = 1,
+                              std::string_view cpu_path = {}) const;
 
   /// How `evaluate` packs `num_vectors` SIMD vectors into groups (each of 1..planned_chains()
   /// vectors) for `threads` threads. Grouping never changes a result; exposed for tests.

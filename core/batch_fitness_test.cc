@@ -163,15 +163,7 @@ TEST(KernelPaths, TheProgramHoldsEveryPathAndRunsEachOneThisCpuHas) {
 std::vector<double> batched(const BatchFitness& kernel, std::span<const SensorErrors> c,
                             int threads, FitnessKind kind = FitnessKind::kEq15,
                             const std::string& path = "") {
-  std::vector<double> f(c.size());
-  BatchFitness::Request request;
-  request.candidates = c;
-  request.fitness = f;
-  request.kind = kind;
-  request.threads = threads;
-  request.cpu_path = path;
-  kernel.evaluate(request);
-  return f;
+  return kernel.fitness(c, kind, threads, path);
 }
 
 // Scenario x instruction-set path (those the program holds: KernelPaths.* checks the list).

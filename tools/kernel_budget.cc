@@ -75,18 +75,6 @@ std::vector<SensorErrors> box_candidates(const GradeFigures& g, int n, std::uint
   return out;
 }
 
-std::vector<double> kernel_fitness(const BatchFitness& kernel, std::span<const SensorErrors> c,
-                                   const std::string& path, int threads) {
-  std::vector<double> f(c.size());
-  BatchFitness::Request r;
-  r.candidates = c;
-  r.fitness = f;
-  r.threads = threads;
-  r.cpu_path = path;
-  kernel.evaluate(r);
-  return f;
-}
-
 // The body rotation of IMU steps [begin, end) with the gyro bias b removed, coning-corrected
 // as the kernel and Strapdown do (two-sample form, the measured steps' divisor).
 Eigen::Quaterniond body_rotation(const Dataset& ds, std::size_t begin, std::size_t end,
@@ -146,12 +134,12 @@ json run_case(const Case& cs, double flight_s, int n, std::uint64_t seed, int th
   std::string fma_path;
   for (const char* p : {"avx512", "avx2"})
     if (fma_path.empty() && cpu_runs_path(p)) fma_path = p;
-  const std::vector<double> unfused = kernel_fitness(kernel, pool, "baseline", threads);
+  const std::vector<double> unfused = kernel.fitness(pool, FitnessKind::kEq15, threads, "baseline");
   std::vector<double> scalar;
   for (const SensorErrors& c : pool) scalar.push_back(nav->fitness(c));
   json floor = {{"baseline_vs_scalar", worst_relative(unfused, scalar)}};
   if (!fma_path.empty()) {
-    const std::vector<double> fused = kernel_fitness(kernel, pool, fma_path, threads);
+    const std::vector<double> fused = kernel.fitness(pool, FitnessKind::kEq15, threads, fma_path);
     floor["fma_path"] = fma_path;
     floor["fma_vs_baseline"] = worst_relative(fused, unfused);
   }
@@ -168,11 +156,13 @@ json run_case(const Case& cs, double flight_s, int n, std::uint64_t seed, int th
       for (int axis = 0; axis < 3; ++axis)
         for (double k : {1.0, 2.0}) {
           SensorErrors x = c;
-          if (kind == 0) x.gyro.bias[axis] += k * d_gyro;
-          else x.accel.bias[axis] += k * d_accel;
+          if (kind == 0)
+            x.gyro.bias[axis] += k * d_gyro;
+          else
+            x.accel.bias[axis] += k * d_accel;
           perturbed.push_back(x);
         }
-  const std::vector<double> fp = kernel_fitness(kernel, perturbed, "baseline", threads);
+  const std::vector<double> fp = kernel.fitness(perturbed, FitnessKind::kEq15, threads, "baseline");
   double max_per_gyro = 0.0, max_per_accel = 0.0, gyro_linearity = 0.0, accel_linearity = 0.0;
   std::size_t at = 0;
   for (std::size_t i = 0; i < pool.size(); ++i)
@@ -230,13 +220,14 @@ json run_case(const Case& cs, double flight_s, int n, std::uint64_t seed, int th
       "change at 2 delta / at delta %.3f, %.3f (2 = linear)\n",
       cs.preset.c_str(), cs.grade.c_str(), cs.window_s,
       floor.value("fma_vs_baseline", std::nan("")), floor["baseline_vs_scalar"].get<double>(),
-      tolerance, gyro_budget, gyro_budget * dt_s, accel_budget, accel_budget * dt_s,
-      gyro_linearity, accel_linearity);
+      tolerance, gyro_budget, gyro_budget * dt_s, accel_budget, accel_budget * dt_s, gyro_linearity,
+      accel_linearity);
   for (const json& so : second_order)
-    std::printf("  body rotation to first order in b over %d steps leaves %.2e rad (%.2e per step, "
-                "%.2g of the budget)\n",
-                so["steps"].get<int>(), so["largest_rad_per_interval"].get<double>(),
-                so["per_step_rad"].get<double>(), so["share_of_budget"].get<double>());
+    std::printf(
+        "  body rotation to first order in b over %d steps leaves %.2e rad (%.2e per step, "
+        "%.2g of the budget)\n",
+        so["steps"].get<int>(), so["largest_rad_per_interval"].get<double>(),
+        so["per_step_rad"].get<double>(), so["share_of_budget"].get<double>());
   std::fflush(stdout);
   return out;
 }
@@ -268,7 +259,9 @@ int kernel_budget_main(int argc, char** argv) {
       ->check(CLI::Range(2, 1000))
       ->capture_default_str();
   app.add_option("--seed", seed, "noise and candidate seed")->capture_default_str();
-  app.add_option("--threads", threads, "threads")->check(CLI::Range(1, 1024))->capture_default_str();
+  app.add_option("--threads", threads, "threads")
+      ->check(CLI::Range(1, 1024))
+      ->capture_default_str();
   app.add_option("--out", out, "output directory (budget.json)")->capture_default_str();
   tools::parse(app, argc, argv);
   for (const std::string& p : presets)
@@ -277,8 +270,8 @@ int kernel_budget_main(int argc, char** argv) {
   json cases = json::array();
   for (const std::string& p : presets)
     for (const std::string& g : grades)
-      cases.push_back(run_case({p, g, g == "mems" ? mems_window_s : 0.0}, flight_s, candidates,
-                               seed, threads));
+      cases.push_back(
+          run_case({p, g, g == "mems" ? mems_window_s : 0.0}, flight_s, candidates, seed, threads));
   std::filesystem::create_directories(out);
   const std::filesystem::path file = std::filesystem::path(out) / "budget.json";
   std::ofstream(file) << json{{"program", "insid-kernel-budget"},
