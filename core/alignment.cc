@@ -3,13 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <iomanip>
-#include <sstream>
 #include <stdexcept>
 
 #include <Eigen/Geometry>
 
 #include "core/fitness.h"
+#include "core/number_text.h"
 #include "core/rotation.h"
 
 namespace insid {
@@ -67,12 +66,6 @@ Eigen::Matrix3d align_window(const AlignmentWindow& window, const ImuCompensator
 
 namespace {
 
-std::string num(double value, int digits = 3) {
-  std::ostringstream text;
-  text << std::setprecision(digits) << value;
-  return text.str();
-}
-
 constexpr double kRadSToDegH = kRadToDeg * 3600.0;
 constexpr double kRadRtsToDegRth = kRadToDeg * 60.0;  // sqrt(h) = 60 sqrt(s)
 
@@ -127,9 +120,9 @@ HeadingSource heading_source_from_string(const std::string& text) {
 
 std::string InitialAttitudeOptions::validate() const {
   if (heading_deg && !std::isfinite(*heading_deg))
-    return "heading_deg must be finite, got " + num(*heading_deg);
+    return "heading_deg must be finite, got " + number_text(*heading_deg, 3);
   if (heading_deg && mode != InitialAttitudeMode::kLevelHeading)
-    return "a heading (--heading-deg " + num(*heading_deg, 10) +
+    return "a heading (--heading-deg " + number_text(*heading_deg, 10) +
            ") is only used by --initial-attitude level+heading, not " + to_string(mode);
   if (heading_source && mode != InitialAttitudeMode::kLevelHeading)
     return "a heading source (--heading-source " + to_string(*heading_source) +
@@ -137,40 +130,46 @@ std::string InitialAttitudeOptions::validate() const {
   if (heading_source == HeadingSource::kGiven && !heading_deg)
     return "--heading-source given needs the heading: --heading-deg H";
   if (heading_source && *heading_source != HeadingSource::kGiven && heading_deg)
-    return "--heading-deg " + num(*heading_deg, 10) + " gives the heading, but --heading-source " +
-           to_string(*heading_source) + " takes it from elsewhere; give one of them";
+    return "--heading-deg " + number_text(*heading_deg, 10) +
+           " gives the heading, but --heading-source " + to_string(*heading_source) +
+           " takes it from elsewhere; give one of them";
   if (!(course_min_speed_mps > 0.0) || !std::isfinite(course_min_speed_mps))
-    return "course_min_speed_mps must be a finite number > 0, got " + num(course_min_speed_mps);
+    return "course_min_speed_mps must be a finite number > 0, got " +
+           number_text(course_min_speed_mps, 3);
   if (!(course_span_s >= 0.0) || !std::isfinite(course_span_s))
-    return "course_span_s must be a finite number >= 0, got " + num(course_span_s);
+    return "course_span_s must be a finite number >= 0, got " + number_text(course_span_s, 3);
   if (!(static_max_speed_mps > 0.0) || !std::isfinite(static_max_speed_mps))
-    return "static_max_speed_mps must be a finite number > 0, got " + num(static_max_speed_mps);
+    return "static_max_speed_mps must be a finite number > 0, got " +
+           number_text(static_max_speed_mps, 3);
   if (!(gyrocompass_max_heading_sd_deg > 0.0))
-    return "gyrocompass_max_heading_sd_deg must be > 0, got " + num(gyrocompass_max_heading_sd_deg);
+    return "gyrocompass_max_heading_sd_deg must be > 0, got " +
+           number_text(gyrocompass_max_heading_sd_deg, 3);
   if (!(gyro_bias_allowance_rad_s >= 0.0) || !std::isfinite(gyro_bias_allowance_rad_s))
     return "gyro_bias_allowance_rad_s must be a finite number >= 0, got " +
-           num(gyro_bias_allowance_rad_s);
+           number_text(gyro_bias_allowance_rad_s, 3);
   return "";
 }
 
 std::string InitialAttitudeOptions::describe() const {
   if (mode != InitialAttitudeMode::kLevelHeading) return to_string(mode);
-  if (heading_deg) return "level+heading (heading " + num(*heading_deg, 10) + " deg given)";
+  if (heading_deg) return "level+heading (heading " + number_text(*heading_deg, 10) + " deg given)";
   if (effective_heading_source() == HeadingSource::kMeasured)
     return "level+heading (measured heading: heading.csv in the static window, else over " +
-           num(course_span_s, 10) + " s after the navigation start)";
-  return "level+heading (GNSS course >= " + num(course_min_speed_mps, 10) + " m/s over " +
-         num(course_span_s, 10) + " s)";
+           number_text(course_span_s, 10) + " s after the navigation start)";
+  return "level+heading (GNSS course >= " + number_text(course_min_speed_mps, 10) + " m/s over " +
+         number_text(course_span_s, 10) + " s)";
 }
 
 std::string GyrocompassFeasibility::describe() const {
-  return "expected gyrocompass heading sd " + num(heading_sd_rad * kRadToDeg) +
-         " deg (angle random walk " + num(arw_rad_rts * kRadRtsToDegRth) + " deg/sqrt(h) " +
+  return "expected gyrocompass heading sd " + number_text(heading_sd_rad * kRadToDeg, 3) +
+         " deg (angle random walk " + number_text(arw_rad_rts * kRadRtsToDegRth, 3) +
+         " deg/sqrt(h) " +
          (arw_declared ? "declared in meta.json noise.arw_deg_rth"
                        : "estimated from the static window's rate scatter") +
-         ", averaged over the " + num(window_s) + " s static window; gyro bias allowance " +
-         num(bias_allowance_rad_s * kRadSToDegH) + " deg/h; horizontal Earth rate " +
-         num(horizontal_earth_rate_rad_s * kRadSToDegH) + " deg/h)";
+         ", averaged over the " + number_text(window_s, 3) +
+         " s static window; gyro bias allowance " +
+         number_text(bias_allowance_rad_s * kRadSToDegH, 3) + " deg/h; horizontal Earth rate " +
+         number_text(horizontal_earth_rate_rad_s * kRadSToDegH, 3) + " deg/h)";
 }
 
 GyrocompassFeasibility gyrocompass_feasibility(double arw_rad_rts, bool arw_declared,
@@ -327,8 +326,8 @@ InitialAttitude::InitialAttitude(const Dataset& ds, const InitialAttitudeOptions
       const double earliest = (window.count > 0 ? window_start_t_s : t_nav0) - 1.5 * step_s;
       if (t_init < earliest || t_init > t_nav0 + 1.5 * step_s)
         throw std::invalid_argument(
-            mode + ": meta.json \"initial\" is at t = " + num(t_init, 12) +
-            " s, but the navigation starts at t = " + num(t_nav0, 12) +
+            mode + ": meta.json \"initial\" is at t = " + number_text(t_init, 12) +
+            " s, but the navigation starts at t = " + number_text(t_nav0, 12) +
             " s and the data between are not a static window; give the attitude at the "
             "navigation start");
       C_b_n_fixed_ = C_b_n_from_euler(ds.meta.initial.attitude);
@@ -342,7 +341,7 @@ InitialAttitude::InitialAttitude(const Dataset& ds, const InitialAttitudeOptions
   // Both window modes: a static window must exist and be static.
   if (window.count == 0)
     throw std::invalid_argument(
-        "dataset has align_s = " + num(ds.meta.align_s, 12) +
+        "dataset has align_s = " + number_text(ds.meta.align_s, 12) +
         " s, less than one IMU step: no static window to level on, so " + mode +
         " cannot work (a vehicle already moving); give the attitude at the start: "
         "--initial-attitude given (meta.json \"initial\") or truth (simulated data)");
@@ -352,11 +351,12 @@ InitialAttitude::InitialAttitude(const Dataset& ds, const InitialAttitudeOptions
     const double speed = std::hypot(g.v_eb_n_mps.x(), g.v_eb_n_mps.y());
     if (speed > options.static_max_speed_mps)
       throw std::invalid_argument(
-          "the alignment window (align_s = " + num(ds.meta.align_s, 12) + " s, imu.csv lines " +
-          std::to_string(window_begin + 2) + "-" + std::to_string(window_end + 1) +
-          ") is not static: the GNSS horizontal speed is " + num(speed) +
-          " m/s at t = " + num(g.t_s, 12) + " s (gnss.csv line " + std::to_string(i + 2) +
-          "; static means <= " + num(options.static_max_speed_mps) + " m/s), so " + mode +
+          "the alignment window (align_s = " + number_text(ds.meta.align_s, 12) +
+          " s, imu.csv lines " + std::to_string(window_begin + 2) + "-" +
+          std::to_string(window_end + 1) + ") is not static: the GNSS horizontal speed is " +
+          number_text(speed, 3) + " m/s at t = " + number_text(g.t_s, 12) + " s (gnss.csv line " +
+          std::to_string(i + 2) + "; static means <= " +
+          number_text(options.static_max_speed_mps, 3) + " m/s), so " + mode +
           " cannot level on it; give a shorter align_s, or the attitude "
           "at the start: --initial-attitude given (meta.json \"initial\") or truth (simulated "
           "data)");
@@ -373,7 +373,7 @@ InitialAttitude::InitialAttitude(const Dataset& ds, const InitialAttitudeOptions
     if (!(feasibility_->heading_sd_rad * kRadToDeg <= options.gyrocompass_max_heading_sd_deg))
       throw std::invalid_argument(
           mode + " refused: " + feasibility_->describe() + " exceeds the threshold of " +
-          num(options.gyrocompass_max_heading_sd_deg) +
+          number_text(options.gyrocompass_max_heading_sd_deg, 3) +
           " deg: the gyros cannot sense the Earth rate well enough for a heading (MEMS grade?); "
           "use --initial-attitude level+heading (heading from the GNSS course, or "
           "--heading-deg H)");
@@ -413,9 +413,10 @@ InitialAttitude::InitialAttitude(const Dataset& ds, const InitialAttitudeOptions
       throw std::invalid_argument(
           mode +
           " --heading-source measured: heading.csv has no sample in the static window (t = " +
-          num(window_start_t_s, 12) + " to " + num(t_nav0, 12) +
+          number_text(window_start_t_s, 12) + " to " + number_text(t_nav0, 12) +
           " s) nor between the navigation start and the last IMU row (its samples run from t = " +
-          num(ds.heading.front().t_s, 12) + " to " + num(ds.heading.back().t_s, 12) + " s)");
+          number_text(ds.heading.front().t_s, 12) + " to " +
+          number_text(ds.heading.back().t_s, 12) + " s)");
     double s = 0.0, c = 0.0, sum_var = 0.0;
     bool all_sd = true;
     for (std::size_t i : used) {
@@ -468,9 +469,10 @@ InitialAttitude::InitialAttitude(const Dataset& ds, const InitialAttitudeOptions
     }
     if (fixes_.empty())
       throw std::invalid_argument(
-          mode + ": the GNSS horizontal speed never reaches " + num(options.course_min_speed_mps) +
-          " m/s after the navigation start (t = " + num(t_nav0, 12) + " s; the fastest is " +
-          num(max_speed) + " m/s at t = " + num(t_max_speed, 12) +
+          mode + ": the GNSS horizontal speed never reaches " +
+          number_text(options.course_min_speed_mps, 3) + " m/s after the navigation start (t = " +
+          number_text(t_nav0, 12) + " s; the fastest is " + number_text(max_speed, 3) +
+          " m/s at t = " + number_text(t_max_speed, 12) +
           " s), so the course gives no heading; give it with --heading-deg H");
   }
 

@@ -23,6 +23,7 @@
 #include <boost/math/distributions/students_t.hpp>
 
 #include "core/noise_model.h"
+#include "core/number_text.h"
 #include "core/threads.h"
 #include "diagnose/advice.h"
 #include "identification/grade.h"
@@ -1031,10 +1032,7 @@ std::string report_markdown(const json& r, const std::string& figure_prefix) {
   std::ostringstream md;
   auto g = [](const json& v, int prec = 4) {
     if (!v.is_number()) return std::string("-");
-    std::ostringstream s;
-    s.precision(prec);
-    s << v.get<double>();
-    return s.str();
+    return number_text(v.get<double>(), prec);
   };
   md << "# insid diagnose report\n\n";
   md << "Alignment: " << r.value("alignment", "")

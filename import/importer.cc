@@ -2,25 +2,18 @@
 
 #include <algorithm>
 #include <cmath>
-#include <iomanip>
 #include <map>
 #include <optional>
-#include <sstream>
 #include <stdexcept>
 
 #include "core/alignment.h"
 #include "core/earth.h"
 #include "core/fitness.h"
+#include "core/number_text.h"
 #include "core/units.h"
 
 namespace insid::importers {
 namespace {
-
-std::string num(double v, int precision = 6) {
-  std::ostringstream s;
-  s << std::setprecision(precision) << v;
-  return s.str();
-}
 
 double median(std::vector<double> v) {
   std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
@@ -78,7 +71,7 @@ void add_heading(const HeadingInput& in, const AssembleOptions& options, GpstTim
         "the heading source (" + in.origin + ") has no sample inside " +
         (magnetometer ? "the static window (the magnetometer is levelled on it)"
                       : "the span the dataset keeps") +
-        " of " + num(t1 - t0) + " s; import without it, or check the source's times");
+        " of " + number_text(t1 - t0, 6) + " s; import without it, or check the source's times");
   if (!all_sd)  // heading.csv gives an sd for every row or none
     for (HeadingSample& s : ds.heading) s.sd_rad.reset();
   HeadingMeta meta;
@@ -106,7 +99,7 @@ void add_heading(const HeadingInput& in, const AssembleOptions& options, GpstTim
   }
   out.notes.push_back("heading: " + std::to_string(ds.heading.size()) + " " + to_string(in.source) +
                       " samples (" + in.origin + ")" +
-                      (magnetometer ? ", declination " + num(*options.declination_deg) +
+                      (magnetometer ? ", declination " + number_text(*options.declination_deg, 6) +
                                           " deg added, tilt-compensated on the static window"
                                     : std::string()));
 }
@@ -118,18 +111,21 @@ std::string AssembleOptions::validate() const {
   for (int q : gnss_quality)
     if (q < 1 || q > 7) return "--gnss-quality: flag " + std::to_string(q) + " is not in 1-7";
   if (align_s && !(std::isfinite(*align_s) && *align_s >= 0.0 && *align_s <= 86400.0))
-    return "--align-s " + num(*align_s) + ": must be a finite number of seconds in [0, 86400]";
+    return "--align-s " + number_text(*align_s, 6) +
+           ": must be a finite number of seconds in [0, 86400]";
   if (!(std::isfinite(static_speed_mps) && static_speed_mps > 0.0 && static_speed_mps <= 10.0))
-    return "--static-speed " + num(static_speed_mps) + ": must be in (0, 10] m/s";
+    return "--static-speed " + number_text(static_speed_mps, 6) + ": must be in (0, 10] m/s";
   if (!(std::isfinite(min_imu_rate_hz) && min_imu_rate_hz > 0.0 && min_imu_rate_hz <= 10000.0))
-    return "--min-imu-rate-hz " + num(min_imu_rate_hz) + ": must be in (0, 10000] Hz";
+    return "--min-imu-rate-hz " + number_text(min_imu_rate_hz, 6) + ": must be in (0, 10000] Hz";
   if (!(std::isfinite(static_rate_dps) && static_rate_dps > 0.0 && static_rate_dps <= 1000.0))
-    return "--static-rate " + num(static_rate_dps) + ": must be in (0, 1000] deg/s";
+    return "--static-rate " + number_text(static_rate_dps, 6) + ": must be in (0, 1000] deg/s";
   if (!(std::isfinite(static_accel_sd_mps2) && static_accel_sd_mps2 > 0.0 &&
         static_accel_sd_mps2 <= 100.0))
-    return "--static-accel-sd " + num(static_accel_sd_mps2) + ": must be in (0, 100] m/s^2";
+    return "--static-accel-sd " + number_text(static_accel_sd_mps2, 6) +
+           ": must be in (0, 100] m/s^2";
   if (declination_deg && !(std::isfinite(*declination_deg) && std::fabs(*declination_deg) <= 180.0))
-    return "--declination-deg " + num(*declination_deg) + ": must be within [-180, 180] deg";
+    return "--declination-deg " + number_text(*declination_deg, 6) +
+           ": must be within [-180, 180] deg";
   return "";
 }
 
@@ -170,10 +166,10 @@ ImuStaticEnd static_window_end(const std::vector<ImuSample>& imu, double t_limit
       }();
       if (std::abs(departure[axis]) > rate_limit) {
         out.t_end_s = std::max(t0, t_start - kBlockS);
-        out.why = "the mean angular rate of the block at t = " + num(t_start - t0) +
-                  " s departs from the still blocks' by " + num(departure[axis] / kDegToRad, 3) +
-                  " deg/s on " + "xyz"[axis] + " (above --static-rate " +
-                  num(options.static_rate_dps) + ")";
+        out.why = "the mean angular rate of the block at t = " + number_text(t_start - t0, 6) +
+                  " s departs from the still blocks' by " +
+                  number_text(departure[axis] / kDegToRad, 3) + " deg/s on " + "xyz"[axis] +
+                  " (above --static-rate " + number_text(options.static_rate_dps, 6) + ")";
         return out;
       }
     }
@@ -181,9 +177,9 @@ ImuStaticEnd static_window_end(const std::vector<ImuSample>& imu, double t_limit
     const double sd_f = std::sqrt(std::max(0.0, (sum_f2 - n * mean_f * mean_f) / (n - 1)));
     if (sd_f > options.static_accel_sd_mps2) {
       out.t_end_s = std::max(t0, t_start - kBlockS);
-      out.why = "the specific force of the block at t = " + num(t_start - t0) + " s scatters by " +
-                num(sd_f, 3) + " m/s^2 (above --static-accel-sd " +
-                num(options.static_accel_sd_mps2) + ")";
+      out.why = "the specific force of the block at t = " + number_text(t_start - t0, 6) +
+                " s scatters by " + number_text(sd_f, 3) + " m/s^2 (above --static-accel-sd " +
+                number_text(options.static_accel_sd_mps2, 6) + ")";
       return out;
     }
     dtheta_still += dtheta;
@@ -203,7 +199,7 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
         "(deg, east +) at the flight, from a world magnetic model or a chart; insid has no "
         "magnetic model and will not guess it");
   if (!magnetometer && options.declination_deg)
-    throw std::invalid_argument("--declination-deg " + num(*options.declination_deg) +
+    throw std::invalid_argument("--declination-deg " + number_text(*options.declination_deg, 6) +
                                 " applies to a magnetometer heading only, and this import has " +
                                 (heading ? "a dual-antenna heading" : "no heading source"));
   Assembled out;
@@ -237,11 +233,13 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
   const GpstTime tg0 = kept.front().t_gpst_unix_s, tg1 = kept.back().t_gpst_unix_s;
   const GpstTime ti0 = imu.t_gpst_unix_s.front(), ti1 = imu.t_gpst_unix_s.back();
   if (!(ti0 < tg1 && tg0 < ti1))
-    throw std::runtime_error(
-        "the GNSS solution (GPST " + num(static_cast<double>(tg0), 13) + " to " +
-        num(static_cast<double>(tg1), 13) + " s since 1970) does not overlap the IMU data (" +
-        num(static_cast<double>(ti0), 13) + " to " + num(static_cast<double>(ti1), 13) +
-        " s); check --imu-time, --gps-week and --imu-time-offset-s");
+    throw std::runtime_error("the GNSS solution (GPST " +
+                             number_text(static_cast<double>(tg0), 13) + " to " +
+                             number_text(static_cast<double>(tg1), 13) +
+                             " s since 1970) does not overlap the IMU data (" +
+                             number_text(static_cast<double>(ti0), 13) + " to " +
+                             number_text(static_cast<double>(ti1), 13) +
+                             " s); check --imu-time, --gps-week and --imu-time-offset-s");
   // IMU rows k in [first, last] inside the span; rates need the previous row (the interval's
   // start), increments do not.
   const bool increments = imu.gyro_is_increment && imu.accel_is_increment;
@@ -332,17 +330,18 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
   if (const double rate_hz = 1.0 / dt_median; !(rate_hz >= options.min_imu_rate_hz * (1.0 - 1e-6)))
     throw std::runtime_error(
         (imu.origin.empty() ? std::string("the IMU") : imu.origin) + ": IMU rate " +
-        num(rate_hz, 3) + " Hz (median step " + num(dt_median * 1e3, 4) + " ms; " +
-        num(static_cast<double>(steps.size()) / (ds.imu.back().t_s - ds.imu.front().t_s), 3) +
+        number_text(rate_hz, 3) + " Hz (median step " + number_text(dt_median * 1e3, 4) + " ms; " +
+        number_text(static_cast<double>(steps.size()) / (ds.imu.back().t_s - ds.imu.front().t_s),
+                    3) +
         " Hz on average over " + std::to_string(steps.size()) + " steps) is below the " +
-        num(options.min_imu_rate_hz, 4) +
+        number_text(options.min_imu_rate_hz, 4) +
         " Hz insid accepts for strapdown integration: a multicopter moves at up to ~5 Hz, and at " +
-        num(rate_hz, 3) + " Hz everything above " + num(rate_hz / 2, 3) +
+        number_text(rate_hz, 3) + " Hz everything above " + number_text(rate_hz / 2, 3) +
         " Hz (the Nyquist frequency) is aliased and what happens between the samples is lost; "
         "nothing was written. Log the IMU faster (PX4: SDLOG_PROFILE high-rate, or the "
         "vehicle_imu topic; ArduPilot: the IMU logging rate), or give --min-imu-rate-hz R "
         "(R <= " +
-        num(rate_hz, 3) + ") for a platform whose motion stays below R / 4 Hz");
+        number_text(rate_hz, 3) + ") for a platform whose motion stays below R / 4 Hz");
   prov["imu"]["min_rate_hz"] = options.min_imu_rate_hz;
   prov["imu"]["step_s"] = {{"median", dt_median},
                            {"min", *std::min_element(steps.begin(), steps.end())},
@@ -375,8 +374,8 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
       if (gap <= 3.0 * period) continue;
       outages.push_back({{"after_t_s", ds.gnss[k - 1].t_s}, {"gap_s", gap}});
       if (outages.size() <= 5)
-        out.notes.push_back("GNSS outage of " + num(gap) +
-                            " s after t = " + num(ds.gnss[k - 1].t_s) + " s");
+        out.notes.push_back("GNSS outage of " + number_text(gap, 6) +
+                            " s after t = " + number_text(ds.gnss[k - 1].t_s, 6) + " s");
     }
     prov["gnss"]["outages"] = outages;
   }
@@ -415,8 +414,9 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
       throw std::runtime_error(
           "no static start found: " +
           (imu_end.why.empty()
-               ? "the GNSS horizontal speed exceeds " + num(options.static_speed_mps) +
-                     " m/s within " + num(t_moving - ds.imu.front().t_s) + " s of the first IMU row"
+               ? "the GNSS horizontal speed exceeds " + number_text(options.static_speed_mps, 6) +
+                     " m/s within " + number_text(t_moving - ds.imu.front().t_s, 6) +
+                     " s of the first IMU row"
                : imu_end.why) +
           "; give the static window with --align-s");
     prov["alignment_window"] = {
@@ -424,17 +424,17 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
         {"how",
          "from the first IMU row to the earlier of 1 s before the first GNSS epoch with "
          "horizontal speed above " +
-             num(options.static_speed_mps) +
+             number_text(options.static_speed_mps, 6) +
              " m/s and the 0.5 s IMU block before the first one that moves (mean rate departing "
              "by more than " +
-             num(options.static_rate_dps) + " deg/s, or |specific force| sd above " +
-             num(options.static_accel_sd_mps2) + " m/s^2)"},
+             number_text(options.static_rate_dps, 6) + " deg/s, or |specific force| sd above " +
+             number_text(options.static_accel_sd_mps2, 6) + " m/s^2)"},
         {"ended_by", imu_end.why.empty() ? std::string("gnss speed") : imu_end.why},
         {"gnss_moving_t_s", t_moving - ds.imu.front().t_s}};
     if (!imu_end.why.empty())
       out.notes.push_back("static window ended by the IMU before the GNSS moved: " + imu_end.why);
   }
-  out.notes.push_back("static alignment window: the first " + num(m.align_s) + " s");
+  out.notes.push_back("static alignment window: the first " + number_text(m.align_s, 6) + " s");
   const GnssSample g0 = interpolate_gnss(ds.gnss, ds.imu.front().t_s);
   m.initial.t_s = ds.imu.front().t_s;
   m.initial.lat_rad = g0.lat_rad;
@@ -447,8 +447,9 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
   for (const ImuGap& gap : gaps) {
     prov["imu"]["gaps"].push_back({{"t_s", gap.t_s}, {"dt_s", gap.dt_s}});
     if (out.notes.size() < 12)
-      out.notes.push_back("IMU gap of " + num(gap.dt_s) + " s before t = " + num(gap.t_s) + " s (" +
-                          num(gap.dt_s / dt_median, 3) + " median steps)");
+      out.notes.push_back("IMU gap of " + number_text(gap.dt_s, 6) +
+                          " s before t = " + number_text(gap.t_s, 6) + " s (" +
+                          number_text(gap.dt_s / dt_median, 3) + " median steps)");
   }
   if (gaps.empty()) prov["imu"]["gaps"] = nlohmann::json::array();
   if (heading) add_heading(*heading, options, t_origin, out);

@@ -3,20 +3,17 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <iomanip>
-#include <sstream>
 #include <stdexcept>
 
 #include "core/earth.h"
+#include "core/number_text.h"
 #include "core/rotation.h"
 
 namespace insid::importers {
 namespace {
 
 std::string seconds(double s) {
-  std::ostringstream out;
-  out << std::fixed << std::setprecision(6) << s << " s";  // microseconds, as logged
-  return out.str();
+  return number_text(s, 6, Digits::kAfterPoint) + " s";  // microseconds, as logged
 }
 
 // The jumps listed one by one in the provenance (all are counted) and in a note.
@@ -476,14 +473,6 @@ UlogSeries extract_ulog(const UlogFile& log, const std::string& where,
   return out;
 }
 
-namespace {
-std::string figure(double v, int digits) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%.*g", digits, v);
-  return text;
-}
-}  // namespace
-
 nlohmann::json px4_bias_estimates(const UlogFile& log, const std::string& imu_topic,
                                   int imu_instance, std::vector<std::string>& notes) {
   const std::string topic = "estimator_sensor_bias";
@@ -538,11 +527,12 @@ nlohmann::json px4_bias_estimates(const UlogFile& log, const std::string& imu_to
           {"resolution_si", 0.0},
           {"display_unit", gyro ? "deg/s" : "mg"},
           {"end_display", end * display}};
-      summary += (summary.empty() ? "" : "; ") + e["effect"].get<std::string>() + " " +
-                 figure(end * display, 3) +
-                 (e["sd_si"].is_null() ? std::string()
-                                       : " +- " + figure(e["sd_si"].get<double>() * display, 2)) +
-                 " " + (gyro ? "deg/s" : "mg");
+      summary +=
+          (summary.empty() ? "" : "; ") + e["effect"].get<std::string>() + " " +
+          number_text(end * display, 3) +
+          (e["sd_si"].is_null() ? std::string()
+                                : " +- " + number_text(e["sd_si"].get<double>() * display, 2)) +
+          " " + (gyro ? "deg/s" : "mg");
       list.push_back(e);
     }
   }

@@ -26,6 +26,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/json_reader.h"
+#include "core/number_text.h"
 #include "diagnose/diagnose.h"
 #include "diagnose/hidden_effects.h"
 #include "tools/tool_main.h"
@@ -33,6 +34,7 @@
 namespace {
 
 using json = nlohmann::json;
+using insid::number_text;
 using insid::diagnose::HiddenCase;
 
 constexpr double kDegH = std::numbers::pi / 180.0 / 3600.0;  // deg/h -> rad/s
@@ -93,12 +95,6 @@ std::pair<double, double> wilson(int k, int n, double z = 1.959963984540054) {
   const double centre = (p + z2 / (2.0 * n)) / den;
   const double half = z * std::sqrt(p * (1.0 - p) / n + z2 / (4.0 * n * n)) / den;
   return {std::max(0.0, centre - half), std::min(1.0, centre + half)};
-}
-
-std::string opt_format(double v) {
-  std::ostringstream s;
-  s << v;
-  return s.str();
 }
 
 struct Case {
@@ -453,7 +449,7 @@ int run_campaign(int argc, char** argv) {
       } else if (kind == "single") {
         const std::string h = r["hidden"].begin().key();
         const double f = r["size_factor"];
-        sets[h + " x" + opt_format(f)][label(found)]++;
+        sets[h + " x" + number_text(f, 6)][label(found)]++;
         // exact and unambiguous, truth in the first named set, named set (any iteration)
         // contains the truth, first named wrong, nothing named
         auto& o = outcome[h][f];
@@ -536,8 +532,8 @@ int run_campaign(int argc, char** argv) {
         detectable = row["observable"].get<bool>() && std::abs(truth) >= mde;
       }
       const std::string kind = detectable ? "detectable" : "below_detection_limit";
-      for (Tally* t : {&groups[where.str() + " " + h + " x" + opt_format(f)],
-                       &by_size[opt_format(f) + " " + kind]}) {
+      for (Tally* t : {&groups[where.str() + " " + h + " x" + number_text(f, 6)],
+                       &by_size[number_text(f, 6) + " " + kind]}) {
         ++t->n;
         t->detectable += detectable;
         if (found.empty()) {
