@@ -188,10 +188,11 @@ ImuStaticEnd static_window_end(const std::vector<ImuSample>& imu, double t_limit
   return out;
 }
 
-Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
-                           const AssembleOptions& options, const HeadingInput* heading) {
-  if (const std::string e = options.validate(); !e.empty()) throw std::invalid_argument(e);
-  if (!heading && imu.heading) heading = &*imu.heading;
+namespace {
+
+// The heading source agrees with --declination-deg: required with a magnetometer (insid has no
+// magnetic model), refused otherwise.
+void check_declination(const HeadingInput* heading, const AssembleOptions& options) {
   const bool magnetometer = heading && heading->source == HeadingSourceKind::kMagnetometer;
   if (magnetometer && !options.declination_deg)
     throw std::invalid_argument(
@@ -202,10 +203,12 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
     throw std::invalid_argument("--declination-deg " + number_text(*options.declination_deg, 6) +
                                 " applies to a magnetometer heading only, and this import has " +
                                 (heading ? "a dual-antenna heading" : "no heading source"));
-  Assembled out;
-  nlohmann::json& prov = out.provenance;
+}
 
-  // GNSS epochs of an accepted quality.
+// The GNSS epochs of an accepted quality (--gnss-quality); the others counted by quality flag.
+std::vector<GnssEpoch> accepted_epochs(const GnssSolution& gnss, const AssembleOptions& options,
+                                       Assembled& out) {
+  nlohmann::json& prov = out.provenance;
   std::vector<GnssEpoch> kept;
   std::map<int, int> dropped;
   for (const GnssEpoch& e : gnss.epochs) {
@@ -228,8 +231,21 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
     throw std::runtime_error(
         "only " + std::to_string(kept.size()) +
         " GNSS epochs have an accepted quality flag (--gnss-quality); need at least 2");
+  return kept;
+}
 
-  // The common span.
+// The IMU rows used: rows k in [first, last] inside the GNSS span (a rate also needs the row
+// before `first`, the interval's start), and the dataset's time origin.
+struct ImuSpan {
+  bool increments = false;  // both sensors give increments (else a rate is integrated)
+  std::size_t first = 0;
+  std::size_t last = 0;
+  GpstTime t_origin = 0;  // a whole GPST second
+};
+
+// The common span of the IMU and the accepted GNSS epochs; refuses data that do not overlap or
+// fewer than 3 IMU rows inside it.
+ImuSpan imu_span(const CsvImu& imu, const std::vector<GnssEpoch>& kept, Assembled& out) {
   const GpstTime tg0 = kept.front().t_gpst_unix_s, tg1 = kept.back().t_gpst_unix_s;
   const GpstTime ti0 = imu.t_gpst_unix_s.front(), ti1 = imu.t_gpst_unix_s.back();
   if (!(ti0 < tg1 && tg0 < ti1))
@@ -249,26 +265,37 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
   while (last > first && imu.t_gpst_unix_s[last] > tg1) --last;
   if (last < first + 2) throw std::runtime_error("fewer than 3 IMU rows inside the GNSS span");
   const GpstTime t_origin = std::floor(imu.t_gpst_unix_s[first]);
-  prov["time_origin_gpst_unix_s"] = static_cast<double>(t_origin);  // a whole second: exact
+  out.provenance["time_origin_gpst_unix_s"] = static_cast<double>(t_origin);  // a whole second
+  return {increments, first, last, t_origin};
+}
 
-  // Increments over each row's own interval.
+// Where each dataset IMU row came from, and the steps between the rows.
+struct ImuRows {
+  std::vector<double> steps;       // s, between consecutive rows
+  std::vector<std::size_t> lines;  // the source line of each dataset row
+  std::vector<std::size_t> bytes;  // and its byte offset (binary logs)
+};
+
+// out.dataset.imu: increments over each row's own interval of the span, accelerations in g-local
+// scaled by the normal gravity at the first accepted GNSS epoch.
+ImuRows add_imu_increments(const CsvImu& imu, const ImuSpan& span, const GnssEpoch& first_epoch,
+                           Assembled& out) {
+  nlohmann::json& prov = out.provenance;
+  ImuRows rows;
   double g_local = 1.0;
   if (imu.accel_in_g_local) {
     g_local =
-        EarthModel::wgs84().normal_gravity_mps2(kept.front().lat_deg * kDegToRad, kept.front().h_m);
+        EarthModel::wgs84().normal_gravity_mps2(first_epoch.lat_deg * kDegToRad, first_epoch.h_m);
     prov["imu"]["g_local_mps2"] = g_local;
   }
   Dataset& ds = out.dataset;
-  std::vector<double> steps;
-  std::vector<std::size_t> imu_lines, gnss_lines;  // the source line of each dataset row
-  std::vector<std::size_t> imu_bytes;              // and its byte offset (binary logs)
-  for (std::size_t k = first; k <= last; ++k) {
-    imu_lines.push_back(k < imu.line.size() ? imu.line[k] : 0);
-    if (k < imu.byte.size()) imu_bytes.push_back(imu.byte[k]);
+  for (std::size_t k = span.first; k <= span.last; ++k) {
+    rows.lines.push_back(k < imu.line.size() ? imu.line[k] : 0);
+    if (k < imu.byte.size()) rows.bytes.push_back(imu.byte[k]);
     const double dt =
         k > 0 ? static_cast<double>(imu.t_gpst_unix_s[k] - imu.t_gpst_unix_s[k - 1]) : 0.0;
     ImuSample s;
-    s.t_s = static_cast<double>(imu.t_gpst_unix_s[k] - t_origin);
+    s.t_s = static_cast<double>(imu.t_gpst_unix_s[k] - span.t_origin);
     // The rule is per sensor: a rate is integrated (trapezoid), an increment passes through.
     const auto increment = [&](const std::vector<Eigen::Vector3d>& v, bool is_increment,
                                double scale) {
@@ -280,50 +307,61 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
     s.dtheta_b_rad = increment(imu.gyro_b, imu.gyro_is_increment, 1.0);
     s.dv_b_mps = increment(imu.accel_b, imu.accel_is_increment, g_local);
     ds.imu.push_back(s);
-    if (k > first) steps.push_back(dt);
+    if (k > span.first) rows.steps.push_back(dt);
   }
-  // Every row of the source is counted: used, or dropped with its reason (the reader's, then the
-  // span's; a rate's first row only opens the first interval).
-  {
-    const std::size_t n = imu.t_gpst_unix_s.size();
-    std::map<std::string, std::size_t> rows_dropped = imu.rows_dropped;
-    // Rates: the row before `first` opens the first interval (in or before the span).
-    const std::size_t opens_interval = increments ? 0 : 1;
-    rows_dropped["interval_start"] += opens_interval;
-    rows_dropped["before_gnss_span"] = first - opens_interval;
-    rows_dropped["after_gnss_span"] = n - 1 - last;
-    std::size_t total = 0;
-    for (const auto& [why, count] : rows_dropped) total += count;
-    const std::size_t source_rows = imu.source_rows > 0 ? imu.source_rows : n;
-    prov["imu"]["rows_read"] = source_rows;
-    prov["imu"]["rows_used"] = ds.imu.size();
-    prov["imu"]["rows_dropped"] = rows_dropped;
-    if (total + ds.imu.size() != source_rows)
-      throw std::logic_error("assemble_dataset: IMU rows used and dropped do not add up");
-    if (total > 0) {
-      std::string why;
-      const std::map<std::string, std::string> words = {
-          {"repeated_timestamp", "with a repeated timestamp"},
-          {"timestamp_jump", "in timestamp jumps"},
-          {"interval_start", "opening the first interval"},
-          {"before_gnss_span", "before the GNSS span"},
-          {"after_gnss_span", "after the GNSS span"}};
-      for (const auto& [reason, count] : rows_dropped)
-        if (count > 0)
-          why += (why.empty() ? "" : ", ") + std::to_string(count) + " " +
-                 (words.count(reason) ? words.at(reason) : reason);
-      out.notes.push_back("IMU: " + std::to_string(ds.imu.size()) + " of " +
-                          std::to_string(source_rows) + " rows used; dropped: " + why);
-    }
+  return rows;
+}
+
+// Every row of the source counted in the provenance: used, or dropped with its reason (the
+// reader's, then the span's; a rate's first row only opens the first interval), and how the rows
+// were integrated.
+void record_imu_rows(const CsvImu& imu, const ImuSpan& span, Assembled& out) {
+  nlohmann::json& prov = out.provenance;
+  const std::size_t n = imu.t_gpst_unix_s.size();
+  std::map<std::string, std::size_t> rows_dropped = imu.rows_dropped;
+  // Rates: the row before `first` opens the first interval (in or before the span).
+  const std::size_t opens_interval = span.increments ? 0 : 1;
+  rows_dropped["interval_start"] += opens_interval;
+  rows_dropped["before_gnss_span"] = span.first - opens_interval;
+  rows_dropped["after_gnss_span"] = n - 1 - span.last;
+  std::size_t total = 0;
+  for (const auto& [why, count] : rows_dropped) total += count;
+  const std::size_t source_rows = imu.source_rows > 0 ? imu.source_rows : n;
+  prov["imu"]["rows_read"] = source_rows;
+  prov["imu"]["rows_used"] = out.dataset.imu.size();
+  prov["imu"]["rows_dropped"] = rows_dropped;
+  if (total + out.dataset.imu.size() != source_rows)
+    throw std::logic_error("assemble_dataset: IMU rows used and dropped do not add up");
+  if (total > 0) {
+    std::string why;
+    const std::map<std::string, std::string> words = {
+        {"repeated_timestamp", "with a repeated timestamp"},
+        {"timestamp_jump", "in timestamp jumps"},
+        {"interval_start", "opening the first interval"},
+        {"before_gnss_span", "before the GNSS span"},
+        {"after_gnss_span", "after the GNSS span"}};
+    for (const auto& [reason, count] : rows_dropped)
+      if (count > 0)
+        why += (why.empty() ? "" : ", ") + std::to_string(count) + " " +
+               (words.count(reason) ? words.at(reason) : reason);
+    out.notes.push_back("IMU: " + std::to_string(out.dataset.imu.size()) + " of " +
+                        std::to_string(source_rows) + " rows used; dropped: " + why);
   }
-  prov["imu"]["first_line_used"] = imu.line[first];
-  prov["imu"]["last_line_used"] = imu.line[last];
+  prov["imu"]["first_line_used"] = imu.line[span.first];
+  prov["imu"]["last_line_used"] = imu.line[span.last];
   prov["imu"]["integration"] =
-      increments ? "increments as given"
+      span.increments ? "increments as given"
       : imu.rates_are_interval_means
           ? "rates as means over each row's own interval, w[k] * (t[k] - t[k-1])"
           : "rates integrated over each row's own interval by the trapezoidal rule, "
             "(w[k-1] + w[k]) / 2 * (t[k] - t[k-1])";
+}
+
+// The IMU's median step; refuses a rate below options.min_imu_rate_hz.
+double checked_imu_step(const CsvImu& imu, const std::vector<double>& steps,
+                        const std::vector<ImuSample>& imu_rows, const AssembleOptions& options,
+                        Assembled& out) {
+  nlohmann::json& prov = out.provenance;
   const double dt_median = median(steps);
   // The IMU's rate against the lowest insid integrates (kDefaultMinImuRateHz: why).
   // (A relative 1e-6 below the minimum still passes: time tags printed with 6-9 digits.)
@@ -331,8 +369,8 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
     throw std::runtime_error(
         (imu.origin.empty() ? std::string("the IMU") : imu.origin) + ": IMU rate " +
         number_text(rate_hz, 3) + " Hz (median step " + number_text(dt_median * 1e3, 4) + " ms; " +
-        number_text(static_cast<double>(steps.size()) / (ds.imu.back().t_s - ds.imu.front().t_s),
-                    3) +
+        number_text(
+            static_cast<double>(steps.size()) / (imu_rows.back().t_s - imu_rows.front().t_s), 3) +
         " Hz on average over " + std::to_string(steps.size()) + " steps) is below the " +
         number_text(options.min_imu_rate_hz, 4) +
         " Hz insid accepts for strapdown integration: a multicopter moves at up to ~5 Hz, and at " +
@@ -346,11 +384,25 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
   prov["imu"]["step_s"] = {{"median", dt_median},
                            {"min", *std::min_element(steps.begin(), steps.end())},
                            {"max", *std::max_element(steps.begin(), steps.end())}};
+  return dt_median;
+}
 
-  // GNSS rows inside the IMU span (ENU velocity).
-  std::vector<double> gsteps, sd_v;
+// Where each dataset GNSS row came from, and the steps between the rows.
+struct GnssRows {
+  std::vector<double> steps;       // s, between consecutive rows
+  std::vector<std::size_t> lines;  // the source line of each dataset row
+};
+
+// out.dataset.gnss: the accepted epochs inside the IMU span (ENU velocity), outages noted.
+// Refuses fewer than 2.
+GnssRows add_gnss_epochs(const GnssSolution& gnss, const std::vector<GnssEpoch>& kept,
+                         const ImuSpan& span, const AssembleOptions& options, Assembled& out) {
+  nlohmann::json& prov = out.provenance;
+  GnssRows rows;
+  Dataset& ds = out.dataset;
+  std::vector<double> sd_v;
   for (const GnssEpoch& e : kept) {
-    const double t = static_cast<double>(e.t_gpst_unix_s - t_origin);
+    const double t = static_cast<double>(e.t_gpst_unix_s - span.t_origin);
     if (t < ds.imu.front().t_s - 1e-9 || t > ds.imu.back().t_s + 1e-9) continue;
     GnssSample g;
     g.t_s = t;
@@ -358,16 +410,16 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
     g.lon_rad = e.lon_deg * kDegToRad;
     g.h_m = e.h_m;
     g.v_eb_n_mps = {e.v_e_mps, e.v_n_mps, e.v_u_mps};
-    if (!ds.gnss.empty()) gsteps.push_back(t - ds.gnss.back().t_s);
+    if (!ds.gnss.empty()) rows.steps.push_back(t - ds.gnss.back().t_s);
     ds.gnss.push_back(g);
-    gnss_lines.push_back(e.line);
+    rows.lines.push_back(e.line);
     sd_v.push_back(std::hypot(e.sd_vn_mps, e.sd_ve_mps));
   }
   if (ds.gnss.size() < 2) throw std::runtime_error("fewer than 2 GNSS epochs inside the IMU span");
   // GNSS outages: steps longer than 3 median periods (longer than the dataset allows are refused
   // by the dataset checks, naming the line).
   {
-    const double period = median(gsteps);
+    const double period = median(rows.steps);
     nlohmann::json outages = nlohmann::json::array();
     for (std::size_t k = 1; k < ds.gnss.size(); ++k) {
       const double gap = ds.gnss[k].t_s - ds.gnss[k - 1].t_s;
@@ -385,13 +437,16 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
   prov["gnss"]["accepted_quality"] = options.gnss_quality;
   prov["gnss"]["median_horizontal_velocity_sd_mps"] = median(sd_v);
   prov["gnss"]["weighting"] = "none: every kept epoch counts equally in the fitness";
+  return rows;
+}
 
+// The static alignment window: --align-s, else from the first IMU row to the earlier of 1 s
+// before the GNSS first shows motion and the IMU's own end of stillness (static_window_end);
+// and the initial state at the first IMU row (interpolated GNSS). Refuses a window under 1 s.
+void set_static_window_and_start(const AssembleOptions& options, Assembled& out) {
+  nlohmann::json& prov = out.provenance;
+  Dataset& ds = out.dataset;
   DatasetMeta& m = ds.meta;
-  m.format = DatasetFormat::kV2;
-  m.earth = EarthModel::wgs84();
-  m.imu_rate_hz = 1.0 / dt_median;
-  m.gnss_rate_hz = 1.0 / median(gsteps);
-  // The static window: up to 1 s before the GNSS first shows motion.
   if (options.align_s) {
     m.align_s = *options.align_s;
     prov["alignment_window"] = {{"align_s", m.align_s}, {"how", "given (--align-s)"}};
@@ -442,7 +497,12 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
   m.initial.h_m = g0.h_m;
   m.initial.v_eb_n_mps = g0.v_eb_n_mps;
   m.initial_attitude_known = false;
+}
 
+// The IMU's gaps (imu_gaps) in the provenance, the first ones in the notes.
+void record_imu_gaps(double dt_median, Assembled& out) {
+  nlohmann::json& prov = out.provenance;
+  const Dataset& ds = out.dataset;
   const std::vector<ImuGap> gaps = imu_gaps(ds);
   for (const ImuGap& gap : gaps) {
     prov["imu"]["gaps"].push_back({{"t_s", gap.t_s}, {"dt_s", gap.dt_s}});
@@ -452,7 +512,30 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
                           number_text(gap.dt_s / dt_median, 3) + " median steps)");
   }
   if (gaps.empty()) prov["imu"]["gaps"] = nlohmann::json::array();
-  if (heading) add_heading(*heading, options, t_origin, out);
+}
+
+}  // namespace
+
+Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
+                           const AssembleOptions& options, const HeadingInput* heading) {
+  if (const std::string e = options.validate(); !e.empty()) throw std::invalid_argument(e);
+  if (!heading && imu.heading) heading = &*imu.heading;
+  check_declination(heading, options);
+  Assembled out;
+  const std::vector<GnssEpoch> kept = accepted_epochs(gnss, options, out);
+  const ImuSpan span = imu_span(imu, kept, out);
+  const ImuRows imu_rows = add_imu_increments(imu, span, kept.front(), out);
+  record_imu_rows(imu, span, out);
+  const double dt_median = checked_imu_step(imu, imu_rows.steps, out.dataset.imu, options, out);
+  const GnssRows gnss_rows = add_gnss_epochs(gnss, kept, span, options, out);
+  DatasetMeta& m = out.dataset.meta;
+  m.format = DatasetFormat::kV2;
+  m.earth = EarthModel::wgs84();
+  m.imu_rate_hz = 1.0 / dt_median;
+  m.gnss_rate_hz = 1.0 / median(gnss_rows.steps);
+  set_static_window_and_start(options, out);
+  record_imu_gaps(dt_median, out);
+  if (heading) add_heading(*heading, options, span.t_origin, out);
   // Errors name the user's files and options: nothing has been written yet.
   DatasetSources sources;
   sources.row = [&](std::string_view file, std::size_t row) -> std::string {
@@ -463,15 +546,16 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
       return source + " " + unit + " " + std::to_string(lines[r]) +
              (r < bytes.size() ? " (byte " + std::to_string(bytes[r]) + ")" : "");
     };
-    if (file == "imu.csv") return name(imu.origin, imu.row_unit, imu_lines, imu_bytes, row);
-    if (file == "gnss.csv") return name(gnss.source, gnss.row_unit, gnss_lines, {}, row);
+    if (file == "imu.csv")
+      return name(imu.origin, imu.row_unit, imu_rows.lines, imu_rows.bytes, row);
+    if (file == "gnss.csv") return name(gnss.source, gnss.row_unit, gnss_rows.lines, {}, row);
     return "";
   };
   sources.field = [&](std::string_view field) -> std::string {
     if (field != "align_s") return "";
     return options.align_s ? "--align-s" : "the detected static window (align_s)";
   };
-  validate_dataset(ds, sources);
+  validate_dataset(out.dataset, sources);
   return out;
 }
 
