@@ -673,7 +673,8 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
   // keeps options.initial_attitude's allowance (the catalogue's 0.01 deg/h by default), not
   // identify's box rule (gyro_bias_allowance_rad_s): with that rule a tactical or MEMS base on
   // gyrocompassed data would be refused, as `insid identify --grade tactical` refuses it
-  // (diagnose_test Options.TheGradeSetsTheBaseAndTheCandidatesUnits runs exactly that).
+  // (diagnose_test Options.TheGradeSetsTheBaseAndTheCandidatesUnits runs exactly that). Kept on
+  // purpose after issue 35's review: the reason in docs/design.md, section 9.
   const SensorGrade& grade = grade_for(*dataset, options.grade);
   std::vector<EstimatedParameter> base = options.base;
   if (base.empty()) base = default_estimated(grade);
