@@ -21,6 +21,7 @@
 #include <thread>
 
 #include "bench/cluster.h"
+#include "core/json_object.h"
 #include "core/json_reader.h"
 #include "core/output_dir.h"
 #include "core/threads.h"
@@ -41,73 +42,44 @@ std::string host_name() {
   return buffer;
 }
 
-// Why a run record cannot be used ("" when it can): it names this run under the current schema
+// Why a run record cannot be used ("" when it can), in the typed reader's wording
+// ("<source>: <path>: <what>", core/json_object.h): it names this run under a schema insid reads
 // and every number the summary and the sweep read is a finite number.
-std::string run_record_problem(const nlohmann::json& j, const std::string& scenario,
-                               const std::string& label, std::uint64_t seed) {
-  if (!j.is_object()) return "the top level is " + std::string(j.type_name()) + ", not an object";
-  const auto text_field = [&](const char* key, const std::string& want) -> std::string {
-    const auto it = j.find(key);
-    if (it == j.end() || !it->is_string())
-      return std::string("field \"") + key + "\" is not a string";
-    if (it->get<std::string>() != want)
-      return std::string("field \"") + key + "\" is \"" + it->get<std::string>() +
-             "\", expected \"" + want + "\"";
-    return "";
-  };
-  const std::string schema = j.contains("schema") && j["schema"].is_string() &&
-                                     (j["schema"].get<std::string>() == kRunSchemaOld ||
-                                      j["schema"].get<std::string>() == kRunSchemaPrevious)
-                                 ? j["schema"].get<std::string>()
-                                 : std::string(kRunSchema);
-  for (const auto& [key, want] : {std::pair<const char*, std::string>{"schema", schema},
-                                  {"scenario", scenario},
-                                  {"algorithm", label}})
-    if (std::string p = text_field(key, want); !p.empty()) return p;
-  if (!j.contains("seed") || !j["seed"].is_number_unsigned() ||
-      j["seed"].get<std::uint64_t>() != seed)
-    return "field \"seed\" is not " + std::to_string(seed);
-  const auto finite = [](const nlohmann::json& v) {
-    return v.is_number() && std::isfinite(v.get<double>());
-  };
-  const auto number_problem = [&](const nlohmann::json& obj, const std::string& path,
-                                  const char* key) -> std::string {
-    if (!obj.is_object() || !obj.contains(key)) return "field \"" + path + key + "\" is missing";
-    if (!finite(obj[key]))
-      return "field \"" + path + key + "\" must be a finite number, got " +
-             (obj[key].is_number() ? obj[key].dump() : std::string(obj[key].type_name()));
-    return "";
-  };
-  if (!j.contains("result") || !j["result"].is_object()) return "field \"result\" is not an object";
-  const nlohmann::json& result = j["result"];
-  for (const char* key : {"fitness", "wall_s", "evaluations"})
-    if (std::string p = number_problem(result, "result.", key); !p.empty()) return p;
-  if (std::string p = number_problem(j, "", "optimum_fitness"); !p.empty()) return p;
-  const auto history = result.find("history");
-  if (history == result.end() || !history->is_array() || history->empty())
-    return "field \"result.history\" is not a non-empty array";
-  for (std::size_t i = 0; i < history->size(); ++i)
-    if (std::string p = number_problem((*history)[i], "result.history[" + std::to_string(i) + "].",
-                                       "best_fitness");
-        !p.empty())
-      return p;
-  const auto trace = result.find("best_per_evaluation");
-  if (trace == result.end() || !trace->is_array() || trace->empty())
-    return "field \"result.best_per_evaluation\" is not a non-empty array";
-  for (std::size_t i = 0; i < trace->size(); ++i)
-    if (!finite((*trace)[i]))
-      return "field \"result.best_per_evaluation[" + std::to_string(i) +
-             "]\" is not a finite number";
-  for (const char* block : {"error_sigma", "error_vs_optimum_sigma"}) {
-    if (!j.contains(block)) {
-      if (std::string(block) == "error_vs_optimum_sigma")
-        return "field \"error_vs_optimum_sigma\" is missing";
-      continue;
+std::string run_record_problem(const nlohmann::json& j, const std::string& source,
+                               const std::string& scenario, const std::string& label,
+                               std::uint64_t seed) {
+  try {
+    const JsonObject record = JsonObject::any_keys(j, source, "");
+    record.field("schema").choice({kRunSchema, kRunSchemaPrevious, kRunSchemaOld});
+    for (const auto& [key, want] :
+         {std::pair<const char*, std::string>{"scenario", scenario}, {"algorithm", label}}) {
+      const JsonField field = record.field(key);
+      if (field.string() != want)
+        field.fail("expected \"" + want + "\" (this run's), found " +
+                   describe_json_value(field.value()));
     }
-    if (!j[block].is_object()) return std::string("field \"") + block + "\" is not an object";
-    for (const auto& item : j[block].items())
-      if (!finite(item.value()))
-        return std::string("field \"") + block + "." + item.key() + "\" is not a finite number";
+    const JsonField seed_field = record.field("seed");
+    if (!seed_field.value().is_number_unsigned() || seed_field.value().get<std::uint64_t>() != seed)
+      seed_field.fail("expected " + std::to_string(seed) + " (this run's), found " +
+                      describe_json_value(seed_field.value()));
+    const JsonObject result = record.field("result").map();
+    for (const char* key : {"fitness", "wall_s", "evaluations"}) result.number(key);
+    record.number("optimum_fitness");
+    const auto non_empty = [](const JsonObject& object, const char* key) {
+      const JsonArray array = object.array(key);
+      if (array.empty()) object.fail(key, "expected a non-empty array, found []");
+      return array;
+    };
+    const JsonArray history = non_empty(result, "history");
+    for (std::size_t i = 0; i < history.size(); ++i) history[i].map().number("best_fitness");
+    non_empty(result, "best_per_evaluation").numbers();
+    for (const char* block : {"error_sigma", "error_vs_optimum_sigma"}) {
+      if (!record.has(block) && std::string_view(block) == "error_sigma") continue;
+      const JsonObject errors = record.field(block).map();
+      for (const auto& item : errors.value().items()) errors.number(item.key());
+    }
+  } catch (const JsonFieldError& e) {
+    return e.what();
   }
   return "";
 }
@@ -117,8 +89,9 @@ std::string run_record_problem(const nlohmann::json& j, const std::string& scena
 nlohmann::json read_run_record(const fs::path& path, const std::string& scenario,
                                const std::string& label, std::uint64_t seed) {
   nlohmann::json j = read_json_file(path);
-  if (std::string problem = run_record_problem(j, scenario, label, seed); !problem.empty())
-    throw std::runtime_error(path.string() + ": " + problem);
+  if (std::string problem = run_record_problem(j, path.string(), scenario, label, seed);
+      !problem.empty())
+    throw std::runtime_error(problem);
   return j;
 }
 

@@ -104,9 +104,12 @@ std::string missing_runs_report(const std::string& out_dir, const CampaignConfig
 nlohmann::json summarize_campaign(const std::string& out_dir, const CampaignConfig& config);
 
 /// Why a run file's record cannot be used ("" when it can; "missing" when there is no file):
-/// it must name this scenario, label and seed under the current schema, and every number the
-/// summary reads (result.fitness, wall_s, evaluations, history, best_per_evaluation,
-/// optimum_fitness, the error blocks) must be a finite number. Campaigns redo such runs.
+/// it must name this scenario, label and seed under a run schema insid reads (insid-run/1 to
+/// the current one), and every number the summary reads (result.fitness, wall_s, evaluations,
+/// history, best_per_evaluation, optimum_fitness, the error blocks) must be a finite number.
+/// Worded as the typed JSON reader words it (core/json_object.h): "<file>: <path>: <what>",
+/// e.g. "runs/x.json: result.fitness: expected a finite number, found a string "0.5"".
+/// Campaigns redo such runs.
 std::string run_file_problem(const std::filesystem::path& path, const std::string& scenario,
                              const std::string& label, std::uint64_t seed);
 

@@ -300,17 +300,18 @@ TEST(DirectorySafety, DamagedRunFileIsNamedAndRedone) {
   record["result"]["fitness"] = "0.5";  // a string where a number was written
   std::ofstream(run) << record.dump(1);
   const std::string problem = run_file_problem(run, "short", "PSO", 1);
-  EXPECT_NE(
-      problem.find(run.string() + ": field \"result.fitness\" must be a finite number, got string"),
-      std::string::npos)
+  EXPECT_NE(problem.find(run.string() +
+                         ": result.fitness: expected a finite number, found a string \"0.5\""),
+            std::string::npos)
       << problem;
   EXPECT_THROW(read_run_record(run, "short", "PSO", 1), std::runtime_error);
   // A key given twice is damage too (the strict reader), and so is another run's record.
   std::ofstream(run) << "{\"schema\": \"insid-run/1\", \"schema\": \"insid-run/1\"}";
-  EXPECT_NE(run_file_problem(run, "short", "PSO", 1).find(run.string() + ": schema: key given twice in one object"),
+  EXPECT_NE(run_file_problem(run, "short", "PSO", 1)
+                .find(run.string() + ": schema: key given twice in one object"),
             std::string::npos);
   EXPECT_NE(run_file_problem(run_file(dir.string(), "short", "PSO", 2), "short", "PSO", 1)
-                .find("field \"seed\" is not 1"),
+                .find(": seed: expected 1 (this run's), found a number 2"),
             std::string::npos);
   // The rerun redoes exactly the damaged run and gets its fitness back (same seed).
   const CampaignOutcome again = run_campaign(config(), options_for(dir));

@@ -15,17 +15,11 @@
 #include "bench/campaign.h"
 #include "core/dataset.h"
 #include "core/json_reader.h"
+#include "core/number_text.h"
 
 namespace insid::campaign {
 namespace fs = std::filesystem;
 namespace {
-
-// 17 significant digits: reads back to the same double.
-std::string number_text(double value) {
-  char buffer[40];
-  std::snprintf(buffer, sizeof(buffer), "%.17g", value);
-  return buffer;
-}
 
 // A header value inside single quotes: no quote or comma may appear in it (IOHanalyzer splits
 // the line at commas and strips quotes).
@@ -124,10 +118,10 @@ IohExportOutcome export_iohprofiler(const std::string& campaign_dir, const std::
         dat += "\"function evaluation\" \"best-so-far f(x)\"\n";
         for (std::size_t e = 0; e < trace.size(); ++e) {
           if (e == 0 || trace[e] < trace[e - 1] || e + 1 == trace.size())
-            dat += std::to_string(e + 1) + " " + number_text(trace[e]) + "\n";
+            dat += std::to_string(e + 1) + " " + number_text(trace[e], 17) + "\n";
         }
-        entries +=
-            ", " + instance + ":" + std::to_string(trace.size()) + "|" + number_text(trace.back());
+        entries += ", " + instance + ":" + std::to_string(trace.size()) + "|" +
+                   number_text(trace.back(), 17);
         if (!seeds.empty()) seeds += ' ';
         seeds += std::to_string(seed);
         ++outcome.runs;

@@ -20,6 +20,7 @@
 #include "core/dataset.h"
 #include "core/fitness.h"
 #include "core/json_reader.h"
+#include "core/number_text.h"
 #include "core/rotation.h"
 #include "optimizers/parameters.h"
 
@@ -225,7 +226,7 @@ void run_navigate(const NavigateArgs& args) {
     write_output_file(args.out_csv, text, guard);
     progress.detail("wrote " + args.out_csv + " (" + std::to_string(states.size()) + " rows)");
   }
-  progress.detail("Eq. 15 fitness " + short_number(fitness) + " m/s over " +
+  progress.detail("Eq. 15 fitness " + number_text(fitness, 6) + " m/s over " +
                   std::to_string(problem.num_epochs()) + " GNSS epochs");
   write_json_output(args.summary_path, summary, guard);
 }

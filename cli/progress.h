@@ -21,13 +21,6 @@
 
 namespace insid::cli {
 
-/// A number for a progress line: 6 significant digits ("3.32695").
-inline std::string short_number(double value) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%.6g", value);
-  return buffer;
-}
-
 enum class Verbosity { kQuiet, kNormal, kVerbose };
 
 /// Adds --quiet and --verbose (mutually exclusive) to `cmd`, stored in `verbosity`.

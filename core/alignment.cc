@@ -3,13 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <iomanip>
-#include <sstream>
 #include <stdexcept>
 
 #include <Eigen/Geometry>
 
 #include "core/fitness.h"
+#include "core/number_text.h"
 #include "core/rotation.h"
 
 namespace insid {
@@ -67,12 +66,6 @@ Eigen::Matrix3d align_window(const AlignmentWindow& window, const ImuCompensator
 
 namespace {
 
-std::string num(double value, int digits = 3) {
-  std::ostringstream text;
-  text << std::setprecision(digits) << value;
-  return text.str();
-}
-
 constexpr double kRadSToDegH = kRadToDeg * 3600.0;
 constexpr double kRadRtsToDegRth = kRadToDeg * 60.0;  // sqrt(h) = 60 sqrt(s)
 
@@ -127,9 +120,9 @@ HeadingSource heading_source_from_string(const std::string& text) {
 
 std::string InitialAttitudeOptions::validate() const {
   if (heading_deg && !std::isfinite(*heading_deg))
-    return "heading_deg must be finite, got " + num(*heading_deg);
+    return "heading_deg must be finite, got " + number_text(*heading_deg, 3);
   if (heading_deg && mode != InitialAttitudeMode::kLevelHeading)
-    return "a heading (--heading-deg " + num(*heading_deg, 10) +
+    return "a heading (--heading-deg " + number_text(*heading_deg, 10) +
            ") is only used by --initial-attitude level+heading, not " + to_string(mode);
   if (heading_source && mode != InitialAttitudeMode::kLevelHeading)
     return "a heading source (--heading-source " + to_string(*heading_source) +
@@ -137,40 +130,46 @@ std::string InitialAttitudeOptions::validate() const {
   if (heading_source == HeadingSource::kGiven && !heading_deg)
     return "--heading-source given needs the heading: --heading-deg H";
   if (heading_source && *heading_source != HeadingSource::kGiven && heading_deg)
-    return "--heading-deg " + num(*heading_deg, 10) + " gives the heading, but --heading-source " +
-           to_string(*heading_source) + " takes it from elsewhere; give one of them";
+    return "--heading-deg " + number_text(*heading_deg, 10) +
+           " gives the heading, but --heading-source " + to_string(*heading_source) +
+           " takes it from elsewhere; give one of them";
   if (!(course_min_speed_mps > 0.0) || !std::isfinite(course_min_speed_mps))
-    return "course_min_speed_mps must be a finite number > 0, got " + num(course_min_speed_mps);
+    return "course_min_speed_mps must be a finite number > 0, got " +
+           number_text(course_min_speed_mps, 3);
   if (!(course_span_s >= 0.0) || !std::isfinite(course_span_s))
-    return "course_span_s must be a finite number >= 0, got " + num(course_span_s);
+    return "course_span_s must be a finite number >= 0, got " + number_text(course_span_s, 3);
   if (!(static_max_speed_mps > 0.0) || !std::isfinite(static_max_speed_mps))
-    return "static_max_speed_mps must be a finite number > 0, got " + num(static_max_speed_mps);
+    return "static_max_speed_mps must be a finite number > 0, got " +
+           number_text(static_max_speed_mps, 3);
   if (!(gyrocompass_max_heading_sd_deg > 0.0))
-    return "gyrocompass_max_heading_sd_deg must be > 0, got " + num(gyrocompass_max_heading_sd_deg);
+    return "gyrocompass_max_heading_sd_deg must be > 0, got " +
+           number_text(gyrocompass_max_heading_sd_deg, 3);
   if (!(gyro_bias_allowance_rad_s >= 0.0) || !std::isfinite(gyro_bias_allowance_rad_s))
     return "gyro_bias_allowance_rad_s must be a finite number >= 0, got " +
-           num(gyro_bias_allowance_rad_s);
+           number_text(gyro_bias_allowance_rad_s, 3);
   return "";
 }
 
 std::string InitialAttitudeOptions::describe() const {
   if (mode != InitialAttitudeMode::kLevelHeading) return to_string(mode);
-  if (heading_deg) return "level+heading (heading " + num(*heading_deg, 10) + " deg given)";
+  if (heading_deg) return "level+heading (heading " + number_text(*heading_deg, 10) + " deg given)";
   if (effective_heading_source() == HeadingSource::kMeasured)
     return "level+heading (measured heading: heading.csv in the static window, else over " +
-           num(course_span_s, 10) + " s after the navigation start)";
-  return "level+heading (GNSS course >= " + num(course_min_speed_mps, 10) + " m/s over " +
-         num(course_span_s, 10) + " s)";
+           number_text(course_span_s, 10) + " s after the navigation start)";
+  return "level+heading (GNSS course >= " + number_text(course_min_speed_mps, 10) + " m/s over " +
+         number_text(course_span_s, 10) + " s)";
 }
 
 std::string GyrocompassFeasibility::describe() const {
-  return "expected gyrocompass heading sd " + num(heading_sd_rad * kRadToDeg) +
-         " deg (angle random walk " + num(arw_rad_rts * kRadRtsToDegRth) + " deg/sqrt(h) " +
+  return "expected gyrocompass heading sd " + number_text(heading_sd_rad * kRadToDeg, 3) +
+         " deg (angle random walk " + number_text(arw_rad_rts * kRadRtsToDegRth, 3) +
+         " deg/sqrt(h) " +
          (arw_declared ? "declared in meta.json noise.arw_deg_rth"
                        : "estimated from the static window's rate scatter") +
-         ", averaged over the " + num(window_s) + " s static window; gyro bias allowance " +
-         num(bias_allowance_rad_s * kRadSToDegH) + " deg/h; horizontal Earth rate " +
-         num(horizontal_earth_rate_rad_s * kRadSToDegH) + " deg/h)";
+         ", averaged over the " + number_text(window_s, 3) +
+         " s static window; gyro bias allowance " +
+         number_text(bias_allowance_rad_s * kRadSToDegH, 3) + " deg/h; horizontal Earth rate " +
+         number_text(horizontal_earth_rate_rad_s * kRadSToDegH, 3) + " deg/h)";
 }
 
 GyrocompassFeasibility gyrocompass_feasibility(double arw_rad_rts, bool arw_declared,
@@ -296,6 +295,202 @@ Eigen::Matrix3d truth_attitude_at(const Dataset& ds, double t_s) {
   return C_b_n_from_euler(ds.meta.initial.attitude);
 }
 
+namespace {
+
+// --initial-attitude given: meta.json's attitude, which holds at initial.t_s; refused when it is
+// not the one at the navigation start (the data between are neither static nor one IMU step).
+Eigen::Matrix3d given_attitude(const Dataset& ds, const std::string& mode,
+                               const AlignmentWindow& window, double window_start_t_s,
+                               double t_nav0) {
+  if (!ds.meta.initial_attitude_known)
+    throw std::invalid_argument(
+        mode +
+        ": meta.json \"initial\" gives no attitude (roll_deg/pitch_deg/yaw_deg are "
+        "null); use --initial-attitude level+heading on a static start, or write the "
+        "attitude at the start into meta.json");
+  // The attitude holds at initial.t_s; it is the one at the navigation start only while
+  // the data between are static (inside the alignment window) or within one IMU step.
+  const double step_s = 1.0 / ds.meta.imu_rate_hz;
+  const double t_init = ds.meta.initial.t_s;
+  const double earliest = (window.count > 0 ? window_start_t_s : t_nav0) - 1.5 * step_s;
+  if (t_init < earliest || t_init > t_nav0 + 1.5 * step_s)
+    throw std::invalid_argument(
+        mode + ": meta.json \"initial\" is at t = " + number_text(t_init, 12) +
+        " s, but the navigation starts at t = " + number_text(t_nav0, 12) +
+        " s and the data between are not a static window; give the attitude at the "
+        "navigation start");
+  return C_b_n_from_euler(ds.meta.initial.attitude);
+}
+
+// Both window modes: a static window must exist and be static (the GNSS horizontal speed within
+// options.static_max_speed_mps inside it).
+void check_static_window(const Dataset& ds, const InitialAttitudeOptions& options,
+                         const AlignmentWindow& window, std::size_t window_begin,
+                         std::size_t window_end, double window_start_t_s, double t_nav0,
+                         const std::string& mode) {
+  if (window.count == 0)
+    throw std::invalid_argument(
+        "dataset has align_s = " + number_text(ds.meta.align_s, 12) +
+        " s, less than one IMU step: no static window to level on, so " + mode +
+        " cannot work (a vehicle already moving); give the attitude at the start: "
+        "--initial-attitude given (meta.json \"initial\") or truth (simulated data)");
+  for (std::size_t i = 0; i < ds.gnss.size(); ++i) {
+    const GnssSample& g = ds.gnss[i];
+    if (g.t_s < window_start_t_s - 1e-9 || g.t_s > t_nav0 + 1e-9) continue;
+    const double speed = std::hypot(g.v_eb_n_mps.x(), g.v_eb_n_mps.y());
+    if (speed > options.static_max_speed_mps)
+      throw std::invalid_argument(
+          "the alignment window (align_s = " + number_text(ds.meta.align_s, 12) +
+          " s, imu.csv lines " + std::to_string(window_begin + 2) + "-" +
+          std::to_string(window_end + 1) + ") is not static: the GNSS horizontal speed is " +
+          number_text(speed, 3) + " m/s at t = " + number_text(g.t_s, 12) + " s (gnss.csv line " +
+          std::to_string(i + 2) + "; static means <= " +
+          number_text(options.static_max_speed_mps, 3) + " m/s), so " + mode +
+          " cannot level on it; give a shorter align_s, or the attitude "
+          "at the start: --initial-attitude given (meta.json \"initial\") or truth (simulated "
+          "data)");
+  }
+}
+
+// --heading-source measured: the circular mean of heading.csv's samples in the static window
+// (the body does not turn there), else of the first ones after the navigation start within
+// options.course_span_s (carried back like the course); `used` gets their rows.
+MeasuredHeading mean_measured_heading(const Dataset& ds, const InitialAttitudeOptions& options,
+                                      double window_start_t_s, double t_nav0,
+                                      const std::string& mode, std::vector<std::size_t>& used) {
+  MeasuredHeading m;
+  m.kind = ds.meta.heading->source;
+  m.declination_deg = ds.meta.heading->declination_deg;
+  for (std::size_t i = 0; i < ds.heading.size(); ++i)
+    if (ds.heading[i].t_s >= window_start_t_s - 1e-9 && ds.heading[i].t_s <= t_nav0 + 1e-9)
+      used.push_back(i);
+  m.carried = used.empty();
+  if (m.carried) {
+    const double t_last = ds.imu.back().t_s;
+    for (std::size_t i = 0; i < ds.heading.size(); ++i) {
+      const double t = ds.heading[i].t_s;
+      if (t <= t_nav0 + 1e-9 || t > t_last + 1e-9) continue;
+      if (!used.empty() && t > ds.heading[used.front()].t_s + options.course_span_s + 1e-9) break;
+      used.push_back(i);
+    }
+  }
+  if (used.empty())
+    throw std::invalid_argument(
+        mode + " --heading-source measured: heading.csv has no sample in the static window (t = " +
+        number_text(window_start_t_s, 12) + " to " + number_text(t_nav0, 12) +
+        " s) nor between the navigation start and the last IMU row (its samples run from t = " +
+        number_text(ds.heading.front().t_s, 12) + " to " + number_text(ds.heading.back().t_s, 12) +
+        " s)");
+  double s = 0.0, c = 0.0, sum_var = 0.0;
+  bool all_sd = true;
+  for (std::size_t i : used) {
+    s += std::sin(ds.heading[i].yaw_rad);
+    c += std::cos(ds.heading[i].yaw_rad);
+    if (ds.heading[i].sd_rad)
+      sum_var += *ds.heading[i].sd_rad * *ds.heading[i].sd_rad;
+    else
+      all_sd = false;
+  }
+  const double n = static_cast<double>(used.size());
+  m.count = used.size();
+  m.first_line = used.front() + 2;
+  m.t_first_s = ds.heading[used.front()].t_s;
+  m.t_last_s = ds.heading[used.back()].t_s;
+  m.mean_rad = std::atan2(s, c);
+  const double R = std::min(1.0, std::hypot(s, c) / n);
+  m.scatter_rad = R > 0.0 ? std::sqrt(std::max(0.0, -2.0 * std::log(R))) : kPi;
+  if (all_sd) m.sample_sd_rad = std::sqrt(sum_var / n);
+  m.sd_rad = std::max(m.sample_sd_rad.value_or(0.0), m.scatter_rad) / std::sqrt(n);
+  return m;
+}
+
+// The GNSS course fixes: the first epoch after the navigation start with a horizontal speed of at
+// least options.course_min_speed_mps, and the fast ones within options.course_span_s after it;
+// refused when the speed never gets there.
+std::vector<CourseFix> gnss_course_fixes(const Dataset& ds, const InitialAttitudeOptions& options,
+                                         double t_nav0, const std::string& mode) {
+  std::vector<CourseFix> fixes;
+  const double t_last = ds.imu.back().t_s;
+  double max_speed = 0.0, t_max_speed = t_nav0;
+  for (std::size_t i = 0; i < ds.gnss.size(); ++i) {
+    const GnssSample& g = ds.gnss[i];
+    if (g.t_s <= t_nav0 + 1e-9 || g.t_s > t_last + 1e-9) continue;
+    const double speed = std::hypot(g.v_eb_n_mps.x(), g.v_eb_n_mps.y());
+    if (speed > max_speed) max_speed = speed, t_max_speed = g.t_s;
+    if (!fixes.empty() && g.t_s > fixes.front().t_s + options.course_span_s + 1e-9) break;
+    if (!(speed >= options.course_min_speed_mps)) continue;
+    CourseFix fix;
+    fix.gnss_index = i;
+    fix.t_s = g.t_s;
+    fix.course_rad = std::atan2(g.v_eb_n_mps.x(), g.v_eb_n_mps.y());
+    fix.speed_mps = speed;
+    fixes.push_back(fix);
+  }
+  if (fixes.empty())
+    throw std::invalid_argument(
+        mode + ": the GNSS horizontal speed never reaches " +
+        number_text(options.course_min_speed_mps, 3) +
+        " m/s after the navigation start (t = " + number_text(t_nav0, 12) + " s; the fastest is " +
+        number_text(max_speed, 3) + " m/s at t = " + number_text(t_max_speed, 12) +
+        " s), so the course gives no heading; give it with --heading-deg H");
+  return fixes;
+}
+
+// The sums of every fix (yaw_change_rad) for a reference attitude track starting at C_b_n0 at the
+// navigation start: C_b_n(t + dt) = Rot(-omega_ie_n dt) C_b_n(t) Rot(dtheta_b - b_ref dt).
+std::vector<YawCarry> carry_sums(const Dataset& ds, const std::vector<CourseFix>& fixes,
+                                 const Eigen::Matrix3d& C_b_n0, const Eigen::Vector3d& omega_ie_n,
+                                 const Eigen::Vector3d& b_ref, std::size_t nav_begin,
+                                 const std::string& mode) {
+  std::vector<YawCarry> out(fixes.size());
+  Eigen::Matrix3d C_ref = C_b_n0;
+  YawCarry sums;
+  std::size_t next_fix = 0;
+  EulerAngles e_prev = euler_from_C_b_n(C_ref);
+  for (std::size_t k = nav_begin; k < ds.imu.size() && next_fix < fixes.size(); ++k) {
+    const double t_prev = ds.imu[k - 1].t_s, t_k = ds.imu[k].t_s, dt = t_k - t_prev;
+    if (!(dt > 0.0))
+      throw std::invalid_argument(mode + ": IMU time stamps not increasing at imu.csv line " +
+                                  std::to_string(k + 2));
+    const Eigen::Vector3d& dtheta = ds.imu[k].dtheta_b_rad;
+    const Eigen::Vector3d u_prev = C_ref.row(2).transpose();
+    C_ref = quat_from_rotation_vector(-omega_ie_n * dt).toRotationMatrix() * C_ref *
+            quat_from_rotation_vector(dtheta - b_ref * dt).toRotationMatrix();
+    const Eigen::Vector3d u_mid = (u_prev + C_ref.row(2).transpose()).normalized();
+    const EulerAngles e = euler_from_C_b_n(C_ref);
+    const double t_mid = t_k - 0.5 * dt;
+    YawCarry step;
+    step.sum_u_dtheta = u_mid * dtheta.transpose();
+    step.sum_u_dt = u_mid * dt;
+    step.sum_u_tmid_dt = u_mid * (t_mid * dt);
+    step.span_s = dt;
+    step.roll_pitch_term_rad =
+        std::sin(0.5 * (e.pitch_rad + e_prev.pitch_rad)) * wrap_pi(e.roll_rad - e_prev.roll_rad);
+    e_prev = e;
+    // Fixes inside (t_prev, t_k]: the sums so far plus the fraction of this step.
+    while (next_fix < fixes.size() && fixes[next_fix].t_s <= t_k + 1e-9) {
+      const double w = std::clamp((fixes[next_fix].t_s - t_prev) / dt, 0.0, 1.0);
+      YawCarry& c = out[next_fix];
+      c.sum_u_dtheta = sums.sum_u_dtheta + w * step.sum_u_dtheta;
+      c.sum_u_dt = sums.sum_u_dt + w * step.sum_u_dt;
+      c.sum_u_tmid_dt = sums.sum_u_tmid_dt + w * step.sum_u_tmid_dt;
+      c.span_s = sums.span_s + w * step.span_s;
+      c.roll_pitch_term_rad = sums.roll_pitch_term_rad + w * step.roll_pitch_term_rad;
+      ++next_fix;
+    }
+    sums.sum_u_dtheta += step.sum_u_dtheta;
+    sums.sum_u_dt += step.sum_u_dt;
+    sums.sum_u_tmid_dt += step.sum_u_tmid_dt;
+    sums.span_s += step.span_s;
+    sums.roll_pitch_term_rad += step.roll_pitch_term_rad;
+  }
+  if (next_fix < fixes.size())  // (fixes are at or before the last IMU row)
+    throw std::logic_error("level+heading: course epoch after the last IMU row");
+  return out;
+}
+
+}  // namespace
+
 InitialAttitude::InitialAttitude(const Dataset& ds, const InitialAttitudeOptions& options,
                                  const AlignmentWindow& window, std::size_t window_begin,
                                  std::size_t window_end, double window_start_t_s,
@@ -313,54 +508,16 @@ InitialAttitude::InitialAttitude(const Dataset& ds, const InitialAttitudeOptions
     case InitialAttitudeMode::kTruth:
       C_b_n_fixed_ = truth_attitude_at(ds, t_nav0);
       return;
-    case InitialAttitudeMode::kGiven: {
-      if (!ds.meta.initial_attitude_known)
-        throw std::invalid_argument(
-            mode +
-            ": meta.json \"initial\" gives no attitude (roll_deg/pitch_deg/yaw_deg are "
-            "null); use --initial-attitude level+heading on a static start, or write the "
-            "attitude at the start into meta.json");
-      // The attitude holds at initial.t_s; it is the one at the navigation start only while
-      // the data between are static (inside the alignment window) or within one IMU step.
-      const double step_s = 1.0 / ds.meta.imu_rate_hz;
-      const double t_init = ds.meta.initial.t_s;
-      const double earliest = (window.count > 0 ? window_start_t_s : t_nav0) - 1.5 * step_s;
-      if (t_init < earliest || t_init > t_nav0 + 1.5 * step_s)
-        throw std::invalid_argument(
-            mode + ": meta.json \"initial\" is at t = " + num(t_init, 12) +
-            " s, but the navigation starts at t = " + num(t_nav0, 12) +
-            " s and the data between are not a static window; give the attitude at the "
-            "navigation start");
-      C_b_n_fixed_ = C_b_n_from_euler(ds.meta.initial.attitude);
+    case InitialAttitudeMode::kGiven:
+      C_b_n_fixed_ = given_attitude(ds, mode, window, window_start_t_s, t_nav0);
       return;
-    }
     case InitialAttitudeMode::kGyrocompass:
     case InitialAttitudeMode::kLevelHeading:
       break;
   }
 
-  // Both window modes: a static window must exist and be static.
-  if (window.count == 0)
-    throw std::invalid_argument(
-        "dataset has align_s = " + num(ds.meta.align_s, 12) +
-        " s, less than one IMU step: no static window to level on, so " + mode +
-        " cannot work (a vehicle already moving); give the attitude at the start: "
-        "--initial-attitude given (meta.json \"initial\") or truth (simulated data)");
-  for (std::size_t i = 0; i < ds.gnss.size(); ++i) {
-    const GnssSample& g = ds.gnss[i];
-    if (g.t_s < window_start_t_s - 1e-9 || g.t_s > t_nav0 + 1e-9) continue;
-    const double speed = std::hypot(g.v_eb_n_mps.x(), g.v_eb_n_mps.y());
-    if (speed > options.static_max_speed_mps)
-      throw std::invalid_argument(
-          "the alignment window (align_s = " + num(ds.meta.align_s, 12) + " s, imu.csv lines " +
-          std::to_string(window_begin + 2) + "-" + std::to_string(window_end + 1) +
-          ") is not static: the GNSS horizontal speed is " + num(speed) +
-          " m/s at t = " + num(g.t_s, 12) + " s (gnss.csv line " + std::to_string(i + 2) +
-          "; static means <= " + num(options.static_max_speed_mps) + " m/s), so " + mode +
-          " cannot level on it; give a shorter align_s, or the attitude "
-          "at the start: --initial-attitude given (meta.json \"initial\") or truth (simulated "
-          "data)");
-  }
+  check_static_window(ds, options, window, window_begin, window_end, window_start_t_s, t_nav0,
+                      mode);
 
   if (options.mode == InitialAttitudeMode::kGyrocompass) {
     const bool declared = ds.meta.noise.has_value();
@@ -373,7 +530,7 @@ InitialAttitude::InitialAttitude(const Dataset& ds, const InitialAttitudeOptions
     if (!(feasibility_->heading_sd_rad * kRadToDeg <= options.gyrocompass_max_heading_sd_deg))
       throw std::invalid_argument(
           mode + " refused: " + feasibility_->describe() + " exceeds the threshold of " +
-          num(options.gyrocompass_max_heading_sd_deg) +
+          number_text(options.gyrocompass_max_heading_sd_deg, 3) +
           " deg: the gyros cannot sense the Earth rate well enough for a heading (MEMS grade?); "
           "use --initial-attitude level+heading (heading from the GNSS course, or "
           "--heading-deg H)");
@@ -390,52 +547,9 @@ InitialAttitude::InitialAttitude(const Dataset& ds, const InitialAttitudeOptions
           "bring one with insid import (csv: a hdg column, or mx,my,mz with --declination-deg; "
           "ulog: --heading gps|mag) or insid simulate --heading, or take the heading from "
           "--heading-source course or --heading-deg H");
-    MeasuredHeading m;
-    m.kind = ds.meta.heading->source;
-    m.declination_deg = ds.meta.heading->declination_deg;
-    // The samples in the static window (the body does not turn there), else the first ones after
-    // the navigation start, carried back like the course.
     std::vector<std::size_t> used;
-    for (std::size_t i = 0; i < ds.heading.size(); ++i)
-      if (ds.heading[i].t_s >= window_start_t_s - 1e-9 && ds.heading[i].t_s <= t_nav0 + 1e-9)
-        used.push_back(i);
-    m.carried = used.empty();
-    if (m.carried) {
-      const double t_last = ds.imu.back().t_s;
-      for (std::size_t i = 0; i < ds.heading.size(); ++i) {
-        const double t = ds.heading[i].t_s;
-        if (t <= t_nav0 + 1e-9 || t > t_last + 1e-9) continue;
-        if (!used.empty() && t > ds.heading[used.front()].t_s + options.course_span_s + 1e-9) break;
-        used.push_back(i);
-      }
-    }
-    if (used.empty())
-      throw std::invalid_argument(
-          mode +
-          " --heading-source measured: heading.csv has no sample in the static window (t = " +
-          num(window_start_t_s, 12) + " to " + num(t_nav0, 12) +
-          " s) nor between the navigation start and the last IMU row (its samples run from t = " +
-          num(ds.heading.front().t_s, 12) + " to " + num(ds.heading.back().t_s, 12) + " s)");
-    double s = 0.0, c = 0.0, sum_var = 0.0;
-    bool all_sd = true;
-    for (std::size_t i : used) {
-      s += std::sin(ds.heading[i].yaw_rad);
-      c += std::cos(ds.heading[i].yaw_rad);
-      if (ds.heading[i].sd_rad)
-        sum_var += *ds.heading[i].sd_rad * *ds.heading[i].sd_rad;
-      else
-        all_sd = false;
-    }
-    const double n = static_cast<double>(used.size());
-    m.count = used.size();
-    m.first_line = used.front() + 2;
-    m.t_first_s = ds.heading[used.front()].t_s;
-    m.t_last_s = ds.heading[used.back()].t_s;
-    m.mean_rad = std::atan2(s, c);
-    const double R = std::min(1.0, std::hypot(s, c) / n);
-    m.scatter_rad = R > 0.0 ? std::sqrt(std::max(0.0, -2.0 * std::log(R))) : kPi;
-    if (all_sd) m.sample_sd_rad = std::sqrt(sum_var / n);
-    m.sd_rad = std::max(m.sample_sd_rad.value_or(0.0), m.scatter_rad) / std::sqrt(n);
+    const MeasuredHeading m =
+        mean_measured_heading(ds, options, window_start_t_s, t_nav0, mode, used);
     measured_ = m;
     if (!m.carried) return;
     for (std::size_t i : used) {
@@ -447,32 +561,7 @@ InitialAttitude::InitialAttitude(const Dataset& ds, const InitialAttitudeOptions
       fixes_.push_back(fix);
     }
   }
-  if (fixes_.empty()) {
-    // The GNSS course: the first epoch after the navigation start with a horizontal speed of at
-    // least course_min_speed_mps, and the fast ones within course_span_s after it.
-    const double t_last = ds.imu.back().t_s;
-    double max_speed = 0.0, t_max_speed = t_nav0;
-    for (std::size_t i = 0; i < ds.gnss.size(); ++i) {
-      const GnssSample& g = ds.gnss[i];
-      if (g.t_s <= t_nav0 + 1e-9 || g.t_s > t_last + 1e-9) continue;
-      const double speed = std::hypot(g.v_eb_n_mps.x(), g.v_eb_n_mps.y());
-      if (speed > max_speed) max_speed = speed, t_max_speed = g.t_s;
-      if (!fixes_.empty() && g.t_s > fixes_.front().t_s + options.course_span_s + 1e-9) break;
-      if (!(speed >= options.course_min_speed_mps)) continue;
-      CourseFix fix;
-      fix.gnss_index = i;
-      fix.t_s = g.t_s;
-      fix.course_rad = std::atan2(g.v_eb_n_mps.x(), g.v_eb_n_mps.y());
-      fix.speed_mps = speed;
-      fixes_.push_back(fix);
-    }
-    if (fixes_.empty())
-      throw std::invalid_argument(
-          mode + ": the GNSS horizontal speed never reaches " + num(options.course_min_speed_mps) +
-          " m/s after the navigation start (t = " + num(t_nav0, 12) + " s; the fastest is " +
-          num(max_speed) + " m/s at t = " + num(t_max_speed, 12) +
-          " s), so the course gives no heading; give it with --heading-deg H");
-  }
+  if (fixes_.empty()) fixes_ = gnss_course_fixes(ds, options, t_nav0, mode);  // the GNSS course
 
   // Carry each course back to the start along a reference attitude track from the levelled start
   // (yaw 0: the track's tilt, which is all the carry uses, does not depend on it),
@@ -490,51 +579,7 @@ InitialAttitude::InitialAttitude(const Dataset& ds, const InitialAttitudeOptions
 
   // The sums of every fix for a track starting at C_b_n0.
   const auto carries = [&](const Eigen::Matrix3d& C_b_n0) {
-    std::vector<YawCarry> out(fixes_.size());
-    Eigen::Matrix3d C_ref = C_b_n0;
-    YawCarry sums;
-    std::size_t next_fix = 0;
-    EulerAngles e_prev = euler_from_C_b_n(C_ref);
-    for (std::size_t k = nav_begin; k < ds.imu.size() && next_fix < fixes_.size(); ++k) {
-      const double t_prev = ds.imu[k - 1].t_s, t_k = ds.imu[k].t_s, dt = t_k - t_prev;
-      if (!(dt > 0.0))
-        throw std::invalid_argument(mode + ": IMU time stamps not increasing at imu.csv line " +
-                                    std::to_string(k + 2));
-      const Eigen::Vector3d& dtheta = ds.imu[k].dtheta_b_rad;
-      const Eigen::Vector3d u_prev = C_ref.row(2).transpose();
-      C_ref = quat_from_rotation_vector(-omega_ie_n * dt).toRotationMatrix() * C_ref *
-              quat_from_rotation_vector(dtheta - b_ref * dt).toRotationMatrix();
-      const Eigen::Vector3d u_mid = (u_prev + C_ref.row(2).transpose()).normalized();
-      const EulerAngles e = euler_from_C_b_n(C_ref);
-      const double t_mid = t_k - 0.5 * dt;
-      YawCarry step;
-      step.sum_u_dtheta = u_mid * dtheta.transpose();
-      step.sum_u_dt = u_mid * dt;
-      step.sum_u_tmid_dt = u_mid * (t_mid * dt);
-      step.span_s = dt;
-      step.roll_pitch_term_rad =
-          std::sin(0.5 * (e.pitch_rad + e_prev.pitch_rad)) * wrap_pi(e.roll_rad - e_prev.roll_rad);
-      e_prev = e;
-      // Fixes inside (t_prev, t_k]: the sums so far plus the fraction of this step.
-      while (next_fix < fixes_.size() && fixes_[next_fix].t_s <= t_k + 1e-9) {
-        const double w = std::clamp((fixes_[next_fix].t_s - t_prev) / dt, 0.0, 1.0);
-        YawCarry& c = out[next_fix];
-        c.sum_u_dtheta = sums.sum_u_dtheta + w * step.sum_u_dtheta;
-        c.sum_u_dt = sums.sum_u_dt + w * step.sum_u_dt;
-        c.sum_u_tmid_dt = sums.sum_u_tmid_dt + w * step.sum_u_tmid_dt;
-        c.span_s = sums.span_s + w * step.span_s;
-        c.roll_pitch_term_rad = sums.roll_pitch_term_rad + w * step.roll_pitch_term_rad;
-        ++next_fix;
-      }
-      sums.sum_u_dtheta += step.sum_u_dtheta;
-      sums.sum_u_dt += step.sum_u_dt;
-      sums.sum_u_tmid_dt += step.sum_u_tmid_dt;
-      sums.span_s += step.span_s;
-      sums.roll_pitch_term_rad += step.roll_pitch_term_rad;
-    }
-    if (next_fix < fixes_.size())  // (fixes are at or before the last IMU row)
-      throw std::logic_error("level+heading: course epoch after the last IMU row");
-    return out;
+    return carry_sums(ds, fixes_, C_b_n0, omega_ie_n, b_ref, nav_begin, mode);
   };
   const std::vector<YawCarry> base = carries(C_start);
   // Sensitivity to the start's roll and pitch, by central differences of 1 mrad, evaluated with

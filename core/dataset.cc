@@ -44,6 +44,7 @@
 #include "core/file_read.h"
 #include "core/json_object.h"
 #include "core/json_reader.h"
+#include "core/number_text.h"
 #include "core/output_dir.h"
 #include "core/sensor_errors.h"
 
@@ -86,12 +87,6 @@ std::string join(const std::array<std::string_view, N>& cols) {
     s += cols[i];
   }
   return s;
-}
-
-std::string num_text(double v) {
-  char buf[32];
-  const auto r = std::to_chars(buf, buf + sizeof buf, v);
-  return std::string(buf, r.ptr);
 }
 
 void append_num(std::string& out, double v) {
@@ -490,7 +485,7 @@ struct Validator {
 
   void finite(std::string_view file, std::size_t index, std::string_view column, double v) const {
     if (!std::isfinite(v))
-      fail(at(file, index, column) + "expected a finite number, got " + num_text(v));
+      fail(at(file, index, column) + "expected a finite number, got " + number_text(v));
   }
 
   // |v| <= bound, else "<file> line, column: <what> <v> <unit> is beyond the plausibility
@@ -499,8 +494,8 @@ struct Validator {
                double bound, std::string_view what, std::string_view unit,
                std::string_view why) const {
     if (!(std::fabs(v) <= bound))
-      fail(at(file, index, column) + std::string(what) + " " + num_text(v) + " " +
-           std::string(unit) + " is beyond the plausibility bound " + num_text(bound) + " " +
+      fail(at(file, index, column) + std::string(what) + " " + number_text(v) + " " +
+           std::string(unit) + " is beyond the plausibility bound " + number_text(bound) + " " +
            std::string(unit) + " (" + std::string(why) + ")");
   }
 
@@ -511,8 +506,8 @@ struct Validator {
     bounded(file, index, "lon_deg", lon_rad * kRadToDeg, B::kMaxLonAbs_deg, "longitude", "deg",
             "longitudes lie in [-180, 360] deg");
     if (!(h_m >= B::kMinHeight_m && h_m <= B::kMaxHeight_m))
-      fail(at(file, index, "h_m") + "height " + num_text(h_m) + " m is outside the plausible [" +
-           num_text(B::kMinHeight_m) + ", " + num_text(B::kMaxHeight_m) + "] m");
+      fail(at(file, index, "h_m") + "height " + number_text(h_m) + " m is outside the plausible [" +
+           number_text(B::kMinHeight_m) + ", " + number_text(B::kMaxHeight_m) + "] m");
     static constexpr std::string_view kVel[3] = {"vE_mps", "vN_mps", "vU_mps"};
     for (int k = 0; k < 3; ++k)
       bounded(file, index, kVel[k], v_eb_n_mps[k], B::kMaxSpeed_mps, "velocity", "m/s",
@@ -521,7 +516,7 @@ struct Validator {
 
   void latitude(std::string_view file, std::size_t index, double lat_rad) const {
     if (!(std::fabs(lat_rad) < kPi / 2))
-      fail(at(file, index, "lat_deg") + "latitude " + num_text(lat_rad * kRadToDeg) +
+      fail(at(file, index, "lat_deg") + "latitude " + number_text(lat_rad * kRadToDeg) +
            " deg must lie strictly within (-90, 90) deg");
   }
 
@@ -529,9 +524,9 @@ struct Validator {
   void times(std::string_view file, const Rows& rows) const {
     for (std::size_t i = 1; i < rows.size(); ++i) {
       if (!(rows[i].t_s > rows[i - 1].t_s))
-        fail(at(file, i, "t_s") + "time " + num_text(rows[i].t_s) +
+        fail(at(file, i, "t_s") + "time " + number_text(rows[i].t_s) +
              (rows[i].t_s == rows[i - 1].t_s ? " repeats" : " is before") + " the time " +
-             num_text(rows[i - 1].t_s) + " on " + row(file, i - 1) +
+             number_text(rows[i - 1].t_s) + " on " + row(file, i - 1) +
              " (times must be strictly increasing)");
     }
   }
@@ -546,10 +541,10 @@ struct Validator {
     meta_number("gnss_rate_hz", m.gnss_rate_hz);
     meta_number("align_s", m.align_s);
     if (!(m.imu_rate_hz > 0))
-      meta_fail("field \"imu_rate_hz\" must be > 0, got " + num_text(m.imu_rate_hz));
+      meta_fail("field \"imu_rate_hz\" must be > 0, got " + number_text(m.imu_rate_hz));
     if (!(m.gnss_rate_hz > 0))
-      meta_fail("field \"gnss_rate_hz\" must be > 0, got " + num_text(m.gnss_rate_hz));
-    if (!(m.align_s >= 0)) field_fail("align_s", " must be >= 0, got " + num_text(m.align_s));
+      meta_fail("field \"gnss_rate_hz\" must be > 0, got " + number_text(m.gnss_rate_hz));
+    if (!(m.align_s >= 0)) field_fail("align_s", " must be >= 0, got " + number_text(m.align_s));
     if (const std::string e = m.earth.validate(); !e.empty())
       meta_fail("invalid Earth model: " + e);
 
@@ -569,7 +564,7 @@ struct Validator {
       meta_fail("an unknown initial attitude needs format insid-dataset/2");
     for (const auto& [name, v] : initial_fields) meta_number(std::string("initial.") + name, v);
     if (!(std::fabs(ini.lat_rad) < kPi / 2))
-      meta_fail("field \"initial.lat_deg\" = " + num_text(ini.lat_rad * kRadToDeg) +
+      meta_fail("field \"initial.lat_deg\" = " + number_text(ini.lat_rad * kRadToDeg) +
                 " must lie strictly within (-90, 90) deg");
 
     if (m.injected) {
@@ -589,7 +584,7 @@ struct Validator {
       for (const auto& [name, v] : noise_fields)
         if (!(std::isfinite(v) && v >= 0))
           meta_fail(std::string("field \"noise.") + name + "\" must be a finite number >= 0, got " +
-                    num_text(v));
+                    number_text(v));
     }
 
     // IMU.
@@ -632,9 +627,9 @@ struct Validator {
       for (std::size_t i = 1; i < ds.imu.size(); ++i) {
         const double dt = ds.imu[i].t_s - ds.imu[i - 1].t_s;
         if (dt > B::kMaxImuStep_s)
-          fail(at(kImuFile, i, "t_s") + "IMU gap of " + num_text(dt) + " s from " +
-               row(kImuFile, i - 1) + " (t = " + num_text(ds.imu[i - 1].t_s) +
-               ") is longer than the " + num_text(B::kMaxImuStep_s) +
+          fail(at(kImuFile, i, "t_s") + "IMU gap of " + number_text(dt) + " s from " +
+               row(kImuFile, i - 1) + " (t = " + number_text(ds.imu[i - 1].t_s) +
+               ") is longer than the " + number_text(B::kMaxImuStep_s) +
                " s insid integrates across; cut the data there");
         steps.push_back(dt);
       }
@@ -642,24 +637,24 @@ struct Validator {
                        steps.end());
       const double median = steps[steps.size() / 2];
       if (!(std::fabs(median - dt_nominal) <= B::kImuRateTolerance2 * dt_nominal))
-        meta_fail("field \"imu_rate_hz\" = " + num_text(m.imu_rate_hz) +
-                  " Hz disagrees with the median IMU step " + num_text(median) + " s (" +
-                  num_text(1.0 / median) + " Hz) by more than 10 %");
+        meta_fail("field \"imu_rate_hz\" = " + number_text(m.imu_rate_hz) +
+                  " Hz disagrees with the median IMU step " + number_text(median) + " s (" +
+                  number_text(1.0 / median) + " Hz) by more than 10 %");
     }
     for (std::size_t i = 1; v1 && i < ds.imu.size(); ++i) {
       const double dt = ds.imu[i].t_s - ds.imu[i - 1].t_s;
       if (!(std::fabs(dt - dt_nominal) <= kImuRateTolerance * dt_nominal))
-        fail(at(kImuFile, i, "t_s") + "IMU step " + num_text(dt) + " s from line " +
-             std::to_string(i + 1) + " (t = " + num_text(ds.imu[i - 1].t_s) + ") to line " +
-             std::to_string(i + 2) + " (t = " + num_text(ds.imu[i].t_s) +
-             ") is not within 1% of 1/imu_rate_hz = " + num_text(dt_nominal) + " s");
+        fail(at(kImuFile, i, "t_s") + "IMU step " + number_text(dt) + " s from line " +
+             std::to_string(i + 1) + " (t = " + number_text(ds.imu[i - 1].t_s) + ") to line " +
+             std::to_string(i + 2) + " (t = " + number_text(ds.imu[i].t_s) +
+             ") is not within 1% of 1/imu_rate_hz = " + number_text(dt_nominal) + " s");
     }
     const double imu_t0 = ds.imu.front().t_s;
     const double imu_t1 = ds.imu.back().t_s;
     if (!(m.align_s < imu_t1 - imu_t0))
-      field_fail("align_s", " = " + num_text(m.align_s) +
+      field_fail("align_s", " = " + number_text(m.align_s) +
                                 " s must be shorter than the IMU data span " +
-                                num_text(imu_t1 - imu_t0) + " s (" + file_row(kImuFile, 0) +
+                                number_text(imu_t1 - imu_t0) + " s (" + file_row(kImuFile, 0) +
                                 " to " + row(kImuFile, ds.imu.size() - 1) + ")");
 
     // GNSS.
@@ -691,34 +686,35 @@ struct Validator {
       const double max_gap = std::max(B::kMaxGnssGap_s, 20.0 * declared_step);
       for (std::size_t i = 0; i < steps.size(); ++i)
         if (!(steps[i] <= max_gap))
-          fail(at(kGnssFile, i + 1, "t_s") + "GNSS gap of " + num_text(steps[i]) + " s from " +
-               row(kGnssFile, i) + " (t = " + num_text(ds.gnss[i].t_s) + " s) to " +
-               row(kGnssFile, i + 1) + " (t = " + num_text(ds.gnss[i + 1].t_s) +
-               " s) is longer than the allowed " + num_text(max_gap) +
+          fail(at(kGnssFile, i + 1, "t_s") + "GNSS gap of " + number_text(steps[i]) + " s from " +
+               row(kGnssFile, i) + " (t = " + number_text(ds.gnss[i].t_s) + " s) to " +
+               row(kGnssFile, i + 1) + " (t = " + number_text(ds.gnss[i + 1].t_s) +
+               " s) is longer than the allowed " + number_text(max_gap) +
                " s (the larger of 10 s and 20 GNSS periods)");
       if (!(std::fabs(median_step - declared_step) <= B::kRateTolerance * declared_step))
-        meta_fail("field \"gnss_rate_hz\" = " + num_text(m.gnss_rate_hz) + " Hz does not match " +
-                  "gnss.csv, whose median step " + num_text(median_step) + " s is a rate of " +
-                  num_text(1.0 / median_step) + " Hz (allowed: within 10 %)");
+        meta_fail("field \"gnss_rate_hz\" = " + number_text(m.gnss_rate_hz) +
+                  " Hz does not match " + "gnss.csv, whose median step " +
+                  number_text(median_step) + " s is a rate of " + number_text(1.0 / median_step) +
+                  " Hz (allowed: within 10 %)");
     }
     const double nav_start = imu_t0 + m.align_s;
     if (!(ds.gnss.front().t_s <= nav_start))
       fail(at(kGnssFile, 0, "t_s") + "GNSS does not cover the start of navigation: the first " +
-           "GNSS time " + num_text(ds.gnss.front().t_s) + " s is after the alignment end " +
-           num_text(nav_start) + " s (first IMU time " + num_text(imu_t0) + " s + " +
+           "GNSS time " + number_text(ds.gnss.front().t_s) + " s is after the alignment end " +
+           number_text(nav_start) + " s (first IMU time " + number_text(imu_t0) + " s + " +
            (sources && sources->field && !sources->field("align_s").empty()
                 ? sources->field("align_s")
                 : std::string("align_s")) +
-           " " + num_text(m.align_s) + " s); uncovered: [" + num_text(nav_start) + ", " +
-           num_text(ds.gnss.front().t_s) + ") s");
+           " " + number_text(m.align_s) + " s); uncovered: [" + number_text(nav_start) + ", " +
+           number_text(ds.gnss.front().t_s) + ") s");
     const double allowed_gap = kGnssEndAllowance / m.gnss_rate_hz;
     if (!(ds.gnss.back().t_s >= imu_t1 - allowed_gap))
       fail(at(kGnssFile, ds.gnss.size() - 1, "t_s") + "GNSS does not cover the end of the " +
-           "flight: the last GNSS time " + num_text(ds.gnss.back().t_s) +
-           " s is more than 1.5/gnss_rate_hz = " + num_text(allowed_gap) +
-           " s before the last IMU time " + num_text(imu_t1) + " s (" +
+           "flight: the last GNSS time " + number_text(ds.gnss.back().t_s) +
+           " s is more than 1.5/gnss_rate_hz = " + number_text(allowed_gap) +
+           " s before the last IMU time " + number_text(imu_t1) + " s (" +
            file_row(kImuFile, ds.imu.size() - 1) + "); uncovered: (" +
-           num_text(ds.gnss.back().t_s) + ", " + num_text(imu_t1) + "] s");
+           number_text(ds.gnss.back().t_s) + ", " + number_text(imu_t1) + "] s");
 
     // Truth (optional).
     for (std::size_t i = 0; i < ds.truth.size(); ++i) {
@@ -758,8 +754,8 @@ struct Validator {
         meta_fail("field \"heading.declination_deg\" is only for a magnetometer heading, not " +
                   to_string(m.heading->source));
       if (m.heading->declination_deg && !(std::fabs(*m.heading->declination_deg) <= 180.0))
-        meta_fail("field \"heading.declination_deg\" = " + num_text(*m.heading->declination_deg) +
-                  " must lie in [-180, 180] deg");
+        meta_fail("field \"heading.declination_deg\" = " +
+                  number_text(*m.heading->declination_deg) + " must lie in [-180, 180] deg");
     }
     const bool with_sd = !ds.heading.empty() && ds.heading.front().sd_rad.has_value();
     for (std::size_t i = 0; i < ds.heading.size(); ++i) {
@@ -773,8 +769,8 @@ struct Validator {
         fail(at(kHeadingFile, i, "sd_deg") + "every row or none gives an sd (the first row " +
              (with_sd ? "does" : "does not") + ")");
       if (s.sd_rad && !(*s.sd_rad > 0.0 && *s.sd_rad * kRadToDeg <= B::kMaxHeadingSd_deg))
-        fail(at(kHeadingFile, i, "sd_deg") + "heading sd " + num_text(*s.sd_rad * kRadToDeg) +
-             " deg must lie in (0, " + num_text(B::kMaxHeadingSd_deg) + "] deg");
+        fail(at(kHeadingFile, i, "sd_deg") + "heading sd " + number_text(*s.sd_rad * kRadToDeg) +
+             " deg must lie in (0, " + number_text(B::kMaxHeadingSd_deg) + "] deg");
     }
     times(kHeadingFile, ds.heading);
   }
@@ -803,7 +799,7 @@ double degrees_for(double rad) {
     const int k = kSpan + ((step % 2) ? (step + 1) / 2 : -(step / 2));
     const double d = cand[k];
     if (d * kDegToRad != rad) continue;
-    const std::size_t len = num_text(d).size();
+    const std::size_t len = number_text(d).size();
     if (!found || len < best_len) {
       best = d;
       best_len = len;

@@ -2,10 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <iomanip>
-#include <sstream>
 #include <stdexcept>
 #include <string>
+
+#include "core/number_text.h"
 
 namespace insid {
 
@@ -22,9 +22,7 @@ AlignmentMode alignment_mode_from_string(const std::string& text) {
 
 std::string NavigationOptions::validate() const {
   if (!std::isfinite(window_s) || window_s < 0.0) {
-    std::ostringstream text;
-    text << std::setprecision(12) << window_s;
-    return "window_s = " + text.str() +
+    return "window_s = " + number_text(window_s, 12) +
            " s: expected a finite number of seconds >= 0 (0 = one pure-INS run over the whole "
            "flight)";
   }
@@ -74,11 +72,12 @@ NavigationProblem::NavigationProblem(std::shared_ptr<const Dataset> dataset,
            ds.imu[n_align].t_s - t_window_start <= ds.meta.align_s + 1e-9)
       ++n_align;
     if (n_align < 2)
-      throw std::invalid_argument("NavigationProblem: align_s = " + seconds_text(ds.meta.align_s) +
-                                  " s holds no IMU step after the first row");
+      throw std::invalid_argument(
+          "NavigationProblem: align_s = " + number_text(ds.meta.align_s, 12) +
+          " s holds no IMU step after the first row");
   }
   if (n_align + 1 >= ds.imu.size())
-    throw std::invalid_argument("NavigationProblem: align_s = " + seconds_text(ds.meta.align_s) +
+    throw std::invalid_argument("NavigationProblem: align_s = " + number_text(ds.meta.align_s, 12) +
                                 " s leaves no IMU data to navigate");
   nav_begin_ = std::max<std::size_t>(n_align, 1);
   if (n_align > 0)
@@ -121,11 +120,11 @@ NavigationProblem::NavigationProblem(std::shared_ptr<const Dataset> dataset,
     const double gnss_period_s = 1.0 / ds.meta.gnss_rate_hz;
     if (window_s < gnss_period_s - kTimeTol)
       throw std::invalid_argument(
-          "window_s = " + seconds_text(window_s) + " s is shorter than one GNSS period (" +
-          seconds_text(gnss_period_s) +
-          " s at gnss_rate_hz = " + seconds_text(ds.meta.gnss_rate_hz) +
-          "): windows would hold no GNSS epoch; give window_s >= " + seconds_text(gnss_period_s) +
-          " s, or 0 for one run over the whole flight");
+          "window_s = " + number_text(window_s, 12) + " s is shorter than one GNSS period (" +
+          number_text(gnss_period_s, 12) +
+          " s at gnss_rate_hz = " + number_text(ds.meta.gnss_rate_hz, 12) +
+          "): windows would hold no GNSS epoch; give window_s >= " +
+          number_text(gnss_period_s, 12) + " s, or 0 for one run over the whole flight");
     std::size_t k = nav_begin_ - 1;
     for (double window = 1.0;; window += 1.0) {
       const double t_nominal = t_nav0 + window * window_s;
@@ -147,12 +146,6 @@ NavigationProblem::NavigationProblem(std::shared_ptr<const Dataset> dataset,
 
 double NavigationProblem::nav_start_t_s() const { return dataset_->imu[nav_begin_ - 1].t_s; }
 
-std::string NavigationProblem::seconds_text(double value) {
-  std::ostringstream text;
-  text << std::setprecision(12) << value;
-  return text.str();
-}
-
 Eigen::Matrix3d NavigationProblem::initial_attitude(const SensorErrors& candidate) const {
   if (!attitude_source_.depends_on_candidate())  // given / truth: the same for every candidate
     return attitude_source_.attitude(ImuCompensator(SensorErrors{}));
@@ -168,10 +161,10 @@ Eigen::Matrix3d NavigationProblem::aligned(const SensorErrors& candidate) const 
   } catch (const std::exception& e) {
     std::string compensation;
     for (const auto& [name, value] : nonzero_effects(candidate))
-      compensation += (compensation.empty() ? "" : ", ") + name + "=" + seconds_text(value);
+      compensation += (compensation.empty() ? "" : ", ") + name + "=" + number_text(value, 12);
     throw std::invalid_argument(
         "alignment on imu.csv lines 2-" + std::to_string(window_.count + 1) +
-        " (align_s = " + seconds_text(dataset_->meta.align_s) + " s)" +
+        " (align_s = " + number_text(dataset_->meta.align_s, 12) + " s)" +
         (compensation.empty() ? std::string() : " compensated with " + compensation) + ": " +
         e.what());
   }
@@ -315,7 +308,7 @@ std::string NavigationProblem::non_finite_report(
     return e.what();
   }
   if (first_bad_imu)
-    return "the navigation became non-finite at t = " + seconds_text(t_bad_s) +
+    return "the navigation became non-finite at t = " + number_text(t_bad_s, 12) +
            " s (the step to imu.csv line " + std::to_string(*first_bad_imu + 2) + ")";
   for (std::size_t k = 0; k < r.size(); ++k)
     if (!std::isfinite(r[k]))

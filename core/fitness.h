@@ -227,7 +227,6 @@ class NavigationProblem {
   void set_from_gnss(const GnssSample& g, double shift_s, const Eigen::Vector3d& a_n,
                      const Eigen::Vector3d& l_b, const Eigen::Vector3d& omega_ib_b,
                      NavState& s) const;
-  static std::string seconds_text(double value);
   std::shared_ptr<const Dataset> dataset_;
   NavigationOptions options_;
   std::size_t nav_begin_ = 0;

@@ -2,7 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <sstream>
+
+#include "core/number_text.h"
 
 namespace insid {
 namespace {
@@ -14,13 +15,6 @@ constexpr std::size_t kExcerptChars = 60;
 std::string cut(std::string text) {
   if (text.size() > kExcerptChars) text = text.substr(0, kExcerptChars) + "...";
   return text;
-}
-
-std::string number_text(double v) {
-  std::ostringstream s;
-  s.precision(12);
-  s << v;
-  return s.str();
 }
 
 std::string joined(const std::vector<std::string>& names) {
@@ -48,7 +42,7 @@ std::string describe_json_value(const json& value) {
     case json::value_t::number_unsigned:
       return "a number " + value.dump();
     case json::value_t::number_float:
-      return "a number " + number_text(value.get<double>());
+      return "a number " + number_text(value.get<double>(), 12);
     case json::value_t::string:
       return "a string " + cut(value.dump());
     case json::value_t::array:

@@ -23,6 +23,7 @@
 #include <boost/math/distributions/students_t.hpp>
 
 #include "core/noise_model.h"
+#include "core/number_text.h"
 #include "core/threads.h"
 #include "diagnose/advice.h"
 #include "identification/grade.h"
@@ -672,7 +673,8 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
   // keeps options.initial_attitude's allowance (the catalogue's 0.01 deg/h by default), not
   // identify's box rule (gyro_bias_allowance_rad_s): with that rule a tactical or MEMS base on
   // gyrocompassed data would be refused, as `insid identify --grade tactical` refuses it
-  // (diagnose_test Options.TheGradeSetsTheBaseAndTheCandidatesUnits runs exactly that).
+  // (diagnose_test Options.TheGradeSetsTheBaseAndTheCandidatesUnits runs exactly that). Kept on
+  // purpose after issue 35's review: the reason in docs/design.md, section 9.
   const SensorGrade& grade = grade_for(*dataset, options.grade);
   std::vector<EstimatedParameter> base = options.base;
   if (base.empty()) base = default_estimated(grade);
@@ -1031,10 +1033,7 @@ std::string report_markdown(const json& r, const std::string& figure_prefix) {
   std::ostringstream md;
   auto g = [](const json& v, int prec = 4) {
     if (!v.is_number()) return std::string("-");
-    std::ostringstream s;
-    s.precision(prec);
-    s << v.get<double>();
-    return s.str();
+    return number_text(v.get<double>(), prec);
   };
   md << "# insid diagnose report\n\n";
   md << "Alignment: " << r.value("alignment", "")

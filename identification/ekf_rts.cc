@@ -212,19 +212,10 @@ AttitudeErrorModel attitude_error_model(const NavigationProblem& navigation,
   return m;
 }
 
-EkfRtsResult ekf_pass(const NavigationProblem& navigation, const EkfRtsParams& params,
-                      const SensorErrors& base, const EkfRtsGradeSetup* setup,
-                      const Eigen::Matrix<double, 6, 1>* bias_prior_sd = nullptr) {
-  const auto t_start = std::chrono::steady_clock::now();
-  const Dataset& ds = navigation.dataset();
-  const EarthModel& earth = ds.meta.earth;
-  const bool scale = params.scale_factors == 1;
-  const int N = scale ? 21 : 15;
-  const int n_sensor = scale ? 12 : 6;
-  using Mat = Eigen::MatrixXd;
-  using Vec = Eigen::VectorXd;
-
-  // Noise.
+// The filter's noise levels: each from the parameters when given, else the dataset's noise block,
+// else the grade's (nav without a grade set-up), never below kNoiseFloor (pick).
+NoiseLevels ekf_noise_levels(const Dataset& ds, const EkfRtsParams& params,
+                             const EkfRtsGradeSetup* setup) {
   const std::optional<NoiseLevels>& dn = ds.meta.noise;
   // Defaults without a noise block: nav (the original set-up) or the grade's levels.
   const NoiseLevels defaults = setup ? setup->grade.noise : grade_figures("nav").noise;
@@ -239,31 +230,20 @@ EkfRtsResult ekf_pass(const NavigationProblem& navigation, const EkfRtsParams& p
   noise.gnss_pos_sigma_m =
       pick(params.gnss_pos_sigma_m, dn ? std::optional(dn->gnss_pos_sigma_m) : std::nullopt,
            defaults.gnss_pos_sigma_m, kNoiseFloor.gnss_pos_sigma_m);
-  const double q_arw = std::pow(noise.arw_deg_rth * kPi / 180.0 / 60.0, 2);  // rad^2/s
-  const double q_vrw = std::pow(noise.vrw_mps_rth / 60.0, 2);                // (m/s)^2/s
+  return noise;
+}
 
-  // Sensor-error estimates (start: the base values), as SensorErrors for compensation.
-  SensorErrors est = base;
-  auto sensor_vector = [&]() {
-    Vec s(n_sensor);
-    s.segment<3>(0) = est.gyro.bias;
-    s.segment<3>(3) = est.accel.bias;
-    if (scale) {
-      s.segment<3>(6) = est.gyro.scale;
-      s.segment<3>(9) = est.accel.scale;
-    }
-    return s;
-  };
-
-  // Initial state and covariance.
-  std::optional<AttitudeErrorModel> attitude_model;
-  if (setup) attitude_model = attitude_error_model(navigation, base, setup->grade, noise);
-  const Eigen::Matrix3d C0 =
-      attitude_model ? attitude_model->C_b_n : navigation.initial_attitude(SensorErrors{});
-  NavState state = navigation.initial_state(C0);
-  const std::size_t k0 = navigation.nav_begin();
+// The initial state covariance: position and velocity from the GNSS noise, attitude and sensor
+// errors from params.initial_bias_sigma in catalogue sigmas; with a grade set-up (attitude_model),
+// the grade's bias priors (no wider than bias_prior_sd) and the attitude error tied to them,
+// phi0 = G db + w (ekf_rts.h).
+Eigen::MatrixXd initial_covariance(int N, bool scale, const EkfRtsParams& params,
+                                   const NoiseLevels& noise, const EarthModel& earth, double lat0,
+                                   const std::optional<AttitudeErrorModel>& attitude_model,
+                                   const EkfRtsGradeSetup* setup,
+                                   const Eigen::Matrix<double, 6, 1>* bias_prior_sd) {
+  using Mat = Eigen::MatrixXd;
   Mat P = Mat::Zero(N, N);
-  const double lat0 = state.lat_rad;
   const double heading_sigma =
       std::clamp(params.initial_bias_sigma * kSigmaGyroRadS /
                      (earth.omega_ie_rad_s * std::max(std::cos(lat0), 0.1)),
@@ -303,7 +283,106 @@ EkfRtsResult ekf_pass(const NavigationProblem& navigation, const EkfRtsParams& p
     P.block<3, 6>(kPhi, kBg) = G * Pb;
     P.block<6, 3>(kBg, kPhi) = (G * Pb).transpose();
   }
+  return P;
+}
 
+// The error-state transition over `dt` (the dynamics F at the top of the file, at the state `s`
+// with the interval's mean specific force f_b and rate w_b): Phi = I + F dt + (F dt)^2 / 2.
+Eigen::MatrixXd error_state_transition(const EarthModel& earth, const NavState& s,
+                                       const Eigen::Vector3d& f_b, const Eigen::Vector3d& w_b,
+                                       double dt, int N, bool scale) {
+  using Mat = Eigen::MatrixXd;
+  const Eigen::Matrix3d C = s.q_b_n.toRotationMatrix();
+  const Eigen::Vector3d f_n = C * f_b;
+  const double lat = s.lat_rad, h = s.h_m;
+  const double RM = earth.meridian_radius_m(lat) + h, RN = earth.prime_vertical_radius_m(lat) + h;
+  const Eigen::Vector3d w_ie = earth.omega_ie_n(lat);
+  const Eigen::Vector3d w_en = earth.omega_en_n(lat, h, s.v_eb_n);
+  const double g = earth.normal_gravity_mps2(lat, h);
+  Mat F = Mat::Zero(N, N);
+  F.block<3, 3>(kR, kV).setIdentity();
+  F.block<3, 3>(kV, kPhi) = skew(f_n);
+  F.block<3, 3>(kV, kV) = -skew(2.0 * w_ie + w_en);
+  F(kV + 2, kR + 2) = 2.0 * g / std::sqrt(RM * RN);
+  F.block<3, 3>(kV, kBa) = C;
+  F.block<3, 3>(kPhi, kPhi) = -skew(w_ie + w_en);
+  Eigen::Matrix3d dwen_dv = Eigen::Matrix3d::Zero();
+  dwen_dv(0, 1) = -1.0 / RM;
+  dwen_dv(1, 0) = 1.0 / RN;
+  dwen_dv(2, 0) = std::tan(lat) / RN;
+  F.block<3, 3>(kPhi, kV) = dwen_dv;
+  F.block<3, 3>(kPhi, kBg) = -C;
+  if (scale) {
+    F.block<3, 3>(kPhi, kSg) = -C * w_b.asDiagonal();
+    F.block<3, 3>(kV, kSa) = C * f_b.asDiagonal();
+  }
+  const Mat Fdt = F * dt;
+  return Mat::Identity(N, N) + Fdt + 0.5 * Fdt * Fdt;
+}
+
+// The RTS backward pass over the filter's updates (closed-loop form, see the top of the file): the
+// smoothed error state at the first record and its covariance.
+struct Smoothed {
+  Eigen::VectorXd e;
+  Eigen::MatrixXd P;
+};
+
+Smoothed rts_smooth(const std::vector<UpdateRecord>& records, int N) {
+  using Mat = Eigen::MatrixXd;
+  using Vec = Eigen::VectorXd;
+  const std::size_t last = records.size() - 1;
+  Smoothed out{Vec::Zero(N), records[last].P_post};
+  Vec& e = out.e;
+  Mat& P_smooth = out.P;
+  for (std::size_t k = last; k-- > 0;) {
+    const UpdateRecord& rec = records[k];
+    const UpdateRecord& next = records[k + 1];
+    // A = P_k Phi^T P_prior^-1  <=>  P_prior A^T = Phi P_k.
+    const Mat A = rec.P_prior_next.ldlt().solve(rec.Phi_next * rec.P_post).transpose();
+    e = A * (e + next.dx);
+    P_smooth = rec.P_post + A * (P_smooth - rec.P_prior_next) * A.transpose();
+  }
+  return out;
+}
+
+EkfRtsResult ekf_pass(const NavigationProblem& navigation, const EkfRtsParams& params,
+                      const SensorErrors& base, const EkfRtsGradeSetup* setup,
+                      const Eigen::Matrix<double, 6, 1>* bias_prior_sd = nullptr) {
+  const auto t_start = std::chrono::steady_clock::now();
+  const Dataset& ds = navigation.dataset();
+  const EarthModel& earth = ds.meta.earth;
+  const bool scale = params.scale_factors == 1;
+  const int N = scale ? 21 : 15;
+  const int n_sensor = scale ? 12 : 6;
+  using Mat = Eigen::MatrixXd;
+  using Vec = Eigen::VectorXd;
+
+  const NoiseLevels noise = ekf_noise_levels(ds, params, setup);
+  const double q_arw = std::pow(noise.arw_deg_rth * kPi / 180.0 / 60.0, 2);  // rad^2/s
+  const double q_vrw = std::pow(noise.vrw_mps_rth / 60.0, 2);                // (m/s)^2/s
+
+  // Sensor-error estimates (start: the base values), as SensorErrors for compensation.
+  SensorErrors est = base;
+  auto sensor_vector = [&]() {
+    Vec s(n_sensor);
+    s.segment<3>(0) = est.gyro.bias;
+    s.segment<3>(3) = est.accel.bias;
+    if (scale) {
+      s.segment<3>(6) = est.gyro.scale;
+      s.segment<3>(9) = est.accel.scale;
+    }
+    return s;
+  };
+
+  // Initial state and covariance.
+  std::optional<AttitudeErrorModel> attitude_model;
+  if (setup) attitude_model = attitude_error_model(navigation, base, setup->grade, noise);
+  const Eigen::Matrix3d C0 =
+      attitude_model ? attitude_model->C_b_n : navigation.initial_attitude(SensorErrors{});
+  NavState state = navigation.initial_state(C0);
+  const std::size_t k0 = navigation.nav_begin();
+  Mat P = initial_covariance(N, scale, params, noise, earth, state.lat_rad, attitude_model, setup,
+                             bias_prior_sd);
   std::vector<UpdateRecord> records;
   records.push_back({P, Mat::Identity(N, N), Mat(), Vec::Zero(N), sensor_vector()});
   Mat Phi_interval = Mat::Identity(N, N);
@@ -327,32 +406,7 @@ EkfRtsResult ekf_pass(const NavigationProblem& navigation, const EkfRtsParams& p
   auto propagate = [&](const NavState& s) {
     if (sum_dt <= 0.0) return;
     const Eigen::Vector3d f_b = sum_dv / sum_dt, w_b = sum_dtheta / sum_dt;
-    const Eigen::Matrix3d C = s.q_b_n.toRotationMatrix();
-    const Eigen::Vector3d f_n = C * f_b;
-    const double lat = s.lat_rad, h = s.h_m;
-    const double RM = earth.meridian_radius_m(lat) + h, RN = earth.prime_vertical_radius_m(lat) + h;
-    const Eigen::Vector3d w_ie = earth.omega_ie_n(lat);
-    const Eigen::Vector3d w_en = earth.omega_en_n(lat, h, s.v_eb_n);
-    const double g = earth.normal_gravity_mps2(lat, h);
-    Mat F = Mat::Zero(N, N);
-    F.block<3, 3>(kR, kV).setIdentity();
-    F.block<3, 3>(kV, kPhi) = skew(f_n);
-    F.block<3, 3>(kV, kV) = -skew(2.0 * w_ie + w_en);
-    F(kV + 2, kR + 2) = 2.0 * g / std::sqrt(RM * RN);
-    F.block<3, 3>(kV, kBa) = C;
-    F.block<3, 3>(kPhi, kPhi) = -skew(w_ie + w_en);
-    Eigen::Matrix3d dwen_dv = Eigen::Matrix3d::Zero();
-    dwen_dv(0, 1) = -1.0 / RM;
-    dwen_dv(1, 0) = 1.0 / RN;
-    dwen_dv(2, 0) = std::tan(lat) / RN;
-    F.block<3, 3>(kPhi, kV) = dwen_dv;
-    F.block<3, 3>(kPhi, kBg) = -C;
-    if (scale) {
-      F.block<3, 3>(kPhi, kSg) = -C * w_b.asDiagonal();
-      F.block<3, 3>(kV, kSa) = C * f_b.asDiagonal();
-    }
-    const Mat Fdt = F * sum_dt;
-    const Mat Phi = Mat::Identity(N, N) + Fdt + 0.5 * Fdt * Fdt;
+    const Mat Phi = error_state_transition(earth, s, f_b, w_b, sum_dt, N, scale);
     P = Phi * P * Phi.transpose();
     for (int i = 0; i < 3; ++i) {
       P(kV + i, kV + i) += q_vrw * sum_dt;
@@ -436,16 +490,9 @@ EkfRtsResult ekf_pass(const NavigationProblem& navigation, const EkfRtsParams& p
 
   // RTS backward pass (closed-loop form, see the top of the file).
   const std::size_t last = records.size() - 1;
-  Vec e = Vec::Zero(N);
-  Mat P_smooth = records[last].P_post;
-  for (std::size_t k = last; k-- > 0;) {
-    const UpdateRecord& rec = records[k];
-    const UpdateRecord& next = records[k + 1];
-    // A = P_k Phi^T P_prior^-1  <=>  P_prior A^T = Phi P_k.
-    const Mat A = rec.P_prior_next.ldlt().solve(rec.Phi_next * rec.P_post).transpose();
-    e = A * (e + next.dx);
-    P_smooth = rec.P_post + A * (P_smooth - rec.P_prior_next) * A.transpose();
-  }
+  const Smoothed smoothed = rts_smooth(records, N);
+  const Vec& e = smoothed.e;
+  const Mat& P_smooth = smoothed.P;
   const auto t_end = std::chrono::steady_clock::now();
 
   EkfRtsResult out;

@@ -6,6 +6,7 @@
 
 #include "core/alignment.h"
 #include "core/grade_table.h"
+#include "core/number_text.h"
 #include "core/rotation.h"
 #include "core/units.h"
 
@@ -73,12 +74,6 @@ namespace {
 // Coarseness order of the grades: nav < tactical < mems.
 int coarseness(std::string_view grade) { return grade == "nav" ? 0 : grade == "tactical" ? 1 : 2; }
 
-std::string figure(double value, int digits = 3) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%.*g", digits, value);
-  return text;
-}
-
 }  // namespace
 
 GradeChoice choose_grade(const Dataset& dataset, std::string_view explicit_grade) {
@@ -93,7 +88,8 @@ GradeChoice choose_grade(const Dataset& dataset, std::string_view explicit_grade
     c.grade = *declared;
     c.source = "meta.json noise";
     c.arw_deg_rth = dataset.meta.noise->arw_deg_rth;
-    c.rule = "grade " + c.grade + " (auto: meta.json noise.arw_deg_rth " + figure(c.arw_deg_rth) +
+    c.rule = "grade " + c.grade + " (auto: meta.json noise.arw_deg_rth " +
+             number_text(c.arw_deg_rth, 3) +
              " deg/sqrt(h); <= 0.01 nav, <= 0.1 tactical, above mems)";
     return c;
   }
@@ -107,7 +103,7 @@ GradeChoice choose_grade(const Dataset& dataset, std::string_view explicit_grade
     c.grade = "nav";
     c.source = "assumed";
     c.rule = "grade nav ASSUMED (auto: no meta.json noise block and no static window of at least " +
-             figure(GradeChoice::kMinStaticWindowS) +
+             number_text(GradeChoice::kMinStaticWindowS, 3) +
              " s to measure the sensors on; give --grade nav|tactical|mems)";
     return c;
   }
@@ -136,10 +132,11 @@ GradeChoice choose_grade(const Dataset& dataset, std::string_view explicit_grade
   c.grade = by_arw;
   for (const std::string& g : {by_vrw, by_bias})
     if (coarseness(g) > coarseness(c.grade)) c.grade = g;
-  c.rule = "grade " + c.grade + " (auto: static window " + figure(window_s) + " s: ARW " +
-           figure(c.arw_deg_rth) + " deg/sqrt(h) -> " + by_arw + ", VRW " + figure(c.vrw_mps_rth) +
-           " m/s/sqrt(h) -> " + by_vrw + ", |gyro bias| >= " + figure(c.gyro_bias_min_deg_h) +
-           " deg/h (noise " + figure(c.gyro_bias_noise_deg_h) + ") -> " +
+  c.rule = "grade " + c.grade + " (auto: static window " + number_text(window_s, 3) + " s: ARW " +
+           number_text(c.arw_deg_rth, 3) + " deg/sqrt(h) -> " + by_arw + ", VRW " +
+           number_text(c.vrw_mps_rth, 3) + " m/s/sqrt(h) -> " + by_vrw +
+           ", |gyro bias| >= " + number_text(c.gyro_bias_min_deg_h, 3) + " deg/h (noise " +
+           number_text(c.gyro_bias_noise_deg_h, 3) + ") -> " +
            (!bias_seen          ? std::string("not seen")
             : by_bias == "mems" ? std::string("mems")
                                 : std::string("no vote (<= 20 deg/h)")) +

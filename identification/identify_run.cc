@@ -10,19 +10,13 @@
 
 #include "core/build_info.h"
 #include "core/initial_attitude_json.h"
+#include "core/number_text.h"
 #include "core/units.h"
 #include "identification/ekf_rts.h"
 #include "optimizers/registry.h"
 
 namespace insid {
 namespace {
-
-// A number for a progress line: 6 significant digits ("3.32695").
-std::string six_digits(double value) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%.6g", value);
-  return buffer;
-}
 
 // insid's estimates next to the autopilot's own (meta.json "autopilot_estimates", written by
 // `insid import ardupilot`), for each autopilot estimate of the imported IMU: both values with
@@ -191,14 +185,15 @@ IdentifyReport identify(const IdentifySpec& spec, const IdentifyProgress& progre
     if (progress.status)
       progress.status(spec.algorithm + " iteration " + std::to_string(live.iterations) + budget +
                       ", evaluations " + std::to_string(live.evaluations) + ", best " +
-                      six_digits(live.best_f));
+                      number_text(live.best_f, 6));
   }
   if (progress.finish) progress.finish();
   const opt::Result& result = optimizer->result();
   note(spec.algorithm + " stopped after " + std::to_string(result.iterations) +
        " iteration(s) and " + std::to_string(result.evaluations) + " evaluations (" +
-       std::string(opt::to_string(result.termination)) + "); best " + six_digits(result.best_f) +
-       " first reached at iteration " + std::to_string(best_at_iteration));
+       std::string(opt::to_string(result.termination)) + "); best " +
+       number_text(result.best_f, 6) + " first reached at iteration " +
+       std::to_string(best_at_iteration));
   report.optimizer_result = result;
 
   nlohmann::json& out = report.result;

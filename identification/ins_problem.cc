@@ -11,6 +11,7 @@
 
 #include "core/dataset.h"
 #include "core/earth.h"
+#include "core/number_text.h"
 #include "core/rotation.h"
 #include "optimizers/parameters.h"
 
@@ -29,13 +30,6 @@ double parse_number(const std::string& text, const std::string& what, const std:
 }  // namespace
 
 namespace {
-
-std::string short_number(double v) {
-  std::ostringstream out;
-  out.precision(3);
-  out << v;
-  return out.str();
-}
 
 // The largest size of an effect that is still physical (a search box beyond it only runs the
 // pipeline into overflow and a misleading message, e.g. a 1e300-sigma accelerometer box failed
@@ -100,7 +94,7 @@ EstimatedParameter EstimatedParameter::parse(const std::string& text) {
   const PhysicalLimit limit = physical_limit(p.name);
   if (!(reach_si <= limit.value_si))
     throw std::invalid_argument("--estimate '" + text + "': the search box reaches " +
-                                short_number(reach_si) + " " +
+                                number_text(reach_si, 3) + " " +
                                 std::string(effect_info(p.name).unit) + "; " + limit.why +
                                 ": give a smaller SIGMA or " + "LO:HI");
   return p;

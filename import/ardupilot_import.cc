@@ -6,16 +6,11 @@
 #include <stdexcept>
 
 #include "core/dataset.h"  // PlausibilityBounds::kMaxImuStep_s
+#include "core/number_text.h"
 #include "core/units.h"
 
 namespace insid::importers {
 namespace {
-
-std::string num(double v, int digits = 4) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.*g", digits, v);
-  return buf;
-}
 
 // Least squares y = a + b x on the rows `use` of x, y (boot s, GPST s since the GPS epoch).
 void fit_line(const std::vector<long double>& x, const std::vector<long double>& y,
@@ -125,8 +120,9 @@ nlohmann::json autopilot_bias_estimates(const DataFlashFile& log, const FlightPh
         {"airborne_sd_display", n > 1 ? nlohmann::json(sd * display) : nlohmann::json(nullptr)}};
     list.push_back(e);
     summary += (summary.empty() ? "" : "; ") + std::string(f.effect) + " (" + f.imu + ") " +
-               num(*end_si * display, 3) +
-               (n > 1 ? ", airborne " + num(mean * display, 3) + " +- " + num(sd * display, 2)
+               number_text(*end_si * display, 3) +
+               (n > 1 ? ", airborne " + number_text(mean * display, 3) + " +- " +
+                            number_text(sd * display, 2)
                       : std::string()) +
                " " + (gyro ? "deg/s" : "mg");
   }
@@ -165,7 +161,8 @@ std::string ArduPilotImportOptions::validate() const {
     if (v && !(std::isfinite(*v) && *v >= 0.0 && *v <= 1e7))
       return std::string(name) + ": must be boot seconds in 0-1e7";
   if (t_start_s && t_end_s && !(*t_start_s < *t_end_s))
-    return "--t-start " + num(*t_start_s) + " must be before --t-end " + num(*t_end_s);
+    return "--t-start " + number_text(*t_start_s, 4) + " must be before --t-end " +
+           number_text(*t_end_s, 4);
   return "";
 }
 
@@ -204,7 +201,7 @@ BootClockFit fit_boot_clock(const Records& gps, const std::vector<std::size_t>& 
     throw std::runtime_error(where +
                              ": GPS boot times (T) and GPS times (Week, TimeMS) do not "
                              "follow a line: fewer than 2 fixes within " +
-                             num(kBootFitOutlierS) + " s of the fit");
+                             number_text(kBootFitOutlierS, 4) + " s of the fit");
   fit_line(x, y, use, a, b);
   double ss = 0;
   for (std::size_t k = 0; k < x.size(); ++k)
@@ -347,7 +344,7 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
       {"model",
        "GPST = gpst_at_boot_zero + slope * boot (GPS T, IMU TimeMS), least squares over "
        "the GPS fixes, refitted without residuals beyond " +
-           num(kBootFitOutlierS) + " s"},
+           number_text(kBootFitOutlierS, 4) + " s"},
       {"gpst_at_boot_zero_unix_s", static_cast<double>(clock.gpst_at_boot_zero_s)},
       {"slope", clock.slope},
       {"fixes", clock.fixes},
@@ -356,17 +353,18 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
       {"residual_max_abs_s", clock.max_abs_s}};
   out.notes.push_back(
       "boot clock tied to GPST by a linear fit over " + std::to_string(clock.fixes) +
-      " GPS fixes: slope " + num(clock.slope, 8) + ", residual rms " + num(clock.rms_s * 1e3, 3) +
-      " ms, max " + num(clock.max_abs_s * 1e3, 3) + " ms" +
+      " GPS fixes: slope " + number_text(clock.slope, 8) + ", residual rms " +
+      number_text(clock.rms_s * 1e3, 3) + " ms, max " + number_text(clock.max_abs_s * 1e3, 3) +
+      " ms" +
       (clock.excluded > 0 ? "; " + std::to_string(clock.excluded) + " fixes logged more than " +
-                                num(kBootFitOutlierS) + " s off it left out"
+                                number_text(kBootFitOutlierS, 4) + " s off it left out"
                           : std::string()));
 
   // VZ's sign: the altitude's rate against VZ over the fixes.
   const VzSign& vz = out.vz = vz_sign_of(gps, fixes);
   {
-    const std::string evidence = "d(Alt)/dt = " + num(vz.s, 3) + " x VZ (correlation " +
-                                 num(vz.correlation, 3) + ", " + std::to_string(vz.pairs) +
+    const std::string evidence = "d(Alt)/dt = " + number_text(vz.s, 3) + " x VZ (correlation " +
+                                 number_text(vz.correlation, 3) + ", " + std::to_string(vz.pairs) +
                                  " central differences of Alt over the fixes)";
     prov["gnss"]["vz_sign"] = {{"down_positive", vz.down_positive},
                                {"conclusive", vz.conclusive},
@@ -487,9 +485,9 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
   const double rate_hz = median_step_ms > 0 ? 1e3 / median_step_ms : 0.0;  // median step
   prov["imu"]["logged_rate_hz"] = rate_hz;
   out.notes.push_back(options.imu + " logs sampled rates and specific forces at " +
-                      num(rate_hz, 3) +
+                      number_text(rate_hz, 3) +
                       " Hz, not increments: on a multicopter, motor and frame vibration above " +
-                      num(rate_hz / 2, 3) +
+                      number_text(rate_hz / 2, 3) +
                       " Hz aliases into them and what happens between samples is lost to the "
                       "integration; treat identified gyro and accelerometer errors with care");
   if (options.t_start_s || options.t_end_s) {
@@ -497,11 +495,12 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
         {"t_start",
          options.t_start_s ? nlohmann::json(*options.t_start_s) : nlohmann::json(nullptr)},
         {"t_end", options.t_end_s ? nlohmann::json(*options.t_end_s) : nlohmann::json(nullptr)}};
-    out.notes.push_back("cut to boot time " +
-                        (options.t_start_s ? num(*options.t_start_s, 6) : std::string("start")) +
-                        " - " + (options.t_end_s ? num(*options.t_end_s, 6) : std::string("end")) +
-                        " s: " + std::to_string(imu_outside) + " IMU records and " +
-                        std::to_string(outside) + " GPS fixes outside");
+    out.notes.push_back(
+        "cut to boot time " +
+        (options.t_start_s ? number_text(*options.t_start_s, 6) : std::string("start")) + " - " +
+        (options.t_end_s ? number_text(*options.t_end_s, 6) : std::string("end")) +
+        " s: " + std::to_string(imu_outside) + " IMU records and " + std::to_string(outside) +
+        " GPS fixes outside");
   }
   return out;
 }

@@ -1,4 +1,5 @@
 #include "import/flight_phases.h"
+#include "core/number_text.h"
 #include "core/units.h"
 
 #include <algorithm>
@@ -8,12 +9,6 @@
 
 namespace insid::importers {
 namespace {
-
-std::string fixed(double v, int decimals = 2) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
-  return buf;
-}
 
 struct Block {
   double t_start_s = 0.0;
@@ -32,7 +27,8 @@ std::string FlightPhaseOptions::validate() const {
   const auto bad = [](double v, double lo, double hi) {
     return !(std::isfinite(v) && v > lo && v <= hi);
   };
-  if (bad(block_s, 0.0, 10.0)) return "block_s " + fixed(block_s, 3) + ": must be in (0, 10] s";
+  if (bad(block_s, 0.0, 10.0))
+    return "block_s " + number_text(block_s, 3, Digits::kAfterPoint) + ": must be in (0, 10] s";
   if (bad(spin_accel_sd_mps2, 0.0, 100.0)) return "spin_accel_sd_mps2: must be in (0, 100]";
   if (spin_window_blocks < 1 || spin_window_blocks > 1000)
     return "spin_window_blocks: must be in 1-1000";
@@ -220,28 +216,39 @@ std::vector<std::string> FlightPhases::lines() const {
       "flight phases (boot s; from the IMU's specific force and rates and the GPS "
       "altitude and speed):");
   const double ground_end = motors_on_s ? *motors_on_s : log_end_s;
-  l.push_back("  ground       " + fixed(log_start_s) + " - " + fixed(ground_end) + " s" +
-              (gnss_fix_from_s ? " (GPS fix from " + fixed(*gnss_fix_from_s) + " s)" : ""));
+  l.push_back("  ground       " + number_text(log_start_s, 2, Digits::kAfterPoint) + " - " +
+              number_text(ground_end, 2, Digits::kAfterPoint) + " s" +
+              (gnss_fix_from_s ? " (GPS fix from " +
+                                     number_text(*gnss_fix_from_s, 2, Digits::kAfterPoint) + " s)"
+                               : ""));
   if (!motors_on_s) {
     l.push_back("  the motors never turn (|specific force| never scatters): no flight found");
     return l;
   }
-  l.push_back("  motors on    " + fixed(*motors_on_s) + " s");
+  l.push_back("  motors on    " + number_text(*motors_on_s, 2, Digits::kAfterPoint) + " s");
   if (!takeoff_s) {
     l.push_back("  no take-off found (no GPS fix above the ground altitude or moving)");
     return l;
   }
-  l.push_back("  take-off     " + fixed(*takeoff_s) + " s (the first GPS fix " + fixed(climb_m, 1) +
-              " m above the ground's " + fixed(ground_alt_m, 1) + " m or faster than " +
-              fixed(speed_mps, 1) + " m/s)");
-  l.push_back("  airborne     " + fixed(*takeoff_s) + " - " + fixed(airborne_end_s) + " s (" +
-              fixed(airborne_end_s - *takeoff_s, 1) + " s; peak " + fixed(peak_airborne_g, 1) +
-              " g, " + fixed(peak_airborne_rate_deg_s, 0) + " deg/s)");
-  if (crash_s) l.push_back("  crash        " + fixed(*crash_s) + " s (impact)");
-  if (inverted_s) l.push_back("  upside down  from " + fixed(*inverted_s) + " s");
-  if (landed_s) l.push_back("  landed       " + fixed(*landed_s) + " s (motors stopped)");
-  l.push_back("  flight without what ended it: --t-start " + fixed(suggest_t_start_s) +
-              " --t-end " + fixed(suggest_t_end_s) +
+  l.push_back("  take-off     " + number_text(*takeoff_s, 2, Digits::kAfterPoint) +
+              " s (the first GPS fix " + number_text(climb_m, 1, Digits::kAfterPoint) +
+              " m above the ground's " + number_text(ground_alt_m, 1, Digits::kAfterPoint) +
+              " m or faster than " + number_text(speed_mps, 1, Digits::kAfterPoint) + " m/s)");
+  l.push_back("  airborne     " + number_text(*takeoff_s, 2, Digits::kAfterPoint) + " - " +
+              number_text(airborne_end_s, 2, Digits::kAfterPoint) + " s (" +
+              number_text(airborne_end_s - *takeoff_s, 1, Digits::kAfterPoint) + " s; peak " +
+              number_text(peak_airborne_g, 1, Digits::kAfterPoint) + " g, " +
+              number_text(peak_airborne_rate_deg_s, 0, Digits::kAfterPoint) + " deg/s)");
+  if (crash_s)
+    l.push_back("  crash        " + number_text(*crash_s, 2, Digits::kAfterPoint) + " s (impact)");
+  if (inverted_s)
+    l.push_back("  upside down  from " + number_text(*inverted_s, 2, Digits::kAfterPoint) + " s");
+  if (landed_s)
+    l.push_back("  landed       " + number_text(*landed_s, 2, Digits::kAfterPoint) +
+                " s (motors stopped)");
+  l.push_back("  flight without what ended it: --t-start " +
+              number_text(suggest_t_start_s, 2, Digits::kAfterPoint) + " --t-end " +
+              number_text(suggest_t_end_s, 2, Digits::kAfterPoint) +
               (ended_by == "crash" || ended_by == "inverted"
                    ? " (the " + ended_by + " and the seconds before it cut)"
                    : std::string()));

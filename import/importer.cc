@@ -2,25 +2,18 @@
 
 #include <algorithm>
 #include <cmath>
-#include <iomanip>
 #include <map>
 #include <optional>
-#include <sstream>
 #include <stdexcept>
 
 #include "core/alignment.h"
 #include "core/earth.h"
 #include "core/fitness.h"
+#include "core/number_text.h"
 #include "core/units.h"
 
 namespace insid::importers {
 namespace {
-
-std::string num(double v, int precision = 6) {
-  std::ostringstream s;
-  s << std::setprecision(precision) << v;
-  return s.str();
-}
 
 double median(std::vector<double> v) {
   std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
@@ -78,7 +71,7 @@ void add_heading(const HeadingInput& in, const AssembleOptions& options, GpstTim
         "the heading source (" + in.origin + ") has no sample inside " +
         (magnetometer ? "the static window (the magnetometer is levelled on it)"
                       : "the span the dataset keeps") +
-        " of " + num(t1 - t0) + " s; import without it, or check the source's times");
+        " of " + number_text(t1 - t0, 6) + " s; import without it, or check the source's times");
   if (!all_sd)  // heading.csv gives an sd for every row or none
     for (HeadingSample& s : ds.heading) s.sd_rad.reset();
   HeadingMeta meta;
@@ -106,7 +99,7 @@ void add_heading(const HeadingInput& in, const AssembleOptions& options, GpstTim
   }
   out.notes.push_back("heading: " + std::to_string(ds.heading.size()) + " " + to_string(in.source) +
                       " samples (" + in.origin + ")" +
-                      (magnetometer ? ", declination " + num(*options.declination_deg) +
+                      (magnetometer ? ", declination " + number_text(*options.declination_deg, 6) +
                                           " deg added, tilt-compensated on the static window"
                                     : std::string()));
 }
@@ -118,18 +111,21 @@ std::string AssembleOptions::validate() const {
   for (int q : gnss_quality)
     if (q < 1 || q > 7) return "--gnss-quality: flag " + std::to_string(q) + " is not in 1-7";
   if (align_s && !(std::isfinite(*align_s) && *align_s >= 0.0 && *align_s <= 86400.0))
-    return "--align-s " + num(*align_s) + ": must be a finite number of seconds in [0, 86400]";
+    return "--align-s " + number_text(*align_s, 6) +
+           ": must be a finite number of seconds in [0, 86400]";
   if (!(std::isfinite(static_speed_mps) && static_speed_mps > 0.0 && static_speed_mps <= 10.0))
-    return "--static-speed " + num(static_speed_mps) + ": must be in (0, 10] m/s";
+    return "--static-speed " + number_text(static_speed_mps, 6) + ": must be in (0, 10] m/s";
   if (!(std::isfinite(min_imu_rate_hz) && min_imu_rate_hz > 0.0 && min_imu_rate_hz <= 10000.0))
-    return "--min-imu-rate-hz " + num(min_imu_rate_hz) + ": must be in (0, 10000] Hz";
+    return "--min-imu-rate-hz " + number_text(min_imu_rate_hz, 6) + ": must be in (0, 10000] Hz";
   if (!(std::isfinite(static_rate_dps) && static_rate_dps > 0.0 && static_rate_dps <= 1000.0))
-    return "--static-rate " + num(static_rate_dps) + ": must be in (0, 1000] deg/s";
+    return "--static-rate " + number_text(static_rate_dps, 6) + ": must be in (0, 1000] deg/s";
   if (!(std::isfinite(static_accel_sd_mps2) && static_accel_sd_mps2 > 0.0 &&
         static_accel_sd_mps2 <= 100.0))
-    return "--static-accel-sd " + num(static_accel_sd_mps2) + ": must be in (0, 100] m/s^2";
+    return "--static-accel-sd " + number_text(static_accel_sd_mps2, 6) +
+           ": must be in (0, 100] m/s^2";
   if (declination_deg && !(std::isfinite(*declination_deg) && std::fabs(*declination_deg) <= 180.0))
-    return "--declination-deg " + num(*declination_deg) + ": must be within [-180, 180] deg";
+    return "--declination-deg " + number_text(*declination_deg, 6) +
+           ": must be within [-180, 180] deg";
   return "";
 }
 
@@ -170,10 +166,10 @@ ImuStaticEnd static_window_end(const std::vector<ImuSample>& imu, double t_limit
       }();
       if (std::abs(departure[axis]) > rate_limit) {
         out.t_end_s = std::max(t0, t_start - kBlockS);
-        out.why = "the mean angular rate of the block at t = " + num(t_start - t0) +
-                  " s departs from the still blocks' by " + num(departure[axis] / kDegToRad, 3) +
-                  " deg/s on " + "xyz"[axis] + " (above --static-rate " +
-                  num(options.static_rate_dps) + ")";
+        out.why = "the mean angular rate of the block at t = " + number_text(t_start - t0, 6) +
+                  " s departs from the still blocks' by " +
+                  number_text(departure[axis] / kDegToRad, 3) + " deg/s on " + "xyz"[axis] +
+                  " (above --static-rate " + number_text(options.static_rate_dps, 6) + ")";
         return out;
       }
     }
@@ -181,9 +177,9 @@ ImuStaticEnd static_window_end(const std::vector<ImuSample>& imu, double t_limit
     const double sd_f = std::sqrt(std::max(0.0, (sum_f2 - n * mean_f * mean_f) / (n - 1)));
     if (sd_f > options.static_accel_sd_mps2) {
       out.t_end_s = std::max(t0, t_start - kBlockS);
-      out.why = "the specific force of the block at t = " + num(t_start - t0) + " s scatters by " +
-                num(sd_f, 3) + " m/s^2 (above --static-accel-sd " +
-                num(options.static_accel_sd_mps2) + ")";
+      out.why = "the specific force of the block at t = " + number_text(t_start - t0, 6) +
+                " s scatters by " + number_text(sd_f, 3) + " m/s^2 (above --static-accel-sd " +
+                number_text(options.static_accel_sd_mps2, 6) + ")";
       return out;
     }
     dtheta_still += dtheta;
@@ -192,10 +188,11 @@ ImuStaticEnd static_window_end(const std::vector<ImuSample>& imu, double t_limit
   return out;
 }
 
-Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
-                           const AssembleOptions& options, const HeadingInput* heading) {
-  if (const std::string e = options.validate(); !e.empty()) throw std::invalid_argument(e);
-  if (!heading && imu.heading) heading = &*imu.heading;
+namespace {
+
+// The heading source agrees with --declination-deg: required with a magnetometer (insid has no
+// magnetic model), refused otherwise.
+void check_declination(const HeadingInput* heading, const AssembleOptions& options) {
   const bool magnetometer = heading && heading->source == HeadingSourceKind::kMagnetometer;
   if (magnetometer && !options.declination_deg)
     throw std::invalid_argument(
@@ -203,13 +200,15 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
         "(deg, east +) at the flight, from a world magnetic model or a chart; insid has no "
         "magnetic model and will not guess it");
   if (!magnetometer && options.declination_deg)
-    throw std::invalid_argument("--declination-deg " + num(*options.declination_deg) +
+    throw std::invalid_argument("--declination-deg " + number_text(*options.declination_deg, 6) +
                                 " applies to a magnetometer heading only, and this import has " +
                                 (heading ? "a dual-antenna heading" : "no heading source"));
-  Assembled out;
-  nlohmann::json& prov = out.provenance;
+}
 
-  // GNSS epochs of an accepted quality.
+// The GNSS epochs of an accepted quality (--gnss-quality); the others counted by quality flag.
+std::vector<GnssEpoch> accepted_epochs(const GnssSolution& gnss, const AssembleOptions& options,
+                                       Assembled& out) {
+  nlohmann::json& prov = out.provenance;
   std::vector<GnssEpoch> kept;
   std::map<int, int> dropped;
   for (const GnssEpoch& e : gnss.epochs) {
@@ -232,16 +231,31 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
     throw std::runtime_error(
         "only " + std::to_string(kept.size()) +
         " GNSS epochs have an accepted quality flag (--gnss-quality); need at least 2");
+  return kept;
+}
 
-  // The common span.
+// The IMU rows used: rows k in [first, last] inside the GNSS span (a rate also needs the row
+// before `first`, the interval's start), and the dataset's time origin.
+struct ImuSpan {
+  bool increments = false;  // both sensors give increments (else a rate is integrated)
+  std::size_t first = 0;
+  std::size_t last = 0;
+  GpstTime t_origin = 0;  // a whole GPST second
+};
+
+// The common span of the IMU and the accepted GNSS epochs; refuses data that do not overlap or
+// fewer than 3 IMU rows inside it.
+ImuSpan imu_span(const CsvImu& imu, const std::vector<GnssEpoch>& kept, Assembled& out) {
   const GpstTime tg0 = kept.front().t_gpst_unix_s, tg1 = kept.back().t_gpst_unix_s;
   const GpstTime ti0 = imu.t_gpst_unix_s.front(), ti1 = imu.t_gpst_unix_s.back();
   if (!(ti0 < tg1 && tg0 < ti1))
-    throw std::runtime_error(
-        "the GNSS solution (GPST " + num(static_cast<double>(tg0), 13) + " to " +
-        num(static_cast<double>(tg1), 13) + " s since 1970) does not overlap the IMU data (" +
-        num(static_cast<double>(ti0), 13) + " to " + num(static_cast<double>(ti1), 13) +
-        " s); check --imu-time, --gps-week and --imu-time-offset-s");
+    throw std::runtime_error("the GNSS solution (GPST " +
+                             number_text(static_cast<double>(tg0), 13) + " to " +
+                             number_text(static_cast<double>(tg1), 13) +
+                             " s since 1970) does not overlap the IMU data (" +
+                             number_text(static_cast<double>(ti0), 13) + " to " +
+                             number_text(static_cast<double>(ti1), 13) +
+                             " s); check --imu-time, --gps-week and --imu-time-offset-s");
   // IMU rows k in [first, last] inside the span; rates need the previous row (the interval's
   // start), increments do not.
   const bool increments = imu.gyro_is_increment && imu.accel_is_increment;
@@ -251,26 +265,37 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
   while (last > first && imu.t_gpst_unix_s[last] > tg1) --last;
   if (last < first + 2) throw std::runtime_error("fewer than 3 IMU rows inside the GNSS span");
   const GpstTime t_origin = std::floor(imu.t_gpst_unix_s[first]);
-  prov["time_origin_gpst_unix_s"] = static_cast<double>(t_origin);  // a whole second: exact
+  out.provenance["time_origin_gpst_unix_s"] = static_cast<double>(t_origin);  // a whole second
+  return {increments, first, last, t_origin};
+}
 
-  // Increments over each row's own interval.
+// Where each dataset IMU row came from, and the steps between the rows.
+struct ImuRows {
+  std::vector<double> steps;       // s, between consecutive rows
+  std::vector<std::size_t> lines;  // the source line of each dataset row
+  std::vector<std::size_t> bytes;  // and its byte offset (binary logs)
+};
+
+// out.dataset.imu: increments over each row's own interval of the span, accelerations in g-local
+// scaled by the normal gravity at the first accepted GNSS epoch.
+ImuRows add_imu_increments(const CsvImu& imu, const ImuSpan& span, const GnssEpoch& first_epoch,
+                           Assembled& out) {
+  nlohmann::json& prov = out.provenance;
+  ImuRows rows;
   double g_local = 1.0;
   if (imu.accel_in_g_local) {
     g_local =
-        EarthModel::wgs84().normal_gravity_mps2(kept.front().lat_deg * kDegToRad, kept.front().h_m);
+        EarthModel::wgs84().normal_gravity_mps2(first_epoch.lat_deg * kDegToRad, first_epoch.h_m);
     prov["imu"]["g_local_mps2"] = g_local;
   }
   Dataset& ds = out.dataset;
-  std::vector<double> steps;
-  std::vector<std::size_t> imu_lines, gnss_lines;  // the source line of each dataset row
-  std::vector<std::size_t> imu_bytes;              // and its byte offset (binary logs)
-  for (std::size_t k = first; k <= last; ++k) {
-    imu_lines.push_back(k < imu.line.size() ? imu.line[k] : 0);
-    if (k < imu.byte.size()) imu_bytes.push_back(imu.byte[k]);
+  for (std::size_t k = span.first; k <= span.last; ++k) {
+    rows.lines.push_back(k < imu.line.size() ? imu.line[k] : 0);
+    if (k < imu.byte.size()) rows.bytes.push_back(imu.byte[k]);
     const double dt =
         k > 0 ? static_cast<double>(imu.t_gpst_unix_s[k] - imu.t_gpst_unix_s[k - 1]) : 0.0;
     ImuSample s;
-    s.t_s = static_cast<double>(imu.t_gpst_unix_s[k] - t_origin);
+    s.t_s = static_cast<double>(imu.t_gpst_unix_s[k] - span.t_origin);
     // The rule is per sensor: a rate is integrated (trapezoid), an increment passes through.
     const auto increment = [&](const std::vector<Eigen::Vector3d>& v, bool is_increment,
                                double scale) {
@@ -282,76 +307,102 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
     s.dtheta_b_rad = increment(imu.gyro_b, imu.gyro_is_increment, 1.0);
     s.dv_b_mps = increment(imu.accel_b, imu.accel_is_increment, g_local);
     ds.imu.push_back(s);
-    if (k > first) steps.push_back(dt);
+    if (k > span.first) rows.steps.push_back(dt);
   }
-  // Every row of the source is counted: used, or dropped with its reason (the reader's, then the
-  // span's; a rate's first row only opens the first interval).
-  {
-    const std::size_t n = imu.t_gpst_unix_s.size();
-    std::map<std::string, std::size_t> rows_dropped = imu.rows_dropped;
-    // Rates: the row before `first` opens the first interval (in or before the span).
-    const std::size_t opens_interval = increments ? 0 : 1;
-    rows_dropped["interval_start"] += opens_interval;
-    rows_dropped["before_gnss_span"] = first - opens_interval;
-    rows_dropped["after_gnss_span"] = n - 1 - last;
-    std::size_t total = 0;
-    for (const auto& [why, count] : rows_dropped) total += count;
-    const std::size_t source_rows = imu.source_rows > 0 ? imu.source_rows : n;
-    prov["imu"]["rows_read"] = source_rows;
-    prov["imu"]["rows_used"] = ds.imu.size();
-    prov["imu"]["rows_dropped"] = rows_dropped;
-    if (total + ds.imu.size() != source_rows)
-      throw std::logic_error("assemble_dataset: IMU rows used and dropped do not add up");
-    if (total > 0) {
-      std::string why;
-      const std::map<std::string, std::string> words = {
-          {"repeated_timestamp", "with a repeated timestamp"},
-          {"timestamp_jump", "in timestamp jumps"},
-          {"interval_start", "opening the first interval"},
-          {"before_gnss_span", "before the GNSS span"},
-          {"after_gnss_span", "after the GNSS span"}};
-      for (const auto& [reason, count] : rows_dropped)
-        if (count > 0)
-          why += (why.empty() ? "" : ", ") + std::to_string(count) + " " +
-                 (words.count(reason) ? words.at(reason) : reason);
-      out.notes.push_back("IMU: " + std::to_string(ds.imu.size()) + " of " +
-                          std::to_string(source_rows) + " rows used; dropped: " + why);
-    }
+  return rows;
+}
+
+// Every row of the source counted in the provenance: used, or dropped with its reason (the
+// reader's, then the span's; a rate's first row only opens the first interval), and how the rows
+// were integrated.
+void record_imu_rows(const CsvImu& imu, const ImuSpan& span, Assembled& out) {
+  nlohmann::json& prov = out.provenance;
+  const std::size_t n = imu.t_gpst_unix_s.size();
+  std::map<std::string, std::size_t> rows_dropped = imu.rows_dropped;
+  // Rates: the row before `first` opens the first interval (in or before the span).
+  const std::size_t opens_interval = span.increments ? 0 : 1;
+  rows_dropped["interval_start"] += opens_interval;
+  rows_dropped["before_gnss_span"] = span.first - opens_interval;
+  rows_dropped["after_gnss_span"] = n - 1 - span.last;
+  std::size_t total = 0;
+  for (const auto& [why, count] : rows_dropped) total += count;
+  const std::size_t source_rows = imu.source_rows > 0 ? imu.source_rows : n;
+  prov["imu"]["rows_read"] = source_rows;
+  prov["imu"]["rows_used"] = out.dataset.imu.size();
+  prov["imu"]["rows_dropped"] = rows_dropped;
+  if (total + out.dataset.imu.size() != source_rows)
+    throw std::logic_error("assemble_dataset: IMU rows used and dropped do not add up");
+  if (total > 0) {
+    std::string why;
+    const std::map<std::string, std::string> words = {
+        {"repeated_timestamp", "with a repeated timestamp"},
+        {"timestamp_jump", "in timestamp jumps"},
+        {"interval_start", "opening the first interval"},
+        {"before_gnss_span", "before the GNSS span"},
+        {"after_gnss_span", "after the GNSS span"}};
+    for (const auto& [reason, count] : rows_dropped)
+      if (count > 0)
+        why += (why.empty() ? "" : ", ") + std::to_string(count) + " " +
+               (words.count(reason) ? words.at(reason) : reason);
+    out.notes.push_back("IMU: " + std::to_string(out.dataset.imu.size()) + " of " +
+                        std::to_string(source_rows) + " rows used; dropped: " + why);
   }
-  prov["imu"]["first_line_used"] = imu.line[first];
-  prov["imu"]["last_line_used"] = imu.line[last];
+  prov["imu"]["first_line_used"] = imu.line[span.first];
+  prov["imu"]["last_line_used"] = imu.line[span.last];
   prov["imu"]["integration"] =
-      increments ? "increments as given"
+      span.increments ? "increments as given"
       : imu.rates_are_interval_means
           ? "rates as means over each row's own interval, w[k] * (t[k] - t[k-1])"
           : "rates integrated over each row's own interval by the trapezoidal rule, "
             "(w[k-1] + w[k]) / 2 * (t[k] - t[k-1])";
+}
+
+// The IMU's median step; refuses a rate below options.min_imu_rate_hz.
+double checked_imu_step(const CsvImu& imu, const std::vector<double>& steps,
+                        const std::vector<ImuSample>& imu_rows, const AssembleOptions& options,
+                        Assembled& out) {
+  nlohmann::json& prov = out.provenance;
   const double dt_median = median(steps);
   // The IMU's rate against the lowest insid integrates (kDefaultMinImuRateHz: why).
   // (A relative 1e-6 below the minimum still passes: time tags printed with 6-9 digits.)
   if (const double rate_hz = 1.0 / dt_median; !(rate_hz >= options.min_imu_rate_hz * (1.0 - 1e-6)))
     throw std::runtime_error(
         (imu.origin.empty() ? std::string("the IMU") : imu.origin) + ": IMU rate " +
-        num(rate_hz, 3) + " Hz (median step " + num(dt_median * 1e3, 4) + " ms; " +
-        num(static_cast<double>(steps.size()) / (ds.imu.back().t_s - ds.imu.front().t_s), 3) +
+        number_text(rate_hz, 3) + " Hz (median step " + number_text(dt_median * 1e3, 4) + " ms; " +
+        number_text(
+            static_cast<double>(steps.size()) / (imu_rows.back().t_s - imu_rows.front().t_s), 3) +
         " Hz on average over " + std::to_string(steps.size()) + " steps) is below the " +
-        num(options.min_imu_rate_hz, 4) +
+        number_text(options.min_imu_rate_hz, 4) +
         " Hz insid accepts for strapdown integration: a multicopter moves at up to ~5 Hz, and at " +
-        num(rate_hz, 3) + " Hz everything above " + num(rate_hz / 2, 3) +
+        number_text(rate_hz, 3) + " Hz everything above " + number_text(rate_hz / 2, 3) +
         " Hz (the Nyquist frequency) is aliased and what happens between the samples is lost; "
         "nothing was written. Log the IMU faster (PX4: SDLOG_PROFILE high-rate, or the "
         "vehicle_imu topic; ArduPilot: the IMU logging rate), or give --min-imu-rate-hz R "
         "(R <= " +
-        num(rate_hz, 3) + ") for a platform whose motion stays below R / 4 Hz");
+        number_text(rate_hz, 3) + ") for a platform whose motion stays below R / 4 Hz");
   prov["imu"]["min_rate_hz"] = options.min_imu_rate_hz;
   prov["imu"]["step_s"] = {{"median", dt_median},
                            {"min", *std::min_element(steps.begin(), steps.end())},
                            {"max", *std::max_element(steps.begin(), steps.end())}};
+  return dt_median;
+}
 
-  // GNSS rows inside the IMU span (ENU velocity).
-  std::vector<double> gsteps, sd_v;
+// Where each dataset GNSS row came from, and the steps between the rows.
+struct GnssRows {
+  std::vector<double> steps;       // s, between consecutive rows
+  std::vector<std::size_t> lines;  // the source line of each dataset row
+};
+
+// out.dataset.gnss: the accepted epochs inside the IMU span (ENU velocity), outages noted.
+// Refuses fewer than 2.
+GnssRows add_gnss_epochs(const GnssSolution& gnss, const std::vector<GnssEpoch>& kept,
+                         const ImuSpan& span, const AssembleOptions& options, Assembled& out) {
+  nlohmann::json& prov = out.provenance;
+  GnssRows rows;
+  Dataset& ds = out.dataset;
+  std::vector<double> sd_v;
   for (const GnssEpoch& e : kept) {
-    const double t = static_cast<double>(e.t_gpst_unix_s - t_origin);
+    const double t = static_cast<double>(e.t_gpst_unix_s - span.t_origin);
     if (t < ds.imu.front().t_s - 1e-9 || t > ds.imu.back().t_s + 1e-9) continue;
     GnssSample g;
     g.t_s = t;
@@ -359,24 +410,24 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
     g.lon_rad = e.lon_deg * kDegToRad;
     g.h_m = e.h_m;
     g.v_eb_n_mps = {e.v_e_mps, e.v_n_mps, e.v_u_mps};
-    if (!ds.gnss.empty()) gsteps.push_back(t - ds.gnss.back().t_s);
+    if (!ds.gnss.empty()) rows.steps.push_back(t - ds.gnss.back().t_s);
     ds.gnss.push_back(g);
-    gnss_lines.push_back(e.line);
+    rows.lines.push_back(e.line);
     sd_v.push_back(std::hypot(e.sd_vn_mps, e.sd_ve_mps));
   }
   if (ds.gnss.size() < 2) throw std::runtime_error("fewer than 2 GNSS epochs inside the IMU span");
   // GNSS outages: steps longer than 3 median periods (longer than the dataset allows are refused
   // by the dataset checks, naming the line).
   {
-    const double period = median(gsteps);
+    const double period = median(rows.steps);
     nlohmann::json outages = nlohmann::json::array();
     for (std::size_t k = 1; k < ds.gnss.size(); ++k) {
       const double gap = ds.gnss[k].t_s - ds.gnss[k - 1].t_s;
       if (gap <= 3.0 * period) continue;
       outages.push_back({{"after_t_s", ds.gnss[k - 1].t_s}, {"gap_s", gap}});
       if (outages.size() <= 5)
-        out.notes.push_back("GNSS outage of " + num(gap) +
-                            " s after t = " + num(ds.gnss[k - 1].t_s) + " s");
+        out.notes.push_back("GNSS outage of " + number_text(gap, 6) +
+                            " s after t = " + number_text(ds.gnss[k - 1].t_s, 6) + " s");
     }
     prov["gnss"]["outages"] = outages;
   }
@@ -386,13 +437,16 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
   prov["gnss"]["accepted_quality"] = options.gnss_quality;
   prov["gnss"]["median_horizontal_velocity_sd_mps"] = median(sd_v);
   prov["gnss"]["weighting"] = "none: every kept epoch counts equally in the fitness";
+  return rows;
+}
 
+// The static alignment window: --align-s, else from the first IMU row to the earlier of 1 s
+// before the GNSS first shows motion and the IMU's own end of stillness (static_window_end);
+// and the initial state at the first IMU row (interpolated GNSS). Refuses a window under 1 s.
+void set_static_window_and_start(const AssembleOptions& options, Assembled& out) {
+  nlohmann::json& prov = out.provenance;
+  Dataset& ds = out.dataset;
   DatasetMeta& m = ds.meta;
-  m.format = DatasetFormat::kV2;
-  m.earth = EarthModel::wgs84();
-  m.imu_rate_hz = 1.0 / dt_median;
-  m.gnss_rate_hz = 1.0 / median(gsteps);
-  // The static window: up to 1 s before the GNSS first shows motion.
   if (options.align_s) {
     m.align_s = *options.align_s;
     prov["alignment_window"] = {{"align_s", m.align_s}, {"how", "given (--align-s)"}};
@@ -415,8 +469,9 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
       throw std::runtime_error(
           "no static start found: " +
           (imu_end.why.empty()
-               ? "the GNSS horizontal speed exceeds " + num(options.static_speed_mps) +
-                     " m/s within " + num(t_moving - ds.imu.front().t_s) + " s of the first IMU row"
+               ? "the GNSS horizontal speed exceeds " + number_text(options.static_speed_mps, 6) +
+                     " m/s within " + number_text(t_moving - ds.imu.front().t_s, 6) +
+                     " s of the first IMU row"
                : imu_end.why) +
           "; give the static window with --align-s");
     prov["alignment_window"] = {
@@ -424,17 +479,17 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
         {"how",
          "from the first IMU row to the earlier of 1 s before the first GNSS epoch with "
          "horizontal speed above " +
-             num(options.static_speed_mps) +
+             number_text(options.static_speed_mps, 6) +
              " m/s and the 0.5 s IMU block before the first one that moves (mean rate departing "
              "by more than " +
-             num(options.static_rate_dps) + " deg/s, or |specific force| sd above " +
-             num(options.static_accel_sd_mps2) + " m/s^2)"},
+             number_text(options.static_rate_dps, 6) + " deg/s, or |specific force| sd above " +
+             number_text(options.static_accel_sd_mps2, 6) + " m/s^2)"},
         {"ended_by", imu_end.why.empty() ? std::string("gnss speed") : imu_end.why},
         {"gnss_moving_t_s", t_moving - ds.imu.front().t_s}};
     if (!imu_end.why.empty())
       out.notes.push_back("static window ended by the IMU before the GNSS moved: " + imu_end.why);
   }
-  out.notes.push_back("static alignment window: the first " + num(m.align_s) + " s");
+  out.notes.push_back("static alignment window: the first " + number_text(m.align_s, 6) + " s");
   const GnssSample g0 = interpolate_gnss(ds.gnss, ds.imu.front().t_s);
   m.initial.t_s = ds.imu.front().t_s;
   m.initial.lat_rad = g0.lat_rad;
@@ -442,16 +497,45 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
   m.initial.h_m = g0.h_m;
   m.initial.v_eb_n_mps = g0.v_eb_n_mps;
   m.initial_attitude_known = false;
+}
 
+// The IMU's gaps (imu_gaps) in the provenance, the first ones in the notes.
+void record_imu_gaps(double dt_median, Assembled& out) {
+  nlohmann::json& prov = out.provenance;
+  const Dataset& ds = out.dataset;
   const std::vector<ImuGap> gaps = imu_gaps(ds);
   for (const ImuGap& gap : gaps) {
     prov["imu"]["gaps"].push_back({{"t_s", gap.t_s}, {"dt_s", gap.dt_s}});
     if (out.notes.size() < 12)
-      out.notes.push_back("IMU gap of " + num(gap.dt_s) + " s before t = " + num(gap.t_s) + " s (" +
-                          num(gap.dt_s / dt_median, 3) + " median steps)");
+      out.notes.push_back("IMU gap of " + number_text(gap.dt_s, 6) +
+                          " s before t = " + number_text(gap.t_s, 6) + " s (" +
+                          number_text(gap.dt_s / dt_median, 3) + " median steps)");
   }
   if (gaps.empty()) prov["imu"]["gaps"] = nlohmann::json::array();
-  if (heading) add_heading(*heading, options, t_origin, out);
+}
+
+}  // namespace
+
+Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
+                           const AssembleOptions& options, const HeadingInput* heading) {
+  if (const std::string e = options.validate(); !e.empty()) throw std::invalid_argument(e);
+  if (!heading && imu.heading) heading = &*imu.heading;
+  check_declination(heading, options);
+  Assembled out;
+  const std::vector<GnssEpoch> kept = accepted_epochs(gnss, options, out);
+  const ImuSpan span = imu_span(imu, kept, out);
+  const ImuRows imu_rows = add_imu_increments(imu, span, kept.front(), out);
+  record_imu_rows(imu, span, out);
+  const double dt_median = checked_imu_step(imu, imu_rows.steps, out.dataset.imu, options, out);
+  const GnssRows gnss_rows = add_gnss_epochs(gnss, kept, span, options, out);
+  DatasetMeta& m = out.dataset.meta;
+  m.format = DatasetFormat::kV2;
+  m.earth = EarthModel::wgs84();
+  m.imu_rate_hz = 1.0 / dt_median;
+  m.gnss_rate_hz = 1.0 / median(gnss_rows.steps);
+  set_static_window_and_start(options, out);
+  record_imu_gaps(dt_median, out);
+  if (heading) add_heading(*heading, options, span.t_origin, out);
   // Errors name the user's files and options: nothing has been written yet.
   DatasetSources sources;
   sources.row = [&](std::string_view file, std::size_t row) -> std::string {
@@ -462,15 +546,16 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
       return source + " " + unit + " " + std::to_string(lines[r]) +
              (r < bytes.size() ? " (byte " + std::to_string(bytes[r]) + ")" : "");
     };
-    if (file == "imu.csv") return name(imu.origin, imu.row_unit, imu_lines, imu_bytes, row);
-    if (file == "gnss.csv") return name(gnss.source, gnss.row_unit, gnss_lines, {}, row);
+    if (file == "imu.csv")
+      return name(imu.origin, imu.row_unit, imu_rows.lines, imu_rows.bytes, row);
+    if (file == "gnss.csv") return name(gnss.source, gnss.row_unit, gnss_rows.lines, {}, row);
     return "";
   };
   sources.field = [&](std::string_view field) -> std::string {
     if (field != "align_s") return "";
     return options.align_s ? "--align-s" : "the detected static window (align_s)";
   };
-  validate_dataset(ds, sources);
+  validate_dataset(out.dataset, sources);
   return out;
 }
 

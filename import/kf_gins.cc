@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/earth.h"
+#include "core/number_text.h"
 #include "core/units.h"
 #include "import/text_lines.h"
 
@@ -75,17 +76,9 @@ GpstTime week_base(std::optional<int> gps_week) {
   return kGpsEpochGpstUnix_s + (gps_week ? *gps_week : 0) * kSecondsPerWeek;
 }
 
-std::string g17(double v) {
-  char buffer[40];
-  std::snprintf(buffer, sizeof buffer, "%.17g", v);
-  return buffer;
-}
-
 void append_number(std::string& out, double v, const char* separator) {
-  char buffer[40];
-  std::snprintf(buffer, sizeof buffer, "%.17g", v);
   out += separator;
-  out += buffer;
+  out += number_text(v, 17);
 }
 
 }  // namespace
@@ -100,7 +93,7 @@ CsvImu parse_kf_gins_imu(const std::string& text, const std::string& where,
   parse_rows(text, where, {7, 8}, [&](const std::vector<double>& v, std::size_t line) {
     if (v[0] < 0.0 || v[0] >= kSecondsPerWeek + 86400.0)
       throw std::runtime_error(where + " line " + std::to_string(line) +
-                               ", column 1: GPS seconds of week " + g17(v[0]) +
+                               ", column 1: GPS seconds of week " + number_text(v[0], 17) +
                                " outside [0, 691200)");
     out.t_gpst_unix_s.push_back(base + static_cast<GpstTime>(v[0]));
     out.gyro_b.emplace_back(v[1], v[2], v[3]);
@@ -138,8 +131,8 @@ GnssSolution parse_kf_gins_gnss(const std::string& text, const std::string& wher
       throw std::runtime_error(at + ": " + std::to_string(v.size()) +
                                " fields, the file's first row has " + std::to_string(columns));
     if (!(std::fabs(v[1]) < 90.0) || !(std::fabs(v[2]) <= 360.0))
-      throw std::runtime_error(at + ": latitude/longitude " + g17(v[1]) + ", " + g17(v[2]) +
-                               " deg outside (-90, 90) / [-360, 360]");
+      throw std::runtime_error(at + ": latitude/longitude " + number_text(v[1], 17) + ", " +
+                               number_text(v[2], 17) + " deg outside (-90, 90) / [-360, 360]");
     GnssEpoch e;
     e.line = line;
     e.t_gpst_unix_s = base + static_cast<GpstTime>(v[0]);

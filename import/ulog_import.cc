@@ -3,20 +3,17 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <iomanip>
-#include <sstream>
 #include <stdexcept>
 
 #include "core/earth.h"
+#include "core/number_text.h"
 #include "core/rotation.h"
 
 namespace insid::importers {
 namespace {
 
 std::string seconds(double s) {
-  std::ostringstream out;
-  out << std::fixed << std::setprecision(6) << s << " s";  // microseconds, as logged
-  return out.str();
+  return number_text(s, 6, Digits::kAfterPoint) + " s";  // microseconds, as logged
 }
 
 // The jumps listed one by one in the provenance (all are counted) and in a note.
@@ -189,10 +186,10 @@ std::string UlogImportOptions::validate() const {
   return "";
 }
 
-UlogSeries extract_ulog(const UlogFile& log, const std::string& where,
-                        const UlogImportOptions& options) {
-  if (const std::string e = options.validate(); !e.empty()) throw std::invalid_argument(e);
-  UlogSeries out;
+namespace {
+
+// The log's own health (format version, logger dropouts, truncation) in the provenance and notes.
+void record_log_health(const UlogFile& log, UlogSeries& out) {
   nlohmann::json& prov = out.provenance;
   prov["ulog"] = {{"version", log.version()},
                   {"dropouts", log.dropouts()},
@@ -206,7 +203,18 @@ UlogSeries extract_ulog(const UlogFile& log, const std::string& where,
     prov["ulog"]["truncation"] = log.truncation();
     out.notes.push_back(log.truncation());
   }
+}
 
+struct UlogTopics {
+  std::string gnss;
+  std::string imu;
+};
+
+// The topics to read: the GNSS topic of options.gnss_instance (vehicle_gps_position, else
+// sensor_gps) and the IMU topic (options.imu_topic, else the one logged at the higher rate);
+// refuses a log without data for either.
+UlogTopics choose_topics(const UlogFile& log, const std::string& where,
+                         const UlogImportOptions& options) {
   // GNSS topic first: without it there is nothing to identify against.
   std::string gnss_topic;
   for (const char* t : {"vehicle_gps_position", "sensor_gps"})
@@ -243,8 +251,14 @@ UlogSeries extract_ulog(const UlogFile& log, const std::string& where,
     throw std::runtime_error(where + ": no data for IMU topic '" + imu_topic + "' instance " +
                              std::to_string(options.imu_instance) +
                              "; topics with data: " + log.topics_summary());
+  return {gnss_topic, imu_topic};
+}
 
-  // IMU.
+// out.imu from `imu_topic`: vehicle_imu's increments as logged, or sensor_combined's interval
+// means times each row's own interval; refuses fewer than 3 samples with consistent timestamps.
+void read_imu(const UlogFile& log, const std::string& where, const UlogImportOptions& options,
+              const std::string& imu_topic, UlogSeries& out) {
+  nlohmann::json& prov = out.provenance;
   CsvImu& imu = out.imu;
   imu.origin = where + ", " + imu_topic + " instance " + std::to_string(options.imu_instance);
   imu.row_unit = "message";
@@ -304,8 +318,14 @@ UlogSeries extract_ulog(const UlogFile& log, const std::string& where,
         " messages: " + std::to_string(imu_sel.repeated) + " repeated, " +
         std::to_string(imu_sel.dropped_by_jumps) + " dropped in timestamp jumps); need at least 3");
   prov["imu"]["axes"] = "PX4 body frame, forward-right-down (no mounting applied)";
+}
 
-  // GNSS, either field layout.
+// out.gnss from `gnss_topic` (either field layout: latitude_deg or 1e-7 deg integers), epochs
+// below options.min_fix_type or with vel_ned_valid false dropped and counted; refuses fewer
+// than 2 usable epochs.
+void read_gnss(const UlogFile& log, const std::string& where, const UlogImportOptions& options,
+               const std::string& gnss_topic, UlogSeries& out) {
+  nlohmann::json& prov = out.provenance;
   const bool degrees = log.has_field(gnss_topic, "latitude_deg");
   const bool has_ellipsoid =
       log.has_field(gnss_topic, degrees ? "altitude_ellipsoid_m" : "alt_ellipsoid");
@@ -380,109 +400,124 @@ UlogSeries extract_ulog(const UlogFile& log, const std::string& where,
         std::to_string(gnss_sel.dropped_by_jumps) + " in timestamp jumps, " +
         std::to_string(low_fix) + " with fix_type below " + std::to_string(options.min_fix_type) +
         ", " + std::to_string(invalid_velocity) + " with vel_ned_valid false); need at least 2");
+}
 
-  if (options.heading == "gps") {
-    // PX4 (SensorGps.msg): "heading: heading angle of XYZ body frame rel to NED. Set to NaN if
-    // not available and updated (used for dual antenna GPS), (rad, [-PI, PI])"; heading_offset
-    // is the antenna baseline's yaw in the body frame, already taken out by the driver.
-    if (!log.has_field(gnss_topic, "heading"))
-      throw std::runtime_error(where + ": --heading gps: " + gnss_topic +
-                               " has no field 'heading' in this log's format (an older PX4)");
-    const bool has_accuracy = log.has_field(gnss_topic, "heading_accuracy");
-    std::vector<std::string> hf = {"timestamp", "heading"};
-    if (has_accuracy) hf.push_back("heading_accuracy");
-    const auto hrows = log.read(gnss_topic, options.gnss_instance, hf);
-    nlohmann::json& hprov = prov["heading_read"];
-    const TimestampSelection hsel = select_topic_stamps(log, gnss_topic, options.gnss_instance,
-                                                        "timestamp", hrows, hprov, out.notes);
-    HeadingInput h;
-    h.source = HeadingSourceKind::kDualAntenna;
-    h.origin = gnss_topic + " instance " + std::to_string(options.gnss_instance) +
-               ": heading (rad, body x from true north)" +
-               (has_accuracy ? ", heading_accuracy as sd" : "");
-    std::size_t nan = 0;
-    for (const std::size_t k : hsel.kept) {
-      const auto& r = hrows[k];
-      if (!std::isfinite(r[1])) {
-        ++nan;
-        continue;
-      }
-      if (!(std::fabs(r[1]) <= 2.0 * 3.14159265358979323846))
-        throw std::runtime_error(where + ": " + gnss_topic + " message " + std::to_string(k + 1) +
-                                 ", field heading: " + std::to_string(r[1]) +
-                                 " rad is not an angle within +-2 pi");
-      h.t_gpst_unix_s.push_back(static_cast<GpstTime>(r[0]) * 1e-6L);
-      h.yaw_rad.push_back(r[1]);
-      const bool sd_ok =
-          has_accuracy && std::isfinite(r[2]) && r[2] > 0.0 && r[2] <= 3.14159265358979323846;
-      h.sd_rad.push_back(sd_ok ? std::optional<double>(r[2]) : std::nullopt);
-      h.line.push_back(k + 1);
+// --heading gps: the GNSS topic's dual-antenna heading (NaN messages skipped and counted).
+HeadingInput read_gps_heading(const UlogFile& log, const std::string& where,
+                              const UlogImportOptions& options, const std::string& gnss_topic,
+                              UlogSeries& out) {
+  // PX4 (SensorGps.msg): "heading: heading angle of XYZ body frame rel to NED. Set to NaN if
+  // not available and updated (used for dual antenna GPS), (rad, [-PI, PI])"; heading_offset
+  // is the antenna baseline's yaw in the body frame, already taken out by the driver.
+  if (!log.has_field(gnss_topic, "heading"))
+    throw std::runtime_error(where + ": --heading gps: " + gnss_topic +
+                             " has no field 'heading' in this log's format (an older PX4)");
+  const bool has_accuracy = log.has_field(gnss_topic, "heading_accuracy");
+  std::vector<std::string> hf = {"timestamp", "heading"};
+  if (has_accuracy) hf.push_back("heading_accuracy");
+  const auto hrows = log.read(gnss_topic, options.gnss_instance, hf);
+  nlohmann::json& hprov = out.provenance["heading_read"];
+  const TimestampSelection hsel = select_topic_stamps(log, gnss_topic, options.gnss_instance,
+                                                      "timestamp", hrows, hprov, out.notes);
+  HeadingInput h;
+  h.source = HeadingSourceKind::kDualAntenna;
+  h.origin = gnss_topic + " instance " + std::to_string(options.gnss_instance) +
+             ": heading (rad, body x from true north)" +
+             (has_accuracy ? ", heading_accuracy as sd" : "");
+  std::size_t nan = 0;
+  for (const std::size_t k : hsel.kept) {
+    const auto& r = hrows[k];
+    if (!std::isfinite(r[1])) {
+      ++nan;
+      continue;
     }
-    hprov["topic"] = gnss_topic;
-    hprov["messages"] = hrows.size();
-    hprov["nan"] = nan;
-    hprov["kept"] = h.t_gpst_unix_s.size();
-    if (h.t_gpst_unix_s.empty())
-      throw std::runtime_error(
-          where + ": --heading gps: " + gnss_topic + " logs 'heading' but it is NaN in all " +
-          std::to_string(hrows.size()) +
-          " messages: the receiver gives no dual-antenna heading (import without --heading, "
-          "or with --heading mag)");
-    out.heading = std::move(h);
-  } else if (options.heading == "mag") {
-    std::string topic;
-    std::vector<std::string> mf;
-    if (log.instances("sensor_mag").count(options.mag_instance) &&
-        log.has_field("sensor_mag", "x")) {
-      topic = "sensor_mag";
-      mf = {"timestamp", "x", "y", "z"};
-    } else if (log.instances("vehicle_magnetometer").count(options.mag_instance) &&
-               log.has_field("vehicle_magnetometer", "magnetometer_ga[0]")) {
-      topic = "vehicle_magnetometer";
-      mf = {"timestamp", "magnetometer_ga[0]", "magnetometer_ga[1]", "magnetometer_ga[2]"};
-    }
-    if (topic.empty())
-      throw std::runtime_error(where +
-                               ": --heading mag: no magnetometer data (sensor_mag x/y/z "
-                               "or vehicle_magnetometer magnetometer_ga, instance " +
-                               std::to_string(options.mag_instance) +
-                               "); topics with data: " + log.topics_summary());
-    const auto mrows = log.read(topic, options.mag_instance, mf);
-    nlohmann::json& hprov = prov["heading_read"];
-    const TimestampSelection msel =
-        select_topic_stamps(log, topic, options.mag_instance, "timestamp", mrows, hprov, out.notes);
-    HeadingInput h;
-    h.source = HeadingSourceKind::kMagnetometer;
-    h.origin = topic + " instance " + std::to_string(options.mag_instance) + ": " +
-               (topic == "sensor_mag" ? "x, y, z" : "magnetometer_ga") + " (gauss, body FRD)";
-    std::size_t not_finite = 0;
-    for (const std::size_t k : msel.kept) {
-      const auto& r = mrows[k];
-      if (!(std::isfinite(r[1]) && std::isfinite(r[2]) && std::isfinite(r[3]))) {
-        ++not_finite;
-        continue;
-      }
-      h.t_gpst_unix_s.push_back(static_cast<GpstTime>(r[0]) * 1e-6L);
-      h.mag_b.emplace_back(r[1], r[2], r[3]);
-      h.line.push_back(k + 1);
-    }
-    hprov["topic"] = topic;
-    hprov["messages"] = mrows.size();
-    hprov["not_finite"] = not_finite;
-    hprov["kept"] = h.t_gpst_unix_s.size();
-    out.heading = std::move(h);
+    if (!(std::fabs(r[1]) <= 2.0 * 3.14159265358979323846))
+      throw std::runtime_error(where + ": " + gnss_topic + " message " + std::to_string(k + 1) +
+                               ", field heading: " + std::to_string(r[1]) +
+                               " rad is not an angle within +-2 pi");
+    h.t_gpst_unix_s.push_back(static_cast<GpstTime>(r[0]) * 1e-6L);
+    h.yaw_rad.push_back(r[1]);
+    const bool sd_ok =
+        has_accuracy && std::isfinite(r[2]) && r[2] > 0.0 && r[2] <= 3.14159265358979323846;
+    h.sd_rad.push_back(sd_ok ? std::optional<double>(r[2]) : std::nullopt);
+    h.line.push_back(k + 1);
   }
-  out.autopilot_estimates = px4_bias_estimates(log, imu_topic, options.imu_instance, out.notes);
+  hprov["topic"] = gnss_topic;
+  hprov["messages"] = hrows.size();
+  hprov["nan"] = nan;
+  hprov["kept"] = h.t_gpst_unix_s.size();
+  if (h.t_gpst_unix_s.empty())
+    throw std::runtime_error(
+        where + ": --heading gps: " + gnss_topic + " logs 'heading' but it is NaN in all " +
+        std::to_string(hrows.size()) +
+        " messages: the receiver gives no dual-antenna heading (import without --heading, "
+        "or with --heading mag)");
+  return h;
+}
+
+// --heading mag: the magnetometer (sensor_mag, else vehicle_magnetometer) of
+// options.mag_instance, in gauss, body FRD (non-finite messages skipped and counted).
+HeadingInput read_mag_heading(const UlogFile& log, const std::string& where,
+                              const UlogImportOptions& options, UlogSeries& out) {
+  std::string topic;
+  std::vector<std::string> mf;
+  if (log.instances("sensor_mag").count(options.mag_instance) && log.has_field("sensor_mag", "x")) {
+    topic = "sensor_mag";
+    mf = {"timestamp", "x", "y", "z"};
+  } else if (log.instances("vehicle_magnetometer").count(options.mag_instance) &&
+             log.has_field("vehicle_magnetometer", "magnetometer_ga[0]")) {
+    topic = "vehicle_magnetometer";
+    mf = {"timestamp", "magnetometer_ga[0]", "magnetometer_ga[1]", "magnetometer_ga[2]"};
+  }
+  if (topic.empty())
+    throw std::runtime_error(where +
+                             ": --heading mag: no magnetometer data (sensor_mag x/y/z "
+                             "or vehicle_magnetometer magnetometer_ga, instance " +
+                             std::to_string(options.mag_instance) +
+                             "); topics with data: " + log.topics_summary());
+  const auto mrows = log.read(topic, options.mag_instance, mf);
+  nlohmann::json& hprov = out.provenance["heading_read"];
+  const TimestampSelection msel =
+      select_topic_stamps(log, topic, options.mag_instance, "timestamp", mrows, hprov, out.notes);
+  HeadingInput h;
+  h.source = HeadingSourceKind::kMagnetometer;
+  h.origin = topic + " instance " + std::to_string(options.mag_instance) + ": " +
+             (topic == "sensor_mag" ? "x, y, z" : "magnetometer_ga") + " (gauss, body FRD)";
+  std::size_t not_finite = 0;
+  for (const std::size_t k : msel.kept) {
+    const auto& r = mrows[k];
+    if (!(std::isfinite(r[1]) && std::isfinite(r[2]) && std::isfinite(r[3]))) {
+      ++not_finite;
+      continue;
+    }
+    h.t_gpst_unix_s.push_back(static_cast<GpstTime>(r[0]) * 1e-6L);
+    h.mag_b.emplace_back(r[1], r[2], r[3]);
+    h.line.push_back(k + 1);
+  }
+  hprov["topic"] = topic;
+  hprov["messages"] = mrows.size();
+  hprov["not_finite"] = not_finite;
+  hprov["kept"] = h.t_gpst_unix_s.size();
+  return h;
+}
+
+}  // namespace
+
+UlogSeries extract_ulog(const UlogFile& log, const std::string& where,
+                        const UlogImportOptions& options) {
+  if (const std::string e = options.validate(); !e.empty()) throw std::invalid_argument(e);
+  UlogSeries out;
+  record_log_health(log, out);
+  const UlogTopics topics = choose_topics(log, where, options);
+  read_imu(log, where, options, topics.imu, out);
+  read_gnss(log, where, options, topics.gnss, out);
+  if (options.heading == "gps")
+    out.heading = read_gps_heading(log, where, options, topics.gnss, out);
+  else if (options.heading == "mag")
+    out.heading = read_mag_heading(log, where, options, out);
+  out.autopilot_estimates = px4_bias_estimates(log, topics.imu, options.imu_instance, out.notes);
   return out;
 }
-
-namespace {
-std::string figure(double v, int digits) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%.*g", digits, v);
-  return text;
-}
-}  // namespace
 
 nlohmann::json px4_bias_estimates(const UlogFile& log, const std::string& imu_topic,
                                   int imu_instance, std::vector<std::string>& notes) {
@@ -538,11 +573,12 @@ nlohmann::json px4_bias_estimates(const UlogFile& log, const std::string& imu_to
           {"resolution_si", 0.0},
           {"display_unit", gyro ? "deg/s" : "mg"},
           {"end_display", end * display}};
-      summary += (summary.empty() ? "" : "; ") + e["effect"].get<std::string>() + " " +
-                 figure(end * display, 3) +
-                 (e["sd_si"].is_null() ? std::string()
-                                       : " +- " + figure(e["sd_si"].get<double>() * display, 2)) +
-                 " " + (gyro ? "deg/s" : "mg");
+      summary +=
+          (summary.empty() ? "" : "; ") + e["effect"].get<std::string>() + " " +
+          number_text(end * display, 3) +
+          (e["sd_si"].is_null() ? std::string()
+                                : " +- " + number_text(e["sd_si"].get<double>() * display, 2)) +
+          " " + (gyro ? "deg/s" : "mg");
       list.push_back(e);
     }
   }

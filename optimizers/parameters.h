@@ -8,7 +8,6 @@
 // sizes, 0/1 switches) are set from doubles that must be whole numbers.
 #pragma once
 
-#include <charconv>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -22,6 +21,8 @@
 
 #include <Eigen/Core>
 
+#include "core/number_text.h"
+
 namespace insid::opt {
 
 /// Parameter names and values, in declaration order.
@@ -30,11 +31,7 @@ using ParameterList = std::vector<std::pair<std::string, double>>;
 using ParameterMap = std::map<std::string, double>;
 
 /// Shortest text that reads back to the same double ("0.05", "1.7", "nan").
-inline std::string format_number(double value) {
-  char buffer[64];
-  const auto [end, ec] = std::to_chars(buffer, buffer + sizeof(buffer), value);
-  return ec == std::errc() ? std::string(buffer, end) : std::string("?");
-}
+inline std::string format_number(double value) { return number_text(value); }
 
 /// "[0.1, -0.25, 3]".
 inline std::string format_vector(const Eigen::VectorXd& x) {

@@ -13,6 +13,7 @@
 #include "core/huge_pages.h"
 #include "core/json_object.h"
 #include "core/json_reader.h"
+#include "core/number_text.h"
 #include "core/rotation.h"
 #include "scenarios/presets.h"
 #include "scenarios/synthesis.h"
@@ -21,13 +22,6 @@ namespace insid::scenarios {
 namespace {
 
 using json = nlohmann::json;
-
-std::string num(double v) {
-  std::ostringstream s;
-  s.precision(12);
-  s << v;
-  return s.str();
-}
 
 const std::map<std::string, std::vector<std::string>>& segment_keys() {
   static const std::map<std::string, std::vector<std::string>> keys = {
@@ -74,12 +68,13 @@ TurnSharpness sharpness_of(const JsonObject& r) {
   if (r.has("bank_deg")) {
     s.bank_rad = r.number("bank_deg") * kDegToRad;
     if (!(s.bank_rad > 0.0))
-      r.fail("bank_deg", "must be in (0, 60] deg, got " + num(r.number("bank_deg")));
+      r.fail("bank_deg", "must be in (0, 60] deg, got " + number_text(r.number("bank_deg"), 12));
   }
   if (r.has("rate_deg_s")) {
     s.rate_rad_s = r.number("rate_deg_s") * kDegToRad;
     if (!(s.rate_rad_s > 0.0))
-      r.fail("rate_deg_s", "must be in (0, 30] deg/s, got " + num(r.number("rate_deg_s")));
+      r.fail("rate_deg_s",
+             "must be in (0, 30] deg/s, got " + number_text(r.number("rate_deg_s"), 12));
   }
   if (r.has("bank_deg") == r.has("rate_deg_s"))
     r.fail("give exactly one of bank_deg or rate_deg_s");
@@ -105,13 +100,14 @@ void apply_segment(TrajectoryBuilder& b, const json& seg, const std::string& sou
              r.number("ramp_s", 3.0));
     } else if (type == "loiter") {
       const double circles = r.number("circles", 1.0);
-      if (!(circles > 0.0)) r.fail("circles", "must be > 0, got " + num(circles));
+      if (!(circles > 0.0)) r.fail("circles", "must be > 0, got " + number_text(circles, 12));
       b.turn(circles * 360.0 * kDegToRad, direction_of(r), sharpness_of(r),
              r.number("ramp_s", 3.0));
     } else if (type == "s_turns") {
       const int count = static_cast<int>(r.has("count") ? r.field("count").integer(1, 1000) : 2);
       const double straight_s = r.number("straight_s", 0.0);
-      if (!(straight_s >= 0.0)) r.fail("straight_s", "must be >= 0, got " + num(straight_s));
+      if (!(straight_s >= 0.0))
+        r.fail("straight_s", "must be >= 0, got " + number_text(straight_s, 12));
       TurnDirection dir = direction_of(r);
       for (int i = 0; i < count; ++i) {
         b.turn(r.number("turn_deg") * kDegToRad, dir, sharpness_of(r), r.number("ramp_s", 3.0));
@@ -122,7 +118,8 @@ void apply_segment(TrajectoryBuilder& b, const json& seg, const std::string& sou
       const double dh = r.number("dh_m");
       if (!(dh > 0.0))
         r.fail("dh_m", "must be > 0 (the height " +
-                           std::string(type == "climb" ? "gained" : "lost") + "), got " + num(dh));
+                           std::string(type == "climb" ? "gained" : "lost") + "), got " +
+                           number_text(dh, 12));
       const std::optional<double> pitch_deg = r.optional_number("pitch_deg");
       const double pitch_rad = pitch_deg.value_or(0.0) * kDegToRad;
       b.climb(type == "climb" ? dh : -dh, r.number("vz_mps", 2.0), r.number("ramp_s", 3.0),
@@ -324,33 +321,36 @@ json scenario_to_json(const ScenarioConfig& c) {
 ScenarioPlan plan_scenario(const ScenarioConfig& c) {
   auto fail = [&](const std::string& what) { throw std::invalid_argument(c.origin + ": " + what); };
   if (!(c.imu_rate_hz > 0.0 && c.imu_rate_hz <= 10000.0))
-    fail("imu_rate_hz must be in (0, 10000] Hz, got " + num(c.imu_rate_hz));
+    fail("imu_rate_hz must be in (0, 10000] Hz, got " + number_text(c.imu_rate_hz, 12));
   if (!(c.gnss_rate_hz > 0.0 && c.gnss_rate_hz <= c.imu_rate_hz))
-    fail("gnss_rate_hz must be in (0, imu_rate_hz = " + num(c.imu_rate_hz) + "] Hz, got " +
-         num(c.gnss_rate_hz));
+    fail("gnss_rate_hz must be in (0, imu_rate_hz = " + number_text(c.imu_rate_hz, 12) +
+         "] Hz, got " + number_text(c.gnss_rate_hz, 12));
   const double ratio = c.imu_rate_hz / c.gnss_rate_hz;
   if (std::fabs(ratio - std::round(ratio)) > 1e-9 * ratio)
-    fail("gnss_rate_hz = " + num(c.gnss_rate_hz) + " Hz does not divide imu_rate_hz = " +
-         num(c.imu_rate_hz) + " Hz (the GNSS epochs must fall on IMU epochs)");
+    fail("gnss_rate_hz = " + number_text(c.gnss_rate_hz, 12) +
+         " Hz does not divide imu_rate_hz = " + number_text(c.imu_rate_hz, 12) +
+         " Hz (the GNSS epochs must fall on IMU epochs)");
   if (!(c.align_s > 0.0) || !std::isfinite(c.align_s))
-    fail("align_s must be > 0 s, got " + num(c.align_s));
+    fail("align_s must be > 0 s, got " + number_text(c.align_s, 12));
   if (!is_multiple(c.align_s, c.imu_rate_hz))
-    fail("align_s = " + num(c.align_s) + " s is not a whole number of IMU periods (1/" +
-         num(c.imu_rate_hz) + " s)");
+    fail("align_s = " + number_text(c.align_s, 12) + " s is not a whole number of IMU periods (1/" +
+         number_text(c.imu_rate_hz, 12) + " s)");
   if (c.flight_s) {
     if (!(*c.flight_s > 0.0) || !std::isfinite(*c.flight_s))
-      fail("flight_s must be > 0 s, got " + num(*c.flight_s));
-    if (*c.flight_s > 30.0 * 3600.0) fail("flight_s must be at most 30 h, got " + num(*c.flight_s));
+      fail("flight_s must be > 0 s, got " + number_text(*c.flight_s, 12));
+    if (*c.flight_s > 30.0 * 3600.0)
+      fail("flight_s must be at most 30 h, got " + number_text(*c.flight_s, 12));
     if (!is_multiple(*c.flight_s, c.imu_rate_hz))
-      fail("flight_s = " + num(*c.flight_s) + " s is not a whole number of IMU periods (1/" +
-           num(c.imu_rate_hz) + " s)");
+      fail("flight_s = " + number_text(*c.flight_s, 12) +
+           " s is not a whole number of IMU periods (1/" + number_text(c.imu_rate_hz, 12) + " s)");
   }
   if (const std::string e = c.noise.validate(); !e.empty()) fail(e);
   if (const std::string e = c.earth.validate(); !e.empty()) fail(e);
   if (!(c.substeps >= 1 && c.substeps <= 1000))
     fail("substeps must be in [1, 1000], got " + std::to_string(c.substeps));
   if (!(std::fabs(c.injected.gnss_latency_s) <= 1.0))
-    fail("gnss_latency must be within [-1, 1] s, got " + num(c.injected.gnss_latency_s));
+    fail("gnss_latency must be within [-1, 1] s, got " +
+         number_text(c.injected.gnss_latency_s, 12));
 
   TrajectoryBuilder b = [&] {
     try {

@@ -3,18 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <sstream>
 #include <stdexcept>
+
+#include "core/number_text.h"
 
 namespace insid::scenarios {
 namespace {
-
-std::string num(double v) {
-  std::ostringstream s;
-  s.precision(10);
-  s << v;
-  return s.str();
-}
 
 [[noreturn]] void fail(const std::string& what) { throw std::invalid_argument(what); }
 
@@ -25,12 +19,12 @@ std::string num(double v) {
 
 void SmoothChannel::ramp(double t0_s, double duration_s, double target) {
   if (!(duration_s > 0.0) || !std::isfinite(duration_s))
-    fail("transition duration must be > 0 s, got " + num(duration_s));
+    fail("transition duration must be > 0 s, got " + number_text(duration_s, 10));
   if (!std::isfinite(t0_s) || !std::isfinite(target)) fail("transition values must be finite");
   const double last_end = last_ramp_end_s();
   if (t0_s < last_end - 1e-9)
-    fail("transition at t = " + num(t0_s) + " s starts before the previous one ends (" +
-         num(last_end) + " s)");
+    fail("transition at t = " + number_text(t0_s, 10) + " s starts before the previous one ends (" +
+         number_text(last_end, 10) + " s)");
   Ramp r{t0_s, duration_s, final_value(), target, integral(t0_s)};
   ramps_.push_back(r);
 }
@@ -134,18 +128,19 @@ std::vector<double> Trajectory::breakpoints() const {
 
 TrajectoryBuilder::TrajectoryBuilder(const InitialPose& initial, double g_ref_mps2) {
   if (!(std::fabs(initial.lat_rad) < 89.0 * kDegToRad))
-    fail("initial latitude must lie within (-89, 89) deg, got " + num(initial.lat_rad * kRadToDeg));
+    fail("initial latitude must lie within (-89, 89) deg, got " +
+         number_text(initial.lat_rad * kRadToDeg, 10));
   if (!(std::fabs(initial.attitude.roll_rad) <= kMaxBankRad))
     fail("initial roll must lie within [-60, 60] deg, got " +
-         num(initial.attitude.roll_rad * kRadToDeg));
+         number_text(initial.attitude.roll_rad * kRadToDeg, 10));
   if (!(std::fabs(initial.attitude.pitch_rad) <= kMaxPitchRad))
     fail("initial pitch must lie within [-45, 45] deg, got " +
-         num(initial.attitude.pitch_rad * kRadToDeg));
+         number_text(initial.attitude.pitch_rad * kRadToDeg, 10));
   if (!std::isfinite(initial.attitude.yaw_rad) || !std::isfinite(initial.lon_rad) ||
       !std::isfinite(initial.h_m))
     fail("initial yaw, longitude and height must be finite");
   if (!(g_ref_mps2 > 9.0 && g_ref_mps2 < 10.5))
-    fail("reference gravity must be in (9, 10.5) m/s^2, got " + num(g_ref_mps2));
+    fail("reference gravity must be in (9, 10.5) m/s^2, got " + number_text(g_ref_mps2, 10));
   traj_.initial_ = initial;
   traj_.g_ref_ = g_ref_mps2;
   traj_.speed_ = SmoothChannel(0.0);
@@ -159,26 +154,28 @@ double TrajectoryBuilder::height_m() const { return traj_.initial_.h_m + traj_.v
 
 void TrajectoryBuilder::hold_static(double duration_s) {
   if (!(duration_s > 0.0) || !std::isfinite(duration_s))
-    fail("duration_s must be > 0, got " + num(duration_s));
+    fail("duration_s must be > 0, got " + number_text(duration_s, 10));
   if (speed_mps() != 0.0 || vertical_speed_mps() != 0.0)
-    fail("a static segment needs the vehicle stopped, but its speed is " + num(speed_mps()) +
-         " m/s (add a speed segment to 0 first)");
+    fail("a static segment needs the vehicle stopped, but its speed is " +
+         number_text(speed_mps(), 10) + " m/s (add a speed segment to 0 first)");
   t_ += duration_s;
 }
 
 void TrajectoryBuilder::straight(double duration_s) {
   if (!(duration_s > 0.0) || !std::isfinite(duration_s))
-    fail("duration_s must be > 0, got " + num(duration_s));
+    fail("duration_s must be > 0, got " + number_text(duration_s, 10));
   t_ += duration_s;
 }
 
 void TrajectoryBuilder::change_speed(double target_mps, double accel_mps2) {
   if (!(target_mps >= 0.0 && target_mps <= kMaxSpeedMps))
-    fail("speed_mps must be in [0, " + num(kMaxSpeedMps) + "] m/s, got " + num(target_mps));
+    fail("speed_mps must be in [0, " + number_text(kMaxSpeedMps, 10) + "] m/s, got " +
+         number_text(target_mps, 10));
   if (!(accel_mps2 > 0.0 && accel_mps2 <= 20.0))
-    fail("accel_mps2 must be in (0, 20] m/s^2, got " + num(accel_mps2));
+    fail("accel_mps2 must be in (0, 20] m/s^2, got " + number_text(accel_mps2, 10));
   const double dv = std::fabs(target_mps - speed_mps());
-  if (dv == 0.0) fail("speed_mps = " + num(target_mps) + " m/s equals the current speed");
+  if (dv == 0.0)
+    fail("speed_mps = " + number_text(target_mps, 10) + " m/s equals the current speed");
   // Turning or banking must not be under way (turn segments end level).
   const double T = dv / accel_mps2;
   traj_.speed_.ramp(t_, T, target_mps);
@@ -190,32 +187,35 @@ double TrajectoryBuilder::turn_rate_for(const TurnSharpness& s) const {
   if (has_bank == has_rate) fail("a turn needs exactly one of bank_deg or rate_deg_s (> 0)");
   if (has_bank) {
     if (!(s.bank_rad <= kMaxBankRad))
-      fail("bank_deg must be in (0, 60] deg, got " + num(s.bank_rad * kRadToDeg));
+      fail("bank_deg must be in (0, 60] deg, got " + number_text(s.bank_rad * kRadToDeg, 10));
     if (!(speed_mps() >= 1.0))
       fail("a turn given by bank angle needs forward speed >= 1 m/s, the speed is " +
-           num(speed_mps()) + " m/s (give rate_deg_s to turn on the spot)");
+           number_text(speed_mps(), 10) + " m/s (give rate_deg_s to turn on the spot)");
     return traj_.g_ref_ * std::tan(s.bank_rad) / speed_mps();
   }
   if (!(s.rate_rad_s <= kMaxTurnRateRadS))
-    fail("rate_deg_s must be in (0, 30] deg/s, got " + num(s.rate_rad_s * kRadToDeg));
+    fail("rate_deg_s must be in (0, 30] deg/s, got " + number_text(s.rate_rad_s * kRadToDeg, 10));
   const double bank = std::atan(speed_mps() * s.rate_rad_s / traj_.g_ref_);
   if (bank > kMaxBankRad)
-    fail("rate_deg_s = " + num(s.rate_rad_s * kRadToDeg) + " deg/s at " + num(speed_mps()) +
-         " m/s needs a bank of " + num(bank * kRadToDeg) + " deg (> 60 deg)");
+    fail("rate_deg_s = " + number_text(s.rate_rad_s * kRadToDeg, 10) + " deg/s at " +
+         number_text(speed_mps(), 10) + " m/s needs a bank of " +
+         number_text(bank * kRadToDeg, 10) + " deg (> 60 deg)");
   return s.rate_rad_s;
 }
 
 void TrajectoryBuilder::turn(double turn_rad, TurnDirection direction,
                              const TurnSharpness& sharpness, double ramp_s) {
   if (!(turn_rad > 0.0) || !std::isfinite(turn_rad))
-    fail("turn_deg must be > 0, got " + num(turn_rad * kRadToDeg));
-  if (!(ramp_s > 0.0) || !std::isfinite(ramp_s)) fail("ramp_s must be > 0, got " + num(ramp_s));
+    fail("turn_deg must be > 0, got " + number_text(turn_rad * kRadToDeg, 10));
+  if (!(ramp_s > 0.0) || !std::isfinite(ramp_s))
+    fail("ramp_s must be > 0, got " + number_text(ramp_s, 10));
   const double rate = turn_rate_for(sharpness);
   // Heading change = rate * (hold + ramp_s): each cosine ramp contributes rate * ramp_s / 2.
   const double hold = turn_rad / rate - ramp_s;
   if (hold < -1e-9)
-    fail("turn of " + num(turn_rad * kRadToDeg) + " deg at " + num(rate * kRadToDeg) +
-         " deg/s is shorter than its roll-in and roll-out (ramp_s = " + num(ramp_s) +
+    fail("turn of " + number_text(turn_rad * kRadToDeg, 10) + " deg at " +
+         number_text(rate * kRadToDeg, 10) +
+         " deg/s is shorter than its roll-in and roll-out (ramp_s = " + number_text(ramp_s, 10) +
          " s): use a larger turn_deg or a smaller ramp_s");
   const double signed_rate = static_cast<double>(static_cast<int>(direction)) * rate;
   traj_.turn_.ramp(t_, ramp_s, signed_rate);
@@ -224,23 +224,28 @@ void TrajectoryBuilder::turn(double turn_rad, TurnDirection direction,
 }
 
 void TrajectoryBuilder::climb(double dh_m, double vz_mps, double ramp_s, const double* pitch_rad) {
-  if (!(dh_m != 0.0) || !std::isfinite(dh_m)) fail("dh_m must be non-zero, got " + num(dh_m));
-  if (!(vz_mps > 0.0 && vz_mps <= 20.0)) fail("vz_mps must be in (0, 20] m/s, got " + num(vz_mps));
-  if (!(ramp_s > 0.0) || !std::isfinite(ramp_s)) fail("ramp_s must be > 0, got " + num(ramp_s));
+  if (!(dh_m != 0.0) || !std::isfinite(dh_m))
+    fail("dh_m must be non-zero, got " + number_text(dh_m, 10));
+  if (!(vz_mps > 0.0 && vz_mps <= 20.0))
+    fail("vz_mps must be in (0, 20] m/s, got " + number_text(vz_mps, 10));
+  if (!(ramp_s > 0.0) || !std::isfinite(ramp_s))
+    fail("ramp_s must be > 0, got " + number_text(ramp_s, 10));
   if (height_m() + dh_m < -400.0)
-    fail("descent by " + num(dh_m) + " m goes below -400 m (height now " + num(height_m()) + " m)");
+    fail("descent by " + number_text(dh_m, 10) + " m goes below -400 m (height now " +
+         number_text(height_m(), 10) + " m)");
   // Height change = vz * (hold + ramp_s).
   const double hold = std::fabs(dh_m) / vz_mps - ramp_s;
   if (hold < -1e-9)
-    fail("climb of " + num(dh_m) + " m at " + num(vz_mps) +
-         " m/s is shorter than its ramps (ramp_s = " + num(ramp_s) +
+    fail("climb of " + number_text(dh_m, 10) + " m at " + number_text(vz_mps, 10) +
+         " m/s is shorter than its ramps (ramp_s = " + number_text(ramp_s, 10) +
          " s): use a larger dh_m or a smaller ramp_s");
   const double vz = dh_m > 0 ? vz_mps : -vz_mps;
   const double pitch_before = traj_.pitch_.final_value();
   double pitch_target = pitch_before;
   if (pitch_rad) {
     if (!(std::fabs(*pitch_rad) <= kMaxPitchRad))
-      fail("pitch_deg must be within [-45, 45] deg, got " + num(*pitch_rad * kRadToDeg));
+      fail("pitch_deg must be within [-45, 45] deg, got " +
+           number_text(*pitch_rad * kRadToDeg, 10));
     pitch_target = *pitch_rad;
   } else if (speed_mps() >= 1.0) {
     pitch_target = pitch_before + std::atan(vz / speed_mps());
@@ -258,8 +263,9 @@ void TrajectoryBuilder::climb(double dh_m, double vz_mps, double ramp_s, const d
 
 void TrajectoryBuilder::takeoff(double dh_m, double vz_mps, double ramp_s) {
   if (speed_mps() != 0.0)
-    fail("takeoff needs the vehicle stopped, but its speed is " + num(speed_mps()) + " m/s");
-  if (!(dh_m > 0.0)) fail("takeoff dh_m must be > 0, got " + num(dh_m));
+    fail("takeoff needs the vehicle stopped, but its speed is " + number_text(speed_mps(), 10) +
+         " m/s");
+  if (!(dh_m > 0.0)) fail("takeoff dh_m must be > 0, got " + number_text(dh_m, 10));
   climb(dh_m, vz_mps, ramp_s);
 }
 

@@ -28,6 +28,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/json_reader.h"
+#include "core/number_text.h"
 #include "diagnose/campaign_scoring.h"
 #include "diagnose/diagnose.h"
 #include "diagnose/hidden_effects.h"
@@ -36,6 +37,7 @@
 namespace {
 
 using json = nlohmann::json;
+using insid::number_text;
 using insid::diagnose::HiddenCase;
 
 constexpr double kDegH = std::numbers::pi / 180.0 / 3600.0;  // deg/h -> rad/s
@@ -98,12 +100,6 @@ std::pair<double, double> wilson(int k, int n, double z = 1.959963984540054) {
   return {std::max(0.0, centre - half), std::min(1.0, centre + half)};
 }
 
-std::string opt_format(double v) {
-  std::ostringstream s;
-  s << v;
-  return s.str();
-}
-
 struct Case {
   std::string kind;  // null | single | pair | unobservable
   HiddenCase data;
@@ -148,9 +144,8 @@ int main(int argc, char** argv) {
 
 namespace {
 
-int run_campaign(int argc, char** argv) {
-  CLI::App app{"Full hidden-effect matrix for insid diagnose -> confusion matrix, power curves.",
-               "insid-diagnose-campaign"};
+// The command line of insid-diagnose-campaign, with its defaults.
+struct CampaignArgs {
   std::string out_dir = "results/diagnose";
   double flight_s = 1200.0;
   int seeds = 2, null_seeds = 24, threads = 0, iterations = 5, rb = 30, rc = 60;
@@ -159,21 +154,29 @@ int run_campaign(int argc, char** argv) {
   std::string matrix = "original";
   std::vector<double> null_flights = {600.0, 1200.0};
   std::vector<std::string> null_presets = {"rich", "racetrack", "straight"};
-  app.add_option("--out-dir", out_dir)->capture_default_str();
-  app.add_option("--flight-s", flight_s)->capture_default_str();
-  app.add_option("--seeds", seeds, "seeds per effect and size")->capture_default_str();
-  app.add_option("--null-seeds", null_seeds, "effect-free seeds")->capture_default_str();
-  app.add_option("--sizes", sizes, "size factors of the nominal hidden sizes");
-  app.add_option("--threads", threads)->capture_default_str();
-  app.add_option("--iterations", iterations, "optimizer iterations")->capture_default_str();
-  app.add_option("--replicas-basis", rb)->capture_default_str();
-  app.add_option("--replicas-calibration", rc)->capture_default_str();
   std::string family_calibration = "replica-max";
-  app.add_option("--family-calibration", family_calibration,
+  std::vector<std::string> presets = {"rich", "racetrack", "multicopter"};
+  std::vector<double> windows = {10.0, 20.0};
+};
+
+CampaignArgs parse_args(int argc, char** argv) {
+  CampaignArgs args;
+  CLI::App app{"Full hidden-effect matrix for insid diagnose -> confusion matrix, power curves.",
+               "insid-diagnose-campaign"};
+  app.add_option("--out-dir", args.out_dir)->capture_default_str();
+  app.add_option("--flight-s", args.flight_s)->capture_default_str();
+  app.add_option("--seeds", args.seeds, "seeds per effect and size")->capture_default_str();
+  app.add_option("--null-seeds", args.null_seeds, "effect-free seeds")->capture_default_str();
+  app.add_option("--sizes", args.sizes, "size factors of the nominal hidden sizes");
+  app.add_option("--threads", args.threads)->capture_default_str();
+  app.add_option("--iterations", args.iterations, "optimizer iterations")->capture_default_str();
+  app.add_option("--replicas-basis", args.rb)->capture_default_str();
+  app.add_option("--replicas-calibration", args.rc)->capture_default_str();
+  app.add_option("--family-calibration", args.family_calibration,
                  "replica-max (Westfall-Young, default) | gaussian (the rule before issue 15)")
       ->capture_default_str();
-  app.add_flag("--summary-only", summary_only, "only rebuild summary.json from cases.jsonl");
-  app.add_option("--matrix", matrix,
+  app.add_flag("--summary-only", args.summary_only, "only rebuild summary.json from cases.jsonl");
+  app.add_option("--matrix", args.matrix,
                  "original: issue 7's case list; extended: issue 15's (11 effects x --sizes x "
                  "--seeds on rich --flight-s, --null-seeds per preset and null flight length, "
                  "interleaved so that any prefix is balanced); mems: issue 33's (MEMS grade, "
@@ -181,163 +184,191 @@ int run_campaign(int argc, char** argv) {
                  "--null-seeds per preset and window, level+heading alignment, interleaved)")
       ->check(CLI::IsMember({"original", "extended", "mems"}))
       ->capture_default_str();
-  app.add_option("--null-flights", null_flights, "extended: null flight lengths (s)");
-  app.add_option("--null-presets", null_presets, "extended: null presets");
-  std::vector<std::string> presets = {"rich", "racetrack", "multicopter"};
-  std::vector<double> windows = {10.0, 20.0};
-  app.add_option("--presets", presets, "mems: the presets (nulls and effects)");
-  app.add_option("--windows", windows, "mems: the fitness windows W (s)");
+  app.add_option("--null-flights", args.null_flights, "extended: null flight lengths (s)");
+  app.add_option("--null-presets", args.null_presets, "extended: null presets");
+  app.add_option("--presets", args.presets, "mems: the presets (nulls and effects)");
+  app.add_option("--windows", args.windows, "mems: the fitness windows W (s)");
   insid::tools::parse(app, argc, argv);
+  return args;
+}
 
-  namespace fs = std::filesystem;
-  fs::create_directories(out_dir);
-  const fs::path cases_path = fs::path(out_dir) / "cases.jsonl";
+// The hidden effects and their nominal sizes of a --matrix.
+std::vector<Nominal> matrix_effects(const std::string& matrix) {
+  return matrix == "extended" ? extended_effects()
+         : matrix == "mems"   ? mems_effects()
+                              : nominal_effects();
+}
 
+// The campaign's cases in run order (the matrix's own interleaving: a campaign stopped early is
+// balanced).
+std::vector<Case> case_list(const CampaignArgs& args, const std::vector<Nominal>& effects) {
   std::vector<Case> cases;
-  const std::vector<Nominal> effects = matrix == "extended" ? extended_effects()
-                                       : matrix == "mems"   ? mems_effects()
-                                                            : nominal_effects();
-  if (matrix == "mems") {
+  if (args.matrix == "mems") {
     // Round r: ceil(null_seeds / seeds) null seeds (5001, ...), each flown on every preset and
     // judged at every W, then every preset x effect x size x W at seed 7000 + r; so a campaign
     // stopped early is balanced between nulls, presets, effects and windows.
-    const int per_round = (null_seeds + std::max(seeds, 1) - 1) / std::max(seeds, 1);
+    const int per_round = (args.null_seeds + std::max(args.seeds, 1) - 1) / std::max(args.seeds, 1);
     int next_null = 1;
     auto mems_case = [&](std::string kind, std::string preset, unsigned seed,
                          std::map<std::string, double> hidden, double f, double w) {
-      Case c{std::move(kind), {std::move(preset), flight_s, seed, std::move(hidden), "mems"}, f};
+      Case c{
+          std::move(kind), {std::move(preset), args.flight_s, seed, std::move(hidden), "mems"}, f};
       c.window_s = w;
       return c;
     };
-    for (int r = 1; next_null <= null_seeds || r <= seeds; ++r) {
-      for (int k = 0; k < per_round && next_null <= null_seeds; ++k, ++next_null)
-        for (const std::string& preset : presets)
-          for (double w : windows)
+    for (int r = 1; next_null <= args.null_seeds || r <= args.seeds; ++r) {
+      for (int k = 0; k < per_round && next_null <= args.null_seeds; ++k, ++next_null)
+        for (const std::string& preset : args.presets)
+          for (double w : args.windows)
             cases.push_back(
                 mems_case("null", preset, 5000u + static_cast<unsigned>(next_null), {}, 0, w));
-      if (r <= seeds)
+      if (r <= args.seeds)
         for (const Nominal& e : effects)
-          for (const std::string& preset : presets)
-            for (double f : sizes)
-              for (double w : windows)
+          for (const std::string& preset : args.presets)
+            for (double f : args.sizes)
+              for (double w : args.windows)
                 cases.push_back(mems_case("single", preset, 7000u + static_cast<unsigned>(r),
                                           {{e.effect, f * e.value}}, f, w));
     }
   }
-  if (matrix == "extended") {
+  if (args.matrix == "extended") {
     // Round r: ceil(null_seeds / seeds) null seeds, one flight per preset and length each
     // (seeds 5001, ...), then every effect at every size (seed 6000 + r); so a campaign stopped
     // early is balanced between nulls and effects.
-    const int per_round = (null_seeds + std::max(seeds, 1) - 1) / std::max(seeds, 1);
+    const int per_round = (args.null_seeds + std::max(args.seeds, 1) - 1) / std::max(args.seeds, 1);
     int next_null = 1;
-    for (int r = 1; next_null <= null_seeds || r <= seeds; ++r) {
-      for (int k = 0; k < per_round && next_null <= null_seeds; ++k, ++next_null)
-        for (const std::string& preset : null_presets)
-          for (double len : null_flights)
+    for (int r = 1; next_null <= args.null_seeds || r <= args.seeds; ++r) {
+      for (int k = 0; k < per_round && next_null <= args.null_seeds; ++k, ++next_null)
+        for (const std::string& preset : args.null_presets)
+          for (double len : args.null_flights)
             cases.push_back(
                 {"null", {preset, len, 5000u + static_cast<unsigned>(next_null), {}}, 0, true});
-      if (r <= seeds)
+      if (r <= args.seeds)
         for (const Nominal& e : effects)
-          for (double f : sizes)
-            cases.push_back(
-                {"single",
-                 {"rich", flight_s, 6000u + static_cast<unsigned>(r), {{e.effect, f * e.value}}},
-                 f,
-                 true});
+          for (double f : args.sizes)
+            cases.push_back({"single",
+                             {"rich",
+                              args.flight_s,
+                              6000u + static_cast<unsigned>(r),
+                              {{e.effect, f * e.value}}},
+                             f,
+                             true});
     }
   }
-  for (int s = 1; matrix == "original" && s <= null_seeds; ++s)
-    cases.push_back({"null", {"rich", flight_s, 1000u + s, {}}, 0});
+  for (int s = 1; args.matrix == "original" && s <= args.null_seeds; ++s)
+    cases.push_back({"null", {"rich", args.flight_s, 1000u + s, {}}, 0});
   for (const Nominal& e : nominal_effects())
-    for (double f : sizes)
-      for (int s = 1; matrix == "original" && s <= seeds; ++s)
-        cases.push_back({"single", {"rich", flight_s, 2000u + s, {{e.effect, f * e.value}}}, f});
-  for (int s = 1; matrix == "original" && s <= seeds; ++s) {
+    for (double f : args.sizes)
+      for (int s = 1; args.matrix == "original" && s <= args.seeds; ++s)
+        cases.push_back(
+            {"single", {"rich", args.flight_s, 2000u + s, {{e.effect, f * e.value}}}, f});
+  for (int s = 1; args.matrix == "original" && s <= args.seeds; ++s) {
     cases.push_back(
         {"pair",
-         {"rich", flight_s, 3000u + s, {{"gnss_latency", 0.05}, {"gyro_scale_z", 300e-6}}},
+         {"rich", args.flight_s, 3000u + s, {{"gnss_latency", 0.05}, {"gyro_scale_z", 300e-6}}},
          1});
     cases.push_back(
         {"pair",
-         {"rich", flight_s, 3100u + s, {{"lever_arm_z", 0.5}, {"accel_scale_x", 2000e-6}}},
+         {"rich", args.flight_s, 3100u + s, {{"lever_arm_z", 0.5}, {"accel_scale_x", 2000e-6}}},
          1});
-    cases.push_back({"unobservable", {"straight", flight_s, 4000u + s, {{"lever_arm_x", 1.0}}}, 1});
-    cases.push_back({"unobservable", {"straight", flight_s, 4100u + s, {{"lever_arm_y", 1.0}}}, 1});
-    cases.push_back({"null", {"straight", flight_s, 4200u + s, {}}, 0});
+    cases.push_back(
+        {"unobservable", {"straight", args.flight_s, 4000u + s, {{"lever_arm_x", 1.0}}}, 1});
+    cases.push_back(
+        {"unobservable", {"straight", args.flight_s, 4100u + s, {{"lever_arm_y", 1.0}}}, 1});
+    cases.push_back({"null", {"straight", args.flight_s, 4200u + s, {}}, 0});
   }
+  return cases;
+}
 
+// One line of cases.jsonl: the case, what diagnose found, and what re-judging it needs.
+json case_record(const Case& c, const insid::diagnose::DiagnoseResult& res, double wall) {
+  json j;
+  j["key"] = c.key();
+  j["kind"] = c.kind;
+  j["preset"] = c.data.preset;
+  j["seed"] = c.data.seed;
+  j["flight_s"] = c.data.flight_s;
+  j["size_factor"] = c.size_factor;
+  j["hidden"] = c.data.hidden;
+  j["grade"] = c.data.grade;
+  j["window_s"] = c.window_s;
+  j["found"] = res.report["found"];
+  j["withdrawn"] = res.report["withdrawn"];  // issue 33's backward check
+  j["not_observable"] = res.report["not_observable"];
+  j["gap"] = res.report["gap"];
+  j["noise_floor"] = res.report["noise_floor"];
+  j["threshold_z"] = res.report["iterations"][0]["threshold_z"];
+  j["top"] = res.report["iterations"][0]["candidates"][0];
+  // Issue 15: what re-judging the first iteration under either family-wise rule needs
+  // (every candidate's row, both thresholds, the replicas' own max |z|).
+  {
+    const json& i0 = res.report["iterations"][0];
+    j["family_calibration"] = i0["family_calibration"];
+    j["threshold_z_gaussian"] = i0["threshold_z_gaussian"];
+    j["threshold_z_replica_max"] = i0["threshold_z_replica_max"];
+    j["replica_max_z"] = i0["replica_max_z"];
+    j["first_candidates"] = i0["candidates"];
+    j["first_choice"] = i0["choice"];
+  }
+  // The hidden effects' own rows in the first table (z, min detectable size).
+  for (const auto& [name, v] : c.data.hidden)
+    for (const auto& row : res.report["iterations"][0]["candidates"])
+      if (row["effect"] == name) j["hidden_rows"][name] = row;
+  j["wall_s"] = wall;
+  return j;
+}
+
+// Runs every case not yet in cases.jsonl (by key) and appends its line, one at a time (a
+// campaign stopped anywhere resumes where it stopped).
+void run_missing_cases(const std::vector<Case>& cases, const CampaignArgs& args,
+                       const std::filesystem::path& cases_path) {
   std::set<std::string> done;
   for (const json& row : read_cases(cases_path)) done.insert(row["key"].get<std::string>());
-  if (!summary_only) {
-    std::ofstream out(cases_path, std::ios::app);
-    int k = 0;
-    for (const Case& c : cases) {
-      ++k;
-      if (done.count(c.key())) continue;
-      const auto t0 = std::chrono::steady_clock::now();
-      auto ds = insid::diagnose::make_hidden_dataset(c.data);
-      insid::diagnose::DiagnoseOptions o;
-      o.seed = c.data.seed;
-      o.optimizer_iterations = iterations;
-      o.replicas_basis = rb;
-      o.replicas_calibration = rc;
-      o.threads = threads;
-      o.max_effects = 3;
-      o.family_calibration = family_calibration;
-      o.grade = c.data.grade;
-      o.window_s = c.window_s;
-      // MEMS gyros cannot gyrocompass (insid refuses it): level + the GNSS course, as a user
-      // of a MEMS log would run it.
-      if (c.data.grade == "mems")
-        o.initial_attitude.mode = insid::InitialAttitudeMode::kLevelHeading;
-      const auto res = insid::diagnose::run_diagnose(ds, o);
-      const double wall =
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      json j;
-      j["key"] = c.key();
-      j["kind"] = c.kind;
-      j["preset"] = c.data.preset;
-      j["seed"] = c.data.seed;
-      j["flight_s"] = c.data.flight_s;
-      j["size_factor"] = c.size_factor;
-      j["hidden"] = c.data.hidden;
-      j["grade"] = c.data.grade;
-      j["window_s"] = c.window_s;
-      j["found"] = res.report["found"];
-      j["withdrawn"] = res.report["withdrawn"];  // issue 33's backward check
-      j["not_observable"] = res.report["not_observable"];
-      j["gap"] = res.report["gap"];
-      j["noise_floor"] = res.report["noise_floor"];
-      j["threshold_z"] = res.report["iterations"][0]["threshold_z"];
-      j["top"] = res.report["iterations"][0]["candidates"][0];
-      // Issue 15: what re-judging the first iteration under either family-wise rule needs
-      // (every candidate's row, both thresholds, the replicas' own max |z|).
-      {
-        const json& i0 = res.report["iterations"][0];
-        j["family_calibration"] = i0["family_calibration"];
-        j["threshold_z_gaussian"] = i0["threshold_z_gaussian"];
-        j["threshold_z_replica_max"] = i0["threshold_z_replica_max"];
-        j["replica_max_z"] = i0["replica_max_z"];
-        j["first_candidates"] = i0["candidates"];
-        j["first_choice"] = i0["choice"];
-      }
-      // The hidden effects' own rows in the first table (z, min detectable size).
-      for (const auto& [name, v] : c.data.hidden)
-        for (const auto& row : res.report["iterations"][0]["candidates"])
-          if (row["effect"] == name) j["hidden_rows"][name] = row;
-      j["wall_s"] = wall;
-      out << j.dump() << "\n" << std::flush;
-      std::string f;
-      for (const auto& x : res.found) f += x + " ";
-      std::fprintf(stderr, "[%d/%zu] %s -> found: %s(shrink %.2f, %.1f s)\n", k, cases.size(),
-                   c.key().c_str(), f.c_str(), res.shrink, wall);
-    }
+  std::ofstream out(cases_path, std::ios::app);
+  int k = 0;
+  for (const Case& c : cases) {
+    ++k;
+    if (done.count(c.key())) continue;
+    const auto t0 = std::chrono::steady_clock::now();
+    auto ds = insid::diagnose::make_hidden_dataset(c.data);
+    insid::diagnose::DiagnoseOptions o;
+    o.seed = c.data.seed;
+    o.optimizer_iterations = args.iterations;
+    o.replicas_basis = args.rb;
+    o.replicas_calibration = args.rc;
+    o.threads = args.threads;
+    o.max_effects = 3;
+    o.family_calibration = args.family_calibration;
+    o.grade = c.data.grade;
+    o.window_s = c.window_s;
+    // MEMS gyros cannot gyrocompass (insid refuses it): level + the GNSS course, as a user
+    // of a MEMS log would run it.
+    if (c.data.grade == "mems") o.initial_attitude.mode = insid::InitialAttitudeMode::kLevelHeading;
+    const auto res = insid::diagnose::run_diagnose(ds, o);
+    const double wall =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const json j = case_record(c, res, wall);
+    out << j.dump() << "\n" << std::flush;
+    std::string f;
+    for (const auto& x : res.found) f += x + " ";
+    std::fprintf(stderr, "[%d/%zu] %s -> found: %s(shrink %.2f, %.1f s)\n", k, cases.size(),
+                 c.key().c_str(), f.c_str(), res.shrink, wall);
   }
+}
 
-  // Summary: confusion matrix (hidden effect -> first named effect / its class), power.
-  const std::vector<json> rows = read_cases(cases_path);
-  json summary;
-  summary["flight_s"] = flight_s;
+// The named entry `f` is `name` or names it among its ambiguity partners.
+bool in_class(const json& f, const std::string& name) {
+  if (f["effect"] == name) return true;
+  for (const auto& a : f["ambiguous_with"])
+    if (a == name) return true;
+  return false;
+}
+
+// Issue 7's summary: false alarms on the nulls, the confusion matrix (hidden effect -> first
+// named effect), detection power per size (the class and the exact effect), the shrink of the
+// gap at the nominal size, pairs and unobservable effects.
+void add_first_named_summary(const std::vector<json>& rows, const std::vector<Nominal>& effects,
+                             json& summary) {
   json nominal = json::object();
   for (const Nominal& e : effects) nominal[e.effect] = {{"value", e.value}, {"label", e.label}};
   summary["nominal"] = nominal;
@@ -347,12 +378,6 @@ int run_campaign(int argc, char** argv) {
   int null_n = 0, null_fa = 0, straight_null_n = 0, straight_null_fa = 0;
   int unobs_n = 0, unobs_reported = 0, unobs_named = 0;
   int pair_n = 0, pair_both = 0;
-  auto in_class = [](const json& f, const std::string& name) {
-    if (f["effect"] == name) return true;
-    for (const auto& a : f["ambiguous_with"])
-      if (a == name) return true;
-    return false;
-  };
   for (const json& r : rows) {
     const std::string kind = r["kind"];
     const json& found = r["found"];
@@ -423,264 +448,284 @@ int run_campaign(int argc, char** argv) {
   summary["pairs"] = {{"n", pair_n}, {"both_found", pair_both}};
   summary["unobservable"] = {
       {"n", unobs_n}, {"reported_not_observable", unobs_reported}, {"named", unobs_named}};
-  // Issue 15: every null flight (any preset, any length), the rate with its 95 % Wilson
-  // interval, and the confusion of the first named effect with the ambiguity sets counted
-  // separately: "(none)", the effect alone (unambiguous), or "{a, b, ...}" (named + partners).
-  {
-    std::map<std::string, std::array<int, 2>> by_flight;  // "preset/len s" -> named, n
-    int n_all = 0, fa_all = 0;
-    std::map<std::string, std::map<std::string, int>> sets;  // hidden -> label -> count
-    std::map<std::string, std::map<double, std::array<int, 5>>> outcome;  // see below
-    auto label = [](const json& found) {
-      if (found.empty()) return std::string("(none)");
-      const json& f = found[0];
-      if (f["ambiguous_with"].empty()) return f["effect"].get<std::string>();
-      std::set<std::string> members = {f["effect"].get<std::string>()};
-      for (const auto& a : f["ambiguous_with"]) members.insert(a.get<std::string>());
-      std::string l = "{";
-      for (const auto& m : members) l += (l.size() > 1 ? ", " : "") + m;
-      return l + "}";
-    };
-    for (const json& r : rows) {
-      const std::string kind = r["kind"];
-      const json& found = r["found"];
-      if (kind == "null") {
-        std::ostringstream k;
-        k << r["preset"].get<std::string>() << "/" << r["flight_s"].get<double>() << " s";
-        auto& b = by_flight[k.str()];
-        b[0] += !found.empty();
-        b[1]++;
-        fa_all += !found.empty();
-        ++n_all;
-        sets["(none)"][label(found)]++;
-      } else if (kind == "single") {
-        const std::string h = r["hidden"].begin().key();
-        const double f = r["size_factor"];
-        sets[h + " x" + opt_format(f)][label(found)]++;
-        // exact and unambiguous, truth in the first named set, named set (any iteration)
-        // contains the truth, first named wrong, nothing named
-        auto& o = outcome[h][f];
-        if (found.empty()) {
-          o[4]++;
-          continue;
-        }
-        const bool exact = found[0]["effect"] == h && found[0]["ambiguous_with"].empty();
-        o[0] += exact;
-        o[1] += !exact && in_class(found[0], h);
-        bool any = false;
-        for (const auto& x : found) any = any || in_class(x, h);
-        o[2] += any;
-        o[3] += !in_class(found[0], h);
-      }
-    }
-    const auto [lo, hi] = wilson(fa_all, n_all);
-    json fj = {{"null_flights", n_all},
-               {"with_found", fa_all},
-               {"rate", n_all ? static_cast<double>(fa_all) / n_all : 0.0},
-               {"wilson95", {lo, hi}}};
-    for (const auto& [k, b] : by_flight) {
-      const auto [l2, h2] = wilson(b[0], b[1]);
-      fj["by_flight"][k] = {{"n", b[1]}, {"with_found", b[0]}, {"wilson95", {l2, h2}}};
-    }
-    summary["false_alarm_all"] = fj;
-    summary["confusion_sets"] = sets;
-    json oj = json::object();
-    for (const auto& [h, by] : outcome)
-      for (const auto& [f, o] : by)
-        oj[h].push_back({{"size_factor", f},
-                         {"exact_unambiguous", o[0]},
-                         {"first_set_contains_truth", o[1]},
-                         {"named_set_contains_truth", o[2]},
-                         {"first_named_wrong", o[3]},
-                         {"nothing_named", o[4]},
-                         {"n", o[0] + o[1] + o[3] + o[4]}});
-    summary["outcome"] = oj;
-  }
-  // Issue 33: names *and sizes*. A single case is right when the truth's class is named first
-  // and the truth itself is named (any iteration) with |estimate - injected| <= 3 sd + 10 % of
-  // the injected value; "strict" also needs the truth to be the first name. Wrong first: the
-  // first name's class does not hold the truth ("unflagged": and it carries no ambiguity flag).
-  // Grouped by preset, W, effect and size; nulls by preset and W. Rows of campaigns before
-  // issue 33 have no window_s: W = 0.
-  {
-    auto window_of = [](const json& r) {
-      return r.contains("window_s") ? r["window_s"].get<double>() : 0.0;
-    };
-    struct Tally {
-      int n = 0, detectable = 0, right = 0, strict = 0, named = 0, wrong_first = 0,
-          wrong_unflagged = 0, none = 0;
-      std::vector<double> rel_error, z_error;  // (estimate - truth) / truth and / sd
-    };
-    std::map<std::string, Tally> groups;
-    std::map<std::string, Tally> by_size;             // "size detectable|below_detection_limit"
-    std::map<std::string, std::array<int, 2>> nulls;  // "preset W=w" -> named, n
-    // Issue 33's second scoring: detectable cases split by separability from the truth's
-    // collinear class.
-    struct SepTally {
-      int n = 0, right = 0, strict = 0;
-      std::array<int, 5> first{};  // by insid::diagnose::FirstName
-    };
-    std::map<std::string, std::map<std::string, SepTally>> sep_by_size, sep_by_effect;
-    // Cases with a partner: whole class recorded, classification changed by it, not recorded.
-    std::array<int, 3> class_check{};
-    int sep_no_row = 0;
-    for (const json& r : rows) {
-      std::ostringstream where;
-      where << r["preset"].get<std::string>() << " W=" << window_of(r);
-      const json& found = r["found"];
-      if (r["kind"] == "null") {
-        auto& b = nulls[where.str()];
-        b[0] += !found.empty();
-        b[1]++;
+}
+
+// Issue 15: every null flight (any preset, any length), the rate with its 95 % Wilson
+// interval, and the confusion of the first named effect with the ambiguity sets counted
+// separately: "(none)", the effect alone (unambiguous), or "{a, b, ...}" (named + partners).
+void add_null_and_set_summary(const std::vector<json>& rows, json& summary) {
+  std::map<std::string, std::array<int, 2>> by_flight;  // "preset/len s" -> named, n
+  int n_all = 0, fa_all = 0;
+  std::map<std::string, std::map<std::string, int>> sets;               // hidden -> label -> count
+  std::map<std::string, std::map<double, std::array<int, 5>>> outcome;  // see below
+  auto label = [](const json& found) {
+    if (found.empty()) return std::string("(none)");
+    const json& f = found[0];
+    if (f["ambiguous_with"].empty()) return f["effect"].get<std::string>();
+    std::set<std::string> members = {f["effect"].get<std::string>()};
+    for (const auto& a : f["ambiguous_with"]) members.insert(a.get<std::string>());
+    std::string l = "{";
+    for (const auto& m : members) l += (l.size() > 1 ? ", " : "") + m;
+    return l + "}";
+  };
+  for (const json& r : rows) {
+    const std::string kind = r["kind"];
+    const json& found = r["found"];
+    if (kind == "null") {
+      std::ostringstream k;
+      k << r["preset"].get<std::string>() << "/" << r["flight_s"].get<double>() << " s";
+      auto& b = by_flight[k.str()];
+      b[0] += !found.empty();
+      b[1]++;
+      fa_all += !found.empty();
+      ++n_all;
+      sets["(none)"][label(found)]++;
+    } else if (kind == "single") {
+      const std::string h = r["hidden"].begin().key();
+      const double f = r["size_factor"];
+      sets[h + " x" + number_text(f, 6)][label(found)]++;
+      // exact and unambiguous, truth in the first named set, named set (any iteration)
+      // contains the truth, first named wrong, nothing named
+      auto& o = outcome[h][f];
+      if (found.empty()) {
+        o[4]++;
         continue;
       }
-      if (r["kind"] != "single") continue;
-      const std::string h = r["hidden"].begin().key();
-      const double truth = r["hidden"].begin().value().get<double>();
-      const double f = r["size_factor"];
-      // The truth's own minimum detectable size on this flight (95 % power, the first
-      // iteration's row): at or above it the case is "detectable", below it the flight cannot
-      // be expected to tell (and naming the effect with a wrong size is still wrong).
-      // The second scoring: "separable" when the size is also detectable with the truth's most
-      // correlated collinear partner estimated jointly (diagnose/campaign_scoring.h).
-      const bool has_row = r.contains("hidden_rows") && r["hidden_rows"].contains(h);
-      const insid::diagnose::CaseLimits lim =
-          insid::diagnose::case_limits(has_row ? r["hidden_rows"][h] : json(), truth);
-      const bool detectable = lim.detectable;
-      const std::string kind = detectable ? "detectable" : "below_detection_limit";
-      // Right in name and size (the issue-33 rule), computed once for both scorings.
-      bool right = false, strict = false;
-      for (const auto& x : found)
-        if (x["effect"] == h) {
-          const double est = x["estimate"], sd = x["sd"];
-          const bool size_ok = std::abs(est - truth) <= 3.0 * sd + 0.1 * std::abs(truth);
-          right = in_class(found[0], h) && size_ok;
-          strict = found[0]["effect"] == h && size_ok;
-          break;
-        }
-      if (detectable && lim.has_row) {
-        const std::string sep = lim.separable ? "separable" : "not_separable";
-        const std::string fs = opt_format(f);
-        for (SepTally* t : {&sep_by_size[fs][sep], &sep_by_effect[h + " x" + fs][sep]}) {
-          ++t->n;
-          t->right += right;
-          t->strict += strict;
-          t->first[static_cast<int>(insid::diagnose::first_name(found, h))]++;
-        }
-        // The whole recorded class (where all its mutual correlations are recorded) against
-        // the one-partner bound the definition uses; cases with a partner only.
-        if (!lim.partner.empty() && r.contains("first_candidates")) {
-          const double ci = insid::diagnose::class_inflation(r["first_candidates"], h);
-          if (std::isfinite(ci)) {
-            ++class_check[0];
-            class_check[1] += (std::abs(truth) >= lim.min_detectable * ci) != lim.separable;
-          } else {
-            ++class_check[2];
-          }
-        }
-      } else if (detectable) {
-        ++sep_no_row;
+      const bool exact = found[0]["effect"] == h && found[0]["ambiguous_with"].empty();
+      o[0] += exact;
+      o[1] += !exact && in_class(found[0], h);
+      bool any = false;
+      for (const auto& x : found) any = any || in_class(x, h);
+      o[2] += any;
+      o[3] += !in_class(found[0], h);
+    }
+  }
+  const auto [lo, hi] = wilson(fa_all, n_all);
+  json fj = {{"null_flights", n_all},
+             {"with_found", fa_all},
+             {"rate", n_all ? static_cast<double>(fa_all) / n_all : 0.0},
+             {"wilson95", {lo, hi}}};
+  for (const auto& [k, b] : by_flight) {
+    const auto [l2, h2] = wilson(b[0], b[1]);
+    fj["by_flight"][k] = {{"n", b[1]}, {"with_found", b[0]}, {"wilson95", {l2, h2}}};
+  }
+  summary["false_alarm_all"] = fj;
+  summary["confusion_sets"] = sets;
+  json oj = json::object();
+  for (const auto& [h, by] : outcome)
+    for (const auto& [f, o] : by)
+      oj[h].push_back({{"size_factor", f},
+                       {"exact_unambiguous", o[0]},
+                       {"first_set_contains_truth", o[1]},
+                       {"named_set_contains_truth", o[2]},
+                       {"first_named_wrong", o[3]},
+                       {"nothing_named", o[4]},
+                       {"n", o[0] + o[1] + o[3] + o[4]}});
+  summary["outcome"] = oj;
+}
+
+// Issue 33: names *and sizes*. A single case is right when the truth's class is named first
+// and the truth itself is named (any iteration) with |estimate - injected| <= 3 sd + 10 % of
+// the injected value; "strict" also needs the truth to be the first name. Wrong first: the
+// first name's class does not hold the truth ("unflagged": and it carries no ambiguity flag).
+// Grouped by preset, W, effect and size; nulls by preset and W. Rows of campaigns before
+// issue 33 have no window_s: W = 0.
+void add_size_scoring(const std::vector<json>& rows, json& summary) {
+  auto window_of = [](const json& r) {
+    return r.contains("window_s") ? r["window_s"].get<double>() : 0.0;
+  };
+  struct Tally {
+    int n = 0, detectable = 0, right = 0, strict = 0, named = 0, wrong_first = 0,
+        wrong_unflagged = 0, none = 0;
+    std::vector<double> rel_error, z_error;  // (estimate - truth) / truth and / sd
+  };
+  std::map<std::string, Tally> groups;
+  std::map<std::string, Tally> by_size;             // "size detectable|below_detection_limit"
+  std::map<std::string, std::array<int, 2>> nulls;  // "preset W=w" -> named, n
+  // Issue 33's second scoring: detectable cases split by separability from the truth's
+  // collinear class.
+  struct SepTally {
+    int n = 0, right = 0, strict = 0;
+    std::array<int, 5> first{};  // by insid::diagnose::FirstName
+  };
+  std::map<std::string, std::map<std::string, SepTally>> sep_by_size, sep_by_effect;
+  // Cases with a partner: whole class recorded, classification changed by it, not recorded.
+  std::array<int, 3> class_check{};
+  int sep_no_row = 0;
+  for (const json& r : rows) {
+    std::ostringstream where;
+    where << r["preset"].get<std::string>() << " W=" << window_of(r);
+    const json& found = r["found"];
+    if (r["kind"] == "null") {
+      auto& b = nulls[where.str()];
+      b[0] += !found.empty();
+      b[1]++;
+      continue;
+    }
+    if (r["kind"] != "single") continue;
+    const std::string h = r["hidden"].begin().key();
+    const double truth = r["hidden"].begin().value().get<double>();
+    const double f = r["size_factor"];
+    // The truth's own minimum detectable size on this flight (95 % power, the first
+    // iteration's row): at or above it the case is "detectable", below it the flight cannot
+    // be expected to tell (and naming the effect with a wrong size is still wrong).
+    // The second scoring: "separable" when the size is also detectable with the truth's most
+    // correlated collinear partner estimated jointly (diagnose/campaign_scoring.h).
+    const bool has_row = r.contains("hidden_rows") && r["hidden_rows"].contains(h);
+    const insid::diagnose::CaseLimits lim =
+        insid::diagnose::case_limits(has_row ? r["hidden_rows"][h] : json(), truth);
+    const bool detectable = lim.detectable;
+    const std::string kind = detectable ? "detectable" : "below_detection_limit";
+    // Right in name and size (the issue-33 rule), computed once for both scorings.
+    bool right = false, strict = false;
+    for (const auto& x : found)
+      if (x["effect"] == h) {
+        const double est = x["estimate"], sd = x["sd"];
+        const bool size_ok = std::abs(est - truth) <= 3.0 * sd + 0.1 * std::abs(truth);
+        right = in_class(found[0], h) && size_ok;
+        strict = found[0]["effect"] == h && size_ok;
+        break;
       }
-      for (Tally* t : {&groups[where.str() + " " + h + " x" + opt_format(f)],
-                       &by_size[opt_format(f) + " " + kind]}) {
+    if (detectable && lim.has_row) {
+      const std::string sep = lim.separable ? "separable" : "not_separable";
+      const std::string fs = number_text(f, 6);
+      for (SepTally* t : {&sep_by_size[fs][sep], &sep_by_effect[h + " x" + fs][sep]}) {
         ++t->n;
-        t->detectable += detectable;
-        if (found.empty()) {
-          ++t->none;
-          continue;
-        }
-        const bool class_first = in_class(found[0], h);
-        t->wrong_first += !class_first;
-        t->wrong_unflagged += !class_first && found[0]["ambiguous_with"].empty();
-        const json* entry = nullptr;
-        for (const auto& x : found)
-          if (x["effect"] == h) {
-            entry = &x;
-            break;
-          }
-        if (entry == nullptr) continue;
-        ++t->named;
-        const double est = (*entry)["estimate"], sd = (*entry)["sd"];
         t->right += right;
         t->strict += strict;
-        t->rel_error.push_back((est - truth) / truth);
-        t->z_error.push_back(sd > 0 ? (est - truth) / sd : 0.0);
+        t->first[static_cast<int>(insid::diagnose::first_name(found, h))]++;
       }
-    }
-    auto tally_json = [](const Tally& t) {
-      const auto [lo, hi] = wilson(t.right, t.n);
-      json j = {{"n", t.n},
-                {"detectable", t.detectable},
-                {"right", t.right},
-                {"right_wilson95", {lo, hi}},
-                {"right_strict", t.strict},
-                {"named", t.named},
-                {"first_named_wrong", t.wrong_first},
-                {"first_named_wrong_unflagged", t.wrong_unflagged},
-                {"nothing_named", t.none}};
-      if (!t.rel_error.empty()) {
-        std::vector<double> rel = t.rel_error, z = t.z_error;
-        std::sort(rel.begin(), rel.end());
-        std::sort(z.begin(), z.end());
-        j["median_relative_error"] = rel[rel.size() / 2];
-        j["median_error_in_sd"] = z[z.size() / 2];
-        j["max_abs_error_in_sd"] = std::max(std::abs(z.front()), std::abs(z.back()));
+      // The whole recorded class (where all its mutual correlations are recorded) against
+      // the one-partner bound the definition uses; cases with a partner only.
+      if (!lim.partner.empty() && r.contains("first_candidates")) {
+        const double ci = insid::diagnose::class_inflation(r["first_candidates"], h);
+        if (std::isfinite(ci)) {
+          ++class_check[0];
+          class_check[1] += (std::abs(truth) >= lim.min_detectable * ci) != lim.separable;
+        } else {
+          ++class_check[2];
+        }
       }
-      return j;
-    };
-    json sz = json::object();
-    sz["rule"] =
-        "right: truth's class named first, truth named, |estimate - injected| <= 3 sd + 10 % "
-        "of injected; strict: truth named first";
-    for (const auto& [k, t] : groups) sz["groups"][k] = tally_json(t);
-    for (const auto& [k, t] : by_size) sz["by_size_factor"][k] = tally_json(t);
-    int fa = 0, nn = 0;
-    for (const auto& [k, b] : nulls) {
-      const auto [lo, hi] = wilson(b[0], b[1]);
-      sz["nulls"][k] = {{"n", b[1]}, {"with_found", b[0]}, {"wilson95", {lo, hi}}};
-      fa += b[0];
-      nn += b[1];
+    } else if (detectable) {
+      ++sep_no_row;
     }
-    const auto [lo, hi] = wilson(fa, nn);
-    sz["nulls_all"] = {{"n", nn}, {"with_found", fa}, {"wilson95", {lo, hi}}};
-    using insid::diagnose::FirstName;
-    auto sep_json = [](const SepTally& t) {
-      const auto [l2, h2] = wilson(t.right, t.n);
-      return json{
-          {"n", t.n},
-          {"right", t.right},
-          {"right_wilson95", {l2, h2}},
-          {"right_strict", t.strict},
-          {"truth_first", t.first[static_cast<int>(FirstName::kTruth)]},
-          {"truth_in_flagged_first_set", t.first[static_cast<int>(FirstName::kTruthInFlaggedSet)]},
-          {"wrong_first_flagged", t.first[static_cast<int>(FirstName::kWrongFlagged)]},
-          {"wrong_first_unflagged", t.first[static_cast<int>(FirstName::kWrongUnflagged)]},
-          {"nothing_named", t.first[static_cast<int>(FirstName::kNothing)]}};
-    };
-    json sep = json::object();
-    sep["rule"] =
-        "among detectable cases: separable when |injected| >= the truth's minimum detectable "
-        "size alone x 1/sqrt(1 - rho^2), rho the largest |correlation| of a recorded collinear "
-        "partner (|rho| > 0.95) in the truth's first-iteration row; a lower bound of the "
-        "inflation with the whole class, so it errs towards separable. right: as above; "
-        "truth_first / truth_in_flagged_first_set / wrong_first_flagged / "
-        "wrong_first_unflagged / nothing_named: the first name";
-    for (const auto& [k, by] : sep_by_size)
-      for (const auto& [s2, t] : by) sep["by_size_factor"][k][s2] = sep_json(t);
-    for (const auto& [k, by] : sep_by_effect)
-      for (const auto& [s2, t] : by) sep["by_effect"][k][s2] = sep_json(t);
-    sep["detectable_without_row"] = sep_no_row;
-    sep["class_check"] = {{"class_recorded", class_check[0]},
-                          {"classification_changed", class_check[1]},
-                          {"class_not_recorded", class_check[2]}};
-    sz["separability"] = sep;
-    summary["size_scoring"] = sz;
+    for (Tally* t : {&groups[where.str() + " " + h + " x" + number_text(f, 6)],
+                     &by_size[number_text(f, 6) + " " + kind]}) {
+      ++t->n;
+      t->detectable += detectable;
+      if (found.empty()) {
+        ++t->none;
+        continue;
+      }
+      const bool class_first = in_class(found[0], h);
+      t->wrong_first += !class_first;
+      t->wrong_unflagged += !class_first && found[0]["ambiguous_with"].empty();
+      const json* entry = nullptr;
+      for (const auto& x : found)
+        if (x["effect"] == h) {
+          entry = &x;
+          break;
+        }
+      if (entry == nullptr) continue;
+      ++t->named;
+      const double est = (*entry)["estimate"], sd = (*entry)["sd"];
+      t->right += right;
+      t->strict += strict;
+      t->rel_error.push_back((est - truth) / truth);
+      t->z_error.push_back(sd > 0 ? (est - truth) / sd : 0.0);
+    }
   }
+  auto tally_json = [](const Tally& t) {
+    const auto [lo, hi] = wilson(t.right, t.n);
+    json j = {{"n", t.n},
+              {"detectable", t.detectable},
+              {"right", t.right},
+              {"right_wilson95", {lo, hi}},
+              {"right_strict", t.strict},
+              {"named", t.named},
+              {"first_named_wrong", t.wrong_first},
+              {"first_named_wrong_unflagged", t.wrong_unflagged},
+              {"nothing_named", t.none}};
+    if (!t.rel_error.empty()) {
+      std::vector<double> rel = t.rel_error, z = t.z_error;
+      std::sort(rel.begin(), rel.end());
+      std::sort(z.begin(), z.end());
+      j["median_relative_error"] = rel[rel.size() / 2];
+      j["median_error_in_sd"] = z[z.size() / 2];
+      j["max_abs_error_in_sd"] = std::max(std::abs(z.front()), std::abs(z.back()));
+    }
+    return j;
+  };
+  json sz = json::object();
+  sz["rule"] =
+      "right: truth's class named first, truth named, |estimate - injected| <= 3 sd + 10 % "
+      "of injected; strict: truth named first";
+  for (const auto& [k, t] : groups) sz["groups"][k] = tally_json(t);
+  for (const auto& [k, t] : by_size) sz["by_size_factor"][k] = tally_json(t);
+  int fa = 0, nn = 0;
+  for (const auto& [k, b] : nulls) {
+    const auto [lo, hi] = wilson(b[0], b[1]);
+    sz["nulls"][k] = {{"n", b[1]}, {"with_found", b[0]}, {"wilson95", {lo, hi}}};
+    fa += b[0];
+    nn += b[1];
+  }
+  const auto [lo, hi] = wilson(fa, nn);
+  sz["nulls_all"] = {{"n", nn}, {"with_found", fa}, {"wilson95", {lo, hi}}};
+  using insid::diagnose::FirstName;
+  auto sep_json = [](const SepTally& t) {
+    const auto [l2, h2] = wilson(t.right, t.n);
+    return json{
+        {"n", t.n},
+        {"right", t.right},
+        {"right_wilson95", {l2, h2}},
+        {"right_strict", t.strict},
+        {"truth_first", t.first[static_cast<int>(FirstName::kTruth)]},
+        {"truth_in_flagged_first_set", t.first[static_cast<int>(FirstName::kTruthInFlaggedSet)]},
+        {"wrong_first_flagged", t.first[static_cast<int>(FirstName::kWrongFlagged)]},
+        {"wrong_first_unflagged", t.first[static_cast<int>(FirstName::kWrongUnflagged)]},
+        {"nothing_named", t.first[static_cast<int>(FirstName::kNothing)]}};
+  };
+  json sep = json::object();
+  sep["rule"] =
+      "among detectable cases: separable when |injected| >= the truth's minimum detectable "
+      "size alone x 1/sqrt(1 - rho^2), rho the largest |correlation| of a recorded collinear "
+      "partner (|rho| > 0.95) in the truth's first-iteration row; a lower bound of the "
+      "inflation with the whole class, so it errs towards separable. right: as above; "
+      "truth_first / truth_in_flagged_first_set / wrong_first_flagged / "
+      "wrong_first_unflagged / nothing_named: the first name";
+  for (const auto& [k, by] : sep_by_size)
+    for (const auto& [s2, t] : by) sep["by_size_factor"][k][s2] = sep_json(t);
+  for (const auto& [k, by] : sep_by_effect)
+    for (const auto& [s2, t] : by) sep["by_effect"][k][s2] = sep_json(t);
+  sep["detectable_without_row"] = sep_no_row;
+  sep["class_check"] = {{"class_recorded", class_check[0]},
+                        {"classification_changed", class_check[1]},
+                        {"class_not_recorded", class_check[2]}};
+  sz["separability"] = sep;
+  summary["size_scoring"] = sz;
+}
+
+int run_campaign(int argc, char** argv) {
+  const CampaignArgs args = parse_args(argc, argv);
+  namespace fs = std::filesystem;
+  fs::create_directories(args.out_dir);
+  const fs::path cases_path = fs::path(args.out_dir) / "cases.jsonl";
+  const std::vector<Nominal> effects = matrix_effects(args.matrix);
+  const std::vector<Case> cases = case_list(args, effects);
+  if (!args.summary_only) run_missing_cases(cases, args, cases_path);
+
+  // Summary: confusion matrix (hidden effect -> first named effect / its class), power.
+  const std::vector<json> rows = read_cases(cases_path);
+  json summary;
+  summary["flight_s"] = args.flight_s;
+  add_first_named_summary(rows, effects, summary);
+  add_null_and_set_summary(rows, summary);
+  add_size_scoring(rows, summary);
   double wall = 0;
   for (const json& r : rows) wall += r["wall_s"].get<double>();
   summary["cases"] = rows.size();
   summary["total_wall_s"] = wall;
-  std::ofstream(fs::path(out_dir) / "summary.json") << summary.dump(2) << "\n";
+  std::ofstream(fs::path(args.out_dir) / "summary.json") << summary.dump(2) << "\n";
   std::cout << summary.dump(2) << "\n";
   return 0;
 }
