@@ -168,12 +168,15 @@ NoiseReplicaSet run_noise_replicas(const NavigationProblem& nav, const SensorErr
   {
     std::vector<std::string> failures(static_cast<std::size_t>(M));
     const int threads = thread_count(options.threads);
-    // One replica buffer per thread (the data without truth.csv, which navigation never reads).
+    // One replica buffer per thread (the data without truth.csv, which navigation never reads;
+    // the measured heading as it is, as noise_replica keeps it: --heading-source measured reads
+    // it at every replica's start).
     std::vector<Dataset> buffers(static_cast<std::size_t>(threads));
     for (Dataset& b : buffers) {
       b.meta = dataset.meta;
       b.imu = dataset.imu;
       b.gnss = dataset.gnss;
+      b.heading = dataset.heading;
     }
 #pragma omp parallel for schedule(dynamic) num_threads(threads)
     for (int k = 0; k < M; ++k) {

@@ -74,6 +74,39 @@ Trial lm_trial(const std::string& preset, double flight_s, std::uint64_t seed) {
   return t;
 }
 
+// GIVEN a short MEMS flight with a simulated dual-antenna heading (heading.csv) and navigation
+// from level + the measured heading WHEN the uncertainty is computed (noise replicas) THEN every
+// replica navigates with the data's measured heading and each parameter gets a finite sd (the
+// replicas' buffers once left the heading out: "uncertainty: noise replica 0: ... this dataset
+// has no measured heading").
+TEST(Uncertainty, NoiseReplicasKeepTheMeasuredHeading) {
+  scenarios::ScenarioConfig cfg = scenarios::preset_scenario("rich");
+  cfg.flight_s = 120.0;
+  cfg.align_s = 30.0;
+  cfg.noise = scenarios::noise_grade("mems");
+  cfg.seed = 5;
+  Dataset data = scenarios::simulate(cfg);
+  scenarios::HeadingStreamSpec heading;
+  heading.seed = 5;
+  scenarios::add_heading_stream(data, heading);
+  ASSERT_FALSE(data.heading.empty());
+  NavigationOptions options;
+  options.initial_attitude.mode = InitialAttitudeMode::kLevelHeading;
+  options.initial_attitude.heading_source = HeadingSource::kMeasured;
+  const auto navigation =
+      std::make_shared<const NavigationProblem>(std::make_shared<const Dataset>(data), options);
+  const InsIdentificationProblem problem(navigation,
+                                         ParameterMapping(EstimatedParameter::paper_four()));
+  UncertaintyOptions uncertainty;
+  uncertainty.replicas = 10;
+  const UncertaintyReport report =
+      estimate_uncertainty(problem, Eigen::VectorXd::Zero(4), uncertainty);
+  for (const ParameterUncertainty& p : report.parameters) {
+    ASSERT_TRUE(p.sd_si.has_value()) << p.name << ": " << p.sd_reason;
+    EXPECT_TRUE(std::isfinite(*p.sd_si) && *p.sd_si > 0.0) << p.name;
+  }
+}
+
 bool has_flag(const ParameterUncertainty& p, const std::string& flag) {
   for (const std::string& f : p.flags)
     if (f == flag) return true;
