@@ -144,8 +144,9 @@ json run_case(const Case& cs, double flight_s, int n, std::uint64_t seed, int th
     floor["fma_vs_baseline"] = worst_relative(fused, unfused);
   }
 
-  // 2. Sensitivities: relative change of Eq. 15 per unit systematic error, the smallest over
-  // candidates and axes, from perturbations well above the floor and checked for linearity.
+  // 2. Sensitivities: relative change of Eq. 15 per unit systematic error, the largest over
+  // candidates and axes (the tightest budget), from perturbations well above the floor and
+  // checked for linearity.
   const double dt_s = 1.0 / ds->meta.imu_rate_hz;
   // Sizes that move Eq. 15 by ~1e-8..1e-5 relative on these flights: far above the floor,
   // small enough to stay linear at MEMS grade too (checked: the change at 2 delta).
