@@ -568,27 +568,32 @@ void add_size_scoring(const std::vector<json>& rows, json& summary) {
     const double f = r["size_factor"];
     // The truth's own minimum detectable size on this flight (95 % power, the first
     // iteration's row): at or above it the case is "detectable", below it the flight cannot
-    // be expected to tell (and naming the effect with a wrong size is still wrong).
-    // The second scoring: "separable" when the size is also detectable with the truth's most
-    // correlated collinear partner estimated jointly (diagnose/campaign_scoring.h).
+    // be expected to tell (and naming the effect with a wrong size is still wrong). The second
+    // scoring: "separable" when the size is also detectable with the truth's most correlated
+    // collinear partner estimated jointly (diagnose/campaign_scoring.h).
     const bool has_row = r.contains("hidden_rows") && r["hidden_rows"].contains(h);
     const insid::diagnose::CaseLimits lim =
         insid::diagnose::case_limits(has_row ? r["hidden_rows"][h] : json(), truth);
     const bool detectable = lim.detectable;
     const std::string kind = detectable ? "detectable" : "below_detection_limit";
-    // Right in name and size (the issue-33 rule), computed once for both scorings.
-    bool right = false, strict = false;
+    // The truth's entry among the named effects, and right in name and size (the issue-33
+    // rule), for both scorings.
+    const json* entry = nullptr;
     for (const auto& x : found)
       if (x["effect"] == h) {
-        const double est = x["estimate"], sd = x["sd"];
-        const bool size_ok = std::abs(est - truth) <= 3.0 * sd + 0.1 * std::abs(truth);
-        right = in_class(found[0], h) && size_ok;
-        strict = found[0]["effect"] == h && size_ok;
+        entry = &x;
         break;
       }
+    bool right = false, strict = false;
+    if (entry != nullptr) {
+      const double est = (*entry)["estimate"], sd = (*entry)["sd"];
+      const bool size_ok = std::abs(est - truth) <= 3.0 * sd + 0.1 * std::abs(truth);
+      right = in_class(found[0], h) && size_ok;
+      strict = found[0]["effect"] == h && size_ok;
+    }
+    const std::string fs = number_text(f, 6);
     if (detectable && lim.has_row) {
       const std::string sep = lim.separable ? "separable" : "not_separable";
-      const std::string fs = number_text(f, 6);
       for (SepTally* t : {&sep_by_size[fs][sep], &sep_by_effect[h + " x" + fs][sep]}) {
         ++t->n;
         t->right += right;
@@ -609,8 +614,7 @@ void add_size_scoring(const std::vector<json>& rows, json& summary) {
     } else if (detectable) {
       ++sep_no_row;
     }
-    for (Tally* t : {&groups[where.str() + " " + h + " x" + number_text(f, 6)],
-                     &by_size[number_text(f, 6) + " " + kind]}) {
+    for (Tally* t : {&groups[where.str() + " " + h + " x" + fs], &by_size[fs + " " + kind]}) {
       ++t->n;
       t->detectable += detectable;
       if (found.empty()) {
@@ -620,12 +624,6 @@ void add_size_scoring(const std::vector<json>& rows, json& summary) {
       const bool class_first = in_class(found[0], h);
       t->wrong_first += !class_first;
       t->wrong_unflagged += !class_first && found[0]["ambiguous_with"].empty();
-      const json* entry = nullptr;
-      for (const auto& x : found)
-        if (x["effect"] == h) {
-          entry = &x;
-          break;
-        }
       if (entry == nullptr) continue;
       ++t->named;
       const double est = (*entry)["estimate"], sd = (*entry)["sd"];
