@@ -76,7 +76,7 @@ PROGRAMS = {
     ),
     "insid-kernel-budget": (
         ["--presets", "--grades", "--flight-s", "--mems-window-s", "--candidates", "--seed",
-         "--threads", "--out"],
+         "--threads", "--out", "--force"],
         [
             (["--presets", "paper,nowhere"], "--presets"),
             (["--grades", "tactical"], "--grades"),

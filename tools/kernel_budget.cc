@@ -24,7 +24,6 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <iostream>
 #include <memory>
 #include <random>
@@ -39,6 +38,7 @@
 #include "core/fitness.h"
 #include "core/grade_table.h"
 #include "core/mechanization.h"
+#include "core/output_dir.h"
 #include "core/rotation.h"
 #include "core/sensor_errors.h"
 #include "scenarios/scenario.h"
@@ -264,9 +264,17 @@ int kernel_budget_main(int argc, char** argv) {
       ->check(CLI::Range(1, 1024))
       ->capture_default_str();
   app.add_option("--out", out, "output directory (budget.json)")->capture_default_str();
+  WriteOptions write;
+  app.add_flag("--force", write.replace_foreign,
+               "replace a budget.json insid did not write (e.g. the committed one after a clone)");
   tools::parse(app, argc, argv);
   for (const std::string& p : presets)
     cli::parse_option("--presets", [&] { (void)scenarios::preset_scenario(p); });
+
+  // The output is checked before the work (a link, a directory or a file insid did not write
+  // there is refused) and written atomically after it.
+  const std::filesystem::path file = std::filesystem::path(out) / "budget.json";
+  check_file_writable(file, write);
 
   json cases = json::array();
   for (const std::string& p : presets)
@@ -274,12 +282,13 @@ int kernel_budget_main(int argc, char** argv) {
       cases.push_back(
           run_case({p, g, g == "mems" ? mems_window_s : 0.0}, flight_s, candidates, seed, threads));
   std::filesystem::create_directories(out);
-  const std::filesystem::path file = std::filesystem::path(out) / "budget.json";
-  std::ofstream(file) << json{{"program", "insid-kernel-budget"},
-                              {"cpu_path", cpu_path_description()},
-                              {"cases", cases}}
-                             .dump(2)
-                      << '\n';
+  write_file_atomic(file,
+                    json{{"program", "insid-kernel-budget"},
+                         {"cpu_path", cpu_path_description()},
+                         {"cases", cases}}
+                            .dump(2) +
+                        "\n",
+                    write);
   std::cerr << "insid-kernel-budget: wrote " << file.string() << '\n';
   return cli::kExitOk;
 }
