@@ -21,6 +21,7 @@
 #include <thread>
 
 #include "bench/cluster.h"
+#include "core/dataset.h"
 #include "core/json_object.h"
 #include "core/json_reader.h"
 #include "core/output_dir.h"
@@ -130,7 +131,8 @@ std::string run_problem(const CampaignConfig& config, const RunSpec& run) {
 // What insid writes at the top of a campaign directory (bench, sweep, the report script).
 const OutputKind kCampaignKind{"an insid campaign directory",
                                {"manifest.json", "runs", "optimum", "summary.json", "sweep.json",
-                                "sweep.csv", "report.md", "figures", FileLock::kRunLockName}};
+                                "sweep.csv", "report.md", "figures", FileLock::kRunLockName},
+                               {"runs", "optimum", "figures"}};
 
 // Check out_dir's manifest against `config` (a different campaign is refused unless
 // force_new) and write the manifest, under the directory's locks (core/output_dir.h): the
@@ -304,8 +306,25 @@ void discard_campaign_results(const fs::path& dir) {
       ". Move them away yourself, or choose another --out.");
 }
 
+// Refuses, before any work, a campaign whose outputs would replace a file it reads: its config
+// (options.inputs) or a scenario's dataset files. No --force lifts this.
+void refuse_replacing_campaign_inputs(const CampaignConfig& config, const RunOptions& options) {
+  std::vector<fs::path> inputs = options.inputs;
+  for (const ScenarioSpec& s : config.scenarios)
+    if (!s.data_dir.empty())
+      for (const std::string& name : dataset_directory_entries())
+        inputs.push_back(fs::path(s.data_dir) / name);
+  const fs::path dir(options.out_dir);
+  for (const std::string& name : kCampaignKind.own_entries) {
+    const auto& dirs = kCampaignKind.own_directories;
+    const bool whole = std::find(dirs.begin(), dirs.end(), name) != dirs.end();
+    refuse_replacing_inputs(dir / name, inputs, whole);
+  }
+}
+
 DirectoryClaim prepare_directory(const CampaignConfig& config, const RunOptions& options,
                                  int threads) {
+  refuse_replacing_campaign_inputs(config, options);
   const nlohmann::json config_json = config.to_json();
   const nlohmann::json digests = data_digests(config);
   const fs::path dir(options.out_dir);

@@ -59,6 +59,9 @@ struct RunOptions {
   Cluster* cluster = nullptr;
   /// Extra keys for manifest.json (a sweep stores its own settings there for `insid merge`).
   nlohmann::json manifest_extra = nlohmann::json::object();
+  /// Files the command reads besides the scenarios' datasets (its campaign config): a campaign
+  /// whose outputs would replace one is refused before any work, --force or not.
+  std::vector<std::filesystem::path> inputs;
 
   /// "" when valid, else why, naming the value: no out_dir, negative threads or max_new_runs, a
   /// negative or non-finite max_wave_s, a shard out of range, --shard with an MPI launch or with

@@ -98,6 +98,27 @@ void check_output_file(const std::string& path, const OutputGuard& guard) {
   check_file_writable(path, options);
 }
 
+void check_distinct_outputs(const std::vector<std::pair<std::string, std::string>>& outputs) {
+  namespace fs = std::filesystem;
+  auto same = [](const std::string& a, const std::string& b) {
+    std::error_code ec;
+    if (fs::weakly_canonical(fs::absolute(a), ec) == fs::weakly_canonical(fs::absolute(b), ec))
+      return true;
+    std::error_code eq;
+    return fs::exists(a, eq) && fs::exists(b, eq) && fs::equivalent(a, b, eq);
+  };
+  for (std::size_t i = 0; i < outputs.size(); ++i)
+    for (std::size_t j = i + 1; j < outputs.size(); ++j) {
+      const auto& [option_a, path_a] = outputs[i];
+      const auto& [option_b, path_b] = outputs[j];
+      if (path_a.empty() || path_a == "-" || path_b.empty() || path_b == "-") continue;
+      if (same(path_a, path_b))
+        throw UsageError(option_a + " '" + path_a + "' and " + option_b + " '" + path_b +
+                         "' are the same file: one output would replace the other; give two "
+                         "different paths");
+    }
+}
+
 void write_output_file(const std::string& path, const std::string& text, const OutputGuard& guard) {
   refuse_replacing_inputs(path, guard.inputs, /*whole_directory=*/false);
   WriteOptions options;

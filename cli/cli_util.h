@@ -107,6 +107,11 @@ std::vector<std::filesystem::path> dataset_input_files(const std::string& data_d
 /// "" or "-", stdout).
 void check_output_file(const std::string& path, const OutputGuard& guard);
 
+/// Throws a UsageError (exit 2) when two of a command's outputs, (option, path) pairs, name the
+/// same file (the same path, or an existing file and a link to it): the second write would
+/// replace the first. "" and "-" (stdout) are skipped.
+void check_distinct_outputs(const std::vector<std::pair<std::string, std::string>>& outputs);
+
 /// Writes an output file atomically under `guard` (a device or FIFO is written to).
 void write_output_file(const std::string& path, const std::string& text, const OutputGuard& guard);
 

@@ -42,6 +42,7 @@ void run_bench(const BenchArgs& args) {
   const auto printer = std::make_shared<ProgressPrinter>("insid bench", args.run.verbosity);
   campaign::RunOptions options = campaign_run_options(args.run, cluster.get(), printer);
   options.max_new_runs = args.max_new_runs;
+  if (!args.config_path.empty()) options.inputs.emplace_back(args.config_path);
   // One JSON line per lock-step round (scripts/perf_rounds.py reads them); a new file only, so
   // that a mistyped name never replaces one of the user's files.
   std::ofstream round_log;

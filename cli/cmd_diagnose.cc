@@ -52,6 +52,15 @@ void run(const DiagnoseArgs& a) {
   namespace fs = std::filesystem;
   // The outputs are checked before the work: never an input, a file of others only with --force.
   const OutputGuard guard{dataset_input_files(a.data_dir), a.force};
+  if (!a.report.empty()) {
+    const fs::path md = fs::absolute(a.report);
+    const std::string stem = (md.parent_path() / md.stem()).string();
+    check_distinct_outputs({{"--out", a.out},
+                            {"--report", md.string()},
+                            {"--report's residuals", stem + "_residuals.csv"},
+                            {"--report's JSON (no --out)",
+                             a.out.empty() || a.out == "-" ? stem + ".json" : std::string()}});
+  }
   check_output_file(a.out, guard);
   if (!a.report.empty()) {
     const fs::path md = fs::absolute(a.report);

@@ -115,6 +115,7 @@ void run_navigate(const NavigateArgs& args) {
   // The outputs are checked before the work: never an input, a file of others only with --force.
   OutputGuard guard{dataset_input_files(args.data_dir), args.force};
   if (!args.compensate_from.empty()) guard.inputs.emplace_back(args.compensate_from);
+  check_distinct_outputs({{"--out", args.out_csv}, {"--summary", args.summary_path}});
   check_output_file(args.out_csv, guard);
   check_output_file(args.summary_path, guard);
   if (!args.out_csv.empty() && !args.summary_path.empty() && args.out_csv != "-") {

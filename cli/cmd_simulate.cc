@@ -74,7 +74,10 @@ void run_simulate(const SimulateArgs& args) {
     return;
   }
   if (args.out.empty()) throw UsageError("--out DIR is required");
-  dataset_destination(args.out, args.force);  // refuse a directory before the work, not after
+  // Refuse a directory before the work, not after; the config read is never replaced.
+  std::vector<std::filesystem::path> inputs;
+  if (!args.config.empty()) inputs.emplace_back(args.config);
+  dataset_destination(args.out, args.force, inputs);
 
   ProgressPrinter progress("insid simulate", args.verbosity);
   char line[512];
@@ -90,6 +93,7 @@ void run_simulate(const SimulateArgs& args) {
   if (!args.heading.empty()) sc::add_heading_stream(ds, heading_spec);
   DatasetWriteOptions write_options;
   write_options.into_foreign_directory = args.force;
+  write_options.inputs = inputs;
   if (args.no_injected)
     write_options.extra_files["answer.json"] = sc::answer_json(cfg).dump(2) + "\n";
   write_dataset(args.out, ds, write_options);  // atomic: nothing half-written on failure

@@ -190,4 +190,84 @@ TEST_F(CliOwnership, CampaignDirectoriesFollowNoLinkAndDeleteOnlyInsidsFiles) {
   EXPECT_FALSE(fs::exists(run_file));
 }
 
+// Issue 45: a name that merely looks like one of insid's temporaries is the user's. bench --force
+// into a folder of photos keeps "photos.tmp-laptop-12-3/img1.jpg" and "list.tmp-h-1-2"; a dataset
+// holding a user's folder named like a dataset file is not replaced.
+TEST_F(CliOwnership, LookAlikeTemporariesAndFoldersAreTheUsers) {
+  if (!marks_) GTEST_SKIP() << "no user extended attributes here: insid cannot mark its files";
+  const fs::path photos = root_ / "photos";
+  fs::create_directories(photos / "photos.tmp-laptop-12-3");
+  std::ofstream(photos / "photos.tmp-laptop-12-3" / "img1.jpg") << "jpeg";
+  std::ofstream(photos / "list.tmp-h-1-2") << "mine";
+  const std::string bench = "bench --preset quick --seeds 1 --flight-s 20 --threads 2 --quiet ";
+  Outcome o = insid(bench + "--force --out " + photos.string());
+  ASSERT_EQ(o.status, 0) << o.output;
+  o = insid(bench + "--force --out " + photos.string());  // a rerun removes stale temporaries
+  ASSERT_EQ(o.status, 0) << o.output;
+  EXPECT_EQ(text(photos / "photos.tmp-laptop-12-3" / "img1.jpg"), "jpeg");
+  EXPECT_EQ(text(photos / "list.tmp-h-1-2"), "mine");
+
+  // ds/provenance.json/notes.txt: a folder where a dataset writes a file.
+  const fs::path ds = root_ / "ds";
+  ASSERT_EQ(insid("simulate --preset straight --flight-s 5 --out " + ds.string()).status, 0);
+  fs::create_directories(ds / "provenance.json");
+  std::ofstream(ds / "provenance.json" / "notes.txt") << "mine";
+  o = insid("simulate --preset straight --flight-s 5 --out " + ds.string());
+  EXPECT_EQ(o.status, 1) << o.output;
+  EXPECT_TRUE(has(o.output, "it holds 'provenance.json'")) << o.output;
+  EXPECT_EQ(text(ds / "provenance.json" / "notes.txt"), "mine");
+  o = insid("import kf-gins --imu " + (kf_ / "imu.txt").string() + " --gnss " +
+            (kf_ / "gnss.txt").string() +
+            " --align-s 600 --static-rate 5 --static-accel-sd 0.3 --force --out " + ds.string());
+  EXPECT_EQ(o.status, 1) << o.output;  // provenance.json cannot be written over a folder
+  EXPECT_EQ(text(ds / "provenance.json" / "notes.txt"), "mine");
+}
+
+// Issue 45: --force never overwrites a file the same command reads: simulate's config, bench's
+// campaign config, at any path the command would write.
+TEST_F(CliOwnership, ForceNeverOverwritesTheCommandsOwnInput) {
+  const fs::path cfg = root_ / "cfg";
+  fs::create_directories(cfg);
+  Outcome o = insid("simulate --preset straight --flight-s 5 --print-config");
+  ASSERT_EQ(o.status, 0) << o.output;
+  const std::string scenario = o.output.substr(o.output.find('{'));
+  std::ofstream(cfg / "meta.json") << scenario;
+  o = insid("simulate --config " + (cfg / "meta.json").string() + " --force --out " +
+            cfg.string());
+  EXPECT_EQ(o.status, 1) << o.output;
+  EXPECT_TRUE(has(o.output, "which this command reads")) << o.output;
+  EXPECT_EQ(text(cfg / "meta.json"), scenario);
+
+  const fs::path bc = root_ / "bc";
+  fs::create_directories(bc / "runs");
+  const std::string campaign =
+      R"({"scenarios": [{"name": "s", "preset": "rich", "flight_s": 20}],)"
+      R"( "algorithms": [{"label": "P", "name": "pso"}], "max_iterations": 2, "seeds": [1]})";
+  for (const fs::path& config : {bc / "summary.json", bc / "runs" / "c.json"}) {
+    std::ofstream(config) << campaign;
+    o = insid("bench --config " + config.string() + " --force --quiet --out " + bc.string());
+    EXPECT_EQ(o.status, 1) << config << "\n" << o.output;
+    EXPECT_TRUE(has(o.output, "which this command reads")) << config << "\n" << o.output;
+    EXPECT_EQ(text(config), campaign) << config;
+    EXPECT_FALSE(fs::exists(bc / "manifest.json")) << config;  // refused before any work
+  }
+}
+
+// Issue 45: two outputs of one command at the same path are a usage error (exit 2), not a
+// silent replacement of the first by the second.
+TEST_F(CliOwnership, TwoOutputsOfOneCommandAtOnePathAreRefused) {
+  const fs::path x = root_ / "x.json";
+  Outcome o = insid("diagnose --data " + data_.string() + " --out " + x.string() + " --report " +
+                    x.string());
+  EXPECT_EQ(o.status, 2) << o.output;
+  EXPECT_TRUE(has(o.output, "are the same file")) << o.output;
+  EXPECT_FALSE(fs::exists(x));
+  o = insid("diagnose --data " + data_.string() + " --report " + x.string());
+  EXPECT_EQ(o.status, 2) << o.output;  // the report's JSON would be x.json too
+  o = insid("navigate --data " + data_.string() + " --out " + x.string() + " --summary " +
+            (root_ / "." / "x.json").string());
+  EXPECT_EQ(o.status, 2) << o.output;
+  EXPECT_FALSE(fs::exists(x));
+}
+
 }  // namespace

@@ -22,6 +22,7 @@
 
 #include <fcntl.h>
 #include <sys/stat.h>
+#include <sys/xattr.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -1217,17 +1218,20 @@ void write_dataset(const fs::path& dir, const Dataset& dataset,
     fail(where + ": cannot create directory '" + parent.string() + "': " + ec.message());
   }
 
+  // What a killed run of this host left beside the target (its temporary or old directory).
+  remove_abandoned_siblings(target);
   const fs::path tmp = temporary_sibling(target, ".tmp-");
+  // Only what insid wrote goes on failure (a user's file put there meanwhile stays).
   auto cleanup = [&] {
-    std::error_code ignored;
-    fs::remove_all(tmp, ignored);
-    if (!created_top.empty()) fs::remove_all(created_top, ignored);
+    remove_own_files(tmp);
+    if (!created_top.empty()) remove_own_files(created_top);
   };
   if (!fs::create_directory(tmp, ec)) {
     cleanup();
     fail(where + ": cannot create temporary directory '" + tmp.string() +
          "': " + (ec ? ec.message() : std::string("it already exists")));
   }
+  mark_as_temporary(tmp);  // a kill from here on leaves a temporary a rerun removes
   try {
     for (const auto& [name, contents] : files) write_file_atomic(tmp / name, contents);
   } catch (const std::exception& e) {
@@ -1236,10 +1240,13 @@ void write_dataset(const fs::path& dir, const Dataset& dataset,
   }
 
   if (fs::exists(fs::symlink_status(target, ec))) {
-    // Move the old dataset aside, put the new one in place, then delete the old one.
+    // Move the old dataset aside, put the new one in place, then delete the old one. Marked as
+    // a temporary first, so that a kill between the renames leaves it for a rerun to remove.
     const fs::path old = temporary_sibling(target, ".old-");
+    const bool marked_old = mark_as_temporary(target);
     fs::rename(target, old, ec);
     if (ec) {
+      if (marked_old) ::removexattr(target.c_str(), kTemporaryMarkAttribute);
       cleanup();
       fail(where + ": cannot move the existing directory aside to '" + old.string() +
            "': " + ec.message());
@@ -1248,11 +1255,13 @@ void write_dataset(const fs::path& dir, const Dataset& dataset,
     if (ec) {
       std::error_code ignored;
       fs::rename(old, target, ignored);
+      if (marked_old) ::removexattr(target.c_str(), kTemporaryMarkAttribute);
       cleanup();
       fail(where + ": cannot rename '" + tmp.string() + "' into place: " + ec.message());
     }
-    std::error_code ignored;
-    fs::remove_all(old, ignored);  // held only an insid dataset (checked above)
+    // The old directory held only insid's files (checked above, holds_only_a_dataset); whatever
+    // else appeared there meanwhile is kept, in the '.old-' directory.
+    remove_own_files(old);
   } else {
     fs::rename(tmp, target, ec);
     if (ec) {
@@ -1260,6 +1269,7 @@ void write_dataset(const fs::path& dir, const Dataset& dataset,
       fail(where + ": cannot rename '" + tmp.string() + "' into place: " + ec.message());
     }
   }
+  ::removexattr(target.c_str(), kTemporaryMarkAttribute);  // the dataset is no temporary now
 }
 
 std::string dataset_digest(const fs::path& dir) {

@@ -4,6 +4,7 @@
 #include <sys/file.h>
 #include <sys/stat.h>
 #include <sys/xattr.h>
+#include <signal.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -11,6 +12,7 @@
 #include <atomic>
 #include <cerrno>
 #include <cstring>
+#include <optional>
 #include <stdexcept>
 #include <system_error>
 
@@ -21,21 +23,58 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// Temporary names of insid's atomic writes: "<name>.tmp-<host>-<pid>-<counter>"
-// (temporary_sibling()).
-bool is_temporary_name(const std::string& name) {
-  const std::size_t tag = name.find(".tmp-");
-  if (tag == std::string::npos || tag == 0) return false;
-  // "-<pid>-<counter>" at the end, after a non-empty host.
+// The parts of a temporary's name, "<base><tag><host>-<pid>-<counter>" (temporary_sibling();
+// tag ".tmp-" or ".old-"); nullopt for any other name.
+struct TemporaryName {
+  std::string base;
+  std::string host;
+  long pid = 0;
+};
+
+std::optional<TemporaryName> parse_temporary_name(const std::string& name) {
+  // "-<pid>-<counter>" at the end.
   std::size_t end = name.size();
-  for (int number = 0; number < 2; ++number) {
-    const std::size_t dash = name.find_last_of('-', end - 1);
-    if (dash == std::string::npos || dash + 1 >= end || dash <= tag + 4) return false;
+  std::array<std::size_t, 2> dashes{};
+  for (std::size_t& dash : dashes) {
+    if (end == 0) return std::nullopt;
+    dash = name.find_last_of('-', end - 1);
+    if (dash == std::string::npos || dash + 1 >= end || dash + 20 < end) return std::nullopt;
     for (std::size_t i = dash + 1; i < end; ++i)
-      if (name[i] < '0' || name[i] > '9') return false;
+      if (name[i] < '0' || name[i] > '9') return std::nullopt;
     end = dash;
   }
-  return end > tag + 5;  // the host part is not empty
+  const std::string head = name.substr(0, end);  // "<base><tag><host>"
+  const std::size_t tmp = head.rfind(".tmp-");
+  const std::size_t old = head.rfind(".old-");
+  const std::size_t tag = tmp == std::string::npos   ? old
+                          : old == std::string::npos ? tmp
+                                                     : std::max(tmp, old);
+  if (tag == std::string::npos || tag == 0 || tag + 5 >= head.size()) return std::nullopt;
+  TemporaryName parsed;
+  parsed.base = head.substr(0, tag);
+  parsed.host = head.substr(tag + 5);
+  parsed.pid = std::stol(name.substr(dashes[1] + 1, dashes[0] - dashes[1] - 1));
+  return parsed;
+}
+
+// This host's name as temporaries carry it ('/' and '\\' replaced).
+const std::string& this_host() {
+  static const std::string host = [] {
+    std::array<char, 256> name{};
+    if (::gethostname(name.data(), name.size() - 1) != 0 || name[0] == '\0')
+      return std::string("host");
+    std::string h(name.data());
+    for (char& c : h)
+      if (c == '/' || c == '\\') c = '_';
+    return h;
+  }();
+  return host;
+}
+
+// The value of kTemporaryMarkAttribute: who made the temporary.
+const std::string& temporary_mark_value() {
+  static const std::string value = this_host() + "-" + std::to_string(::getpid());
+  return value;
 }
 
 // The extended attribute that marks a file insid wrote: the SHA-256 of its bytes (hex).
@@ -105,13 +144,15 @@ FileOwner owner_at(int dir_fd, const char* name) {
 
 bool is_own_entry(const fs::path& dir, const std::string& name, const OutputKind& kind) {
   for (const std::string& own : kind.own_entries) {
-    if (name.size() > own.size() + 5 && name.compare(0, own.size() + 5, own + ".tmp-") == 0 &&
-        is_temporary_name(name))
+    if (const auto temporary = parse_temporary_name(name);
+        temporary && temporary->base == own && is_insid_temporary(dir / name))
       return true;
     if (name != own) continue;
     std::error_code ec;
     const fs::file_status st = fs::symlink_status(dir / name, ec);
-    if (fs::is_directory(st)) return true;  // a real directory (symlink_status: not a link)
+    const auto& dirs = kind.own_directories;
+    if (fs::is_directory(st))  // a real directory (symlink_status: not a link)
+      return std::find(dirs.begin(), dirs.end(), name) != dirs.end();
     // A lock file is only ever locked and written in place through its descriptor (FileLock):
     // a starting campaign's is still empty and unmarked.
     if (name == FileLock::kRunLockName) return fs::is_regular_file(st);
@@ -161,18 +202,23 @@ FileOwner file_owner(const fs::path& path) {
 
 fs::path temporary_sibling(const fs::path& target, const char* tag) {
   static std::atomic<unsigned> counter{0};
-  static const std::string host = [] {
-    std::array<char, 256> name{};
-    if (::gethostname(name.data(), name.size() - 1) != 0 || name[0] == '\0')
-      return std::string("host");
-    std::string h(name.data());
-    for (char& c : h)
-      if (c == '/' || c == '\\') c = '_';
-    return h;
-  }();
   return target.parent_path() /
-         (target.filename().string() + tag + host + "-" + std::to_string(::getpid()) + "-" +
-          std::to_string(counter.fetch_add(1)));
+         (target.filename().string() + tag + this_host() + "-" + std::to_string(::getpid()) +
+          "-" + std::to_string(counter.fetch_add(1)));
+}
+
+bool mark_as_temporary(const fs::path& path) {
+  const std::string& value = temporary_mark_value();
+  return ::lsetxattr(path.c_str(), kTemporaryMarkAttribute, value.data(), value.size(), 0) == 0;
+}
+
+bool is_insid_temporary(const fs::path& path) {
+  if (!parse_temporary_name(path.filename().string())) return false;
+  std::error_code ec;
+  const fs::file_status st = fs::symlink_status(path, ec);
+  if (!fs::is_directory(st) && !fs::is_regular_file(st)) return false;
+  if (::lgetxattr(path.c_str(), kTemporaryMarkAttribute, nullptr, 0) >= 0) return true;
+  return fs::is_regular_file(st) && file_owner(path) == FileOwner::kInsid;
 }
 
 void write_file_atomic_under(const fs::path& root, const fs::path& relative,
@@ -222,6 +268,10 @@ void write_file_atomic_under(const fs::path& root, const fs::path& relative,
   Fd out(
       ::openat(dir.get(), tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644));
   if (!out) fail("cannot create a temporary beside it: " + os_error(errno));
+  // Marked before anything is written: a kill from here on leaves a temporary a later run
+  // recognises as insid's (is_insid_temporary).
+  const std::string& mark = temporary_mark_value();
+  (void)::fsetxattr(out.get(), kTemporaryMarkAttribute, mark.data(), mark.size(), 0);
   auto abandon = [&](const std::string& why) {
     out = Fd();
     ::unlinkat(dir.get(), tmp.c_str(), 0);
@@ -231,6 +281,7 @@ void write_file_atomic_under(const fs::path& root, const fs::path& relative,
   if (::fsync(out.get()) != 0 && errno != EINVAL && errno != EROFS)
     abandon("fsync: " + os_error(errno));
   mark_as_insid(out.get(), contents);
+  (void)::fremovexattr(out.get(), kTemporaryMarkAttribute);  // the file it becomes is no temporary
   if (::close(out.release()) != 0) abandon("close: " + os_error(errno));
   if (::renameat(dir.get(), tmp.c_str(), dir.get(), name.c_str()) != 0)
     abandon("cannot rename the temporary into place: " + os_error(errno));
@@ -307,21 +358,22 @@ std::vector<fs::path> remove_own_files(const fs::path& dir,
   if (!fs::exists(top)) return kept;
   if (!fs::is_directory(top)) return {fs::path(".")};  // a link or a file: not insid's to clear
   std::vector<fs::path> own_files;
+  std::vector<fs::path> temporary_directories;
   std::vector<fs::path> directories;
   for (fs::recursive_directory_iterator it(dir, fs::directory_options::none, ec), end;
        !ec && it != end; it.increment(ec)) {
     const fs::file_status st = it->symlink_status(ec);
     const fs::path rel = it->path().lexically_relative(dir);
     if (fs::is_directory(st)) {
-      if (is_temporary_name(it->path().filename().string())) {
-        own_files.push_back(it->path());  // a dataset's temporary directory
+      if (is_insid_temporary(it->path())) {
+        temporary_directories.push_back(it->path());  // a dataset's, emptied below
         it.disable_recursion_pending();
       } else {
         directories.push_back(it->path());
       }
-    } else if (fs::is_regular_file(st) &&
-               (is_temporary_name(it->path().filename().string()) || (also_own && also_own(rel)) ||
-                file_owner(it->path()) == FileOwner::kInsid)) {
+    } else if (fs::is_regular_file(st) && (is_insid_temporary(it->path()) ||
+                                           (also_own && also_own(rel)) ||
+                                           file_owner(it->path()) == FileOwner::kInsid)) {
       own_files.push_back(it->path());
     } else {
       kept.push_back(rel);
@@ -330,8 +382,11 @@ std::vector<fs::path> remove_own_files(const fs::path& dir,
   if (ec) throw std::runtime_error("cannot list '" + dir.string() + "': " + ec.message());
   for (const fs::path& p : own_files) {
     std::error_code ignored;
-    fs::remove_all(p, ignored);
+    fs::remove(p, ignored);
   }
+  // A temporary directory holds what insid was writing (or replacing): only insid's files go.
+  for (const fs::path& t : temporary_directories)
+    for (const fs::path& p : remove_own_files(t)) kept.push_back(t.lexically_relative(dir) / p);
   // Deepest first: a directory is removed only when nothing is left in it.
   std::sort(directories.begin(), directories.end(),
             [](const fs::path& a, const fs::path& b) { return a.string() > b.string(); });
@@ -404,22 +459,54 @@ const std::string& checked_path_component(const std::string& name, std::string_v
   return name;
 }
 
+namespace {
+
+// Removes one of insid's temporaries: a file, or a directory's files insid wrote and then the
+// directory when nothing else is left in it. True when it is gone.
+bool remove_temporary(const fs::path& path) {
+  std::error_code ec;
+  if (fs::is_directory(fs::symlink_status(path, ec))) {
+    remove_own_files(path);
+    return !fs::exists(fs::symlink_status(path, ec));
+  }
+  return fs::remove(path, ec);
+}
+
+}  // namespace
+
 int remove_stale_temporaries(const fs::path& dir) {
   std::error_code ec;
   std::vector<fs::path> stale;
   for (fs::recursive_directory_iterator it(dir, fs::directory_options::none, ec), end;
        !ec && it != end; it.increment(ec)) {
     if (it->is_symlink(ec)) continue;
-    if (is_temporary_name(it->path().filename().string())) {
+    if (is_insid_temporary(it->path())) {
       stale.push_back(it->path());
       if (it->is_directory(ec)) it.disable_recursion_pending();
     }
   }
   int removed = 0;
-  for (const fs::path& p : stale) {
-    std::error_code ignored;
-    if (fs::remove_all(p, ignored) > 0) ++removed;
+  for (const fs::path& p : stale)
+    if (remove_temporary(p)) ++removed;
+  return removed;
+}
+
+int remove_abandoned_siblings(const fs::path& target) {
+  const fs::path parent = target.has_parent_path() ? target.parent_path() : fs::path(".");
+  const std::string base = target.filename().string();
+  std::vector<fs::path> abandoned;
+  std::error_code ec;
+  for (fs::directory_iterator it(parent, ec), end; !ec && it != end; it.increment(ec)) {
+    const auto name = parse_temporary_name(it->path().filename().string());
+    if (!name || name->base != base || name->host != this_host()) continue;
+    // Signal 0 only asks whether the process exists; ESRCH: it does not any more.
+    if (name->pid <= 0 || ::kill(static_cast<pid_t>(name->pid), 0) == 0 || errno != ESRCH)
+      continue;
+    if (is_insid_temporary(it->path())) abandoned.push_back(it->path());
   }
+  int removed = 0;
+  for (const fs::path& p : abandoned)
+    if (remove_temporary(p)) ++removed;
   return removed;
 }
 

@@ -22,14 +22,19 @@ namespace insid {
 struct OutputKind {
   std::string description;               ///< e.g. "an insid dataset", for messages
   std::vector<std::string> own_entries;  ///< names insid writes at the top level
+  /// The subset of own_entries insid writes as directories (a campaign's runs/); an own name
+  /// held by a directory is foreign unless listed here (a user's folder named provenance.json
+  /// in a dataset is not insid's to delete).
+  std::vector<std::string> own_directories = {};
 };
 
 /// Throws std::runtime_error when `dir` exists and holds an entry that is not insid's own:
-/// a name outside `kind.own_entries` (and not a temporary of one: "<entry>.tmp-..."), or an own
-/// name held by something insid did not write (a regular file without insid's mark, see
-/// file_owner; a symbolic link). Names the first such entry and the way out (another directory,
-/// or `force_hint`). An absent or empty directory passes; so do real directories of own names
-/// (their contents are checked where insid would delete them, remove_own_files).
+/// a name outside `kind.own_entries` (and not one of insid's temporaries of one, see
+/// is_insid_temporary), or an own name held by something insid did not write (a regular file
+/// without insid's mark, see file_owner; a symbolic link; a directory where insid writes a file).
+/// Names the first such entry and the way out (another directory, or `force_hint`). An absent
+/// or empty directory passes; so do real directories of `kind.own_directories` (their contents
+/// are checked where insid would delete them, remove_own_files).
 void require_own_or_empty(const std::filesystem::path& dir, const OutputKind& kind,
                           std::string_view force_hint);
 
@@ -82,6 +87,23 @@ void write_file_atomic_under(const std::filesystem::path& root,
 /// ".old-"), unique among processes sharing a file system (MPI ranks on several hosts).
 std::filesystem::path temporary_sibling(const std::filesystem::path& target, const char* tag);
 
+/// The extended attribute insid sets on each temporary it creates (a file of an atomic write,
+/// a dataset's directory being written or the old one being replaced) the moment it exists,
+/// before anything is written into it; its value is "<host>-<pid>". A temporary is recognised by
+/// this mark, never by its name alone: a user's "photos.tmp-laptop-12-3" is not insid's.
+inline constexpr const char* kTemporaryMarkAttribute = "user.insid.temporary";
+
+/// Marks the file or directory at `path` as one of insid's temporaries (kTemporaryMarkAttribute).
+/// False where the file system keeps no user attributes: the temporary is then never removed by
+/// a later run (left, not guessed at).
+bool mark_as_temporary(const std::filesystem::path& path);
+
+/// True when `path` (never followed if a link) is one of insid's temporaries: its name has the
+/// form temporary_sibling() makes, and it is a directory or regular file carrying
+/// kTemporaryMarkAttribute, or a regular file whose contents match insid's mark (a finished
+/// write whose rename did not happen).
+bool is_insid_temporary(const std::filesystem::path& path);
+
 /// Throws std::runtime_error when writing `output` would replace one of `inputs`, the files the
 /// same command reads (the same file, a hard link or a link to it), or, with `whole_directory`
 /// (a directory replaced as a whole), when an input lies anywhere under `output`. No --force
@@ -93,8 +115,9 @@ void refuse_replacing_inputs(const std::filesystem::path& output,
 /// Removes under `dir` (recursively, never following links) the regular files insid wrote
 /// (file_owner() == kInsid), those `also_own` accepts (given the path relative to `dir`: a
 /// layout insid alone writes in a directory it owns, e.g. a campaign's run files written before
-/// files were marked) and insid's temporaries, then the directories left empty. Returns the
-/// paths of what it kept (relative to `dir`): files of others, links, changed files.
+/// files were marked) and insid's temporaries (is_insid_temporary; a temporary directory is
+/// emptied of insid's files the same way), then the directories left empty. Returns the paths
+/// of what it kept (relative to `dir`): files of others, links, changed files.
 std::vector<std::filesystem::path> remove_own_files(
     const std::filesystem::path& dir,
     const std::function<bool(const std::filesystem::path&)>& also_own = {});
@@ -109,11 +132,18 @@ bool contains_working_directory(const std::filesystem::path& dir);
 /// goes through here, so no write leaves the output directory.
 const std::string& checked_path_component(const std::string& name, std::string_view what);
 
-/// Removes, under `dir` (recursively, never following links), the temporary files of insid's atomic writes
-/// ("<name>.tmp-<host>-<pid>-<n>") and datasets ("<name>.tmp-..." / ".old-..." directories).
-/// Call it only while no other process writes there (holding the campaign lock alone).
-/// Returns the number of entries removed.
+/// Removes, under `dir` (recursively, never following links), insid's temporaries
+/// (is_insid_temporary: the files of its atomic writes, "<name>.tmp-<host>-<pid>-<n>", and
+/// datasets' "<name>.tmp-..." / ".old-..." directories, of which only insid's files go). Call it
+/// only while no other process writes there (holding the campaign lock alone). Returns the
+/// number of temporaries removed.
 int remove_stale_temporaries(const std::filesystem::path& dir);
+
+/// Removes the temporaries beside `target` (siblings named "<target's name>.tmp-..." or
+/// ".old-...", is_insid_temporary) that a process of this host left and that is no longer
+/// running (killed mid-write); those of live processes or of other hosts are left. Returns the
+/// number removed. For outputs written without a lock (datasets).
+int remove_abandoned_siblings(const std::filesystem::path& target);
 
 /// An advisory lock (flock(2)) on a file or directory, held until destruction or unlock().
 /// Locks of one process are independent per FileLock object; every open descriptor is

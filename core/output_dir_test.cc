@@ -3,10 +3,12 @@
 // could pass for one of its temporaries (issue 37, items 1, 2, 5, 6 and 8).
 #include "core/output_dir.h"
 
+#include <sys/wait.h>
 #include <sys/xattr.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -178,6 +180,101 @@ TEST_F(OutputDir, RemovingOwnFilesKeepsEverythingElse) {
   fs::create_directory_symlink(outside_, runs);
   EXPECT_EQ(remove_own_files(runs).size(), 1u);
   EXPECT_EQ(text(outside_ / "victim.json"), "keep");
+}
+
+// Issue 45: a temporary is insid's by its mark, never by its name alone.
+TEST_F(OutputDir, ATemporaryIsRecognisedByItsMarkNotItsName) {
+  if (!supported_) GTEST_SKIP() << root_ << ": no user extended attributes on this file system";
+  const fs::path out = root_ / "out";
+  fs::create_directories(out / "photos.tmp-laptop-12-3");
+  std::ofstream(out / "photos.tmp-laptop-12-3" / "img1.jpg") << "jpeg";
+  std::ofstream(out / "list.tmp-h-1-2") << "mine";
+  fs::create_directories(out / "old.old-h-4-5");
+  std::ofstream(out / "old.old-h-4-5" / "a.txt") << "mine";
+  // What a killed insid leaves: a marked temporary file, and a dataset's marked temporary
+  // directory holding one of insid's files (and, put there since, one of the user's).
+  const fs::path killed_file = temporary_sibling(out / "summary.json", ".tmp-");
+  std::ofstream(killed_file) << "half a fi";
+  ASSERT_TRUE(mark_as_temporary(killed_file));
+  const fs::path killed_dir = temporary_sibling(out / "ds", ".tmp-");
+  fs::create_directories(killed_dir);
+  ASSERT_TRUE(mark_as_temporary(killed_dir));
+  write_file_atomic(killed_dir / "imu.csv", "t\n");
+  EXPECT_TRUE(is_insid_temporary(killed_file));
+  EXPECT_TRUE(is_insid_temporary(killed_dir));
+  EXPECT_FALSE(is_insid_temporary(out / "photos.tmp-laptop-12-3"));
+  EXPECT_FALSE(is_insid_temporary(out / "list.tmp-h-1-2"));
+  // A finished write whose rename did not happen: unmarked as a temporary, but insid's file.
+  const fs::path finished = temporary_sibling(out / "manifest.json", ".tmp-");
+  write_file_atomic(finished, "{}");
+  EXPECT_TRUE(is_insid_temporary(finished));
+
+  EXPECT_EQ(remove_stale_temporaries(out), 3);
+  EXPECT_FALSE(fs::exists(killed_file));
+  EXPECT_FALSE(fs::exists(killed_dir));
+  EXPECT_FALSE(fs::exists(finished));
+  EXPECT_EQ(text(out / "photos.tmp-laptop-12-3" / "img1.jpg"), "jpeg");
+  EXPECT_EQ(text(out / "list.tmp-h-1-2"), "mine");
+  EXPECT_EQ(text(out / "old.old-h-4-5" / "a.txt"), "mine");
+
+  // remove_own_files: the same rule, and a temporary directory loses only insid's files.
+  fs::create_directories(killed_dir);
+  ASSERT_TRUE(mark_as_temporary(killed_dir));
+  write_file_atomic(killed_dir / "imu.csv", "t\n");
+  std::ofstream(killed_dir / "notes.txt") << "mine";
+  std::vector<fs::path> kept = remove_own_files(out);
+  std::sort(kept.begin(), kept.end());
+  const std::vector<fs::path> expected = {killed_dir.filename() / "notes.txt",
+                                          "list.tmp-h-1-2", "old.old-h-4-5/a.txt",
+                                          "photos.tmp-laptop-12-3/img1.jpg"};
+  std::vector<fs::path> sorted_expected = expected;
+  std::sort(sorted_expected.begin(), sorted_expected.end());
+  EXPECT_EQ(kept, sorted_expected);
+  EXPECT_FALSE(fs::exists(killed_dir / "imu.csv"));
+  EXPECT_EQ(text(killed_dir / "notes.txt"), "mine");
+}
+
+// Issue 45: a rerun removes what a killed process of this host left beside its target (a
+// dataset's temporary directory), never a live process's or another host's.
+TEST_F(OutputDir, AbandonedSiblingsOfADeadProcessAreRemoved) {
+  if (!supported_) GTEST_SKIP() << root_ << ": no user extended attributes on this file system";
+  const fs::path target = root_ / "ds";
+  int pipe_fds[2];
+  ASSERT_EQ(::pipe(pipe_fds), 0);
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {  // a "killed simulate": its temporary directory, marked, then gone
+    const fs::path t = temporary_sibling(target, ".tmp-");
+    fs::create_directories(t);
+    mark_as_temporary(t);
+    write_file_atomic(t / "imu.csv", "t\n");
+    const std::string name = t.filename().string();
+    (void)!::write(pipe_fds[1], name.data(), name.size());
+    ::_exit(0);
+  }
+  ::close(pipe_fds[1]);
+  std::array<char, 512> buffer{};
+  const ssize_t n = ::read(pipe_fds[0], buffer.data(), buffer.size());
+  ::close(pipe_fds[0]);
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  ASSERT_GT(n, 0);
+  const fs::path dead = root_ / std::string(buffer.data(), static_cast<std::size_t>(n));
+  ASSERT_TRUE(fs::exists(dead / "imu.csv"));
+  const fs::path live = temporary_sibling(target, ".tmp-");  // this process: alive
+  fs::create_directories(live);
+  mark_as_temporary(live);
+  const fs::path other_host = root_ / "ds.tmp-elsewhere-1-0";
+  fs::create_directories(other_host);
+  mark_as_temporary(other_host);
+  const fs::path users = root_ / "ds.tmp-photos";
+  fs::create_directories(users);
+
+  EXPECT_EQ(remove_abandoned_siblings(target), 1);
+  EXPECT_FALSE(fs::exists(dead));
+  EXPECT_TRUE(fs::exists(live));
+  EXPECT_TRUE(fs::exists(other_host));
+  EXPECT_TRUE(fs::exists(users));
 }
 
 TEST(OutputDirNames, ATemporaryLookingNameIsRefused) {
