@@ -37,6 +37,8 @@ struct IdentifyArgs {
   bool no_reference = false;
   bool positions = false;
   int uncertainty_replicas = 100;
+  bool fixed_box = false;
+  int max_widenings = BoxWideningOptions{}.max_rounds;
   std::string out;
   bool force = false;
   Verbosity verbosity = Verbosity::kNormal;
@@ -55,7 +57,8 @@ std::string option_of(const std::string& field) {
       {"window_s", "--window-s"},
       {"threads", "--threads"},
       {"uncertainty_replicas", "--uncertainty-replicas"},
-      {"initial_attitude", "--initial-attitude"}};
+      {"initial_attitude", "--initial-attitude"},
+      {"box_widening.max_rounds", "--max-widenings"}};
   const auto it = kOptions.find(field);
   return it == kOptions.end() ? field : it->second;
 }
@@ -90,6 +93,8 @@ void run_identify(const IdentifyArgs& args) {
   spec.reference_optimum = !args.no_reference;
   spec.record_positions = args.positions;
   spec.uncertainty_replicas = args.uncertainty_replicas;
+  spec.box_widening.enabled = !args.fixed_box;
+  spec.box_widening.max_rounds = args.max_widenings;
   if (const std::optional<IdentifySpecError> problem = spec_problem(spec))
     throw_usage(*problem);  // before the dataset is read
   ProgressPrinter progress("insid identify", args.verbosity);
@@ -160,6 +165,15 @@ void add_identify_command(CLI::App& app) {
                   "noise replicas for the estimate's sd and flags (0 = no uncertainty)")
       ->capture_default_str()
       ->check(whole_in(0, 100000));
+  cmd->add_flag("--fixed-box", args->fixed_box,
+                "keep the search box as given: an estimate at its edge is flagged at_box_edge. "
+                "Default: a box whose estimate presses an edge is widened on that side (by half "
+                "its width) and searched again, up to the grade's physical limits "
+                "(identification/box_widening.h), each widening recorded in box_widening");
+  cmd->add_option("--max-widenings", args->max_widenings,
+                  "most re-runs of the search in a widened box")
+      ->capture_default_str()
+      ->check(whole_in(1, 32));
   cmd->add_option("--out", args->out, "result JSON file (default: stdout)");
   add_verbosity_flags(cmd, args->verbosity);
   cmd->callback([args] { run_identify(*args); });

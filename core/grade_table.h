@@ -14,6 +14,18 @@
 // 0.02 m/s / 0.1 m, mems 0.03 m/s / 0.5 m. nav's error sizes are the effect catalogue's
 // (core/sensor_errors.h, the paper's); nav's and mems' noise are the simulator's; tactical's are
 // typical FOG / high-end-MEMS figures (no simulator grade uses them).
+//
+// Physical limits (issue 44): the largest size a unit of the grade can have, with where it comes
+// from. An identification widens a box whose estimate sits at its edge up to these, never beyond
+// (identification/identify_run.h); an estimate or a named effect beyond them is flagged as not
+// physical for the grade.
+//   mems      gyro bias 20 deg/s, accel bias 80 mg, scale 3 %, misalignment 2 % (0.02 rad): the
+//             initial tolerances of the InvenSense MPU-6000/6050 datasheet (PS-MPU-6000A-00 rev.
+//             3.4, sec. 6.1-6.2: ZRO +-20 deg/s, zero-g +-50 mg x/y and +-80 mg z, sensitivity
+//             +-3 %, cross-axis +-2 %), the drone autopilots' IMU of that class.
+//   nav, tactical  ten times the grade's one sigma (no datasheet range stands for every unit of
+//             these grades; a unit ten sigma off is not of its grade).
+// Bias drifts: the bias limit per hour (sigma's convention: one sigma of drift per hour).
 #pragma once
 
 #include <span>
@@ -30,6 +42,13 @@ struct GradeFigures {
   double scale = 0.0;            ///< one sigma of a scale-factor error (1)
   double misalign_rad = 0.0;     ///< one sigma of a misalignment (rad)
   NoiseLevels noise;             ///< white noise: ARW, VRW, GNSS velocity and position
+  /// The largest physical size of each error (SI, the same units as the sigmas above) and where
+  /// the figures come from (the table at the top).
+  double gyro_bias_limit_rad_s = 0.0;
+  double accel_bias_limit_mps2 = 0.0;
+  double scale_limit = 0.0;
+  double misalign_limit_rad = 0.0;
+  std::string_view limit_source;
 };
 
 /// nav, tactical, mems, in this order (coarser last).

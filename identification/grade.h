@@ -29,9 +29,19 @@ namespace insid {
 
 /// An estimation grade: its row of the grade table (core/grade_table.h: name, error sizes,
 /// noise) and what identification asks of it.
+/// The largest physical size of an effect for a grade (SI) and where the figure comes from.
+struct PhysicalLimit {
+  double limit_si = 0.0;
+  std::string source;
+};
+
 struct SensorGrade : GradeFigures {
   /// The grade's sigma (SI) of a catalogue effect; throws on an unknown name (listing them).
   double sigma(std::string_view effect) const;
+  /// The largest size of a catalogue effect a unit of this grade has (core/grade_table.h's
+  /// physical limits for the IMU effects; GNSS latency 1 s and lever arms 5 m for every grade).
+  /// Throws on an unknown name.
+  PhysicalLimit physical_limit(std::string_view effect) const;
   /// NAME (the grade's sigma, [-4, 4]), NAME:SIGMA, NAME:SIGMA:LO:HI (EstimatedParameter::parse
   /// with the grade's sigma as the default search unit).
   EstimatedParameter parameter(const std::string& text) const;

@@ -328,6 +328,8 @@ std::optional<IdentifySpecError> spec_problem(const IdentifySpec& spec) {
                                  ": expected 0 (no uncertainty) or at least 10 replicas");
   if (const std::string why = spec.initial_attitude.validate(); !why.empty())
     return IdentifySpecError("initial_attitude", "initial_attitude: " + why);
+  if (const std::string why = spec.box_widening.validate(); !why.empty())
+    return IdentifySpecError("box_widening", why);
   return std::nullopt;
 }
 

@@ -22,6 +22,7 @@
 #include "core/build_info.h"  // build_info_json, recorded in every result
 #include "core/dataset.h"
 #include "core/fitness.h"
+#include "identification/box_widening.h"
 #include "identification/grade.h"
 #include "identification/ins_problem.h"
 #include "identification/local_fit.h"
@@ -171,6 +172,9 @@ struct IdentifySpec {
   bool reference_optimum = true;
   bool record_positions = false;   ///< every particle's position per iteration
   int uncertainty_replicas = 100;  ///< 0: no uncertainty; else at least 10 noise replicas
+  /// An estimate at an edge of its box widens the box and runs the search again, up to the
+  /// grade's physical limits (identification/box_widening.h); off: the box stays as given.
+  BoxWideningOptions box_widening;
 
   /// "" when the spec can be run, else what is wrong, naming the bad field and value (the
   /// project's convention for options; spec_problem keeps the field for a front end): no data

@@ -1,6 +1,8 @@
 #include "identification/identify_run.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <limits>
 #include <memory>
@@ -12,6 +14,7 @@
 #include "core/initial_attitude_json.h"
 #include "core/number_text.h"
 #include "core/units.h"
+#include "identification/box_widening.h"
 #include "identification/ekf_rts.h"
 #include "optimizers/registry.h"
 
@@ -124,6 +127,87 @@ std::string autopilot_comparison_table(const nlohmann::json& cmp) {
   return t;
 }
 
+
+// One search of the box of `estimated`: the navigation problem (its gyrocompass allowance from
+// the box), the Eq. 15 problem and the optimizer's ask / evaluate / tell loop with progress.
+struct Search {
+  std::shared_ptr<const NavigationProblem> navigation;
+  std::unique_ptr<InsIdentificationProblem> problem;
+  std::unique_ptr<opt::Optimizer> optimizer;
+  int best_at_iteration = 0;
+};
+
+// `overrides`: the algorithm's parameters in the normalised box (algorithm_params_in_box of the
+// first box: a widened box keeps the normalised distances). `first_note` is told once the
+// optimizer accepted them (a bad parameter is the first line a user sees).
+Search run_search(const IdentifySpec& spec, const std::shared_ptr<const Dataset>& dataset,
+                  NavigationOptions navigation_options,
+                  const std::vector<EstimatedParameter>& estimated, const SensorGrade& grade,
+                  const opt::ParameterMap& overrides, const std::string& first_note,
+                  const IdentifyProgress& progress) {
+  Search search;
+  // The gyrocompass feasibility check meets the search box's gyro biases.
+  navigation_options.initial_attitude.gyro_bias_allowance_rad_s =
+      gyro_bias_allowance_rad_s(estimated);
+  search.navigation = std::make_shared<const NavigationProblem>(dataset, navigation_options);
+  ParameterMapping mapping(estimated);
+  opt::EvaluatorOptions evaluator;
+  evaluator.parallelism = spec.threads == 1 ? opt::Parallelism::kSerial : opt::Parallelism::kOpenMP;
+  evaluator.num_threads = spec.threads;
+  search.problem = std::make_unique<InsIdentificationProblem>(search.navigation, mapping,
+                                                              FitnessKind::kEq15, evaluator);
+  const InsIdentificationProblem& problem = *search.problem;
+  opt::RunConfig config;
+  config.seed = spec.seed;
+  config.max_iterations = spec.iterations;
+  config.max_evaluations = spec.evaluations;
+  config.record_positions = spec.record_positions;
+  try {  // a parameter the optimizer does not take, or a value it refuses
+    search.optimizer = opt::make_optimizer(spec.algorithm, problem.bounds(), config, overrides);
+  } catch (const std::invalid_argument& e) {
+    throw IdentifySpecError("params", e.what());
+  }
+  if (!first_note.empty() && progress.note) progress.note(first_note);
+  opt::Optimizer& optimizer = *search.optimizer;
+  if (auto* ekf = dynamic_cast<EkfRtsOptimizer*>(&optimizer)) ekf->set_grade(std::string(grade.name));
+
+  // ask / evaluate / tell, with progress (opt::step also feeds the baselines that need residual
+  // vectors or the problem itself: lm, ekf-rts). The status shows the iterations done; the
+  // closing line says how the run ended and where its best was found (a restarting baseline
+  // such as lm spends the budget on restarts after converging).
+  // "/40" appended, not "/" + s: GCC 12's -Wrestrict misreads that insert at the front here.
+  std::string budget;
+  if (spec.iterations > 0) budget.append("/").append(std::to_string(spec.iterations));
+  double best_so_far = std::numeric_limits<double>::infinity();
+  while (!optimizer.done()) {
+    opt::step(optimizer, problem);
+    const opt::Result& live = optimizer.result();
+    if (live.best_f < best_so_far) {
+      best_so_far = live.best_f;
+      search.best_at_iteration = live.iterations;
+    }
+    if (progress.status)
+      progress.status(spec.algorithm + " iteration " + std::to_string(live.iterations) + budget +
+                      ", evaluations " + std::to_string(live.evaluations) + ", best " +
+                      number_text(live.best_f, 6));
+  }
+  if (progress.finish) progress.finish();
+  return search;
+}
+
+// "gyro_bias_x upper 4 -> 8 sigma (1440 -> 2880 deg/h)" for the progress line.
+std::string widening_text(const BoxWidening& w, const std::vector<EstimatedParameter>& estimated) {
+  double sigma_si = 1.0;
+  for (const EstimatedParameter& p : estimated)
+    if (p.name == w.parameter) sigma_si = p.sigma;
+  const auto [unit, per_si] = engineering_unit(std::string(effect_info(w.parameter).unit));
+  return w.parameter + " " + w.side + " " + number_text(w.from_sigma, 4) + " -> " +
+         number_text(w.to_sigma, 4) + " sigma (" +
+         number_text(w.from_sigma * sigma_si * per_si, 4) + " -> " +
+         number_text(w.to_sigma * sigma_si * per_si, 4) + " " + unit +
+         (w.to_physical_limit ? ", the physical limit" : "") + ")";
+}
+
 }  // namespace
 
 IdentifyReport identify(const IdentifySpec& spec, const IdentifyProgress& progress) {
@@ -135,70 +219,88 @@ IdentifyReport identify(const IdentifySpec& spec, const IdentifyProgress& progre
       spec.dataset ? spec.dataset : std::make_shared<const Dataset>(load_dataset(spec.data_dir));
   IdentifyReport report;
   report.setup = identify_setup(spec, *dataset);
-  const IdentifySetup& setup = report.setup;
+  IdentifySetup& setup = report.setup;
   const SensorGrade& grade = *setup.grade;
-  auto navigation = std::make_shared<const NavigationProblem>(dataset, setup.navigation);
-  ParameterMapping mapping(setup.estimated);
-  opt::EvaluatorOptions evaluator;
-  evaluator.parallelism = spec.threads == 1 ? opt::Parallelism::kSerial : opt::Parallelism::kOpenMP;
-  evaluator.num_threads = spec.threads;
-  const InsIdentificationProblem problem(navigation, mapping, FitnessKind::kEq15, evaluator);
-
   opt::ParameterList own;
   try {
     own = opt::default_parameters(spec.algorithm);
   } catch (const std::invalid_argument& e) {  // validate() checked it; kept for the wording
     throw IdentifySpecError("algorithm", "algorithm: " + std::string(e.what()));
   }
-  const opt::ParameterMap overrides = algorithm_params_in_box(spec.params, mapping, own);
-  opt::RunConfig config;
-  config.seed = spec.seed;
-  config.max_iterations = spec.iterations;
-  config.max_evaluations = spec.evaluations;
-  config.record_positions = spec.record_positions;
-  std::unique_ptr<opt::Optimizer> optimizer;
-  try {  // a parameter the optimizer does not take, or a value it refuses
-    optimizer = opt::make_optimizer(spec.algorithm, problem.bounds(), config, overrides);
-  } catch (const std::invalid_argument& e) {
-    throw IdentifySpecError("params", e.what());
-  }
-  note(setup.settled.line());
-  if (auto* ekf = dynamic_cast<EkfRtsOptimizer*>(optimizer.get()))
-    ekf->set_grade(std::string(grade.name));
+  const opt::ParameterMap overrides =
+      algorithm_params_in_box(spec.params, ParameterMapping(setup.estimated), own);
 
-  // ask / evaluate / tell, with progress (opt::step also feeds the baselines that need residual
-  // vectors or the problem itself: lm, ekf-rts). The status shows the iterations done; the
-  // closing line says how the run ended and where its best was found (a restarting baseline
-  // such as lm spends the budget on restarts after converging).
-  // "/40" appended, not "/" + s: GCC 12's -Wrestrict misreads that insert at the front here.
-  std::string budget;
-  if (spec.iterations > 0) budget.append("/").append(std::to_string(spec.iterations));
-  int best_at_iteration = 0;
-  double best_so_far = std::numeric_limits<double>::infinity();
-  while (!optimizer->done()) {
-    opt::step(*optimizer, problem);
-    const opt::Result& live = optimizer->result();
-    if (live.best_f < best_so_far) {
-      best_so_far = live.best_f;
-      best_at_iteration = live.iterations;
+  // The search, and again in a wider box while an estimate presses an edge that is not the
+  // grade's physical limit (identification/box_widening.h).
+  const std::vector<EstimatedParameter> first_box = setup.estimated;
+  Search search = run_search(spec, dataset, setup.navigation, setup.estimated, grade, overrides,
+                             setup.settled.line(), progress);
+  auto closing_line = [&](const Search& s) {
+    const opt::Result& r = s.optimizer->result();
+    note(spec.algorithm + " stopped after " + std::to_string(r.iterations) +
+         " iteration(s) and " + std::to_string(r.evaluations) + " evaluations (" +
+         std::string(opt::to_string(r.termination)) + "); best " + number_text(r.best_f, 6) +
+         " first reached at iteration " + std::to_string(s.best_at_iteration));
+  };
+  closing_line(search);
+  nlohmann::json rounds = nlohmann::json::array();
+  auto round_json = [&](const Search& s) {
+    const opt::Result& r = s.optimizer->result();
+    nlohmann::json box = nlohmann::json::object();
+    for (const EstimatedParameter& p : s.problem->mapping().parameters())
+      box[p.name] = {p.lower_sigma, p.upper_sigma};
+    const Eigen::VectorXd v = s.problem->mapping().to_sigma(r.best_x);
+    rounds.push_back({{"box_sigma", box},
+                      {"best_fitness", r.best_f},
+                      {"evaluations", r.evaluations},
+                      {"estimate_in_sigma_units", std::vector<double>(v.data(), v.data() + v.size())}});
+  };
+  round_json(search);
+  std::vector<BoxWidening> widenings;
+  std::string widening_stopped;
+  for (int round = 1; spec.box_widening.enabled; ++round) {
+    const Eigen::VectorXd value_sigma =
+        search.problem->mapping().to_sigma(search.optimizer->result().best_x);
+    std::vector<EstimatedParameter> wider = setup.estimated;
+    const std::vector<BoxWidening> moved =
+        widen_pressed_bounds(wider, value_sigma, grade, spec.box_widening, round);
+    if (moved.empty()) break;
+    if (round > spec.box_widening.max_rounds) {
+      widening_stopped = "after " + std::to_string(spec.box_widening.max_rounds) +
+                         " widenings an estimate still presses its box (max_rounds)";
+      break;
     }
-    if (progress.status)
-      progress.status(spec.algorithm + " iteration " + std::to_string(live.iterations) + budget +
-                      ", evaluations " + std::to_string(live.evaluations) + ", best " +
-                      number_text(live.best_f, 6));
+    std::string line;
+    for (const BoxWidening& w : moved) line += (line.empty() ? "" : "; ") + widening_text(w, wider);
+    note("box widened (round " + std::to_string(round) + "): " + line);
+    try {
+      search = run_search(spec, dataset, setup.navigation, wider, grade, overrides, "", progress);
+    } catch (const IdentifySpecError&) {
+      throw;
+    } catch (const std::exception& e) {
+      // A wider gyro box the gyrocompass cannot hold (or any set-up the data refuse): keep the
+      // last box that ran, say why.
+      widening_stopped = "the wider box could not be searched: " + std::string(e.what());
+      note("box widening stopped: " + widening_stopped);
+      break;
+    }
+    closing_line(search);
+    round_json(search);
+    setup.estimated = wider;
+    setup.navigation.initial_attitude.gyro_bias_allowance_rad_s =
+        gyro_bias_allowance_rad_s(wider);
+    widenings.insert(widenings.end(), moved.begin(), moved.end());
   }
-  if (progress.finish) progress.finish();
-  const opt::Result& result = optimizer->result();
-  note(spec.algorithm + " stopped after " + std::to_string(result.iterations) +
-       " iteration(s) and " + std::to_string(result.evaluations) + " evaluations (" +
-       std::string(opt::to_string(result.termination)) + "); best " +
-       number_text(result.best_f, 6) + " first reached at iteration " +
-       std::to_string(best_at_iteration));
+  const std::shared_ptr<const NavigationProblem>& navigation = search.navigation;
+  const InsIdentificationProblem& problem = *search.problem;
+  const ParameterMapping& mapping = problem.mapping();
+  const opt::Optimizer& optimizer = *search.optimizer;
+  const opt::Result& result = optimizer.result();
   report.optimizer_result = result;
 
   nlohmann::json& out = report.result;
   out = optimizer_result_json(result, mapping);
-  if (const auto* ekf = dynamic_cast<const EkfRtsOptimizer*>(optimizer.get()))
+  if (const auto* ekf = dynamic_cast<const EkfRtsOptimizer*>(&optimizer))
     out["ekf"] = ekf->report_json(mapping);
   out["format"] = "insid-identify/2";  // /2: estimate_sigma -> estimate_in_sigma_units, parameters
   out["build"] = build_info_json();
@@ -214,6 +316,54 @@ IdentifyReport identify(const IdentifySpec& spec, const IdentifyProgress& progre
                                 {"sigma", p.sigma},
                                 {"lower_sigma", p.lower_sigma},
                                 {"upper_sigma", p.upper_sigma}});
+  // The box's story (issue 44): the first box, every widening, each round's best, and what
+  // still presses a bound: only a physical limit may hold an estimate at its edge.
+  const Eigen::VectorXd value_sigma = mapping.to_sigma(result.best_x);
+  const std::vector<std::string> at_limit =
+      pressed_at_physical_limit(setup.estimated, value_sigma, grade, spec.box_widening);
+  const std::vector<std::string> beyond =
+      beyond_physical_limit(setup.estimated, value_sigma, grade);
+  {
+    nlohmann::json& bw = out["box_widening"];
+    bw["enabled"] = spec.box_widening.enabled;
+    bw["edge_fraction"] = spec.box_widening.edge_fraction;
+    bw["growth_of_width"] = spec.box_widening.growth_of_width;
+    bw["max_rounds"] = spec.box_widening.max_rounds;
+    nlohmann::json first = nlohmann::json::object();
+    for (const EstimatedParameter& p : first_box) first[p.name] = {p.lower_sigma, p.upper_sigma};
+    bw["first_box_sigma"] = first;
+    bw["widenings"] = nlohmann::json::array();
+    for (const BoxWidening& w : widenings)
+      bw["widenings"].push_back({{"round", w.round},
+                                 {"parameter", w.parameter},
+                                 {"side", w.side},
+                                 {"from_sigma", w.from_sigma},
+                                 {"to_sigma", w.to_sigma},
+                                 {"to_physical_limit", w.to_physical_limit}});
+    bw["rounds"] = rounds;
+    bw["stopped"] = widening_stopped.empty() ? nlohmann::json(nullptr)
+                                             : nlohmann::json(widening_stopped);
+    nlohmann::json limits = nlohmann::json::object();
+    for (const EstimatedParameter& p : setup.estimated) {
+      const PhysicalLimit limit = grade.physical_limit(p.name);
+      limits[p.name] = {{"limit", limit.limit_si}, {"source", limit.source}};
+    }
+    bw["physical_limits"] = limits;
+    bw["at_physical_limit"] = at_limit;
+    bw["beyond_physical_limit"] = beyond;
+    bw["evaluations_all_rounds"] = [&] {
+      std::int64_t total = 0;
+      for (const nlohmann::json& r : rounds) total += r.at("evaluations").get<std::int64_t>();
+      return total;
+    }();
+  }
+  for (const std::string& name : at_limit)
+    note("box: " + name + " presses its box at the grade's physical limit (" +
+         grade.physical_limit(name).source +
+         "): not an answer (the flight cannot tell it, or the model lacks something)");
+  for (const std::string& name : beyond)
+    note("box: " + name + " is beyond the grade's physical limit (" +
+         grade.physical_limit(name).source + "): no unit of this grade has that size");
   std::optional<ReferenceOptimum> ref;
   if (spec.reference_optimum) {
     ref = cached_reference_optimum(spec.data_dir, problem, progress.note);
@@ -226,7 +376,15 @@ IdentifyReport identify(const IdentifySpec& spec, const IdentifyProgress& progre
     uo.replicas = spec.uncertainty_replicas;
     uo.criterion = criterion_for_algorithm(spec.algorithm);
     uo.threads = spec.threads;
-    report.uncertainty = add_run_uncertainty_json(out, problem, *optimizer, uo);
+    report.uncertainty = add_run_uncertainty_json(out, problem, optimizer, uo);
+    // The physical limits' flags beside the uncertainty's own (at_box_edge, ...).
+    for (ParameterUncertainty& p : report.uncertainty->parameters) {
+      if (std::find(at_limit.begin(), at_limit.end(), p.name) != at_limit.end())
+        p.flags.push_back("at_physical_limit");
+      if (std::find(beyond.begin(), beyond.end(), p.name) != beyond.end())
+        p.flags.push_back("beyond_physical_limit");
+    }
+    out["parameters"] = report.uncertainty->parameters_json();
     report.tables += report.uncertainty->table();
   }
   // The autopilot's own estimates of the same errors, when the import recorded them.
