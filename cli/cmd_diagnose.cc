@@ -39,6 +39,7 @@ struct DiagnoseArgs {
   int threads = 0;
   Verbosity verbosity = Verbosity::kNormal;
   bool no_plots = false;
+  bool fixed_box = false;
   bool force = false;
 };
 
@@ -95,6 +96,7 @@ void run(const DiagnoseArgs& a) {
   o.window_s = settled.window_s;
   o.initial_attitude = initial_attitude_options(a.initial_attitude);
   o.threads = a.threads;
+  o.base_widening.enabled = !a.fixed_box;
   // The diagnosis prints plain timed lines, one per step (never '\r'); --verbose adds nothing.
   o.progress = a.verbosity != Verbosity::kQuiet;
   diagnose::DiagnoseResult res = diagnose::run_diagnose(dataset, o);
@@ -205,6 +207,10 @@ void add_diagnose_command(CLI::App& app) {
       ->check(whole_in(0, kMaxThreads));
   add_verbosity_flags(cmd, a->verbosity);
   cmd->add_flag("--no-plots", a->no_plots, "report.md without figures");
+  cmd->add_flag("--fixed-box", a->fixed_box,
+                "keep the base's box as given. Default: a base parameter pressing its box is "
+                "widened (as identify's, up to the grade's physical limits) and the wider fit "
+                "kept when it explains more (recorded in base_fit_procedure.box_widening)");
   add_output_force_flag(cmd, &a->force);
   cmd->callback([a] { run(*a); });
 }

@@ -506,6 +506,11 @@ std::string DiagnoseOptions::validate() const {
     if (std::find(names.begin(), names.end(), grade) == names.end())
       return "DiagnoseOptions.grade = '" + grade + "': must be auto, nav, tactical or mems";
   }
+  if (const std::string why = base_widening.validate(); !why.empty())
+    return "DiagnoseOptions.base_" + why;
+  if (!(base_widening_min_gain >= 0.0 && base_widening_min_gain < 1.0))
+    return "DiagnoseOptions.base_widening_min_gain = " + number_text(base_widening_min_gain) +
+           ": must be in [0, 1)";
   return "";
 }
 
@@ -514,9 +519,9 @@ namespace {
 // Step 1, the base fit: the optimizer from the box centre (among its first positions), then the
 // least-squares Levenberg-Marquardt polish; what was done into `procedure`.
 ModelFit fit_base_model(const std::shared_ptr<const NavigationProblem>& nav,
-                        const std::vector<EstimatedParameter>& base, const DiagnoseOptions& options,
-                        const opt::EvaluatorOptions& evaluator, const Progress& progress,
-                        json& procedure) {
+                        const std::vector<EstimatedParameter>& base, const SensorGrade& grade,
+                        const DiagnoseOptions& options, const opt::EvaluatorOptions& evaluator,
+                        const Progress& progress, json& procedure) {
   ParameterMapping mapping(base);
   Vec start = Vec::Zero(mapping.dimension());
   json oj = {{"algorithm", options.algorithm}};
@@ -539,6 +544,38 @@ ModelFit fit_base_model(const std::shared_ptr<const NavigationProblem>& nav,
   oj["polish"] = {{"method", "levenberg-marquardt least squares"},
                   {"iterations", fit.iterations},
                   {"evaluations", fit.evaluations}};
+  // A base pressing its box: widen and polish again from the clipped point, keeping the wider
+  // fit only when it explains more (DiagnoseOptions::base_widening).
+  json widened = json::array();
+  for (int round = 1; options.base_widening.enabled && round <= options.base_widening.max_rounds;
+       ++round) {
+    std::vector<EstimatedParameter> wider = fit.params;
+    const std::vector<BoxWidening> moved =
+        widen_pressed_bounds(wider, fit.value_sigma, grade, options.base_widening, round);
+    if (moved.empty()) break;
+    ModelFit wide = refit(nav, wider, fit.value_sigma, evaluator);
+    const double sum_sq = fit.r.squaredNorm(), wide_sum_sq = wide.r.squaredNorm();
+    const double gain = sum_sq > 0.0 ? (sum_sq - wide_sum_sq) / sum_sq : 0.0;
+    for (const BoxWidening& w : moved)
+      widened.push_back({{"round", round},
+                         {"parameter", w.parameter},
+                         {"side", w.side},
+                         {"from_sigma", w.from_sigma},
+                         {"to_sigma", w.to_sigma},
+                         {"to_physical_limit", w.to_physical_limit},
+                         {"misfit_gain", gain},
+                         {"kept", gain > options.base_widening_min_gain}});
+    std::string line;
+    for (const BoxWidening& w : moved)
+      line += (line.empty() ? "" : ", ") + w.parameter + " " + w.side + " " +
+              number_text(w.from_sigma, 4) + " -> " + number_text(w.to_sigma, 4) + " sigma";
+    progress("base fit: box widened (" + line + "): least-squares misfit " +
+             number_text(100.0 * gain, 3) + " % lower" +
+             (gain > options.base_widening_min_gain ? "" : ", not kept (the flight cannot tell)"));
+    if (!(gain > options.base_widening_min_gain)) break;
+    fit = std::move(wide);
+  }
+  oj["box_widening"] = widened;
   procedure = oj;
   return fit;
 }
@@ -720,7 +757,7 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
 
   // 1. Base fit: optimizer, then the LS polish.
   ModelFit fit =
-      fit_base_model(nav, base, options, evaluator, progress, report["base_fit_procedure"]);
+      fit_base_model(nav, base, grade, options, evaluator, progress, report["base_fit_procedure"]);
   const ModelFit base_fit = fit;
 
   // 2. Noise model: replicas of the flight with the data's noise levels.
@@ -963,6 +1000,16 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
         f["estimate"] = fit.value_sigma[i] * fit.params[k].sigma;
         f["sd"] = sd_final[i] * fit.params[k].sigma;
       }
+    // A named size no unit of the grade has (issue 44: a 41 % MEMS scale factor) is not a sensor
+    // property: said in the report, never left as a plain answer.
+    const PhysicalLimit limit = grade.physical_limit(f["effect"].get<std::string>());
+    f["physical_limit"] = {{"limit", limit.limit_si}, {"source", limit.source}};
+    f["beyond_physical_limit"] = std::abs(f["estimate"].get<double>()) > limit.limit_si;
+    if (f["beyond_physical_limit"].get<bool>())
+      progress("named " + f["effect"].get<std::string>() + " = " +
+               number_text(f["estimate"].get<double>(), 4) + " is beyond the grade's physical limit " +
+               number_text(limit.limit_si, 4) + " (" + limit.source +
+               "): a stand-in for something the model lacks, not a sensor property");
   }
 
   // Gap against the noise floor.
@@ -1051,6 +1098,10 @@ std::string report_markdown(const json& r, const std::string& figure_prefix) {
     md << "- **" << f["effect"].get<std::string>() << "** = " << g(f["estimate"]) << " +- "
        << g(f["sd"]) << " " << effect_info(f["effect"].get<std::string>()).unit << " (iteration "
        << f["iteration"].get<int>() << ", z = " << g(f["z"], 3) << ")";
+    if (f.value("beyond_physical_limit", false))
+      md << " **beyond the grade's physical limit** " << g(f["physical_limit"]["limit"])
+         << " (" << f["physical_limit"]["source"].get<std::string>()
+         << "): a stand-in for something the model lacks, not a sensor property";
     if (!f["ambiguous_with"].empty()) {
       md << "; ambiguous with";
       for (const auto& a : f["ambiguous_with"]) md << " " << a.get<std::string>();

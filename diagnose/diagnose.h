@@ -26,6 +26,7 @@
 
 #include "core/dataset.h"
 #include "core/fitness.h"
+#include "identification/box_widening.h"
 #include "identification/ins_problem.h"
 
 namespace insid::diagnose {
@@ -69,6 +70,14 @@ struct DiagnoseOptions {
   bool progress = false;  ///< human progress on stderr
   /// Noise levels to use instead of meta.json / the estimate (e.g. a user's spec sheet).
   std::optional<NoiseLevels> noise;
+  /// The base fit's box (issue 44): a base parameter pressing its box is widened as identify's
+  /// (identification/box_widening.h, up to the grade's physical limit), and the wider fit kept
+  /// when it lowers the base's least-squares misfit by more than `base_widening_min_gain`
+  /// (relative): a clipped base makes every later name a stand-in for the clipped bias (on the
+  /// real quadcopter's IMU2 a 41 % accelerometer scale factor), while a parameter the flight
+  /// cannot observe only drifts to its edge and gains nothing. enabled = false: the box as given.
+  BoxWideningOptions base_widening;
+  double base_widening_min_gain = 1e-3;
 
   /// "" when every field is usable, else a message naming the first bad field, its value and
   /// the allowed range (run_diagnose throws std::invalid_argument with it; nothing is clamped).

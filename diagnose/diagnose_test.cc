@@ -213,6 +213,45 @@ INSTANTIATE_TEST_SUITE_P(Effects, HiddenSingle,
                            return param_info.param.effect;
                          });
 
+// GIVEN a MEMS flight whose gyro x bias, 0.6 deg/s, lies outside the base's first box (+-0.4)
+// WHEN diagnose fits its base THEN the box widens (issue 44), the base recovers the bias within
+// 3 sd and sits near the noise floor, and no stand-in beyond a physical limit is named; with the
+// box fixed the clipped base leaves a misfit several times the floor for stand-ins to fill.
+TEST(BaseWidening, AClippedBaseBiasIsWidenedNotExplainedByStandIns) {
+  const double truth = 0.6 * std::numbers::pi / 180.0;
+  const auto ds = make_hidden_dataset({"rich", 300.0, 5, {{"gyro_bias_x", truth}}, "mems"});
+  DiagnoseOptions o = quick_options(5);
+  o.grade = "mems";
+  o.window_s = 10.0;
+  o.initial_attitude.mode = InitialAttitudeMode::kLevelHeading;
+  o.threads = 2;
+  const DiagnoseResult wide = run_diagnose(ds, o);
+  const nlohmann::json& procedure = wide.report["base_fit_procedure"]["box_widening"];
+  ASSERT_FALSE(procedure.empty()) << wide.report["base_fit_procedure"].dump(2);
+  bool gyro_x_widened = false;
+  for (const auto& w : procedure)
+    gyro_x_widened |= w["parameter"] == "gyro_bias_x" && w["side"] == "upper" &&
+                      w["kept"].get<bool>();
+  EXPECT_TRUE(gyro_x_widened) << procedure.dump(2);
+  const nlohmann::json& base = wide.report["base"]["parameters"];
+  ASSERT_EQ(base[2]["name"], "gyro_bias_x");
+  EXPECT_LE(std::abs(base[2]["estimate"].get<double>() - truth), 3.0 * base[2]["sd"].get<double>())
+      << base[2].dump();
+  const double wide_over_floor = wide.report["gap"]["fitness_before_over_floor"].get<double>();
+  EXPECT_LT(wide_over_floor, 1.6) << found_names(wide.report);
+  for (const auto& f : wide.report["found"])
+    EXPECT_FALSE(f["beyond_physical_limit"].get<bool>()) << f.dump();
+
+  o.base_widening.enabled = false;
+  const DiagnoseResult clipped = run_diagnose(ds, o);
+  EXPECT_NEAR(clipped.report["base"]["parameters"][2]["estimate_sigma"].get<double>(), 4.0, 1e-3);
+  const double clipped_over_floor =
+      clipped.report["gap"]["fitness_before_over_floor"].get<double>();
+  std::cout << "base over the floor: widened " << wide_over_floor << ", clipped "
+            << clipped_over_floor << " (named: " << found_names(clipped.report) << ")\n";
+  EXPECT_GT(clipped_over_floor, 3.0 * wide_over_floor);
+}
+
 // Effect-free data: nothing named (family-wise 5 %: allow one of four seeds).
 TEST(HiddenNone, NothingFound) {
   int with_found = 0;
