@@ -29,6 +29,7 @@ import os
 import random
 import resource
 import shutil
+import socket
 import struct
 import subprocess
 import sys
@@ -206,6 +207,68 @@ def ownership_cases(b, sim, walk):
     b.expect_error(5, "navigate --summary over a user's existing file",
                    ["navigate", "--data", str(sim), "--out", str(w / "nav2.csv"), "--summary",
                     str(user)], codes=(1, 2), must=["notes.json"], protect=[user])
+
+
+def round_three_ownership_cases(b, sim):
+    """Issue 45's data-loss items: names that look like insid's temporaries, a folder where a
+    dataset writes a file, --force over the command's own input, two outputs at one path, and
+    what a killed simulate leaves."""
+    w = b.work
+    # A folder of the user's with look-alike temporaries, as bench --force's --out (twice: the
+    # second run removes stale temporaries).
+    photos = w / "photos"
+    img = write(photos / "photos.tmp-laptop-12-3" / "img1.jpg", "jpeg bytes\n")
+    lst = write(photos / "list.tmp-h-1-2", "the user's list\n")
+    config = write(w / "camp45.json", json.dumps(campaign_config("straight")))
+    bench = ["bench", "--config", str(config), "--threads", "1", "--force", "--out", str(photos)]
+    for attempt in ("first", "second"):
+        b.expect_accept("45", f"bench --force into a folder of look-alike temporaries ({attempt})",
+                        bench, protect=[img, lst])
+    # ds/provenance.json/notes.txt: a user's folder named like a dataset file.
+    ds = w / "ds45"
+    b.run(["simulate", "--preset", "straight", "--flight-s", "10", "--out", str(ds)])
+    notes = write(ds / "provenance.json" / "notes.txt", "the user's notes\n")
+    b.expect_error("45", "simulate over a dataset holding a user's folder provenance.json/",
+                   ["simulate", "--preset", "straight", "--flight-s", "10", "--out", str(ds)],
+                   must=["provenance.json"], protect=[notes])
+    # --force never overwrites the command's own input.
+    code, out, _ = b.run(["simulate", "--preset", "straight", "--flight-s", "10",
+                          "--print-config"])
+    cfg = write(w / "cfg45" / "meta.json", out[out.index("{"):])
+    b.expect_error("45", "simulate --config cfg/meta.json --force --out cfg",
+                   ["simulate", "--config", str(cfg), "--force", "--out", str(cfg.parent)],
+                   must=["which this command reads"], protect=[cfg])
+    bc = write(w / "bc45" / "summary.json", json.dumps(campaign_config("straight")))
+    b.expect_error("45", "bench --config bc/summary.json --force --out bc",
+                   ["bench", "--config", str(bc), "--force", "--threads", "1", "--out",
+                    str(bc.parent)], must=["which this command reads"], protect=[bc])
+    # Two outputs of one command at one path.
+    b.expect_error("45", "diagnose --out X --report X",
+                   ["diagnose", "--data", str(sim), "--out", str(w / "x45.json"), "--report",
+                    str(w / "x45.json")], codes=(2,), must=["are the same file"])
+    # What a simulate killed mid-write leaves (its marked temporary directory, a dead pid of
+    # this host): the next simulate into the same --out removes it.
+    dead = subprocess.Popen(["true"])
+    dead.wait()
+    target = w / "killed45"
+    leftover = target.parent / f"killed45.tmp-{socket.gethostname()}-{dead.pid}-0"
+    # Its files as insid leaves them: one written (insid's mark, the SHA-256 of its bytes), one
+    # being written (a marked temporary).
+    done = write(leftover / "imu.csv", "t_s\n")
+    half = write(leftover / f"gnss.csv.tmp-{socket.gethostname()}-{dead.pid}-1", "t_s,la")
+    try:
+        mark = f"{socket.gethostname()}-{dead.pid}".encode()
+        os.setxattr(done, "user.insid.sha256", hashlib.sha256(b"t_s\n").hexdigest().encode())
+        os.setxattr(half, "user.insid.temporary", mark)
+        os.setxattr(leftover, "user.insid.temporary", mark)
+    except OSError:
+        b.skip("45", "a killed simulate's temporary removed by the rerun",
+               "no user extended attributes here")
+        return
+    b.expect_accept("45", "a killed simulate's temporary removed by the rerun",
+                    ["simulate", "--preset", "straight", "--flight-s", "10", "--out",
+                     str(target)],
+                    check=lambda out: "" if not leftover.exists() else f"{leftover} left")
 
 
 def campaign_config(scenario_name):
@@ -496,6 +559,7 @@ def main():
         if code != 0:
             sys.exit(f"hostile_battery: simulate failed: {out}")
         ownership_cases(b, sim, walk)
+        round_three_ownership_cases(b, sim)
         campaign_cases(b)
         json_cases(b, sim)
         external_cases(b, sim)
