@@ -10,6 +10,7 @@
 #include <system_error>
 
 #include "cli/commands.h"
+#include "core/plausibility.h"
 #include "core/dataset.h"
 #include "optimizers/parameters.h"
 
@@ -96,6 +97,21 @@ void check_output_file(const std::string& path, const OutputGuard& guard) {
   WriteOptions options;
   options.replace_foreign = guard.force;
   check_file_writable(path, options);
+}
+
+nlohmann::json check_dataset_plausibility(const Dataset& dataset, const std::string& command) {
+  const PlausibilityReport report = check_plausibility(dataset);
+  for (const PlausibilityFinding& f : report.findings) std::cerr << command << ": " << f.text() << "\n";
+  if (report.refused()) throw std::runtime_error("the data cannot be right (above)");
+  return report.to_json();
+}
+
+void print_plausibility(const nlohmann::json& plausibility, const std::string& command) {
+  if (!plausibility.is_object()) return;
+  for (const nlohmann::json& f : plausibility.value("findings", nlohmann::json::array()))
+    std::cerr << command << ": implausible data: " << f.value("quantity", "") << ": expected "
+              << f.value("expected", "") << ", found " << f.value("found", "") << ": "
+              << f.value("likely_cause", "") << "\n";
 }
 
 void check_distinct_outputs(const std::vector<std::pair<std::string, std::string>>& outputs) {

@@ -107,6 +107,15 @@ std::vector<std::filesystem::path> dataset_input_files(const std::string& data_d
 /// "" or "-", stdout).
 void check_output_file(const std::string& path, const OutputGuard& guard);
 
+/// The dataset's plausibility (core/plausibility.h) for a command that reads one: each finding
+/// printed as "<command>: implausible data: ..." on stderr (even with --quiet: it is about the
+/// user's data, like an import's notes); a refusal thrown as std::runtime_error. Returns the
+/// report's JSON for the command's result.
+nlohmann::json check_dataset_plausibility(const Dataset& dataset, const std::string& command);
+
+/// Prints the findings of a result's "plausibility" block (as check_dataset_plausibility).
+void print_plausibility(const nlohmann::json& plausibility, const std::string& command);
+
 /// Throws a UsageError (exit 2) when two of a command's outputs, (option, path) pairs, name the
 /// same file (the same path, or an existing file and a link to it): the second write would
 /// replace the first. "" and "-" (stdout) are skipped.

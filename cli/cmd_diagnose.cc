@@ -72,6 +72,7 @@ void run(const DiagnoseArgs& a) {
       check_output_file((md.parent_path() / (md.stem().string() + ".json")).string(), guard);
   }
   auto dataset = std::make_shared<const Dataset>(load_dataset(a.data_dir));
+  const nlohmann::json plausibility = check_dataset_plausibility(*dataset, "insid diagnose");
   diagnose::DiagnoseOptions o;
   // --grade as identify's: every --base NAME without SIGMA gets the grade's sigma.
   const GradeAndWindow settled = settle_grade_and_window(*dataset, a.grade, a.window_s);
@@ -101,6 +102,7 @@ void run(const DiagnoseArgs& a) {
   o.progress = a.verbosity != Verbosity::kQuiet;
   diagnose::DiagnoseResult res = diagnose::run_diagnose(dataset, o);
   res.report["data"] = a.data_dir;
+  res.report["plausibility"] = plausibility;
   res.report.update(settled.to_json());
   write_json_output(a.out, res.report, guard);
   if (a.report.empty()) return;

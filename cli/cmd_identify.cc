@@ -108,6 +108,7 @@ void run_identify(const IdentifyArgs& args) {
   } catch (const IdentifySpecError& e) {
     throw_usage(e);
   }
+  print_plausibility(report.result["plausibility"], "insid identify");  // even with --quiet
   if (!progress.quiet()) std::cerr << report.tables;
   write_json_output(args.out, report.result, guard);
 }

@@ -23,6 +23,7 @@
 #include "core/file_read.h"
 #include "core/json_reader.h"
 #include "core/output_dir.h"
+#include "core/plausibility.h"
 #include "identification/identify.h"
 #include "import/ardupilot_import.h"
 #include "import/csv_imu.h"
@@ -207,6 +208,16 @@ void finish_import(const std::string& command, importers::Assembled result, nloh
   write_options.extra_files["provenance.json"] = prov.dump(2) + "\n";
   for (const nlohmann::json& source : prov["sources"])
     write_options.inputs.emplace_back(source.at("path").get<std::string>());
+  // Does the result obey the physics it must (core/plausibility.h)? Said before anything is
+  // written; a refusal writes nothing.
+  const PlausibilityReport plausibility = check_plausibility(result.dataset);
+  for (const PlausibilityFinding& f : plausibility.findings)
+    std::cerr << "insid import: " << f.text() << "\n";
+  if (plausibility.refused())
+    throw std::runtime_error("the imported data cannot be right (above); nothing written to " +
+                             out);
+  prov["plausibility"] = plausibility.to_json();
+  write_options.extra_files["provenance.json"] = prov.dump(2) + "\n";
   write_dataset(out, result.dataset, write_options);
   // Notes say what was dropped or derived: printed even with --quiet (also in provenance.json).
   for (const std::string& note : result.notes) std::cerr << "insid import: " << note << "\n";

@@ -118,14 +118,8 @@ void run_navigate(const NavigateArgs& args) {
   check_distinct_outputs({{"--out", args.out_csv}, {"--summary", args.summary_path}});
   check_output_file(args.out_csv, guard);
   check_output_file(args.summary_path, guard);
-  if (!args.out_csv.empty() && !args.summary_path.empty() && args.out_csv != "-") {
-    std::error_code ec;
-    if (std::filesystem::weakly_canonical(args.out_csv, ec) ==
-        std::filesystem::weakly_canonical(args.summary_path, ec))
-      throw UsageError("--out and --summary are the same file ('" + args.out_csv +
-                       "'): give two paths");
-  }
   auto dataset = std::make_shared<const Dataset>(load_dataset(args.data_dir));
+  const nlohmann::json plausibility = check_dataset_plausibility(*dataset, "insid navigate");
   ProgressPrinter progress("insid navigate", args.verbosity);
   std::map<std::string, double> compensation;
   if (!args.compensate_from.empty()) compensation = identify_estimates(args.compensate_from);
@@ -166,6 +160,7 @@ void run_navigate(const NavigateArgs& args) {
   }
   nlohmann::json summary;
   summary["data"] = args.data_dir;
+  summary["plausibility"] = plausibility;
   summary["alignment"] = to_string(options.alignment);
   summary["window_s"] = options.window_s;
   summary["windows"] = problem.num_windows();

@@ -13,6 +13,7 @@
 #include "core/build_info.h"
 #include "core/initial_attitude_json.h"
 #include "core/number_text.h"
+#include "core/plausibility.h"
 #include "core/units.h"
 #include "identification/box_widening.h"
 #include "identification/ekf_rts.h"
@@ -217,6 +218,15 @@ IdentifyReport identify(const IdentifySpec& spec, const IdentifyProgress& progre
   };
   const std::shared_ptr<const Dataset> dataset =
       spec.dataset ? spec.dataset : std::make_shared<const Dataset>(load_dataset(spec.data_dir));
+  // Data that cannot be right are refused before the work; doubtful ones said (the result's
+  // "plausibility", core/plausibility.h).
+  const PlausibilityReport plausibility = check_plausibility(*dataset);
+  if (plausibility.refused()) {
+    std::string why;
+    for (const PlausibilityFinding& f : plausibility.findings)
+      if (f.level == PlausibilityFinding::Level::kRefusal) why += (why.empty() ? "" : "; ") + f.text();
+    throw std::runtime_error(why);
+  }
   IdentifyReport report;
   report.setup = identify_setup(spec, *dataset);
   IdentifySetup& setup = report.setup;
@@ -309,6 +319,7 @@ IdentifyReport identify(const IdentifySpec& spec, const IdentifyProgress& progre
   out["window_s"] = setup.navigation.window_s;
   out["initial_attitude"] = initial_attitude_json(*navigation, mapping.to_errors(result.best_x));
   out["fitness_kind"] = "eq15";
+  out["plausibility"] = plausibility.to_json();
   if (spec.grade != "auto" || grade.name != "nav") out["grade"] = grade.name;
   out.update(setup.settled.to_json());
   for (const EstimatedParameter& p : setup.estimated)
