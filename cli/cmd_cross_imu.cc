@@ -180,8 +180,8 @@ void add_cross_imu_command(CLI::App& app) {
                   "provenance.json of insid import ardupilot / ulog)")
       ->capture_default_str();
   cmd->add_option("--block-s", a->block_s,
-                  "block length (s) of the standard errors (batch means); the SE at 0.02-10 s "
-                  "is reported beside it")
+                  "block length (s) of the standard errors (batch means; a window shorter than 10 "
+                  "blocks uses window / 10); the SE at 0.02-10 s is reported beside it")
       ->capture_default_str()
       ->check(number_in(1e-3, 1e6));
   cmd->add_option("--segment-s", a->segment_s,

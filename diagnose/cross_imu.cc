@@ -196,6 +196,8 @@ CrossImuReport direct_differences(const std::vector<RateSeries>& series,
   report.t_start_s = t0;
   report.t_end_s = t1;
   report.median_step_s = median_step(series.front());
+  report.block_s_used =
+      std::min(options.block_s, (t1 - t0) / static_cast<double>(options.min_blocks));
   const double tol_s = options.time_match_fraction * report.median_step_s;
 
   for (std::size_t bi = 0; bi < series.size(); ++bi)
@@ -253,7 +255,7 @@ CrossImuReport direct_differences(const std::vector<RateSeries>& series,
       if (ldlt.info() != Eigen::Success || !XtX_inv.allFinite())
         throw std::invalid_argument(pair_name(pair) +
                                     ": the rates are too nearly constant for a regression");
-      const std::vector<long> ids = block_ids(t, options.block_s);
+      const std::vector<long> ids = block_ids(t, report.block_s_used);
       Eigen::MatrixXd K_used(3, p - 1);  // per axis, the rate coefficients used
       for (int i = 0; i < 3; ++i) {
         const Eigen::VectorXd y = Y.col(i);
@@ -297,7 +299,7 @@ CrossImuReport direct_differences(const std::vector<RateSeries>& series,
             ri -= K_used.col(static_cast<Eigen::Index>(c)) *
                   W(static_cast<Eigen::Index>(k), cols[c]);
           r.push_back(ri);
-          seg_ids.push_back(static_cast<long>(std::floor((t[k] - s0) / options.block_s)));
+          seg_ids.push_back(static_cast<long>(std::floor((t[k] - s0) / report.block_s_used)));
           ++k;
         }
         seg.samples = r.size();
@@ -479,6 +481,7 @@ nlohmann::json report_json(const CrossImuReport& report, const std::vector<Compa
   j["imus"] = report.names;
   j["window_s"] = {report.t_start_s, report.t_end_s};
   j["median_step_s"] = report.median_step_s;
+  j["block_s_used"] = report.block_s_used;
   j["options"] = {{"block_s", o.block_s},
                   {"block_ladder_s", o.block_ladder_s},
                   {"segment_s", o.segment_s},
@@ -577,7 +580,7 @@ std::string report_text(const CrossImuReport& report, const std::vector<Comparis
   std::snprintf(line, sizeof line,
                 "direct gyro bias differences (deg/s) over %.2f-%.2f s, SE from %g s blocks "
                 "(batch means):\n",
-                report.t_start_s, report.t_end_s, report.options.block_s);
+                report.t_start_s, report.t_end_s, report.block_s_used);
   s << line;
   std::snprintf(line, sizeof line, "  %-16s %-4s %10s %8s %8s  %-26s %s\n", "difference", "axis",
                 "db", "SE", "SE iid", "K (x, y, z rate)", "SE over blocks 0.5-5 s");
@@ -593,7 +596,8 @@ std::string report_text(const CrossImuReport& report, const std::vector<Comparis
           std::snprintf(b, sizeof b, "%+.4f", *v);
         else
           std::snprintf(b, sizeof b, "-");
-        K += (c ? " " : "") + std::string(b);
+        if (c) K.append(" ");
+        K.append(b);
       }
       double lo = std::numeric_limits<double>::infinity(), hi = -lo;
       for (const auto& [len, se] : ax.se_by_block)
@@ -632,8 +636,8 @@ std::string report_text(const CrossImuReport& report, const std::vector<Comparis
     for (const ComparisonRow& r : *rows) {
       const PairDifference& p = report.pairs[r.pair];
       std::string flags;
-      for (const std::string& f : r.flags) flags += (flags.empty() ? "" : ", ") + f;
-      if (!r.reason.empty()) flags += (flags.empty() ? "" : "; ") + r.reason;
+      for (const std::string& f : r.flags) flags.append(flags.empty() ? "" : ", ").append(f);
+      if (!r.reason.empty()) flags.append(flags.empty() ? "" : "; ").append(r.reason);
       char z[32] = "n/a";
       if (r.z) std::snprintf(z, sizeof z, "%+.2f", *r.z);
       std::snprintf(line, sizeof line, "  %-16s %-12s %10s %8s %10s %8s %7s  %-12s %s\n",
@@ -652,7 +656,7 @@ std::string report_markdown(const CrossImuReport& report, const std::vector<Comp
   char line[512];
   std::snprintf(line, sizeof line,
                 "Direct gyro bias differences over %.2f-%.2f s (deg/s; SE from %g s blocks):\n\n",
-                report.t_start_s, report.t_end_s, report.options.block_s);
+                report.t_start_s, report.t_end_s, report.block_s_used);
   s << line;
   s << "| difference | axis | direct | SE | SE (i.i.d.) | K x | K y | K z |\n"
        "|---|---|---:|---:|---:|---:|---:|---:|\n";
@@ -667,7 +671,7 @@ std::string report_markdown(const CrossImuReport& report, const std::vector<Comp
           std::snprintf(b, sizeof b, "%+.4f", *v);
         else
           std::snprintf(b, sizeof b, "-");
-        K += " " + std::string(b) + " |";
+        K.append(" ").append(b).append(" |");
       }
       std::snprintf(line, sizeof line, "| %s | %s | %s | %s | %s |%s\n", pair_name(p).c_str(),
                     kAxis[i], deg(ax.bias_diff_rad_s).c_str(), deg_opt(ax.se_rad_s).c_str(),
@@ -681,7 +685,7 @@ std::string report_markdown(const CrossImuReport& report, const std::vector<Comp
     for (const ComparisonRow& r : *rows) {
       const PairDifference& p = report.pairs[r.pair];
       std::string flags;
-      for (const std::string& f : r.flags) flags += (flags.empty() ? "" : ", ") + f;
+      for (const std::string& f : r.flags) flags.append(flags.empty() ? "" : ", ").append(f);
       char z[32] = "n/a";
       if (r.z) std::snprintf(z, sizeof z, "%+.2f", *r.z);
       std::snprintf(line, sizeof line, "| %s | gyro_bias_%s | %s | %s | %s | %s | %s | %s | %s |\n",
