@@ -160,6 +160,33 @@ TEST(CrossImuCli, RealLogAllImusAndTheirDifferences) {
   EXPECT_LT(std::abs(before), 0.15) << before;
   EXPECT_GT(after, 0.3) << after;
 
+  // With insid's own results (EKF-RTS per IMU): the comparison table, a verdict per pair-axis
+  // (which one is insid's business, not this test's: the estimators change).
+  std::string results;
+  for (const char* name : {"IMU3", "IMU2"}) {
+    const fs::path r = tmp.path / (std::string(name) + ".json");
+    o = insid("identify --data " + (ds / name).string() +
+              " --grade mems --initial-attitude level+heading --window-s 10 --estimate gyro_bias_x"
+              " --estimate gyro_bias_y --estimate gyro_bias_z --estimate accel_bias_z --algo "
+              "ekf-rts --no-reference-optimum --threads 1 --quiet --out " + r.string());
+    ASSERT_EQ(o.status, 0) << o.output;
+    results += " --result " + r.string();
+  }
+  const fs::path cmp = tmp.path / "cmp.json";
+  o = insid("cross-imu" + data + results + " --t-start 85 --t-end 215 --out " + cmp.string());
+  ASSERT_EQ(o.status, 0) << o.output;
+  EXPECT_TRUE(has(o.output, "insid's estimated differences against the direct ones")) << o.output;
+  const nlohmann::json c = read_json(cmp);
+  ASSERT_EQ(c.at("comparison").size(), 3u);
+  for (const nlohmann::json& row : c.at("comparison"))
+    EXPECT_NE(row.at("verdict"), "not_compared") << row.dump();
+  // A result that is not insid's is refused, naming the file.
+  o = insid("cross-imu" + data + " --result " + flight.string() + " --result " + cmp.string() +
+            " --out " + (tmp.path / "never.json").string());
+  EXPECT_EQ(o.status, 1) << o.output;
+  EXPECT_TRUE(has(o.output, "format: expected \"insid-identify/2\"")) << o.output;
+  EXPECT_FALSE(fs::exists(tmp.path / "never.json"));
+
   // An input is never overwritten.
   o = insid("cross-imu" + data + " --out " + (ds / "IMU2" / "imu.csv").string());
   EXPECT_NE(o.status, 0) << o.output;

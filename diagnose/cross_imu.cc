@@ -347,7 +347,13 @@ ResultEstimates read_identify_result(const std::filesystem::path& path) {
                                format + "\"");
     ResultEstimates r;
     r.source = src;
-    r.algorithm = doc.string("algorithm", "");
+    if (const auto algo = doc.optional_given("algorithm")) {  // {"name": ..., "parameters": ...}
+      const nlohmann::json& v = algo->value();
+      if (v.is_object() && v.contains("name") && v["name"].is_string())
+        r.algorithm = v["name"].get<std::string>();
+      else if (v.is_string())
+        r.algorithm = v.get<std::string>();
+    }
     const JsonArray params = doc.array("parameters");
     for (std::size_t k = 0; k < params.size(); ++k) {
       const JsonField f = params[k];
@@ -451,6 +457,7 @@ std::vector<ComparisonRow> compare_with_results(const CrossImuReport& report,
 std::vector<std::string> comparison_warnings(const CrossImuReport& report,
                                              const std::vector<ComparisonRow>& rows) {
   std::vector<std::string> out;
+  std::map<std::string, std::string> edges;  // "gyro_bias_x of IMU2" -> the pairs it enters
   for (const ComparisonRow& r : rows) {
     const PairDifference& p = report.pairs[r.pair];
     const std::string param = std::string("gyro_bias_") + kAxis[r.axis];
@@ -464,13 +471,14 @@ std::vector<std::string> comparison_warnings(const CrossImuReport& report,
                     z + ")");
     }
     for (const std::string& flag : r.flags)
-      if (flag.find("at_box_edge") != std::string::npos)
-        out.push_back(param + " of " + flag.substr(0, flag.find(' ')) +
-                      " is at its box edge: the estimated " + pair_name(p) +
-                      " rests on a clipped estimate");
+      if (flag.find("at_box_edge") != std::string::npos) {
+        std::string& pairs = edges[param + " of " + flag.substr(0, flag.find(' '))];
+        pairs.append(pairs.empty() ? "" : ", ").append(pair_name(p));
+      }
   }
-  std::sort(out.begin(), out.end());
-  out.erase(std::unique(out.begin(), out.end()), out.end());
+  for (const auto& [what, pairs] : edges)
+    out.push_back(what + " is at its box edge: the estimated " + pairs +
+                  " rest on a clipped estimate");
   return out;
 }
 
