@@ -22,6 +22,8 @@ namespace {
 constexpr const char* kAxis[3] = {"x", "y", "z"};
 /// Fewest blocks a segment's SE is computed from.
 constexpr int kMinSegmentBlocks = 5;
+/// Most segments of one window (a longer list says nothing a plot of the data would not).
+constexpr double kMaxSegments = 100000.0;
 
 std::string num(double v) {
   std::ostringstream s;
@@ -195,6 +197,11 @@ CrossImuReport direct_differences(const std::vector<RateSeries>& series,
         "the window --t-start/--t-end lies outside the span every IMU covers");
   report.t_start_s = t0;
   report.t_end_s = t1;
+  if ((t1 - t0) / options.segment_s > kMaxSegments)
+    throw std::invalid_argument("--segment-s " + num(options.segment_s) + ": the window of " +
+                                num(t1 - t0) + " s would make more than " +
+                                std::to_string(static_cast<long>(kMaxSegments)) +
+                                " segments; give a longer segment");
   report.median_step_s = median_step(series.front());
   report.block_s_used =
       std::min(options.block_s, (t1 - t0) / static_cast<double>(options.min_blocks));
@@ -284,9 +291,10 @@ CrossImuReport direct_differences(const std::vector<RateSeries>& series,
         }
       }
       // Per segment: the mean of y - K wbar, its SE from the blocks inside the segment.
-      const double seg0 = t0;
       std::size_t k = 0;
-      for (double s0 = seg0; s0 < t1 && k < n; s0 += options.segment_s) {
+      for (long segment = 0; t0 + static_cast<double>(segment) * options.segment_s < t1 && k < n;
+           ++segment) {
+        const double s0 = t0 + static_cast<double>(segment) * options.segment_s;
         const double s1 = std::min(t1, s0 + options.segment_s);
         Segment seg;
         seg.t_start_s = s0;

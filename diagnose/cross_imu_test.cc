@@ -227,6 +227,14 @@ TEST(CrossImu, OptionsAndInputsRefusedWithReasons) {
   o = {};
   o.t_start_s = 1e6;
   EXPECT_THROW(direct_differences(series, o), std::invalid_argument);
+  o = {};
+  o.segment_s = 1e-4;  // 1.5 million segments over the flight
+  try {
+    direct_differences(series, o);
+    ADD_FAILURE() << "a million segments accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("--segment-s 0.0001"), std::string::npos) << e.what();
+  }
 }
 
 // Fabricated results around a known direct difference give the right verdicts.
