@@ -106,8 +106,16 @@ TEST(CrossImuCli, RealLogAllImusAndTheirDifferences) {
   if (!fs::exists(kLog)) GTEST_SKIP() << kNoLog;
   TempDir tmp;
   ASSERT_FALSE(tmp.path.empty());
+  // The whole log has a 2 s logging gap: the first IMU fails, is named, and nothing is written.
+  const fs::path refused = tmp.path / "refused";
+  Outcome o = insid("import ardupilot " + kLog.string() + " --imu all --out " + refused.string());
+  EXPECT_EQ(o.status, 1) << o.output;
+  EXPECT_TRUE(has(o.output, "--imu all: IMU failed, nothing written")) << o.output;
+  EXPECT_TRUE(has(o.output, "logging gap of 2.022 s")) << o.output;
+  EXPECT_FALSE(fs::exists(refused));
+
   const fs::path ds = tmp.path / "copter";
-  Outcome o = insid("import ardupilot " + kLog.string() + " --imu all --t-start 74.7 --t-end 215 "
+  o = insid("import ardupilot " + kLog.string() + " --imu all --t-start 74.7 --t-end 215 "
                     "--out " + ds.string());
   ASSERT_EQ(o.status, 0) << o.output;
   for (const char* name : {"IMU", "IMU2", "IMU3"}) {
