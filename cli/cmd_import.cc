@@ -323,23 +323,16 @@ void run_import_kf_gins(const ImportKfGinsArgs& args) {
 struct ImportUlogArgs {
   std::string log;
   importers::UlogImportOptions ulog;
+  std::string imu_instance = "0";  ///< a whole number 0-255, or all
   SharedImportArgs shared;
 };
 
-void run_import_ulog(const ImportUlogArgs& args) {
-  dataset_destination(args.shared.out, args.shared.force, {args.log});
-  if (const std::string e = args.ulog.validate(); !e.empty()) throw UsageError(e);
-  importers::AssembleOptions options = args.shared.assemble_options();
-  options.gnss_quality = {1};  // the fix-type selection is made by extract_ulog
-  if (const std::string e = options.validate(); !e.empty()) throw UsageError(e);
-  const auto t0 = std::chrono::steady_clock::now();
-  FileReadOptions read = args.shared.read_options();
-  read.magic = importers::kUlogMagic;
-  read.magic_name = "a PX4 ULog (magic 'ULog' 01 12 35)";
-  std::string bytes = read_text(args.log, "LOG", read);
-  const nlohmann::json source = source_json("ulog", args.log, bytes);
-  const importers::UlogFile log = importers::UlogFile::parse(std::move(bytes), args.log);
-  importers::UlogSeries series = importers::extract_ulog(log, args.log, args.ulog);
+// One IMU instance of a parsed ULog, extracted and assembled in memory (nothing written).
+importers::Assembled assemble_ulog(const ImportUlogArgs& args, const importers::UlogFile& log,
+                                   const importers::UlogImportOptions& ulog,
+                                   const importers::AssembleOptions& options,
+                                   nlohmann::json& opts) {
+  importers::UlogSeries series = importers::extract_ulog(log, args.log, ulog);
   importers::Assembled result = importers::assemble_dataset(
       series.imu, series.gnss, options, series.heading ? &*series.heading : nullptr);
   // The ULog clock is PX4's boot clock, not GPST: name the origin accordingly.
@@ -350,18 +343,97 @@ void run_import_ulog(const ImportUlogArgs& args) {
   result.notes.insert(result.notes.begin(), series.notes.begin(), series.notes.end());
   if (!series.autopilot_estimates.is_null())
     result.dataset.meta.autopilot_estimates_json = series.autopilot_estimates.dump();
-  nlohmann::json opts = {{"imu_topic", args.ulog.imu_topic.empty() ? "auto" : args.ulog.imu_topic},
-                         {"imu_instance", args.ulog.imu_instance},
-                         {"gnss_instance", args.ulog.gnss_instance},
-                         {"min_fix_type", args.ulog.min_fix_type}};
-  if (!args.ulog.heading.empty()) {  // only when given: earlier records stay as they were
-    opts["heading"] = args.ulog.heading;
-    if (args.ulog.heading == "mag") opts["mag_instance"] = args.ulog.mag_instance;
+  opts = {{"imu_topic", ulog.imu_topic.empty() ? "auto" : ulog.imu_topic},
+          {"imu_instance", ulog.imu_instance},
+          {"gnss_instance", ulog.gnss_instance},
+          {"min_fix_type", ulog.min_fix_type}};
+  if (args.imu_instance == "all") opts["imu_instance_option"] = "all";
+  if (!ulog.heading.empty()) {  // only when given: earlier records stay as they were
+    opts["heading"] = ulog.heading;
+    if (ulog.heading == "mag") opts["mag_instance"] = ulog.mag_instance;
   }
   args.shared.record(opts);
-  finish_import("insid import ulog", std::move(result), std::move(opts), {source}, args.shared.out,
-                args.shared.force, t0, args.shared.verbosity);
+  return result;
 }
+
+// The multi-instance IMU topic `--imu-instance all` imports: one vehicle_imu instance per
+// physical IMU (sensor_combined is PX4's one selected IMU).
+constexpr const char* kUlogMultiImuTopic = "vehicle_imu";
+
+void run_import_ulog(const ImportUlogArgs& args) {
+  const bool every = args.imu_instance == "all";
+  importers::UlogImportOptions ulog = args.ulog;
+  if (!every) {
+    ulog.imu_instance = parse_option("--imu-instance", [&] {
+      int v = -1;
+      const std::string& t = args.imu_instance;
+      const auto [end, ec] = std::from_chars(t.data(), t.data() + t.size(), v);
+      if (ec != std::errc() || end != t.data() + t.size() || v < 0 || v > 255)
+        throw std::invalid_argument("--imu-instance '" + t +
+                                    "': must be a whole number in 0-255, or all");
+      return v;
+    });
+  } else {
+    if (!ulog.imu_topic.empty() && ulog.imu_topic != kUlogMultiImuTopic)
+      throw UsageError("--imu-instance all imports every instance of vehicle_imu (one per "
+                       "physical IMU); --imu-topic '" + ulog.imu_topic + "' has one");
+    ulog.imu_topic = kUlogMultiImuTopic;
+  }
+  if (const std::string e = ulog.validate(); !e.empty()) throw UsageError(e);
+  if (!every) dataset_destination(args.shared.out, args.shared.force, {args.log});
+  importers::AssembleOptions options = args.shared.assemble_options();
+  options.gnss_quality = {1};  // the fix-type selection is made by extract_ulog
+  if (const std::string e = options.validate(); !e.empty()) throw UsageError(e);
+  const auto t0 = std::chrono::steady_clock::now();
+  FileReadOptions read = args.shared.read_options();
+  read.magic = importers::kUlogMagic;
+  read.magic_name = "a PX4 ULog (magic 'ULog' 01 12 35)";
+  std::string bytes = read_text(args.log, "LOG", read);
+  const nlohmann::json source = source_json("ulog", args.log, bytes);
+  const importers::UlogFile log = importers::UlogFile::parse(std::move(bytes), args.log);
+  if (!every) {
+    nlohmann::json opts;
+    importers::Assembled result = assemble_ulog(args, log, ulog, options, opts);
+    finish_import("insid import ulog", std::move(result), std::move(opts), {source},
+                  args.shared.out, args.shared.force, t0, args.shared.verbosity);
+    return;
+  }
+  // --imu-instance all: every vehicle_imu instance with data, into --out/vehicle_imu_K; all are
+  // assembled before any is written (one that fails is named, and nothing is written).
+  std::vector<int> present;
+  for (const auto& [instance, n] : log.instances(kUlogMultiImuTopic))
+    if (n > 0) present.push_back(instance);
+  if (present.empty())
+    throw std::runtime_error(args.log + ": no vehicle_imu messages (--imu-instance all imports "
+                                        "each instance of vehicle_imu)");
+  auto dir = [&](int instance) {
+    return (fs::path(args.shared.out) / ("vehicle_imu_" + std::to_string(instance))).string();
+  };
+  for (int instance : present) dataset_destination(dir(instance), args.shared.force, {args.log});
+  std::vector<std::pair<importers::Assembled, nlohmann::json>> assembled;
+  for (int instance : present) {
+    importers::UlogImportOptions one = ulog;
+    one.imu_instance = instance;
+    try {
+      nlohmann::json opts;
+      importers::Assembled result = assemble_ulog(args, log, one, options, opts);
+      assembled.emplace_back(std::move(result), std::move(opts));
+    } catch (const std::bad_alloc&) {
+      throw;
+    } catch (const std::exception& e) {
+      throw std::runtime_error("--imu-instance all: vehicle_imu instance " +
+                               std::to_string(instance) + " failed, nothing written: " + e.what() +
+                               " (import the others one by one with --imu-instance K)");
+    }
+  }
+  for (std::size_t k = 0; k < assembled.size(); ++k)
+    finish_import("insid import ulog", std::move(assembled[k].first),
+                  std::move(assembled[k].second), {source}, dir(present[k]), args.shared.force,
+                  t0, args.shared.verbosity);
+}
+
+/// --imu / --imu-instance value that imports every IMU of a log.
+constexpr const char* kEveryImu = "all";
 
 struct ImportArduPilotArgs {
   std::string log;
@@ -369,20 +441,14 @@ struct ImportArduPilotArgs {
   SharedImportArgs shared;
 };
 
-void run_import_ardupilot(const ImportArduPilotArgs& args) {
-  dataset_destination(args.shared.out, args.shared.force, {args.log});
-  if (const std::string e = args.ardupilot.validate(); !e.empty()) throw UsageError(e);
-  importers::AssembleOptions options = args.shared.assemble_options();
-  options.gnss_quality = {1};  // the Status selection is made by extract_ardupilot
-  if (const std::string e = options.validate(); !e.empty()) throw UsageError(e);
-  const auto t0 = std::chrono::steady_clock::now();
-  FileReadOptions read = args.shared.read_options();
-  read.magic = importers::kDataFlashMagic;
-  read.magic_name = "an ArduPilot DataFlash log (records start with 0xA3 0x95)";
-  std::string bytes = read_text(args.log, "LOG", read);
-  const nlohmann::json source = source_json("dataflash", args.log, bytes);
-  const importers::DataFlashFile log = importers::DataFlashFile::parse(std::move(bytes), args.log);
-  importers::ArduPilotSeries series = importers::extract_ardupilot(log, args.log, args.ardupilot);
+// One IMU of a parsed DataFlash log, extracted and assembled into a dataset in memory (nothing
+// written): the flight phases printed first, a logging gap refused naming where to cut.
+importers::Assembled assemble_ardupilot(const ImportArduPilotArgs& args,
+                                        const importers::DataFlashFile& log,
+                                        const importers::ArduPilotImportOptions& ardupilot,
+                                        const importers::AssembleOptions& options,
+                                        nlohmann::json& recorded_options) {
+  importers::ArduPilotSeries series = importers::extract_ardupilot(log, args.log, ardupilot);
   // The phases first, even when the import is refused below: they say where to cut.
   for (const std::string& line : series.phases.lines())
     std::cerr << "insid import: " << line << "\n";
@@ -393,7 +459,7 @@ void run_import_ardupilot(const ImportArduPilotArgs& args) {
                     "%s: %s has a logging gap of %.3f s after boot time %.3f s, longer than the "
                     "%g s insid integrates across: import the part before it (--t-end %.3f) or "
                     "after it (--t-start %.3f)",
-                    args.log.c_str(), args.ardupilot.imu.c_str(), gap_s, boot_s,
+                    args.log.c_str(), ardupilot.imu.c_str(), gap_s, boot_s,
                     PlausibilityBounds::kMaxImuStep_s, boot_s, boot_s + gap_s);
       throw std::runtime_error(text);
     }
@@ -402,18 +468,88 @@ void run_import_ardupilot(const ImportArduPilotArgs& args) {
   result.notes.insert(result.notes.begin(), series.notes.begin(), series.notes.end());
   if (!series.autopilot_estimates.is_null())
     result.dataset.meta.autopilot_estimates_json = series.autopilot_estimates.dump();
-  nlohmann::json opts = {
-      {"imu", args.ardupilot.imu},
-      {"min_status", args.ardupilot.min_status},
-      {"t_start_boot_s", args.ardupilot.t_start_s ? nlohmann::json(*args.ardupilot.t_start_s)
-                                                  : nlohmann::json(nullptr)},
+  recorded_options = {
+      {"imu", ardupilot.imu},
+      {"min_status", ardupilot.min_status},
+      {"t_start_boot_s",
+       ardupilot.t_start_s ? nlohmann::json(*ardupilot.t_start_s) : nlohmann::json(nullptr)},
       {"t_end_boot_s",
-       args.ardupilot.t_end_s ? nlohmann::json(*args.ardupilot.t_end_s) : nlohmann::json(nullptr)},
+       ardupilot.t_end_s ? nlohmann::json(*ardupilot.t_end_s) : nlohmann::json(nullptr)},
       {"rate_samples", "point"},
       {"axes", "ArduPilot body frame, forward-right-down (no mounting applied)"}};
-  args.shared.record(opts);
-  finish_import("insid import ardupilot", std::move(result), std::move(opts), {source},
-                args.shared.out, args.shared.force, t0, args.shared.verbosity);
+  if (args.ardupilot.imu == kEveryImu) recorded_options["imu_option"] = kEveryImu;
+  args.shared.record(recorded_options);
+  return result;
+}
+
+// The IMU messages of a DataFlash log that `--imu all` imports, in this order.
+constexpr const char* kArduPilotImus[] = {"IMU", "IMU2", "IMU3"};
+
+void run_import_ardupilot(const ImportArduPilotArgs& args) {
+  const bool every = args.ardupilot.imu == kEveryImu;
+  importers::ArduPilotImportOptions checked = args.ardupilot;
+  if (every) checked.imu = "IMU";  // the other options checked as for one IMU
+  if (std::string e = checked.validate(); !e.empty()) {
+    if (e.rfind("--imu", 0) == 0)
+      e += ", or all (every one the log has, into --out/IMU, --out/IMU2, --out/IMU3)";
+    throw UsageError(e);
+  }
+  if (!every) {
+    dataset_destination(args.shared.out, args.shared.force, {args.log});
+  } else {
+    // Every IMU directory is checked before the work (the log itself never in the way).
+    for (const char* name : kArduPilotImus)
+      dataset_destination(fs::path(args.shared.out) / name, args.shared.force, {args.log});
+  }
+  importers::AssembleOptions options = args.shared.assemble_options();
+  options.gnss_quality = {1};  // the Status selection is made by extract_ardupilot
+  if (const std::string e = options.validate(); !e.empty()) throw UsageError(e);
+  const auto t0 = std::chrono::steady_clock::now();
+  FileReadOptions read = args.shared.read_options();
+  read.magic = importers::kDataFlashMagic;
+  read.magic_name = "an ArduPilot DataFlash log (records start with 0xA3 0x95)";
+  std::string bytes = read_text(args.log, "LOG", read);
+  const nlohmann::json source = source_json("dataflash", args.log, bytes);
+  const importers::DataFlashFile log = importers::DataFlashFile::parse(std::move(bytes), args.log);
+  if (!every) {
+    nlohmann::json opts;
+    importers::Assembled result = assemble_ardupilot(args, log, args.ardupilot, options, opts);
+    finish_import("insid import ardupilot", std::move(result), std::move(opts), {source},
+                  args.shared.out, args.shared.force, t0, args.shared.verbosity);
+    return;
+  }
+  // --imu all: every IMU message the log has, each an ordinary dataset in --out/NAME with the
+  // same options and window. All are assembled before any is written: one that fails is named
+  // and nothing is written.
+  std::vector<std::string> present;
+  for (const char* name : kArduPilotImus)
+    if (log.count(name) > 0) present.emplace_back(name);
+  if (present.empty())
+    throw std::runtime_error(args.log + ": no IMU, IMU2 or IMU3 messages (--imu all)");
+  std::vector<std::pair<importers::Assembled, nlohmann::json>> assembled;
+  for (const std::string& name : present) {
+    importers::ArduPilotImportOptions one = args.ardupilot;
+    one.imu = name;
+    std::cerr << "insid import: --imu all: " << name << "\n";
+    try {
+      nlohmann::json opts;
+      importers::Assembled result = assemble_ardupilot(args, log, one, options, opts);
+      assembled.emplace_back(std::move(result), std::move(opts));
+    } catch (const std::bad_alloc&) {
+      throw;
+    } catch (const std::exception& e) {
+      std::string done;
+      for (std::size_t k = 0; k < assembled.size(); ++k) done += (k ? ", " : "") + present[k];
+      throw std::runtime_error("--imu all: " + name + " failed, nothing written" +
+                               (done.empty() ? "" : " (" + done + " were fine)") + ": " +
+                               e.what() + " (import the others one by one with --imu NAME)");
+    }
+  }
+  for (std::size_t k = 0; k < assembled.size(); ++k)
+    finish_import("insid import ardupilot", std::move(assembled[k].first),
+                  std::move(assembled[k].second), {source},
+                  (fs::path(args.shared.out) / present[k]).string(), args.shared.force, t0,
+                  args.shared.verbosity);
 }
 
 }  // namespace
@@ -492,9 +628,11 @@ void add_import_command(CLI::App& app) {
   ul->add_option("log", u->log, "the .ulg file")->required();
   ul->add_option("--imu-topic", u->ulog.imu_topic,
                  "vehicle_imu | sensor_combined (default: the one with more samples)");
-  ul->add_option("--imu-instance", u->ulog.imu_instance,
-                 "multi-instance IMU topic: which one (default 0)")
-      ->check(whole_in(0, 255));
+  ul->add_option("--imu-instance", u->imu_instance,
+                 "multi-instance IMU topic: which one (default 0); all: every vehicle_imu "
+                 "instance, each an ordinary dataset in --out/vehicle_imu_K (for insid "
+                 "cross-imu)")
+      ->capture_default_str();
   ul->add_option("--gnss-instance", u->ulog.gnss_instance, "which GNSS instance (default 0)")
       ->check(whole_in(0, 255));
   ul->add_option("--min-fix-type", u->ulog.min_fix_type,
@@ -515,7 +653,10 @@ void add_import_command(CLI::App& app) {
       "an ArduPilot DataFlash log (.bin): IMU, IMU2 or IMU3 (sampled rates and specific forces), "
       "GPS fixes (Spd along GCrs, VZ), layouts read from the file's own FMT records");
   apc->add_option("log", ap->log, "the .bin file")->required();
-  apc->add_option("--imu", ap->ardupilot.imu, "IMU | IMU2 | IMU3: which IMU (default IMU)")
+  apc->add_option("--imu", ap->ardupilot.imu,
+                  "IMU | IMU2 | IMU3: which IMU (default IMU); all: every IMU the log has, each "
+                  "an ordinary dataset in --out/IMU, --out/IMU2, --out/IMU3 (same options and "
+                  "window; for insid cross-imu)")
       ->capture_default_str();
   apc->add_option("--min-status", ap->ardupilot.min_status,
                   "GPS Status kept: 3 = 3D fix (default) and above")

@@ -62,5 +62,6 @@ void add_diagnose_command(CLI::App& app);
 void add_merge_command(CLI::App& app);
 void add_import_command(CLI::App& app);
 void add_export_command(CLI::App& app);
+void add_cross_imu_command(CLI::App& app);
 
 }  // namespace insid::cli

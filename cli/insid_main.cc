@@ -62,6 +62,7 @@ int main(int argc, char** argv) {
   insid::cli::add_diagnose_command(app);
   insid::cli::add_import_command(app);
   insid::cli::add_export_command(app);
+  insid::cli::add_cross_imu_command(app);
   // One error prefix, "insid <command>: error: ", and three exit codes (kExitCodeHelp).
   try {
     app.parse(argc, argv);
