@@ -50,7 +50,9 @@ struct EkfRtsParams {
 /// for every grade but nav and for nav with an initial-attitude mode other than gyrocompass
 /// (nav with gyrocompass keeps the set-up above, bit for bit):
 ///   - bias priors initial_bias_sigma x the grade's sigma (not the catalogue's nav sigma);
-///   - process and measurement noise from meta.json's noise block, else the grade's levels;
+///   - process and measurement noise from meta.json's noise block, else the IMU random walks
+///     measured in the data's flight (core/noise_model.h, estimate_flight_imu_noise: a drone's
+///     vibration, which the grade's datasheet figures do not have) and the grade's GNSS levels;
 ///   - the initial attitude is the navigation problem's initial-attitude mode (level+heading,
 ///     gyrocompass, given, truth) applied to the data compensated with the current bias
 ///     estimate, and its error is tied to the bias errors the way that mode ties them:

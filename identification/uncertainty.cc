@@ -207,7 +207,21 @@ NoiseReplicaSet run_noise_replicas(const NavigationProblem& nav, const SensorErr
   return set;
 }
 
-// The factor on the EKF-RTS's smoothed sd: PLACEHOLDER
+// The factor on the EKF-RTS's smoothed sd: the filter's own Birge ratio, sqrt(max(1, NIS/dof)),
+// with NIS/dof = sum_k z_k^T S_k^-1 z_k / sum_k dim(z_k) over its GNSS updates (EkfRtsResult::
+// nis_per_dof). A filter whose every noise (process and measurement) is k times too small
+// has innovations k times its predicted S^(1/2), so NIS/dof ~ k^2, and its smoothed covariance
+// is k^2 too small with an unchanged gain (Bar-Shalom, Li & Kirubarajan 2001, "Estimation with
+// Applications to Tracking and Navigation", sec. 5.4.2 on the NIS as the filter's consistency
+// test; the PDG's scale factor S = sqrt(chi^2 / dof), applied only when S > 1, Particle Data
+// Group, "Review of Particle Physics", Introduction, sec. 5.2.2). The filter's own ratio, not the
+// fitness's (UncertaintyReport::sd_scale): that one measures the windowed velocity fit against
+// replicas of the static window's noise, a model the filter does not share (on the shared
+// ArduPilot log 15-47 where the filter, told the flight's noise, sees 46-103 in NIS, i.e. 7-10 in
+// sd). Why not the Gauss-Newton sd instead, or as a floor always: on simulated drone flights
+// the filter is 2-3x more precise than the least-squares fit (it uses the GNSS positions and
+// re-estimates the attitude), and the floor made its intervals cover 180 of 180 truths with
+// |error|/sd RMS 0.42: honest but 2.4x too wide (results/uncertainty/README.md, issue 44).
 double filter_sd_scale(double nis_per_dof) { return std::sqrt(std::max(nis_per_dof, 1.0)); }
 
 // A not_converged estimate (step 6 below): the sd describes the spread of the optimum, and the
@@ -549,6 +563,13 @@ void use_filter_sd(UncertaintyReport& report, const FilterSd& filter) {
     p.sd_source = report.filter_sd_scale > 1.0
                       ? "ekf-rts smoothed covariance, scaled for the filter's misfit"
                       : "ekf-rts smoothed covariance";
+    // A filter whose innovations exceed misfit_min_ratio (4) times their expected chi-square has
+    // a noise model a single scale cannot mend: the ratio of process to measurement noise is off
+    // too, so its gain, not only its covariance, is wrong (told the MEMS grade's 0.2 deg/sqrt(h)
+    // on a flight with 8, its NIS-scaled intervals covered 36 of 180 simulated truths). Its sd is
+    // then never below the least-squares spread at its point (the Gauss-Newton replica sd, with
+    // the fitness's own misfit scale), an estimator-free yardstick of what the data pin down:
+    // 180 of 180 covered. The same threshold as the fitness's misfit scale (step 4b).
     if (report.filter_model_rejected && p.sd_gauss_newton_si && *p.sd_gauss_newton_si > *p.sd_si) {
       p.sd_si = p.sd_gauss_newton_si;
       p.sd_source = "gauss-newton replicas at the filter's point (the filter's model rejected)";

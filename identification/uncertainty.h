@@ -17,7 +17,9 @@
 //   * Distance to the optimum: one Gauss-Newton step from the estimate on the criterion the
 //     algorithm minimised (least squares, or an IRLS/Weiszfeld step for Eq. 15's sum of norms),
 //     parameters held at a box edge they press against; in sd units per parameter.
-//   * Flags per parameter: at_box_edge, not_observable, correlated:<other>, not_converged.
+//   * Flags per parameter: at_box_edge, not_observable, correlated:<other>, not_converged; a
+//     not_converged estimate's sd is sqrt(sd^2 + step^2) (it covers the optimum too).
+//   * EKF-RTS: its own smoothed sd, scaled by its innovations' misfit (use_filter_sd).
 #pragma once
 
 #include <cstdint>
@@ -182,9 +184,11 @@ struct FilterSd {
 };
 
 /// EKF-RTS: parameters[].sd becomes the filter-smoother's own sd, made honest (identification/
-/// README.md, "How sure an estimate is"): the smoothed sd times the filter's misfit factor
-/// (report.filter_sd_scale, PLACEHOLDER), and for a not_converged
-/// estimate combined with the step to the fitness's least-squares optimum, sqrt(sd^2 + step^2).
+/// README.md, "How sure an estimate is"): the smoothed sd times the filter's own Birge ratio
+/// report.filter_sd_scale = sqrt(max(1, NIS/dof)) of its innovations; when NIS/dof exceeds
+/// options.misfit_min_ratio (its noise model rejected, report.filter_model_rejected) never below
+/// the Gauss-Newton sd at its point; for a not_converged estimate combined with the step to the
+/// fitness's least-squares optimum, sqrt(sd^2 + step^2).
 /// sd_source says so, sd_filter_si keeps the smoother's own sd and sd_gauss_newton_si the
 /// Gauss-Newton one; not_observable is re-derived with the new sd (before the step);
 /// at_box_edge, correlated:<other> and not_converged are unchanged (not_converged and
