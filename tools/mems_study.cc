@@ -73,16 +73,25 @@ int mems_study_main(int argc, char** argv) {
                  "50 Hz IMU, 5 Hz GNSS, six biases drawn per seed; identification/mems_study.h)")
       ->capture_default_str()
       ->check(CLI::IsMember({"rich", "drone"}));
-  app.add_option("--drone-arw-deg-rth", spec.drone_arw_deg_rth)->capture_default_str();
-  app.add_option("--drone-vrw-mps-rth", spec.drone_vrw_mps_rth)->capture_default_str();
+  app.add_option("--drone-arw-deg-rth", spec.drone_arw_deg_rth, "drone: IMU white noise")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1e6));
+  app.add_option("--drone-vrw-mps-rth", spec.drone_vrw_mps_rth)
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1e6));
   app.add_option("--drone-gnss-vel-sigma-mps", spec.drone_gnss_vel_sigma_mps)
-      ->capture_default_str();
-  app.add_option("--drone-gnss-pos-sigma-m", spec.drone_gnss_pos_sigma_m)->capture_default_str();
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1e6));
+  app.add_option("--drone-gnss-pos-sigma-m", spec.drone_gnss_pos_sigma_m)
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1e6));
   app.add_option("--truth-max-sigma", spec.truth_max_sigma,
                  "drone: biases uniform in +- this many grade sigma")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1e6));
   app.add_option("--box-sigma", spec.box_sigma, "drone: search box +- this many grade sigma")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(CLI::Range(1e-6, 1e6));
   app.add_flag("--noise-in-meta", spec.noise_in_meta,
                "drone: meta.json declares the true noise levels (default: none, as an "
                "imported log)");
@@ -97,6 +106,24 @@ int mems_study_main(int argc, char** argv) {
   tools::parse(app, argc, argv);
   register_ekf_rts();
   // Names checked before any work (a bad one is a usage error).
+  cli::parse_option("--ekf-param", [&] {
+    for (const std::string& item : spec.ekf_params) {
+      const std::size_t eq = item.find('=');
+      bool known = false;
+      for (const auto& field : EkfRtsParams::fields())
+        known = known || (eq != std::string::npos && field.name == item.substr(0, eq));
+      std::size_t used = 0;
+      double value = std::nan("");
+      try {
+        if (eq != std::string::npos) value = std::stod(item.substr(eq + 1), &used);
+      } catch (const std::exception&) {
+      }
+      if (!known || !std::isfinite(value) || used == 0 || eq + 1 + used != item.size())
+        throw std::invalid_argument("'" + item +
+                                    "': must be KEY=VALUE with a key of EKF-RTS's parameters "
+                                    "(identification/ekf_rts.h, EkfRtsParams) and a number");
+    }
+  });
   cli::parse_option("--flight", [&] {
     if (const std::string error = spec.validate(); !error.empty())
       throw std::invalid_argument(error);
