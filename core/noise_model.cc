@@ -137,7 +137,8 @@ NoiseLevels estimate_flight_imu_noise(const Dataset& ds) {
   for (int a = 0; a < 3; ++a) {
     arw += white_sd(begin, ds.imu.size(), true,
                     [&](std::size_t k) { return ds.imu[k].dtheta_b_rad[a]; });
-    vrw += white_sd(begin, ds.imu.size(), true, [&](std::size_t k) { return ds.imu[k].dv_b_mps[a]; });
+    vrw +=
+        white_sd(begin, ds.imu.size(), true, [&](std::size_t k) { return ds.imu[k].dv_b_mps[a]; });
   }
   // Per-sample sd = level * sqrt(dt) with the level in rad/sqrt(s); 1/sqrt(s) = 60/sqrt(h).
   out.arw_deg_rth = arw / 3.0 / std::sqrt(dt) * kRadToDeg * 60.0;

@@ -236,13 +236,13 @@ NoiseLevels ekf_noise_levels(const Dataset& ds, const EkfRtsParams& params,
     defaults.vrw_mps_rth = flight.vrw_mps_rth;
   }
   if (source)
-    *source = dn ? "meta.json (parameters where given)"
-              : imu_measured
-                  ? "IMU: measured in the flight (MAD of second differences of the increments "
-                    "after the static window); GNSS: the " +
-                        std::string(setup->grade.name) + " grade's (parameters where given)"
-              : setup ? "the " + std::string(setup->grade.name) + " grade's (parameters where given)"
-                      : "nav defaults (parameters where given)";
+    *source =
+        dn             ? "meta.json (parameters where given)"
+        : imu_measured ? "IMU: measured in the flight (MAD of second differences of the increments "
+                         "after the static window); GNSS: the " +
+                             std::string(setup->grade.name) + " grade's (parameters where given)"
+        : setup ? "the " + std::string(setup->grade.name) + " grade's (parameters where given)"
+                : "nav defaults (parameters where given)";
   NoiseLevels noise;
   noise.arw_deg_rth = pick(params.arw_deg_rth, dn ? std::optional(dn->arw_deg_rth) : std::nullopt,
                            defaults.arw_deg_rth, kNoiseFloor.arw_deg_rth);

@@ -88,14 +88,14 @@ struct EkfRtsResult {
   std::map<std::string, double> estimate, std;
   /// Filtered (forward-only) estimates at the end of the data and their standard deviations.
   std::map<std::string, double> filtered_estimate, filtered_std;
-  NoiseLevels noise_used;  ///< process and measurement noise actually used
+  NoiseLevels noise_used;    ///< process and measurement noise actually used
   std::string noise_source;  ///< where noise_used came from (ekf_rts.cc, ekf_noise_levels)
-  int updates = 0;         ///< GNSS updates
+  int updates = 0;           ///< GNSS updates
   /// The filter's own misfit (last pass): the normalised innovation squared of its GNSS updates,
   /// sum over updates of z^T S^-1 z (z the INS-minus-GNSS innovation, S = H P H^T + R its
   /// covariance as the filter predicts it), over its expected value, the number of scalar
   /// measurements (chi-square with that many degrees of freedom when the filter's noise model is
-  /// right; Bar-Shalom, Li & Kirubarajan 2001, sec. 5.4.2). About 1 when the noise levels are
+  /// right; Bar-Shalom, Li & Kirubarajan 2001, sec. 5.4). About 1 when the noise levels are
   /// right; k^2 when every noise the filter assumes is k times too small.
   double nis_per_dof = 0.0;
   int nis_dof = 0;  ///< scalar measurements in that sum

@@ -135,8 +135,7 @@ TEST(HonestSd, FilterWithUnderstatedNoiseGetsItsSdScaledUpByThatFactor) {
   for (std::size_t j = 0; j < names.size(); ++j) {
     const double sigma = under_wide.parameters[j].sigma_si;
     EXPECT_NEAR(*under_wide.parameters[j].sd_si, sigma, 1e-12 * sigma) << names[j];
-    EXPECT_NEAR(*right_wide.parameters[j].sd_si, *right_report.parameters[j].sd_si,
-                1e-12 * sigma)
+    EXPECT_NEAR(*right_wide.parameters[j].sd_si, *right_report.parameters[j].sd_si, 1e-12 * sigma)
         << names[j];
   }
 }
@@ -187,8 +186,7 @@ TEST(HonestSd, NotConvergedSdCoversItsStepToTheOptimum) {
     const double distance_sigma = std::abs(optimum[j]);  // from the box centre
     std::cout << "[ honest sd ] " << p.name << ": distance to the LM optimum " << distance_sigma
               << " sigma, one step " << p.step_to_optimum_sigma << ", sd without / with it "
-              << *p.sd_without_step_si / p.sigma_si << " / " << *p.sd_si / p.sigma_si
-              << " sigma\n";
+              << *p.sd_without_step_si / p.sigma_si << " / " << *p.sd_si / p.sigma_si << " sigma\n";
     EXPECT_LE(distance_sigma, kZ95 * *p.sd_si / p.sigma_si) << p.name;
     missed_without_step += distance_sigma > kZ95 * *p.sd_without_step_si / p.sigma_si;
   }
@@ -219,8 +217,8 @@ TEST(HonestSd, EkfRtsIntervalsCoverTheTruthsOfDroneFlights) {
       covered += std::abs(z) <= kZ95;
       ++total;
       std::cout << "[ honest sd ] seed " << seed << " "
-                << mems_study::parameter_names(spec)[static_cast<std::size_t>(k)]
-                << " error/sd " << z << "\n";
+                << mems_study::parameter_names(spec)[static_cast<std::size_t>(k)] << " error/sd "
+                << z << "\n";
     }
   }
   std::cout << "[ honest sd ] EKF-RTS covered " << covered << "/" << total << "\n";

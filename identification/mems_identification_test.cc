@@ -167,7 +167,8 @@ TEST(MemsIdentification, IdentifyReportsTheFiltersOwnSdForEkfRts) {
     EXPECT_EQ(p.sd_without_step_si.value_or(*p.sd_si), ekf->ekf()->std.at(p.name)) << p.name;
     EXPECT_EQ(p.sd_source, "ekf-rts smoothed covariance");
     ASSERT_TRUE(p.sd_gauss_newton_si.has_value());
-    differs += std::abs(*p.sd_gauss_newton_si / p.sd_without_step_si.value_or(*p.sd_si) - 1.0) > 0.2;
+    differs +=
+        std::abs(*p.sd_gauss_newton_si / p.sd_without_step_si.value_or(*p.sd_si) - 1.0) > 0.2;
     for (const std::string& f : p.flags) EXPECT_NE(f, "not_observable") << p.name;
   }
   EXPECT_GE(differs, 1) << "the filter's and the Gauss-Newton sd should not coincide here";

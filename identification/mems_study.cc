@@ -3,8 +3,8 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <utility>
 #include <stdexcept>
+#include <utility>
 
 #include "core/rotation.h"
 #include "core/units.h"
@@ -84,8 +84,7 @@ std::string Spec::validate() const {
 }
 
 std::shared_ptr<const Dataset> flight(const Spec& spec, std::uint64_t seed) {
-  if (const std::string error = spec.validate(); !error.empty())
-    throw std::invalid_argument(error);
+  if (const std::string error = spec.validate(); !error.empty()) throw std::invalid_argument(error);
   if (spec.kind == "drone") {
     scenarios::ScenarioConfig cfg = scenarios::preset_scenario("multicopter");
     cfg.imu_rate_hz = spec.drone_imu_rate_hz;
@@ -153,8 +152,7 @@ Answer ekf_rts(const std::shared_ptr<const Dataset>& data, const Spec& spec) {
     options.initial_attitude.heading_source = heading_source_from_string(spec.heading_source);
   const auto navigation = std::make_shared<const NavigationProblem>(data, options);
   // Declared by meta.json's noise (mems); a drone flight without a noise block is mems too.
-  const SensorGrade& grade =
-      spec.kind == "drone" ? sensor_grade("mems") : grade_for(*data);
+  const SensorGrade& grade = spec.kind == "drone" ? sensor_grade("mems") : grade_for(*data);
   if (grade.name != "mems")
     throw std::logic_error("mems study: the flight declares grade '" + std::string(grade.name) +
                            "'");

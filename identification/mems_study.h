@@ -49,21 +49,21 @@ struct Spec {
 
   /// "rich" (the flight above, its five fixed biases) or "drone": a flight that looks like the
   /// shared ArduPilot quadcopter log (../shared/data/ardupilot-copter, issue 44): the
-  /// `multicopter` preset's legs, turns, climbs and orbits at drone_imu_rate_hz / drone_gnss_rate_hz
-  /// after drone_align_s on the ground, flight_s of flying, white IMU noise at the levels measured
-  /// in that log's flight (the simulator has no vibration model: drone_arw / drone_vrw stand for
-  /// it), and six biases (gyro x/y/z, accel x/y/z) drawn per seed uniformly in
+  /// `multicopter` preset's legs, turns, climbs and orbits at drone_imu_rate_hz /
+  /// drone_gnss_rate_hz after drone_align_s on the ground, flight_s of flying, white IMU noise at
+  /// the levels measured in that log's flight (the simulator has no vibration model: drone_arw /
+  /// drone_vrw stand for it), and six biases (gyro x/y/z, accel x/y/z) drawn per seed uniformly in
   /// [-truth_max_sigma, truth_max_sigma] grade sigma, searched in [-box_sigma, box_sigma].
   std::string kind = "rich";
   double drone_imu_rate_hz = 50.0;
   double drone_gnss_rate_hz = 5.0;
   double drone_align_s = 8.0;
-  double drone_arw_deg_rth = 8.0;           ///< the log's in-flight gyro noise (deg/sqrt(h))
-  double drone_vrw_mps_rth = 1.0;           ///< its in-flight accelerometer noise (m/s/sqrt(h))
-  double drone_gnss_vel_sigma_mps = 0.05;   ///< per ENU axis (m/s)
-  double drone_gnss_pos_sigma_m = 0.5;      ///< per ENU axis (m)
-  double truth_max_sigma = 5.0;  ///< drone: biases uniform in +-this many grade sigma
-  double box_sigma = 8.0;        ///< drone: the search box +-this many grade sigma
+  double drone_arw_deg_rth = 8.0;          ///< the log's in-flight gyro noise (deg/sqrt(h))
+  double drone_vrw_mps_rth = 1.0;          ///< its in-flight accelerometer noise (m/s/sqrt(h))
+  double drone_gnss_vel_sigma_mps = 0.05;  ///< per ENU axis (m/s)
+  double drone_gnss_pos_sigma_m = 0.5;     ///< per ENU axis (m)
+  double truth_max_sigma = 5.0;            ///< drone: biases uniform in +-this many grade sigma
+  double box_sigma = 8.0;                  ///< drone: the search box +-this many grade sigma
   /// drone: meta.json declares the noise levels (the filter and the replicas then use the true
   /// ones); false: the data look imported, as the real log (no noise block: the EKF-RTS takes the
   /// grade's levels, the replicas the static window's).

@@ -212,11 +212,11 @@ NoiseReplicaSet run_noise_replicas(const NavigationProblem& nav, const SensorErr
 // nis_per_dof). A filter whose every noise (process and measurement) is k times too small
 // has innovations k times its predicted S^(1/2), so NIS/dof ~ k^2, and its smoothed covariance
 // is k^2 too small with an unchanged gain (Bar-Shalom, Li & Kirubarajan 2001, "Estimation with
-// Applications to Tracking and Navigation", sec. 5.4.2 on the NIS as the filter's consistency
+// Applications to Tracking and Navigation", sec. 5.4 on the NIS as the filter's consistency
 // test; the PDG's scale factor S = sqrt(chi^2 / dof), applied only when S > 1, Particle Data
-// Group, "Review of Particle Physics", Introduction, sec. 5.2.2). The filter's own ratio, not the
-// fitness's (UncertaintyReport::sd_scale): that one measures the windowed velocity fit against
-// replicas of the static window's noise, a model the filter does not share (on the shared
+// Group, "Review of Particle Physics", Introduction, "Averages and fits"). The filter's own ratio,
+// not the fitness's (UncertaintyReport::sd_scale): that one measures the windowed velocity fit
+// against replicas of the static window's noise, a model the filter does not share (on the shared
 // ArduPilot log 15-47 where the filter, told the flight's noise, sees 46-103 in NIS, i.e. 7-10 in
 // sd). Why not the Gauss-Newton sd instead, or as a floor always: on simulated drone flights
 // the filter is 2-3x more precise than the least-squares fit (it uses the GNSS positions and
@@ -537,10 +537,10 @@ void use_filter_sd(UncertaintyReport& report, const FilterSd& filter) {
                                 " sd for " + std::to_string(report.parameters.size()) +
                                 " parameters");
   if (!(filter.nis_per_dof >= 0.0) || !std::isfinite(filter.nis_per_dof) || filter.nis_dof < 1)
-    throw std::invalid_argument("use_filter_sd: nis_per_dof = " +
-                                opt::format_number(filter.nis_per_dof) + " over " +
-                                std::to_string(filter.nis_dof) +
-                                " degrees of freedom: must be a finite number >= 0 over >= 1");
+    throw std::invalid_argument(
+        "use_filter_sd: nis_per_dof = " + opt::format_number(filter.nis_per_dof) + " over " +
+        std::to_string(filter.nis_dof) +
+        " degrees of freedom: must be a finite number >= 0 over >= 1");
   for (std::size_t j = 0; j < report.parameters.size(); ++j) {
     const double sd_si = filter.sd_si[j];
     if (!(sd_si > 0.0) || !std::isfinite(sd_si))

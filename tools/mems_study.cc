@@ -6,8 +6,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <functional>
 #include <fstream>
+#include <functional>
 #include <iostream>
 #include <stdexcept>
 #include <string>
@@ -200,8 +200,8 @@ int mems_study_main(int argc, char** argv) {
     return std::sqrt(std::max(r.filter_nis_per_dof.value_or(1.0), 1.0));
   };
   std::vector<std::pair<std::string, Rule>> ekf_rules = {
-      {"filter's own sd", [](const ParameterUncertainty& p,
-                             const UncertaintyReport&) { return *p.sd_filter_si; }},
+      {"filter's own sd",
+       [](const ParameterUncertainty& p, const UncertaintyReport&) { return *p.sd_filter_si; }},
       {"before: filter x fitness misfit",
        [](const ParameterUncertainty& p, const UncertaintyReport& r) {
          return *p.sd_filter_si * r.sd_scale;
@@ -231,11 +231,14 @@ int mems_study_main(int argc, char** argv) {
        }},
       {"max(filter x NIS, gauss-newton), +step if not_converged",
        [&](const ParameterUncertainty& p, const UncertaintyReport& r) {
-         const double sd = std::max(*p.sd_filter_si * nis_scale(r), p.sd_gauss_newton_si.value_or(0.0));
+         const double sd =
+             std::max(*p.sd_filter_si * nis_scale(r), p.sd_gauss_newton_si.value_or(0.0));
          return not_converged(p) ? std::hypot(sd, step_si(p)) : sd;
        }},
-      {"gauss-newton", [](const ParameterUncertainty& p,
-                          const UncertaintyReport&) { return p.sd_gauss_newton_si.value_or(std::nan("")); }},
+      {"gauss-newton",
+       [](const ParameterUncertainty& p, const UncertaintyReport&) {
+         return p.sd_gauss_newton_si.value_or(std::nan(""));
+       }},
   };
   std::vector<std::pair<std::string, Rule>> fit_rules = {
       {"before: without the step",
@@ -266,11 +269,11 @@ int mems_study_main(int argc, char** argv) {
     const Eigen::VectorXd truth = mems_study::truth_si(spec, static_cast<std::uint64_t>(seed));
     for (int m = 0; m < n_methods; ++m) {
       const std::string& method = methods[static_cast<std::size_t>(m)];
-      const mems_study::Answer a =
-          method == "ekf-rts"            ? mems_study::ekf_rts(data, spec)
-          : method == "ekf-rts-reported" ? mems_study::ekf_rts_reported(data, spec)
-          : method == "lm"               ? mems_study::lm_windowed(data, spec)
-                                         : mems_study::swarm_windowed(data, spec);
+      const mems_study::Answer a = method == "ekf-rts" ? mems_study::ekf_rts(data, spec)
+                                   : method == "ekf-rts-reported"
+                                       ? mems_study::ekf_rts_reported(data, spec)
+                                   : method == "lm" ? mems_study::lm_windowed(data, spec)
+                                                    : mems_study::swarm_windowed(data, spec);
       wall[m] += a.wall_s;
       evaluations[m] += a.evaluations;
       const std::vector<std::pair<std::string, Rule>>* rules = nullptr;
@@ -291,10 +294,13 @@ int mems_study_main(int argc, char** argv) {
           nc = nc || f == "not_converged";
         }
         tally[m][0][static_cast<std::size_t>(k)].add(err, sd, nc);
-        nlohmann::json rec = {{"seed", seed},        {"method", labels[m]},
+        nlohmann::json rec = {{"seed", seed},
+                              {"method", labels[m]},
                               {"parameter", names[static_cast<std::size_t>(k)]},
-                              {"truth_si", truth[k]}, {"estimate_si", a.estimate_si[k]},
-                              {"sd_si", sd},          {"flags", flags}};
+                              {"truth_si", truth[k]},
+                              {"estimate_si", a.estimate_si[k]},
+                              {"sd_si", sd},
+                              {"flags", flags}};
         if (rules) {
           const ParameterUncertainty& p = a.uncertainty->parameters[static_cast<std::size_t>(k)];
           for (std::size_t r = 0; r < rules->size(); ++r) {
@@ -310,8 +316,8 @@ int mems_study_main(int argc, char** argv) {
         records.push_back(rec);
         if (out)
           out << seed << "," << labels[m] << "," << names[static_cast<std::size_t>(k)] << ","
-              << truth[k] << "," << a.estimate_si[k] << "," << sd << "," << err / sd << ","
-              << flags << "," << a.wall_s << "\n";
+              << truth[k] << "," << a.estimate_si[k] << "," << sd << "," << err / sd << "," << flags
+              << "," << a.wall_s << "\n";
       }
     }
     std::cerr << "seed " << seed << " done\n";
