@@ -126,6 +126,26 @@ NoiseLevels estimate_noise_levels(const Dataset& ds, std::string* method) {
   return out;
 }
 
+NoiseLevels estimate_flight_imu_noise(const Dataset& ds) {
+  NoiseLevels out;
+  const double dt = 1.0 / ds.meta.imu_rate_hz;
+  const double t0 = ds.imu.empty() ? 0.0 : ds.imu.front().t_s - dt;
+  std::size_t begin = 0;
+  while (begin < ds.imu.size() && ds.imu[begin].t_s <= t0 + ds.meta.align_s + 1e-9) ++begin;
+  if (ds.imu.size() < begin + 100) begin = 0;
+  double arw = 0.0, vrw = 0.0;
+  for (int a = 0; a < 3; ++a) {
+    arw += white_sd(begin, ds.imu.size(), true,
+                    [&](std::size_t k) { return ds.imu[k].dtheta_b_rad[a]; });
+    vrw +=
+        white_sd(begin, ds.imu.size(), true, [&](std::size_t k) { return ds.imu[k].dv_b_mps[a]; });
+  }
+  // Per-sample sd = level * sqrt(dt) with the level in rad/sqrt(s); 1/sqrt(s) = 60/sqrt(h).
+  out.arw_deg_rth = arw / 3.0 / std::sqrt(dt) * kRadToDeg * 60.0;
+  out.vrw_mps_rth = vrw / 3.0 / std::sqrt(dt) * 60.0;
+  return out;
+}
+
 NoiseEstimate noise_levels_for(const Dataset& dataset) {
   NoiseEstimate e;
   e.estimated = estimate_noise_levels(dataset, &e.estimate_method);

@@ -33,6 +33,15 @@ struct NoiseEstimate {
 /// second differences over the whole flight (smooth motion cancels to first order).
 NoiseLevels estimate_noise_levels(const Dataset& dataset, std::string* method = nullptr);
 
+/// The IMU's noise in flight: the robust (MAD) spread of second differences of the IMU
+/// increments after the static alignment window (smooth motion cancels to first order; at a
+/// drone's 50 Hz the motion's share is small beside the motors' vibration), as random walks
+/// (arw_deg_rth, vrw_mps_rth; the GNSS fields are 0). The static window of a drone is taken
+/// with the motors off and can be 50x quieter than the flight (the shared ArduPilot log: gyro
+/// 0.01 vs 0.3-3 deg/s per sample). Falls back to the whole data when fewer than 100 rows follow
+/// the window.
+NoiseLevels estimate_flight_imu_noise(const Dataset& dataset);
+
 /// Declared levels when meta.json has them, else the estimate.
 NoiseEstimate noise_levels_for(const Dataset& dataset);
 

@@ -50,7 +50,9 @@ struct EkfRtsParams {
 /// for every grade but nav and for nav with an initial-attitude mode other than gyrocompass
 /// (nav with gyrocompass keeps the set-up above, bit for bit):
 ///   - bias priors initial_bias_sigma x the grade's sigma (not the catalogue's nav sigma);
-///   - process and measurement noise from meta.json's noise block, else the grade's levels;
+///   - process and measurement noise from meta.json's noise block, else the IMU random walks
+///     measured in the data's flight (core/noise_model.h, estimate_flight_imu_noise: a drone's
+///     vibration, which the grade's datasheet figures do not have) and the grade's GNSS levels;
 ///   - the initial attitude is the navigation problem's initial-attitude mode (level+heading,
 ///     gyrocompass, given, truth) applied to the data compensated with the current bias
 ///     estimate, and its error is tied to the bias errors the way that mode ties them:
@@ -86,8 +88,17 @@ struct EkfRtsResult {
   std::map<std::string, double> estimate, std;
   /// Filtered (forward-only) estimates at the end of the data and their standard deviations.
   std::map<std::string, double> filtered_estimate, filtered_std;
-  NoiseLevels noise_used;  ///< process and measurement noise actually used
-  int updates = 0;         ///< GNSS updates
+  NoiseLevels noise_used;    ///< process and measurement noise actually used
+  std::string noise_source;  ///< where noise_used came from (ekf_rts.cc, ekf_noise_levels)
+  int updates = 0;           ///< GNSS updates
+  /// The filter's own misfit (last pass): the normalised innovation squared of its GNSS updates,
+  /// sum over updates of z^T S^-1 z (z the INS-minus-GNSS innovation, S = H P H^T + R its
+  /// covariance as the filter predicts it), over its expected value, the number of scalar
+  /// measurements (chi-square with that many degrees of freedom when the filter's noise model is
+  /// right; Bar-Shalom, Li & Kirubarajan 2001, sec. 5.4). About 1 when the noise levels are
+  /// right; k^2 when every noise the filter assumes is k times too small.
+  double nis_per_dof = 0.0;
+  int nis_dof = 0;  ///< scalar measurements in that sum
   int states = 15;
   /// Grade-aware set-up only: the grade, the passes and the initial attitude's modelled noise.
   std::optional<EkfRtsGradeSetup> setup;

@@ -15,6 +15,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -22,6 +23,7 @@
 
 #include "core/dataset.h"
 #include "identification/ins_problem.h"
+#include "identification/uncertainty.h"
 
 namespace insid::mems_study {
 
@@ -44,12 +46,44 @@ struct Spec {
   double heading_sd_deg = 0.0;
   /// level+heading's --heading-source for every method; "" = the course (the default).
   std::string heading_source;
+
+  /// "rich" (the flight above, its five fixed biases) or "drone": a flight that looks like the
+  /// shared ArduPilot quadcopter log (../shared/data/ardupilot-copter, issue 44): the
+  /// `multicopter` preset's legs, turns, climbs and orbits at drone_imu_rate_hz /
+  /// drone_gnss_rate_hz after drone_align_s on the ground, flight_s of flying, white IMU noise at
+  /// the levels measured in that log's flight (the simulator has no vibration model: drone_arw /
+  /// drone_vrw stand for it), and six biases (gyro x/y/z, accel x/y/z) drawn per seed uniformly in
+  /// [-truth_max_sigma, truth_max_sigma] grade sigma, searched in [-box_sigma, box_sigma].
+  std::string kind = "rich";
+  double drone_imu_rate_hz = 50.0;
+  double drone_gnss_rate_hz = 5.0;
+  double drone_align_s = 8.0;
+  double drone_arw_deg_rth = 8.0;          ///< the log's in-flight gyro noise (deg/sqrt(h))
+  double drone_vrw_mps_rth = 1.0;          ///< its in-flight accelerometer noise (m/s/sqrt(h))
+  double drone_gnss_vel_sigma_mps = 0.05;  ///< per ENU axis (m/s)
+  double drone_gnss_pos_sigma_m = 0.5;     ///< per ENU axis (m)
+  double truth_max_sigma = 5.0;            ///< drone: biases uniform in +-this many grade sigma
+  double box_sigma = 8.0;                  ///< drone: the search box +-this many grade sigma
+  /// drone: meta.json declares the noise levels (the filter and the replicas then use the true
+  /// ones); false: the data look imported, as the real log (no noise block: the EKF-RTS takes the
+  /// grade's levels, the replicas the static window's).
+  bool noise_in_meta = false;
+  /// KEY=VALUE parameters of ekf_rts_reported's EKF-RTS (e.g. arw_deg_rth=0.2 vrw_mps_rth=0.05:
+  /// the grade's levels, what it used before it measured the flight's noise).
+  std::vector<std::string> ekf_params;
+  /// "" when the spec can be run, else the first bad field and its value.
+  std::string validate() const;
 };
 
-/// The five estimated parameters, in this order.
+/// The five estimated parameters of the rich flight, in this order.
 const std::vector<std::string>& parameter_names();
-/// The injected values (SI), in parameter_names() order.
+/// Its injected values (SI), in parameter_names() order.
 Eigen::VectorXd truth_si();
+/// The estimated parameters of `spec`'s flight (rich: the five; drone: six biases).
+const std::vector<std::string>& parameter_names(const Spec& spec);
+/// The injected values (SI) of `spec`'s flight for a seed (rich: truth_si(); drone: drawn from
+/// the seed, the same on every platform).
+Eigen::VectorXd truth_si(const Spec& spec, std::uint64_t seed);
 
 /// The simulated flight for a noise seed.
 std::shared_ptr<const Dataset> flight(const Spec& spec, std::uint64_t seed);
@@ -65,6 +99,8 @@ struct Answer {
   std::string method;
   Eigen::VectorXd estimate_si, sd_si;
   std::vector<std::vector<std::string>> flags;
+  /// Through identify(): the uncertainty report (the parts each sd is made of).
+  std::optional<UncertaintyReport> uncertainty;
   double wall_s = 0.0;
   std::int64_t evaluations = 0;  ///< fitness evaluations of the search (not the sd's)
 };
@@ -72,6 +108,9 @@ struct Answer {
 /// EKF-RTS (grade-aware set-up, identification/ekf_rts.h): the smoothed biases at the
 /// navigation start and the smoother's own sd.
 Answer ekf_rts(const std::shared_ptr<const Dataset>& data, const Spec& spec);
+/// EKF-RTS as `insid identify --algo ekf-rts` reports it (through identify(spec)): the
+/// smoothed biases and the sd of identification/uncertainty.h's use_filter_sd.
+Answer ekf_rts_reported(const std::shared_ptr<const Dataset>& data, const Spec& spec);
 /// LM (the registry's "lm", 200 evaluations from the box centre) on the windowed fitness, sd
 /// and flags from identification/uncertainty.h (least-squares criterion, noise replicas): run
 /// through identify(spec) (identification/identify_run.h) as `insid identify` runs it.

@@ -17,7 +17,9 @@
 //   * Distance to the optimum: one Gauss-Newton step from the estimate on the criterion the
 //     algorithm minimised (least squares, or an IRLS/Weiszfeld step for Eq. 15's sum of norms),
 //     parameters held at a box edge they press against; in sd units per parameter.
-//   * Flags per parameter: at_box_edge, not_observable, correlated:<other>, not_converged.
+//   * Flags per parameter: at_box_edge, not_observable, correlated:<other>, not_converged; a
+//     not_converged estimate's sd is sqrt(sd^2 + step^2) (it covers the optimum too).
+//   * EKF-RTS: its own smoothed sd, scaled by its innovations' misfit (use_filter_sd).
 #pragma once
 
 #include <cstdint>
@@ -88,7 +90,12 @@ struct ParameterUncertainty {
   double share_not_absorbed = 0.0;           ///< |P_perp J_j|^2 / |J_j|^2 (1 = independent column)
   double box_width_sigma = 0.0;              ///< search box width (sigma units)
   double step_to_optimum_sigma = 0.0;        ///< GN step (sigma units)
-  std::optional<double> step_to_optimum_sd;  ///< |step| / sd
+  std::optional<double> step_to_optimum_sd;  ///< |step| / sd (the sd before the step is added)
+  /// not_converged: the sd before the step to the optimum was added to it (sd_si is then
+  /// sqrt(sd^2 + step^2), see estimate_uncertainty); empty otherwise.
+  std::optional<double> sd_without_step_si;
+  /// EKF-RTS: the smoother's own sd as the filter computed it, before its misfit scale.
+  std::optional<double> sd_filter_si;
   std::vector<std::string> flags;
   double estimate_sigma_units() const { return estimate_si / sigma_si; }
 };
@@ -105,6 +112,14 @@ struct UncertaintyReport {
   std::optional<double> residual_vs_noise_rms;
   bool residual_above_every_replica = false;
   double sd_scale = 1.0;  ///< factor applied to every sd for model misfit (1: none)
+  /// EKF-RTS (use_filter_sd): the filter's own misfit, its innovations' normalised squares per
+  /// degree of freedom (EkfRtsResult::nis_per_dof), their count, and the factor its sd got.
+  std::optional<double> filter_nis_per_dof;
+  int filter_nis_dof = 0;
+  double filter_sd_scale = 1.0;
+  /// nis_per_dof > options.misfit_min_ratio: the filter's noise model is far off, and its sd is
+  /// then never below the Gauss-Newton sd at its point (use_filter_sd).
+  bool filter_model_rejected = false;
   UncertaintyCriterion criterion = UncertaintyCriterion::kEq15;
   NoiseLevels noise_levels;
   std::string noise_source;
@@ -161,17 +176,26 @@ UncertaintyReport estimate_uncertainty(const InsIdentificationProblem& problem,
                                        const UncertaintyOptions& options = {},
                                        const NoiseReplicaSet* shared = nullptr);
 
-/// EKF-RTS (issue 14): the filter-smoother reports its own sd, the smoothed covariance of the
-/// biases, which is what its estimate's uncertainty is (the Gauss-Newton sd describes the
-/// least-squares optimum's spread, not the filter's). `filter_sd_si` per parameter in the
-/// report's order (SI). Each parameter's sd becomes the filter's (sd_source says so,
-/// sd_gauss_newton_si keeps the Gauss-Newton one) and not_observable is re-derived with it (95 %
-/// interval wider than the box, or the Jacobian column absorbed, as before). at_box_edge,
-/// correlated:<other> and not_converged are unchanged: not_converged and step_to_optimum_sd still
-/// measure the distance to the least-squares optimum of the fitness in its own (Gauss-Newton) sd,
-/// i.e. whether the filter's point and the fitness's optimum disagree beyond that optimum's spread.
-/// Throws std::invalid_argument when the sizes differ or an sd is not finite and positive.
-void use_filter_sd(UncertaintyReport& report, const std::vector<double>& filter_sd_si);
+/// What the EKF-RTS says about its own estimate (EkfRtsOptimizer after its run).
+struct FilterSd {
+  std::vector<double> sd_si;  ///< the smoother's sd per parameter, the report's order (SI)
+  double nis_per_dof = 1.0;   ///< EkfRtsResult::nis_per_dof (innovations' chi-square / dof)
+  int nis_dof = 0;            ///< EkfRtsResult::nis_dof
+};
+
+/// EKF-RTS: parameters[].sd becomes the filter-smoother's own sd, made honest (identification/
+/// README.md, "How sure an estimate is"): the smoothed sd times the filter's own Birge ratio
+/// report.filter_sd_scale = sqrt(max(1, NIS/dof)) of its innovations; when NIS/dof exceeds
+/// options.misfit_min_ratio (its noise model rejected, report.filter_model_rejected) never below
+/// the Gauss-Newton sd at its point; for a not_converged estimate combined with the step to the
+/// fitness's least-squares optimum, sqrt(sd^2 + step^2).
+/// sd_source says so, sd_filter_si keeps the smoother's own sd and sd_gauss_newton_si the
+/// Gauss-Newton one; not_observable is re-derived with the new sd (before the step);
+/// at_box_edge, correlated:<other> and not_converged are unchanged (not_converged and
+/// step_to_optimum_sd measure the distance to the least-squares optimum in its own sd).
+/// Throws std::invalid_argument when the sizes differ, an sd is not finite and positive, or the
+/// NIS is not a finite number >= 0 over >= 1 degree of freedom.
+void use_filter_sd(UncertaintyReport& report, const FilterSd& filter);
 
 /// The uncertainty blocks of a finished run's record, the same for `insid identify` results and
 /// campaign run files: estimate_uncertainty at the optimizer's best point (the EKF-RTS reports

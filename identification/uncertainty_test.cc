@@ -325,8 +325,22 @@ TEST(Uncertainty, EkfRtsReportsItsOwnSmoothedSd) {
   for (int k = 0; k < 4; ++k) {
     const auto& p = out["parameters"][static_cast<std::size_t>(k)];
     const double sigma = EstimatedParameter::paper_four()[static_cast<std::size_t>(k)].sigma;
-    EXPECT_NEAR(p["sd"].get<double>(), filter->std_sigma()[k] * sigma, 1e-12 * sigma) << p.dump();
-    EXPECT_EQ(p["sd_source"], "ekf-rts smoothed covariance");
+    // The smoother's sd times the filter's misfit factor (1 when its innovations are at the
+    // noise it assumes), with the step added for a not_converged estimate.
+    const double scaled = filter->std_sigma()[k] * sigma * report.filter_sd_scale;
+    EXPECT_NEAR(p["sd_filter"].get<double>(), filter->std_sigma()[k] * sigma, 1e-12 * sigma);
+    const bool widened = p.contains("sd_without_step");
+    EXPECT_NEAR(widened ? p["sd_without_step"].get<double>() : p["sd"].get<double>(), scaled,
+                1e-12 * sigma)
+        << p.dump();
+    if (widened) {
+      EXPECT_NEAR(p["sd"].get<double>(),
+                  std::hypot(scaled, p["step_to_optimum_in_sigma_units"].get<double>() * sigma),
+                  1e-12 * sigma);
+    }
+    EXPECT_EQ(p["sd_source"], report.filter_sd_scale > 1.0
+                                  ? "ekf-rts smoothed covariance, scaled for the filter's misfit"
+                                  : "ekf-rts smoothed covariance");
     ASSERT_TRUE(p["sd_gauss_newton"].is_number()) << p.dump();
     // The two are different numbers (the filter also uses positions and re-estimates attitude).
     EXPECT_GT(std::abs(p["sd_gauss_newton"].get<double>() - p["sd"].get<double>()),
