@@ -82,6 +82,13 @@ for imu in IMU IMU2 IMU3; do
     >"$work/$imu.diagnose.failed"
 done
 
+echo "ardupilot_report: cross-IMU check (the airframe's own truth for bias differences)" >&2
+for m in ekf dvpio; do
+  "$insid" cross-imu --data "$work/IMU" --data "$work/IMU2" --data "$work/IMU3" --clock boot \
+    --result "$work/IMU.$m.json" --result "$work/IMU2.$m.json" --result "$work/IMU3.$m.json" \
+    --t-start 85 --t-end "$T_END" --out "$work/cross_imu_$m.json" 2>>"$work/log.txt"
+done
+
 echo "ardupilot_report: report" >&2
 $py scripts/ardupilot_report.py --work "$work" --out "$out" --window-s "$W" \
   --t-start "$T_START" --t-end "$T_END"
