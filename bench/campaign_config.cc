@@ -10,6 +10,7 @@
 
 #include "core/json_object.h"
 #include "core/json_reader.h"
+#include "core/number_text.h"
 #include "core/output_dir.h"
 #include "identification/grade.h"
 #include "identification/identify.h"
@@ -291,6 +292,18 @@ void CampaignConfig::validate(const std::string& origin) const {
   if (seeds.size() > kMaxSeeds)
     throw std::invalid_argument(origin + ": " + std::to_string(seeds.size()) +
                                 " seeds is beyond the limit of " + std::to_string(kMaxSeeds));
+  // Every run is a file under runs/ and a record the summary holds in memory: a campaign
+  // beyond a million runs is refused at once, with its count, before anything runs.
+  constexpr double kMaxRuns = 1e6;
+  const double runs = static_cast<double>(scenarios.size()) *
+                      static_cast<double>(algorithms.size()) * static_cast<double>(seeds.size());
+  if (runs > kMaxRuns)
+    throw std::invalid_argument(
+        origin + ": " + number_text(runs, 12) + " runs (" + std::to_string(scenarios.size()) +
+        " scenarios x " + std::to_string(algorithms.size()) + " algorithms x " +
+        std::to_string(seeds.size()) +
+        " seeds) is beyond the limit of 1000000 runs per campaign (each is a run file and a "
+        "record in memory); split it into several campaigns");
   {
     std::set<std::uint64_t> seen;
     for (std::uint64_t seed : seeds)

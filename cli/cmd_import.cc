@@ -151,7 +151,9 @@ std::string read_text(const std::string& path, const char* option, const FileRea
 // write one; left in, it made the first data row look like a header and dropped it silently).
 std::string read_text_log(const std::string& path, const char* option,
                           const FileReadOptions& read) {
-  std::string text = read_text(path, option, read);
+  FileReadOptions as_text = read;
+  as_text.text = true;  // a binary file or one of zeros refused on its first bytes
+  std::string text = read_text(path, option, as_text);
   if (text.compare(0, 3, "\xEF\xBB\xBF") == 0) text.erase(0, 3);
   return text;
 }

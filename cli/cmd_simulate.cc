@@ -137,25 +137,30 @@ void add_simulate_command(CLI::App& app) {
   cmd->add_flag("--print-config", args->print_config,
                 "print the effective scenario JSON (after the options) and exit");
   add_verbosity_flags(cmd, args->verbosity);
-  cmd->add_option("--heading", args->heading,
+  CLI::Option* heading = cmd->add_option("--heading", args->heading,
                   "also write a measured heading (heading.csv): dual_antenna (truth yaw + white "
                   "noise of --heading-sd-deg) | magnetometer (the Earth field in the body with "
                   "noise, levelled on the static window and --declination-deg added, as insid "
                   "import does; static window only)");
   cmd->add_option("--heading-rate-hz", args->heading_spec.rate_hz, "heading samples per second")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->needs(heading);  // issue 45: not silently ignored without --heading
   cmd->add_option("--heading-sd-deg", args->heading_spec.sd_deg,
                   "dual antenna: the heading's white noise sd (deg)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->needs(heading);  // issue 45: not silently ignored without --heading
   cmd->add_option("--declination-deg", args->heading_spec.declination_deg,
                   "magnetometer: the field's declination (deg, east +)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->needs(heading);  // issue 45: not silently ignored without --heading
   cmd->add_option("--inclination-deg", args->heading_spec.inclination_deg,
                   "magnetometer: the field's inclination (deg, down +)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->needs(heading);  // issue 45: not silently ignored without --heading
   cmd->add_option("--mag-noise", args->heading_spec.mag_noise_fraction,
                   "magnetometer: white noise per axis, a fraction of the field")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->needs(heading);  // issue 45: not silently ignored without --heading
   cmd->callback([args] { run_simulate(*args); });
 }
 

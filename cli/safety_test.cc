@@ -250,6 +250,9 @@ std::vector<BadInput> option_cases(const std::string& data) {
   cases.push_back({sweep + " --grid R=0.1:0.2:2", {"--grid", "'R'", "twice"}, true});
   cases.push_back({sim + " --set gyro_bias_x=abc", {"--set", "gyro_bias_x"}, true});
   cases.push_back({sim + " --set nosuch=1", {"nosuch"}, true});
+  // Issue 45: a heading option without --heading was accepted (and nan with it) and ignored.
+  cases.push_back({sim + " --heading-rate-hz nan", {"--heading-rate-hz", "requires --heading"},
+                   true});
   cases.push_back({"navigate --data " + data + " --compensate accel_bias_x",
                    {"--compensate", "NAME=VALUE"},
                    true});
@@ -292,6 +295,15 @@ std::vector<std::pair<std::string, std::vector<std::string>>> config_cases() {
            ", \"max_iterations\": 2" + rest + "}";
   };
   const std::string s1 = "[" + scenario + "]", a1 = "[" + algo + "]";
+  std::string many_scenarios = "[", many_algorithms = "[";
+  for (int k = 0; k < 30; ++k) {
+    many_scenarios += std::string(k ? ", " : "") + R"({"name": "s)" + std::to_string(k) +
+                      R"(", "preset": "rich", "flight_s": 60})";
+    many_algorithms +=
+        std::string(k ? ", " : "") + R"({"label": "P)" + std::to_string(k) + R"(", "name": "pso"})";
+  }
+  many_scenarios += "]";
+  many_algorithms += "]";
   return {
       {config(s1, "\"pso\"", ""), {"algorithms: expected an array, found a string \"pso\""}},
       {config("\"rich\"", a1, ""), {"scenarios: expected an array, found a string \"rich\""}},
@@ -340,6 +352,9 @@ std::vector<std::pair<std::string, std::vector<std::string>>> config_cases() {
        {"scenarios[0].set.nosuch: unknown effect name 'nosuch'"}},
       {"[1, 2]", {"expected an object, found an array [1,2]"}},
       {"{\"scenarios\": [", {"not valid JSON"}},
+      // Issue 45: 30 x 30 x 100000 = 90 million runs, refused at once with the count.
+      {config(many_scenarios, many_algorithms, R"(, "seeds": 100000)"),
+       {"90000000 runs (30 scenarios x 30 algorithms x 100000 seeds)", "limit"}},
   };
 }
 
@@ -518,6 +533,20 @@ TEST_F(CliSafety, HugeInputsAreRefusedBeforeTheyAreReadNamingFileAndLimit) {
             " --max-input-mb 1 --out " + out.string());
   EXPECT_EQ(o.status, 1) << o.output;
   EXPECT_TRUE(has(o.output, "over the limit of 1 MiB; raise it with --max-input-mb")) << o.output;
+  // Issue 45: 2 GiB of zeros given as the IMU CSV (under the size limit) is not text: refused on
+  // its first bytes (it took 45-53 s and 6-8 GB before "out of memory").
+  const fs::path zeros = root_ / "zeros.csv";
+  std::ofstream(zeros).close();
+  fs::resize_file(zeros, 2ull << 30);
+  const fs::path gnss_text = root_ / "gnss.txt";
+  std::ofstream(gnss_text) << "345600.0 40.0 116.0 50.0 0.01 0.01 0.02\n"
+                               "345601.0 40.0 116.0 50.0 0.01 0.01 0.02\n"
+                               "345602.0 40.0 116.0 50.0 0.01 0.01 0.02\n";
+  o = insid("import kf-gins --imu " + zeros.string() + " --gnss " + gnss_text.string() +
+            " --out " + out.string());
+  EXPECT_EQ(o.status, 1) << o.output;
+  EXPECT_TRUE(has(o.output, zeros.string() + ": not a text file: byte 0 is a NUL byte"))
+      << o.output;
   EXPECT_FALSE(fs::exists(out));
   // AND no child read them: the largest resident set of the commands stays far below 1 GiB
   // (measured, not timed: the old reader held the whole 3 GiB)
@@ -763,6 +792,35 @@ TEST_F(CliSafety, NavigateCompensatesFromAnIdentifyResult) {
   EXPECT_EQ(o.status, 1);
   EXPECT_TRUE(has(o.output, "estimate." + first + " is \"big\", expected a finite number"))
       << o.output;
+}
+
+// Issue 45: a log whose second half is sampled at 10 Hz passed the 20 Hz minimum on its median
+// step. GIVEN a KF-GINS export of a 100 Hz flight with every tenth row kept in its second half
+// WHEN it is imported THEN it is refused, saying how much of the log is slow, and nothing is
+// written; the untouched export imports.
+TEST_F(CliSafety, AMixedRateImuLogIsRefusedThoughItsMedianPasses) {
+  const fs::path kf = root_ / "kf";
+  Outcome o = insid("export --to kf-gins --data " + data_.string() + " --out " + kf.string());
+  ASSERT_EQ(o.status, 0) << o.output;
+  std::istringstream in(text(kf / "imu.txt"));
+  std::vector<std::string> lines;
+  for (std::string l; std::getline(in, l);) lines.push_back(l);
+  ASSERT_GT(lines.size(), 1000u);
+  std::ofstream mixed(root_ / "mixed_imu.txt");
+  for (std::size_t k = 0; k < lines.size(); ++k)
+    if (k < lines.size() * 55 / 100 || k % 10 == 0) mixed << lines[k] << "\n";
+  mixed.close();
+  const std::string common = " --gnss " + (kf / "gnss.txt").string() +
+                             " --align-s 600 --static-rate 5 --static-accel-sd 0.3 --out ";
+  o = insid("import kf-gins --imu " + (root_ / "mixed_imu.txt").string() + common +
+            (root_ / "mixed").string());
+  EXPECT_EQ(o.status, 1) << o.output;
+  EXPECT_NE(o.output.find("is sampled slower than the 20 Hz insid accepts"), std::string::npos)
+      << o.output;
+  EXPECT_FALSE(fs::exists(root_ / "mixed"));
+  o = insid("import kf-gins --imu " + (kf / "imu.txt").string() + common +
+            (root_ / "whole").string());
+  EXPECT_EQ(o.status, 0) << o.output;
 }
 
 }  // namespace manners

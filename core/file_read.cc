@@ -71,6 +71,17 @@ std::string read_file_whole(const std::filesystem::path& path, const std::string
            std::to_string(options.magic.size()) + " bytes are not the format's magic)");
     if (::lseek(f.fd, 0, SEEK_SET) != 0) fail(where + ": cannot seek: " + std::strerror(errno));
   }
+  if (options.text) {
+    std::string head(65536, '\0');
+    const std::size_t n = read_some(f.fd, head.data(), head.size(), where);
+    head.resize(n);
+    if (const std::size_t nul = head.find('\0'); nul != std::string::npos)
+      fail(where + ": not a text file: byte " + std::to_string(nul) +
+           " is a NUL byte (a binary file, or a file of zeros)");
+    if (n == 65536 && head.find('\n') == std::string::npos && head.find('\r') == std::string::npos)
+      fail(where + ": not a text file: no line break in its first 65536 bytes");
+    if (::lseek(f.fd, 0, SEEK_SET) != 0) fail(where + ": cannot seek: " + std::strerror(errno));
+  }
   try {
     std::string data;
     // One byte over the size: the read that finds the end then needs no room. (Sized exactly,

@@ -118,6 +118,14 @@ nlohmann::json opt_json(const std::optional<double>& v, double scale = 1.0) {
 
 std::string pair_name(const PairDifference& p) { return p.name_a + " - " + p.name_b; }
 
+// A rate coefficient K as the tables print it: "%+.4f", or "-" where the axis was left out.
+std::string coefficient_text(const std::optional<double>& k) {
+  if (!k) return "-";
+  char b[32];
+  std::snprintf(b, sizeof b, "%+.4f", *k);
+  return b;
+}
+
 }  // namespace
 
 RateSeries rates_from_dataset(const Dataset& dataset, std::string name, double t_offset_s,
@@ -606,14 +614,8 @@ std::string report_text(const CrossImuReport& report, const std::vector<Comparis
       const AxisDifference& ax = p.axes[static_cast<std::size_t>(i)];
       std::string K;
       for (int c = 0; c < 3; ++c) {
-        const auto& v = ax.rate_coeff[static_cast<std::size_t>(c)];
-        char b[32];
-        if (v)
-          std::snprintf(b, sizeof b, "%+.4f", *v);
-        else
-          std::snprintf(b, sizeof b, "-");
         if (c) K.append(" ");
-        K.append(b);
+        K.append(coefficient_text(ax.rate_coeff[static_cast<std::size_t>(c)]));
       }
       double lo = std::numeric_limits<double>::infinity(), hi = -lo;
       for (const auto& [len, se] : ax.se_by_block)
@@ -681,13 +683,8 @@ std::string report_markdown(const CrossImuReport& report, const std::vector<Comp
       const AxisDifference& ax = p.axes[static_cast<std::size_t>(i)];
       std::string K;
       for (int c = 0; c < 3; ++c) {
-        const auto& v = ax.rate_coeff[static_cast<std::size_t>(c)];
-        char b[32];
-        if (v)
-          std::snprintf(b, sizeof b, "%+.4f", *v);
-        else
-          std::snprintf(b, sizeof b, "-");
-        K.append(" ").append(b).append(" |");
+        K.append(" ").append(coefficient_text(ax.rate_coeff[static_cast<std::size_t>(c)]))
+            .append(" |");
       }
       std::snprintf(line, sizeof line, "| %s | %s | %s | %s | %s |%s\n", pair_name(p).c_str(),
                     kAxis[i], deg(ax.bias_diff_rad_s).c_str(), deg_opt(ax.se_rad_s).c_str(),

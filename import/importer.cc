@@ -380,7 +380,27 @@ double checked_imu_step(const CsvImu& imu, const std::vector<double>& steps,
         "vehicle_imu topic; ArduPilot: the IMU logging rate), or give --min-imu-rate-hz R "
         "(R <= " +
         number_text(rate_hz, 3) + ") for a platform whose motion stays below R / 4 Hz");
+  // The median alone lets a mixed-rate log through (issue 45: half at 50 Hz, half at 10 Hz):
+  // the time spent in steps slower than the minimum rate counts too.
+  const double slow_step_s = 1.0 / options.min_imu_rate_hz * (1.0 + 1e-6);
+  double slow_s = 0.0, total_s = 0.0, slowest_s = 0.0;
+  for (const double step : steps) {
+    total_s += step;
+    if (step > slow_step_s) slow_s += step, slowest_s = std::max(slowest_s, step);
+  }
+  if (total_s > 0.0 && slow_s > 0.1 * total_s)
+    throw std::runtime_error(
+        (imu.origin.empty() ? std::string("the IMU") : imu.origin) + ": " +
+        number_text(100.0 * slow_s / total_s, 3) + " % of the log (" + number_text(slow_s, 4) +
+        " s of " + number_text(total_s, 4) + " s) is sampled slower than the " +
+        number_text(options.min_imu_rate_hz, 4) + " Hz insid accepts (steps up to " +
+        number_text(slowest_s * 1e3, 4) + " ms), although the median step (" +
+        number_text(dt_median * 1e3, 4) +
+        " ms) passes: a log whose rate changes; nothing was written. Cut it to the fast part "
+        "(--t-start / --t-end where the importer has them), or give --min-imu-rate-hz R for a "
+        "platform whose motion stays below R / 4 Hz");
   prov["imu"]["min_rate_hz"] = options.min_imu_rate_hz;
+  prov["imu"]["slow_step_share"] = total_s > 0.0 ? slow_s / total_s : 0.0;
   prov["imu"]["step_s"] = {{"median", dt_median},
                            {"min", *std::min_element(steps.begin(), steps.end())},
                            {"max", *std::max_element(steps.begin(), steps.end())}};

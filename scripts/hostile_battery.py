@@ -246,6 +246,25 @@ def round_three_ownership_cases(b, sim):
     b.expect_error("45", "diagnose --out X --report X",
                    ["diagnose", "--data", str(sim), "--out", str(w / "x45.json"), "--report",
                     str(w / "x45.json")], codes=(2,), must=["are the same file"])
+    # Absurd sizes refused before the work: 2 GiB of zeros as an IMU CSV (under the size
+    # limit), a campaign of 30 x 30 x 100000 runs.
+    zeros = w / "zeros45.csv"
+    with open(zeros, "wb") as f:
+        f.truncate(2 << 30)
+    gnss45 = write(w / "gnss45.txt", "".join(f"{345600 + k}.0 40.0 116.0 50.0 0.01 0.01 0.02\n"
+                                             for k in range(3)))
+    b.expect_error("45", "2 GiB of zeros as the IMU CSV",
+                   ["import", "kf-gins", "--imu", str(zeros), "--gnss", str(gnss45), "--out",
+                    str(w / "zeros45")], must=["not a text file: byte 0 is a NUL byte"],
+                   rss_mb=512)
+    huge = campaign_config("s0")
+    huge["scenarios"] = [{"name": f"s{k}", "preset": "straight", "flight_s": 20} for k in range(30)]
+    huge["algorithms"] = [{"label": f"P{k}", "name": "pso"} for k in range(30)]
+    huge["seeds"] = 100000
+    huge_cfg = write(w / "huge45.json", json.dumps(huge))
+    b.expect_error("45", "a campaign of 30 x 30 x 100000 runs",
+                   ["bench", "--config", str(huge_cfg), "--out", str(w / "huge45")],
+                   must=["90000000 runs", "limit"], rss_mb=512)
     # What a simulate killed mid-write leaves (its marked temporary directory, a dead pid of
     # this host): the next simulate into the same --out removes it.
     dead = subprocess.Popen(["true"])
