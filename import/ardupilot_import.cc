@@ -306,6 +306,18 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
   ArduPilotSeries out;
   nlohmann::json& prov = out.provenance;
   prov["dataflash"] = {{"messages", log.messages_summary()}};
+  if (log.skip_count() > 0) {
+    prov["dataflash"]["skipped"] = {{"places", log.skip_count()},
+                                    {"bytes", log.skipped_bytes()},
+                                    {"first", log.skips()}};
+    std::string first;
+    for (std::size_t k = 0; k < log.skips().size() && k < 3; ++k)
+      first += (k ? "; " : "") + log.skips()[k];
+    out.notes.push_back(std::to_string(log.skip_count()) + " damaged place(s) in the log, " +
+                        std::to_string(log.skipped_bytes()) +
+                        " bytes skipped, reading resumed on the next valid record: " + first +
+                        (log.skip_count() > 3 ? "; ..." : "") + " (provenance.json dataflash.skipped)");
+  }
   if (!log.truncation().empty()) {
     prov["dataflash"]["truncation"] = log.truncation();
     out.notes.push_back(log.truncation());

@@ -144,6 +144,42 @@ DataFlashFile DataFlashFile::parse(std::string bytes, const std::string& where) 
                     std::to_string(size - pos) +
                     " bytes from there are ignored (the records before it are kept)";
   };
+  // A header at q that starts a record of a known message which fits in the file and is
+  // followed by another such header or the file's end: where reading resumes after damage
+  // (two headers in a row, so that 0xA3 0x95 inside a damaged record's data rarely passes).
+  const auto record_at = [&](std::size_t q) -> std::size_t {  // its length, 0 if none
+    if (size - q < 3 || static_cast<unsigned char>(b[q]) != kHead1 ||
+        static_cast<unsigned char>(b[q + 1]) != kHead2)
+      return 0;
+    const auto known = f.formats_.find(static_cast<std::uint8_t>(b[q + 2]));
+    if (known == f.formats_.end() || known->second.length < 3 ||
+        size - q < known->second.length)
+      return 0;
+    return known->second.length;
+  };
+  const auto next_valid = [&](std::size_t from) -> std::size_t {
+    for (std::size_t q = from; q + 3 <= size; ++q) {
+      const std::size_t n = record_at(q);
+      if (n > 0 && (q + n == size || record_at(q + n) > 0)) return q;
+    }
+    return size;
+  };
+  // Damage inside the log: skipped to the next valid record (ArduPilot's own log tools
+  // resynchronise on the next header), counted and named; only the end of the file stops.
+  const auto skip = [&](std::size_t at, const std::string& why) -> std::size_t {
+    const std::size_t resume = next_valid(at + 1);
+    if (resume == size) {
+      stop(at, why);
+      return size;
+    }
+    f.skipped_bytes_ += resume - at;
+    if (f.skips_.size() < 20)
+      f.skips_.push_back("byte " + std::to_string(at) + ": " + why + "; " +
+                         std::to_string(resume - at) + " bytes skipped to the next record at byte " +
+                         std::to_string(resume));
+    ++f.skip_count_;
+    return resume;
+  };
   std::size_t pos = 0;
   while (pos < size) {
     if (size - pos < 3) {
@@ -157,13 +193,13 @@ DataFlashFile DataFlashFile::parse(std::string bytes, const std::string& where) 
         throw std::runtime_error(where +
                                  ": byte 0: not an ArduPilot DataFlash log (expected "
                                  "the record header 0xA3 0x95)");
-      stop(pos, "no record header (expected 0xA3 0x95)");
-      break;
+      pos = skip(pos, "no record header (expected 0xA3 0x95)");
+      continue;
     }
     const auto it = f.formats_.find(id);
     if (it == f.formats_.end()) {
-      stop(pos, "message id " + std::to_string(id) + " has no FMT record before it");
-      break;
+      pos = skip(pos, "message id " + std::to_string(id) + " has no FMT record before it");
+      continue;
     }
     Format& format = it->second;
     if (size - pos < format.length) {

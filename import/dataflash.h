@@ -47,6 +47,12 @@ class DataFlashFile {
   /// Non-empty when the records stop before the end of the file: where and why, and how many
   /// bytes were ignored.
   const std::string& truncation() const { return truncation_; }
+  /// Damage inside the log that reading skipped, resuming on the next valid record (two
+  /// headers in a row): how many places, how many bytes, and the first 20 places named
+  /// ("byte N: why; K bytes skipped to the next record at byte M").
+  std::size_t skip_count() const { return skip_count_; }
+  std::size_t skipped_bytes() const { return skipped_bytes_; }
+  const std::vector<std::string>& skips() const { return skips_; }
   /// Messages with records, for messages ("GPS (1199), IMU (11916), ...").
   std::string messages_summary() const;
 
@@ -69,6 +75,8 @@ class DataFlashFile {
   std::string bytes_;
   std::map<std::uint8_t, Format> formats_;
   std::string truncation_;
+  std::size_t skip_count_ = 0, skipped_bytes_ = 0;
+  std::vector<std::string> skips_;
 };
 
 }  // namespace insid::importers
