@@ -190,8 +190,22 @@ BootClockFit fit_boot_clock(const Records& gps, const std::vector<std::size_t>& 
     y.push_back(gpst_since_epoch(gps, k));
   }
   std::vector<char> use(x.size(), 1);
+  // A damaged fix (one flipped bit in Week, TimeMS or T) must not pull the first line off every
+  // other fix: fixes whose GPST - boot offset is more than 1 s from the median offset (the clocks
+  // drift by far less over a flight) stay out of it (issue 45).
+  if (!x.empty()) {
+    std::vector<long double> offsets;
+    for (std::size_t k = 0; k < x.size(); ++k) offsets.push_back(y[k] - x[k]);
+    std::vector<long double> sorted = offsets;
+    std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2),
+                     sorted.end());
+    const long double median = sorted[sorted.size() / 2];
+    for (std::size_t k = 0; k < x.size(); ++k)
+      if (!(std::fabs(static_cast<double>(offsets[k] - median)) <= 1.0)) use[k] = 0;
+  }
   long double a = 0, b = 1;
   fit_line(x, y, use, a, b);
+  std::fill(use.begin(), use.end(), 1);
   for (std::size_t k = 0; k < x.size(); ++k)
     if (std::fabs(static_cast<double>(y[k] - (a + b * x[k]))) > kBootFitOutlierS) {
       use[k] = 0;
@@ -355,7 +369,8 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
   prov["clock"] = {
       {"model",
        "GPST = gpst_at_boot_zero + slope * boot (GPS T, IMU TimeMS), least squares over "
-       "the GPS fixes, refitted without residuals beyond " +
+       "the GPS fixes (a first fit without offsets over 1 s from their median), refitted "
+       "without residuals beyond " +
            number_text(kBootFitOutlierS, 4) + " s"},
       {"gpst_at_boot_zero_unix_s", static_cast<double>(clock.gpst_at_boot_zero_s)},
       {"slope", clock.slope},
@@ -393,7 +408,7 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
   }
 
   // GNSS epochs.
-  std::size_t outside = 0, not_increasing = 0;
+  std::size_t outside = 0, not_increasing = 0, clock_disagrees = 0;
   for (const std::size_t k : fixes) {
     const auto& r = gps[k];
     if (!inside(r[kBoot])) {
@@ -402,6 +417,13 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
     }
     GnssEpoch e;
     e.t_gpst_unix_s = kGpsEpochGpstUnix_s + gpst_since_epoch(gps, k);
+    // A fix whose own GPS time is over 1 s off the boot clock's line has a damaged Week,
+    // TimeMS or T (issue 45): dropped and counted, never read as the GNSS's end or a jump.
+    if (!(std::fabs(static_cast<double>(e.t_gpst_unix_s) -
+                    static_cast<double>(boot_to_gpst(r[kBoot]))) <= 1.0)) {
+      ++clock_disagrees;
+      continue;
+    }
     if (!out.gnss.epochs.empty() && !(e.t_gpst_unix_s > out.gnss.epochs.back().t_gpst_unix_s)) {
       ++not_increasing;
       continue;
@@ -428,6 +450,7 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
   prov["gnss"]["dropped"] = {
       {"status_below_" + std::to_string(options.min_status), gps.size() - fixes.size()},
       {"outside_t_range", outside},
+      {"time_off_the_boot_clock", clock_disagrees},
       {"time_not_increasing", not_increasing}};
   prov["gnss"]["height"] = "MSL (Alt): the GPS record has no ellipsoidal height";
   out.notes.push_back(
@@ -440,6 +463,10 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
     out.notes.push_back("dropped " + std::to_string(not_increasing) +
                         " GPS fixes whose time (Week, TimeMS) does not increase (a repeated "
                         "time of week: the first record is kept)");
+  if (clock_disagrees > 0)
+    out.notes.push_back("dropped " + std::to_string(clock_disagrees) +
+                        " GPS fixes whose own time (Week, TimeMS) is more than 1 s off the boot "
+                        "clock's line through the others (a damaged record)");
   if (out.gnss.epochs.size() < 2)
     throw std::runtime_error(where + ": " + std::to_string(out.gnss.epochs.size()) +
                              " GPS fixes within the boot-time range; need at least 2");
