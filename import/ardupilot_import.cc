@@ -231,6 +231,18 @@ BootClockFit fit_boot_clock(const Records& gps, const std::vector<std::size_t>& 
   return clock;
 }
 
+// True when fix i's GPS time (Week, TimeMS) lies 0-5 s after the previous fix's and 0-5 s
+// before the next one's (where there is one): in step with the fixes around it.
+bool in_step_with_neighbours(const Records& gps, const std::vector<std::size_t>& fixes,
+                             std::size_t i) {
+  const long double t = gpst_since_epoch(gps, fixes[i]);
+  const auto step_ok = [](long double dt) { return dt > 0.0L && dt <= 5.0L; };
+  const bool after_previous = i == 0 || step_ok(t - gpst_since_epoch(gps, fixes[i - 1]));
+  const bool before_next =
+      i + 1 == fixes.size() || step_ok(gpst_since_epoch(gps, fixes[i + 1]) - t);
+  return after_previous && before_next && (i > 0 || i + 1 < fixes.size());
+}
+
 // VZ's sign: the altitude's rate (central differences over fixes at most 1 s apart) against VZ.
 VzSign vz_sign_of(const Records& gps, const std::vector<std::size_t>& fixes) {
   VzSign vz;
@@ -409,7 +421,8 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
 
   // GNSS epochs.
   std::size_t outside = 0, not_increasing = 0, clock_disagrees = 0;
-  for (const std::size_t k : fixes) {
+  for (std::size_t i = 0; i < fixes.size(); ++i) {
+    const std::size_t k = fixes[i];
     const auto& r = gps[k];
     if (!inside(r[kBoot])) {
       ++outside;
@@ -417,10 +430,13 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
     }
     GnssEpoch e;
     e.t_gpst_unix_s = kGpsEpochGpstUnix_s + gpst_since_epoch(gps, k);
-    // A fix whose own GPS time is over 1 s off the boot clock's line has a damaged Week,
-    // TimeMS or T (issue 45): dropped and counted, never read as the GNSS's end or a jump.
+    // A fix whose own GPS time is over 1 s off the boot clock's line and out of step with its
+    // neighbours' GPS times has a damaged Week or TimeMS (issue 45): dropped and counted, never
+    // read as the GNSS's end or a jump. (A fix logged late in a burst is off the line by its T
+    // but in step with its neighbours: kept, as before.)
     if (!(std::fabs(static_cast<double>(e.t_gpst_unix_s) -
-                    static_cast<double>(boot_to_gpst(r[kBoot]))) <= 1.0)) {
+                    static_cast<double>(boot_to_gpst(r[kBoot]))) <= 1.0) &&
+        !in_step_with_neighbours(gps, fixes, i)) {
       ++clock_disagrees;
       continue;
     }
