@@ -80,6 +80,11 @@ void run(const DiagnoseArgs& a) {
   o.grade = grade.name;
   for (const std::string& b : a.base)
     o.base.push_back(parse_option("--base", [&] { return grade.parameter(b); }));
+  for (const std::string& c : a.candidates)  // conflicting options: a usage error (issue 45)
+    for (const EstimatedParameter& b : o.base)
+      if (b.name == c)
+        throw UsageError("--candidates " + c + " is also in --base: a candidate is an effect the "
+                         "base model lacks");
   if (a.verbosity != Verbosity::kQuiet) std::cerr << "insid diagnose: " << settled.line() << "\n";
   o.candidates = a.candidates;
   for (const std::string& c : a.candidates)

@@ -31,7 +31,7 @@ struct ExportArgs {
 // insid export --to iohprofiler: a campaign's runs for IOHanalyzer (bench/iohprofiler.h).
 void run_export_iohprofiler(const ExportArgs& args) {
   if (args.campaign.empty())
-    throw std::invalid_argument("--to iohprofiler needs --campaign DIR (a campaign directory)");
+    throw UsageError("--to iohprofiler needs --campaign DIR (a campaign directory)");
   if (!args.data.empty())
     throw UsageError("--data is for --to kf-gins; --to iohprofiler reads --campaign");
   if (contains_working_directory(args.out))
@@ -64,7 +64,7 @@ void run_export_iohprofiler(const ExportArgs& args) {
 void run_export(const ExportArgs& args) {
   if (args.to == "iohprofiler") return run_export_iohprofiler(args);
   if (args.to != "kf-gins") throw UsageError("--to: kf-gins or iohprofiler, got '" + args.to + "'");
-  if (args.data.empty()) throw std::invalid_argument("--to kf-gins needs --data DIR (a dataset)");
+  if (args.data.empty()) throw UsageError("--to kf-gins needs --data DIR (a dataset)");
   if (!args.campaign.empty())
     throw UsageError("--campaign is for --to iohprofiler; --to kf-gins reads --data");
   const OutputKind kind{"a KF-GINS export", {"imu.txt", "gnss.txt"}};

@@ -103,11 +103,15 @@ void add_sweep_command(CLI::App& app) {
   cmd->add_option("--seeds", args->seeds, "seeds per setting (1..N)")
       ->capture_default_str()
       ->check(whole_in(1, kMaxSeeds));
-  cmd->add_option("--preset", args->preset, "scenario preset to simulate")->capture_default_str();
-  cmd->add_option("--data", args->data_dir, "use this dataset instead of a preset");
+  CLI::Option* preset =
+      cmd->add_option("--preset", args->preset, "scenario preset to simulate")->capture_default_str();
+  CLI::Option* data = cmd->add_option("--data", args->data_dir, "use this dataset instead of a preset");
   cmd->add_option("--flight-s", args->flight_s, "flight length after alignment (s) for the preset")
-      ->check(positive_seconds(kMaxFlightS));
-  cmd->add_option("--grade", args->grade, "noise grade for the preset (nav, mems, paper, none)");
+      ->check(positive_seconds(kMaxFlightS))
+      ->excludes(data);
+  cmd->add_option("--grade", args->grade, "noise grade for the preset (nav, mems, paper, none)")
+      ->excludes(data);
+  preset->excludes(data);  // issue 45: the preset was silently ignored beside --data
   cmd->add_option("--iterations", args->iterations, "iteration budget")
       ->capture_default_str()
       ->check(whole_in(0, 10000000));

@@ -4,6 +4,7 @@
 #include <stdexcept>
 
 #include "cli/cli_util.h"
+#include "cli/commands.h"
 
 namespace insid::cli {
 
@@ -47,7 +48,7 @@ InitialAttitudeOptions initial_attitude_options(const InitialAttitudeArgs& args)
   o.course_span_s = args.course_span_s;
   o.gyrocompass_max_heading_sd_deg = args.gyrocompass_max_sd_deg;
   if (const std::string why = o.validate(); !why.empty())
-    throw std::invalid_argument("--initial-attitude: " + why);
+    throw UsageError("--initial-attitude: " + why);  // conflicting options: exit 2
   return o;
 }
 

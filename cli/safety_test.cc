@@ -615,6 +615,14 @@ TEST_F(CliSafety, ExitCodesAreTheDocumentedOnesWithOneErrorPrefix) {
       {"bench --preset quick --shard 3/2 --out " + never, "insid bench: error: --shard", 2},
       {"bench --preset quick --shard 1/2 --force-new --out " + never, "insid bench: error: ", 2},
       {"bench --preset quick --out ''", "insid bench: error: ", 2},
+      // Issue 45: conflicting options are usage errors (exit 2), as the README says.
+      {"navigate --data " + d + " --initial-attitude given --heading-deg 30",
+       "insid navigate: error: --initial-attitude: a heading", 2},
+      {"export --to iohprofiler --out " + never, "insid export: error: --to iohprofiler needs", 2},
+      {"diagnose --data " + d + " --base gyro_bias_x --candidates gyro_bias_x",
+       "insid diagnose: error: --candidates gyro_bias_x is also in --base", 2},
+      {"sweep --algo pio --grid R=0.1:0.3:3 --preset rich --data " + d + " --out " + never,
+       "insid sweep: error: ", 2},
       {"navigate --data " + never, "insid navigate: error: dataset directory", 1},
       {"navigate --data " + d + " --compensate-from " + (data_ / "meta.json").string(),
        "insid navigate: error: --compensate-from " + (data_ / "meta.json").string() +
