@@ -194,13 +194,33 @@ TEST(ArduPilotCli, OneDamagedGpsWeekDoesNotBreakTheBootClock) {
   const std::string columns = bytes.substr(gps_fmt + 25, 64).c_str();
   auto size_of = [](char c) -> std::size_t {
     switch (c) {
-      case 'b': case 'B': case 'M': return 1;
-      case 'h': case 'H': case 'c': case 'C': return 2;
-      case 'i': case 'I': case 'e': case 'E': case 'L': case 'f': case 'n': return 4;
-      case 'd': case 'q': case 'Q': return 8;
-      case 'N': return 16;
-      case 'Z': return 64;
-      default: return 0;
+      case 'b':
+      case 'B':
+      case 'M':
+        return 1;
+      case 'h':
+      case 'H':
+      case 'c':
+      case 'C':
+        return 2;
+      case 'i':
+      case 'I':
+      case 'e':
+      case 'E':
+      case 'L':
+      case 'f':
+      case 'n':
+        return 4;
+      case 'd':
+      case 'q':
+      case 'Q':
+        return 8;
+      case 'N':
+        return 16;
+      case 'Z':
+        return 64;
+      default:
+        return 0;
     }
   };
   std::size_t week_offset = 3, field = 0;

@@ -10,8 +10,8 @@
 #include <system_error>
 
 #include "cli/commands.h"
-#include "core/plausibility.h"
 #include "core/dataset.h"
+#include "core/plausibility.h"
 #include "optimizers/parameters.h"
 
 namespace insid::cli {
@@ -101,7 +101,8 @@ void check_output_file(const std::string& path, const OutputGuard& guard) {
 
 nlohmann::json check_dataset_plausibility(const Dataset& dataset, const std::string& command) {
   const PlausibilityReport report = check_plausibility(dataset);
-  for (const PlausibilityFinding& f : report.findings) std::cerr << command << ": " << f.text() << "\n";
+  for (const PlausibilityFinding& f : report.findings)
+    std::cerr << command << ": " << f.text() << "\n";
   if (report.refused()) throw std::runtime_error("the data cannot be right (above)");
   return report.to_json();
 }

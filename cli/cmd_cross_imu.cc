@@ -58,8 +58,8 @@ std::pair<double, double> boot_clock(const std::string& dir) {
       const JsonObject c = JsonObject::with_other_keys(p.field("clock").value(), src, "clock",
                                                        {"gpst_at_boot_zero_unix_s", "slope"});
       const double slope = c.number("slope");
-      if (!(slope > 0.5 && slope < 2.0)) c.field("slope").fail("not a clock slope: " +
-                                                               std::to_string(slope));
+      if (!(slope > 0.5 && slope < 2.0))
+        c.field("slope").fail("not a clock slope: " + std::to_string(slope));
       // boot = (GPST - gpst_at_boot_zero) / slope, GPST = t_s + time_origin.
       return {p.number("time_origin_gpst_unix_s") - c.number("gpst_at_boot_zero_unix_s"),
               1.0 / slope};

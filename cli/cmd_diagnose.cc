@@ -66,8 +66,7 @@ void run(const DiagnoseArgs& a) {
   if (!a.report.empty()) {
     const fs::path md = fs::absolute(a.report);
     check_output_file(md.string(), guard);
-    check_output_file((md.parent_path() / (md.stem().string() + "_residuals.csv")).string(),
-                      guard);
+    check_output_file((md.parent_path() / (md.stem().string() + "_residuals.csv")).string(), guard);
     if (a.out.empty() || a.out == "-")
       check_output_file((md.parent_path() / (md.stem().string() + ".json")).string(), guard);
   }
@@ -83,7 +82,8 @@ void run(const DiagnoseArgs& a) {
   for (const std::string& c : a.candidates)  // conflicting options: a usage error (issue 45)
     for (const EstimatedParameter& b : o.base)
       if (b.name == c)
-        throw UsageError("--candidates " + c + " is also in --base: a candidate is an effect the "
+        throw UsageError("--candidates " + c +
+                         " is also in --base: a candidate is an effect the "
                          "base model lacks");
   if (a.verbosity != Verbosity::kQuiet) std::cerr << "insid diagnose: " << settled.line() << "\n";
   o.candidates = a.candidates;

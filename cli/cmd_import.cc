@@ -377,8 +377,10 @@ void run_import_ulog(const ImportUlogArgs& args) {
     });
   } else {
     if (!ulog.imu_topic.empty() && ulog.imu_topic != kUlogMultiImuTopic)
-      throw UsageError("--imu-instance all imports every instance of vehicle_imu (one per "
-                       "physical IMU); --imu-topic '" + ulog.imu_topic + "' has one");
+      throw UsageError(
+          "--imu-instance all imports every instance of vehicle_imu (one per "
+          "physical IMU); --imu-topic '" +
+          ulog.imu_topic + "' has one");
     ulog.imu_topic = kUlogMultiImuTopic;
   }
   if (const std::string e = ulog.validate(); !e.empty()) throw UsageError(e);
@@ -406,8 +408,9 @@ void run_import_ulog(const ImportUlogArgs& args) {
   for (const auto& [instance, n] : log.instances(kUlogMultiImuTopic))
     if (n > 0) present.push_back(instance);
   if (present.empty())
-    throw std::runtime_error(args.log + ": no vehicle_imu messages (--imu-instance all imports "
-                                        "each instance of vehicle_imu)");
+    throw std::runtime_error(args.log +
+                             ": no vehicle_imu messages (--imu-instance all imports "
+                             "each instance of vehicle_imu)");
   auto dir = [&](int instance) {
     return (fs::path(args.shared.out) / ("vehicle_imu_" + std::to_string(instance))).string();
   };
@@ -430,8 +433,8 @@ void run_import_ulog(const ImportUlogArgs& args) {
   }
   for (std::size_t k = 0; k < assembled.size(); ++k)
     finish_import("insid import ulog", std::move(assembled[k].first),
-                  std::move(assembled[k].second), {source}, dir(present[k]), args.shared.force,
-                  t0, args.shared.verbosity);
+                  std::move(assembled[k].second), {source}, dir(present[k]), args.shared.force, t0,
+                  args.shared.verbosity);
 }
 
 /// --imu / --imu-instance value that imports every IMU of a log.
@@ -470,15 +473,14 @@ importers::Assembled assemble_ardupilot(const ImportArduPilotArgs& args,
   result.notes.insert(result.notes.begin(), series.notes.begin(), series.notes.end());
   if (!series.autopilot_estimates.is_null())
     result.dataset.meta.autopilot_estimates_json = series.autopilot_estimates.dump();
-  recorded_options = {
-      {"imu", ardupilot.imu},
-      {"min_status", ardupilot.min_status},
-      {"t_start_boot_s",
-       ardupilot.t_start_s ? nlohmann::json(*ardupilot.t_start_s) : nlohmann::json(nullptr)},
-      {"t_end_boot_s",
-       ardupilot.t_end_s ? nlohmann::json(*ardupilot.t_end_s) : nlohmann::json(nullptr)},
-      {"rate_samples", "point"},
-      {"axes", "ArduPilot body frame, forward-right-down (no mounting applied)"}};
+  recorded_options = {{"imu", ardupilot.imu},
+                      {"min_status", ardupilot.min_status},
+                      {"t_start_boot_s", ardupilot.t_start_s ? nlohmann::json(*ardupilot.t_start_s)
+                                                             : nlohmann::json(nullptr)},
+                      {"t_end_boot_s", ardupilot.t_end_s ? nlohmann::json(*ardupilot.t_end_s)
+                                                         : nlohmann::json(nullptr)},
+                      {"rate_samples", "point"},
+                      {"axes", "ArduPilot body frame, forward-right-down (no mounting applied)"}};
   if (args.ardupilot.imu == kEveryImu) recorded_options["imu_option"] = kEveryImu;
   args.shared.record(recorded_options);
   return result;
@@ -543,8 +545,8 @@ void run_import_ardupilot(const ImportArduPilotArgs& args) {
       std::string done;
       for (std::size_t k = 0; k < assembled.size(); ++k) done += (k ? ", " : "") + present[k];
       throw std::runtime_error("--imu all: " + name + " failed, nothing written" +
-                               (done.empty() ? "" : " (" + done + " were fine)") + ": " +
-                               e.what() + " (import the others one by one with --imu NAME)");
+                               (done.empty() ? "" : " (" + done + " were fine)") + ": " + e.what() +
+                               " (import the others one by one with --imu NAME)");
     }
   }
   for (std::size_t k = 0; k < assembled.size(); ++k)

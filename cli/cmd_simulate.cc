@@ -137,11 +137,12 @@ void add_simulate_command(CLI::App& app) {
   cmd->add_flag("--print-config", args->print_config,
                 "print the effective scenario JSON (after the options) and exit");
   add_verbosity_flags(cmd, args->verbosity);
-  CLI::Option* heading = cmd->add_option("--heading", args->heading,
-                  "also write a measured heading (heading.csv): dual_antenna (truth yaw + white "
-                  "noise of --heading-sd-deg) | magnetometer (the Earth field in the body with "
-                  "noise, levelled on the static window and --declination-deg added, as insid "
-                  "import does; static window only)");
+  CLI::Option* heading = cmd->add_option(
+      "--heading", args->heading,
+      "also write a measured heading (heading.csv): dual_antenna (truth yaw + white "
+      "noise of --heading-sd-deg) | magnetometer (the Earth field in the body with "
+      "noise, levelled on the static window and --declination-deg added, as insid "
+      "import does; static window only)");
   cmd->add_option("--heading-rate-hz", args->heading_spec.rate_hz, "heading samples per second")
       ->capture_default_str()
       ->needs(heading);  // issue 45: not silently ignored without --heading

@@ -103,9 +103,10 @@ void add_sweep_command(CLI::App& app) {
   cmd->add_option("--seeds", args->seeds, "seeds per setting (1..N)")
       ->capture_default_str()
       ->check(whole_in(1, kMaxSeeds));
-  CLI::Option* preset =
-      cmd->add_option("--preset", args->preset, "scenario preset to simulate")->capture_default_str();
-  CLI::Option* data = cmd->add_option("--data", args->data_dir, "use this dataset instead of a preset");
+  CLI::Option* preset = cmd->add_option("--preset", args->preset, "scenario preset to simulate")
+                            ->capture_default_str();
+  CLI::Option* data =
+      cmd->add_option("--data", args->data_dir, "use this dataset instead of a preset");
   cmd->add_option("--flight-s", args->flight_s, "flight length after alignment (s) for the preset")
       ->check(positive_seconds(kMaxFlightS))
       ->excludes(data);

@@ -74,7 +74,8 @@ TEST(CrossImuCli, UsageErrors) {
   o = insid("import ulog " + (tmp.path / "none.ulg").string() +
             " --imu-instance all --imu-topic sensor_combined --out " + (tmp.path / "ds").string());
   EXPECT_EQ(o.status, 2) << o.output;
-  EXPECT_TRUE(has(o.output, "--imu-instance all imports every instance of vehicle_imu")) << o.output;
+  EXPECT_TRUE(has(o.output, "--imu-instance all imports every instance of vehicle_imu"))
+      << o.output;
   o = insid("import ulog " + (tmp.path / "none.ulg").string() + " --imu-instance 1x --out " +
             (tmp.path / "ds").string());
   EXPECT_EQ(o.status, 2) << o.output;
@@ -115,8 +116,10 @@ TEST(CrossImuCli, RealLogAllImusAndTheirDifferences) {
   EXPECT_FALSE(fs::exists(refused));
 
   const fs::path ds = tmp.path / "copter";
-  o = insid("import ardupilot " + kLog.string() + " --imu all --t-start 74.7 --t-end 215 "
-                    "--out " + ds.string());
+  o = insid("import ardupilot " + kLog.string() +
+            " --imu all --t-start 74.7 --t-end 215 "
+            "--out " +
+            ds.string());
   ASSERT_EQ(o.status, 0) << o.output;
   for (const char* name : {"IMU", "IMU2", "IMU3"}) {
     ASSERT_TRUE(fs::exists(ds / name / "imu.csv")) << name;
@@ -176,7 +179,8 @@ TEST(CrossImuCli, RealLogAllImusAndTheirDifferences) {
     o = insid("identify --data " + (ds / name).string() +
               " --grade mems --initial-attitude level+heading --window-s 10 --estimate gyro_bias_x"
               " --estimate gyro_bias_y --estimate gyro_bias_z --estimate accel_bias_z --algo "
-              "ekf-rts --no-reference-optimum --threads 1 --quiet --out " + r.string());
+              "ekf-rts --no-reference-optimum --threads 1 --quiet --out " +
+              r.string());
     ASSERT_EQ(o.status, 0) << o.output;
     results += " --result " + r.string();
   }

@@ -37,7 +37,8 @@ class CliOwnership : public ::testing::Test {
     const Outcome o = insid("simulate --preset straight --flight-s 20 --out " + data_.string());
     ASSERT_EQ(o.status, 0) << o.output;
     kf_ = root_ / "kf";
-    const Outcome e = insid("export --to kf-gins --data " + data_.string() + " --out " + kf_.string());
+    const Outcome e =
+        insid("export --to kf-gins --data " + data_.string() + " --out " + kf_.string());
     ASSERT_EQ(e.status, 0) << e.output;
   }
   void TearDown() override { fs::remove_all(root_); }
@@ -93,8 +94,7 @@ TEST_F(CliOwnership, OutputsNeverReplaceInputsOrOtherFiles) {
   for (const std::string& args :
        {"navigate --data " + data_.string() + " --out " + (data_ / "imu.csv").string(),
         "navigate --data " + data_.string() + " --summary " + (data_ / "meta.json").string(),
-        "navigate --force --data " + data_.string() + " --summary " +
-            (data_ / "gnss.csv").string(),
+        "navigate --force --data " + data_.string() + " --summary " + (data_ / "gnss.csv").string(),
         "identify --algo pso --iterations 2 --data " + data_.string() + " --out " +
             (data_ / "meta.json").string(),
         "diagnose --data " + data_.string() + " --out " + (data_ / "truth.csv").string()}) {
@@ -232,8 +232,7 @@ TEST_F(CliOwnership, ForceNeverOverwritesTheCommandsOwnInput) {
   ASSERT_EQ(o.status, 0) << o.output;
   const std::string scenario = o.output.substr(o.output.find('{'));
   std::ofstream(cfg / "meta.json") << scenario;
-  o = insid("simulate --config " + (cfg / "meta.json").string() + " --force --out " +
-            cfg.string());
+  o = insid("simulate --config " + (cfg / "meta.json").string() + " --force --out " + cfg.string());
   EXPECT_EQ(o.status, 1) << o.output;
   EXPECT_TRUE(has(o.output, "which this command reads")) << o.output;
   EXPECT_EQ(text(cfg / "meta.json"), scenario);

@@ -251,8 +251,8 @@ std::vector<BadInput> option_cases(const std::string& data) {
   cases.push_back({sim + " --set gyro_bias_x=abc", {"--set", "gyro_bias_x"}, true});
   cases.push_back({sim + " --set nosuch=1", {"nosuch"}, true});
   // Issue 45: a heading option without --heading was accepted (and nan with it) and ignored.
-  cases.push_back({sim + " --heading-rate-hz nan", {"--heading-rate-hz", "requires --heading"},
-                   true});
+  cases.push_back(
+      {sim + " --heading-rate-hz nan", {"--heading-rate-hz", "requires --heading"}, true});
   cases.push_back({"navigate --data " + data + " --compensate accel_bias_x",
                    {"--compensate", "NAME=VALUE"},
                    true});
@@ -540,10 +540,10 @@ TEST_F(CliSafety, HugeInputsAreRefusedBeforeTheyAreReadNamingFileAndLimit) {
   fs::resize_file(zeros, 2ull << 30);
   const fs::path gnss_text = root_ / "gnss.txt";
   std::ofstream(gnss_text) << "345600.0 40.0 116.0 50.0 0.01 0.01 0.02\n"
-                               "345601.0 40.0 116.0 50.0 0.01 0.01 0.02\n"
-                               "345602.0 40.0 116.0 50.0 0.01 0.01 0.02\n";
-  o = insid("import kf-gins --imu " + zeros.string() + " --gnss " + gnss_text.string() +
-            " --out " + out.string());
+                              "345601.0 40.0 116.0 50.0 0.01 0.01 0.02\n"
+                              "345602.0 40.0 116.0 50.0 0.01 0.01 0.02\n";
+  o = insid("import kf-gins --imu " + zeros.string() + " --gnss " + gnss_text.string() + " --out " +
+            out.string());
   EXPECT_EQ(o.status, 1) << o.output;
   EXPECT_TRUE(has(o.output, zeros.string() + ": not a text file: byte 0 is a NUL byte"))
       << o.output;

@@ -14,8 +14,17 @@ namespace {
 // construction (kSigmaGyroRadS, kSigmaAccelMps2): the nav grade searches in catalogue units.
 constexpr const char* kTenSigma = "ten times the grade's one sigma (core/grade_table.h)";
 constexpr std::array<GradeFigures, 3> kGrades = {{
-    {"nav", kSigmaGyroRadS, kSigmaAccelMps2, 1e-4, 1e-4, {0.002, 0.001, 0.01, 0.02},
-     10 * kSigmaGyroRadS, 10 * kSigmaAccelMps2, 1e-3, 1e-3, kTenSigma},
+    {"nav",
+     kSigmaGyroRadS,
+     kSigmaAccelMps2,
+     1e-4,
+     1e-4,
+     {0.002, 0.001, 0.01, 0.02},
+     10 * kSigmaGyroRadS,
+     10 * kSigmaAccelMps2,
+     1e-3,
+     1e-3,
+     kTenSigma},
     {"tactical",
      1.0 * kDegToRad / 3600.0,
      1e-3 * kStandardGravity_mps2,
@@ -27,8 +36,16 @@ constexpr std::array<GradeFigures, 3> kGrades = {{
      3e-3,
      3e-3,
      kTenSigma},
-    {"mems", 0.1 * kDegToRad, 10e-3 * kStandardGravity_mps2, 1e-3, 1e-3, {0.2, 0.05, 0.03, 0.5},
-     20.0 * kDegToRad, 80e-3 * kStandardGravity_mps2, 0.03, 0.02,
+    {"mems",
+     0.1 * kDegToRad,
+     10e-3 * kStandardGravity_mps2,
+     1e-3,
+     1e-3,
+     {0.2, 0.05, 0.03, 0.5},
+     20.0 * kDegToRad,
+     80e-3 * kStandardGravity_mps2,
+     0.03,
+     0.02,
      "the MPU-6000/6050 datasheet's initial tolerances (PS-MPU-6000A-00 rev. 3.4, sec. 6.1-6.2: "
      "zero-rate +-20 deg/s, zero-g +-80 mg, sensitivity +-3 %, cross-axis +-2 %)"},
 }};

@@ -1,10 +1,10 @@
 #include "core/output_dir.h"
 
 #include <fcntl.h>
+#include <signal.h>
 #include <sys/file.h>
 #include <sys/stat.h>
 #include <sys/xattr.h>
-#include <signal.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -203,8 +203,8 @@ FileOwner file_owner(const fs::path& path) {
 fs::path temporary_sibling(const fs::path& target, const char* tag) {
   static std::atomic<unsigned> counter{0};
   return target.parent_path() /
-         (target.filename().string() + tag + this_host() + "-" + std::to_string(::getpid()) +
-          "-" + std::to_string(counter.fetch_add(1)));
+         (target.filename().string() + tag + this_host() + "-" + std::to_string(::getpid()) + "-" +
+          std::to_string(counter.fetch_add(1)));
 }
 
 bool mark_as_temporary(const fs::path& path) {
@@ -371,9 +371,9 @@ std::vector<fs::path> remove_own_files(const fs::path& dir,
       } else {
         directories.push_back(it->path());
       }
-    } else if (fs::is_regular_file(st) && (is_insid_temporary(it->path()) ||
-                                           (also_own && also_own(rel)) ||
-                                           file_owner(it->path()) == FileOwner::kInsid)) {
+    } else if (fs::is_regular_file(st) &&
+               (is_insid_temporary(it->path()) || (also_own && also_own(rel)) ||
+                file_owner(it->path()) == FileOwner::kInsid)) {
       own_files.push_back(it->path());
     } else {
       kept.push_back(rel);
@@ -500,8 +500,7 @@ int remove_abandoned_siblings(const fs::path& target) {
     const auto name = parse_temporary_name(it->path().filename().string());
     if (!name || name->base != base || name->host != this_host()) continue;
     // Signal 0 only asks whether the process exists; ESRCH: it does not any more.
-    if (name->pid <= 0 || ::kill(static_cast<pid_t>(name->pid), 0) == 0 || errno != ESRCH)
-      continue;
+    if (name->pid <= 0 || ::kill(static_cast<pid_t>(name->pid), 0) == 0 || errno != ESRCH) continue;
     if (is_insid_temporary(it->path())) abandoned.push_back(it->path());
   }
   int removed = 0;

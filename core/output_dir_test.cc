@@ -224,9 +224,8 @@ TEST_F(OutputDir, ATemporaryIsRecognisedByItsMarkNotItsName) {
   std::ofstream(killed_dir / "notes.txt") << "mine";
   std::vector<fs::path> kept = remove_own_files(out);
   std::sort(kept.begin(), kept.end());
-  const std::vector<fs::path> expected = {killed_dir.filename() / "notes.txt",
-                                          "list.tmp-h-1-2", "old.old-h-4-5/a.txt",
-                                          "photos.tmp-laptop-12-3/img1.jpg"};
+  const std::vector<fs::path> expected = {killed_dir.filename() / "notes.txt", "list.tmp-h-1-2",
+                                          "old.old-h-4-5/a.txt", "photos.tmp-laptop-12-3/img1.jpg"};
   std::vector<fs::path> sorted_expected = expected;
   std::sort(sorted_expected.begin(), sorted_expected.end());
   EXPECT_EQ(kept, sorted_expected);

@@ -46,8 +46,8 @@ class ImuCumulative {
   Vector3d at(const std::vector<Vector3d>& sums, double t) const {
     if (t <= t_.front()) return sums.front();
     if (t >= t_.back()) return sums.back();
-    const std::size_t k = static_cast<std::size_t>(
-        std::upper_bound(t_.begin(), t_.end(), t) - t_.begin());  // t_[k-1] <= t < t_[k]
+    const std::size_t k = static_cast<std::size_t>(std::upper_bound(t_.begin(), t_.end(), t) -
+                                                   t_.begin());  // t_[k-1] <= t < t_[k]
     const double w = (t - t_[k - 1]) / (t_[k] - t_[k - 1]);
     return sums[k - 1] + w * (sums[k] - sums[k - 1]);
   }
@@ -79,7 +79,8 @@ std::vector<std::pair<std::size_t, std::size_t>> baselines(const std::vector<Gns
   std::vector<std::pair<std::size_t, std::size_t>> out;
   const double step = median_step(g);
   if (!(step > 0.0)) return out;
-  const std::size_t n = std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil(baseline_s / step)));
+  const std::size_t n =
+      std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil(baseline_s / step)));
   for (std::size_t k = 0; k + n < g.size(); k += n) {
     const double dt = g[k + n].t_s - g[k].t_s;
     if (dt > 0.5 * baseline_s && dt < 3.0 * baseline_s) out.emplace_back(k, k + n);
@@ -131,7 +132,8 @@ void check_static(const Dataset& ds, PlausibilityReport& report) {
   const double off_g = std::abs(f - g) / kStandardGravity_mps2;
   if (off_g > 0.1) {
     PlausibilityFinding x;
-    x.level = off_g > 0.5 ? PlausibilityFinding::Level::kRefusal : PlausibilityFinding::Level::kWarning;
+    x.level =
+        off_g > 0.5 ? PlausibilityFinding::Level::kRefusal : PlausibilityFinding::Level::kWarning;
     x.check = "static_gravity";
     x.quantity = "the static window's mean specific force magnitude";
     x.expected = num(g, 4) + " m/s^2 (normal gravity at " + num(lat * kRadToDeg, 4) + " deg, " +
@@ -190,8 +192,9 @@ void check_turns(const Dataset& ds, const ImuCumulative& imu, PlausibilityReport
     ++n;
   }
   if (turned < std::numbers::pi / 2 || sxx <= 0.0 || syy <= 0.0) {
-    report.not_checked.push_back("gyro_turn_rate: fewer than 90 deg of GNSS course change above 1 m/s (" +
-                                 num(turned * kRadToDeg) + " deg)");
+    report.not_checked.push_back(
+        "gyro_turn_rate: fewer than 90 deg of GNSS course change above 1 m/s (" +
+        num(turned * kRadToDeg) + " deg)");
     return;
   }
   const double slope = sxy / sxx;  // course change per gyro heading change
@@ -237,7 +240,8 @@ void check_gnss_velocity(const Dataset& ds, PlausibilityReport& report) {
     ++n;
   }
   const double horizontal_motion = n > 0 ? std::sqrt(sxx.trace() / n) : 0.0;
-  if (n < 10 || horizontal_motion < 1.0 || std::abs(sxx.determinant()) < 1e-6 * sxx.trace() * sxx.trace()) {
+  if (n < 10 || horizontal_motion < 1.0 ||
+      std::abs(sxx.determinant()) < 1e-6 * sxx.trace() * sxx.trace()) {
     report.not_checked.push_back("gnss_velocity (horizontal): too little motion (rms " +
                                  num(horizontal_motion) + " m/s over " + std::to_string(n) +
                                  " baselines of 2 s)");
@@ -300,11 +304,13 @@ void check_clock(const Dataset& ds, const ImuCumulative& imu, PlausibilityReport
     double t_mid, dt, q;
   };
   std::vector<Point> gnss_q;
-  const double gravity = ds.meta.earth.normal_gravity_mps2(ds.meta.initial.lat_rad, ds.meta.initial.h_m);
+  const double gravity =
+      ds.meta.earth.normal_gravity_mps2(ds.meta.initial.lat_rad, ds.meta.initial.h_m);
   for (const auto& [a, b] : baselines(g, 1.0)) {
     const double dt = g[b].t_s - g[a].t_s;
     const Vector3d acc = (g[b].v_eb_n_mps - g[a].v_eb_n_mps) / dt;
-    gnss_q.push_back({0.5 * (g[a].t_s + g[b].t_s), dt, acc.squaredNorm() + 2.0 * gravity * acc.z()});
+    gnss_q.push_back(
+        {0.5 * (g[a].t_s + g[b].t_s), dt, acc.squaredNorm() + 2.0 * gravity * acc.z()});
   }
   auto imu_q = [&](double t_mid, double dt) {
     const Vector3d f = (imu.v_at(t_mid + 0.5 * dt) - imu.v_at(t_mid - 0.5 * dt)) / dt;
@@ -340,15 +346,18 @@ void check_clock(const Dataset& ds, const ImuCumulative& imu, PlausibilityReport
     if (c && *c > best) best = *c, best_lag = lag;
   }
   if (best < 0.5) {
-    report.not_checked.push_back("imu_gnss_clock: the accelerations seen by the IMU and the GNSS "
-                                 "correlate too weakly at any shift (best " + num(best) + ")");
+    report.not_checked.push_back(
+        "imu_gnss_clock: the accelerations seen by the IMU and the GNSS "
+        "correlate too weakly at any shift (best " +
+        num(best) + ")");
     return;
   }
   if (std::abs(best_lag) < std::max(0.5, 2.0 * step) || best - *at_zero < 0.2) return;
   PlausibilityFinding x;
   x.check = "imu_gnss_clock";
-  x.quantity = "the shift of the IMU clock against the GNSS clock at which the accelerations "
-               "both see match best";
+  x.quantity =
+      "the shift of the IMU clock against the GNSS clock at which the accelerations "
+      "both see match best";
   x.expected = "0 s (correlation there " + num(*at_zero) + ")";
   x.found = num(best_lag, 3) + " s (correlation " + num(best) + ")";
   x.likely_cause = std::abs(std::abs(best_lag) - 18.0) < 1.0
@@ -361,7 +370,8 @@ void check_clock(const Dataset& ds, const ImuCumulative& imu, PlausibilityReport
 }  // namespace
 
 std::string PlausibilityFinding::text() const {
-  return std::string(level == Level::kRefusal ? "implausible data (refused): " : "implausible data: ") +
+  return std::string(level == Level::kRefusal ? "implausible data (refused): "
+                                              : "implausible data: ") +
          quantity + ": expected " + expected + ", found " + found + ": " + likely_cause;
 }
 

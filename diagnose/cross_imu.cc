@@ -86,8 +86,8 @@ std::optional<Eigen::MatrixXd> block_covariance(const Eigen::MatrixXd& X, const 
   long groups = 0;
   for (Eigen::Index k = 0; k < X.rows(); ++k) {
     s += X.row(k).transpose() * e(k);
-    const bool last = k + 1 == X.rows() || ids[static_cast<std::size_t>(k + 1)] !=
-                                                ids[static_cast<std::size_t>(k)];
+    const bool last = k + 1 == X.rows() ||
+                      ids[static_cast<std::size_t>(k + 1)] != ids[static_cast<std::size_t>(k)];
     if (last) {
       S += s * s.transpose();
       s.setZero();
@@ -247,8 +247,8 @@ CrossImuReport direct_differences(const std::vector<RateSeries>& series,
       // Which rate columns are motion rather than noise.
       const Eigen::RowVector3d mean_w = W.colwise().mean();
       for (int j = 0; j < 3; ++j) {
-        const double sd = std::sqrt((W.col(j).array() - mean_w(j)).square().sum() /
-                                    static_cast<double>(n - 1));
+        const double sd =
+            std::sqrt((W.col(j).array() - mean_w(j)).square().sum() / static_cast<double>(n - 1));
         pair.wbar_sd_rad_s(j) = sd;
         pair.rate_column_used[static_cast<std::size_t>(j)] = sd >= options.min_rate_sd_rad_s;
       }
@@ -257,8 +257,8 @@ CrossImuReport direct_differences(const std::vector<RateSeries>& series,
         if (pair.rate_column_used[static_cast<std::size_t>(j)]) cols.push_back(j);
       const Eigen::Index p = 1 + static_cast<Eigen::Index>(cols.size());
       if (static_cast<Eigen::Index>(n) < 10 * p)
-        throw std::invalid_argument(pair_name(pair) + ": " + std::to_string(n) +
-                                    " samples for " + std::to_string(p) +
+        throw std::invalid_argument(pair_name(pair) + ": " + std::to_string(n) + " samples for " +
+                                    std::to_string(p) +
                                     " coefficients per axis; give a longer window");
       Eigen::MatrixXd X(n, p);
       X.col(0).setOnes();
@@ -293,9 +293,8 @@ CrossImuReport direct_differences(const std::vector<RateSeries>& series,
         for (double length : options.block_ladder_s) {
           const std::optional<Eigen::MatrixXd> Vl =
               block_covariance(X, e, XtX_inv, block_ids(t, length), options.min_blocks);
-          ax.se_by_block.emplace_back(length,
-                                      Vl ? std::optional<double>(std::sqrt((*Vl)(0, 0)))
-                                         : std::nullopt);
+          ax.se_by_block.emplace_back(
+              length, Vl ? std::optional<double>(std::sqrt((*Vl)(0, 0))) : std::nullopt);
         }
       }
       // Per segment: the mean of y - K wbar, its SE from the blocks inside the segment.
@@ -312,8 +311,8 @@ CrossImuReport direct_differences(const std::vector<RateSeries>& series,
         while (k < n && (t[k] < s1 || (s1 == t1 && t[k] <= t1))) {
           Eigen::Vector3d ri = Y.row(static_cast<Eigen::Index>(k)).transpose();
           for (std::size_t c = 0; c < cols.size(); ++c)
-            ri -= K_used.col(static_cast<Eigen::Index>(c)) *
-                  W(static_cast<Eigen::Index>(k), cols[c]);
+            ri -=
+                K_used.col(static_cast<Eigen::Index>(c)) * W(static_cast<Eigen::Index>(k), cols[c]);
           r.push_back(ri);
           seg_ids.push_back(static_cast<long>(std::floor((t[k] - s0) / report.block_s_used)));
           ++k;
@@ -355,12 +354,12 @@ ResultEstimates read_identify_result(const std::filesystem::path& path) {
   const std::string src = path.string();
   const nlohmann::json j = read_json_file(path);
   try {
-    const JsonObject doc = JsonObject::with_other_keys(j, src, "", {"format", "parameters",
-                                                                    "algorithm"});
+    const JsonObject doc =
+        JsonObject::with_other_keys(j, src, "", {"format", "parameters", "algorithm"});
     const std::string format = doc.string("format");
     if (format != "insid-identify/2")
-      doc.field("format").fail("expected \"insid-identify/2\" (an insid identify result), found \"" +
-                               format + "\"");
+      doc.field("format").fail(
+          "expected \"insid-identify/2\" (an insid identify result), found \"" + format + "\"");
     ResultEstimates r;
     r.source = src;
     if (const auto algo = doc.optional_given("algorithm")) {  // {"name": ..., "parameters": ...}
@@ -373,8 +372,9 @@ ResultEstimates read_identify_result(const std::filesystem::path& path) {
     const JsonArray params = doc.array("parameters");
     for (std::size_t k = 0; k < params.size(); ++k) {
       const JsonField f = params[k];
-      const JsonObject o = JsonObject::with_other_keys(
-          f.value(), src, json_index_path("parameters", k), {"name", "estimate", "sd", "flags", "unit"});
+      const JsonObject o =
+          JsonObject::with_other_keys(f.value(), src, json_index_path("parameters", k),
+                                      {"name", "estimate", "sd", "flags", "unit"});
       const std::string name = o.string("name");
       int axis = -1;
       for (int i = 0; i < 3; ++i)
@@ -401,10 +401,14 @@ ResultEstimates read_identify_result(const std::filesystem::path& path) {
 
 const char* to_string(Verdict v) {
   switch (v) {
-    case Verdict::kAgree: return "agree";
-    case Verdict::kCheck: return "check";
-    case Verdict::kDisagree: return "disagree";
-    case Verdict::kNotCompared: return "not_compared";
+    case Verdict::kAgree:
+      return "agree";
+    case Verdict::kCheck:
+      return "check";
+    case Verdict::kDisagree:
+      return "disagree";
+    case Verdict::kNotCompared:
+      return "not_compared";
   }
   return "not_compared";
 }
@@ -480,11 +484,11 @@ std::vector<std::string> comparison_warnings(const CrossImuReport& report,
     if (r.verdict == Verdict::kDisagree) {
       char z[32];
       std::snprintf(z, sizeof z, "%.1f", *r.z);
-      out.push_back("insid's " + param + " for " + p.name_a + " disagrees with its own airframe: " +
-                    pair_name(p) + " estimated " + deg(*r.insid_diff_rad_s) + " +- " +
-                    deg_opt(r.insid_sd_rad_s) + " deg/s, measured directly from the samples " +
-                    deg(r.direct_rad_s) + " +- " + deg_opt(r.direct_se_rad_s) + " deg/s (z = " +
-                    z + ")");
+      out.push_back("insid's " + param + " for " + p.name_a +
+                    " disagrees with its own airframe: " + pair_name(p) + " estimated " +
+                    deg(*r.insid_diff_rad_s) + " +- " + deg_opt(r.insid_sd_rad_s) +
+                    " deg/s, measured directly from the samples " + deg(r.direct_rad_s) + " +- " +
+                    deg_opt(r.direct_se_rad_s) + " deg/s (z = " + z + ")");
     }
     for (const std::string& flag : r.flags)
       if (flag.find("at_box_edge") != std::string::npos) {
@@ -624,12 +628,12 @@ std::string report_text(const CrossImuReport& report, const std::vector<Comparis
           hi = std::max(hi, *se);
         }
       char range[64] = "n/a";
-      if (std::isfinite(lo)) std::snprintf(range, sizeof range, "%.4f-%.4f", lo * kRadToDeg,
-                                           hi * kRadToDeg);
+      if (std::isfinite(lo))
+        std::snprintf(range, sizeof range, "%.4f-%.4f", lo * kRadToDeg, hi * kRadToDeg);
       std::snprintf(line, sizeof line, "  %-16s %-4s %10s %8s %8s  %-26s %s\n",
                     pair_name(p).c_str(), kAxis[i], deg(ax.bias_diff_rad_s, 4).c_str(),
-                    deg_opt(ax.se_rad_s, 4).c_str(), deg_opt(ax.se_iid_rad_s, 4).c_str(),
-                    K.c_str(), range);
+                    deg_opt(ax.se_rad_s, 4).c_str(), deg_opt(ax.se_iid_rad_s, 4).c_str(), K.c_str(),
+                    range);
       s << line;
     }
   s << "per segment of " << report.options.segment_s
@@ -683,7 +687,8 @@ std::string report_markdown(const CrossImuReport& report, const std::vector<Comp
       const AxisDifference& ax = p.axes[static_cast<std::size_t>(i)];
       std::string K;
       for (int c = 0; c < 3; ++c) {
-        K.append(" ").append(coefficient_text(ax.rate_coeff[static_cast<std::size_t>(c)]))
+        K.append(" ")
+            .append(coefficient_text(ax.rate_coeff[static_cast<std::size_t>(c)]))
             .append(" |");
       }
       std::snprintf(line, sizeof line, "| %s | %s | %s | %s | %s |%s\n", pair_name(p).c_str(),

@@ -42,9 +42,9 @@ namespace insid::cross_imu {
 
 /// One IMU's mean angular rates over its steps, on a clock shared by all the IMUs compared.
 struct RateSeries {
-  std::string name;                ///< e.g. "IMU2" (the dataset's directory name)
-  std::vector<double> t_s;         ///< end of each step (the shared clock)
-  std::vector<double> dt_s;        ///< length of each step
+  std::string name;                               ///< e.g. "IMU2" (the dataset's directory name)
+  std::vector<double> t_s;                        ///< end of each step (the shared clock)
+  std::vector<double> dt_s;                       ///< length of each step
   std::vector<Eigen::Vector3d> omega_ib_b_rad_s;  ///< dtheta / dt over the step, body FRD
 };
 
@@ -80,7 +80,7 @@ struct CrossImuOptions {
 
 /// One gyro axis of one pair.
 struct AxisDifference {
-  double bias_diff_rad_s = 0.0;  ///< db_i = bias_a - bias_b
+  double bias_diff_rad_s = 0.0;    ///< db_i = bias_a - bias_b
   std::optional<double> se_rad_s;  ///< block SE at CrossImuOptions::block_s (none: too few blocks)
   double se_iid_rad_s = 0.0;       ///< the i.i.d. OLS SE (for comparison only)
   /// K_i,j (dimensionless) for the rate columns used; nullopt for a column left out.
@@ -160,8 +160,8 @@ struct ComparisonRow {
   std::optional<double> direct_se_rad_s;
   std::optional<double> z;  ///< (insid - direct) / sqrt(sd_a^2 + sd_b^2 + se^2)
   Verdict verdict = Verdict::kNotCompared;
-  std::string reason;                  ///< why not compared, when so
-  std::vector<std::string> flags;      ///< e.g. "IMU2 at_box_edge"
+  std::string reason;              ///< why not compared, when so
+  std::vector<std::string> flags;  ///< e.g. "IMU2 at_box_edge"
 };
 
 /// Compares the results (one per series, same order) with the direct differences. Throws

@@ -55,8 +55,8 @@ Dataset simulate_imu(const SimImu& imu, std::uint64_t seed, double flight_s = 15
 // and w = (wbar - (b_a + b_b) / 2) / (1 + (s_a + s_b) / 2), so the intercept is
 // db - K (b_a + b_b) / 2 with K = (s_a - s_b) / (1 + (s_a + s_b) / 2) (second order).
 double expected_intercept(const SimImu& a, const SimImu& b, int i) {
-  const double K = (a.gyro_scale(i) - b.gyro_scale(i)) /
-                   (1.0 + 0.5 * (a.gyro_scale(i) + b.gyro_scale(i)));
+  const double K =
+      (a.gyro_scale(i) - b.gyro_scale(i)) / (1.0 + 0.5 * (a.gyro_scale(i) + b.gyro_scale(i)));
   return a.gyro_bias_rad_s(i) - b.gyro_bias_rad_s(i) -
          K * 0.5 * (a.gyro_bias_rad_s(i) + b.gyro_bias_rad_s(i));
 }
@@ -125,12 +125,13 @@ TEST(CrossImu, RecoversKnownDifferencesWithHonestSe) {
         sum_ratio += *ax.se_rad_s / ax.se_iid_rad_s;
         worst = std::max(worst, std::abs(z));
         for (const auto& [len, se] : ax.se_by_block)  // the SE's dependence on the block length
-          if (se) ladder_z2[len] += std::pow((ax.bias_diff_rad_s - expected_intercept(a, b, i)) / *se, 2);
+          if (se)
+            ladder_z2[len] += std::pow((ax.bias_diff_rad_s - expected_intercept(a, b, i)) / *se, 2);
         EXPECT_LT(std::abs(z), 3.5) << p.name_a << "-" << p.name_b << " axis " << i << " seed "
                                     << seed << ": " << ax.bias_diff_rad_s / kDeg << " deg/s";
         // The scale difference on the diagonal, within 4 of its SE.
-        const double K_true = (a.gyro_scale(i) - b.gyro_scale(i)) /
-                              (1.0 + 0.5 * (a.gyro_scale(i) + b.gyro_scale(i)));
+        const double K_true =
+            (a.gyro_scale(i) - b.gyro_scale(i)) / (1.0 + 0.5 * (a.gyro_scale(i) + b.gyro_scale(i)));
         const auto& K = ax.rate_coeff[static_cast<std::size_t>(i)];
         const auto& K_se = ax.rate_coeff_se[static_cast<std::size_t>(i)];
         if (K && K_se)
@@ -143,9 +144,10 @@ TEST(CrossImu, RecoversKnownDifferencesWithHonestSe) {
   const double rms_z = std::sqrt(sum_z2 / total);
   for (const auto& [len, z2] : ladder_z2)
     std::printf("SE from %g s blocks: rms z %.2f\n", len, std::sqrt(z2 / total));
-  std::printf("cross-imu simulated: %d pair-axes, %d within 2 SE, rms z %.2f, worst %.2f, "
-              "block SE / iid SE %.2f\n",
-              total, within2, rms_z, worst, sum_ratio / total);
+  std::printf(
+      "cross-imu simulated: %d pair-axes, %d within 2 SE, rms z %.2f, worst %.2f, "
+      "block SE / iid SE %.2f\n",
+      total, within2, rms_z, worst, sum_ratio / total);
   EXPECT_GE(within2, static_cast<int>(std::ceil(0.85 * total)));
   EXPECT_GE(rms_z, 0.5);  // SE not inflated
   EXPECT_LE(rms_z, 1.5);
@@ -181,8 +183,7 @@ TEST(CrossImu, SegmentsShowABiasStep) {
   for (std::size_t k = 1; k < ds[1].imu.size(); ++k)
     if (ds[1].imu[k].t_s > 100.0)
       ds[1].imu[k].dtheta_b_rad.x() += step * (ds[1].imu[k].t_s - ds[1].imu[k - 1].t_s);
-  std::vector<RateSeries> series = {rates_from_dataset(ds[0], "A"),
-                                    rates_from_dataset(ds[1], "B")};
+  std::vector<RateSeries> series = {rates_from_dataset(ds[0], "A"), rates_from_dataset(ds[1], "B")};
   CrossImuOptions o;
   o.segment_s = 10.0;
   o.t_start_s = 10.0;
@@ -302,9 +303,10 @@ TEST(CrossImu, ComparisonVerdicts) {
 // An insid-identify/2 file is read by name; another format is refused naming the field.
 TEST(CrossImu, ReadsIdentifyResults) {
   const std::filesystem::path dir = std::filesystem::temp_directory_path();
-  const std::filesystem::path good = dir / ("insid_cross_imu_test_" + std::to_string(::getpid()) +
-                                            ".json");
-  std::ofstream(good) << R"({"format": "insid-identify/2", "algorithm": {"name": "EKF-RTS"}, "parameters": [
+  const std::filesystem::path good =
+      dir / ("insid_cross_imu_test_" + std::to_string(::getpid()) + ".json");
+  std::ofstream(good)
+      << R"({"format": "insid-identify/2", "algorithm": {"name": "EKF-RTS"}, "parameters": [
     {"name": "gyro_bias_x", "estimate": 0.0069813, "sd": 8.5e-05, "unit": "rad/s",
      "flags": ["at_box_edge"]},
     {"name": "gyro_bias_z", "estimate": -0.001, "sd": null, "unit": "rad/s", "flags": []},

@@ -1007,9 +1007,9 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
     f["beyond_physical_limit"] = std::abs(f["estimate"].get<double>()) > limit.limit_si;
     if (f["beyond_physical_limit"].get<bool>())
       progress("named " + f["effect"].get<std::string>() + " = " +
-               number_text(f["estimate"].get<double>(), 4) + " is beyond the grade's physical limit " +
-               number_text(limit.limit_si, 4) + " (" + limit.source +
-               "): a stand-in for something the model lacks, not a sensor property");
+               number_text(f["estimate"].get<double>(), 4) +
+               " is beyond the grade's physical limit " + number_text(limit.limit_si, 4) + " (" +
+               limit.source + "): a stand-in for something the model lacks, not a sensor property");
   }
 
   // Gap against the noise floor.
@@ -1099,8 +1099,8 @@ std::string report_markdown(const json& r, const std::string& figure_prefix) {
        << g(f["sd"]) << " " << effect_info(f["effect"].get<std::string>()).unit << " (iteration "
        << f["iteration"].get<int>() << ", z = " << g(f["z"], 3) << ")";
     if (f.value("beyond_physical_limit", false))
-      md << " **beyond the grade's physical limit** " << g(f["physical_limit"]["limit"])
-         << " (" << f["physical_limit"]["source"].get<std::string>()
+      md << " **beyond the grade's physical limit** " << g(f["physical_limit"]["limit"]) << " ("
+         << f["physical_limit"]["source"].get<std::string>()
          << "): a stand-in for something the model lacks, not a sensor property";
     if (!f["ambiguous_with"].empty()) {
       md << "; ambiguous with";

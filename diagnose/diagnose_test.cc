@@ -230,8 +230,8 @@ TEST(BaseWidening, AClippedBaseBiasIsWidenedNotExplainedByStandIns) {
   ASSERT_FALSE(procedure.empty()) << wide.report["base_fit_procedure"].dump(2);
   bool gyro_x_widened = false;
   for (const auto& w : procedure)
-    gyro_x_widened |= w["parameter"] == "gyro_bias_x" && w["side"] == "upper" &&
-                      w["kept"].get<bool>();
+    gyro_x_widened |=
+        w["parameter"] == "gyro_bias_x" && w["side"] == "upper" && w["kept"].get<bool>();
   EXPECT_TRUE(gyro_x_widened) << procedure.dump(2);
   const nlohmann::json& base = wide.report["base"]["parameters"];
   ASSERT_EQ(base[2]["name"], "gyro_bias_x");

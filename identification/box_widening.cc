@@ -25,8 +25,7 @@ std::string BoxWideningOptions::validate() const {
   if (!(edge_fraction > 0.0 && edge_fraction <= 0.25))
     return "box_widening.edge_fraction " + number_text(edge_fraction) + ": must be in (0, 0.25]";
   if (!(growth_of_width > 0.0 && growth_of_width <= 10.0))
-    return "box_widening.growth_of_width " + number_text(growth_of_width) +
-           ": must be in (0, 10]";
+    return "box_widening.growth_of_width " + number_text(growth_of_width) + ": must be in (0, 10]";
   if (max_rounds < 1 || max_rounds > 32)
     return "box_widening.max_rounds " + std::to_string(max_rounds) + ": must be in [1, 32]";
   return "";

@@ -47,11 +47,13 @@ PhysicalLimit SensorGrade::physical_limit(std::string_view effect) const {
   const std::string grade_source = std::string(limit_source);
   if (info.side == EffectSide::kGnss) {
     if (starts_with(effect, "gnss_latency"))
-      return {1.0, "a GNSS solution a whole second late at 1-10 Hz: beyond, the clocks are wrong, "
-                   "not the receiver slow"};
+      return {1.0,
+              "a GNSS solution a whole second late at 1-10 Hz: beyond, the clocks are wrong, "
+              "not the receiver slow"};
     return {5.0, "a lever arm longer than a small aircraft (5 m)"};
   }
-  if (starts_with(effect, "gyro_bias_drift_")) return {gyro_bias_limit_rad_s / 3600.0, grade_source};
+  if (starts_with(effect, "gyro_bias_drift_"))
+    return {gyro_bias_limit_rad_s / 3600.0, grade_source};
   if (starts_with(effect, "accel_bias_drift_"))
     return {accel_bias_limit_mps2 / 3600.0, grade_source};
   if (starts_with(effect, "gyro_bias_")) return {gyro_bias_limit_rad_s, grade_source};

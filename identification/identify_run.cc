@@ -128,7 +128,6 @@ std::string autopilot_comparison_table(const nlohmann::json& cmp) {
   return t;
 }
 
-
 // One search of the box of `estimated`: the navigation problem (its gyrocompass allowance from
 // the box), the Eq. 15 problem and the optimizer's ask / evaluate / tell loop with progress.
 struct Search {
@@ -170,7 +169,8 @@ Search run_search(const IdentifySpec& spec, const std::shared_ptr<const Dataset>
   }
   if (!first_note.empty() && progress.note) progress.note(first_note);
   opt::Optimizer& optimizer = *search.optimizer;
-  if (auto* ekf = dynamic_cast<EkfRtsOptimizer*>(&optimizer)) ekf->set_grade(std::string(grade.name));
+  if (auto* ekf = dynamic_cast<EkfRtsOptimizer*>(&optimizer))
+    ekf->set_grade(std::string(grade.name));
 
   // ask / evaluate / tell, with progress (opt::step also feeds the baselines that need residual
   // vectors or the problem itself: lm, ekf-rts). The status shows the iterations done; the
@@ -224,7 +224,8 @@ IdentifyReport identify(const IdentifySpec& spec, const IdentifyProgress& progre
   if (plausibility.refused()) {
     std::string why;
     for (const PlausibilityFinding& f : plausibility.findings)
-      if (f.level == PlausibilityFinding::Level::kRefusal) why += (why.empty() ? "" : "; ") + f.text();
+      if (f.level == PlausibilityFinding::Level::kRefusal)
+        why += (why.empty() ? "" : "; ") + f.text();
     throw std::runtime_error(why);
   }
   IdentifyReport report;
@@ -247,8 +248,8 @@ IdentifyReport identify(const IdentifySpec& spec, const IdentifyProgress& progre
                              setup.settled.line(), progress);
   auto closing_line = [&](const Search& s) {
     const opt::Result& r = s.optimizer->result();
-    note(spec.algorithm + " stopped after " + std::to_string(r.iterations) +
-         " iteration(s) and " + std::to_string(r.evaluations) + " evaluations (" +
+    note(spec.algorithm + " stopped after " + std::to_string(r.iterations) + " iteration(s) and " +
+         std::to_string(r.evaluations) + " evaluations (" +
          std::string(opt::to_string(r.termination)) + "); best " + number_text(r.best_f, 6) +
          " first reached at iteration " + std::to_string(s.best_at_iteration));
   };
@@ -260,10 +261,11 @@ IdentifyReport identify(const IdentifySpec& spec, const IdentifyProgress& progre
     for (const EstimatedParameter& p : s.problem->mapping().parameters())
       box[p.name] = {p.lower_sigma, p.upper_sigma};
     const Eigen::VectorXd v = s.problem->mapping().to_sigma(r.best_x);
-    rounds.push_back({{"box_sigma", box},
-                      {"best_fitness", r.best_f},
-                      {"evaluations", r.evaluations},
-                      {"estimate_in_sigma_units", std::vector<double>(v.data(), v.data() + v.size())}});
+    rounds.push_back(
+        {{"box_sigma", box},
+         {"best_fitness", r.best_f},
+         {"evaluations", r.evaluations},
+         {"estimate_in_sigma_units", std::vector<double>(v.data(), v.data() + v.size())}});
   };
   round_json(search);
   std::vector<BoxWidening> widenings;
@@ -297,8 +299,7 @@ IdentifyReport identify(const IdentifySpec& spec, const IdentifyProgress& progre
     closing_line(search);
     round_json(search);
     setup.estimated = wider;
-    setup.navigation.initial_attitude.gyro_bias_allowance_rad_s =
-        gyro_bias_allowance_rad_s(wider);
+    setup.navigation.initial_attitude.gyro_bias_allowance_rad_s = gyro_bias_allowance_rad_s(wider);
     widenings.insert(widenings.end(), moved.begin(), moved.end());
   }
   const std::shared_ptr<const NavigationProblem>& navigation = search.navigation;
@@ -352,8 +353,8 @@ IdentifyReport identify(const IdentifySpec& spec, const IdentifyProgress& progre
                                  {"to_sigma", w.to_sigma},
                                  {"to_physical_limit", w.to_physical_limit}});
     bw["rounds"] = rounds;
-    bw["stopped"] = widening_stopped.empty() ? nlohmann::json(nullptr)
-                                             : nlohmann::json(widening_stopped);
+    bw["stopped"] =
+        widening_stopped.empty() ? nlohmann::json(nullptr) : nlohmann::json(widening_stopped);
     nlohmann::json limits = nlohmann::json::object();
     for (const EstimatedParameter& p : setup.estimated) {
       const PhysicalLimit limit = grade.physical_limit(p.name);

@@ -197,8 +197,8 @@ BootClockFit fit_boot_clock(const Records& gps, const std::vector<std::size_t>& 
     std::vector<long double> offsets;
     for (std::size_t k = 0; k < x.size(); ++k) offsets.push_back(y[k] - x[k]);
     std::vector<long double> sorted = offsets;
-    std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2),
-                     sorted.end());
+    std::nth_element(sorted.begin(),
+                     sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
     const long double median = sorted[sorted.size() / 2];
     for (std::size_t k = 0; k < x.size(); ++k)
       if (!(std::fabs(static_cast<double>(offsets[k] - median)) <= 1.0)) use[k] = 0;
@@ -333,16 +333,16 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
   nlohmann::json& prov = out.provenance;
   prov["dataflash"] = {{"messages", log.messages_summary()}};
   if (log.skip_count() > 0) {
-    prov["dataflash"]["skipped"] = {{"places", log.skip_count()},
-                                    {"bytes", log.skipped_bytes()},
-                                    {"first", log.skips()}};
+    prov["dataflash"]["skipped"] = {
+        {"places", log.skip_count()}, {"bytes", log.skipped_bytes()}, {"first", log.skips()}};
     std::string first;
     for (std::size_t k = 0; k < log.skips().size() && k < 3; ++k)
       first += (k ? "; " : "") + log.skips()[k];
     out.notes.push_back(std::to_string(log.skip_count()) + " damaged place(s) in the log, " +
                         std::to_string(log.skipped_bytes()) +
                         " bytes skipped, reading resumed on the next valid record: " + first +
-                        (log.skip_count() > 3 ? "; ..." : "") + " (provenance.json dataflash.skipped)");
+                        (log.skip_count() > 3 ? "; ..." : "") +
+                        " (provenance.json dataflash.skipped)");
   }
   if (!log.truncation().empty()) {
     prov["dataflash"]["truncation"] = log.truncation();

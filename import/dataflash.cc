@@ -152,8 +152,7 @@ DataFlashFile DataFlashFile::parse(std::string bytes, const std::string& where) 
         static_cast<unsigned char>(b[q + 1]) != kHead2)
       return 0;
     const auto known = f.formats_.find(static_cast<std::uint8_t>(b[q + 2]));
-    if (known == f.formats_.end() || known->second.length < 3 ||
-        size - q < known->second.length)
+    if (known == f.formats_.end() || known->second.length < 3 || size - q < known->second.length)
       return 0;
     return known->second.length;
   };
@@ -175,8 +174,8 @@ DataFlashFile DataFlashFile::parse(std::string bytes, const std::string& where) 
     f.skipped_bytes_ += resume - at;
     if (f.skips_.size() < 20)
       f.skips_.push_back("byte " + std::to_string(at) + ": " + why + "; " +
-                         std::to_string(resume - at) + " bytes skipped to the next record at byte " +
-                         std::to_string(resume));
+                         std::to_string(resume - at) +
+                         " bytes skipped to the next record at byte " + std::to_string(resume));
     ++f.skip_count_;
     return resume;
   };
@@ -240,10 +239,11 @@ DataFlashFile DataFlashFile::parse(std::string bytes, const std::string& where) 
         }
       }
       if (names.size() != letters.size())
-        throw std::runtime_error(
-            named + ": field Format " + in_quotes(letters) + " has " + std::to_string(letters.size()) +
-            " type letters but field Columns " + in_quotes(labels) + " names " +
-            std::to_string(names.size()) + " fields (expected one name per letter)");
+        throw std::runtime_error(named + ": field Format " + in_quotes(letters) + " has " +
+                                 std::to_string(letters.size()) +
+                                 " type letters but field Columns " + in_quotes(labels) +
+                                 " names " + std::to_string(names.size()) +
+                                 " fields (expected one name per letter)");
       std::size_t offset = 3;
       for (std::size_t i = 0; i < letters.size(); ++i) {
         const std::size_t n = letter_size(letters[i]);
