@@ -8,6 +8,7 @@
 #include "core/dataset.h"  // PlausibilityBounds::kMaxImuStep_s
 #include "core/number_text.h"
 #include "core/units.h"
+#include "import/timestamps.h"
 
 namespace insid::importers {
 namespace {
@@ -294,15 +295,15 @@ double median_step_and_gaps_ms(const Records& rows, ArduPilotSeries& out) {
   return median_ms;
 }
 
-// The flight's phases over the whole log: the chosen IMU's every record (`rows`: TimeMS, gyro,
-// accelerometer), every fix.
-FlightPhases phases_of_log(const Records& rows, const Records& gps,
-                           const std::vector<std::size_t>& fixes) {
+// The flight's phases over the whole log: the chosen IMU's records whose stamps were kept
+// (`rows`: TimeMS, gyro, accelerometer; `kept`: their indices, stamps increasing), every fix.
+FlightPhases phases_of_log(const Records& rows, const std::vector<std::size_t>& kept,
+                           const Records& gps, const std::vector<std::size_t>& fixes) {
   FlightPhaseInput in;
   double previous_ms = -1.0;
   std::vector<double> gap_ends_s;
-  for (const auto& r : rows) {
-    if (!(r[0] > previous_ms)) continue;
+  for (const std::size_t k : kept) {
+    const auto& r = rows[k];
     if (!std::all_of(r.begin(), r.end(), [](double v) { return std::isfinite(v); })) continue;
     if (previous_ms >= 0.0 && (r[0] - previous_ms) * 1e-3 > PlausibilityBounds::kMaxImuStep_s)
       gap_ends_s.push_back(r[0] * 1e-3);
@@ -495,19 +496,26 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
   imu.origin = where + ", " + options.imu;
   imu.row_unit = "record";
   imu.source_rows = rows.size();
-  std::size_t imu_outside = 0, imu_not_increasing = 0;
-  double last_ms = -1.0;
+  // A damaged TimeMS costs its own record (one flipped bit must not read as a logging gap, nor
+  // make every record after it look out of order): the consistent increasing series is kept.
+  const std::size_t time_field = log.field_offset(options.imu, "TimeMS");
+  std::vector<double> stamps_us;
+  std::vector<std::size_t> stamp_bytes;
+  stamps_us.reserve(rows.size());
+  stamp_bytes.reserve(rows.size());
   for (std::size_t k = 0; k < rows.size(); ++k) {
+    stamps_us.push_back(rows[k][0] * 1e3);
+    stamp_bytes.push_back(imu_bytes.at(k) + time_field);
+  }
+  const TimestampSelection imu_sel = select_increasing_stamps(stamps_us, stamp_bytes);
+  record_stamp_selection(imu_sel, stamps_us, options.imu, "TimeMS", prov["imu"], out.notes);
+  std::size_t imu_outside = 0;
+  for (const std::size_t k : imu_sel.kept) {
     const auto& r = rows[k];
     if (!inside(r[0])) {
       ++imu_outside;
       continue;
     }
-    if (!(r[0] > last_ms)) {
-      ++imu_not_increasing;
-      continue;
-    }
-    last_ms = r[0];
     imu.t_gpst_unix_s.push_back(boot_to_gpst(r[0]));
     imu.gyro_b.emplace_back(r[1], r[2], r[3]);
     imu.accel_b.emplace_back(r[4], r[5], r[6]);
@@ -515,13 +523,14 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
     imu.byte.push_back(imu_bytes.at(k));
   }
   imu.rows_dropped["outside_t_range"] = imu_outside;
-  imu.rows_dropped["time_not_increasing"] = imu_not_increasing;
+  imu.rows_dropped["repeated_timestamp"] = imu_sel.repeated;
+  imu.rows_dropped["timestamp_jump"] = imu_sel.dropped_by_jumps;
   if (imu.t_gpst_unix_s.size() < 3)
     throw std::runtime_error(where + ": " + options.imu + " has " +
                              std::to_string(imu.t_gpst_unix_s.size()) +
                              " records within the boot-time range; need at least 3");
   const double median_step_ms = median_step_and_gaps_ms(rows, out);
-  out.phases = phases_of_log(rows, gps, fixes);
+  out.phases = phases_of_log(rows, imu_sel.kept, gps, fixes);
   prov["flight_phases"] = out.phases.to_json();
   prov["flight_phases"]["imu"] = options.imu;
   out.autopilot_estimates = autopilot_bias_estimates(log, out.phases, options, out.notes);

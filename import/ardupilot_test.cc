@@ -271,6 +271,37 @@ TEST(ArduPilotReal, TruncatedAndCorruptedCopies) {
       << parse_error(corrupted);
 }
 
+// One flipped bit in one IMU TimeMS of the shared log: that record is dropped and named, the
+// import keeps every other record (no logging gap appears), and the flight's phases stay those of
+// the intact log. Bit 14 moves record 6000 (boot 134.775 s) 16.4 s ahead, inside the flight; bit
+// 20 moves it to 1183 s, past the log's end.
+TEST(ArduPilotReal, AFlippedImuStampCostsItsOwnRecord) {
+  const std::string bytes = shared_log_bytes();
+  if (bytes.empty()) GTEST_SKIP() << kNoSharedLog;
+  const DataFlashFile clean = DataFlashFile::parse(bytes, "log171.bin");
+  ArduPilotImportOptions options;
+  options.t_start_s = 74.7;
+  options.t_end_s = 215.0;
+  const ArduPilotSeries intact = extract_ardupilot(clean, "log171.bin", options);
+  const std::size_t at = clean.offsets("IMU").at(5999) + 3;  // TimeMS, the first field
+  for (const int bit : {14, 20}) {
+    std::string damaged = bytes;
+    damaged[at + bit / 8] = static_cast<char>(damaged[at + bit / 8] ^ (1 << (bit % 8)));
+    const ArduPilotSeries s =
+        extract_ardupilot(DataFlashFile::parse(damaged, "x.bin"), "x.bin", options);
+    EXPECT_EQ(s.imu.rows_dropped.at("timestamp_jump"), 1u) << bit;
+    EXPECT_EQ(s.imu.t_gpst_unix_s.size() + 1, intact.imu.t_gpst_unix_s.size()) << bit;
+    EXPECT_EQ(s.imu_gaps_boot_s.size(), intact.imu_gaps_boot_s.size()) << bit;
+    EXPECT_EQ(s.phases.to_json().dump(), intact.phases.to_json().dump()) << bit;
+    bool named = false;
+    for (const std::string& n : s.notes)
+      named |=
+          n.find("message 6000 (TimeMS at byte " + std::to_string(at) + ")") != std::string::npos &&
+          n.find(": dropped") != std::string::npos;
+    EXPECT_TRUE(named) << bit;
+  }
+}
+
 // A NaN gyro in one IMU record of the shared log (issue 37 item 10): the dataset check names the
 // log, the IMU, the record and the byte where the record starts (the record's header and its
 // TimeMS are checked at that byte here, independently of the reader).

@@ -320,6 +320,13 @@ char DataFlashFile::field_type(const std::string& name, const std::string& field
   return 0;
 }
 
+std::size_t DataFlashFile::field_offset(const std::string& name, const std::string& field) const {
+  const Format& f = format(name);
+  for (const Field& x : f.fields)
+    if (x.name == field) return x.offset;
+  throw std::runtime_error(where_ + ": message " + name + " has no field " + field);
+}
+
 std::vector<std::vector<double>> DataFlashFile::read(const std::string& name,
                                                      const std::vector<std::string>& fields) const {
   const Format& f = format(name);

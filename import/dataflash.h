@@ -41,6 +41,9 @@ class DataFlashFile {
   /// that is not a number (n N Z a).
   std::vector<std::vector<double>> read(const std::string& name,
                                         const std::vector<std::string>& fields) const;
+  /// Where `field` lies in each record of `name`, in bytes from the record's first header byte.
+  /// Throws naming an undefined message or field.
+  std::size_t field_offset(const std::string& name, const std::string& field) const;
   /// The byte offset in the file of each record of `name`, in the order read() gives them.
   std::vector<std::size_t> offsets(const std::string& name) const;
 

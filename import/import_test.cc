@@ -1304,7 +1304,7 @@ TEST(Ulog, TooFewGnssEpochsSayWhyTheOthersWereDropped) {
   EXPECT_NE(error.find("0 with fix_type below 3"), std::string::npos) << error;
 }
 
-TEST(Ulog, MalformedLogsAreNamedWithTheByteOffset) {
+TEST(Ulog, DamageIsReadPastAndNamedWithTheByteOffset) {
   const auto error = [](const std::string& bytes) {
     try {
       UlogFile::parse(bytes, "x.ulg");
@@ -1313,6 +1313,7 @@ TEST(Ulog, MalformedLogsAreNamedWithTheByteOffset) {
     }
     return std::string("(accepted)");
   };
+  // What cannot be read at all is refused, naming the byte.
   EXPECT_NE(error("ULog\x01\x12").find("x.ulg: byte 0: not a ULog file"), std::string::npos);
   EXPECT_NE(
       error(std::string("ULog\x01\x12\x35\x09", 8) + std::string(8, '\0')).find("ULog version 9"),
@@ -1321,48 +1322,93 @@ TEST(Ulog, MalformedLogsAreNamedWithTheByteOffset) {
   w.message('F', kGpsFormat);
   w.subscribe(0, 1, "vehicle_gps_position");
   const std::string good = w.bytes();
+  const std::string gnss_payload(38, '\0');  // the 40-byte format less its trailing padding
+  // Damage between two data messages: skipped to the next valid message, which is kept.
+  const auto read_past = [&](const std::function<void(UlogWriter&)>& damage,
+                             const std::string& named) {
+    UlogWriter d = w;
+    d.data(1, gnss_payload);
+    damage(d);
+    d.data(1, gnss_payload);
+    d.data(1, gnss_payload);
+    const UlogFile log = UlogFile::parse(d.bytes(), "x.ulg");
+    EXPECT_EQ(log.skip_count(), 1u) << named;
+    EXPECT_EQ(log.instances("vehicle_gps_position").at(0), 3u) << named;
+    EXPECT_EQ(log.truncation(), "") << named;
+    const std::string at = "byte " + std::to_string(good.size() + 3 + 2 + 38) + ": ";
+    ASSERT_FALSE(log.skips().empty()) << named;
+    EXPECT_EQ(log.skips()[0].rfind(at, 0), 0u) << log.skips()[0];
+    EXPECT_NE(log.skips()[0].find(named), std::string::npos) << log.skips()[0];
+    EXPECT_NE(log.damage().find("1 damaged place skipped"), std::string::npos) << log.damage();
+  };
+  read_past([](UlogWriter& d) { d.data(1, std::string(200, '\0')); },
+            "data message of 'vehicle_gps_position': 200 bytes, but its format defines 40");
+  read_past([](UlogWriter& d) { d.message('Z', "abc"); }, "unknown message type (code 90)");
+  read_past([](UlogWriter& d) { d.data(9, "12345678"); },
+            "data for message id 9 before any subscription");
+  read_past([](UlogWriter& d) { d.bytes() += std::string("\x01\x02\x03", 3); },
+            "3 bytes skipped to the next message");
+  read_past(
+      [&](UlogWriter& d) {
+        d.data(1, gnss_payload);
+        d.bytes()[d.bytes().size() - 3 - 2 - 38] = 60;  // its size field: 60 bytes, not 40
+      },
+      "58 bytes, but its format defines 40");
+  // Damage with nothing valid after it keeps what came before, and says where it stopped.
   {
-    UlogWriter long_data = w;
-    long_data.data(1, std::string(200, '\0'));
-    EXPECT_NE(
-        error(long_data.bytes())
-            .find("data message of 'vehicle_gps_position': 200 bytes, but its format defines 40"),
-        std::string::npos)
-        << error(long_data.bytes());
+    UlogWriter d = w;
+    d.data(1, gnss_payload);
+    d.data(1, std::string(200, '\0'));
+    const UlogFile log = UlogFile::parse(d.bytes(), "x.ulg");
+    EXPECT_EQ(log.instances("vehicle_gps_position").at(0), 1u);
+    EXPECT_NE(log.truncation().find("byte " + std::to_string(good.size() + 43) +
+                                    ": data message of 'vehicle_gps_position'"),
+              std::string::npos)
+        << log.truncation();
+    EXPECT_NE(log.truncation().find("no valid message after it"), std::string::npos);
   }
+  // A format that cannot be read costs its own topic, named with the byte of its 'F' message.
   {
-    UlogWriter unknown = w;
-    unknown.message('Z', "abc");
-    EXPECT_NE(
-        error(unknown.bytes())
-            .find("byte " + std::to_string(good.size()) + ", 'Z' message: unknown message type"),
-        std::string::npos);
+    UlogWriter bad_type = w;
+    const std::size_t f_byte = bad_type.bytes().size();
+    bad_type.message('F', "t:uint64_t timestamp;quaternion q;");
+    bad_type.message('F', "a:b x;");
+    bad_type.message('F', "b:a y;");
+    bad_type.subscribe(0, 2, "t");
+    bad_type.data(1, gnss_payload);
+    const UlogFile log = UlogFile::parse(bad_type.bytes(), "x.ulg");
+    EXPECT_EQ(log.damaged_formats().at("t"),
+              "byte " + std::to_string(f_byte) + ": field 'q': unknown type 'quaternion'");
+    EXPECT_NE(log.damaged_formats().at("a").find("nests itself"), std::string::npos);
+    EXPECT_EQ(log.read("vehicle_gps_position", 0, {"timestamp"}).size(), 1u);
+    try {
+      log.read("t", 0, {"timestamp"});
+      ADD_FAILURE();
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find("the format of topic 't' is damaged, its data cannot "
+                                           "be read: byte " +
+                                           std::to_string(f_byte)),
+                std::string::npos)
+          << e.what();
+    }
   }
-  {
-    UlogWriter orphan(0);
-    orphan.message('F', kGpsFormat);
-    orphan.data(9, "12345678");
-    EXPECT_NE(error(orphan.bytes()).find("data for message id 9 before any subscription"),
-              std::string::npos);
-  }
+  // A subscription to a topic without a format: said when the topic is asked for.
   {
     UlogWriter no_format(0);
     no_format.subscribe(0, 1, "sensor_gps");
-    EXPECT_NE(error(no_format.bytes()).find("subscription to 'sensor_gps' (id 1) has no format"),
-              std::string::npos);
+    const UlogFile log = UlogFile::parse(no_format.bytes(), "x.ulg");
+    EXPECT_NE(log.damage().find("1 subscriptions ('A') to a topic with no format"),
+              std::string::npos)
+        << log.damage();
+    EXPECT_THROW(log.read("sensor_gps", 0, {"timestamp"}), std::runtime_error);
   }
+  // A file cut after its definitions says so where a topic is missing.
   {
-    UlogWriter bad_type(0);
-    bad_type.message('F', "t:uint64_t timestamp;quaternion q;");
-    EXPECT_NE(error(bad_type.bytes()).find("format 't', field 'q': unknown type 'quaternion'"),
-              std::string::npos);
-  }
-  {
-    UlogWriter cycle(0);
-    cycle.message('F', "a:b x;");
-    cycle.message('F', "b:a y;");
-    cycle.subscribe(0, 1, "a");
-    EXPECT_NE(error(cycle.bytes()).find("nests itself"), std::string::npos);
+    UlogWriter defs_only(0);
+    defs_only.message('F', kGpsFormat);
+    const UlogFile log = UlogFile::parse(defs_only.bytes(), "x.ulg");
+    EXPECT_NE(log.damage().find("it looks truncated after its definitions"), std::string::npos)
+        << log.damage();
   }
   // A missing topic field and a log without GNSS are named with what the log has.
   const UlogFile log = UlogFile::parse(good, "x.ulg");

@@ -1,6 +1,8 @@
 #include "import/ulog.h"
 #include "core/file_read.h"
 
+#include <algorithm>
+#include <cctype>
 #include <cstring>
 #include <fstream>
 #include <sstream>
@@ -12,6 +14,8 @@ namespace {
 constexpr unsigned char kMagic[7] = {'U', 'L', 'o', 'g', 0x01, 0x12, 0x35};
 constexpr std::size_t kHeaderSize = 16;
 constexpr std::size_t kMessageHeaderSize = 3;  // uint16 size, uint8 type
+constexpr unsigned char kSyncMagic[8] = {0x2F, 0x73, 0x13, 0x20, 0x25, 0x0C, 0xBB, 0x12};
+constexpr std::size_t kSkipsListed = 20;
 
 const std::map<std::string, std::size_t>& basic_types() {
   static const std::map<std::string, std::size_t> types = {
@@ -50,11 +54,186 @@ UlogFile UlogFile::read(const std::string& path) {
   return parse(read_file_whole(path, path, options), path);
 }
 
-std::size_t UlogFile::format_size(const std::string& name, int depth) const {
-  if (depth > 16) throw std::runtime_error(where_ + ": format '" + name + "' nests itself");
-  const auto it = formats_.find(name);
-  if (it == formats_.end()) return 0;
-  return it->second.size;
+void UlogFile::resolve_formats() {
+  formats_.clear();
+  damaged_formats_.clear();
+  // Formats: "name:type field;type[n] field;...". One that cannot be read is set aside with the
+  // byte of its 'F' message: it costs the topics that use it, not the log.
+  for (const auto& [text, offset] : format_texts_) {
+    const std::string at = "byte " + std::to_string(offset);
+    const std::size_t colon = text.find(':');
+    if (colon == std::string::npos || colon == 0) {
+      damaged_formats_["(no name)"] =
+          at + ": expected 'name:fields' in '" + text.substr(0, 60) + "'";
+      continue;
+    }
+    const std::string name = text.substr(0, colon);
+    Format fmt;
+    fmt.byte = offset;
+    std::string damage;
+    std::size_t start = colon + 1;
+    while (start < text.size() && damage.empty()) {
+      std::size_t end = text.find(';', start);
+      if (end == std::string::npos) end = text.size();
+      const std::string item = text.substr(start, end - start);
+      start = end + 1;
+      if (item.empty()) continue;
+      const std::size_t space = item.find(' ');
+      if (space == std::string::npos) {
+        damage = "field '" + item + "' is not 'type name'";
+        break;
+      }
+      Field field;
+      field.type = item.substr(0, space);
+      field.name = item.substr(space + 1);
+      if (const std::size_t br = field.type.find('['); br != std::string::npos) {
+        const std::size_t close = field.type.find(']', br);
+        if (close == std::string::npos) {
+          damage = "field '" + item + "': unclosed '['";
+          break;
+        }
+        try {
+          field.count = std::stoul(field.type.substr(br + 1, close - br - 1));
+        } catch (const std::exception&) {
+          damage = "field '" + item + "': array size is not a number";
+          break;
+        }
+        if (field.count == 0 || field.count > 65535) {
+          damage = "field '" + item + "': array size out of range";
+          break;
+        }
+        field.type = field.type.substr(0, br);
+      }
+      fmt.fields.push_back(field);
+    }
+    if (!damage.empty())
+      damaged_formats_[name] = at + ": " + damage;
+    else
+      formats_[name] = fmt;
+  }
+  // Sizes and offsets, nested formats resolved; a format with a type that is neither basic nor
+  // a readable format (damaged, or not in the file), or that nests itself, is set aside too.
+  for (bool changed = true; changed;) {
+    changed = false;
+    for (auto it = formats_.begin(); it != formats_.end();) {
+      auto& [name, fmt] = *it;
+      std::size_t offset = 0;
+      bool complete = true;
+      std::string damage;
+      for (Field& field : fmt.fields) {
+        const auto basic = basic_types().find(field.type);
+        std::size_t element = basic != basic_types().end() ? basic->second : 0;
+        if (element == 0) {
+          const auto nested = formats_.find(field.type);
+          if (nested == formats_.end()) {
+            damage = "field '" + field.name + "': unknown type '" + field.type + "'" +
+                     (damaged_formats_.count(field.type) ? " (its own format is damaged)" : "");
+            break;
+          }
+          element = nested->second.size;
+          if (element == 0) complete = false;
+        }
+        field.offset = offset;
+        field.element_size = element;
+        offset += element * field.count;
+      }
+      if (!damage.empty()) {
+        damaged_formats_[name] = "byte " + std::to_string(fmt.byte) + ": " + damage;
+        it = formats_.erase(it);
+        changed = true;
+        continue;
+      }
+      if (complete && fmt.size != offset) {
+        fmt.size = offset;
+        changed = true;
+      }
+      ++it;
+    }
+  }
+  for (auto it = formats_.begin(); it != formats_.end();) {
+    if (it->second.size == 0 && !it->second.fields.empty()) {
+      damaged_formats_[it->first] =
+          "byte " + std::to_string(it->second.byte) + ": the format nests itself";
+      it = formats_.erase(it);
+    } else {
+      ++it;
+    }
+  }
+  resolved_texts_ = format_texts_.size();
+}
+
+std::size_t UlogFile::message_length(std::size_t q, bool strict) const {
+  const std::string& b = bytes_;
+  if (b.size() - q < kMessageHeaderSize) return 0;
+  const std::size_t size = load<std::uint16_t>(b.data() + q);
+  const char type = b[q + 2];
+  const std::size_t body = q + kMessageHeaderSize;
+  if (body + size > b.size()) return 0;
+  const char* p = b.data() + body;
+  const auto text_ok = [](const char* t, std::size_t n) {
+    for (std::size_t i = 0; i < n; ++i)
+      if (t[i] < 0x20 || t[i] > 0x7e) return false;
+    return true;
+  };
+  const auto key_ok = [&](std::size_t len_at) {  // uint8 key_len, then the key
+    if (size <= len_at) return false;
+    const std::size_t key_len = static_cast<unsigned char>(p[len_at]);
+    return key_len > 0 && len_at + 1 + key_len <= size && text_ok(p + len_at + 1, key_len);
+  };
+  bool ok = false;
+  switch (type) {
+    case 'F': {
+      const std::string_view text(p, size);
+      const std::size_t colon = text.find(':');
+      ok = size >= 3 && colon != std::string_view::npos && colon > 0 && text_ok(p, size);
+      break;
+    }
+    case 'I':
+    case 'P':
+      ok = key_ok(0);
+      break;
+    case 'M':
+    case 'Q':
+      ok = key_ok(1);
+      break;
+    case 'A': {
+      if (size < 4 || !text_ok(p + 3, size - 3)) break;
+      const auto id = load<std::uint16_t>(p + 1);
+      const auto it = subscriptions_.find(id);
+      ok = !strict || it == subscriptions_.end() ||
+           (it->second.topic == std::string_view(p + 3, size - 3) &&
+            it->second.multi_id == static_cast<unsigned char>(p[0]));
+      break;
+    }
+    case 'D': {
+      if (size < 2) break;
+      if (!strict) {
+        ok = true;
+        break;
+      }
+      const auto it = subscriptions_.find(load<std::uint16_t>(p));
+      if (it == subscriptions_.end()) break;
+      const auto fmt = formats_.find(it->second.topic);
+      ok = fmt == formats_.end() || size - 2 <= fmt->second.size;  // padding may be left out
+      break;
+    }
+    case 'O':
+    case 'R':
+      ok = size == 2;  // uint16 duration (ms) / uint16 msg_id
+      break;
+    case 'L':
+      ok = size >= 9;  // uint8 log_level, uint64 timestamp, text
+      break;
+    case 'C':
+      ok = size >= 11;  // uint8 log_level, uint16 tag, uint64 timestamp, text
+      break;
+    case 'S':
+      ok = size == sizeof kSyncMagic && std::memcmp(p, kSyncMagic, sizeof kSyncMagic) == 0;
+      break;
+    default:
+      break;
+  }
+  return ok ? kMessageHeaderSize + size : 0;
 }
 
 UlogFile UlogFile::parse(std::string bytes, const std::string& where) {
@@ -62,7 +241,8 @@ UlogFile UlogFile::parse(std::string bytes, const std::string& where) {
   f.where_ = where;
   f.bytes_ = std::move(bytes);
   const std::string& b = f.bytes_;
-  if (b.size() < kHeaderSize || std::memcmp(b.data(), kMagic, sizeof kMagic) != 0)
+  const std::size_t n = b.size();
+  if (n < kHeaderSize || std::memcmp(b.data(), kMagic, sizeof kMagic) != 0)
     throw std::runtime_error(where +
                              ": byte 0: not a ULog file (expected the magic 'ULog' 01 12 35)");
   f.version_ = static_cast<unsigned char>(b[7]);
@@ -71,180 +251,210 @@ UlogFile UlogFile::parse(std::string bytes, const std::string& where) {
                              " is newer than the version 1 insid reads");
   f.start_us_ = load<std::uint64_t>(b.data() + 8);
 
-  // Formats may refer to formats defined later: collect the texts, resolve after the pass.
-  std::vector<std::pair<std::string, std::size_t>> format_texts;  // text, byte offset
+  // The file's end, or a message cut by it (the logger stopped mid-write).
+  const auto ends_file = [&](std::size_t q) {
+    return n - q < kMessageHeaderSize ||
+           q + kMessageHeaderSize + load<std::uint16_t>(b.data() + q) > n;
+  };
+  // Formats are read before the data section needs them (a 'D' is checked against its format),
+  // and again whenever more 'F' messages came since.
+  const auto formats_current = [&] {
+    if (f.resolved_texts_ != f.format_texts_.size()) f.resolve_formats();
+  };
+  // A message at q is taken when it is well formed and followed by another (checked without the
+  // subscriptions, which q may be adding), by the file's end, by a message the end cuts, or by
+  // one message of an unknown type (a damaged type byte) whose size leads to a well-formed one:
+  // a damaged size field rarely leads to a well-formed header.
+  const auto continues = [&](std::size_t r) {
+    if (ends_file(r) || f.message_length(r, false) > 0) return true;
+    const std::size_t r2 = r + kMessageHeaderSize + load<std::uint16_t>(b.data() + r);
+    return r2 == n || f.message_length(r2, false) > 0;
+  };
+  const auto valid_pair = [&](std::size_t q) -> std::size_t {  // its length, 0 if not
+    const std::size_t len = f.message_length(q, true);
+    return len > 0 && continues(q + len) ? len : 0;
+  };
+  const auto next_valid = [&](std::size_t from) -> std::size_t {
+    for (std::size_t q = from; q + kMessageHeaderSize <= n; ++q)
+      if (valid_pair(q) > 0) return q;
+    return n;
+  };
+  // Damage inside the log: skipped to the next valid message, counted and named; a log with no
+  // valid message after the damage keeps what came before it, and says so.
+  const auto skip = [&](std::size_t at, const std::string& why) -> std::size_t {
+    const std::size_t resume = next_valid(at + 1);
+    if (resume == n) {
+      f.truncation_ = "byte " + std::to_string(at) + ": " + why + "; no valid message after it (" +
+                      std::to_string(n - at) + " bytes ignored)";
+      return n;
+    }
+    f.skipped_bytes_ += resume - at;
+    if (f.skips_.size() < kSkipsListed)
+      f.skips_.push_back("byte " + std::to_string(at) + ": " + why + "; " +
+                         std::to_string(resume - at) +
+                         " bytes skipped to the next message at byte " + std::to_string(resume));
+    ++f.skip_count_;
+    return resume;
+  };
+
   std::vector<std::uint64_t> appended;
   std::size_t pos = kHeaderSize;
-  bool first_message = true;
-  while (pos < b.size()) {
+  if (n - pos >= kMessageHeaderSize && b[pos + 2] == 'B') {
+    // Flag bits, when present, are the first message (ULog spec: "Flag Bits Message").
+    const std::size_t size = load<std::uint16_t>(b.data() + pos);
+    const std::string at = where + ": byte " + std::to_string(pos) + ", 'B' message";
+    if (size < 40 || pos + kMessageHeaderSize + size > n)
+      throw std::runtime_error(at + ": " + std::to_string(size) +
+                               " bytes, expected 40 (flag bits) within the file");
+    const char* p = b.data() + pos + kMessageHeaderSize;
+    const auto incompat = static_cast<unsigned char>(p[8]);
+    if ((incompat & ~1u) != 0 || std::memcmp(p + 9, "\0\0\0\0\0\0\0", 7) != 0)
+      throw std::runtime_error(at + ": incompatible flags set that insid does not know");
+    if (incompat & 1u)
+      for (int k = 0; k < 3; ++k)
+        if (const auto off = load<std::uint64_t>(p + 16 + 8 * k); off > 0) appended.push_back(off);
+    pos += kMessageHeaderSize + size;
+  }
+  while (pos < n) {
     if (!appended.empty() && pos > appended.front()) appended.erase(appended.begin());
-    if (b.size() - pos < kMessageHeaderSize) {
-      f.truncation_ = "the file ends inside a message header at byte " + std::to_string(pos);
+    if (ends_file(pos)) {
+      // Cut by the file's end, unless a valid message follows (then its size field is damaged).
+      if (n - pos >= kMessageHeaderSize && next_valid(pos + 1) < n) {
+        pos = skip(pos, "a message whose size field runs past the file's end");
+        continue;
+      }
+      f.truncation_ = n - pos < kMessageHeaderSize
+                          ? "the file ends inside a message header at byte " + std::to_string(pos)
+                          : "the file ends inside a '" + std::string(1, b[pos + 2]) +
+                                "' message at byte " + std::to_string(pos) + " (" +
+                                std::to_string(n - pos) +
+                                " bytes ignored; the logger stopped mid-write)";
       break;
     }
     const std::size_t size = load<std::uint16_t>(b.data() + pos);
     const char type = b[pos + 2];
     const std::size_t body = pos + kMessageHeaderSize;
-    if (body + size > b.size()) {
-      f.truncation_ = "the file ends inside a '" + std::string(1, type) + "' message at byte " +
-                      std::to_string(pos) + " (" + std::to_string(b.size() - pos) +
-                      " bytes ignored; the logger stopped mid-write)";
-      break;
-    }
     // Appended data: a message that would run past the next appended offset is cut there.
     if (!appended.empty() && body + size > appended.front() && pos < appended.front()) {
       pos = static_cast<std::size_t>(appended.front());
       appended.erase(appended.begin());
       continue;
     }
-    const std::string at =
-        where + ": byte " + std::to_string(pos) + ", '" + std::string(1, type) + "' message";
+    if (type == 'A' || type == 'D') formats_current();
+    if (valid_pair(pos) == 0) {
+      pos = skip(pos, f.why_not_valid(pos));
+      continue;
+    }
     const char* p = b.data() + body;
     switch (type) {
-      case 'B': {
-        if (!first_message) throw std::runtime_error(at + ": flag bits must be the first message");
-        if (size < 40)
-          throw std::runtime_error(at + ": " + std::to_string(size) + " bytes, expected 40");
-        const auto incompat = static_cast<unsigned char>(p[8]);
-        if ((incompat & ~1u) != 0 || std::memcmp(p + 9, "\0\0\0\0\0\0\0", 7) != 0)
-          throw std::runtime_error(at + ": incompatible flags set that insid does not know");
-        if (incompat & 1u)
-          for (int k = 0; k < 3; ++k)
-            if (const auto off = load<std::uint64_t>(p + 16 + 8 * k); off > 0)
-              appended.push_back(off);
-        break;
-      }
       case 'F':
-        format_texts.emplace_back(std::string(p, size), pos);
+        f.format_texts_.emplace_back(std::string(p, size), pos);
         break;
       case 'A': {
-        if (size < 4)
-          throw std::runtime_error(at + ": " + std::to_string(size) +
-                                   " bytes, expected at least 4");
         Subscription s;
         s.multi_id = static_cast<unsigned char>(p[0]);
-        const auto id = load<std::uint16_t>(p + 1);
         s.topic.assign(p + 3, size - 3);
-        f.subscriptions_[id] = s;
+        s.byte = pos;
+        f.subscriptions_[load<std::uint16_t>(p + 1)] = s;
         break;
       }
-      case 'D': {
-        if (size < 2)
-          throw std::runtime_error(at + ": " + std::to_string(size) +
-                                   " bytes, expected at least 2");
-        const auto id = load<std::uint16_t>(p);
-        if (!f.subscriptions_.count(id))
-          throw std::runtime_error(at + ": data for message id " + std::to_string(id) +
-                                   " before any subscription ('A') to it");
-        f.data_[id].emplace_back(body + 2, size - 2);
+      case 'D':
+        f.data_[load<std::uint16_t>(p)].emplace_back(body + 2, size - 2);
         break;
-      }
       case 'O':
-        if (size >= 2) {
-          f.dropouts_ms_ += load<std::uint16_t>(p);
-          ++f.dropout_count_;
-        }
+        f.dropouts_ms_ += load<std::uint16_t>(p);
+        ++f.dropout_count_;
         break;
-      case 'I':
-      case 'M':
-      case 'P':
-      case 'Q':
-      case 'L':
-      case 'C':
-      case 'S':
-      case 'R':
-        break;  // information, parameters, log text, sync, unsubscription: not needed here
       default:
-        throw std::runtime_error(at + ": unknown message type (code " +
-                                 std::to_string(static_cast<unsigned char>(type)) +
-                                 "); the file is damaged here");
+        break;  // information, parameters, log text, sync, unsubscription: not needed here
     }
-    first_message = false;
     pos = body + size;
   }
-
-  // Formats: "name:type field;type[n] field;..."
-  for (const auto& [text, offset] : format_texts) {
-    const std::string at =
-        where + ": byte " + std::to_string(offset) + ", format '" + text.substr(0, 60) + "'";
-    const std::size_t colon = text.find(':');
-    if (colon == std::string::npos || colon == 0)
-      throw std::runtime_error(at + ": expected 'name:fields'");
-    Format fmt;
-    std::size_t start = colon + 1;
-    while (start < text.size()) {
-      std::size_t end = text.find(';', start);
-      if (end == std::string::npos) end = text.size();
-      const std::string item = text.substr(start, end - start);
-      start = end + 1;
-      if (item.empty()) continue;
-      const std::size_t space = item.find(' ');
-      if (space == std::string::npos)
-        throw std::runtime_error(at + ": field '" + item + "' is not 'type name'");
-      Field field;
-      field.type = item.substr(0, space);
-      field.name = item.substr(space + 1);
-      if (const std::size_t br = field.type.find('['); br != std::string::npos) {
-        const std::size_t close = field.type.find(']', br);
-        if (close == std::string::npos)
-          throw std::runtime_error(at + ": field '" + item + "': unclosed '['");
-        try {
-          field.count = std::stoul(field.type.substr(br + 1, close - br - 1));
-        } catch (const std::exception&) {
-          throw std::runtime_error(at + ": field '" + item + "': array size is not a number");
-        }
-        if (field.count == 0 || field.count > 65535)
-          throw std::runtime_error(at + ": field '" + item + "': array size out of range");
-        field.type = field.type.substr(0, br);
-      }
-      fmt.fields.push_back(field);
+  formats_current();
+  // Data longer than its format (when the format came after the data): the message is damage.
+  for (auto& [id, messages] : f.data_) {
+    const auto sub = f.subscriptions_.find(id);
+    const auto fmt = f.formats_.find(sub->second.topic);
+    if (fmt == f.formats_.end()) continue;
+    const std::size_t before = messages.size();
+    std::size_t first = 0;
+    messages.erase(std::remove_if(messages.begin(), messages.end(),
+                                  [&](const auto& m) {
+                                    const bool bad = m.second > fmt->second.size;
+                                    if (bad && first == 0) first = m.first - 2 - kMessageHeaderSize;
+                                    return bad;
+                                  }),
+                   messages.end());
+    if (messages.size() != before) {
+      ++f.skip_count_;
+      if (f.skips_.size() < kSkipsListed)
+        f.skips_.push_back("byte " + std::to_string(first) + ": " +
+                           std::to_string(before - messages.size()) + " data messages of '" +
+                           sub->second.topic + "' longer than its format (" +
+                           std::to_string(fmt->second.size) + " bytes) dropped");
     }
-    f.formats_[text.substr(0, colon)] = fmt;
-  }
-  // Sizes and offsets (nested formats resolved; a cycle or an unknown type is an error).
-  for (int pass = 0; pass < 17; ++pass) {
-    bool changed = false;
-    for (auto& [name, fmt] : f.formats_) {
-      std::size_t offset = 0;
-      bool complete = true;
-      for (Field& field : fmt.fields) {
-        const auto basic = basic_types().find(field.type);
-        std::size_t element = basic != basic_types().end() ? basic->second : 0;
-        if (element == 0) {
-          const auto nested = f.formats_.find(field.type);
-          if (nested == f.formats_.end())
-            throw std::runtime_error(where + ": format '" + name + "', field '" + field.name +
-                                     "': unknown type '" + field.type + "'");
-          element = nested->second.size;
-          if (element == 0) complete = false;
-        }
-        field.offset = offset;
-        field.element_size = element;
-        offset += element * field.count;
-      }
-      if (complete && fmt.size != offset) {
-        fmt.size = offset;
-        changed = true;
-      }
-    }
-    if (!changed) break;
-  }
-  for (const auto& [id, sub] : f.subscriptions_) {
-    const auto it = f.formats_.find(sub.topic);
-    if (it == f.formats_.end())
-      throw std::runtime_error(where + ": subscription to '" + sub.topic + "' (id " +
-                               std::to_string(id) + ") has no format ('F') message");
-    if (it->second.size == 0)
-      throw std::runtime_error(where + ": format '" + sub.topic + "' nests itself");
-    if (const auto d = f.data_.find(id); d != f.data_.end())
-      for (const auto& [offset, size] : d->second)
-        if (size > it->second.size)
-          throw std::runtime_error(
-              where + ": byte " + std::to_string(offset - 2 - kMessageHeaderSize) +
-              ", data message of '" + sub.topic + "': " + std::to_string(size) +
-              " bytes, but its format defines " + std::to_string(it->second.size));
   }
   return f;
+}
+
+std::string UlogFile::why_not_valid(std::size_t q) const {
+  const std::string& b = bytes_;
+  const std::size_t size = load<std::uint16_t>(b.data() + q);
+  const char type = b[q + 2];
+  const char* p = b.data() + q + kMessageHeaderSize;
+  const std::string what =
+      "'" + std::string(1, std::isprint(static_cast<unsigned char>(type)) ? type : '?') +
+      "' message (type code " + std::to_string(static_cast<unsigned char>(type)) + ", " +
+      std::to_string(size) + " bytes)";
+  if (message_length(q, true) > 0)
+    return what + " followed by no valid message header at byte " +
+           std::to_string(q + kMessageHeaderSize + size) +
+           " (its size, or what follows, is damaged)";
+  if (std::string_view("FIPMQADORLCS").find(type) == std::string_view::npos)
+    return "unknown message type (code " + std::to_string(static_cast<unsigned char>(type)) +
+           "); the file is damaged here";
+  if (type == 'D' && size >= 2) {
+    const auto id = load<std::uint16_t>(p);
+    const auto it = subscriptions_.find(id);
+    if (it == subscriptions_.end())
+      return "data for message id " + std::to_string(id) + " before any subscription ('A') to it";
+    if (const auto fmt = formats_.find(it->second.topic); fmt != formats_.end())
+      return "data message of '" + it->second.topic + "': " + std::to_string(size - 2) +
+             " bytes, but its format defines " + std::to_string(fmt->second.size);
+  }
+  if (type == 'A' && size >= 4)
+    return "subscription ('A') that is not printable text or redefines message id " +
+           std::to_string(load<std::uint16_t>(p + 1));
+  return what + " not well formed";
+}
+
+std::string UlogFile::damage() const {
+  std::string out;
+  if (!truncation_.empty()) out += "; the file is truncated or damaged: " + truncation_;
+  if (subscriptions_.empty())
+    out += "; the file holds no subscription ('A') or data message after its " +
+           std::to_string(format_texts_.size()) + " formats (" + std::to_string(bytes_.size()) +
+           " bytes): it looks truncated after its definitions";
+  if (skip_count_ > 0)
+    out += "; " + std::to_string(skip_count_) + " damaged place" + (skip_count_ == 1 ? "" : "s") +
+           " skipped (" + std::to_string(skipped_bytes_) + " bytes), first: " + skips_.front();
+  std::size_t orphans = 0;
+  for (const auto& [id, sub] : subscriptions_)
+    if (!formats_.count(sub.topic) && !damaged_formats_.count(sub.topic)) ++orphans;
+  if (orphans > 0)
+    out += "; " + std::to_string(orphans) + " subscriptions ('A') to a topic with no format ('F')";
+  if (!damaged_formats_.empty()) {
+    out += "; " + std::to_string(damaged_formats_.size()) + " formats ('F') unreadable:";
+    std::size_t listed = 0;
+    for (const auto& [name, why] : damaged_formats_) {
+      if (++listed > 3) {
+        out += " ...";
+        break;
+      }
+      out += " '" + name + "' (" + why + ")";
+    }
+  }
+  return out;
 }
 
 std::map<int, std::size_t> UlogFile::instances(const std::string& topic) const {
@@ -284,7 +494,12 @@ template <class Visit>
 void UlogFile::for_each_message(const std::string& topic, int multi_id,
                                 const std::vector<std::string>& fields, Visit visit) const {
   const auto fmt = formats_.find(topic);
-  if (fmt == formats_.end()) throw std::runtime_error(where_ + ": no topic '" + topic + "'");
+  if (fmt == formats_.end()) {
+    if (const auto d = damaged_formats_.find(topic); d != damaged_formats_.end())
+      throw std::runtime_error(where_ + ": the format of topic '" + topic +
+                               "' is damaged, its data cannot be read: " + d->second);
+    throw std::runtime_error(where_ + ": no topic '" + topic + "'" + damage());
+  }
   std::vector<std::pair<const Field*, std::size_t>> resolved;
   for (const std::string& name : fields) {
     std::size_t element = 0;

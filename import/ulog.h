@@ -4,6 +4,9 @@
 // messages ('D') are kept as byte ranges and decoded on request. Dropouts ('O') are summed,
 // appended data (flag bits 'B', DATA_APPENDED) is followed, and a log that ends inside a
 // message (the logger stopped) keeps everything before that message and says so.
+// Damage is read past: a message that is not well formed, or not followed by one, is skipped to
+// the next well-formed pair of messages (counted and named by byte); a format that cannot be read
+// costs only the topics that use it.
 #pragma once
 
 #include <cstddef>
@@ -21,9 +24,9 @@ inline constexpr std::string_view kUlogMagic{"ULog\x01\x12\x35", 7};
 
 class UlogFile {
  public:
-  /// Parses the whole file. Throws std::runtime_error naming `where`, the byte offset, the
-  /// message and what was expected (bad magic, an unknown field type, a data message longer than
-  /// its format, a subscription to an undefined format, ...).
+  /// Parses the whole file. Throws std::runtime_error naming `where` and the byte offset only
+  /// where nothing can be read: a bad magic, a newer version, flag bits that insid does not know.
+  /// Damage elsewhere is skipped (skips(), truncation(), damage()).
   static UlogFile parse(std::string bytes, const std::string& where);
   /// Reads the file (core/file_read.h: its magic checked before the rest is read) and parses it.
   static UlogFile read(const std::string& path);
@@ -33,7 +36,8 @@ class UlogFile {
   /// True when the topic's format has this field ("gyro_rad" or an element "gyro_rad[2]").
   bool has_field(const std::string& topic, const std::string& field) const;
   /// Every data message of topic/instance, the named fields as doubles (array elements as
-  /// "name[i]"), in file order. Throws naming a missing field or a message too short for it.
+  /// "name[i]"), in file order. Throws naming a missing field or a message too short for it, a
+  /// damaged format (its byte), or a missing topic (with damage()).
   std::vector<std::vector<double>> read(const std::string& topic, int multi_id,
                                         const std::vector<std::string>& fields) const;
   /// The byte offset in the file of `field` in every data message of topic/instance, in the
@@ -48,8 +52,19 @@ class UlogFile {
   int version() const { return version_; }
   double dropouts_ms() const { return dropouts_ms_; }
   std::size_t dropouts() const { return dropout_count_; }
-  /// Non-empty when the file ends inside a message: what was ignored.
+  /// Non-empty when the file ends inside a message, or no valid message follows damage: where,
+  /// and what was ignored.
   const std::string& truncation() const { return truncation_; }
+  /// Damage inside the log that reading skipped, resuming on the next valid message: how many
+  /// places, how many bytes, and the first 20 places named ("byte N: why; K bytes skipped ...").
+  std::size_t skip_count() const { return skip_count_; }
+  std::size_t skipped_bytes() const { return skipped_bytes_; }
+  const std::vector<std::string>& skips() const { return skips_; }
+  /// Formats ('F') that could not be read, by topic name: "byte N: why".
+  const std::map<std::string, std::string>& damaged_formats() const { return damaged_formats_; }
+  /// Everything above in one clause for an error message ("; the file is truncated ...; 2
+  /// damaged places skipped ..."), empty for an intact file.
+  std::string damage() const;
   /// Topics with data, for messages ("sensor_combined (12000), vehicle_gps_position (900)").
   std::string topics_summary() const;
 
@@ -61,12 +76,21 @@ class UlogFile {
   struct Format {
     std::vector<Field> fields;
     std::size_t size = 0;
+    std::size_t byte = 0;  ///< of its 'F' message
   };
   struct Subscription {
     std::string topic;
     int multi_id = 0;
+    std::size_t byte = 0;  ///< of its 'A' message
   };
-  std::size_t format_size(const std::string& name, int depth) const;
+  /// formats_ and damaged_formats_ from format_texts_.
+  void resolve_formats();
+  /// The length (header included) of the well-formed message at byte q, 0 if there is none:
+  /// a known type whose fields fit its size; when `strict`, also data for a subscribed id no
+  /// longer than its format, and no subscription that redefines an id.
+  std::size_t message_length(std::size_t q, bool strict) const;
+  /// Why the message at byte q was not taken, for the skip's note.
+  std::string why_not_valid(std::size_t q) const;
   const Field* find_field(const Format& f, const std::string& name, std::size_t& element) const;
   /// Calls visit(file offset of each field value, field) for every data message of
   /// topic/instance, in order, after checking the message is long enough for every field.
@@ -78,12 +102,17 @@ class UlogFile {
   std::string bytes_;
   int version_ = 0;
   std::uint64_t start_us_ = 0;
+  std::vector<std::pair<std::string, std::size_t>> format_texts_;  // text, byte offset
+  std::size_t resolved_texts_ = 0;
   std::map<std::string, Format> formats_;
+  std::map<std::string, std::string> damaged_formats_;
   std::map<std::uint16_t, Subscription> subscriptions_;
   std::map<std::uint16_t, std::vector<std::pair<std::size_t, std::size_t>>> data_;  // offset, size
   double dropouts_ms_ = 0.0;
   std::size_t dropout_count_ = 0;
   std::string truncation_;
+  std::size_t skip_count_ = 0, skipped_bytes_ = 0;
+  std::vector<std::string> skips_;
 };
 
 }  // namespace insid::importers

@@ -4,7 +4,6 @@
 #pragma once
 
 #include <cstddef>
-#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -13,6 +12,7 @@
 
 #include "import/csv_imu.h"
 #include "import/gnss_solution.h"
+#include "import/timestamps.h"
 #include "import/ulog.h"
 
 namespace insid::importers {
@@ -33,41 +33,6 @@ struct UlogImportOptions {
   int mag_instance = 0;  ///< multi_id of the magnetometer topic
   std::string validate() const;
 };
-
-/// A break in a topic's timestamps (issue 37: one flipped bit in a stamp, 2^48 us ahead, made the
-/// rows after it look repeated and dropped 95 % of a log): a run of messages whose stamps do not
-/// continue the increasing series (dropped), or a forward step that the stamps after it continue
-/// (kept: a gap in the data, reported by the assembly as one).
-struct TimestampJump {
-  std::size_t message = 0;  ///< 1-based index in the topic of its first message
-  std::size_t byte = 0;     ///< byte offset in the file of that message's timestamp field
-  double stamp_s = 0.0;     ///< its stamp (s on the log's clock)
-  double previous_s = std::numeric_limits<double>::quiet_NaN();  ///< the kept stamp before it
-  std::size_t messages_dropped = 0;  ///< the run's length; 0 for a kept forward jump
-};
-
-struct TimestampSelection {
-  std::vector<std::size_t> kept;  ///< 0-based indices of the messages kept, stamps increasing
-  std::size_t repeated = 0;       ///< the same stamp as the message right before it
-  std::size_t dropped_by_jumps = 0;
-  std::vector<TimestampJump> jumps;  ///< in message order
-};
-
-/// The messages of one topic whose stamps (us, in file order) are consistent, and what was not:
-///  1. a message with the same stamp as the one right before it is a repeat (the first is kept);
-///  2. of the rest, the longest strictly increasing series is kept: a stamp that jumps ahead or
-///     back and returns costs that message only, and after a clock that went back only the stamps
-///     beyond the last one before it continue the series;
-///  3. a forward step longer than kJumpMinS and kJumpMedianSteps median steps splits the series
-///     into runs; a run shorter than kJumpMinRun messages (a stamp that jumped ahead at the end of
-///     the log, or back at its start) is dropped, unless no run is that long.
-/// Each maximal run of dropped messages is one jump; each forward step left longer than the
-/// threshold is a kept jump. `byte_offsets` (the stamps' offsets in the file) name them.
-TimestampSelection select_increasing_stamps(const std::vector<double>& stamps_us,
-                                            const std::vector<std::size_t>& byte_offsets);
-inline constexpr double kJumpMinS = 1.0;
-inline constexpr double kJumpMedianSteps = 100.0;
-inline constexpr std::size_t kJumpMinRun = 3;
 
 struct UlogSeries {
   CsvImu imu;  ///< increments in body FRD (PX4's body frame)
