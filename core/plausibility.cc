@@ -147,6 +147,22 @@ void check_static(const Dataset& ds, PlausibilityReport& report) {
       x.likely_cause = "a wrong accelerometer unit or scale, or a window that is not static";
     report.findings.push_back(x);
   }
+  // The body frame at rest is forward-right-down: on a vehicle standing on its wheels, skids or
+  // feet the specific force (up) lies within 90 deg of -z. Beyond it the frame is upside down.
+  const Vector3d f_mean_b = f_sum / t_sum;
+  const double tilt = std::acos(std::clamp(-f_mean_b.z() / f, -1.0, 1.0));
+  if (tilt > std::numbers::pi / 2) {
+    PlausibilityFinding x;
+    x.check = "static_attitude";
+    x.quantity = "the static window's specific force direction in the body frame";
+    x.expected = "up, within 90 deg of -z (forward-right-down body axes, vehicle at rest)";
+    x.found = num(tilt * kRadToDeg, 3) + " deg from -z (f_b = [" + num(f_mean_b.x(), 3) + ", " +
+              num(f_mean_b.y(), 3) + ", " + num(f_mean_b.z(), 3) + "] m/s^2)";
+    x.likely_cause =
+        "the body frame looks upside down at rest: a mounting rotation (--mounting-rpy-deg) "
+        "off by 180 deg about a horizontal axis, or the z axis sign";
+    report.findings.push_back(x);
+  }
   // The Earth rate, where the window's noise lets it be seen.
   const Vector3d w_mean = w_sum / t_sum;
   const Vector3d var = (w_sq / n - (w_sum / t_sum).cwiseProduct(w_sum / t_sum)).cwiseMax(0.0);

@@ -8,6 +8,10 @@
 //   static_gravity     |mean specific force| over the static window against normal gravity
 //                      at the start (a MEMS accelerometer's zero-g tolerance is 80 mg, the
 //                      MPU-6000 datasheet's: beyond 0.1 g a warning; beyond 0.5 g a refusal);
+//   static_attitude    the static mean specific force within 90 deg of -z (forward-right-down
+//                      body axes at rest): beyond, the frame is upside down (a mounting off by
+//                      180 deg about a horizontal axis); a rotation about the vertical, or one
+//                      that keeps the unit upright, cannot be seen from the data;
 //   static_earth_rate  the static mean rotation rate against the Earth rate, where the window's
 //                      noise lets it be seen (standard error below a tenth of 15 deg/h): far
 //                      below it, the gyros are scaled down (deg/s read as rad/s);

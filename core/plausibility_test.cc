@@ -82,6 +82,19 @@ TEST_F(Plausibility, SpecificForceInGDeclaredAsMetresPerSecondSquaredIsRefused) 
   EXPECT_TRUE(r.refused());
 }
 
+TEST_F(Plausibility, AnUpsideDownMountingIsNamed) {
+  for (const Dataset* base : {nav_, mems_}) {
+    Dataset d = *base;  // mounted with a roll of 180 deg too many: y and z negated
+    for (ImuSample& s : d.imu) {
+      s.dv_b_mps.tail<2>() *= -1.0;
+      s.dtheta_b_rad.tail<2>() *= -1.0;
+    }
+    const PlausibilityReport r = check_plausibility(d);
+    expect_cause(r, "static_attitude", "upside down at rest");
+    EXPECT_FALSE(r.refused());
+  }
+}
+
 TEST_F(Plausibility, GyroUnitMixUpsAreNamed) {
   Dataset down = *nav_;  // rates in rad/s declared as deg/s: the Earth rate 0.26 deg/h
   for (ImuSample& s : down.imu) s.dtheta_b_rad /= 57.29577951308232;

@@ -358,10 +358,10 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
     throw std::runtime_error(where +
                              ": no GPS records: insid identifies sensor errors against "
                              "GNSS velocity, so this log cannot be imported; messages: " +
-                             log.messages_summary());
+                             log.messages_summary() + log.damage());
   if (log.count(options.imu) == 0)
     throw std::runtime_error(where + ": no " + options.imu +
-                             " records; messages: " + log.messages_summary());
+                             " records; messages: " + log.messages_summary() + log.damage());
   const Records gps = log.read(
       "GPS", {"Status", "TimeMS", "Week", "NSats", "Lat", "Lng", "Alt", "Spd", "GCrs", "VZ", "T"});
   std::vector<std::size_t> fixes;  // GPS records with Status >= min_status

@@ -261,6 +261,22 @@ TEST(ArduPilotReal, TruncatedAndCorruptedCopies) {
   ASSERT_FALSE(s.notes.empty());
   EXPECT_NE(s.notes.front().find("byte 1499984"), std::string::npos);
 
+  // Cut inside, or right after, the FMT records at its start: the error says it looks truncated.
+  for (const std::size_t end : {std::size_t{2937}, std::size_t{3000}}) {
+    try {
+      extract_ardupilot(DataFlashFile::parse(bytes.substr(0, end), "defs.bin"), "defs.bin",
+                        ArduPilotImportOptions{});
+      ADD_FAILURE() << end;
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find("no GPS records"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("the file holds no record but its 32 FMT records (" +
+                                           std::to_string(end) +
+                                           " bytes): it looks truncated after its definitions"),
+                std::string::npos)
+          << e.what();
+    }
+  }
+
   std::string corrupted = bytes;
   ASSERT_EQ(corrupted.compare(276, 10, "IffffffIIf"), 0);
   corrupted[277] = 'X';

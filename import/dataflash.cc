@@ -295,7 +295,23 @@ const DataFlashFile::Format& DataFlashFile::format(const std::string& name) cons
   for (const auto& [id, f] : formats_)
     if (f.name == name) return f;
   throw std::runtime_error(where_ + ": no FMT record defines message " + name +
-                           "; messages with records: " + messages_summary());
+                           "; messages with records: " + messages_summary() + damage());
+}
+
+std::string DataFlashFile::damage() const {
+  std::string out;
+  if (!truncation_.empty()) out += "; the file is truncated or damaged: " + truncation_;
+  if (skip_count_ > 0)
+    out += "; " + std::to_string(skip_count_) + " damaged place" + (skip_count_ == 1 ? "" : "s") +
+           " skipped (" + std::to_string(skipped_bytes_) + " bytes), first: " + skips_.front();
+  std::size_t records = 0;
+  for (const auto& [id, f] : formats_)
+    if (id != kFmtId) records += f.records.size();
+  if (records == 0)
+    out += "; the file holds no record but its " + std::to_string(formats_.size() - 1) +
+           " FMT records (" + std::to_string(bytes_.size()) +
+           " bytes): it looks truncated after its definitions";
+  return out;
 }
 
 std::size_t DataFlashFile::count(const std::string& name) const {

@@ -56,6 +56,9 @@ class DataFlashFile {
   std::size_t skip_count() const { return skip_count_; }
   std::size_t skipped_bytes() const { return skipped_bytes_; }
   const std::vector<std::string>& skips() const { return skips_; }
+  /// The above in one clause for an error message ("; the file is truncated ...; 2 damaged
+  /// places skipped ..."; a file of FMT records only "looks truncated"), empty when intact.
+  std::string damage() const;
   /// Messages with records, for messages ("GPS (1199), IMU (11916), ...").
   std::string messages_summary() const;
 
