@@ -536,6 +536,40 @@ struct Validator {
     if (!std::isfinite(v)) meta_fail("field \"" + path + "\" must be a finite number");
   }
 
+  // The IMU rows: finite, times increasing, increments within the physical bounds.
+  void imu_values(const Dataset& ds) const {
+    if (ds.imu.size() < 2)
+      fail(prefix + std::string(kImuFile) + ": need at least 2 data rows, got " +
+           std::to_string(ds.imu.size()));
+    for (std::size_t i = 0; i < ds.imu.size(); ++i) {
+      const ImuSample& s = ds.imu[i];
+      finite(kImuFile, i, kImuColumns[0], s.t_s);
+      for (int k = 0; k < 3; ++k) finite(kImuFile, i, kImuColumns[1 + k], s.dtheta_b_rad[k]);
+      for (int k = 0; k < 3; ++k) finite(kImuFile, i, kImuColumns[4 + k], s.dv_b_mps[k]);
+    }
+    times(kImuFile, ds.imu);
+    const double dt_nominal = 1.0 / ds.meta.imu_rate_hz;
+    const bool v1 = ds.meta.format == DatasetFormat::kV1;
+    {
+      using B = PlausibilityBounds;
+      // /1: increments over one nominal step (the step check below holds each within 1 %);
+      // /2: over the row's own step (the nominal one for the first row).
+      for (std::size_t i = 0; i < ds.imu.size(); ++i) {
+        const double dt =
+            v1 || i == 0 ? dt_nominal : std::max(ds.imu[i].t_s - ds.imu[i - 1].t_s, dt_nominal);
+        const double max_dtheta = B::kMaxAngularRate_deg_s * kDegToRad * dt * 1.01;
+        const double max_dv = B::kMaxSpecificForce_g * 9.80665 * dt * 1.01;
+        const char* step = v1 ? "one step of 1/imu_rate_hz" : "the row's step";
+        for (int k = 0; k < 3; ++k)
+          bounded(kImuFile, i, kImuColumns[1 + k], ds.imu[i].dtheta_b_rad[k], max_dtheta,
+                  "angle increment", "rad", std::string("2000 deg/s over ") + step);
+        for (int k = 0; k < 3; ++k)
+          bounded(kImuFile, i, kImuColumns[4 + k], ds.imu[i].dv_b_mps[k], max_dv,
+                  "velocity increment", "m/s", std::string("50 g over ") + step);
+      }
+    }
+  }
+
   void run(const Dataset& ds) const {
     const DatasetMeta& m = ds.meta;
     meta_number("imu_rate_hz", m.imu_rate_hz);
@@ -588,37 +622,9 @@ struct Validator {
                     number_text(v));
     }
 
-    // IMU.
-    if (ds.imu.size() < 2)
-      fail(prefix + std::string(kImuFile) + ": need at least 2 data rows, got " +
-           std::to_string(ds.imu.size()));
-    for (std::size_t i = 0; i < ds.imu.size(); ++i) {
-      const ImuSample& s = ds.imu[i];
-      finite(kImuFile, i, kImuColumns[0], s.t_s);
-      for (int k = 0; k < 3; ++k) finite(kImuFile, i, kImuColumns[1 + k], s.dtheta_b_rad[k]);
-      for (int k = 0; k < 3; ++k) finite(kImuFile, i, kImuColumns[4 + k], s.dv_b_mps[k]);
-    }
-    times(kImuFile, ds.imu);
+    imu_values(ds);
     const double dt_nominal = 1.0 / m.imu_rate_hz;
     const bool v1 = m.format == DatasetFormat::kV1;
-    {
-      using B = PlausibilityBounds;
-      // /1: increments over one nominal step (the step check below holds each within 1 %);
-      // /2: over the row's own step (the nominal one for the first row).
-      for (std::size_t i = 0; i < ds.imu.size(); ++i) {
-        const double dt =
-            v1 || i == 0 ? dt_nominal : std::max(ds.imu[i].t_s - ds.imu[i - 1].t_s, dt_nominal);
-        const double max_dtheta = B::kMaxAngularRate_deg_s * kDegToRad * dt * 1.01;
-        const double max_dv = B::kMaxSpecificForce_g * 9.80665 * dt * 1.01;
-        const char* step = v1 ? "one step of 1/imu_rate_hz" : "the row's step";
-        for (int k = 0; k < 3; ++k)
-          bounded(kImuFile, i, kImuColumns[1 + k], ds.imu[i].dtheta_b_rad[k], max_dtheta,
-                  "angle increment", "rad", std::string("2000 deg/s over ") + step);
-        for (int k = 0; k < 3; ++k)
-          bounded(kImuFile, i, kImuColumns[4 + k], ds.imu[i].dv_b_mps[k], max_dv,
-                  "velocity increment", "m/s", std::string("50 g over ") + step);
-      }
-    }
     if (!v1) {
       // Measured timing: any positive step up to kMaxImuStep_s; the declared rate must be the
       // data's (median step within 10 %).
@@ -1065,6 +1071,10 @@ Dataset load_dataset(const fs::path& dir) {
 
 void validate_dataset(const Dataset& dataset, const DatasetSources& sources) {
   Validator{"", &sources}.run(dataset);
+}
+
+void validate_imu_values(const Dataset& dataset, const DatasetSources& sources) {
+  Validator{"", &sources}.imu_values(dataset);
 }
 
 std::string to_string(HeadingSourceKind kind) {

@@ -199,6 +199,10 @@ struct DatasetSources {
 /// times, constant IMU rate within tolerance, GNSS covering the flight, finite values.
 /// Throws DatasetError naming the file (or `sources`' name for it) and the first offending line.
 void validate_dataset(const Dataset& dataset, const DatasetSources& sources = {});
+/// validate_dataset's checks of the IMU rows alone (finite, times increasing, increments within
+/// PlausibilityBounds; needs meta.imu_rate_hz and meta.format): for an importer, before it
+/// looks for a static window in data that may hold a damaged sample.
+void validate_imu_values(const Dataset& dataset, const DatasetSources& sources = {});
 
 /// SHA-256 over the files of a dataset directory that determine every result computed from it
 /// (meta.json, imu.csv, gnss.csv, and heading.csv when present; truth.csv and other files do not

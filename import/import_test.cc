@@ -1343,6 +1343,8 @@ TEST(Ulog, DamageIsReadPastAndNamedWithTheByteOffset) {
   };
   read_past([](UlogWriter& d) { d.data(1, std::string(200, '\0')); },
             "data message of 'vehicle_gps_position': 200 bytes, but its format defines 40");
+  read_past([](UlogWriter& d) { d.data(1, std::string(20, '\0')); },
+            "20 bytes, but its format defines 40 (38 without its end padding)");
   read_past([](UlogWriter& d) { d.message('Z', "abc"); }, "unknown message type (code 90)");
   read_past([](UlogWriter& d) { d.data(9, "12345678"); },
             "data for message id 9 before any subscription");

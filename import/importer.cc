@@ -553,9 +553,6 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
   m.earth = EarthModel::wgs84();
   m.imu_rate_hz = 1.0 / dt_median;
   m.gnss_rate_hz = 1.0 / median(gnss_rows.steps);
-  set_static_window_and_start(options, out);
-  record_imu_gaps(dt_median, out);
-  if (heading) add_heading(*heading, options, span.t_origin, out);
   // Errors name the user's files and options: nothing has been written yet.
   DatasetSources sources;
   sources.row = [&](std::string_view file, std::size_t row) -> std::string {
@@ -575,6 +572,12 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
     if (field != "align_s") return "";
     return options.align_s ? "--align-s" : "the detected static window (align_s)";
   };
+  // A damaged sample (a flipped exponent bit: 1e19 m/s^2) is named by its record and byte
+  // before the static window is looked for in the data it would spoil.
+  validate_imu_values(out.dataset, sources);
+  set_static_window_and_start(options, out);
+  record_imu_gaps(dt_median, out);
+  if (heading) add_heading(*heading, options, span.t_origin, out);
   validate_dataset(out.dataset, sources);
   return out;
 }

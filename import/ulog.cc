@@ -145,6 +145,10 @@ void UlogFile::resolve_formats() {
       }
       if (complete && fmt.size != offset) {
         fmt.size = offset;
+        fmt.logged_size = 0;  // the logger leaves out the padding at the end, nothing else
+        for (const Field& field : fmt.fields)
+          if (field.name.rfind("_padding", 0) != 0)
+            fmt.logged_size = field.offset + field.element_size * field.count;
         changed = true;
       }
       ++it;
@@ -214,18 +218,19 @@ std::size_t UlogFile::message_length(std::size_t q, bool strict) const {
       const auto it = subscriptions_.find(load<std::uint16_t>(p));
       if (it == subscriptions_.end()) break;
       const auto fmt = formats_.find(it->second.topic);
-      ok = fmt == formats_.end() || size - 2 <= fmt->second.size;  // padding may be left out
+      ok = fmt == formats_.end() ||
+           (size - 2 <= fmt->second.size && size - 2 >= fmt->second.logged_size);
       break;
     }
     case 'O':
     case 'R':
       ok = size == 2;  // uint16 duration (ms) / uint16 msg_id
       break;
-    case 'L':
-      ok = size >= 9;  // uint8 log_level, uint64 timestamp, text
+    case 'L':  // char log_level '0' (EMERG) .. '7' (DEBUG), uint64 timestamp, text
+      ok = size >= 9 && p[0] >= '0' && p[0] <= '7';
       break;
-    case 'C':
-      ok = size >= 11;  // uint8 log_level, uint16 tag, uint64 timestamp, text
+    case 'C':  // char log_level, uint16 tag, uint64 timestamp, text
+      ok = size >= 11 && p[0] >= '0' && p[0] <= '7';
       break;
     case 'S':
       ok = size == sizeof kSyncMagic && std::memcmp(p, kSyncMagic, sizeof kSyncMagic) == 0;
@@ -420,7 +425,10 @@ std::string UlogFile::why_not_valid(std::size_t q) const {
       return "data for message id " + std::to_string(id) + " before any subscription ('A') to it";
     if (const auto fmt = formats_.find(it->second.topic); fmt != formats_.end())
       return "data message of '" + it->second.topic + "': " + std::to_string(size - 2) +
-             " bytes, but its format defines " + std::to_string(fmt->second.size);
+             " bytes, but its format defines " + std::to_string(fmt->second.size) +
+             (fmt->second.logged_size < fmt->second.size
+                  ? " (" + std::to_string(fmt->second.logged_size) + " without its end padding)"
+                  : std::string());
   }
   if (type == 'A' && size >= 4)
     return "subscription ('A') that is not printable text or redefines message id " +

@@ -76,7 +76,8 @@ class UlogFile {
   struct Format {
     std::vector<Field> fields;
     std::size_t size = 0;
-    std::size_t byte = 0;  ///< of its 'F' message
+    std::size_t logged_size = 0;  ///< size less the trailing "_padding" fields, which PX4 omits
+    std::size_t byte = 0;         ///< of its 'F' message
   };
   struct Subscription {
     std::string topic;
@@ -86,8 +87,9 @@ class UlogFile {
   /// formats_ and damaged_formats_ from format_texts_.
   void resolve_formats();
   /// The length (header included) of the well-formed message at byte q, 0 if there is none:
-  /// a known type whose fields fit its size; when `strict`, also data for a subscribed id no
-  /// longer than its format, and no subscription that redefines an id.
+  /// a known type whose fields fit its size; when `strict`, also data for a subscribed id as long
+  /// as its format, or shorter by trailing padding only, and no subscription that redefines an
+  /// id.
   std::size_t message_length(std::size_t q, bool strict) const;
   /// Why the message at byte q was not taken, for the skip's note.
   std::string why_not_valid(std::size_t q) const;

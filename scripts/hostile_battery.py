@@ -3,7 +3,7 @@
 gives it and classify every outcome.
 
     /usr/bin/python3 scripts/hostile_battery.py [--insid build/cli/insid] [--shared ../shared]
-                                                [--random-flips 24] [--seed 1] [--json FILE]
+                                                [--random-flips 400] [--seed 1] [--json FILE]
 
 Each case runs one insid command (in a scratch directory, at low priority, under a 4 GiB address
 space limit) and is classified:
@@ -11,7 +11,9 @@ space limit) and is classified:
             byte, option or limit) and holds no raw library text ("json.exception", "bad_alloc"
             alone);
   accepted  exit 0 where the input is valid or its damage is accounted for (e.g. a ULog with a
-            corrupted stamp: the dropped rows counted in provenance.json and printed);
+            corrupted stamp: the dropped rows counted in provenance.json and printed; a damaged
+            log that reads fewer IMU rows than the intact one says why: a damaged place
+            skipped, a truncation or a timestamp jump);
   weak      an error, but with the wrong exit code or a message that misses what it must name;
   silent    exit 0 where an error (or a note) was due;
   crash     killed by a signal, or an exit code outside 0-2;
@@ -19,7 +21,9 @@ space limit) and is classified:
   lost      a file the user owned changed or disappeared, or something was written outside --out.
 The script prints one line per case and the counts, and exits 1 unless every case is clear or
 accepted (so ctest can run it: `ctest -R hostile_battery`). Cases that need ../shared/data are
-skipped, and counted as such, where it is absent. Takes about a minute on 2 cores.
+skipped, and counted as such, where it is absent. Random damage (item 4) flips 1 or 5 bytes at
+--random-flips places, half in the shared ULog, half in the shared DataFlash log (200 each by
+default). Takes about 80 s on 2 cores.
 """
 
 import argparse
@@ -506,6 +510,151 @@ def reader_cases(b, sim, walk, shared):
         b.expect_error(11, name, args, codes=(2,), must=[must])
 
 
+def plausibility_cases(b, walk):
+    """Item 14: the audit's wrong imports of the shared walk, each named in plain words (or
+    refused), and the right import with no finding."""
+    if not walk:
+        b.skip(14, "plausibility of wrong imports", "no shared walk")
+        return
+    w = b.work
+    imu, pos = walk / "imu_1730_sf.csv", walk / "gnss_1730_sf.pos"
+
+    def args(units="s,g-local,rad/s", gnss=pos, mounting="180,0,-90", extra=()):
+        return (["import", "csv", "--imu", str(imu), "--columns", "t,ax,ay,az,gx,gy,gz,-,-,-,-",
+                 "--units", units, "--mounting-rpy-deg", mounting, "--align-s", "9", "--gnss",
+                 str(gnss)] + list(extra) + ["--out", str(w / f"plaus{len(b.results)}")])
+
+    def names(*words):
+        def check(out):
+            if "implausible data" not in out:
+                return "no plausibility warning"
+            missing = [x for x in words if x not in out]
+            return f"the warning misses {missing}" if missing else ""
+        return check
+
+    b.expect_accept(14, "the walk imported right: no plausibility finding", args(),
+                    check=lambda out: "a finding on the correct import" if "implausible" in out
+                    else "")
+    b.expect_error(14, "specific force in g declared as m/s^2", args(units="s,m/s^2,rad/s"),
+                   must=["the accelerations look like g, not m/s^2"])
+    b.expect_accept(14, "gyros in rad/s declared as deg/s", args(units="s,g-local,deg/s"),
+                    check=names("rad/s, read as deg/s"))
+    b.expect_accept(14, "the IMU clock 18 s off", args(extra=["--imu-time-offset-s", "18"]),
+                    check=names("GPS-UTC leap seconds"))
+    b.expect_accept(14, "a mounting 180 deg off about the roll axis", args(mounting="0,0,-90"),
+                    check=names("upside down at rest"))
+    lines = pos.read_text().splitlines(keepends=True)
+    for label, edit, cause in (("vn and ve swapped", lambda n, e, u: (e, n, u), "swapped"),
+                               ("velocities negated", lambda n, e, u: (-n, -e, -u), "negated"),
+                               ("velocities in km/h", lambda n, e, u: (3.6 * n, 3.6 * e, 3.6 * u),
+                                "in km/h, read as m/s")):
+        out = []
+        for line in lines:
+            if line.startswith("%"):
+                out.append(line)
+                continue
+            f = line.split()
+            v = edit(float(f[15]), float(f[16]), float(f[17]))
+            f[15:18] = [f"{x:.7f}" for x in v]
+            out.append(" ".join(f) + "\n")
+        edited = write(w / f"walk-{label.replace(' ', '-')}.pos", "".join(out))
+        b.expect_accept(14, f".pos with {label}", args(gnss=edited), check=names(cause))
+
+
+def binary_damage_cases(b, shared):
+    """Item 15: damage that binary readers must read past or name (the audit's cases): stray
+    bytes mid-log, a flipped byte in an unrelated ULog topic's format, one flipped bit in an IMU
+    TimeMS, files cut inside and right after their definitions."""
+    w = b.work
+    ulog = shared / "data" / "px4-ulog" / "sample_px4_events.ulg"
+    bin_log = shared / "data" / "ardupilot-copter" / "log171.bin"
+    cut = ["--t-start", "74.7", "--t-end", "215"]
+
+    def noted(*words):
+        def check(out):
+            missing = [x for x in words if x not in out]
+            return f"no note with {missing}" if missing else ""
+        return check
+
+    if ulog.exists():
+        d = ulog.read_bytes()
+        half = len(d) // 2
+        stray = write(w / "stray.ulg", d[:half] + b"\x01\x02\x03" + d[half:])
+        b.expect_accept(15, "ULog with 3 stray bytes mid-log",
+                        ["import", "ulog", str(stray), "--out", str(w / "stray-u")],
+                        check=noted("damaged place(s) in the log", "bytes skipped"))
+        # The formats: a flipped bit in the type of a field of 'wind' (no IMU, no GNSS).
+        pos, formats, defs_end = 16, {}, None
+        while pos + 3 <= len(d):
+            size, kind = struct.unpack_from("<HB", d, pos)
+            if chr(kind) == "F":
+                formats[d[pos + 3:pos + 3 + size].split(b":")[0].decode()] = pos
+            if chr(kind) in "AD":
+                defs_end = pos
+                break
+            pos += 3 + size
+        if "wind" in formats:
+            at = formats["wind"] + 3 + len(b"wind:uint64_t timestamp;") + 1
+            flipped = bytearray(d)
+            flipped[at] ^= 0x20
+            f = write(w / "format.ulg", bytes(flipped))
+            b.expect_accept(15, "ULog with a flipped byte in an unrelated topic's format",
+                            ["import", "ulog", str(f), "--out", str(w / "format-u")],
+                            check=noted("cannot be read", f"wind (byte {formats['wind']}"))
+        t1 = write(w / "cut-in-defs.ulg", d[:3000])
+        b.expect_error(15, "ULog cut inside its definitions",
+                       ["import", "ulog", str(t1), "--out", str(w / "cut1-u")],
+                       must=["cut-in-defs.ulg", "truncated", "byte"])
+        if defs_end:
+            t2 = write(w / "cut-after-defs.ulg", d[:defs_end])
+            b.expect_error(15, "ULog cut right after its definitions",
+                           ["import", "ulog", str(t2), "--out", str(w / "cut2-u")],
+                           must=["cut-after-defs.ulg", "looks truncated after its definitions"])
+    else:
+        b.skip(15, "ULog damage", "no shared ULog")
+    if bin_log.exists():
+        d = bin_log.read_bytes()
+        half = len(d) // 2
+        stray = write(w / "stray.bin", d[:half] + b"\x01\x02\x03" + d[half:])
+        b.expect_accept(15, "DataFlash with 3 stray bytes mid-log",
+                        ["import", "ardupilot", str(stray)] + cut + ["--out", str(w / "stray-a")],
+                        check=noted("damaged place(s) in the log", "bytes skipped"))
+        # IMU record 6000 (boot 134.775 s): bit 14 of its TimeMS moves it 16.4 s ahead, inside
+        # the flight; bit 20 to 1183 s, past the log's end (the phases must not stretch to it).
+        imu_id, at, k = None, 0, 0
+        pos = 0
+        while pos + 3 <= len(d) and k < 6000:
+            if d[pos] != 0xA3 or d[pos + 1] != 0x95:
+                pos += 1
+                continue
+            if d[pos + 2] == 128:
+                if d[pos + 5:pos + 9].rstrip(b"\0") == b"IMU":
+                    imu_id, imu_len = d[pos + 3], d[pos + 4]
+                pos += 89
+                continue
+            if d[pos + 2] == imu_id:
+                k += 1
+                at = pos + 3
+                pos += imu_len
+                continue
+            pos += 1
+        for bit, extra, words in ((14, cut, ["TimeMS at byte", "dropped"]),
+                                  (20, ["--t-start", "74.7"],
+                                   ["TimeMS at byte", "airborne     85.27 - 239.14 s"])):
+            flipped = bytearray(d)
+            flipped[at + bit // 8] ^= 1 << (bit % 8)
+            f = write(w / f"stamp{bit}.bin", bytes(flipped))
+            b.expect_accept(15, f"DataFlash with bit {bit} of one IMU TimeMS flipped",
+                            ["import", "ardupilot", str(f)] + extra +
+                            ["--out", str(w / f"stamp{bit}-a")], check=noted(*words))
+        t = write(w / "cut-after-defs.bin", d[:2937])
+        b.expect_error(15, "DataFlash cut right after its FMT records",
+                       ["import", "ardupilot", str(t), "--out", str(w / "cut-a")],
+                       must=["cut-after-defs.bin", "looks truncated after its definitions"])
+    else:
+        b.skip(15, "DataFlash damage", "no shared DataFlash log")
+
+
 def corruption_cases(b, shared, flips, rng):
     """Random damage to the shared binary logs: each either refused naming a byte offset, or
     imported with every dropped row counted in provenance.json (rows_read = rows_used +
@@ -521,6 +670,14 @@ def corruption_cases(b, shared, flips, rng):
     if not logs:
         b.skip(4, "random damage to binary logs", "no shared logs")
         return
+    # Each log imported intact once: a damaged copy that reads fewer IMU rows must say why.
+    clean_rows = {}
+    for kind, path, extra in logs:
+        code, out, _ = b.run(["import", kind, str(path)] + extra + ["--out", str(w / "intact")])
+        if code == 0:
+            prov = json.loads((w / "intact" / "provenance.json").read_text())
+            clean_rows[kind] = prov.get("imu", {}).get("rows_read")
+        shutil.rmtree(w / "intact", ignore_errors=True)
     for k in range(flips):
         kind, path, extra = logs[k % len(logs)]
         data = bytearray(path.read_bytes())
@@ -551,9 +708,14 @@ def corruption_cases(b, shared, flips, rng):
             used = imu.get("rows_used")
             accounted = read is None or used is None or read == used + dropped
             noted = dropped == 0 or "note" in out.lower() or "dropped" in out
-            b.record(4, name, "accepted" if accounted and noted else "silent",
-                     "" if accounted and noted else
-                     f"rows_read {read}, used {used}, dropped {dropped}")
+            # Rows lost to skipped damage are not "dropped": the damage must be said instead.
+            lost_rows = read is not None and kind in clean_rows and read < clean_rows[kind]
+            said = not lost_rows or any(x in out for x in (
+                "damaged place", "truncat", "timestamp jump"))
+            ok = accounted and noted and said
+            b.record(4, name, "accepted" if ok else "silent",
+                     "" if ok else f"rows_read {read} (intact {clean_rows.get(kind)}), used {used}, "
+                     f"dropped {dropped}, damage said: {said}")
         damaged.unlink()
         shutil.rmtree(out_dir, ignore_errors=True)
 
@@ -563,7 +725,7 @@ def main():
     root = Path(__file__).resolve().parent.parent
     parser.add_argument("--insid", default=str(root / "build" / "cli" / "insid"))
     parser.add_argument("--shared", default=str(root.parent / "shared"))
-    parser.add_argument("--random-flips", type=int, default=24)
+    parser.add_argument("--random-flips", type=int, default=400)
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--json", help="write the cases and verdicts here")
     args = parser.parse_args()
@@ -583,6 +745,8 @@ def main():
         json_cases(b, sim)
         external_cases(b, sim)
         reader_cases(b, sim, walk, shared)
+        plausibility_cases(b, walk)
+        binary_damage_cases(b, shared)
         corruption_cases(b, shared, args.random_flips, random.Random(args.seed))
     counts = {}
     for _, _, verdict, _ in b.results:
