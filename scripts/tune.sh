@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # results/tune: DVPIO tuned by irace vs the best of an `insid sweep` grid, then both (and the
 # Table 4 default) on fresh flights and fresh seeds in one campaign (Mann-Whitney + Holm).
-# Run from the repository root after the build: results/tune/run.sh [WORK_DIR]
+# Run from the repository root after the build: scripts/tune.sh [WORK_DIR] (it lived in
+# results/tune/run.sh until issue 46 moved the scripts out of results/).
 # WORK_DIR (default /tmp/insid-tune) keeps the datasets and run files, which are not committed;
 # the summaries are copied into results/tune/.
 set -euo pipefail

@@ -6,11 +6,16 @@ calibration replicas' own max |z|), so the first naming decision can be re-judge
 rule: a null flight is a false alarm when some candidate is significant at iteration 1
 (normal-equivalent |z| above the rule's threshold, and observable: minimum detectable size
 (threshold + 1.645) sd <= 30 catalogue sigmas, as diagnose decides it).
-Also checks the Gaussian re-judgment against ../issue15 (same seeds, run with the Gaussian rule).
-Usage: /usr/bin/python3 rejudge.py [cases.jsonl] > rejudge.json
+Also checks the Gaussian re-judgment against ../issue15 (same seeds, run with the Gaussian rule),
+read beside the given file (issue15/cases.jsonl or its .xz).
+Usage: /usr/bin/python3 scripts/diagnose_rejudge.py [CASES] > results/diagnose/issue15-wy/rejudge.json
+  CASES: a cases.jsonl, plain or xz-compressed (default results/diagnose/issue15-wy/cases.jsonl.xz,
+  as committed; issue 46)
 """
 import json
+import lzma
 import math
+import os
 import sys
 from collections import defaultdict
 from scipy.stats import norm
@@ -40,9 +45,19 @@ def significant(case, threshold, observable_only=True):
     return names
 
 
+def read_cases(path):
+    """The cases of a cases.jsonl, plain or .xz; PATH itself, else PATH.xz, else PATH without .xz."""
+    for p in (path, path + ".xz", path[:-3] if path.endswith(".xz") else None):
+        if p and os.path.exists(p):
+            with (lzma.open(p, "rt") if p.endswith(".xz") else open(p)) as f:
+                return [json.loads(line) for line in f if line.strip()]
+    raise FileNotFoundError(path)
+
+
 def main():
-    path = sys.argv[1] if len(sys.argv) > 1 else "cases.jsonl"
-    cases = [json.loads(l) for l in open(path) if l.strip()]
+    path = sys.argv[1] if len(sys.argv) > 1 else "results/diagnose/issue15-wy/cases.jsonl.xz"
+    cases = read_cases(path)
+    old_path = os.path.join(os.path.dirname(os.path.abspath(path)), "..", "issue15", "cases.jsonl")
     nulls = [c for c in cases if c["kind"] == "null"]
     out = {"null_flights": len(nulls), "rules": {}}
     for rule, key in (("replica-max", "threshold_z_replica_max"), ("gaussian", "threshold_z_gaussian")):
@@ -72,7 +87,7 @@ def main():
         bool(significant(c, c["threshold_z_replica_max"])) == bool(c["found"]) for c in used)
     # The Gaussian re-judgment against the old campaign (Gaussian rule, same seeds).
     try:
-        old = {json.loads(l)["key"]: json.loads(l) for l in open("../issue15/cases.jsonl") if l.strip()}
+        old = {c["key"]: c for c in read_cases(old_path)}
         same = [c for c in nulls if c["key"] in old]
         out["check_gaussian_matches_issue15"] = {
             "common_null_flights": len(same),
@@ -83,7 +98,7 @@ def main():
     # Effect cases: the first named effect (rule in use) and its ambiguity set; the same case of
     # ../issue15 (Gaussian rule) where it exists.
     try:
-        old = {json.loads(l)["key"]: json.loads(l) for l in open("../issue15/cases.jsonl") if l.strip()}
+        old = {c["key"]: c for c in read_cases(old_path)}
     except FileNotFoundError:
         old = {}
     eff = []
