@@ -21,6 +21,7 @@ import argparse
 import datetime
 import itertools
 import json
+import lzma
 import math
 import os
 import re
@@ -57,12 +58,18 @@ def warn(msg):
 
 
 def load_json(path, required=False):
+    # Committed results are packed (scripts/pack_results.py, issue 46): a file may be there as
+    # PATH.xz only, and a summary's whole form (with its curves) as NAME.full.json.xz.
+    if path.endswith(".json") and os.path.exists(path[:-len(".json")] + ".full.json.xz"):
+        path = path[:-len(".json")] + ".full.json.xz"
+    elif not os.path.exists(path) and os.path.exists(path + ".xz"):
+        path += ".xz"
     if not os.path.exists(path):
         if required:
             raise SystemExit(f"campaign_report: {path} does not exist")
         return None
     try:
-        with open(path) as f:
+        with (lzma.open(path, "rt") if path.endswith(".xz") else open(path)) as f:
             return json.load(f)
     except (OSError, ValueError) as e:
         if required:
@@ -242,8 +249,8 @@ class Campaign:
                     continue
                 items = []
                 for name in os.listdir(adir):
-                    m = re.fullmatch(r"seed_(-?\d+)\.json", name)
-                    if not m:
+                    m = re.fullmatch(r"seed_(-?\d+)\.json(\.xz)?", name)
+                    if not m or (m.group(2) and os.path.exists(os.path.join(adir, name[:-3]))):
                         continue
                     run = load_json(os.path.join(adir, name))
                     if isinstance(run, dict) and isinstance(run.get("result"), dict):

@@ -4,11 +4,15 @@
 Usage: compare_summaries.py OLD NEW [--digits 6]
 Prints every numeric value (or string/bool) that differs, with its JSON path; wall times and
 the build block are reported apart (they are expected to differ). Exit 0 when all other values
-agree to the digits asked for, 1 otherwise.
+agree to the digits asked for, 1 otherwise. OLD and NEW may be xz-compressed (.xz); a committed
+summary.json packed by scripts/pack_results.py (issue 46) is read whole from its
+summary.full.json.xz beside it.
 """
 import argparse
 import json
+import lzma
 import math
+import os
 import re
 import sys
 
@@ -37,14 +41,21 @@ def agree(a, b, digits):
     return f"{a:.{digits - 1}e}" == f"{b:.{digits - 1}e}"
 
 
+def load(path):
+    if path.endswith(".json") and os.path.exists(path[:-len(".json")] + ".full.json.xz"):
+        path = path[:-len(".json")] + ".full.json.xz"
+    with (lzma.open(path, "rt") if path.endswith(".xz") else open(path)) as f:
+        return json.load(f)
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("old")
     ap.add_argument("new")
     ap.add_argument("--digits", type=int, default=6)
     args = ap.parse_args()
-    old = dict(leaves(json.load(open(args.old))))
-    new = dict(leaves(json.load(open(args.new))))
+    old = dict(leaves(load(args.old)))
+    new = dict(leaves(load(args.new)))
     differ, expected, identical, total = [], [], 0, 0
     for path in sorted(set(old) | set(new)):
         if path not in old or path not in new:

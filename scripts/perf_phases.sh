@@ -44,7 +44,14 @@ for t in $threads; do
   cp "$work/c$t/summary.json" "${out%.md}-t$t-summary.json"
   if [ "$seeds" = 31 ]; then
     /usr/bin/python3 - "$work/c$t/summary.json" results/paper-fig9-31/summary.json <<'PY' || status=1
-import json, sys
+import json, lzma, os, sys
+def load(p):  # a committed summary packed by scripts/pack_results.py: whole in NAME.full.json.xz
+    full = p[:-len(".json")] + ".full.json.xz"
+    if os.path.exists(full):
+        with lzma.open(full, "rt") as f:
+            return json.load(f)
+    with open(p) as f:
+        return json.load(f)
 def strip(v):
     if isinstance(v, dict):
         return {k: strip(x) for k, x in v.items() if k != "wall_s"}
@@ -64,7 +71,7 @@ def diff(x, y, path):
             diff(p, q, f"{path}[{i}]")
     elif x != y:
         differences.append(f"{path}: {x!r} vs {y!r}")
-a, b = (strip(json.load(open(p))) for p in sys.argv[1:3])
+a, b = (strip(load(p)) for p in sys.argv[1:3])
 diff(a, b, "")
 if differences:
     print(f"perf_phases.sh: {len(differences)} values of {sys.argv[1]} differ from {sys.argv[2]} "
