@@ -41,11 +41,27 @@ def agree(a, b, digits):
     return f"{a:.{digits - 1}e}" == f"{b:.{digits - 1}e}"
 
 
+def without_curves(value):
+    if isinstance(value, dict):
+        return {k: without_curves(v) for k, v in value.items()
+                if k not in ("curve_evaluations", "curve_iterations")}
+    if isinstance(value, list):
+        return [without_curves(v) for v in value]
+    return value
+
+
 def load(path):
-    if path.endswith(".json") and os.path.exists(path[:-len(".json")] + ".full.json.xz"):
-        path = path[:-len(".json")] + ".full.json.xz"
     with (lzma.open(path, "rt") if path.endswith(".xz") else open(path)) as f:
-        return json.load(f)
+        value = json.load(f)
+    full_path = path[:-len(".json")] + ".full.json.xz" if path.endswith(".json") else ""
+    if os.path.exists(full_path):  # packed: the whole file, unless path was written again since
+        with lzma.open(full_path, "rt") as f:
+            full = json.load(f)
+        if without_curves(full) == value:
+            return full
+        print(f"compare_summaries: {full_path} is stale (not {path} with its curves): not read",
+              file=sys.stderr)
+    return value
 
 
 def main():

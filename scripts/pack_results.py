@@ -17,8 +17,10 @@ Under each DIR, recursively:
     figures look the same; skipped with a note where pngquant is absent).
 The readers (scripts/campaign_report.py, accuracy_table.py, compare_summaries.py,
 diagnose_campaign_report.py, diagnose_rejudge.py, perf_phases.sh) read the packed forms: a
-summary's `.full.json.xz` where it exists, a `.xz` where the plain file is absent. xz is
-lossless: `xz -dk FILE.xz` gives the file back as the program wrote it.
+summary's `.full.json.xz` where it exists and the plain summary is that file less its curves (a
+summary written again since makes the companion stale: it is then ignored, and packing again
+replaces it), a `.xz` where the plain file is absent. xz is lossless: `xz -dk FILE.xz` gives
+the file back as the program wrote it.
 """
 import argparse
 import json

@@ -63,3 +63,5 @@ mkdir -p "$here/irace" "$here/sweep" "$here/compare"
 cp "$work"/irace/{parameters.txt,scenario.txt,instances.txt,target-runner,tune.json,elites.csv,irace.log,irace.Rdata} "$here/irace/"
 cp "$work"/sweep/{sweep.json,sweep.csv,manifest.json} "$here/sweep/"
 cp -r "$work"/compare/{manifest.json,summary.json,report.md,figures} "$here/compare/"
+# 5. Pack them as committed (issue 46, results/README.md "What is committed, and how").
+/usr/bin/python3 scripts/pack_results.py --png "$here"
