@@ -10,7 +10,9 @@ With --paths it also lists the repository paths written in backticks (`core/fitn
 `results/window/`) that do not exist, relative to the repository root, as the documents write
 them; those are printed as warnings and do not fail the check (files move between folders while
 their documents follow).
-Exit 0 when every link resolves, 1 otherwise.
+It also holds README.md to at most 400 lines (issue 46: the user's guide; reference goes to
+docs/).
+Exit 0 when every link resolves and the README is within its length, 1 otherwise.
 """
 import glob
 import os
@@ -21,6 +23,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 LINK = re.compile(r"(?<!!)\[([^\]]*)\]\(([^)\s]+)\)")
 TICK = re.compile(r"`([^`\s]+)`")
 TOP = None
+README_MAX_LINES = 400
 
 
 def slug(heading):
@@ -82,7 +85,14 @@ def main(argv):
                     if not os.path.exists(os.path.join(ROOT, tok)):
                         print(f"{rel}:{n}: warning: `{tok}` does not exist")
                         warned += 1
-    print(f"check_doc_links: {links} links in {len(files)} files, {bad} broken"
+    with open(os.path.join(ROOT, "README.md"), encoding="utf-8") as f:
+        readme_lines = sum(1 for _ in f)
+    if readme_lines > README_MAX_LINES:
+        print(f"check_doc_links: README.md has {readme_lines} lines, over its {README_MAX_LINES}: "
+              "move reference material into docs/ and link it")
+        bad += 1
+    print(f"check_doc_links: {links} links in {len(files)} files, {bad} problems; README.md "
+          f"{readme_lines} lines (at most {README_MAX_LINES})"
           + (f"; {warned} backticked paths not found (warnings)" if paths else ""))
     return 1 if bad else 0
 
