@@ -12,6 +12,7 @@ Two questions, reported separately (docs/design.md sec. 10):
 """
 import glob
 import json
+import lzma
 import math
 import os
 import re
@@ -20,7 +21,10 @@ import sys
 
 
 def load(path):
-    with open(path) as f:
+    # Packed results (scripts/pack_results.py, issue 46): PATH.xz where PATH is absent.
+    if not os.path.exists(path) and os.path.exists(path + ".xz"):
+        path += ".xz"
+    with (lzma.open(path, "rt") if path.endswith(".xz") else open(path)) as f:
         return json.load(f)
 
 
@@ -43,7 +47,7 @@ def campaign_rows(cdir):
             runs = []
             for seed in cfg["seeds"]:
                 p = os.path.join(cdir, "runs", sc["name"], alg["label"], f"seed_{seed}.json")
-                if os.path.exists(p):
+                if os.path.exists(p) or os.path.exists(p + ".xz"):
                     runs.append(load(p))
             if not runs:
                 continue

@@ -21,6 +21,7 @@ import argparse
 import datetime
 import itertools
 import json
+import lzma
 import math
 import os
 import re
@@ -56,13 +57,49 @@ def warn(msg):
     print(f"campaign_report: warning: {msg}", file=sys.stderr)
 
 
+def without_curves(value):
+    if isinstance(value, dict):
+        return {k: without_curves(v) for k, v in value.items()
+                if k not in ("curve_evaluations", "curve_iterations")}
+    if isinstance(value, list):
+        return [without_curves(v) for v in value]
+    return value
+
+
+def packed_full_summary(path):
+    """NAME.full.json.xz beside NAME.json (scripts/pack_results.py), when NAME.json is that file
+    less its curves; None otherwise (no companion, or NAME.json written again since: stale)."""
+    full_path = path[:-len(".json")] + ".full.json.xz" if path.endswith(".json") else None
+    if not full_path or not os.path.exists(full_path) or not os.path.exists(path):
+        return None
+    try:
+        with lzma.open(full_path, "rt") as f:
+            full = json.load(f)
+        with open(path) as f:
+            plain = json.load(f)
+    except (OSError, ValueError, lzma.LZMAError) as e:
+        warn(f"skipping {full_path}: {e}")
+        return None
+    if without_curves(full) != plain:
+        warn(f"{full_path} is not {path} with its curves (stale?): reading {path}")
+        return None
+    return full
+
+
 def load_json(path, required=False):
+    # Committed results are packed (scripts/pack_results.py, issue 46): a file may be there as
+    # PATH.xz only, and a summary's whole form (with its curves) as NAME.full.json.xz.
+    full = packed_full_summary(path)
+    if full is not None:
+        return full
+    if not os.path.exists(path) and os.path.exists(path + ".xz"):
+        path += ".xz"
     if not os.path.exists(path):
         if required:
             raise SystemExit(f"campaign_report: {path} does not exist")
         return None
     try:
-        with open(path) as f:
+        with (lzma.open(path, "rt") if path.endswith(".xz") else open(path)) as f:
             return json.load(f)
     except (OSError, ValueError) as e:
         if required:
@@ -242,8 +279,8 @@ class Campaign:
                     continue
                 items = []
                 for name in os.listdir(adir):
-                    m = re.fullmatch(r"seed_(-?\d+)\.json", name)
-                    if not m:
+                    m = re.fullmatch(r"seed_(-?\d+)\.json(\.xz)?", name)
+                    if not m or (m.group(2) and os.path.exists(os.path.join(adir, name[:-3]))):
                         continue
                     run = load_json(os.path.join(adir, name))
                     if isinstance(run, dict) and isinstance(run.get("result"), dict):

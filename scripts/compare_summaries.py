@@ -4,11 +4,15 @@
 Usage: compare_summaries.py OLD NEW [--digits 6]
 Prints every numeric value (or string/bool) that differs, with its JSON path; wall times and
 the build block are reported apart (they are expected to differ). Exit 0 when all other values
-agree to the digits asked for, 1 otherwise.
+agree to the digits asked for, 1 otherwise. OLD and NEW may be xz-compressed (.xz); a committed
+summary.json packed by scripts/pack_results.py (issue 46) is read whole from its
+summary.full.json.xz beside it.
 """
 import argparse
 import json
+import lzma
 import math
+import os
 import re
 import sys
 
@@ -37,14 +41,37 @@ def agree(a, b, digits):
     return f"{a:.{digits - 1}e}" == f"{b:.{digits - 1}e}"
 
 
+def without_curves(value):
+    if isinstance(value, dict):
+        return {k: without_curves(v) for k, v in value.items()
+                if k not in ("curve_evaluations", "curve_iterations")}
+    if isinstance(value, list):
+        return [without_curves(v) for v in value]
+    return value
+
+
+def load(path):
+    with (lzma.open(path, "rt") if path.endswith(".xz") else open(path)) as f:
+        value = json.load(f)
+    full_path = path[:-len(".json")] + ".full.json.xz" if path.endswith(".json") else ""
+    if os.path.exists(full_path):  # packed: the whole file, unless path was written again since
+        with lzma.open(full_path, "rt") as f:
+            full = json.load(f)
+        if without_curves(full) == value:
+            return full
+        print(f"compare_summaries: {full_path} is stale (not {path} with its curves): not read",
+              file=sys.stderr)
+    return value
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("old")
     ap.add_argument("new")
     ap.add_argument("--digits", type=int, default=6)
     args = ap.parse_args()
-    old = dict(leaves(json.load(open(args.old))))
-    new = dict(leaves(json.load(open(args.new))))
+    old = dict(leaves(load(args.old)))
+    new = dict(leaves(load(args.new)))
     differ, expected, identical, total = [], [], 0, 0
     for path in sorted(set(old) | set(new)):
         if path not in old or path not in new:

@@ -2,11 +2,13 @@
 """Figures and tables of the `insid diagnose` hidden-effect campaign.
 
 usage: diagnose_campaign_report.py [RESULTS_DIR]   (default results/diagnose)
-reads RESULTS_DIR/cases.jsonl and summary.json (written by insid-diagnose-campaign), writes
+reads RESULTS_DIR/cases.jsonl (or, where that is absent, cases.jsonl.xz, the form committed under
+results/: issue 46) and summary.json (written by insid-diagnose-campaign), writes
 RESULTS_DIR/confusion.png, power.png, shrink.png and tables.md.
 """
 import collections
 import json
+import lzma
 import os
 import sys
 
@@ -24,7 +26,11 @@ def in_class(f, name):
 
 def main(argv):
     d = argv[0] if argv else "results/diagnose"
-    rows = [json.loads(l) for l in open(os.path.join(d, "cases.jsonl")) if l.strip()]
+    path = os.path.join(d, "cases.jsonl")
+    if not os.path.exists(path) and os.path.exists(path + ".xz"):
+        path += ".xz"
+    with (lzma.open(path, "rt") if path.endswith(".xz") else open(path)) as f:
+        rows = [json.loads(line) for line in f if line.strip()]
     summary = json.load(open(os.path.join(d, "summary.json")))
     nominal = summary["nominal"]
 

@@ -44,7 +44,21 @@ for t in $threads; do
   cp "$work/c$t/summary.json" "${out%.md}-t$t-summary.json"
   if [ "$seeds" = 31 ]; then
     /usr/bin/python3 - "$work/c$t/summary.json" results/paper-fig9-31/summary.json <<'PY' || status=1
-import json, sys
+import json, lzma, os, sys
+def lean(v):
+    if isinstance(v, dict):
+        return {k: lean(x) for k, x in v.items() if k not in ("curve_evaluations", "curve_iterations")}
+    return [lean(x) for x in v] if isinstance(v, list) else v
+def load(p):  # a committed summary packed by scripts/pack_results.py: whole in NAME.full.json.xz
+    with open(p) as f:
+        plain = json.load(f)
+    full = p[:-len(".json")] + ".full.json.xz"
+    if os.path.exists(full):
+        with lzma.open(full, "rt") as f:
+            whole = json.load(f)
+        if lean(whole) == plain:
+            return whole
+    return plain
 def strip(v):
     if isinstance(v, dict):
         return {k: strip(x) for k, x in v.items() if k != "wall_s"}
@@ -64,7 +78,7 @@ def diff(x, y, path):
             diff(p, q, f"{path}[{i}]")
     elif x != y:
         differences.append(f"{path}: {x!r} vs {y!r}")
-a, b = (strip(json.load(open(p))) for p in sys.argv[1:3])
+a, b = (strip(load(p)) for p in sys.argv[1:3])
 diff(a, b, "")
 if differences:
     print(f"perf_phases.sh: {len(differences)} values of {sys.argv[1]} differ from {sys.argv[2]} "
