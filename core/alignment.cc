@@ -7,7 +7,7 @@
 
 #include <Eigen/Geometry>
 
-#include "core/fitness.h"
+#include "core/gnss_interpolation.h"
 #include "core/number_text.h"
 #include "core/rotation.h"
 

@@ -19,6 +19,7 @@
 
 #include "core/batch_kernel.h"
 #include "core/cpu_path.h"
+#include "core/gnss_interpolation.h"
 #include "core/huge_pages.h"
 
 namespace insid {

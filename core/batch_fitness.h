@@ -24,6 +24,7 @@
 #include <string_view>
 #include <vector>
 
+#include "core/batch_lanes.h"
 #include "core/fitness.h"
 #include "core/sensor_errors.h"
 
@@ -31,8 +32,8 @@ namespace insid {
 
 class BatchFitness {
  public:
-  static constexpr int kLanes = 8;      ///< doubles per SIMD vector (one 512-bit register)
-  static constexpr int kMaxChains = 2;  ///< vectors advanced together in one group, at most
+  static constexpr int kLanes = kBatchLanes;  ///< doubles per SIMD vector (batch_lanes.h)
+  static constexpr int kMaxChains = 2;        ///< vectors advanced together in one group, at most
   /// Vectors per group that `evaluate` plans on the program's instruction-set path
   /// (core/cpu_path.h): two with AVX-512's 32 registers; one on the AVX2 and baseline paths, where
   /// a vector takes 2 or 4 of 16 registers and a two-vector group spills.

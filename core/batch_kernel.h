@@ -17,11 +17,12 @@
 #include <cstdint>
 #include <vector>
 
-#include "core/batch_fitness.h"
+#include "core/batch_lanes.h"
+#include "core/fitness.h"
 
 namespace insid::batch_kernel {
 
-constexpr int W = BatchFitness::kLanes;
+constexpr int W = kBatchLanes;
 constexpr int kRefShift = 6;     // reference latitude every 64 IMU steps
 constexpr int kAnchorShift = 5;  // exact Earth terms every 32 IMU steps
 

@@ -239,7 +239,4 @@ class NavigationProblem {
   std::vector<WindowRestart> restarts_;        // windowed fitness, in time order
 };
 
-/// Linear interpolation helper on GNSS rows: value at time t (clamped to the ends).
-GnssSample interpolate_gnss(const std::vector<GnssSample>& gnss, double t_s);
-
 }  // namespace insid

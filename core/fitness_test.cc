@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include "core/gnss_interpolation.h"
 #include "core/test_support.h"
 
 namespace insid {

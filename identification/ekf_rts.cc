@@ -29,6 +29,7 @@
 // the navigation start (the estimate of the constant biases given all the data) and their
 // standard deviations, and the forward filter's final values.
 #include "identification/ekf_rts.h"
+#include "core/gnss_interpolation.h"
 
 #include <cmath>
 #include <stdexcept>

@@ -9,6 +9,7 @@
 #include "core/alignment.h"
 #include "core/earth.h"
 #include "core/fitness.h"
+#include "core/gnss_interpolation.h"
 #include "core/number_text.h"
 #include "core/units.h"
 
