@@ -20,12 +20,12 @@
 #include <stdexcept>
 #include <thread>
 
+#include "base/json_object.h"
+#include "base/json_reader.h"
+#include "base/output_dir.h"
+#include "base/threads.h"
 #include "bench/cluster.h"
-#include "core/dataset.h"
-#include "core/json_object.h"
-#include "core/json_reader.h"
-#include "core/output_dir.h"
-#include "core/threads.h"
+#include "data/dataset.h"
 #include "identification/identify.h"
 
 namespace insid::campaign {
@@ -44,7 +44,7 @@ std::string host_name() {
 }
 
 // Why a run record cannot be used ("" when it can), in the typed reader's wording
-// ("<source>: <path>: <what>", core/json_object.h): it names this run under a schema insid reads
+// ("<source>: <path>: <what>", base/json_object.h): it names this run under a schema insid reads
 // and every number the summary and the sweep read is a finite number.
 std::string run_record_problem(const nlohmann::json& j, const std::string& source,
                                const std::string& scenario, const std::string& label,
@@ -135,7 +135,7 @@ const OutputKind kCampaignKind{"an insid campaign directory",
                                {"runs", "optimum", "figures"}};
 
 // Check out_dir's manifest against `config` (a different campaign is refused unless
-// force_new) and write the manifest, under the directory's locks (core/output_dir.h): the
+// force_new) and write the manifest, under the directory's locks (base/output_dir.h): the
 // directory itself gates the check-and-write; `.insid-lock` is held alone, for as long as the
 // campaign runs, by a process that does all the runs (a plain run, an MPI launch's rank 0) or
 // starts a new campaign there, and shared by shards (--shard i/N) of one campaign, so a second

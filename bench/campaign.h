@@ -110,7 +110,7 @@ nlohmann::json summarize_campaign(const std::string& out_dir, const CampaignConf
 /// it must name this scenario, label and seed under a run schema insid reads (insid-run/1 to
 /// the current one), and every number the summary reads (result.fitness, wall_s, evaluations,
 /// history, best_per_evaluation, optimum_fitness, the error blocks) must be a finite number.
-/// Worded as the typed JSON reader words it (core/json_object.h): "<file>: <path>: <what>",
+/// Worded as the typed JSON reader words it (base/json_object.h): "<file>: <path>: <what>",
 /// e.g. "runs/x.json: result.fitness: expected a finite number, found a string "0.5"".
 /// Campaigns redo such runs.
 std::string run_file_problem(const std::filesystem::path& path, const std::string& scenario,

@@ -8,10 +8,10 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "core/json_object.h"
-#include "core/json_reader.h"
-#include "core/number_text.h"
-#include "core/output_dir.h"
+#include "base/json_object.h"
+#include "base/json_reader.h"
+#include "base/number_text.h"
+#include "base/output_dir.h"
 #include "identification/grade.h"
 #include "identification/identify.h"
 #include "optimizers/registry.h"

@@ -12,8 +12,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "core/fitness.h"
 #include "identification/ins_problem.h"
+#include "nav/fitness.h"
 
 namespace insid::campaign {
 
@@ -52,7 +52,7 @@ struct CampaignConfig {
   int max_iterations = 40;
   std::int64_t max_evaluations = 0;
   AlignmentMode alignment = AlignmentMode::kPerCandidate;
-  /// Initial-attitude mode (core/alignment.h; `insid identify --initial-attitude`): absent =
+  /// Initial-attitude mode (nav/alignment.h; `insid identify --initial-attitude`): absent =
   /// gyrocompass, as before the key existed (and not written to the resolved config, so older
   /// campaign directories still resume). Given: the mode, and the key in the resolved config and
   /// every run file. Either way the gyrocompass feasibility check meets the estimated gyro
@@ -62,7 +62,7 @@ struct CampaignConfig {
   /// level+heading only: "course" | "given" | "measured" (--heading-source); absent: given with
   /// heading_deg, else course (not written, as before the key existed).
   std::optional<HeadingSource> heading_source;
-  /// Windowed fitness (core/fitness.h; `--window-s`): 0 = one run (default, not written).
+  /// Windowed fitness (nav/fitness.h; `--window-s`): 0 = one run (default, not written).
   double window_s = 0.0;
   /// The navigation options of every scenario (alignment, initial attitude, window).
   NavigationOptions navigation_options() const;
@@ -96,7 +96,7 @@ struct CampaignConfig {
   void validate(const std::string& origin) const;
 };
 
-/// Parse a campaign JSON (documented keys) with insid's one typed reader (core/json_object.h):
+/// Parse a campaign JSON (documented keys) with insid's one typed reader (base/json_object.h):
 /// throws std::invalid_argument "<origin>: <path>: <what>" for an unknown key (naming the valid
 /// ones), a missing one, a wrong type (what was expected and what was found) or a bad value.
 CampaignConfig parse_campaign(const nlohmann::json& j, const std::string& origin);
@@ -125,7 +125,7 @@ std::string config_difference(const nlohmann::json& old_config, const nlohmann::
 CampaignConfig config_from_manifest(const nlohmann::json& manifest, const std::string& origin);
 
 /// Path of one run's file: DIR/runs/<scenario>/<label>/seed_<k>.json. The scenario name and
-/// label must be plain names (checked_path_component, core/output_dir.h): no write leaves DIR.
+/// label must be plain names (checked_path_component, base/output_dir.h): no write leaves DIR.
 std::string run_file(const std::string& out_dir, const std::string& scenario,
                      const std::string& label, std::uint64_t seed);
 

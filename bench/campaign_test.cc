@@ -17,12 +17,12 @@
 
 #include <gtest/gtest.h>
 
+#include "base/json_reader.h"
 #include "bench/lockstep_runner.h"
 #include "bench/sweep.h"
-#include "core/json_reader.h"
-#include "core/units.h"
 #include "identification/ekf_rts.h"
 #include "identification/identify.h"
+#include "model/units.h"
 
 namespace insid::campaign {
 namespace {
@@ -386,7 +386,7 @@ std::string config_file_error(const std::string& text) {
   return error;
 }
 
-// The one typed reader's wording (core/json_object.h): the file, the field's path, what was
+// The one typed reader's wording (base/json_object.h): the file, the field's path, what was
 // expected and what was found, for each kind of fault of a campaign config file.
 TEST(Campaign, ConfigFileFaultsAreNamedWithTheFieldPath) {
   const std::string path = fresh_dir("config-file").string() + ".json";

@@ -14,9 +14,9 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "base/output_dir.h"
 #include "bench/campaign.h"
-#include "core/dataset.h"
-#include "core/output_dir.h"
+#include "data/dataset.h"
 #include "scenarios/scenario.h"
 
 namespace insid::campaign {
@@ -259,7 +259,7 @@ TEST(DirectorySafety, RerunRemovesTemporariesLeftByAKill) {
   const std::vector<fs::path> leftovers = {run.string() + ".tmp-somehost-12345-0",
                                            dir / "optimum" / "short.json.tmp-h-1-7",
                                            dir / "summary.json.tmp-node-17-3"};
-  // A killed write leaves its temporary marked as insid's (core/output_dir.h) and half-written.
+  // A killed write leaves its temporary marked as insid's (base/output_dir.h) and half-written.
   for (const fs::path& p : leftovers) {
     std::ofstream(p) << text(run).substr(0, 10);
     if (!mark_as_temporary(p)) GTEST_SKIP() << "no user extended attributes: nothing is marked";

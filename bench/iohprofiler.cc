@@ -12,10 +12,10 @@
 
 #include <nlohmann/json.hpp>
 
+#include "base/json_reader.h"
+#include "base/number_text.h"
 #include "bench/campaign.h"
-#include "core/dataset.h"
-#include "core/json_reader.h"
-#include "core/number_text.h"
+#include "data/dataset.h"
 
 namespace insid::campaign {
 namespace fs = std::filesystem;

@@ -11,12 +11,12 @@
 #include <thread>
 #include <utility>
 
-#include "core/batch_fitness.h"
-#include "core/json_reader.h"
-#include "core/output_dir.h"
+#include "base/json_reader.h"
+#include "base/output_dir.h"
 #include "identification/identify.h"
 #include "identification/ins_problem.h"
 #include "identification/uncertainty.h"
+#include "kernel/batch_fitness.h"
 #include "optimizers/external.h"
 #include "optimizers/fitness_memo.h"
 #include "optimizers/registry.h"
@@ -149,7 +149,7 @@ struct LockstepRunner::Impl {
 
   // A file at one of the campaign's own paths (its directory accepted by prepare_directory,
   // bench/campaign.cc), written without following links below it: a runs/ or optimum/ planted
-  // as a link to elsewhere is refused (core/output_dir.h). A file already there is replaced
+  // as a link to elsewhere is refused (base/output_dir.h). A file already there is replaced
   // (a damaged run being redone), a link never.
   void write_in_campaign(const fs::path& path, const std::string& text) const {
     WriteOptions options;

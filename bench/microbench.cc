@@ -9,9 +9,9 @@
 
 #include <benchmark/benchmark.h>
 
-#include "core/batch_fitness.h"
-#include "core/fitness.h"
-#include "core/static_dataset.h"
+#include "data/static_dataset.h"
+#include "kernel/batch_fitness.h"
+#include "nav/fitness.h"
 #include "optimizers/registry.h"
 
 namespace insid {
@@ -69,7 +69,7 @@ void BM_FitnessScalar(benchmark::State& state) {
 }
 BENCHMARK(BM_FitnessScalar)->Unit(benchmark::kMillisecond)->MinTime(2.0)->UseRealTime();
 
-// K candidates with the batched kernel (core/batch_fitness.h), Eq. 15, on `threads` threads:
+// K candidates with the batched kernel (kernel/batch_fitness.h), Eq. 15, on `threads` threads:
 // state.range(0) = K, state.range(1) = threads.
 void BM_FitnessBatched(benchmark::State& state) {
   const int k = static_cast<int>(state.range(0));

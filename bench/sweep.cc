@@ -8,9 +8,9 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "base/json_reader.h"
 #include "bench/stats.h"
-#include "core/dataset.h"
-#include "core/json_reader.h"
+#include "data/dataset.h"
 #include "identification/ins_problem.h"
 #include "optimizers/random.h"
 #include "optimizers/registry.h"

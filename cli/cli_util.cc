@@ -10,8 +10,8 @@
 #include <system_error>
 
 #include "cli/commands.h"
-#include "core/dataset.h"
-#include "core/plausibility.h"
+#include "data/dataset.h"
+#include "data/plausibility.h"
 #include "optimizers/parameters.h"
 
 namespace insid::cli {

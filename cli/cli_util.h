@@ -14,8 +14,8 @@
 #include "bench/campaign.h"
 #include "bench/cluster.h"
 #include "cli/progress.h"
-#include "core/sensor_errors.h"
 #include "identification/grade.h"
+#include "model/sensor_errors.h"
 
 namespace insid::cli {
 
@@ -89,7 +89,7 @@ campaign::ProgressCallback campaign_progress_printer(std::shared_ptr<ProgressPri
 
 /// What a command that writes single output files (navigate, identify, diagnose) may replace:
 /// never one of `inputs` (the files it reads), and an existing file insid did not write only
-/// with `force` (the command's --force; core/output_dir.h, file_owner).
+/// with `force` (the command's --force; base/output_dir.h, file_owner).
 struct OutputGuard {
   std::vector<std::filesystem::path> inputs;
   bool force = false;
@@ -107,7 +107,7 @@ std::vector<std::filesystem::path> dataset_input_files(const std::string& data_d
 /// "" or "-", stdout).
 void check_output_file(const std::string& path, const OutputGuard& guard);
 
-/// The dataset's plausibility (core/plausibility.h) for a command that reads one: each finding
+/// The dataset's plausibility (data/plausibility.h) for a command that reads one: each finding
 /// printed as "<command>: implausible data: ..." on stderr (even with --quiet: it is about the
 /// user's data, like an import's notes); a refusal thrown as std::runtime_error. Returns the
 /// report's JSON for the command's result.

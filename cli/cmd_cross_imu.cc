@@ -12,15 +12,15 @@
 
 #include <nlohmann/json.hpp>
 
+#include "base/json_object.h"
+#include "base/json_reader.h"
 #include "cli/cli_util.h"
 #include "cli/commands.h"
 #include "cli/progress.h"
-#include "core/build_info.h"
-#include "core/dataset.h"
-#include "core/json_object.h"
-#include "core/json_reader.h"
-#include "core/units.h"
+#include "data/dataset.h"
 #include "diagnose/cross_imu.h"
+#include "kernel/build_info.h"
+#include "model/units.h"
 
 namespace insid::cli {
 namespace {

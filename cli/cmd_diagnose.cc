@@ -11,7 +11,7 @@
 #include "cli/commands.h"
 #include "cli/initial_attitude_cli.h"
 #include "cli/progress.h"
-#include "core/dataset.h"
+#include "data/dataset.h"
 #include "diagnose/diagnose.h"
 #include "identification/grade.h"
 

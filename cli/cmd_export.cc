@@ -8,13 +8,13 @@
 
 #include <nlohmann/json.hpp>
 
+#include "base/json_reader.h"
+#include "base/output_dir.h"
 #include "bench/campaign.h"
 #include "bench/iohprofiler.h"
 #include "cli/cli_util.h"
 #include "cli/commands.h"
-#include "core/dataset.h"
-#include "core/json_reader.h"
-#include "core/output_dir.h"
+#include "data/dataset.h"
 #include "import/kf_gins.h"
 
 namespace insid::cli {

@@ -13,10 +13,10 @@
 #include "cli/commands.h"
 #include "cli/initial_attitude_cli.h"
 #include "cli/progress.h"
-#include "core/dataset.h"
-#include "core/fitness.h"
+#include "data/dataset.h"
 #include "identification/identify.h"
 #include "identification/identify_run.h"
+#include "nav/fitness.h"
 
 namespace insid::cli {
 namespace {

@@ -15,15 +15,15 @@
 
 #include <nlohmann/json.hpp>
 
+#include "base/digest.h"
+#include "base/file_read.h"
+#include "base/json_reader.h"
+#include "base/output_dir.h"
 #include "cli/cli_util.h"
 #include "cli/commands.h"
 #include "cli/progress.h"
-#include "core/dataset.h"
-#include "core/digest.h"
-#include "core/file_read.h"
-#include "core/json_reader.h"
-#include "core/output_dir.h"
-#include "core/plausibility.h"
+#include "data/dataset.h"
+#include "data/plausibility.h"
 #include "identification/identify.h"
 #include "import/ardupilot_import.h"
 #include "import/csv_imu.h"
@@ -142,7 +142,7 @@ struct ImportCsvArgs {
   SharedImportArgs shared;
 };
 
-// A whole input file (core/file_read.h: regular files only, the size limit, out of memory named).
+// A whole input file (base/file_read.h: regular files only, the size limit, out of memory named).
 std::string read_text(const std::string& path, const char* option, const FileReadOptions& read) {
   return read_file_whole(path, std::string(option) + " " + path, read);
 }
@@ -210,7 +210,7 @@ void finish_import(const std::string& command, importers::Assembled result, nloh
   write_options.extra_files["provenance.json"] = prov.dump(2) + "\n";
   for (const nlohmann::json& source : prov["sources"])
     write_options.inputs.emplace_back(source.at("path").get<std::string>());
-  // Does the result obey the physics it must (core/plausibility.h)? Said before anything is
+  // Does the result obey the physics it must (data/plausibility.h)? Said before anything is
   // written; a refusal writes nothing.
   const PlausibilityReport plausibility = check_plausibility(result.dataset);
   for (const PlausibilityFinding& f : plausibility.findings)

@@ -13,15 +13,15 @@
 
 #include <nlohmann/json.hpp>
 
+#include "base/json_reader.h"
+#include "base/number_text.h"
 #include "cli/cli_util.h"
 #include "cli/commands.h"
 #include "cli/initial_attitude_cli.h"
 #include "cli/progress.h"
-#include "core/dataset.h"
-#include "core/fitness.h"
-#include "core/json_reader.h"
-#include "core/number_text.h"
-#include "core/rotation.h"
+#include "data/dataset.h"
+#include "model/rotation.h"
+#include "nav/fitness.h"
 #include "optimizers/parameters.h"
 
 namespace insid::cli {
@@ -141,7 +141,7 @@ void run_navigate(const NavigateArgs& args) {
   options.initial_attitude = initial_attitude_options(args.initial_attitude);
   const NavigationProblem problem(dataset, options);
 
-  // Every mode, truth included, lives in the problem (core/alignment.h); no override here.
+  // Every mode, truth included, lives in the problem (nav/alignment.h); no override here.
   const std::optional<Eigen::Matrix3d> C_b_n_override;
 
   std::vector<NavState> states;

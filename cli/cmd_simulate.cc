@@ -13,7 +13,7 @@
 #include "cli/cli_util.h"
 #include "cli/commands.h"
 #include "cli/progress.h"
-#include "core/dataset.h"
+#include "data/dataset.h"
 #include "scenarios/scenario.h"
 
 namespace insid::cli {

@@ -1,5 +1,5 @@
 // The --initial-attitude options shared by navigate, identify and diagnose (issue 14); the
-// record of the mode every result carries is core/initial_attitude_json.h.
+// record of the mode every result carries is nav/initial_attitude_json.h.
 #pragma once
 
 #include <limits>
@@ -9,9 +9,9 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
-#include "core/alignment.h"
-#include "core/fitness.h"
-#include "core/initial_attitude_json.h"  // initial_attitude_json, recorded in every result
+#include "nav/alignment.h"
+#include "nav/fitness.h"
+#include "nav/initial_attitude_json.h"  // initial_attitude_json, recorded in every result
 
 namespace insid::cli {
 

@@ -8,9 +8,9 @@
 
 #include "bench/campaign.h"
 #include "cli/commands.h"
-#include "core/cpu_path.h"
 #include "identification/ekf_rts.h"
 #include "identification/identify.h"
+#include "kernel/cpu_path.h"
 
 namespace {
 
@@ -35,7 +35,7 @@ int main(int argc, char** argv) {
       "insid: identify INS sensor errors from navigation data, and benchmark the optimizers "
       "(GA, PSO, PIO, DVPIO) that do it."};
   app.require_subcommand(1);
-  // The kernel's instruction-set path (core/cpu_path.h), decided here so that a bad INSID_CPU
+  // The kernel's instruction-set path (kernel/cpu_path.h), decided here so that a bad INSID_CPU
   // stops every command before it starts, --version included.
   try {
     insid::cpu_path();

@@ -70,7 +70,7 @@ const char* kEstimate =
 // pure-INS drift: the one-run (W = 0) rms horizontal velocity error against the RTK velocity
 // with the estimate compensated at most a quarter of the uncompensated one. Measured on this
 // machine: 19.8 -> 1.63 m/s (12x); with the scalar compensation's gyro bias sign flipped
-// (core/sensor_errors.cc) the compensated run gives 31.7 m/s and the check fails. Then the
+// (model/sensor_errors.cc) the compensated run gives 31.7 m/s and the check fails. Then the
 // gyro x/y biases against the first 3 s on the pad (below).
 // Every reported sd is finite and positive (the uncertainty runs on real data, where the noise
 // levels are estimated from the static window).
@@ -144,7 +144,7 @@ TEST(RealWalk, ImportIdentifyCutsThePureInsErrorFourfoldAndMatchesThePadGyros) {
   // horizontal gyro biases found from GNSS must match that mean within 0.05 deg/s (measured
   // 0.025 and 0.008 deg/s; the spread between methods and windows in results/real is
   // 0.01-0.04 deg/s). Checked red: with the batched kernel's gyro bias compensation sign
-  // flipped (core/batch_fitness.cc) LM finds -0.175 / 0.103 deg/s and the compensated run is
+  // flipped (kernel/batch_fitness.cc) LM finds -0.175 / 0.103 deg/s and the compensated run is
   // worse than the uncompensated one (32 m/s), so all three checks fail.
   const std::array<double, 3> pad = mean_rate_deg_s(data / "imu.csv", 3.0);
   double est_deg_s[2] = {0.0, 0.0};
@@ -198,12 +198,12 @@ TEST(RealWalk, InjectedClockShiftAndGyroBiasAreRecoveredBySize) {
     return root / (name + ".csv");
   };
   auto import = [&](const fs::path& imu, const std::string& name) {
-    const Outcome o = insid("import csv --imu " + imu.string() +
-                            " --columns t,ax,ay,az,gx,gy,gz,-,-,-,- --units s,g-local,rad/s"
-                            " --gnss " +
-                            (walk / "gnss_1730_sf.pos").string() +
-                            " --mounting-rpy-deg 180,0,-90 --align-s 9 --out " +
-                            (root / name).string());
+    const Outcome o =
+        insid("import csv --imu " + imu.string() +
+              " --columns t,ax,ay,az,gx,gy,gz,-,-,-,- --units s,g-local,rad/s"
+              " --gnss " +
+              (walk / "gnss_1730_sf.pos").string() +
+              " --mounting-rpy-deg 180,0,-90 --align-s 9 --out " + (root / name).string());
     EXPECT_EQ(o.status, 0) << o.output;
     return root / name;
   };
@@ -240,8 +240,7 @@ TEST(RealWalk, InjectedClockShiftAndGyroBiasAreRecoveredBySize) {
     std::cout << "[ walk injection ] " << c.effect << ": plain " << e0 << ", injected " << e1
               << ", difference " << difference << " (injected " << c.expected << "), sd " << sd
               << "\n";
-    EXPECT_LE(std::abs(difference - c.expected), 3.0 * sd + 0.2 * std::abs(c.expected))
-        << c.effect;
+    EXPECT_LE(std::abs(difference - c.expected), 3.0 * sd + 0.2 * std::abs(c.expected)) << c.effect;
     EXPECT_LT(sd, 0.5 * std::abs(c.expected)) << c.effect << ": the walk must pin it down";
   }
   if (!::testing::Test::HasFailure()) fs::remove_all(root);  // kept for a look on failure

@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "core/dataset.h"
+#include "data/dataset.h"
 
 namespace insid::diagnose {
 

@@ -12,9 +12,9 @@
 
 #include <Eigen/Dense>
 
-#include "core/json_object.h"
-#include "core/json_reader.h"
-#include "core/units.h"
+#include "base/json_object.h"
+#include "base/json_reader.h"
+#include "model/units.h"
 
 namespace insid::cross_imu {
 namespace {

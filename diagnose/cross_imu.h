@@ -36,7 +36,7 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
-#include "core/dataset.h"
+#include "data/dataset.h"
 
 namespace insid::cross_imu {
 

@@ -16,7 +16,7 @@
 
 #include <gtest/gtest.h>
 
-#include "core/units.h"
+#include "model/units.h"
 #include "scenarios/scenario.h"
 
 namespace insid::cross_imu {

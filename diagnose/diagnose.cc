@@ -22,9 +22,9 @@
 #include <boost/math/distributions/normal.hpp>
 #include <boost/math/distributions/students_t.hpp>
 
-#include "core/noise_model.h"
-#include "core/number_text.h"
-#include "core/threads.h"
+#include "base/number_text.h"
+#include "base/threads.h"
+#include "data/noise_model.h"
 #include "diagnose/advice.h"
 #include "identification/grade.h"
 #include "identification/identify.h"

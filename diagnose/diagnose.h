@@ -1,7 +1,7 @@
 // The discrepancy workflow (`insid diagnose`, issue 7, docs/design.md sec. 9; method and choices in
 // diagnose/README.md):
 //   1. fit the base model (optimizer, then a least-squares Levenberg-Marquardt polish);
-//   2. noise model: M noise replicas of the same flight (core/noise_model.h) give draws of
+//   2. noise model: M noise replicas of the same flight (data/noise_model.h) give draws of
 //      the residuals' noise response; a low-rank + diagonal working covariance is built from
 //      one part of them, the other part calibrates every statistic;
 //   3. each candidate effect's sensitivity column by finite differences through the full
@@ -24,10 +24,10 @@
 #include <Eigen/Dense>
 #include <nlohmann/json.hpp>
 
-#include "core/dataset.h"
-#include "core/fitness.h"
+#include "data/dataset.h"
 #include "identification/box_widening.h"
 #include "identification/ins_problem.h"
+#include "nav/fitness.h"
 
 namespace insid::diagnose {
 
@@ -45,10 +45,10 @@ struct DiagnoseOptions {
   int max_effects = 3;
   std::uint64_t seed = 1;
   AlignmentMode alignment = AlignmentMode::kPerCandidate;
-  /// Windowed fitness (NavigationOptions::window_s, core/fitness.h): 0 = one pure-INS run over
+  /// Windowed fitness (NavigationOptions::window_s, nav/fitness.h): 0 = one pure-INS run over
   /// the whole flight; W > 0 = the INS restarted from GNSS every W seconds (s).
   double window_s = 0.0;
-  InitialAttitudeOptions initial_attitude;  ///< core/alignment.h (issue 14)
+  InitialAttitudeOptions initial_attitude;  ///< nav/alignment.h (issue 14)
   std::string algorithm = "dvpio";          ///< optimizer for the base fit ("none": LM only)
   int optimizer_iterations = 20;            ///< the optimizer's population is its preset's
   int replicas_basis = 40;                  ///< replicas building the working covariance

@@ -16,7 +16,7 @@
 #include <boost/math/distributions/normal.hpp>
 #include <boost/math/distributions/students_t.hpp>
 
-#include "core/noise_model.h"
+#include "data/noise_model.h"
 #include "diagnose/advice.h"
 #include "diagnose/diagnose.h"
 #include "diagnose/hidden_effects.h"

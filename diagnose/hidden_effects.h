@@ -9,7 +9,7 @@
 #include <memory>
 #include <string>
 
-#include "core/dataset.h"
+#include "data/dataset.h"
 
 namespace insid::diagnose {
 

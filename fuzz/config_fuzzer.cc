@@ -1,4 +1,4 @@
-// libFuzzer target for the config readers: the strict JSON reader (core/json_reader.h) and what
+// libFuzzer target for the config readers: the strict JSON reader (base/json_reader.h) and what
 // reads its result, the campaign config (bench/campaign.h, `insid bench --config`) and the
 // scenario file (scenarios/scenario.h, `insid simulate --scenario`). The input's first byte
 // picks the reader, the rest is the file. A reader must either accept the config or throw
@@ -12,8 +12,8 @@
 #include <string>
 #include <string_view>
 
+#include "base/json_reader.h"
 #include "bench/campaign.h"
-#include "core/json_reader.h"
 #include "scenarios/scenario.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

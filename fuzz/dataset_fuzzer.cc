@@ -1,4 +1,4 @@
-// libFuzzer target for the dataset reader (core/dataset.h): the input's first byte picks the
+// libFuzzer target for the dataset reader (data/dataset.h): the input's first byte picks the
 // file it replaces in a small valid dataset (imu.csv, gnss.csv, truth.csv, meta.json or
 // heading.csv, the dataset holding a dual-antenna heading), the rest is that file's contents.
 // load_dataset must either load the dataset or throw DatasetError; any other exception, a crash or
@@ -12,8 +12,8 @@
 #include <fstream>
 #include <string>
 
-#include "core/dataset.h"
-#include "core/test_support.h"
+#include "data/dataset.h"
+#include "test_support/test_support.h"
 
 namespace {
 namespace fs = std::filesystem;

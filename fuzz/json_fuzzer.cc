@@ -1,9 +1,9 @@
-// libFuzzer target for the strict JSON reader's limits (core/json_reader.h, issue 37): the input
+// libFuzzer target for the strict JSON reader's limits (base/json_reader.h, issue 37): the input
 // is the document. parse_json_strict must accept it or throw std::runtime_error, and its depth
 // check must agree with nlohmann's own parser: a document nlohmann accepts is refused for its
 // depth exactly when it nests deeper than kJsonMaxDepth (counted by a SAX pass, no DOM), and an
 // accepted value nests at most kJsonMaxDepth deep. Any other exception, a disagreement, a crash
-// or a sanitizer report is a finding. core/json_reader.cc is compiled into this target, so the
+// or a sanitizer report is a finding. base/json_reader.cc is compiled into this target, so the
 // reader itself is instrumented for coverage.
 #include <cstdint>
 #include <cstdio>
@@ -15,7 +15,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "core/json_reader.h"
+#include "base/json_reader.h"
 
 namespace {
 

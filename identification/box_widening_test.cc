@@ -9,10 +9,10 @@
 
 #include <gtest/gtest.h>
 
-#include "core/units.h"
 #include "identification/box_widening.h"
 #include "identification/grade.h"
 #include "identification/identify_run.h"
+#include "model/units.h"
 #include "scenarios/noise.h"
 #include "scenarios/scenario.h"
 

@@ -29,7 +29,7 @@
 // the navigation start (the estimate of the constant biases given all the data) and their
 // standard deviations, and the forward filter's final values.
 #include "identification/ekf_rts.h"
-#include "core/gnss_interpolation.h"
+#include "data/gnss_interpolation.h"
 
 #include <cmath>
 #include <stdexcept>
@@ -37,18 +37,18 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Dense>
 
-#include "core/grade_table.h"
-#include "core/mechanization.h"
-#include "core/noise_model.h"
-#include "core/rotation.h"
-#include "core/units.h"
+#include "data/grade_table.h"
+#include "data/noise_model.h"
+#include "model/rotation.h"
+#include "model/units.h"
+#include "nav/mechanization.h"
 #include "optimizers/registry.h"
 
 namespace insid {
 namespace {
 
 // Floors that keep the filter numerically healthy on noise-free data (the defaults without a
-// noise block are the nav grade's levels, core/grade_table.h).
+// noise block are the nav grade's levels, data/grade_table.h).
 constexpr NoiseLevels kNoiseFloor{1e-4, 1e-4, 1e-3, 1e-2};
 
 enum : int { kR = 0, kV = 3, kPhi = 6, kBg = 9, kBa = 12, kSg = 15, kSa = 18 };

@@ -16,9 +16,9 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
-#include "core/fitness.h"
 #include "identification/grade.h"
 #include "identification/ins_problem.h"
+#include "nav/fitness.h"
 #include "optimizers/optimizer.h"
 #include "optimizers/parameters.h"
 
@@ -51,7 +51,7 @@ struct EkfRtsParams {
 /// (nav with gyrocompass keeps the set-up above, bit for bit):
 ///   - bias priors initial_bias_sigma x the grade's sigma (not the catalogue's nav sigma);
 ///   - process and measurement noise from meta.json's noise block, else the IMU random walks
-///     measured in the data's flight (core/noise_model.h, estimate_flight_imu_noise: a drone's
+///     measured in the data's flight (data/noise_model.h, estimate_flight_imu_noise: a drone's
 ///     vibration, which the grade's datasheet figures do not have) and the grade's GNSS levels;
 ///   - the initial attitude is the navigation problem's initial-attitude mode (level+heading,
 ///     gyrocompass, given, truth) applied to the data compensated with the current bias

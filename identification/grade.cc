@@ -4,16 +4,16 @@
 #include <cstdio>
 #include <stdexcept>
 
-#include "core/alignment.h"
-#include "core/grade_table.h"
-#include "core/number_text.h"
-#include "core/rotation.h"
-#include "core/units.h"
+#include "base/number_text.h"
+#include "data/grade_table.h"
+#include "model/rotation.h"
+#include "model/units.h"
+#include "nav/alignment.h"
 
 namespace insid {
 namespace {
 
-// The estimation grades, one per row of the grade table (core/grade_table.h).
+// The estimation grades, one per row of the grade table (data/grade_table.h).
 const std::vector<SensorGrade>& grades() {
   static const std::vector<SensorGrade> kGrades = [] {
     std::vector<SensorGrade> out;

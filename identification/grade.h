@@ -1,12 +1,12 @@
 // Sensor grades (issue 14): the search unit (sigma) of every catalogue effect and the noise
 // levels of a navigation-grade, tactical-grade and MEMS IMU, in physical units. The effect
-// catalogue (core/sensor_errors.h) holds the paper's navigation-grade sigmas (0.01 deg/h,
+// catalogue (model/sensor_errors.h) holds the paper's navigation-grade sigmas (0.01 deg/h,
 // 0.0005 m/s^2); a MEMS gyro bias of 0.1-1 deg/s is 3.6e4-3.6e5 of those, far outside the
 // catalogue's [-4, 4] sigma box. A grade scales the IMU effects; GNSS-side effects (latency,
 // lever arm) keep their catalogue sigma.
 //
 // The figures (one sigma of each error, the noise levels) are the grade table's,
-// core/grade_table.h, which the simulator's noise grades and the window study read too.
+// data/grade_table.h, which the simulator's noise grades and the window study read too.
 //
 // The [-4, 4] sigma box of a MEMS parameter covers 0.4 deg/s and 40 mg (issue 14's realistic
 // 0.2 deg/s, 20 mg lie at 2 sigma). The bias drifts scale with the biases (one sigma of drift
@@ -21,13 +21,13 @@
 
 #include <nlohmann/json.hpp>
 
-#include "core/dataset.h"
-#include "core/grade_table.h"
+#include "data/dataset.h"
+#include "data/grade_table.h"
 #include "identification/ins_problem.h"
 
 namespace insid {
 
-/// An estimation grade: its row of the grade table (core/grade_table.h: name, error sizes,
+/// An estimation grade: its row of the grade table (data/grade_table.h: name, error sizes,
 /// noise) and what identification asks of it.
 /// The largest physical size of an effect for a grade (SI) and where the figure comes from.
 struct PhysicalLimit {
@@ -38,7 +38,7 @@ struct PhysicalLimit {
 struct SensorGrade : GradeFigures {
   /// The grade's sigma (SI) of a catalogue effect; throws on an unknown name (listing them).
   double sigma(std::string_view effect) const;
-  /// The largest size of a catalogue effect a unit of this grade has (core/grade_table.h's
+  /// The largest size of a catalogue effect a unit of this grade has (data/grade_table.h's
   /// physical limits for the IMU effects; GNSS latency 1 s and lever arms 5 m for every grade).
   /// Throws on an unknown name.
   PhysicalLimit physical_limit(std::string_view effect) const;
@@ -64,7 +64,7 @@ std::optional<std::string> declared_grade(const Dataset& dataset);
 /// 2. else the static alignment window (the IMU rows in the first meta.align_s seconds, at least
 ///    kMinStaticWindowS): three figures measured there each name a grade, and the coarsest wins
 ///    (one MEMS sign is enough):
-///    - the angle random walk (core/alignment.h, estimate_arw_rad_rts):
+///    - the angle random walk (nav/alignment.h, estimate_arw_rad_rts):
 ///      <= 0.01 deg/sqrt(h) nav, <= 0.1 tactical, else mems (declared_grade's bounds);
 ///    - the velocity random walk (estimate_vrw_mps_rts): <= 0.005 m/s/sqrt(h) nav, <= 0.035
 ///      tactical, else mems (between the grade table's 0.001 / 0.02 / 0.05);

@@ -9,9 +9,9 @@
 
 #include <gtest/gtest.h>
 
-#include "core/grade_table.h"
-#include "core/units.h"
+#include "data/grade_table.h"
 #include "identification/window_study.h"
+#include "model/units.h"
 #include "scenarios/noise.h"
 #include "scenarios/scenario.h"
 
@@ -78,7 +78,7 @@ TEST(GradeChoice, DeclaredNoiseWinsAndNoStaticWindowIsSaidToBeAnAssumption) {
   EXPECT_THROW(choose_grade(d, "consumer"), std::invalid_argument);
 }
 
-// One grade table (core/grade_table.h, issue 35): the estimation grades, the simulator's noise
+// One grade table (data/grade_table.h, issue 35): the estimation grades, the simulator's noise
 // grades and the window study read its figures, which before each wrote themselves. The figures
 // are pinned to their physical values (the table at the top of grade_table.h), so a changed
 // number fails here as well as a reader that stops reading the table.
@@ -130,7 +130,7 @@ TEST(GradeTable, EveryFormerCopyReadsTheSameFigures) {
     EXPECT_EQ(study.sigma_gyro_rad_s, row.gyro_bias_rad_s);
     EXPECT_EQ(study.sigma_accel_mps2, row.accel_bias_mps2);
   }
-  // nav searches in the catalogue's units (core/sensor_errors.h).
+  // nav searches in the catalogue's units (model/sensor_errors.h).
   EXPECT_EQ(grade_figures("nav").gyro_bias_rad_s, kSigmaGyroRadS);
   EXPECT_EQ(grade_figures("nav").accel_bias_mps2, kSigmaAccelMps2);
   EXPECT_THROW(grade_figures("consumer"), std::invalid_argument);

@@ -21,7 +21,7 @@
 
 #include <gtest/gtest.h>
 
-#include "core/noise_model.h"
+#include "data/noise_model.h"
 #include "identification/ekf_rts.h"
 #include "identification/grade.h"
 #include "identification/mems_study.h"

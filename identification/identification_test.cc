@@ -11,12 +11,12 @@
 
 #include <gtest/gtest.h>
 
-#include "core/test_support.h"
 #include "identification/ekf_rts.h"
 #include "identification/identify.h"
 #include "identification/ins_problem.h"
 #include "identification/local_fit.h"
 #include "optimizers/registry.h"
+#include "test_support/test_support.h"
 
 namespace insid {
 namespace {
@@ -287,7 +287,7 @@ TEST(Identification, NonFiniteFitnessNamesTheCandidateInSiAndWhereItsNavigationB
 
 TEST(Identification, ScalarResidualPathScoresAsTheFitnessBitForBit) {
   // The least-squares path (residuals + their sum) and the fitness path give the same bits, for
-  // both fitness kinds (one sum of residuals, core/fitness.h fitness_from_residuals).
+  // both fitness kinds (one sum of residuals, nav/fitness.h fitness_from_residuals).
   const ParameterMapping m(EstimatedParameter::paper_four());
   const std::vector<Eigen::VectorXd> xs = {Eigen::Vector4d(-0.5, 0.4, 0.5, -0.4),
                                            Eigen::Vector4d(0.1, -0.2, 0.3, 0.9)};

@@ -10,7 +10,7 @@
 #include <stdexcept>
 #include <vector>
 
-#include "core/json_reader.h"
+#include "base/json_reader.h"
 #include "optimizers/random.h"
 #include "optimizers/registry.h"
 

@@ -19,13 +19,13 @@
 
 #include <nlohmann/json.hpp>
 
-#include "core/build_info.h"  // build_info_json, recorded in every result
-#include "core/dataset.h"
-#include "core/fitness.h"
+#include "data/dataset.h"
 #include "identification/box_widening.h"
 #include "identification/grade.h"
 #include "identification/ins_problem.h"
 #include "identification/local_fit.h"
+#include "kernel/build_info.h"  // build_info_json, recorded in every result
+#include "nav/fitness.h"
 #include "optimizers/optimizer.h"
 #include "optimizers/parameters.h"
 
@@ -111,7 +111,7 @@ std::vector<EstimatedParameter> default_estimated(const SensorGrade& grade);
 std::vector<EstimatedParameter> identify_parameters(const SensorGrade& grade,
                                                     const std::vector<std::string>& estimate);
 
-/// The gyro bias the gyrocompass feasibility check must allow for (core/alignment.h,
+/// The gyro bias the gyrocompass feasibility check must allow for (nav/alignment.h,
 /// InitialAttitudeOptions::gyro_bias_allowance_rad_s) when `estimated` are searched: the
 /// largest |box edge| (rad/s) of the estimated horizontal gyro biases (gyro_bias_x, gyro_bias_y:
 /// the east gyro error is what tilts a gyrocompass heading), else the catalogue sigma (the data
@@ -162,7 +162,7 @@ struct IdentifySpec {
   int iterations = 40;           ///< iteration budget (0 = none)
   std::int64_t evaluations = 0;  ///< evaluation budget (0 = none)
   AlignmentMode alignment = AlignmentMode::kPerCandidate;
-  /// Fitness window (s, core/fitness.h); absent: the grade's default (default_window_s).
+  /// Fitness window (s, nav/fitness.h); absent: the grade's default (default_window_s).
   std::optional<double> window_s;
   /// How the attitude at the navigation start is found; its gyro_bias_allowance_rad_s is not
   /// read: the run sets it from the search box (gyro_bias_allowance_rad_s).

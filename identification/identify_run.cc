@@ -10,13 +10,13 @@
 #include <string>
 #include <vector>
 
-#include "core/build_info.h"
-#include "core/initial_attitude_json.h"
-#include "core/number_text.h"
-#include "core/plausibility.h"
-#include "core/units.h"
+#include "base/number_text.h"
+#include "data/plausibility.h"
 #include "identification/box_widening.h"
 #include "identification/ekf_rts.h"
+#include "kernel/build_info.h"
+#include "model/units.h"
+#include "nav/initial_attitude_json.h"
 #include "optimizers/registry.h"
 
 namespace insid {
@@ -219,7 +219,7 @@ IdentifyReport identify(const IdentifySpec& spec, const IdentifyProgress& progre
   const std::shared_ptr<const Dataset> dataset =
       spec.dataset ? spec.dataset : std::make_shared<const Dataset>(load_dataset(spec.data_dir));
   // Data that cannot be right are refused before the work; doubtful ones said (the result's
-  // "plausibility", core/plausibility.h).
+  // "plausibility", data/plausibility.h).
   const PlausibilityReport plausibility = check_plausibility(*dataset);
   if (plausibility.refused()) {
     std::string why;

@@ -9,10 +9,10 @@
 #include <stdexcept>
 #include <string>
 
-#include "core/dataset.h"
-#include "core/earth.h"
-#include "core/number_text.h"
-#include "core/rotation.h"
+#include "base/number_text.h"
+#include "data/dataset.h"
+#include "model/earth.h"
+#include "model/rotation.h"
 #include "optimizers/parameters.h"
 
 namespace insid {

@@ -1,6 +1,6 @@
 // The INS identification problem for the generic optimizers: a normalised box [-1, 1]^n
 // mapped to catalogue effects in SI units, scored by a full alignment + pure-INS run
-// (core/fitness.h, Eq. 15 by default). The optimizers know nothing of this mapping.
+// (nav/fitness.h, Eq. 15 by default). The optimizers know nothing of this mapping.
 #pragma once
 
 #include <memory>
@@ -11,9 +11,9 @@
 
 #include <Eigen/Core>
 
-#include "core/batch_fitness.h"
-#include "core/fitness.h"
-#include "core/sensor_errors.h"
+#include "kernel/batch_fitness.h"
+#include "model/sensor_errors.h"
+#include "nav/fitness.h"
 #include "optimizers/parameters.h"
 #include "optimizers/problem.h"
 
@@ -65,7 +65,7 @@ class ParameterMapping {
 
 /// Which implementation scores candidates (docs/design.md sec. 8, issue 6).
 enum class FitnessEvaluator {
-  kBatched,  ///< the vectorised multi-candidate kernel (core/batch_fitness.h); default
+  kBatched,  ///< the vectorised multi-candidate kernel (kernel/batch_fitness.h); default
   kScalar,   ///< NavigationProblem::fitness per candidate (the reference), for comparison
 };
 

@@ -21,11 +21,11 @@
 
 #include <gtest/gtest.h>
 
-#include "core/rotation.h"
 #include "identification/ekf_rts.h"
 #include "identification/grade.h"
 #include "identification/mems_study.h"
 #include "identification/uncertainty.h"
+#include "model/rotation.h"
 #include "optimizers/registry.h"
 
 namespace insid {

@@ -6,12 +6,12 @@
 #include <stdexcept>
 #include <utility>
 
-#include "core/rotation.h"
-#include "core/units.h"
 #include "identification/ekf_rts.h"
 #include "identification/grade.h"
 #include "identification/identify_run.h"
 #include "identification/uncertainty.h"
+#include "model/rotation.h"
+#include "model/units.h"
 #include "optimizers/registry.h"
 #include "scenarios/noise.h"
 #include "scenarios/scenario.h"

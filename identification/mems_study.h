@@ -21,7 +21,7 @@
 
 #include <Eigen/Core>
 
-#include "core/dataset.h"
+#include "data/dataset.h"
 #include "identification/ins_problem.h"
 #include "identification/uncertainty.h"
 

@@ -15,11 +15,11 @@
 #include <Eigen/Cholesky>
 #include <Eigen/QR>
 
-#include "core/noise_model.h"
-#include "core/sensor_errors.h"
-#include "core/threads.h"
-#include "core/units.h"
+#include "base/threads.h"
+#include "data/noise_model.h"
 #include "identification/ekf_rts.h"
+#include "model/sensor_errors.h"
+#include "model/units.h"
 #include "optimizers/parameters.h"
 #include "optimizers/random.h"
 
@@ -360,7 +360,7 @@ UncertaintyReport estimate_uncertainty(const InsIdentificationProblem& problem,
   report.jacobian_sigma = J;
   report.residuals = r;
 
-  // 2. Noise replicas through the same pipeline at the estimate (core/noise_model.h), or
+  // 2. Noise replicas through the same pipeline at the estimate (data/noise_model.h), or
   //    the caller's set run once for the data (`shared`, e.g. once per campaign scenario at the
   //    data's optimum): the noise response depends on the data and the noise model, and only
   //    weakly on the point it is run at.

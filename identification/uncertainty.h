@@ -4,7 +4,7 @@
 //   * Jacobian J = d r / d value_sigma of the residual vector (dvE_t, dvN_t) at the estimate,
 //     central differences through the problem's batched kernel (2n candidates in one batch).
 //   * Noise model: noise replicas of the flight (the levels and the noise model of
-//     core/noise_model.h, generated in place per thread for speed). The INS residuals are
+//     data/noise_model.h, generated in place per thread for speed). The INS residuals are
 //     integrated ARW/VRW plus the alignment error propagated through Schuler dynamics: strongly
 //     correlated and not stationary, so neither s^2 (J^T J)^-1 (white) nor a stationary
 //     autocorrelation (HAC) sandwich describes them. A replica = the dataset with extra white
@@ -30,7 +30,7 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
-#include "core/dataset.h"
+#include "data/dataset.h"
 #include "identification/ins_problem.h"
 #include "optimizers/optimizer.h"
 

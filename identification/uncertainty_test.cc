@@ -12,7 +12,7 @@
 #include <gtest/gtest.h>
 #include <Eigen/QR>
 
-#include "core/json_reader.h"
+#include "base/json_reader.h"
 #include "identification/ekf_rts.h"
 #include "identification/identify.h"
 #include "identification/ins_problem.h"

@@ -5,10 +5,10 @@
 
 #include <Eigen/Cholesky>
 
-#include "core/grade_table.h"
-#include "core/rotation.h"
-#include "core/units.h"
+#include "data/grade_table.h"
 #include "identification/local_fit.h"
+#include "model/rotation.h"
+#include "model/units.h"
 #include "optimizers/registry.h"
 #include "scenarios/noise.h"
 #include "scenarios/scenario.h"
@@ -16,7 +16,7 @@
 namespace insid::window_study {
 
 Grade grade(const std::string& name) {
-  // The grade table's bias sigmas (core/grade_table.h); tactical is no grade of the study.
+  // The grade table's bias sigmas (data/grade_table.h); tactical is no grade of the study.
   if (name == "mems" || name == "nav") {
     const GradeFigures& figures = grade_figures(name);
     return {name, figures.gyro_bias_rad_s, figures.accel_bias_mps2};
@@ -99,7 +99,7 @@ WindowFit fit_window(const std::shared_ptr<const Dataset>& data, const Grade& g,
     options.alignment = AlignmentMode::kFixed;
     // The stand-in for a given attitude (README of results/window/): gyrocompassed once from the
     // recorded window. On MEMS data that heading is uncertain (sd 2.4 deg over the 600 s
-    // window), which insid refuses for users (core/alignment.h); the study accepts it knowingly,
+    // window), which insid refuses for users (nav/alignment.h); the study accepts it knowingly,
     // as its tables were measured with it.
     options.initial_attitude.gyrocompass_max_heading_sd_deg = 180.0;
   } else if (g.name == "mems") {

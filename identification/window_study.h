@@ -1,4 +1,4 @@
-// The windowed fitness's trade-off (issue 14, core/fitness.h "Windowed fitness"): on a
+// The windowed fitness's trade-off (issue 14, nav/fitness.h "Windowed fitness"): on a
 // simulated flight, for a window length W, the Eq. 15 optimum of the paper's four biases and
 // its Gauss-Newton standard deviations. Used by `insid-window-study` (results/window/) and by
 // windowed_fitness_test.cc.
@@ -19,9 +19,9 @@
 
 #include <Eigen/Core>
 
-#include "core/dataset.h"
-#include "core/fitness.h"
+#include "data/dataset.h"
 #include "identification/ins_problem.h"
+#include "nav/fitness.h"
 
 namespace insid::window_study {
 

@@ -5,10 +5,10 @@
 #include <cstdio>
 #include <stdexcept>
 
-#include "core/dataset.h"  // PlausibilityBounds::kMaxImuStep_s
-#include "core/number_text.h"
-#include "core/units.h"
+#include "base/number_text.h"
+#include "data/dataset.h"  // PlausibilityBounds::kMaxImuStep_s
 #include "import/timestamps.h"
+#include "model/units.h"
 
 namespace insid::importers {
 namespace {

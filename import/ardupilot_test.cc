@@ -15,10 +15,10 @@
 
 #include <gtest/gtest.h>
 
-#include "core/earth.h"
 #include "import/ardupilot_import.h"
 #include "import/dataflash.h"
 #include "import/importer.h"
+#include "model/earth.h"
 
 namespace insid::importers {
 namespace {

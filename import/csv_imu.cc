@@ -10,9 +10,9 @@
 
 #include <Eigen/Geometry>
 
-#include "core/units.h"
 #include "import/gnss_solution.h"
 #include "import/text_lines.h"
+#include "model/units.h"
 
 namespace insid::importers {
 namespace {

@@ -10,7 +10,7 @@
 
 #include <Eigen/Core>
 
-#include "core/dataset.h"
+#include "data/dataset.h"
 #include "import/gnss_solution.h"
 
 namespace insid::importers {

@@ -1,5 +1,5 @@
 #include "import/dataflash.h"
-#include "core/file_read.h"
+#include "base/file_read.h"
 
 #include <cstring>
 #include <fstream>

@@ -1,6 +1,6 @@
 #include "import/flight_phases.h"
-#include "core/number_text.h"
-#include "core/units.h"
+#include "base/number_text.h"
+#include "model/units.h"
 
 #include <algorithm>
 #include <cmath>

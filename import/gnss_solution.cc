@@ -8,7 +8,7 @@
 #include <stdexcept>
 #include <string_view>
 
-#include "core/file_read.h"
+#include "base/file_read.h"
 #include "import/text_lines.h"
 
 namespace insid::importers {

@@ -21,17 +21,17 @@
 
 #include <gtest/gtest.h>
 
-#include "core/dataset.h"
-#include "core/fitness.h"
-#include "core/rotation.h"
-#include "core/test_support.h"
+#include "data/dataset.h"
 #include "import/csv_imu.h"
 #include "import/gnss_solution.h"
 #include "import/importer.h"
 #include "import/kf_gins.h"
 #include "import/ulog.h"
 #include "import/ulog_import.h"
+#include "model/rotation.h"
+#include "nav/fitness.h"
 #include "scenarios/scenario.h"
+#include "test_support/test_support.h"
 
 namespace insid::importers {
 namespace {

@@ -6,12 +6,12 @@
 #include <optional>
 #include <stdexcept>
 
-#include "core/alignment.h"
-#include "core/earth.h"
-#include "core/fitness.h"
-#include "core/gnss_interpolation.h"
-#include "core/number_text.h"
-#include "core/units.h"
+#include "base/number_text.h"
+#include "data/gnss_interpolation.h"
+#include "model/earth.h"
+#include "model/units.h"
+#include "nav/alignment.h"
+#include "nav/fitness.h"
 
 namespace insid::importers {
 namespace {

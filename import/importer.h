@@ -10,7 +10,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "core/dataset.h"
+#include "data/dataset.h"
 #include "import/csv_imu.h"
 #include "import/gnss_solution.h"
 

@@ -7,10 +7,10 @@
 #include <string_view>
 #include <vector>
 
-#include "core/earth.h"
-#include "core/number_text.h"
-#include "core/units.h"
+#include "base/number_text.h"
 #include "import/text_lines.h"
+#include "model/earth.h"
+#include "model/units.h"
 
 namespace insid::importers {
 namespace {

@@ -11,7 +11,7 @@
 #include <optional>
 #include <string>
 
-#include "core/dataset.h"
+#include "data/dataset.h"
 #include "import/csv_imu.h"
 #include "import/gnss_solution.h"
 

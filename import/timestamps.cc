@@ -5,7 +5,7 @@
 #include <cstddef>
 #include <stdexcept>
 
-#include "core/number_text.h"
+#include "base/number_text.h"
 
 namespace insid::importers {
 namespace {

@@ -1,5 +1,5 @@
 #include "import/ulog.h"
-#include "core/file_read.h"
+#include "base/file_read.h"
 
 #include <algorithm>
 #include <cctype>

@@ -28,7 +28,7 @@ class UlogFile {
   /// where nothing can be read: a bad magic, a newer version, flag bits that insid does not know.
   /// Damage elsewhere is skipped (skips(), truncation(), damage()).
   static UlogFile parse(std::string bytes, const std::string& where);
-  /// Reads the file (core/file_read.h: its magic checked before the rest is read) and parses it.
+  /// Reads the file (base/file_read.h: its magic checked before the rest is read) and parses it.
   static UlogFile read(const std::string& path);
 
   /// Instances (multi_id) of a topic that have data messages, with their counts.

@@ -5,9 +5,9 @@
 #include <cstdio>
 #include <stdexcept>
 
-#include "core/earth.h"
-#include "core/number_text.h"
-#include "core/rotation.h"
+#include "base/number_text.h"
+#include "model/earth.h"
+#include "model/rotation.h"
 
 namespace insid::importers {
 namespace {

@@ -31,8 +31,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "core/json_object.h"
-#include "core/json_reader.h"
+#include "base/json_object.h"
+#include "base/json_reader.h"
 
 extern char** environ;
 
@@ -82,7 +82,7 @@ ExternalReply parse_external_reply(std::string_view line, const Bounds& box,
   // messages below (which print parts of the reply) never recurse deeply.
   const nlohmann::json reply = parse_json_strict(line, source, {.max_bytes = kMaxLineBytes});
   try {
-    // Fields through the one typed reader (core/json_object.h): "<source>: points[1][0]: ...".
+    // Fields through the one typed reader (base/json_object.h): "<source>: points[1][0]: ...".
     const JsonObject r = JsonObject::document(reply, source, {"points", "error"});
     ExternalReply out;
     if (r.has("error")) {

@@ -15,7 +15,7 @@
 // offending line): the process exits or closes its stdout before replying (with its exit
 // status or signal), does not reply within `timeout_s` (it is then killed), or replies with a
 // line that is not a JSON object with valid "points" (not strict JSON within insid's reader's
-// limits, core/json_reader.h: nested deeper than 64, a key twice; a key other than "points" or
+// limits, base/json_reader.h: nested deeper than 64, a key twice; a key other than "points" or
 // "error"; points not an array of arrays of `dimension` finite numbers inside the box, no
 // point), or writes a line that no ask asked for (a second reply: one reply line per ask). A
 // client may also reply {"error":"text"} to give up with its own reason. After a failure the run
@@ -71,8 +71,8 @@ struct ExternalReply {
   std::optional<std::string> error;  ///< {"error": "..."}: the client gives up
 };
 
-/// Reads one reply line (strict JSON within core/json_reader.h's limits, the line at most
-/// 256 MiB; its fields through core/json_object.h: keys "points" or "error" only) against `box`.
+/// Reads one reply line (strict JSON within base/json_reader.h's limits, the line at most
+/// 256 MiB; its fields through base/json_object.h: keys "points" or "error" only) against `box`.
 /// Throws std::runtime_error starting with `where` and the line (e.g. "reply to ask 1 (line 1 of
 /// its output) '{...}'"), then the path of the field at fault and what was expected and found
 /// (": points[0][2]: expected a number in the box [-1, 1], found 2").

@@ -283,7 +283,7 @@ TEST(External, ReplyParserReadsPointsOrNamesWhatIsWrong) {
     }
     return std::string("(accepted)");
   };
-  // The one typed reader's wording (core/json_object.h): the line, the field's path, what was
+  // The one typed reader's wording (base/json_object.h): the line, the field's path, what was
   // expected and what was found.
   // an unknown key, with the valid ones
   EXPECT_EQ(error(R"({"points": [[0, 0, 1]], "best": 1})"),

@@ -21,7 +21,7 @@
 
 #include <Eigen/Core>
 
-#include "core/number_text.h"
+#include "base/number_text.h"
 
 namespace insid::opt {
 

@@ -6,7 +6,7 @@
 
 #include <omp.h>
 
-#include "core/threads.h"
+#include "base/threads.h"
 #include "optimizers/parameters.h"
 
 namespace insid::opt {

@@ -4,7 +4,7 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "core/grade_table.h"
+#include "data/grade_table.h"
 
 namespace insid::scenarios {
 
@@ -69,7 +69,7 @@ NoiseSpec noise_grade(std::string_view name) {
   NoiseSpec s;
   s.grade = std::string(name);
   // nav (an optical-gyro navigation-grade INS with an RTK-class GNSS velocity) and mems: the
-  // grade table's noise (core/grade_table.h), which the estimation grades read too.
+  // grade table's noise (data/grade_table.h), which the estimation grades read too.
   if (name == "nav" || name == "mems") {
     const NoiseLevels& levels = grade_figures(name).noise;
     s.arw_deg_rth = levels.arw_deg_rth;

@@ -10,7 +10,7 @@
 #include <string>
 #include <string_view>
 
-#include "core/dataset.h"
+#include "data/dataset.h"
 
 namespace insid::scenarios {
 

@@ -10,9 +10,9 @@
 
 #include <gtest/gtest.h>
 
-#include "core/fitness.h"
-#include "core/test_support.h"
+#include "nav/fitness.h"
 #include "scenarios/scenario.h"
+#include "test_support/test_support.h"
 
 namespace insid::scenarios {
 namespace {
@@ -180,7 +180,7 @@ TEST(RoundTrip, ExactCandidateCompensatesInjectedErrors) {
 // navigate within the same bounds as the constant-rate flight (and as the 100 Hz round trip
 // above: 1e-4 m/s, 0.5 m). Measured: 5.5e-5 m/s and 0.011 m (constant rate: 5.0e-5, 0.011).
 // Checked to fail: the two-sample coning/sculling weights of equal steps (1/12 whatever the
-// steps; core/mechanization.h two_sample_divisor) give 2.6e-4 m/s on the jittered rows.
+// steps; nav/mechanization.h two_sample_divisor) give 2.6e-4 m/s on the jittered rows.
 TEST(RoundTrip, JitteredImuStepsOnAMovingFlightNavigateLikeAConstantRate) {
   ScenarioConfig c = preset_scenario("rich");
   c.noise = noise_grade("none");

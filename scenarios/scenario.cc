@@ -9,12 +9,12 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "core/alignment.h"
-#include "core/huge_pages.h"
-#include "core/json_object.h"
-#include "core/json_reader.h"
-#include "core/number_text.h"
-#include "core/rotation.h"
+#include "base/huge_pages.h"
+#include "base/json_object.h"
+#include "base/json_reader.h"
+#include "base/number_text.h"
+#include "model/rotation.h"
+#include "nav/alignment.h"
 #include "scenarios/presets.h"
 #include "scenarios/synthesis.h"
 
@@ -528,7 +528,7 @@ Dataset simulate(const ScenarioConfig& cfg, const ScenarioPlan& plan, bool recor
   const Eigen::Vector3d& lever = cfg.injected.lever_arm_b_m;
   const std::size_t decim =
       static_cast<std::size_t>(std::llround(cfg.imu_rate_hz / cfg.gnss_rate_hz));
-  reserve_huge_pages(ds.gnss, plan.num_gnss);  // core/huge_pages.h
+  reserve_huge_pages(ds.gnss, plan.num_gnss);  // base/huge_pages.h
   for (std::size_t j = 0; j < plan.num_gnss; ++j) {
     const double t = static_cast<double>(j) / cfg.gnss_rate_hz;
     GnssSample g;

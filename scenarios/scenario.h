@@ -13,9 +13,9 @@
 
 #include <nlohmann/json.hpp>
 
-#include "core/dataset.h"
-#include "core/earth.h"
-#include "core/sensor_errors.h"
+#include "data/dataset.h"
+#include "model/earth.h"
+#include "model/sensor_errors.h"
 #include "scenarios/noise.h"
 #include "scenarios/trajectory.h"
 
@@ -40,7 +40,7 @@ struct ScenarioConfig {
   std::uint64_t seed = 1;
 };
 
-/// Parse a scenario from JSON with insid's one typed reader (core/json_object.h). `origin`
+/// Parse a scenario from JSON with insid's one typed reader (base/json_object.h). `origin`
 /// prefixes every message (e.g. the file name). Throws std::invalid_argument naming the field's
 /// path, e.g. "my.json: segments[2].bank: unknown key (valid keys: type, turn_deg, direction,
 /// bank_deg, rate_deg_s, ramp_s, comment)".

@@ -11,8 +11,8 @@
 
 #include <gtest/gtest.h>
 
-#include "core/dataset.h"
-#include "core/sensor_errors.h"
+#include "data/dataset.h"
+#include "model/sensor_errors.h"
 #include "scenarios/synthesis.h"
 
 namespace insid::scenarios {
@@ -299,7 +299,7 @@ std::string file_error(const std::string& text, std::string& path) {
   return error;
 }
 
-// The one typed reader's wording (core/json_object.h) for each kind of fault of a scenario file:
+// The one typed reader's wording (base/json_object.h) for each kind of fault of a scenario file:
 // the file, the field's path, what was expected and what was found.
 TEST(BadInput, ScenarioFileFaultsAreNamedWithTheFieldPath) {
   std::string path;

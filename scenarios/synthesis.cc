@@ -6,7 +6,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "core/huge_pages.h"
+#include "base/huge_pages.h"
 
 namespace insid::scenarios {
 
@@ -139,7 +139,7 @@ void ImuSynthesizer::run(std::size_t num_steps, int threads) {
   if (num_steps < 1) throw std::invalid_argument("need at least one IMU step");
   if (threads < 1)
     throw std::invalid_argument("threads must be >= 1, got " + std::to_string(threads));
-  // Storage advised for huge pages before it is first written (core/huge_pages.h).
+  // Storage advised for huge pages before it is first written (base/huge_pages.h).
   reserve_huge_pages(imu_, num_steps);
   reserve_huge_pages(truth_, num_steps);
   reserve_huge_pages(lat_grid_, num_steps + 1);

@@ -17,8 +17,8 @@
 
 #include <Eigen/Core>
 
-#include "core/dataset.h"
-#include "core/earth.h"
+#include "data/dataset.h"
+#include "model/earth.h"
 #include "scenarios/trajectory.h"
 
 namespace insid::scenarios {

@@ -5,7 +5,7 @@
 
 #include <gtest/gtest.h>
 
-#include "core/sensor_errors.h"
+#include "model/sensor_errors.h"
 #include "scenarios/scenario.h"
 
 namespace insid::scenarios {

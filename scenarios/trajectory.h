@@ -20,8 +20,8 @@
 
 #include <Eigen/Core>
 
-#include "core/rotation.h"
-#include "core/units.h"
+#include "model/rotation.h"
+#include "model/units.h"
 
 namespace insid::scenarios {
 

@@ -6,7 +6,7 @@ Usage: /usr/bin/python3 scripts/check_doc_links.py [--paths] [FILE.md ...]
   (default files: README.md, docs/*.md, results/README.md)
 Checks every Markdown link `[text](target)` that is not a URL: the file or folder exists,
 relative to the linking file, and a `#anchor` names a heading of the target (GitHub's slugs).
-With --paths it also lists the repository paths written in backticks (`core/fitness.h`,
+With --paths it also lists the repository paths written in backticks (`nav/fitness.h`,
 `results/window/`) that do not exist, relative to the repository root, as the documents write
 them; those are printed as warnings and do not fail the check (files move between folders while
 their documents follow).

@@ -5,7 +5,7 @@
 
 1. Counts the operations of the kernel's hot loops as compiled: perf samples (cpu-clock: no
    hardware counters are needed) of `insid-microbench` on K = 16 candidates, 1 thread, locate the
-   loops of run_group<2, false, false> (phase A and phase B, core/batch_fitness.cc) by their back
+   loops of run_group<2, false, false> (phase A and phase B, kernel/batch_fitness.cc) by their back
    edges; basic blocks without a sample are left out (branches the benchmark never takes).
    Each loop iteration is one IMU step of 2 x 8 = 16 candidates.
 2. Runs the pipe probes (BM_Pipe/*: 512-bit FMA throughput alone and with the kernel's load,

@@ -10,7 +10,7 @@ same campaign at several thread counts (used by scripts/perf_phases.sh; usable a
 
 The model. A round's scored candidates (a candidate that repeats one already scored is not scored
 again, opt::FitnessMemo; a log from before that has no "scored": all count) go into SIMD vectors of 8 lanes; the batched kernel packs the
-vectors into groups (BatchFitness::plan_groups, core/batch_fitness.cc: two vectors a group on the
+vectors into groups (BatchFitness::plan_groups, kernel/batch_fitness.cc: two vectors a group on the
 AVX-512 path, more groups of one vector when there are fewer groups than threads) and the threads
 take the groups one at a time (OpenMP dynamic schedule), so a round's scoring lasts as long as the
 busiest thread: the critical path of greedy list scheduling. A two-vector group costs c, a
@@ -40,7 +40,7 @@ def scored(round_row):
 
 
 def plan_groups(num_vectors, threads, planned_chains=2):
-    """BatchFitness::plan_groups (core/batch_fitness.cc), the same arithmetic."""
+    """BatchFitness::plan_groups (kernel/batch_fitness.cc), the same arithmetic."""
     if num_vectors <= 0:
         return []
     threads = max(threads, 1)

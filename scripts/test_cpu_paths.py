@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The CPU-dispatching `insid` (core/cpu_path.h): every kernel path this CPU runs gives the same
+"""The CPU-dispatching `insid` (kernel/cpu_path.h): every kernel path this CPU runs gives the same
 results within the batched kernel's tolerance, the same path gives the same bits for 1 and 2
 threads, INSID_CPU selects the path (--version prints it), and a bad INSID_CPU is refused. A forced
 path the CPU lacks is refused: on this CPU through INSID_CPU_HIDE (the test-only override, which
@@ -13,7 +13,7 @@ import subprocess
 import sys
 import tempfile
 
-RTOL = 1e-9  # the batched-vs-scalar tolerance (core/batch_fitness_test.cc)
+RTOL = 1e-9  # the batched-vs-scalar tolerance (tests/batch_fitness_test.cc)
 
 
 def cpu_levels():

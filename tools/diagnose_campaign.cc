@@ -27,8 +27,8 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
-#include "core/json_reader.h"
-#include "core/number_text.h"
+#include "base/json_reader.h"
+#include "base/number_text.h"
 #include "diagnose/campaign_scoring.h"
 #include "diagnose/diagnose.h"
 #include "diagnose/hidden_effects.h"

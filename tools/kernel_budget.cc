@@ -33,14 +33,14 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
-#include "core/batch_fitness.h"
-#include "core/cpu_path.h"
-#include "core/fitness.h"
-#include "core/grade_table.h"
-#include "core/mechanization.h"
-#include "core/output_dir.h"
-#include "core/rotation.h"
-#include "core/sensor_errors.h"
+#include "base/output_dir.h"
+#include "data/grade_table.h"
+#include "kernel/batch_fitness.h"
+#include "kernel/cpu_path.h"
+#include "model/rotation.h"
+#include "model/sensor_errors.h"
+#include "nav/fitness.h"
+#include "nav/mechanization.h"
 #include "scenarios/scenario.h"
 #include "tools/tool_main.h"
 

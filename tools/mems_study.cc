@@ -16,13 +16,13 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
-#include "core/alignment.h"
-#include "core/fitness.h"
-#include "core/rotation.h"
 #include "identification/ekf_rts.h"
 #include "identification/grade.h"
 #include "identification/mems_study.h"
 #include "identification/uncertainty.h"
+#include "model/rotation.h"
+#include "nav/alignment.h"
+#include "nav/fitness.h"
 #include "tools/tool_main.h"
 
 namespace {

@@ -22,9 +22,9 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
-#include "core/dataset.h"
-#include "core/fitness.h"
+#include "data/dataset.h"
 #include "insid_git_revision.h"  // generated at build time (cmake/git_revision.cmake)
+#include "nav/fitness.h"
 #include "scenarios/noise.h"
 #include "scenarios/scenario.h"
 #include "tools/tool_main.h"
