@@ -5,20 +5,28 @@
 #include <numbers>
 #include <utility>
 
+#include "model/sensor_errors.h"
+
 namespace insid::diagnose {
 
 std::string effect_kind(const std::string& name) {
-  auto starts = [&](const char* p) { return name.rfind(p, 0) == 0; };
-  if (starts("accel_bias_drift_")) return "accel_drift";
-  if (starts("gyro_bias_drift_")) return "gyro_drift";
-  if (starts("accel_bias_")) return "accel_bias";
-  if (starts("gyro_bias_")) return "gyro_bias";
-  if (starts("accel_scale_")) return "accel_scale";
-  if (starts("gyro_scale_")) return "gyro_scale";
-  if (starts("accel_misalign_")) return "accel_misalign";
-  if (starts("gyro_misalign_")) return "gyro_misalign";
-  if (name == "gnss_latency") return "latency";
-  if (starts("lever_arm_")) return "lever_arm";
+  const EffectInfo* info = find_effect_info(name);
+  if (info == nullptr) return "other";
+  const char* sensor = info->sensor == EffectSensor::kGyro ? "gyro_" : "accel_";
+  switch (info->kind) {
+    case EffectKind::kBias:
+      return std::string(sensor) + "bias";
+    case EffectKind::kBiasDrift:
+      return std::string(sensor) + "drift";
+    case EffectKind::kScale:
+      return std::string(sensor) + "scale";
+    case EffectKind::kMisalign:
+      return std::string(sensor) + "misalign";
+    case EffectKind::kLatency:
+      return "latency";
+    case EffectKind::kLeverArm:
+      return "lever_arm";
+  }
   return "other";
 }
 

@@ -9,8 +9,9 @@
 
 namespace insid::diagnose {
 
-/// Kind of a catalogue effect: "accel_bias", "gyro_bias", "accel_drift", "gyro_drift",
-/// "accel_scale", "gyro_scale", "accel_misalign", "gyro_misalign", "latency", "lever_arm".
+/// Kind of a catalogue effect, from its sensor and kind in the catalogue: "accel_bias",
+/// "gyro_bias", "accel_drift", "gyro_drift", "accel_scale", "gyro_scale", "accel_misalign",
+/// "gyro_misalign", "latency", "lever_arm"; "other" for a name not in the catalogue.
 std::string effect_kind(const std::string& name);
 
 /// The manoeuvre that would separate two effects that look alike on this flight.

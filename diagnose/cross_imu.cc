@@ -14,12 +14,19 @@
 
 #include "base/json_object.h"
 #include "base/json_reader.h"
+#include "model/sensor_errors.h"
 #include "model/units.h"
 
 namespace insid::cross_imu {
 namespace {
 
 constexpr const char* kAxis[3] = {"x", "y", "z"};
+
+// The catalogue name of the gyro bias on body axis i (0, 1, 2: x, y, z).
+std::string gyro_bias_name(int axis) {
+  return std::string(effect_info(EffectSensor::kGyro, EffectKind::kBias, axis).name);
+}
+
 /// Fewest blocks a segment's SE is computed from.
 constexpr int kMinSegmentBlocks = 5;
 /// Most segments of one window (a longer list says nothing a plot of the data would not).
@@ -376,10 +383,11 @@ ResultEstimates read_identify_result(const std::filesystem::path& path) {
           JsonObject::with_other_keys(f.value(), src, json_index_path("parameters", k),
                                       {"name", "estimate", "sd", "flags", "unit"});
       const std::string name = o.string("name");
-      int axis = -1;
-      for (int i = 0; i < 3; ++i)
-        if (name == std::string("gyro_bias_") + kAxis[i]) axis = i;
-      if (axis < 0) continue;
+      const EffectInfo* effect = find_effect_info(name);
+      if (effect == nullptr || effect->sensor != EffectSensor::kGyro ||
+          effect->kind != EffectKind::kBias)
+        continue;
+      const int axis = effect->axis;
       EstimatedBias e;
       e.estimate_rad_s = o.number("estimate");
       if (o.has("unit") && o.string("unit") != "rad/s")
@@ -437,7 +445,7 @@ std::vector<ComparisonRow> compare_with_results(const CrossImuReport& report,
       const AxisDifference& ax = p.axes[static_cast<std::size_t>(i)];
       row.direct_rad_s = ax.bias_diff_rad_s;
       row.direct_se_rad_s = ax.se_rad_s;
-      const std::string param = std::string("gyro_bias_") + kAxis[i];
+      const std::string param = gyro_bias_name(i);
       const auto& ea = results[p.a].gyro_bias[static_cast<std::size_t>(i)];
       const auto& eb = results[p.b].gyro_bias[static_cast<std::size_t>(i)];
       for (const auto& [who, e] : {std::pair{&p.name_a, &ea}, std::pair{&p.name_b, &eb}})
@@ -480,7 +488,7 @@ std::vector<std::string> comparison_warnings(const CrossImuReport& report,
   std::map<std::string, std::string> edges;  // "gyro_bias_x of IMU2" -> the pairs it enters
   for (const ComparisonRow& r : rows) {
     const PairDifference& p = report.pairs[r.pair];
-    const std::string param = std::string("gyro_bias_") + kAxis[r.axis];
+    const std::string param = gyro_bias_name(r.axis);
     if (r.verdict == Verdict::kDisagree) {
       char z[32];
       std::snprintf(z, sizeof z, "%.1f", *r.z);
@@ -581,7 +589,7 @@ nlohmann::json report_json(const CrossImuReport& report, const std::vector<Compa
       nlohmann::json c;
       c["difference"] = p.name_a + " - " + p.name_b;
       c["against_first"] = p.against_first;
-      c["parameter"] = std::string("gyro_bias_") + kAxis[r.axis];
+      c["parameter"] = gyro_bias_name(r.axis);
       c["insid_diff_deg_s"] = opt_json(r.insid_diff_rad_s, kRadToDeg);
       c["insid_sd_deg_s"] = opt_json(r.insid_sd_rad_s, kRadToDeg);
       c["direct_deg_s"] = r.direct_rad_s * kRadToDeg;
@@ -663,7 +671,7 @@ std::string report_text(const CrossImuReport& report, const std::vector<Comparis
       char z[32] = "n/a";
       if (r.z) std::snprintf(z, sizeof z, "%+.2f", *r.z);
       std::snprintf(line, sizeof line, "  %-16s %-12s %10s %8s %10s %8s %7s  %-12s %s\n",
-                    pair_name(p).c_str(), (std::string("gyro_bias_") + kAxis[r.axis]).c_str(),
+                    pair_name(p).c_str(), gyro_bias_name(r.axis).c_str(),
                     r.insid_diff_rad_s ? deg(*r.insid_diff_rad_s).c_str() : "n/a",
                     deg_opt(r.insid_sd_rad_s).c_str(), deg(r.direct_rad_s).c_str(),
                     deg_opt(r.direct_se_rad_s).c_str(), z, to_string(r.verdict), flags.c_str());

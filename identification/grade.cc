@@ -23,21 +23,24 @@ const std::vector<SensorGrade>& grades() {
   return kGrades;
 }
 
-bool starts_with(std::string_view s, std::string_view prefix) {
-  return s.substr(0, prefix.size()) == prefix;
-}
-
 }  // namespace
 
 double SensorGrade::sigma(std::string_view effect) const {
   const EffectInfo& info = effect_info(effect);  // throws on an unknown name
-  if (info.side == EffectSide::kGnss) return info.sigma;
-  if (starts_with(effect, "gyro_bias_drift_")) return gyro_bias_rad_s / 3600.0;
-  if (starts_with(effect, "accel_bias_drift_")) return accel_bias_mps2 / 3600.0;
-  if (starts_with(effect, "gyro_bias_")) return gyro_bias_rad_s;
-  if (starts_with(effect, "accel_bias_")) return accel_bias_mps2;
-  if (effect.find("_scale_") != std::string_view::npos) return scale;
-  if (effect.find("_misalign_") != std::string_view::npos) return misalign_rad;
+  const bool gyro = info.sensor == EffectSensor::kGyro;
+  switch (info.kind) {
+    case EffectKind::kBias:
+      return gyro ? gyro_bias_rad_s : accel_bias_mps2;
+    case EffectKind::kBiasDrift:
+      return (gyro ? gyro_bias_rad_s : accel_bias_mps2) / 3600.0;
+    case EffectKind::kScale:
+      return scale;
+    case EffectKind::kMisalign:
+      return misalign_rad;
+    case EffectKind::kLatency:
+    case EffectKind::kLeverArm:
+      return info.sigma;  // the GNSS side does not depend on the IMU's grade
+  }
   throw std::logic_error("grade '" + std::string(name) + "': no sigma for effect '" +
                          std::string(effect) + "'");
 }
@@ -45,22 +48,23 @@ double SensorGrade::sigma(std::string_view effect) const {
 PhysicalLimit SensorGrade::physical_limit(std::string_view effect) const {
   const EffectInfo& info = effect_info(effect);  // throws on an unknown name
   const std::string grade_source = std::string(limit_source);
-  if (info.side == EffectSide::kGnss) {
-    if (starts_with(effect, "gnss_latency"))
+  const bool gyro = info.sensor == EffectSensor::kGyro;
+  switch (info.kind) {
+    case EffectKind::kBias:
+      return {gyro ? gyro_bias_limit_rad_s : accel_bias_limit_mps2, grade_source};
+    case EffectKind::kBiasDrift:
+      return {(gyro ? gyro_bias_limit_rad_s : accel_bias_limit_mps2) / 3600.0, grade_source};
+    case EffectKind::kScale:
+      return {scale_limit, grade_source};
+    case EffectKind::kMisalign:
+      return {misalign_limit_rad, grade_source};
+    case EffectKind::kLatency:
       return {1.0,
               "a GNSS solution a whole second late at 1-10 Hz: beyond, the clocks are wrong, "
               "not the receiver slow"};
-    return {5.0, "a lever arm longer than a small aircraft (5 m)"};
+    case EffectKind::kLeverArm:
+      return {5.0, "a lever arm longer than a small aircraft (5 m)"};
   }
-  if (starts_with(effect, "gyro_bias_drift_"))
-    return {gyro_bias_limit_rad_s / 3600.0, grade_source};
-  if (starts_with(effect, "accel_bias_drift_"))
-    return {accel_bias_limit_mps2 / 3600.0, grade_source};
-  if (starts_with(effect, "gyro_bias_")) return {gyro_bias_limit_rad_s, grade_source};
-  if (starts_with(effect, "accel_bias_")) return {accel_bias_limit_mps2, grade_source};
-  if (effect.find("_scale_") != std::string_view::npos) return {scale_limit, grade_source};
-  if (effect.find("_misalign_") != std::string_view::npos)
-    return {misalign_limit_rad, grade_source};
   throw std::logic_error("grade '" + std::string(name) + "': no physical limit for effect '" +
                          std::string(effect) + "'");
 }

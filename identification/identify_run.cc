@@ -103,7 +103,7 @@ std::string autopilot_comparison_table(const nlohmann::json& cmp) {
                 "autopilot +- sd (source)", "diff/sd");
   t += line;
   for (const nlohmann::json& c : cmp.at("compared")) {
-    const bool gyro = c.at("name").get<std::string>().rfind("gyro", 0) == 0;
+    const bool gyro = effect_info(c.at("name").get<std::string>()).sensor == EffectSensor::kGyro;
     const double k = gyro ? kRadToDeg : 1e3 / kStandardGravity_mps2;
     const char* unit = gyro ? "deg/s" : "mg";
     char mine[64], theirs[96], ratio[32] = "-";

@@ -44,29 +44,33 @@ PhysicalLimit physical_limit(const std::string& name) {
   using B = PlausibilityBounds;
   const double gyro_rad_s = B::kMaxAngularRate_deg_s * kDegToRad;
   const double accel_mps2 = B::kMaxSpecificForce_g * kStandardGravity_mps2;
-  const auto starts = [&](const char* prefix) { return name.rfind(prefix, 0) == 0; };
-  if (starts("gyro_bias_drift_"))
-    return {gyro_rad_s / 60.0,
-            "a gyro bias drift that leaves the 2000 deg/s range within a "
-            "minute is not physical"};
-  if (starts("accel_bias_drift_"))
-    return {accel_mps2 / 60.0,
-            "an accelerometer bias drift that leaves the 50 g range within a "
-            "minute is not physical"};
-  if (starts("gyro_bias_"))
-    return {gyro_rad_s,
-            "a gyro bias beyond 2000 deg/s (the largest rate insid accepts in data) "
-            "is not physical"};
-  if (starts("accel_bias_"))
-    return {accel_mps2,
-            "an accelerometer bias beyond 50 g (the largest specific force insid "
-            "accepts in data) is not physical"};
-  if (name.find("_scale_") != std::string::npos)
-    return {1.0, "a scale factor error beyond 100 % is not physical"};
-  if (name.find("_misalign_") != std::string::npos)
-    return {1.0, "the small-angle misalignment model ends well before 1 rad"};
-  if (name == "gnss_latency") return {60.0, "a GNSS latency beyond a minute is not physical"};
-  if (starts("lever_arm_")) return {100.0, "an antenna lever arm beyond 100 m is not physical"};
+  const EffectInfo* info = find_effect_info(name);
+  if (info == nullptr) return {std::numeric_limits<double>::infinity(), ""};
+  const bool gyro = info->sensor == EffectSensor::kGyro;
+  switch (info->kind) {
+    case EffectKind::kBiasDrift:
+      return gyro ? PhysicalLimit{gyro_rad_s / 60.0,
+                                  "a gyro bias drift that leaves the 2000 deg/s range within a "
+                                  "minute is not physical"}
+                  : PhysicalLimit{accel_mps2 / 60.0,
+                                  "an accelerometer bias drift that leaves the 50 g range within "
+                                  "a minute is not physical"};
+    case EffectKind::kBias:
+      return gyro ? PhysicalLimit{gyro_rad_s,
+                                  "a gyro bias beyond 2000 deg/s (the largest rate insid accepts "
+                                  "in data) is not physical"}
+                  : PhysicalLimit{accel_mps2,
+                                  "an accelerometer bias beyond 50 g (the largest specific force "
+                                  "insid accepts in data) is not physical"};
+    case EffectKind::kScale:
+      return {1.0, "a scale factor error beyond 100 % is not physical"};
+    case EffectKind::kMisalign:
+      return {1.0, "the small-angle misalignment model ends well before 1 rad"};
+    case EffectKind::kLatency:
+      return {60.0, "a GNSS latency beyond a minute is not physical"};
+    case EffectKind::kLeverArm:
+      return {100.0, "an antenna lever arm beyond 100 m is not physical"};
+  }
   return {std::numeric_limits<double>::infinity(), ""};
 }
 

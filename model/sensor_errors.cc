@@ -25,61 +25,82 @@ std::vector<Entry> build_catalogue() {
   // Names must outlive the string_views: keep them in a static store.
   static std::vector<std::string> names;
   names.reserve(64);
+  // The entry being added: its sensor, kind and axes (set before each group of add calls).
+  EffectSensor sensor = EffectSensor::kAccel;
+  EffectKind kind = EffectKind::kBias;
+  int axis = -1, true_axis = -1;
   auto add = [&](std::string name, std::string_view unit, EffectSide side, double sigma,
                  std::string_view description, Accessor access) {
     names.push_back(std::move(name));
-    out.push_back({{names.back(), unit, side, sigma, description}, std::move(access)});
+    out.push_back({{names.back(), unit, side, sigma, description, sensor, kind, axis, true_axis},
+                   std::move(access)});
+  };
+  const auto term = [&](EffectSensor s, EffectKind k, int i = -1, int j = -1) {
+    sensor = s;
+    kind = k;
+    axis = i;
+    true_axis = j;
   };
   for (const char* a : kAxes) {
     const int i = axis_index(a[0]);
+    term(EffectSensor::kAccel, EffectKind::kBias, i);
     add(std::string("accel_bias_") + a, "m/s^2", EffectSide::kImu, kSigmaAccelMps2,
         "accelerometer zero bias", [i](SensorErrors& e) -> double& { return e.accel.bias[i]; });
   }
   for (const char* a : kAxes) {
     const int i = axis_index(a[0]);
+    term(EffectSensor::kGyro, EffectKind::kBias, i);
     add(std::string("gyro_bias_") + a, "rad/s", EffectSide::kImu, kSigmaGyroRadS,
         "gyro zero bias (drift)", [i](SensorErrors& e) -> double& { return e.gyro.bias[i]; });
   }
   for (const char* a : kAxes) {
     const int i = axis_index(a[0]);
+    term(EffectSensor::kAccel, EffectKind::kScale, i);
     add(std::string("accel_scale_") + a, "1", EffectSide::kImu, 1e-4,
         "accelerometer scale-factor error",
         [i](SensorErrors& e) -> double& { return e.accel.scale[i]; });
   }
   for (const char* a : kAxes) {
     const int i = axis_index(a[0]);
+    term(EffectSensor::kGyro, EffectKind::kScale, i);
     add(std::string("gyro_scale_") + a, "1", EffectSide::kImu, 1e-4, "gyro scale-factor error",
         [i](SensorErrors& e) -> double& { return e.gyro.scale[i]; });
   }
   for (const char* p : kPairs) {
     const int i = axis_index(p[0]), j = axis_index(p[1]);
+    term(EffectSensor::kAccel, EffectKind::kMisalign, i, j);
     add(std::string("accel_misalign_") + p, "rad", EffectSide::kImu, 1e-4,
         "accelerometer misalignment (sensor axis i senses true axis j)",
         [i, j](SensorErrors& e) -> double& { return e.accel.misalign(i, j); });
   }
   for (const char* p : kPairs) {
     const int i = axis_index(p[0]), j = axis_index(p[1]);
+    term(EffectSensor::kGyro, EffectKind::kMisalign, i, j);
     add(std::string("gyro_misalign_") + p, "rad", EffectSide::kImu, 1e-4,
         "gyro misalignment (sensor axis i senses true axis j)",
         [i, j](SensorErrors& e) -> double& { return e.gyro.misalign(i, j); });
   }
   for (const char* a : kAxes) {
     const int i = axis_index(a[0]);
+    term(EffectSensor::kAccel, EffectKind::kBiasDrift, i);
     add(std::string("accel_bias_drift_") + a, "m/s^3", EffectSide::kImu, kSigmaAccelMps2 / 3600.0,
         "accelerometer bias drift, linear in time from t = 0",
         [i](SensorErrors& e) -> double& { return e.accel.bias_drift[i]; });
   }
   for (const char* a : kAxes) {
     const int i = axis_index(a[0]);
+    term(EffectSensor::kGyro, EffectKind::kBiasDrift, i);
     add(std::string("gyro_bias_drift_") + a, "rad/s^2", EffectSide::kImu, kSigmaGyroRadS / 3600.0,
         "gyro bias drift, linear in time from t = 0",
         [i](SensorErrors& e) -> double& { return e.gyro.bias_drift[i]; });
   }
+  term(EffectSensor::kGnss, EffectKind::kLatency);
   add("gnss_latency", "s", EffectSide::kGnss, 0.01,
       "GNSS solution tagged t is the true antenna state at t - latency",
       [](SensorErrors& e) -> double& { return e.gnss_latency_s; });
   for (const char* a : kAxes) {
     const int i = axis_index(a[0]);
+    term(EffectSensor::kGnss, EffectKind::kLeverArm, i);
     add(std::string("lever_arm_") + a, "m", EffectSide::kGnss, 0.1,
         "GNSS antenna position in b relative to the IMU",
         [i](SensorErrors& e) -> double& { return e.lever_arm_b_m[i]; });
@@ -124,11 +145,24 @@ const std::vector<EffectInfo>& effect_catalogue() {
 
 const EffectInfo& effect_info(std::string_view name) { return find_entry(name).info; }
 
-bool is_effect_name(std::string_view name) {
+const EffectInfo* find_effect_info(std::string_view name) {
   for (const Entry& e : entries())
-    if (e.info.name == name) return true;
-  return false;
+    if (e.info.name == name) return &e.info;
+  return nullptr;
 }
+
+const EffectInfo& effect_info(EffectSensor sensor, EffectKind kind, int axis, int true_axis) {
+  for (const Entry& e : entries())
+    if (e.info.sensor == sensor && e.info.kind == kind && e.info.axis == axis &&
+        e.info.true_axis == true_axis)
+      return e.info;
+  throw std::invalid_argument("the effect catalogue has no effect of sensor " +
+                              std::to_string(static_cast<int>(sensor)) + ", kind " +
+                              std::to_string(static_cast<int>(kind)) + ", axes " +
+                              std::to_string(axis) + ", " + std::to_string(true_axis));
+}
+
+bool is_effect_name(std::string_view name) { return find_effect_info(name) != nullptr; }
 
 double get_effect(const SensorErrors& errors, std::string_view name) {
   SensorErrors copy = errors;

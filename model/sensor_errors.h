@@ -39,20 +39,36 @@ struct SensorErrors {
 };
 
 enum class EffectSide { kImu, kGnss };
+/// The instrument an effect belongs to.
+enum class EffectSensor { kGyro, kAccel, kGnss };
+/// The term of the error model it is: b0, b_dot, diag(S), M (IMU); the latency and the lever arm
+/// (GNSS).
+enum class EffectKind { kBias, kBiasDrift, kScale, kMisalign, kLatency, kLeverArm };
 
-/// One entry of the effect catalogue.
+/// One entry of the effect catalogue. Its name is for files and people: code decides by the
+/// typed fields (sensor, kind, axes), never by parts of the name.
 struct EffectInfo {
   std::string_view name;  ///< catalogue name, never renamed
   std::string_view unit;  ///< SI unit of the value
   EffectSide side;
   double sigma;  ///< typical size used as the search/scale unit (SI)
   std::string_view description;
+  EffectSensor sensor = EffectSensor::kGnss;
+  EffectKind kind = EffectKind::kLatency;
+  int axis = -1;       ///< 0, 1, 2 for x, y, z (a misalignment's sensor axis i); -1 for none
+  int true_axis = -1;  ///< a misalignment's true axis j (M(i, j)); -1 otherwise
 };
 
 /// The whole catalogue, in a fixed order.
 const std::vector<EffectInfo>& effect_catalogue();
 /// Entry by name; throws std::invalid_argument listing valid names when unknown.
 const EffectInfo& effect_info(std::string_view name);
+/// Entry by name; nullptr when the name is not in the catalogue.
+const EffectInfo* find_effect_info(std::string_view name);
+/// The entry of one sensor's term on one axis (a misalignment also names its true axis);
+/// throws std::invalid_argument when the catalogue has no such effect.
+const EffectInfo& effect_info(EffectSensor sensor, EffectKind kind, int axis = -1,
+                              int true_axis = -1);
 bool is_effect_name(std::string_view name);
 
 /// Read / write one effect's value (SI) by catalogue name. Throw on an unknown name.

@@ -74,5 +74,43 @@ TEST(SensorErrors, ModelTermsHaveTheDocumentedMeaning) {
   EXPECT_NEAR(dtheta.x(), 2e-3 * 0.5, 1e-15);                // misalignment M(x, y)
 }
 
+// Each entry's typed fields say what its value moves: setting it changes exactly the model term
+// its sensor, kind and axes name, and the typed look-up finds it again.
+TEST(SensorErrors, TypedFieldsNameTheTermTheValueMoves) {
+  for (const EffectInfo& info : effect_catalogue()) {
+    SensorErrors e;
+    set_effect(e, info.name, 0.5);
+    double moved = 0.0;
+    const TriadErrors& triad = info.sensor == EffectSensor::kGyro ? e.gyro : e.accel;
+    switch (info.kind) {
+      case EffectKind::kBias:
+        moved = triad.bias[info.axis];
+        break;
+      case EffectKind::kBiasDrift:
+        moved = triad.bias_drift[info.axis];
+        break;
+      case EffectKind::kScale:
+        moved = triad.scale[info.axis];
+        break;
+      case EffectKind::kMisalign:
+        moved = triad.misalign(info.axis, info.true_axis);
+        break;
+      case EffectKind::kLatency:
+        moved = e.gnss_latency_s;
+        break;
+      case EffectKind::kLeverArm:
+        moved = e.lever_arm_b_m[info.axis];
+        break;
+    }
+    EXPECT_EQ(moved, 0.5) << info.name;
+    EXPECT_EQ(info.side == EffectSide::kGnss, info.sensor == EffectSensor::kGnss) << info.name;
+    EXPECT_EQ(&effect_info(info.sensor, info.kind, info.axis, info.true_axis),
+              &effect_info(info.name))
+        << info.name;
+  }
+  EXPECT_EQ(find_effect_info("gyro_bias_w"), nullptr);
+  EXPECT_THROW(effect_info(EffectSensor::kGnss, EffectKind::kBias, 0), std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace insid
