@@ -7,6 +7,7 @@
 
 #include "base/number_text.h"
 #include "data/dataset.h"  // PlausibilityBounds::kMaxImuStep_s
+#include "import/log_damage.h"
 #include "import/timestamps.h"
 #include "model/units.h"
 
@@ -333,18 +334,8 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
   ArduPilotSeries out;
   nlohmann::json& prov = out.provenance;
   prov["dataflash"] = {{"messages", log.messages_summary()}};
-  if (log.skip_count() > 0) {
-    prov["dataflash"]["skipped"] = {
-        {"places", log.skip_count()}, {"bytes", log.skipped_bytes()}, {"first", log.skips()}};
-    std::string first;
-    for (std::size_t k = 0; k < log.skips().size() && k < 3; ++k)
-      first += (k ? "; " : "") + log.skips()[k];
-    out.notes.push_back(std::to_string(log.skip_count()) + " damaged place(s) in the log, " +
-                        std::to_string(log.skipped_bytes()) +
-                        " bytes skipped, reading resumed on the next valid record: " + first +
-                        (log.skip_count() > 3 ? "; ..." : "") +
-                        " (provenance.json dataflash.skipped)");
-  }
+  record_skipped_damage(log.skip_count(), log.skipped_bytes(), log.skips(), "record", "dataflash",
+                        prov, out.notes);
   if (!log.truncation().empty()) {
     prov["dataflash"]["truncation"] = log.truncation();
     out.notes.push_back(log.truncation());

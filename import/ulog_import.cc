@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "base/number_text.h"
+#include "import/log_damage.h"
 #include "model/earth.h"
 #include "model/rotation.h"
 
@@ -60,17 +61,8 @@ void record_log_health(const UlogFile& log, UlogSeries& out) {
     prov["ulog"]["truncation"] = log.truncation();
     out.notes.push_back(log.truncation());
   }
-  if (log.skip_count() > 0) {
-    prov["ulog"]["skipped"] = {
-        {"places", log.skip_count()}, {"bytes", log.skipped_bytes()}, {"first", log.skips()}};
-    std::string first;
-    for (std::size_t k = 0; k < log.skips().size() && k < 3; ++k)
-      first += (k ? "; " : "") + log.skips()[k];
-    out.notes.push_back(std::to_string(log.skip_count()) + " damaged place(s) in the log, " +
-                        std::to_string(log.skipped_bytes()) +
-                        " bytes skipped, reading resumed on the next valid message: " + first +
-                        (log.skip_count() > 3 ? "; ..." : "") + " (provenance.json ulog.skipped)");
-  }
+  record_skipped_damage(log.skip_count(), log.skipped_bytes(), log.skips(), "message", "ulog", prov,
+                        out.notes);
   if (!log.damaged_formats().empty()) {
     prov["ulog"]["damaged_formats"] = log.damaged_formats();
     std::string list;
