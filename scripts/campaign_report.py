@@ -20,7 +20,6 @@ Figures (per scenario):
 import argparse
 import datetime
 import itertools
-import json
 import lzma
 import math
 import os
@@ -34,6 +33,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.colors import LogNorm  # noqa: E402
 from matplotlib.ticker import FixedLocator, FuncFormatter, LogLocator, NullFormatter  # noqa: E402
+from pack_results import load_packed  # noqa: E402
 
 try:  # scipy is only needed when summary.json lacks the pairwise tests
     from scipy import stats as sps  # noqa: E402
@@ -57,51 +57,16 @@ def warn(msg):
     print(f"campaign_report: warning: {msg}", file=sys.stderr)
 
 
-def without_curves(value):
-    if isinstance(value, dict):
-        return {k: without_curves(v) for k, v in value.items()
-                if k not in ("curve_evaluations", "curve_iterations")}
-    if isinstance(value, list):
-        return [without_curves(v) for v in value]
-    return value
-
-
-def packed_full_summary(path):
-    """NAME.full.json.xz beside NAME.json (scripts/pack_results.py), when NAME.json is that file
-    less its curves; None otherwise (no companion, or NAME.json written again since: stale)."""
-    full_path = path[:-len(".json")] + ".full.json.xz" if path.endswith(".json") else None
-    if not full_path or not os.path.exists(full_path) or not os.path.exists(path):
-        return None
-    try:
-        with lzma.open(full_path, "rt") as f:
-            full = json.load(f)
-        with open(path) as f:
-            plain = json.load(f)
-    except (OSError, ValueError, lzma.LZMAError) as e:
-        warn(f"skipping {full_path}: {e}")
-        return None
-    if without_curves(full) != plain:
-        warn(f"{full_path} is not {path} with its curves (stale?): reading {path}")
-        return None
-    return full
-
-
 def load_json(path, required=False):
-    # Committed results are packed (scripts/pack_results.py, issue 46): a file may be there as
-    # PATH.xz only, and a summary's whole form (with its curves) as NAME.full.json.xz.
-    full = packed_full_summary(path)
-    if full is not None:
-        return full
-    if not os.path.exists(path) and os.path.exists(path + ".xz"):
-        path += ".xz"
-    if not os.path.exists(path):
+    # Committed results are packed (scripts/pack_results.py): a file may be there as PATH.xz
+    # only, and a summary's whole form (with its curves) as NAME.full.json.xz.
+    if not os.path.exists(path) and not os.path.exists(path + ".xz"):
         if required:
             raise SystemExit(f"campaign_report: {path} does not exist")
         return None
     try:
-        with (lzma.open(path, "rt") if path.endswith(".xz") else open(path)) as f:
-            return json.load(f)
-    except (OSError, ValueError) as e:
+        return load_packed(path, warn)
+    except (OSError, ValueError, lzma.LZMAError) as e:
         if required:
             raise SystemExit(f"campaign_report: cannot read {path}: {e}")
         warn(f"skipping {path}: {e}")

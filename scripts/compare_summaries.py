@@ -9,12 +9,11 @@ summary.json packed by scripts/pack_results.py (issue 46) is read whole from its
 summary.full.json.xz beside it.
 """
 import argparse
-import json
-import lzma
 import math
-import os
 import re
 import sys
+
+from pack_results import load_packed
 
 EXPECTED = re.compile(r"wall|seconds|_s$|elapsed|build|timestamp|created|git_revision|hostname")
 
@@ -41,27 +40,8 @@ def agree(a, b, digits):
     return f"{a:.{digits - 1}e}" == f"{b:.{digits - 1}e}"
 
 
-def without_curves(value):
-    if isinstance(value, dict):
-        return {k: without_curves(v) for k, v in value.items()
-                if k not in ("curve_evaluations", "curve_iterations")}
-    if isinstance(value, list):
-        return [without_curves(v) for v in value]
-    return value
-
-
 def load(path):
-    with (lzma.open(path, "rt") if path.endswith(".xz") else open(path)) as f:
-        value = json.load(f)
-    full_path = path[:-len(".json")] + ".full.json.xz" if path.endswith(".json") else ""
-    if os.path.exists(full_path):  # packed: the whole file, unless path was written again since
-        with lzma.open(full_path, "rt") as f:
-            full = json.load(f)
-        if without_curves(full) == value:
-            return full
-        print(f"compare_summaries: {full_path} is stale (not {path} with its curves): not read",
-              file=sys.stderr)
-    return value
+    return load_packed(path, lambda msg: print(f"compare_summaries: {msg}", file=sys.stderr))
 
 
 def main():

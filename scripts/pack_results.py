@@ -63,6 +63,29 @@ def without_curves(value):
     return value
 
 
+def load_packed(path, warn):
+    """The JSON at PATH as it was written, whatever form it is committed in: PATH.xz when only
+    that exists, and for a summary NAME.json the whole NAME.full.json.xz beside it when NAME.json
+    is that file less its curves (otherwise NAME.json was written again since: the companion is
+    stale, `warn` says so, and NAME.json is read). Raises OSError / ValueError as json.load."""
+    if not os.path.exists(path) and os.path.exists(path + ".xz"):
+        path += ".xz"
+    with (lzma.open(path, "rt") if path.endswith(".xz") else open(path)) as f:
+        value = json.load(f)
+    full_path = path[:-len(".json")] + ".full.json.xz" if path.endswith(".json") else ""
+    if full_path and os.path.exists(full_path):
+        try:
+            with lzma.open(full_path, "rt") as f:
+                full = json.load(f)
+        except (OSError, ValueError, lzma.LZMAError) as e:
+            warn(f"skipping {full_path}: {e}")
+            return value
+        if without_curves(full) == value:
+            return full
+        warn(f"{full_path} is not {path} with its curves (stale?): reading {path}")
+    return value
+
+
 def split_summary(path):
     """NAME.json -> NAME.full.json.xz (whole) + NAME.json (no curves); None if no curves."""
     with open(path, "rb") as f:
