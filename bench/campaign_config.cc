@@ -390,10 +390,6 @@ void CampaignConfig::validate(const std::string& origin) const {
   estimated_parameters(*this);
 }
 
-std::vector<std::string> preset_campaign_names() {
-  return {"paper-fig9", "quick", "paper-plus-baselines"};
-}
-
 CampaignConfig preset_campaign(const std::string& name) {
   nlohmann::json j;
   const nlohmann::json table4 = nlohmann::json::array({

@@ -106,7 +106,6 @@ CampaignConfig read_campaign_file(const std::string& path);
 /// Presets: "paper-fig9" (the paper scenario, Table 4 GA/PSO/PIO/DVPIO), "quick" (a short
 /// flight for tests and a quick look).
 CampaignConfig preset_campaign(const std::string& name);
-std::vector<std::string> preset_campaign_names();
 /// Seeds 1..n.
 std::vector<std::uint64_t> seed_range(int n);
 

@@ -102,7 +102,6 @@ class InsIdentificationProblem final : public opt::Problem, public opt::Residual
   const opt::EvaluatorOptions& evaluator() const { return options_; }
   void set_evaluator(const opt::EvaluatorOptions& options) { options_ = options.validated(); }
   FitnessEvaluator implementation() const { return implementation_; }
-  void set_implementation(FitnessEvaluator implementation) { implementation_ = implementation; }
   /// True when batches go through the batched kernel (kBatched and data supported).
   bool uses_batched_kernel() const;
 
