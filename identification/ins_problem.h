@@ -63,7 +63,7 @@ class ParameterMapping {
   SensorErrors base_;
 };
 
-/// Which implementation scores candidates (docs/design.md sec. 8, issue 6).
+/// Which implementation scores candidates (docs/design.md sec. 8).
 enum class FitnessEvaluator {
   kBatched,  ///< the vectorised multi-candidate kernel (kernel/batch_fitness.h); default
   kScalar,   ///< NavigationProblem::fitness per candidate (the reference), for comparison
