@@ -87,7 +87,7 @@ def packed_full_summary(path):
 
 
 def load_json(path, required=False):
-    # Committed results are packed (scripts/pack_results.py, issue 46): a file may be there as
+    # Committed results are packed (scripts/pack_results.py): a file may be there as
     # PATH.xz only, and a summary's whole form (with its curves) as NAME.full.json.xz.
     full = packed_full_summary(path)
     if full is not None:
