@@ -19,8 +19,9 @@ namespace insid::campaign {
 
 /// Schemas of a campaign directory's manifest.json and run files.
 inline constexpr const char* kManifestSchema = "insid-campaign/1";
-// A run record holds the estimate in sigma units as "estimate_in_sigma_units" ("estimate_sigma"
-// in insid-run/1 records, which are still read for resume and merge: the name read as an sd).
+// A run record holds the estimate in sigma units as "estimate_in_sigma_units". insid-run/1
+// records, still read for resume and merge, call it "estimate_sigma" (a name readers took for an
+// sd).
 // "parameters" is the uncertainty layout of identify results (objects with name, estimate, sd,
 // units, flags; a list of names in insid-run/1 and /2 records, still read), with "correlation"
 // and "uncertainty".

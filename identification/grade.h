@@ -73,7 +73,7 @@ std::optional<std::string> declared_grade(const Dataset& dataset);
 ///      noise (ARW / sqrt(window)): above 20 deg/h (between the table's 1 deg/h and 0.1 deg/s)
 ///      it votes mems, the only box that holds it (nav's [-4, 4] sigma box ends at 0.04 deg/h,
 ///      tactical's at 4 deg/h). A smaller bias does not vote: it is what identification is for
-///      (a nav unit with a hidden 0.3 deg/h bias stays nav, as diagnose's cases need).
+///      (a nav unit with a hidden 0.3 deg/h bias stays nav, so diagnose can name the bias).
 ///    Vibration on the pad counts as noise, so a vehicle with its engine running reads coarser
 ///    (the safe side: a wider search box, a windowed fitness).
 /// 3. else (no static window) nav, the catalogue, said plainly as an assumption.
