@@ -29,7 +29,7 @@ struct FileReadOptions {
   std::string magic_name;
   /// The file must be text: its first 64 KiB hold no NUL byte and (when the file is longer) a
   /// line break; checked before the rest is read, so that a 2 GB file of zeros given as a CSV
-  /// is refused at once (issue 45), not after gigabytes of parsing.
+  /// is refused at once, not after gigabytes of parsing.
   bool text = false;
   /// Added to the refusal of a FIFO, directory or device (e.g. "; a dataset's files must be ...").
   std::string not_regular_hint;

@@ -1,4 +1,4 @@
-// The one typed reader of JSON objects (issue 35): every config and meta reader of insid —
+// The one typed reader of JSON objects: every config and meta reader of insid —
 // dataset meta.json, scenario files, campaign configs — and the external-optimizer protocol's
 // replies read their fields through it, on top of the one strict parser (base/json_reader.h).
 //

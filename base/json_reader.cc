@@ -129,7 +129,8 @@ json parse_json_strict(std::string_view text, const std::string& where, const Js
     return json::parse(text.begin(), text.end(), check);
   } catch (const json::exception& e) {
     // parse_error (syntax) and out_of_range (a number beyond double, e.g. 1e999), with nlohmann's
-    // line and column where it gives them (without nlohmann's tag: issue 37 item 12).
+    // line and column where it gives them (without nlohmann's "[json.exception...]" tag, which
+    // means nothing to a user).
     throw std::runtime_error(where + ": not valid JSON: " + json_error_text(e));
   } catch (const std::bad_alloc&) {
     // The partial value is freed by now (nlohmann frees it without recursion; on an array of

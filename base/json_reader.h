@@ -7,12 +7,12 @@
 // instead of the last value silently winning, and no NUL byte (nlohmann's parser would stop there
 // and ignore the rest).
 //
-// Limits (issue 37): a document nested deeper than max_depth arrays and objects, or longer than
-// max_bytes, is refused before it is parsed, with the line, column and byte of the first bracket
-// too deep; running out of memory while parsing is an error naming the document (never a bare
-// std::bad_alloc). insid's own files nest at most 8 deep and the largest (a campaign's
-// summary.json) is about 1 MB; a parsed value takes up to ~25x its text (an empty array: 3 bytes
-// of text, a 16-byte value and its allocation), so 64 MiB stays within about 2 GB.
+// Limits (against hostile or broken input): a document nested deeper than max_depth arrays and
+// objects, or longer than max_bytes, is refused before it is parsed, with the line, column and byte
+// of the first bracket too deep; running out of memory while parsing is an error naming the
+// document (never a bare std::bad_alloc). insid's own files nest at most 8 deep and the largest (a
+// campaign's summary.json) is about 1 MB; a parsed value takes up to ~25x its text (an empty array:
+// 3 bytes of text, a 16-byte value and its allocation), so 64 MiB stays within about 2 GB.
 #pragma once
 
 #include <cstddef>

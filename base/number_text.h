@@ -1,4 +1,4 @@
-// The one number formatter for messages, reports and text files (issue 35): every place that
+// The one number formatter for messages, reports and text files: every place that
 // prints a double with a chosen number of digits calls it, so "12 significant digits" means the
 // same text everywhere.
 #pragma once

@@ -140,7 +140,7 @@ const std::string& checked_path_component(const std::string& name, std::string_v
 int remove_stale_temporaries(const std::filesystem::path& dir);
 
 /// Removes the temporaries beside `target` (siblings named "<target's name>.tmp-..." or
-/// ".old-...", is_insid_temporary) that a process of this host left and that is no longer
+/// ".old-...", is_insid_temporary) that a process of this host left and that has stopped
 /// running (killed mid-write); those of live processes or of other hosts are left. Returns the
 /// number removed. For outputs written without a lock (datasets).
 int remove_abandoned_siblings(const std::filesystem::path& target);

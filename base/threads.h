@@ -1,4 +1,4 @@
-// The thread count of every parallel loop, from one rule (issue 35).
+// The thread count of every parallel loop, from one rule.
 #pragma once
 
 #include <omp.h>

@@ -148,7 +148,7 @@ const OutputKind kCampaignKind{"an insid campaign directory",
 // Who holds a campaign directory's run lock, one line per process in the lock file:
 // "pid <pid> on <host> since <UTC time>, <what>". Written under the gate lock: a process that
 // holds the lock alone replaces the text, a shard adds its line to those of the shards still
-// running (a line of a process on this host that no longer runs is dropped).
+// running (a line of a process on this host that has stopped is dropped).
 struct Holder {
   long pid = 0;
   std::string host, line;

@@ -65,7 +65,7 @@ std::string first_difference(const nlohmann::json& a, const nlohmann::json& b,
 // parameters default to the old behaviour (e.g. DVPIO's shrink_without_gain = 0), so where the
 // new config has such a parameter at its default the campaigns are the same: the old config
 // gets it added before the two are compared, and such directories can still be resumed and
-// merged. A parameter away from its default is a difference as before.
+// merged. A parameter away from its default is a difference.
 nlohmann::json with_added_defaults(nlohmann::json old_config, const nlohmann::json& new_config) {
   const nlohmann::json* new_algorithms = new_config.is_object() && new_config.contains("algorithms")
                                              ? &new_config["algorithms"]
@@ -390,10 +390,6 @@ void CampaignConfig::validate(const std::string& origin) const {
   estimated_parameters(*this);
 }
 
-std::vector<std::string> preset_campaign_names() {
-  return {"paper-fig9", "quick", "paper-plus-baselines"};
-}
-
 CampaignConfig preset_campaign(const std::string& name) {
   nlohmann::json j;
   const nlohmann::json table4 = nlohmann::json::array({
@@ -417,7 +413,7 @@ CampaignConfig preset_campaign(const std::string& name) {
          {"seeds", 3},
          {"max_iterations", 10}};
   } else if (name == "paper-plus-baselines") {
-    // Issue 8: the paper's four and the reference baselines at an equal budget of 400
+    // The paper's four and the reference baselines at an equal budget of 400
     // evaluations (the paper's 10 x 40), on the paper and rich scenarios; the EKF-RTS makes one
     // pass plus one evaluation of its estimate (its cost in INS runs is in its parameters).
     nlohmann::json algorithms = table4;

@@ -19,11 +19,12 @@ namespace insid::campaign {
 
 /// Schemas of a campaign directory's manifest.json and run files.
 inline constexpr const char* kManifestSchema = "insid-campaign/1";
-// insid-run/2 renamed "estimate_sigma" (the estimate in sigma units, read as an sd) to
-// "estimate_in_sigma_units" (issue 15); insid-run/1 records are still read (resume, merge).
-// insid-run/3 (issue 15): "parameters" is the uncertainty layout of identify results (objects
-// with name, estimate, sd, units, flags; was a list of names), with "correlation" and
-// "uncertainty"; insid-run/2 and /1 records are still read.
+// A run record holds the estimate in sigma units as "estimate_in_sigma_units". insid-run/1
+// records, still read for resume and merge, call it "estimate_sigma" (a name readers took for an
+// sd).
+// "parameters" is the uncertainty layout of identify results (objects with name, estimate, sd,
+// units, flags; a list of names in insid-run/1 and /2 records, still read), with "correlation"
+// and "uncertainty".
 inline constexpr const char* kRunSchema = "insid-run/3";
 inline constexpr const char* kRunSchemaOld = "insid-run/1";
 inline constexpr const char* kRunSchemaPrevious = "insid-run/2";
@@ -53,14 +54,14 @@ struct CampaignConfig {
   std::int64_t max_evaluations = 0;
   AlignmentMode alignment = AlignmentMode::kPerCandidate;
   /// Initial-attitude mode (nav/alignment.h; `insid identify --initial-attitude`): absent =
-  /// gyrocompass, as before the key existed (and not written to the resolved config, so older
-  /// campaign directories still resume). Given: the mode, and the key in the resolved config and
+  /// gyrocompass (and not written to the resolved config, so campaign directories whose config
+  /// lacks the key still resume). Given: the mode, and the key in the resolved config and
   /// every run file. Either way the gyrocompass feasibility check meets the estimated gyro
   /// biases' box, as identify's does (gyro_bias_allowance_rad_s, identification/identify.h).
   std::optional<InitialAttitudeMode> initial_attitude;
   std::optional<double> heading_deg;  ///< level+heading only: the heading (deg); absent: course
   /// level+heading only: "course" | "given" | "measured" (--heading-source); absent: given with
-  /// heading_deg, else course (not written, as before the key existed).
+  /// heading_deg, else course (not written).
   std::optional<HeadingSource> heading_source;
   /// Windowed fitness (nav/fitness.h; `--window-s`): 0 = one run (default, not written).
   double window_s = 0.0;
@@ -72,12 +73,12 @@ struct CampaignConfig {
   /// default set when `estimate` is empty (nav: the paper's four; tactical, mems: also
   /// gyro_bias_z). Not the scenarios' "grade", which is the noise the simulator adds
   /// (scenarios/noise.cc: nav | mems | paper | none). Absent = the catalogue's sigmas and the
-  /// paper's four, exactly as before the key existed (not written to the resolved config or the
-  /// run files, so older campaign directories still resume). No "auto": a campaign records one
+  /// paper's four (not written to the resolved config or the run files, so campaign directories
+  /// whose config lacks the key still resume). No "auto": a campaign records one
   /// parameter set for all its scenarios.
   std::optional<std::string> estimation_grade;
   int record_positions_seeds = 1;  ///< record particle positions for the first k seeds
-  /// Noise replicas of each run's uncertainty (identification/uncertainty.h, issue 15): the
+  /// Noise replicas of each run's uncertainty (identification/uncertainty.h): the
   /// run file's "parameters" carry sd and flags, "correlation" the matrix. 0 (the default) =
   /// none: the run's parameters are then listed by name only. Cost per run: 2n + 1 + replicas
   /// INS runs of the scalar reference, i.e. about 3x a Table 4 run on a 300 s flight and minutes
@@ -106,7 +107,6 @@ CampaignConfig read_campaign_file(const std::string& path);
 /// Presets: "paper-fig9" (the paper scenario, Table 4 GA/PSO/PIO/DVPIO), "quick" (a short
 /// flight for tests and a quick look).
 CampaignConfig preset_campaign(const std::string& name);
-std::vector<std::string> preset_campaign_names();
 /// Seeds 1..n.
 std::vector<std::uint64_t> seed_range(int n);
 

@@ -1,4 +1,4 @@
-// A campaign's runs in IOHprofiler's data format, for IOHanalyzer (issue 18):
+// A campaign's runs in IOHprofiler's data format, for IOHanalyzer:
 // `insid export --to iohprofiler --campaign DIR --out DIR2`.
 //
 // Mapping (results/README.md, "IOHprofiler export"):

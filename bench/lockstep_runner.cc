@@ -85,7 +85,7 @@ struct LockstepRunner::Impl {
       if (settings_.wave_finished)
         settings_.wave_finished(wave.size(), wave_candidates, target, wave_s);
       write_parked_runs();
-      // The scenario's last wave: its memo is no longer needed (a campaign of many scenarios
+      // The scenario's last wave: its memo is not needed any more (a campaign of many scenarios
       // would otherwise keep up to two generations of candidates for each).
       if (next >= ids.size() || runs_[ids[next]].scenario != scenario) st.memo = opt::FitnessMemo();
     }
@@ -132,7 +132,7 @@ struct LockstepRunner::Impl {
     std::vector<Parked> parked;
     /// Wall seconds per candidate-per-round of the scenario's last wave (0: none yet).
     double seconds_per_candidate = 0.0;
-    /// Noise replicas for the runs' uncertainty (issue 15): run once per scenario at the data's
+    /// Noise replicas for the runs' uncertainty: run once per scenario at the data's
     /// optimum, shared by every run (each run adds only its own Jacobian).
     std::optional<NoiseReplicaSet> replicas;
     /// Fitness of every candidate scored in the scenario's waves (bounded, opt::FitnessMemo):
@@ -328,7 +328,7 @@ struct LockstepRunner::Impl {
                               opt::ParameterMap(algo.parameters.begin(), algo.parameters.end()));
       if (auto* external = dynamic_cast<opt::ExternalOptimizer*>(optimizer.get())) {
         // Started now, asked later with the wave: the processes of a wave start together
-        // (issue 18; each run's result depends only on its own fitness values, so the wave
+        // (each run's result depends only on its own fitness values, so the wave
         // does not change it). Its batch size is unknown until it replies: counted as
         // kExternalCandidatesGuess for the wave's size.
         external->launch();
@@ -342,7 +342,7 @@ struct LockstepRunner::Impl {
     }
   }
 
-  // Runs advance in lock-step (issue 6) through opt::run_together: the runs of a wave ask for
+  // Runs advance in lock-step through opt::run_together: the runs of a wave ask for
   // their next batch together, the batches are scored in one evaluate_batch call (the batched
   // kernel spreads groups of candidates over the threads; least-squares runs' residual batches
   // likewise, in one evaluate_residual_batch call), and each run is told its slice. A run's
@@ -379,7 +379,7 @@ struct LockstepRunner::Impl {
     ++waves_;
   }
 
-  // How sure the run's estimate is, as in identify results (issue 15): "parameters" with sd and
+  // How sure the run's estimate is, as in identify results: "parameters" with sd and
   // flags, "correlation", "uncertainty" (its wall time and INS runs: the cost per run); empty
   // when the config turns it off. Needs the optimizer (the EKF-RTS reports its own sd).
   // The noise replicas are run once per scenario, at the data's optimum (the first finished

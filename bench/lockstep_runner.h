@@ -1,10 +1,10 @@
 // The campaign's lock-step runner: runs given positions of a campaign's run list in waves of
 // consecutive runs of one scenario that advance generation by generation and share their
-// fitness batches (issue 6), prepares each scenario on first use (dataset, INS problem, the
-// data's own optimum, found or read from DIR/optimum/) and writes each run's file as soon as
-// the run is done. What it has to say goes to a progress callback; it prints nothing itself.
-// The orchestration (directory, manifest, run list, shards, MPI units, summary) is
-// bench/campaign.h.
+// fitness batches (one evaluate_batch call per generation for the whole wave), prepares each
+// scenario on first use (dataset, INS problem, the data's own optimum, found or read from
+// DIR/optimum/) and writes each run's file as soon as the run is done. What it has to say goes to a
+// progress callback; it prints nothing itself. The orchestration (directory, manifest, run list,
+// shards, MPI units, summary) is bench/campaign.h.
 #pragma once
 
 #include <cstddef>

@@ -122,8 +122,8 @@ BENCHMARK(BM_FitnessBatchedResiduals)
     ->MinTime(1.0)
     ->UseRealTime();
 
-// The windowed fitness (issue 14) next to the one-run fitness in the same run: the same hour of
-// data and candidates, state.range(2) = W in seconds (0 = one run). The restarts (one per W of
+// The windowed fitness (nav/fitness.h) next to the one-run fitness in the same run: the same hour
+// of data and candidates, state.range(2) = W in seconds (0 = one run). The restarts (one per W of
 // data, shared by all lanes) must keep the kernel's lock-step speed.
 std::shared_ptr<const NavigationProblem> one_hour_problem_windowed(int window_s) {
   static std::mutex mutex;
@@ -162,7 +162,7 @@ BENCHMARK(BM_FitnessBatchedWindowed)
     ->ReportAggregatesOnly(true)
     ->UseRealTime();
 
-// Pipe probes (issue 16, results/perf/README.md "Compute limit on Zen 5"): what this core
+// Pipe probes (results/perf/README.md "Compute limit on Zen 5"): what this core
 // sustains, measured in the same run as the kernel so that clock and load cancel in the ratios.
 // Each iteration runs kProbeBlocks blocks of 12 independent 512-bit FMA chains (12 chains of
 // latency 4 keep two FMA pipes busy), alone or with the memory and divider traffic the kernel's

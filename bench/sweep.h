@@ -34,12 +34,12 @@ struct SweepConfig {
   int max_iterations = 40;
   std::int64_t max_evaluations = 0;
   AlignmentMode alignment = AlignmentMode::kPerCandidate;
-  /// The campaign keys of issue 14 (campaign_config.h): absent = as before.
+  /// The initial-attitude campaign keys (campaign_config.h): absent = gyrocompass.
   std::optional<InitialAttitudeMode> initial_attitude;
   std::optional<double> heading_deg;
   double window_s = 0.0;
-  /// The campaign key estimation_grade (nav | tactical | mems; absent = as before). Not
-  /// scenario.grade, the simulated noise.
+  /// The campaign key estimation_grade (nav | tactical | mems; absent = the catalogue's sigmas).
+  /// Not scenario.grade, the simulated noise.
   std::optional<std::string> estimation_grade;
 
   /// "" when valid, else what is wrong, naming the bad value: no axis, an axis key given twice

@@ -1,5 +1,5 @@
 // insid diagnose: which catalogue effect explains what the base model leaves in the residuals
-// (issue 7, docs/design.md sec. 9; method in diagnose/README.md).
+// (docs/design.md sec. 9; method in diagnose/README.md).
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
@@ -79,7 +79,7 @@ void run(const DiagnoseArgs& a) {
   o.grade = grade.name;
   for (const std::string& b : a.base)
     o.base.push_back(parse_option("--base", [&] { return grade.parameter(b); }));
-  for (const std::string& c : a.candidates)  // conflicting options: a usage error (issue 45)
+  for (const std::string& c : a.candidates)  // conflicting options: a usage error
     for (const EstimatedParameter& b : o.base)
       if (b.name == c)
         throw UsageError("--candidates " + c +

@@ -145,23 +145,23 @@ void add_simulate_command(CLI::App& app) {
       "import does; static window only)");
   cmd->add_option("--heading-rate-hz", args->heading_spec.rate_hz, "heading samples per second")
       ->capture_default_str()
-      ->needs(heading);  // issue 45: not silently ignored without --heading
+      ->needs(heading);  // without --heading it would be silently ignored: a usage error
   cmd->add_option("--heading-sd-deg", args->heading_spec.sd_deg,
                   "dual antenna: the heading's white noise sd (deg)")
       ->capture_default_str()
-      ->needs(heading);  // issue 45: not silently ignored without --heading
+      ->needs(heading);  // without --heading it would be silently ignored: a usage error
   cmd->add_option("--declination-deg", args->heading_spec.declination_deg,
                   "magnetometer: the field's declination (deg, east +)")
       ->capture_default_str()
-      ->needs(heading);  // issue 45: not silently ignored without --heading
+      ->needs(heading);  // without --heading it would be silently ignored: a usage error
   cmd->add_option("--inclination-deg", args->heading_spec.inclination_deg,
                   "magnetometer: the field's inclination (deg, down +)")
       ->capture_default_str()
-      ->needs(heading);  // issue 45: not silently ignored without --heading
+      ->needs(heading);  // without --heading it would be silently ignored: a usage error
   cmd->add_option("--mag-noise", args->heading_spec.mag_noise_fraction,
                   "magnetometer: white noise per axis, a fraction of the field")
       ->capture_default_str()
-      ->needs(heading);  // issue 45: not silently ignored without --heading
+      ->needs(heading);  // without --heading it would be silently ignored: a usage error
   cmd->callback([args] { run_simulate(*args); });
 }
 

@@ -28,10 +28,10 @@ struct SweepArgs {
   int iterations = 40;
   std::int64_t evaluations = 0;
   std::string alignment = "per-candidate";
-  std::string initial_attitude;  // empty: as before (gyrocompass)
+  std::string initial_attitude;  // empty: gyrocompass (the key not written)
   double heading_deg = std::numeric_limits<double>::quiet_NaN();
   double window_s = 0.0;
-  std::string estimation_grade;  // empty: as before (the catalogue's sigmas)
+  std::string estimation_grade;  // empty: the catalogue's sigmas (the key not written)
   CampaignRunArgs run;
 };
 
@@ -112,7 +112,7 @@ void add_sweep_command(CLI::App& app) {
       ->excludes(data);
   cmd->add_option("--grade", args->grade, "noise grade for the preset (nav, mems, paper, none)")
       ->excludes(data);
-  preset->excludes(data);  // issue 45: the preset was silently ignored beside --data
+  preset->excludes(data);  // beside --data a preset would be silently ignored: a usage error
   cmd->add_option("--iterations", args->iterations, "iteration budget")
       ->capture_default_str()
       ->check(whole_in(0, 10000000));

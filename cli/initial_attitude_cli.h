@@ -1,4 +1,4 @@
-// The --initial-attitude options shared by navigate, identify and diagnose (issue 14); the
+// The --initial-attitude options shared by navigate, identify and diagnose; the
 // record of the mode every result carries is nav/initial_attitude_json.h.
 #pragma once
 

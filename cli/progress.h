@@ -1,4 +1,4 @@
-// One progress printer for every long insid command (issue 19): on a terminal one status line
+// One progress printer for every long insid command: on a terminal one status line
 // rewritten in place with '\r'; on a file or pipe plain newline-terminated lines at a bounded
 // rate, so that a log stays one line per event; nothing with --quiet.
 //

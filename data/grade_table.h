@@ -1,4 +1,4 @@
-// The sensor grades' figures, in one table (issue 35): the one-sigma size of each IMU error and
+// The sensor grades' figures, in one table: the one-sigma size of each IMU error and
 // the white-noise levels of a navigation-grade, tactical-grade and MEMS IMU with its GNSS, in
 // physical units. Read by the estimation grades (identification/grade.h: the search unit of
 // every effect), the simulator's noise grades (scenarios/noise.cc: the noise it adds) and the
@@ -15,7 +15,7 @@
 // (model/sensor_errors.h, the paper's); nav's and mems' noise are the simulator's; tactical's are
 // typical FOG / high-end-MEMS figures (no simulator grade uses them).
 //
-// Physical limits (issue 44): the largest size a unit of the grade can have, with where it comes
+// Physical limits: the largest size a unit of the grade can have, with where it comes
 // from. An identification widens a box whose estimate sits at its edge up to these, never beyond
 // (identification/identify_run.h); an estimate or a named effect beyond them is flagged as not
 // physical for the grade.

@@ -1,4 +1,4 @@
-// Is a dataset plausible as what it claims to be? (issue 45) Wrong data imported without a word
+// Is a dataset plausible as what it claims to be? Wrong data imported without a word
 // fit, and some fit better than the right data: an IMU clock 18 s off (the GPS-UTC leap
 // seconds) gave a smaller model misfit than the right import; specific force in g declared as
 // m/s^2 navigated better. These checks compare the data with physics they must obey and say,

@@ -1,10 +1,10 @@
-// How a hidden-effect case of the diagnose campaign (tools/diagnose_campaign.cc, issue 33) stands
+// How a hidden-effect case of the diagnose campaign (tools/diagnose_campaign.cc) stands
 // against what its flight can tell, from the case's own committed row: no flight is re-run.
 //
-// *Detectable* (issue 33): the injected size is at least the truth's minimum detectable size
+// *Detectable*: the injected size is at least the truth's minimum detectable size
 // estimated ALONE, (threshold + 1.645) x sd of its one-at-a-time estimate (95 % power, the first
 // iteration's row `hidden_rows[truth]`).
-// *Separable* (issue 33's second scoring): the injected size is at least the minimum detectable
+// *Separable* (the second scoring): the injected size is at least the minimum detectable
 // size when the truth is estimated JOINTLY with its most correlated recorded collinear partner: the
 // alone size times 1 / sqrt(1 - rho^2), rho the largest |correlation| in the row's `collinear` list
 // (the correlation of the two projected whitened columns in diagnose's working metric). With one
@@ -39,7 +39,8 @@ struct CaseLimits {
 
 /// The limits of one case from the truth's first-iteration candidate row (`hidden_rows[truth]`:
 /// min_detectable_sigma, sd, sd_sigma, observable, collinear[].correlation) and the injected SI
-/// value. A null row (a campaign before issue 33) gives has_row false, detectable and separable.
+/// value. A null row (a campaign that recorded no hidden_rows) gives has_row false, detectable and
+/// separable.
 CaseLimits case_limits(const nlohmann::json& truth_row, double injected);
 
 /// sqrt((R^-1)_00) for R the correlation matrix of the truth and all its recorded collinear

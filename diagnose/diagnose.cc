@@ -117,7 +117,7 @@ ModelFit refit(const std::shared_ptr<const NavigationProblem>& nav,
   // unbounded fit of a base the flight cannot observe (accelerometer biases on `straight`) ran
   // to ~600-900 sigma (tilts of degrees), far outside the linear regime that the candidate
   // columns and the noise replicas describe, and the family-wise test then fired on effect-free
-  // data (issue 15). Inside the box the statistics stay valid at an edge: each candidate is
+  // data. Inside the box the statistics stay valid at an edge: each candidate is
   // projected off the model's columns, which needs no stationary point.
   lo.clamp_to_box = true;
   lo.max_iterations = 40;
@@ -136,8 +136,8 @@ ModelFit refit(const std::shared_ptr<const NavigationProblem>& nav,
   return fit;
 }
 
-// The unit (sigma, SI) of an effect under `grade`: the catalogue's for nav (exactly as before
-// grades existed), else the grade's (identification/grade.h).
+// The unit (sigma, SI) of an effect under `grade`: the catalogue's for nav (the nav grade is
+// the catalogue, exactly), else the grade's (identification/grade.h).
 double unit_sigma(const SensorGrade& grade, const std::string& name) {
   return grade.name == "nav" ? effect_info(name).sigma : grade.sigma(name);
 }
@@ -285,9 +285,9 @@ IterationStats score_candidates(const ModelFit& fit, const Mat& C,
     s.deviance_gain = info[c] > 0 ? beta[c] * beta[c] * info[c] : 0.0;
     for (int m = 0; m < MB; ++m) Bz(m, c) = sd > 0 ? B(c, m) / sd : 0.0;
   }
-  // Family-wise null distribution of max |z| over the candidates (issue 15). Both rules are
+  // Family-wise null distribution of max |z| over the candidates. Both rules are
   // computed and reported; `family_calibration` picks the one that decides.
-  //  - gaussian (before issue 15): a Gaussian with the replicas' correlation, drawn as random
+  //  - gaussian: a Gaussian with the replicas' correlation, drawn as random
   //    combinations of the standardised replica statistics. It assumes the standardised
   //    statistics are jointly normal; the data's max |z| over null flights exceeded its 95 %
   //    point more often than 5 % (results/diagnose/issue15/README.md).
@@ -605,7 +605,7 @@ Mat replica_deviations(const Dataset& dataset, const NoiseLevels& levels,
   return D;
 }
 
-// Backward check (stepwise selection, issue 33). A named effect can stand in for one named
+// Backward check (stepwise selection). A named effect can stand in for one named
 // later: its one-at-a-time test against the model of its iteration is linear in a residual
 // that also holds the later effect's signal (MEMS `rich` flights hiding a gyro z bias drift
 // of 0.2 deg/s per hour named gyro_misalign_zy first, at z 5-9, then the drift; in the joint
@@ -711,7 +711,7 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
   // identify's box rule (gyro_bias_allowance_rad_s): with that rule a tactical or MEMS base on
   // gyrocompassed data would be refused, as `insid identify --grade tactical` refuses it
   // (diagnose_test Options.TheGradeSetsTheBaseAndTheCandidatesUnits runs exactly that). Kept on
-  // purpose after issue 35's review: the reason in docs/design.md, section 9.
+  // purpose: the reason in docs/design.md, section 9.
   const SensorGrade& grade = grade_for(*dataset, options.grade);
   std::vector<EstimatedParameter> base = options.base;
   if (base.empty()) base = default_estimated(grade);
@@ -749,7 +749,7 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
   report["build"] = build_info_json();
   report["alignment"] = to_string(options.alignment);
   report["window_s"] = options.window_s;
-  if (grade.name != "nav") report["grade"] = grade.name;  // nav reports as before grades
+  if (grade.name != "nav") report["grade"] = grade.name;  // nav (the catalogue) is implied
   report["initial_attitude"] = options.initial_attitude.describe();
   report["seed"] = options.seed;
   report["num_epochs"] = nav->num_epochs();
@@ -856,7 +856,7 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
       for (const auto& s : st.table)
         if (!s.observable) not_observable.push_back(s.name);
 
-    // Naming (issue 15): among the candidates significant at the family-wise level (the
+    // Naming: among the candidates significant at the family-wise level (the
     // calibrated test decides *whether* to name), the one that explains the residual best once
     // fitted jointly with the model decides *which*: the largest de-biased deviance gain of the
     // working model. The calibrated z alone misnames: it divides each GLS estimate by its
@@ -1000,7 +1000,7 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
         f["estimate"] = fit.value_sigma[i] * fit.params[k].sigma;
         f["sd"] = sd_final[i] * fit.params[k].sigma;
       }
-    // A named size no unit of the grade has (issue 44: a 41 % MEMS scale factor) is not a sensor
+    // A named size no unit of the grade has (e.g. a 41 % MEMS scale factor) is not a sensor
     // property: said in the report, never left as a plain answer.
     const PhysicalLimit limit = grade.physical_limit(f["effect"].get<std::string>());
     f["physical_limit"] = {{"limit", limit.limit_si}, {"source", limit.source}};

@@ -1,4 +1,4 @@
-// The discrepancy workflow (`insid diagnose`, issue 7, docs/design.md sec. 9; method and choices in
+// The discrepancy workflow (`insid diagnose`, docs/design.md sec. 9; method and choices in
 // diagnose/README.md):
 //   1. fit the base model (optimizer, then a least-squares Levenberg-Marquardt polish);
 //   2. noise model: M noise replicas of the same flight (data/noise_model.h) give draws of
@@ -37,8 +37,8 @@ struct DiagnoseOptions {
   /// mems. It sets the default base (nav: the paper's four; tactical, mems: also gyro_bias_z,
   /// each at the grade's sigma) and the unit (sigma) of every candidate: its sensitivity step,
   /// estimate_sigma, sd_sigma, min_detectable_sigma against observable_max_sigma, and the box
-  /// of a found effect. auto: meta.json's noise block, nav without one. nav is the catalogue, as
-  /// before grades existed. (A base given with `base` keeps its own sigmas: the CLI gives every
+  /// of a found effect. auto: meta.json's noise block, nav without one. nav is the catalogue's
+  /// sigmas. (A base given with `base` keeps its own sigmas: the CLI gives every
   /// --base NAME without SIGMA the grade's, SensorGrade::parameter.)
   std::string grade = "auto";
   std::vector<std::string> candidates;  ///< empty: every catalogue effect not in the base
@@ -48,7 +48,7 @@ struct DiagnoseOptions {
   /// Windowed fitness (NavigationOptions::window_s, nav/fitness.h): 0 = one pure-INS run over
   /// the whole flight; W > 0 = the INS restarted from GNSS every W seconds (s).
   double window_s = 0.0;
-  InitialAttitudeOptions initial_attitude;  ///< nav/alignment.h (issue 14)
+  InitialAttitudeOptions initial_attitude;  ///< nav/alignment.h
   std::string algorithm = "dvpio";          ///< optimizer for the base fit ("none": LM only)
   int optimizer_iterations = 20;            ///< the optimizer's population is its preset's
   int replicas_basis = 40;                  ///< replicas building the working covariance
@@ -61,16 +61,16 @@ struct DiagnoseOptions {
   double observable_max_sigma = 30.0;  ///< minimum detectable size above this (catalogue
                                        ///< sigmas): not observable
   int monte_carlo_draws = 20000;       ///< draws for the family-wise max-|z| distribution
-  /// Family-wise calibration of max |z| over the candidates (issue 15):
+  /// Family-wise calibration of max |z| over the candidates:
   ///  "replica-max" (default): Westfall-Young, the data's |z| ranked among the calibration
   ///    replicas' own max |z| (each replica standardised leave-one-out, like the data);
-  ///  "gaussian": a Gaussian with the replicas' correlation (the rule before issue 15).
+  ///  "gaussian": a Gaussian with the replicas' correlation (assumes joint normality).
   std::string family_calibration = "replica-max";
   int threads = 0;        ///< OpenMP threads, 0 = default
   bool progress = false;  ///< human progress on stderr
   /// Noise levels to use instead of meta.json / the estimate (e.g. a user's spec sheet).
   std::optional<NoiseLevels> noise;
-  /// The base fit's box (issue 44): a base parameter pressing its box is widened as identify's
+  /// The base fit's box: a base parameter pressing its box is widened as identify's
   /// (identification/box_widening.h, up to the grade's physical limit), and the wider fit kept
   /// when it lowers the base's least-squares misfit by more than `base_widening_min_gain`
   /// (relative): a clipped base makes every later name a stand-in for the clipped bias (on the
@@ -116,7 +116,7 @@ double replica_max_p_family(const std::vector<double>& sorted_max, double z_abs)
 /// (k+1)-th largest replica max with k = floor(alpha (M + 1)) - 1; +inf when M is too small.
 double replica_max_threshold(const std::vector<double>& sorted_max, double alpha);
 /// The Gaussian rule: sorted draws of max |z| from N(0, R), R = the correlation of the rows of
-/// `B` (the rule before issue 15).
+/// `B` (assumes the standardised statistics are jointly normal).
 std::vector<double> gaussian_max_abs_z(const Eigen::MatrixXd& B, int draws, std::uint64_t seed);
 
 /// The residual series as CSV text: t_s,phase,dvE_before,dvN_before,dvE_after,dvN_after.

@@ -1,5 +1,6 @@
 // libFuzzer target for one reply line of the external-optimizer protocol (optimizers/external.h,
-// parse_external_reply; issue 37: a reply 100000 arrays deep crashed insid). The input is the
+// parse_external_reply: a reply nested 100000 arrays deep must be refused, not overflow the
+// stack). The input is the
 // line, read against a 3-D box. The reader must return points inside the box (or the client's
 // reason to give up) or throw std::runtime_error; any other exception, a point outside the box,
 // a crash or a sanitizer report is a finding.

@@ -1,4 +1,4 @@
-// libFuzzer target for the strict JSON reader's limits (base/json_reader.h, issue 37): the input
+// libFuzzer target for the strict JSON reader's limits (base/json_reader.h): the input
 // is the document. parse_json_strict must accept it or throw std::runtime_error, and its depth
 // check must agree with nlohmann's own parser: a document nlohmann accepts is refused for its
 // depth exactly when it nests deeper than kJsonMaxDepth (counted by a SAX pass, no DOM), and an

@@ -1,4 +1,4 @@
-// No answer clipped by its box (issue 44): when an identification's estimate sits at an edge of
+// No answer clipped by its box: when an identification's estimate sits at an edge of
 // its search box, the box is widened on that side and the search run again, until no estimate
 // is at an edge or the edge is the grade's physical limit (SensorGrade::physical_limit: the
 // MEMS datasheet's tolerances, ten sigma for nav and tactical). An estimate at an edge is where

@@ -225,7 +225,7 @@ AttitudeErrorModel attitude_error_model(const NavigationProblem& navigation,
 // noise 10-100x (the shared ArduPilot log: 3-25 deg/sqrt(h) against the MEMS grade's 0.2), and a
 // filter told the quiet figure trusts the IMU that much too far: on simulated drone flights with
 // the log's noise its 95 % intervals covered 4 of 12 biases with the grade's levels, 115 of 120
-// with the right ones (results/uncertainty/README.md, issue 44). `source` says which was used.
+// with the right ones (results/uncertainty/README.md). `source` says which was used.
 NoiseLevels ekf_noise_levels(const Dataset& ds, const EkfRtsParams& params,
                              const EkfRtsGradeSetup* setup, std::string* source = nullptr) {
   const std::optional<NoiseLevels>& dn = ds.meta.noise;
@@ -662,7 +662,7 @@ void EkfRtsOptimizer::bind(const opt::Problem& problem) {
   // The cost yardstick: one full INS run of the estimate with the scalar reference on this
   // thread. Unlike the evaluation the optimizer later asks for (a batch that a campaign may share
   // with other members, on however many threads it has), it does not depend on the thread count
-  // or on what runs beside it, so equivalent_ins_runs compares like with like (issue 20).
+  // or on what runs beside it, so equivalent_ins_runs compares like with like.
   const auto t0 = std::chrono::steady_clock::now();
   (void)ins->navigation().fitness(mapping.to_errors(x_));
   const double ins_run_s =

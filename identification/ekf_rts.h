@@ -46,7 +46,7 @@ struct EkfRtsParams {
   }
 };
 
-/// The grade-aware set-up (issue 14; identification/README.md, "EKF-RTS on MEMS data"), used
+/// The grade-aware set-up (identification/README.md, "EKF-RTS on MEMS data"), used
 /// for every grade but nav and for nav with an initial-attitude mode other than gyrocompass
 /// (nav with gyrocompass keeps the set-up above, bit for bit):
 ///   - bias priors initial_bias_sigma x the grade's sigma (not the catalogue's nav sigma);

@@ -1,4 +1,4 @@
-// Sensor grades (issue 14): the search unit (sigma) of every catalogue effect and the noise
+// Sensor grades: the search unit (sigma) of every catalogue effect and the noise
 // levels of a navigation-grade, tactical-grade and MEMS IMU, in physical units. The effect
 // catalogue (model/sensor_errors.h) holds the paper's navigation-grade sigmas (0.01 deg/h,
 // 0.0005 m/s^2); a MEMS gyro bias of 0.1-1 deg/s is 3.6e4-3.6e5 of those, far outside the
@@ -8,7 +8,7 @@
 // The figures (one sigma of each error, the noise levels) are the grade table's,
 // data/grade_table.h, which the simulator's noise grades and the window study read too.
 //
-// The [-4, 4] sigma box of a MEMS parameter covers 0.4 deg/s and 40 mg (issue 14's realistic
+// The [-4, 4] sigma box of a MEMS parameter covers 0.4 deg/s and 40 mg (a realistic MEMS unit's
 // 0.2 deg/s, 20 mg lie at 2 sigma). The bias drifts scale with the biases (one sigma of drift
 // builds one sigma of bias in an hour, as in the catalogue).
 #pragma once
@@ -53,7 +53,7 @@ std::vector<std::string> sensor_grade_names();
 
 /// The grade a dataset declares through its meta.json noise block: the angle random walk
 /// classifies it (<= 0.01 deg/sqrt(h): nav, <= 0.1: tactical, above: mems). Without a noise
-/// block: nullopt (callers fall back to nav, the catalogue, as before grades existed).
+/// block: nullopt (callers fall back to nav, the catalogue's sigmas).
 std::optional<std::string> declared_grade(const Dataset& dataset);
 
 /// How a grade was settled (`--grade auto` or explicit): the grade, where it came from and the
@@ -73,7 +73,7 @@ std::optional<std::string> declared_grade(const Dataset& dataset);
 ///      noise (ARW / sqrt(window)): above 20 deg/h (between the table's 1 deg/h and 0.1 deg/s)
 ///      it votes mems, the only box that holds it (nav's [-4, 4] sigma box ends at 0.04 deg/h,
 ///      tactical's at 4 deg/h). A smaller bias does not vote: it is what identification is for
-///      (a nav unit with a hidden 0.3 deg/h bias stays nav, issue 15's diagnose cases).
+///      (a nav unit with a hidden 0.3 deg/h bias stays nav, so diagnose can name the bias).
 ///    Vibration on the pad counts as noise, so a vehicle with its engine running reads coarser
 ///    (the safe side: a wider search box, a windowed fitness).
 /// 3. else (no static window) nav, the catalogue, said plainly as an assumption.

@@ -94,7 +94,7 @@ std::string cache_key(const std::string& data_dir, const InsIdentificationProble
   // The windowed fitness has its own optimum (W = 0 keeps the keys written before it existed).
   if (problem.navigation().options().window_s > 0.0)
     key << ";window_s=" << opt::format_number(problem.navigation().options().window_s);
-  // (gyrocompass, the default, adds nothing: keys written before issue 14 stay valid)
+  // (gyrocompass, the default, adds nothing: keys without an initial-attitude mode stay valid)
   const InitialAttitudeOptions& attitude = problem.navigation().options().initial_attitude;
   if (attitude.mode != InitialAttitudeMode::kGyrocompass)
     key << ";initial_attitude=" << attitude.describe();

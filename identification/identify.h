@@ -72,8 +72,8 @@ nlohmann::json optimizer_result_json(const opt::Result& result, const ParameterM
                                      bool include_per_evaluation = true);
 
 /// Name of the block that holds an estimate in sigma units (the search unit of each parameter,
-/// `estimated[].sigma`: the catalogue sigma unless given). Before insid-identify/2 and
-/// insid-run/2 it was "estimate_sigma", which readers took for a standard deviation (issue 15).
+/// `estimated[].sigma`: the catalogue sigma unless given). kEstimateInSigmaUnitsOld is the name
+/// insid-identify/1 and insid-run/1 records use, still read; it is not a standard deviation.
 inline constexpr const char* kEstimateInSigmaUnits = "estimate_in_sigma_units";
 inline constexpr const char* kEstimateInSigmaUnitsOld = "estimate_sigma";
 
@@ -118,11 +118,11 @@ std::vector<EstimatedParameter> identify_parameters(const SensorGrade& grade,
 /// are then taken as compensated, as navigate does). Before the identification the bias can be
 /// anywhere in that box, so a heading refused for it would be refused for the answer too.
 ///
-/// The one rule of identify and campaigns (issue 35). Before, a campaign applied it only when
-/// its config named "initial_attitude", and otherwise checked gyrocompassing against the
-/// catalogue's 0.01 deg/h whatever box it searched: a tactical or MEMS box (4 deg/h, 0.4 deg/s)
-/// was then gyrocompassed where `insid identify` refused it. It also fell back to the catalogue
-/// for a zero edge, which EstimatedParameter::parse never lets through (sigma > 0, LO < HI).
+/// The one rule of identify and campaigns, whether or not a campaign's config names
+/// "initial_attitude": a tactical or MEMS box (4 deg/h, 0.4 deg/s) is checked against its own
+/// edges, never the catalogue's 0.01 deg/h, so a campaign gyrocompasses exactly the data
+/// `insid identify` accepts. (A zero edge cannot occur: EstimatedParameter::parse requires
+/// sigma > 0 and LO < HI.)
 double gyro_bias_allowance_rad_s(const std::vector<EstimatedParameter>& estimated);
 
 /// A field of an IdentifySpec that cannot be run. what() names the field first (the spec's name,

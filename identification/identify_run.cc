@@ -328,7 +328,7 @@ IdentifyReport identify(const IdentifySpec& spec, const IdentifyProgress& progre
                                 {"sigma", p.sigma},
                                 {"lower_sigma", p.lower_sigma},
                                 {"upper_sigma", p.upper_sigma}});
-  // The box's story (issue 44): the first box, every widening, each round's best, and what
+  // The box's story: the first box, every widening, each round's best, and what
   // still presses a bound: only a physical limit may hold an estimate at its edge.
   const Eigen::VectorXd value_sigma = mapping.to_sigma(result.best_x);
   const std::vector<std::string> at_limit =

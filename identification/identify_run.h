@@ -1,4 +1,4 @@
-// The identification pipeline as one library call (issue 35, "the house"): identify(spec) ->
+// The identification pipeline as one library call: identify(spec) ->
 // report, as run_diagnose is for `insid diagnose`. `insid identify` only maps its arguments to
 // an IdentifySpec (identification/identify.h) and writes the report; the mems study runs its
 // swarm through it. Ceres' Solve(options, problem, &summary) is the model.

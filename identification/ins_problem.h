@@ -63,7 +63,7 @@ class ParameterMapping {
   SensorErrors base_;
 };
 
-/// Which implementation scores candidates (docs/design.md sec. 8, issue 6).
+/// Which implementation scores candidates (docs/design.md sec. 8).
 enum class FitnessEvaluator {
   kBatched,  ///< the vectorised multi-candidate kernel (kernel/batch_fitness.h); default
   kScalar,   ///< NavigationProblem::fitness per candidate (the reference), for comparison
@@ -102,7 +102,6 @@ class InsIdentificationProblem final : public opt::Problem, public opt::Residual
   const opt::EvaluatorOptions& evaluator() const { return options_; }
   void set_evaluator(const opt::EvaluatorOptions& options) { options_ = options.validated(); }
   FitnessEvaluator implementation() const { return implementation_; }
-  void set_implementation(FitnessEvaluator implementation) { implementation_ = implementation; }
   /// True when batches go through the batched kernel (kBatched and data supported).
   bool uses_batched_kernel() const;
 

@@ -1,4 +1,4 @@
-// Identification of a simulated MEMS flight within its stated sd (issue 14): the flight, the
+// Identification of a simulated MEMS flight within its stated sd: the flight, the
 // two methods (EKF-RTS and LM on the windowed fitness) and one trial per noise seed. Used by
 // mems_identification_test.cc and `insid-mems-study` (results/mems/). Links the scenarios, so it
 // is a library of its own like window_study.
@@ -48,7 +48,7 @@ struct Spec {
   std::string heading_source;
 
   /// "rich" (the flight above, its five fixed biases) or "drone": a flight that looks like the
-  /// shared ArduPilot quadcopter log (../shared/data/ardupilot-copter, issue 44): the
+  /// shared ArduPilot quadcopter log (../shared/data/ardupilot-copter): the
   /// `multicopter` preset's legs, turns, climbs and orbits at drone_imu_rate_hz /
   /// drone_gnss_rate_hz after drone_align_s on the ground, flight_s of flying, white IMU noise at
   /// the levels measured in that log's flight (the simulator has no vibration model: drone_arw /

@@ -221,7 +221,7 @@ NoiseReplicaSet run_noise_replicas(const NavigationProblem& nav, const SensorErr
 // sd). Why not the Gauss-Newton sd instead, or as a floor always: on simulated drone flights
 // the filter is 2-3x more precise than the least-squares fit (it uses the GNSS positions and
 // re-estimates the attitude), and the floor made its intervals cover 180 of 180 truths with
-// |error|/sd RMS 0.42: honest but 2.4x too wide (results/uncertainty/README.md, issue 44).
+// |error|/sd RMS 0.42: honest but 2.4x too wide (results/uncertainty/README.md).
 double filter_sd_scale(double nis_per_dof) { return std::sqrt(std::max(nis_per_dof, 1.0)); }
 
 // A not_converged estimate (step 6 below): the sd describes the spread of the optimum, and the
@@ -599,7 +599,7 @@ UncertaintyReport add_run_uncertainty_json(json& out, const InsIdentificationPro
                                            const NoiseReplicaSet* shared) {
   UncertaintyReport report = estimate_uncertainty(
       problem, problem.mapping().to_sigma(optimizer.result().best_x), options, shared);
-  // The EKF-RTS reports its own smoothed sd (issue 15): the Gauss-Newton sd describes the
+  // The EKF-RTS reports its own smoothed sd: the Gauss-Newton sd describes the
   // least-squares optimum's spread, not the filter's estimate.
   if (const auto* ekf = dynamic_cast<const EkfRtsOptimizer*>(&optimizer)) {
     const ParameterMapping& mapping = problem.mapping();

@@ -1,4 +1,4 @@
-// How sure an identification is (issue 15, part 1): one implementation for every algorithm,
+// How sure an identification is: one implementation for every algorithm,
 // whatever found the point (swarm, baseline, LM, EKF-RTS).
 //
 //   * Jacobian J = d r / d value_sigma of the residual vector (dvE_t, dvN_t) at the estimate,

@@ -1,4 +1,4 @@
-// The windowed fitness's trade-off (issue 14, nav/fitness.h "Windowed fitness"): on a
+// The windowed fitness's trade-off (nav/fitness.h "Windowed fitness"): on a
 // simulated flight, for a window length W, the Eq. 15 optimum of the paper's four biases and
 // its Gauss-Newton standard deviations. Used by `insid-window-study` (results/window/) and by
 // windowed_fitness_test.cc.
@@ -8,7 +8,7 @@
 // the alignment done once on the data as recorded (`fixed`): the initial attitude is then the
 // true one up to the window's noise. This stands in for a given initial attitude (MEMS gyro
 // biases of 0.1-1 deg/s dwarf Earth rate, so gyrocompassing on MEMS data is meaningless; the
-// initial-attitude modes of issue 14 are another branch's work). That is SetUp::kFixedGiven, the
+// initial-attitude modes of nav/alignment.h are not used here). That is SetUp::kFixedGiven, the
 // set-up of the first tables; SetUp::kGradeAlignment is the alignment each grade uses (below).
 #pragma once
 

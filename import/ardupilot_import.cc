@@ -194,7 +194,7 @@ BootClockFit fit_boot_clock(const Records& gps, const std::vector<std::size_t>& 
   std::vector<char> use(x.size(), 1);
   // A damaged fix (one flipped bit in Week, TimeMS or T) must not pull the first line off every
   // other fix: fixes whose GPST - boot offset is more than 1 s from the median offset (the clocks
-  // drift by far less over a flight) stay out of it (issue 45).
+  // drift by far less over a flight) stay out of it.
   if (!x.empty()) {
     std::vector<long double> offsets;
     for (std::size_t k = 0; k < x.size(); ++k) offsets.push_back(y[k] - x[k]);
@@ -423,9 +423,9 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
     GnssEpoch e;
     e.t_gpst_unix_s = kGpsEpochGpstUnix_s + gpst_since_epoch(gps, k);
     // A fix whose own GPS time is over 1 s off the boot clock's line and out of step with its
-    // neighbours' GPS times has a damaged Week or TimeMS (issue 45): dropped and counted, never
+    // neighbours' GPS times has a damaged Week or TimeMS: dropped and counted, never
     // read as the GNSS's end or a jump. (A fix logged late in a burst is off the line by its T
-    // but in step with its neighbours: kept, as before.)
+    // but in step with its neighbours: kept.)
     if (!(std::fabs(static_cast<double>(e.t_gpst_unix_s) -
                     static_cast<double>(boot_to_gpst(r[kBoot]))) <= 1.0) &&
         !in_step_with_neighbours(gps, fixes, i)) {

@@ -43,7 +43,8 @@ bool parse_double(std::string_view s, double& v) {
   return ec == std::errc() && end == s.data() + s.size();
 }
 
-// Passive elementary rotations (issue 13's definition).
+// Passive elementary rotations (frame rotations, not vector rotations: rx(a) maps a vector's
+// coordinates in a frame into the frame turned by a about x).
 Eigen::Matrix3d rx(double a) {
   Eigen::Matrix3d m;
   m << 1, 0, 0, 0, std::cos(a), std::sin(a), 0, -std::sin(a), std::cos(a);

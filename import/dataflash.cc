@@ -1,5 +1,4 @@
 #include "import/dataflash.h"
-#include "base/file_read.h"
 
 #include <cstring>
 #include <fstream>
@@ -282,13 +281,6 @@ DataFlashFile DataFlashFile::parse(std::string bytes, const std::string& where) 
     pos += f.formats_.at(id).length;
   }
   return f;
-}
-
-DataFlashFile DataFlashFile::read(const std::string& path) {
-  FileReadOptions options;
-  options.magic = kDataFlashMagic;
-  options.magic_name = "an ArduPilot DataFlash log (records start with 0xA3 0x95)";
-  return parse(read_file_whole(path, path, options), path);
 }
 
 const DataFlashFile::Format& DataFlashFile::format(const std::string& name) const {

@@ -27,8 +27,6 @@ class DataFlashFile {
   /// unknown type letter, a length that disagrees with its letters, more names than letters, or
   /// a FMT that redefines an id with another layout.
   static DataFlashFile parse(std::string bytes, const std::string& where);
-  /// Reads the file (base/file_read.h: its magic checked before the rest is read) and parses it.
-  static DataFlashFile read(const std::string& path);
 
   /// Records of the message named `name` (e.g. "IMU2"); 0 when none or not defined.
   std::size_t count(const std::string& name) const;

@@ -1,4 +1,4 @@
-// The phases of a multicopter flight found in its log (issue 34): on the ground, motors spinning
+// The phases of a multicopter flight found in its log: on the ground, motors spinning
 // up, airborne, and how it ended (a crash or upset, a landing, or the end of the log), on the
 // autopilot's boot clock, so that a user can choose the part to import (--t-start / --t-end) and
 // cut a crash out. Found from the IMU (specific force and angular rate, body FRD) and the GNSS

@@ -8,7 +8,6 @@
 #include <stdexcept>
 #include <string_view>
 
-#include "base/file_read.h"
 #include "import/text_lines.h"
 
 namespace insid::importers {
@@ -213,10 +212,6 @@ GnssSolution parse_rtklib_pos(const std::string& text, const std::string& where)
     throw std::runtime_error(where + ": " + std::to_string(out.epochs.size()) +
                              " solution epochs; need at least 2");
   return out;
-}
-
-GnssSolution read_rtklib_pos(const std::filesystem::path& path) {
-  return parse_rtklib_pos(read_file_whole(path, path.string()), path.string());
 }
 
 }  // namespace insid::importers

@@ -5,7 +5,6 @@
 #pragma once
 
 #include <cstddef>
-#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -40,20 +39,17 @@ struct GnssSolution {
   std::string row_unit = "line";
 };
 
-/// Reads an RTKLIB solution file (rnx2rtkp / rtkpost output, "llh" position format): `%`
+/// Parses an RTKLIB solution (rnx2rtkp / rtkpost output, "llh" position format): `%`
 /// comment lines, the last of which names the columns; time as `yyyy/mm/dd hh:mm:ss.sss` or
 /// `week tow` in GPST; latitude(deg) longitude(deg) height(m) Q ns sdn sde sdu sdne sdeu sdun
 /// age ratio and, when the solution was written with velocity, vn ve vu (m/s) sdvn sdve sdvu ...
 /// Refused, with file, line and column named: another time system (UTC/JST: leap seconds),
 /// ECEF/ENU or dms positions, a file without the velocity columns (insid compares velocities;
 /// rerun RTKLIB with velocity output, `out-outvel = on`), malformed or non-increasing rows.
-/// Throws std::runtime_error.
-GnssSolution read_rtklib_pos(const std::filesystem::path& path);
+/// `where` names the text in messages. Throws std::runtime_error.
+GnssSolution parse_rtklib_pos(const std::string& text, const std::string& where);
 
 /// True when the text looks like an RTKLIB solution (a `%` header naming latitude(deg)).
 bool looks_like_rtklib_pos(const std::string& text);
-
-/// The same reader on text already in memory; `where` names it in messages.
-GnssSolution parse_rtklib_pos(const std::string& text, const std::string& where);
 
 }  // namespace insid::importers

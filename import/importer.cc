@@ -381,7 +381,7 @@ double checked_imu_step(const CsvImu& imu, const std::vector<double>& steps,
         "vehicle_imu topic; ArduPilot: the IMU logging rate), or give --min-imu-rate-hz R "
         "(R <= " +
         number_text(rate_hz, 3) + ") for a platform whose motion stays below R / 4 Hz");
-  // The median alone lets a mixed-rate log through (issue 45: half at 50 Hz, half at 10 Hz):
+  // The median alone lets a mixed-rate log through (e.g. half at 50 Hz, half at 10 Hz):
   // the time spent in steps slower than the minimum rate counts too.
   const double slow_step_s = 1.0 / options.min_imu_rate_hz * (1.0 + 1e-6);
   double slow_s = 0.0, total_s = 0.0, slowest_s = 0.0;
@@ -482,7 +482,7 @@ void set_static_window_and_start(const AssembleOptions& options, Assembled& out)
     // spot or handling (static_window_end).
     const ImuStaticEnd imu_end = static_window_end(ds.imu, t_moving - 1.0, options);
     // (The block starts lie on 0.5 s steps from the first row: the 1e-9 keeps 9.0 from reading
-    // 8.9 by round-off; the GNSS end is floored as before the IMU criteria existed.)
+    // 8.9 by round-off; the GNSS end is floored to 0.1 s.)
     m.align_s = imu_end.why.empty()
                     ? std::floor((t_moving - 1.0 - ds.imu.front().t_s) * 10.0) / 10.0
                     : std::floor((imu_end.t_end_s - ds.imu.front().t_s) * 10.0 + 1e-9) / 10.0;

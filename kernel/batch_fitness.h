@@ -1,4 +1,4 @@
-// Batched multi-candidate fitness kernel (issue 6; docs/design.md sec. 2 "Per-candidate pipeline",
+// Batched multi-candidate fitness kernel (docs/design.md sec. 2 "Per-candidate pipeline",
 // sec. 8). K candidates advance in lock-step over the shared IMU/GNSS stream of one
 // NavigationProblem, one SIMD lane per candidate (structure of arrays, 8 doubles per vector,
 // 2 vectors advanced together so that two independent dependency chains hide latency).

@@ -1,5 +1,5 @@
 // The batched fitness kernel, compiled once per instruction-set path (kernel/batch_kernel.h);
-// see kernel/batch_fitness.h for what it computes. Design notes (issue 6):
+// see kernel/batch_fitness.h for what it computes. Design notes:
 //
 //  - Vectors are GCC vector extensions of 8 doubles (one zmm register with AVX-512; a portable
 //    build lowers them to narrower registers). A group advances N = 1..2 vectors together; every
@@ -28,7 +28,7 @@
 //    exactly (without the square root, see below), the velocity is summed (v + dv_sf) + dv_cor.
 //    A different but "equally exact" order drifts ~1e-17 rad per step from the reference, 1e-9 of
 //    the fitness after ten minutes. With it the kernel matched an FMA-compiled reference to
-//    ~1e-12 relative. Since issue 35 the reference is compiled for baseline x86-64, without FMA:
+//    ~1e-12 relative. The reference is compiled for baseline x86-64, without FMA:
 //    the baseline path (unfused, like it) matches it to ~5e-12, the FMA paths to ~3e-10 (ten
 //    minutes of the paper flight; tests/batch_fitness_test.cc).
 //  - The shared height average (see phase B) and the other approximations change the fitness by
@@ -888,8 +888,8 @@ constexpr int kPlannedChains = 1;
 // a request for this path from a program whose own path plans two): its two vectors run one
 // after the other. A lane's arithmetic does not depend on its group (see the top of the file),
 // so the result is the same to the bit, and these paths compile four instantiations of
-// run_group instead of eight (the baseline object took 58 s of compile time, now 21 s; the
-// AVX2 one 29 s, now 12 s: issue 35's build time).
+// run_group instead of eight (compile time: 21 s for the baseline object instead of 58 s, 12 s
+// for the AVX2 one instead of 29 s).
 template <bool kGeneral, bool kLever>
 void run_pair_as_singles(const NavigationProblem& nav, const Precomputed& im,
                          LaneInit* const* lanes, bool sum_squares, double* acc_out) {

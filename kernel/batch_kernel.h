@@ -1,4 +1,4 @@
-// The batched kernel's instruction-set paths (issue 35): what kernel/batch_fitness.cc (compiled for
+// The batched kernel's instruction-set paths: what kernel/batch_fitness.cc (compiled for
 // the program's baseline instruction set) and kernel/batch_kernel.cc (compiled once per path)
 // share.
 //

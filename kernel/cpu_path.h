@@ -1,4 +1,4 @@
-// The instruction-set path of the batched fitness kernel (issue 35, kernel/batch_kernel.h): the
+// The instruction-set path of the batched fitness kernel (kernel/batch_kernel.h): the
 // paths this program holds, the ones this CPU runs, and the one it uses.
 //
 // Under CPU dispatch (the default x86-64 build, CMakeLists.txt INSID_CPU_DISPATCH) the program

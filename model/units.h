@@ -1,4 +1,4 @@
-// Units and physical constants, one definition each (issue 35). Names carry the unit; every value
+// Units and physical constants, one definition each. Names carry the unit; every value
 // is the exact decimal of its definition rounded once to double.
 #pragma once
 

@@ -38,7 +38,7 @@ Eigen::Matrix3d coarse_align(const Eigen::Vector3d& f_ib_b, const Eigen::Vector3
 Eigen::Matrix3d align_window(const AlignmentWindow& window, const ImuCompensator& compensator);
 
 // ---------------------------------------------------------------------------------------------
-// Initial-attitude modes (issue 14). README.md, "Initial attitude", says what each assumes.
+// Initial-attitude modes. README.md, "Initial attitude", says what each assumes.
 //   gyrocompass    levelling + gyrocompassing on the static window (the paper; nav grade);
 //   level+heading  levelling on the static window, heading given (--heading-deg), from the
 //                  GNSS course once the speed exceeds a threshold, carried back to the start,
@@ -50,7 +50,7 @@ Eigen::Matrix3d align_window(const AlignmentWindow& window, const ImuCompensator
 
 enum class InitialAttitudeMode { kGyrocompass, kLevelHeading, kGiven, kTruth };
 std::string to_string(InitialAttitudeMode mode);
-/// "gyrocompass" (or "align", the name before issue 14) | "level+heading" | "given" | "truth";
+/// "gyrocompass" (or its older name "align", still read) | "level+heading" | "given" | "truth";
 /// throws std::invalid_argument naming the value otherwise.
 InitialAttitudeMode initial_attitude_mode_from_string(const std::string& text);
 

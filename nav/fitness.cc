@@ -169,7 +169,7 @@ NavState NavigationProblem::initial_state(const Eigen::Matrix3d& C_b_n,
   s.q_b_n = Eigen::Quaterniond(C_b_n).normalized();
   const double latency = candidate.gnss_latency_s;
   const Eigen::Vector3d& l_b = candidate.lever_arm_b_m;
-  if (latency == 0.0 && l_b.isZero(0)) {  // the GNSS solution as it is (the same bits as before)
+  if (latency == 0.0 && l_b.isZero(0)) {  // the GNSS solution as it is, bit for bit
     set_from_gnss(g, 0.0, Eigen::Vector3d::Zero(), l_b, Eigen::Vector3d::Zero(), s);
     return s;
   }
@@ -228,7 +228,7 @@ void NavigationProblem::set_from_gnss(const GnssSample& g, double shift_s,
   s.lon_rad = g.lon_rad;
   s.v_eb_n.x() = g.v_eb_n_mps.x();
   s.v_eb_n.y() = g.v_eb_n_mps.y();
-  if (shift_s == 0.0 && !lever) return;  // the GNSS solution as it is (the same bits as before)
+  if (shift_s == 0.0 && !lever) return;  // the GNSS solution as it is, bit for bit
   const Eigen::Matrix3d C_b_n = s.q_b_n.toRotationMatrix();
   const Eigen::Vector3d l_n = lever ? Eigen::Vector3d(C_b_n * l_b) : Eigen::Vector3d::Zero();
   const Eigen::Vector3d& v_g = g.v_eb_n_mps;

@@ -4,7 +4,7 @@
 //   fitness (Eq. 15) = sum_t sqrt(dvE_t^2 + dvN_t^2),
 // also offered: the sum of squares and the residual vector (dvE_t, dvN_t).
 //
-// Windowed fitness (issue 14; NavigationOptions::window_s = W > 0). On data whose pure-INS run
+// Windowed fitness (NavigationOptions::window_s = W > 0). On data whose pure-INS run
 // diverges within minutes (MEMS), the INS is restarted from the GNSS solution every W seconds so
 // that each residual holds only what the candidate's errors build in one window:
 //   - The boundaries: T_j = t_{m_j} for j = 1, 2, ..., m_j the first IMU epoch at or after the
@@ -29,7 +29,7 @@
 //     T_j - t_e + the start's shift, in [0, one IMU interval)), unless a GNSS epoch lies within
 //     one IMU interval after a boundary; so the fitness is continuous in L. (Shared restart
 //     epochs moved an epoch to the next window as its tau_e passed one: a jump at every L that
-//     puts an epoch on a restart, e.g. at 0.2 s exactly, where issue 33's fit landed with an sd
+//     puts an epoch on a restart, e.g. at 0.2 s exactly, where a latency fit landed with an sd
 //     of 0.26 ms and not_converged.)
 //   - Eq. 15, the sum of squares and the residual vector (same layout, one entry pair per
 //     epoch) are therefore summed over all windows.
@@ -37,7 +37,7 @@
 //     W at or beyond the navigated span gives no restart: the result is bit-identical to W = 0.
 //
 // Start state (the navigation start t0 and every window start t_{k_j}; NavigationProblem::
-// set_from_gnss; issue 33). The GNSS solution tagged t is the antenna at t - L
+// set_from_gnss). The GNSS solution tagged t is the antenna at t - L
 // (model/sensor_errors.h), and the comparison above sees the candidate's antenna velocity at
 // t_e - L. A start must hold the same model, per candidate, or it carries the effects' own
 // signal into the window and cancels most of it there (a start from the GNSS solution at the
@@ -78,8 +78,8 @@
 //   - the IMU-side effects enter through the attitude C_b_n (per-candidate alignment, and the
 //     window's navigation), the compensated rate and increment, and a_n (the candidate's own
 //     navigation); the GNSS-side effects are only the latency and the lever arm.
-//   - without latency and lever arm, the start is g as it is, at the same epochs: the same bits
-//     as before issue 33 (W = 0 results included).
+//   - without latency and lever arm, the start is g as it is, at the same epochs, bit for bit
+//     (W = 0 included): the start carries no GNSS-side model to undo.
 #pragma once
 
 #include <functional>
@@ -124,7 +124,7 @@ struct NavigationOptions {
   /// (the project's one convention for options). The data-dependent check, W at least one GNSS
   /// period, is NavigationProblem's.
   std::string validate() const;
-  /// How the attitude at the navigation start is found (nav/alignment.h; issue 14).
+  /// How the attitude at the navigation start is found (nav/alignment.h).
   InitialAttitudeOptions initial_attitude{};
 };
 

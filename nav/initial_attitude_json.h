@@ -1,4 +1,4 @@
-// What the initial attitude of a run was (issue 14), recorded in navigate's summary and every
+// What the initial attitude of a run was, recorded in navigate's summary and every
 // identify result: the mode, roll/pitch/yaw at the navigation start, where the heading came
 // from.
 #pragma once

@@ -1,5 +1,5 @@
 // An optimizer that runs in another process and speaks a JSON-lines protocol on its stdin/stdout
-// (issue 18): `--algo "external:/usr/bin/python3 scripts/external_random_search.py"`. The
+// (e.g. `--algo "external:/usr/bin/python3 scripts/external_random_search.py"`). The
 // protocol is documented in optimizers/README.md ("External optimizers"); in short, insid sends
 //   {"type":"problem", "protocol":1, "dimension":n, "lower":[...], "upper":[...], "seed":s,
 //    "max_evaluations":E, "max_iterations":I}                       once, no reply;

@@ -260,7 +260,7 @@ void run_together(std::span<Optimizer* const> optimizers, const Problem& problem
                   const TogetherHooks& hooks, FitnessMemo* memo) {
   for (const Optimizer* optimizer : optimizers) check_same_box(*optimizer, problem);
   const auto* residual_problem = dynamic_cast<const ResidualProblem*>(&problem);
-  // Finished or failed: no longer advanced. Optimizers done on entry are not reported.
+  // Finished or failed: not advanced. Optimizers done on entry are not reported.
   std::vector<char> stopped(optimizers.size());
   for (std::size_t i = 0; i < optimizers.size(); ++i) stopped[i] = optimizers[i]->done();
   // Called inside a catch block: hands the exception to the hook, or rethrows it.

@@ -51,8 +51,6 @@ class PioOptimizer final : public Optimizer {
 
   ParameterList parameters() const override { return params_.list(); }
   const PioParams& params() const { return params_; }
-  /// Iterations (batches, the initial one included) of the map-and-compass phase.
-  int map_compass_iterations() const { return map_compass_iterations_; }
 
  protected:
   void propose(std::vector<Eigen::VectorXd>& batch) override;
@@ -63,6 +61,7 @@ class PioOptimizer final : public Optimizer {
   void landmark_step();
 
   PioParams params_;
+  /// Iterations (batches, the initial one included) of the map-and-compass phase.
   int map_compass_iterations_ = 0;
   std::string phase_;
   std::vector<Eigen::VectorXd> x_, v_;

@@ -46,8 +46,6 @@ double shifted_rastrigin(const Eigen::VectorXd& x) {
   return f;
 }
 
-std::vector<std::string> benchmark_names() { return {"sphere", "rosenbrock", "rastrigin"}; }
-
 std::unique_ptr<FunctionProblem> make_benchmark(std::string_view name, int dimension,
                                                 EvaluatorOptions options) {
   FunctionProblem::Function function;

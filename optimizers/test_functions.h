@@ -23,9 +23,8 @@ double shifted_sphere(const Eigen::VectorXd& x);
 double shifted_rosenbrock(const Eigen::VectorXd& x);
 double shifted_rastrigin(const Eigen::VectorXd& x);
 
-/// "sphere", "rosenbrock", "rastrigin".
-std::vector<std::string> benchmark_names();
-/// The named function on [-1, 1]^dimension; throws std::invalid_argument for an unknown name.
+/// The named function ("sphere", "rosenbrock" or "rastrigin") on [-1, 1]^dimension; throws
+/// std::invalid_argument for an unknown name.
 std::unique_ptr<FunctionProblem> make_benchmark(std::string_view name, int dimension,
                                                 EvaluatorOptions options = {});
 

@@ -269,10 +269,6 @@ void TrajectoryBuilder::takeoff(double dh_m, double vz_mps, double ramp_s) {
   climb(dh_m, vz_mps, ramp_s);
 }
 
-Trajectory TrajectoryBuilder::build() const {
-  Trajectory t = traj_;
-  t.end_s_ = t_;
-  return t;
-}
+Trajectory TrajectoryBuilder::build() const { return traj_; }
 
 }  // namespace insid::scenarios

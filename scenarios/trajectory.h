@@ -36,7 +36,6 @@ class SmoothChannel {
   /// Throws std::invalid_argument when T <= 0 or t0_s is before the end of the last one.
   void ramp(double t0_s, double duration_s, double target);
 
-  double initial_value() const { return initial_; }
   double final_value() const { return ramps_.empty() ? initial_ : ramps_.back().to; }
   /// End of the last transition (-inf when none).
   double last_ramp_end_s() const;
@@ -86,8 +85,6 @@ class Trajectory {
   Trajectory() = default;
 
   const InitialPose& initial() const { return initial_; }
-  /// End of the commanded motion (s); the trajectory holds its last state after it.
-  double end_s() const { return end_s_; }
   /// Gravity used for the coordinated bank angle (m/s^2).
   double g_ref_mps2() const { return g_ref_; }
 
@@ -95,14 +92,10 @@ class Trajectory {
   /// Sorted, unique times where a channel's second derivative jumps.
   std::vector<double> breakpoints() const;
 
-  /// Speeds at the end of the commanded motion (for builders).
-  double final_speed_mps() const { return speed_.final_value(); }
-
  private:
   friend class TrajectoryBuilder;
   InitialPose initial_;
   double g_ref_ = kStandardGravity_mps2;
-  double end_s_ = 0.0;
   SmoothChannel speed_;  // Vh (m/s)
   SmoothChannel vup_;    // vU (m/s)
   SmoothChannel turn_;   // heading rate (rad/s)

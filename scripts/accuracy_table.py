@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Accuracy tables of issue 4 from campaign directories (results/accuracy/README.md).
+"""Accuracy tables (algorithm x scenario) from campaign directories (results/accuracy/README.md).
 
 Usage: accuracy_table.py ROOT  -- ROOT holds one campaign directory per config in
 ROOT/configs/*.json (named like the config without .json). Prints markdown to stdout.
@@ -21,7 +21,7 @@ import sys
 
 
 def load(path):
-    # Packed results (scripts/pack_results.py, issue 46): PATH.xz where PATH is absent.
+    # Packed results (scripts/pack_results.py): PATH.xz where PATH is absent.
     if not os.path.exists(path) and os.path.exists(path + ".xz"):
         path += ".xz"
     with (lzma.open(path, "rt") if path.endswith(".xz") else open(path)) as f:
@@ -75,7 +75,7 @@ def noise_floor(cdir):
         opt = load(os.path.join(cdir, "optimum", sc["name"] + ".json"))
         run = load(os.path.join(cdir, "runs", sc["name"], cfg["algorithms"][0]["label"], "seed_1.json"))
         for p in params:
-            # "estimate_sigma" before insid-run/2 (issue 15)
+            # insid-run/1 records name it "estimate_sigma"
             est = opt.get("estimate_in_sigma_units") or opt["estimate_sigma"]
             diffs[p].append(est[p] - run["truth_sigma"][p])
     stats = {}

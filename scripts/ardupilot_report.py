@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""The report of scripts/ardupilot_report.sh (issue 34): the shared ArduPilot quadcopter flight,
+"""The report of scripts/ardupilot_report.sh: the shared ArduPilot quadcopter flight,
 per IMU, insid's biases against the autopilot EKF's own, navigation before/after compensation.
 
   ardupilot_report.py --work build/real-ardupilot --out results/real/ardupilot --window-s 10 \

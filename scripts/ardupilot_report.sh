@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# A real drone flight end to end (issue 34): the shared ArduPilot quadcopter log
+# A real drone flight end to end: the shared ArduPilot quadcopter log
 # (../shared/data/ardupilot-copter/log171.bin), for each of its three IMUs:
 #   import ardupilot (boot time T_START-T_END: the ground window before the motors, Loiter; the
 #   Acro part and the flip cut off) -> navigate uncompensated -> identify (EKF-RTS and DVPIO on

@@ -1,5 +1,6 @@
 #!/usr/bin/python3
-"""A diagnose campaign's cases.jsonl stored as its differences from another one (issue 46).
+"""A diagnose campaign's cases.jsonl stored as its differences from another one
+(so that results/ stays small).
 
 results/diagnose/mems-forward-only holds the first 508 cases of results/diagnose/mems as the
 forward-only binary wrote them; ../mems carries the same rows with a few fields changed or added

@@ -1,6 +1,6 @@
 #!/usr/bin/python3
-"""Every relative link of README.md and docs/*.md resolves (issue 46: the README's reference moved
-into docs/, and links must not rot). Run by ctest as `doc_links`.
+"""Every relative link of README.md and docs/*.md resolves (the README links into docs/, and
+links must not rot). Run by ctest as `doc_links`.
 
 Usage: /usr/bin/python3 scripts/check_doc_links.py [--paths] [FILE.md ...]
   (default files: README.md, docs/*.md, results/README.md)
@@ -10,7 +10,7 @@ With --paths it also lists the repository paths written in backticks (`nav/fitne
 `results/window/`) that do not exist, relative to the repository root, as the documents write
 them; those are printed as warnings and do not fail the check (files move between folders while
 their documents follow).
-It also holds README.md to at most 400 lines (issue 46: the user's guide; reference goes to
+It also holds README.md to at most 400 lines (the user's guide; reference goes to
 docs/).
 Exit 0 when every link resolves and the README is within its length, 1 otherwise.
 """

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The repository stays lean (issue 46): fails when the tracked files of results/ pass their limit
+# The repository stays lean: fails when the tracked files of results/ pass their limit
 # (12 MB) or all tracked files pass theirs (15 MB), so that a clone is quick and the tree can be
 # copied where a copy is limited to 64 MiB. MB = 1,000,000 bytes. Sizes are those of the files
 # as git tracks them (the index: committed or staged), not of build outputs or ignored files.

@@ -5,7 +5,7 @@ Usage: compare_summaries.py OLD NEW [--digits 6]
 Prints every numeric value (or string/bool) that differs, with its JSON path; wall times and
 the build block are reported apart (they are expected to differ). Exit 0 when all other values
 agree to the digits asked for, 1 otherwise. OLD and NEW may be xz-compressed (.xz); a committed
-summary.json packed by scripts/pack_results.py (issue 46) is read whole from its
+summary.json packed by scripts/pack_results.py is read whole from its
 summary.full.json.xz beside it.
 """
 import argparse

@@ -1,6 +1,7 @@
-# Cross-IMU pair-axis check (a quick one, issue 44 item 2; the full tool is item 3): insid's gyro
-# bias differences against the direct raw-sample differences, the mean of the 50 Hz rate
-# differences of two IMUs over the flight window 85-215 s boot (imported t_s = boot - 74.7).
+# Cross-IMU pair-axis check (a quick one; the full tool is scripts/cross_imu_report.sh):
+# insid's gyro bias differences against the direct raw-sample differences, the mean of the
+# 50 Hz rate differences of two IMUs over the flight window 85-215 s boot
+# (imported t_s = boot - 74.7).
 # Usage: /usr/bin/python3 scripts/cross_imu_quick.py DIR PREFIX   (results/uncertainty/README.md)
 #   DIR holds d_IMU, d_IMU2, d_IMU3 (insid import ardupilot ... --imu K --t-start 74.7 --t-end 215)
 #   and PREFIX{IMU,IMU2,IMU3}.json (insid identify results); prints z per pair-axis.

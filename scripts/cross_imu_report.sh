@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The cross-IMU check on the shared ArduPilot quadcopter log (issue 44, item 3): its three IMUs
+# The cross-IMU check on the shared ArduPilot quadcopter log: its three IMUs
 # sit on one airframe, so the differences of their gyro readings measure the differences of their
 # biases without any model of the flight.
 #   import ardupilot --imu all (boot 74.7-215 s) -> identify each IMU (EKF-RTS, and DVPIO with

@@ -3,7 +3,7 @@
 
 usage: diagnose_campaign_report.py [RESULTS_DIR]   (default results/diagnose)
 reads RESULTS_DIR/cases.jsonl (or, where that is absent, cases.jsonl.xz, the form committed under
-results/: issue 46) and summary.json (written by insid-diagnose-campaign), writes
+results/) and summary.json (written by insid-diagnose-campaign), writes
 RESULTS_DIR/confusion.png, power.png, shrink.png and tables.md.
 """
 import collections

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Null flights of this campaign judged by both family-wise rules (issue 15).
+"""Null flights of this campaign judged by both family-wise rules (replica-max and gaussian).
 
 Each case stores its first diagnose iteration whole (every candidate's row, both thresholds, the
 calibration replicas' own max |z|), so the first naming decision can be re-judged under either
@@ -10,7 +10,7 @@ Also checks the Gaussian re-judgment against ../issue15 (same seeds, run with th
 read beside the given file (issue15/cases.jsonl or its .xz).
 Usage: /usr/bin/python3 scripts/diagnose_rejudge.py [CASES] > results/diagnose/issue15-wy/rejudge.json
   CASES: a cases.jsonl, plain or xz-compressed (default results/diagnose/issue15-wy/cases.jsonl.xz,
-  as committed; issue 46)
+  as committed)
 """
 import json
 import lzma

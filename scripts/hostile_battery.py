@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Issue 37's hostile-input battery, as a script: run insid on inputs a careless or hostile user
+"""The hostile-input battery, as a script: run insid on inputs a careless or hostile user
 gives it and classify every outcome.
 
     /usr/bin/python3 scripts/hostile_battery.py [--insid build/cli/insid] [--shared ../shared]
@@ -214,7 +214,7 @@ def ownership_cases(b, sim, walk):
 
 
 def round_three_ownership_cases(b, sim):
-    """Issue 45's data-loss items: names that look like insid's temporaries, a folder where a
+    """Data-loss cases: names that look like insid's temporaries, a folder where a
     dataset writes a file, --force over the command's own input, two outputs at one path, and
     what a killed simulate leaves."""
     w = b.work

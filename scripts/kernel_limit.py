@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""The batched kernel against this core's limits (issue 16; results/perf/README.md).
+"""The batched kernel against this core's limits (results/perf/README.md).
 
     scripts/kernel_limit.py [--build build] [--out results/perf] [--repetitions 5]
 

@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """Packs result directories before they are committed, so that results/ stays under its size
-limit (issue 46; scripts/check_repo_size.sh, results/README.md "What is committed, and how").
+limit (scripts/check_repo_size.sh, results/README.md "What is committed, and how").
 
 Usage: /usr/bin/python3 scripts/pack_results.py [--png] [--keep-runs] DIR...
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Phases of the main job's campaign and the serial fraction they imply (issue 16).
+# Phases of the main job's campaign and the serial fraction they imply.
 #   scripts/perf_phases.sh                      # paper-fig9, 31 seeds, threads 1 2 4
 #   scripts/perf_phases.sh --seeds 5 --threads "2"
 #   scripts/perf_phases.sh --bin /path/to/other/insid --out results/perf/phases-before.md

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Time the serial start of the main job: two insid binaries, alternating (issue 16).
+"""Time the serial start of the main job: two insid binaries, alternating.
 
   scripts/perf_sim_phase.py --threads 2 --pairs 4 old=/path/to/insid new=build/cli/insid
 

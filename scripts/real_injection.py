@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Effects hidden in a real recording (issue 33, differential injection).
+"""Effects hidden in a real recording (differential injection).
 
 The backgrounds are the shared MEMS walk (../shared/data/rtklib-walk) and the shared ArduPilot
 quadcopter flight (../shared/data/ardupilot-copter), with all their unknown effects; the injected

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""The real-data report of scripts/real_report.sh (issue 14): the shared MEMS walk.
+"""The real-data report of scripts/real_report.sh: the shared MEMS walk.
 
   real_report.py --static-end DATASET       print the --align-s that ends the static window
                                             before the first moving gyro block (see static_blocks)

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The real-data report (issue 14): the shared MEMS walk (../shared/data/rtklib-walk) through
+# The real-data report: the shared MEMS walk (../shared/data/rtklib-walk) through
 # import -> navigate -> identify (EKF-RTS, DVPIO on the windowed fitness, LM as the data's own
 # least-squares optimum) -> navigate compensated -> diagnose, then results/real/report.md and
 # its figures (scripts/real_report.py, Debian's python3 + matplotlib).

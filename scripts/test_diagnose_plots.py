@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
-"""Self-test of diagnose_plots.py: the residual axes follow the data (issue 19: the phase
-shading forced every residual axis up to 1.0 m/s, so 0.02 m/s residuals were flat lines).
+"""Self-test of diagnose_plots.py: the residual axes follow the data (the phase
+shading must not force a residual axis up to 1.0 m/s, where 0.02 m/s residuals are flat
+lines).
 Run: /usr/bin/python3 scripts/test_diagnose_plots.py"""
 import os
 import sys

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""insid-kernel-budget on short flights (ctest `kernel_budget`, issue 36): the figures it
+"""insid-kernel-budget on short flights (ctest `kernel_budget`): the figures it
 writes hold together. The floor is far below the tolerances; the sensitivities are linear (the
 change doubles at twice the error); the first-order body rotation's leftover is tiny at
 navigation grade and orders of magnitude larger at MEMS grade (gyro biases ~3.6e4 x larger:

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Instruction sets stay where they belong in the one `insid` program (issue 35, kernel/batch_kernel.h).
+"""Instruction sets stay where they belong in the one `insid` program (kernel/batch_kernel.h).
 
 Under CPU dispatch the program is baseline x86-64 except the batched kernel's AVX-512 and AVX2
 paths. This disassembles the linked program and checks that

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The research programs' command lines (tools/, issue 35): `--help` exits 0 and names every
+"""The research programs' command lines (tools/): `--help` exits 0 and names every
 option the program has had (scripts and results/*/README.md call them by these names); a bad
 option value, an unknown option and a bad name read later (a preset, an algorithm) each exit 2
 before any work, with 'PROGRAM: error: ...' naming the option on stderr, like `insid` (README

@@ -1,8 +1,7 @@
 #!/usr/bin/env bash
 # results/tune: DVPIO tuned by irace vs the best of an `insid sweep` grid, then both (and the
 # Table 4 default) on fresh flights and fresh seeds in one campaign (Mann-Whitney + Holm).
-# Run from the repository root after the build: scripts/tune.sh [WORK_DIR] (it lived in
-# results/tune/run.sh until issue 46 moved the scripts out of results/).
+# Run from the repository root after the build: scripts/tune.sh [WORK_DIR].
 # WORK_DIR (default /tmp/insid-tune) keeps the datasets and run files, which are not committed;
 # the summaries are copied into results/tune/.
 set -euo pipefail
@@ -63,5 +62,5 @@ mkdir -p "$here/irace" "$here/sweep" "$here/compare"
 cp "$work"/irace/{parameters.txt,scenario.txt,instances.txt,target-runner,tune.json,elites.csv,irace.log,irace.Rdata} "$here/irace/"
 cp "$work"/sweep/{sweep.json,sweep.csv,manifest.json} "$here/sweep/"
 cp -r "$work"/compare/{manifest.json,summary.json,report.md,figures} "$here/compare/"
-# 5. Pack them as committed (issue 46, results/README.md "What is committed, and how").
+# 5. Pack them as committed (results/README.md "What is committed, and how").
 /usr/bin/python3 scripts/pack_results.py --png "$here"

@@ -1,9 +1,9 @@
-// insid-diagnose-campaign: the full hidden-effect matrix for `insid diagnose` (issue 7):
+// insid-diagnose-campaign: the full hidden-effect matrix for `insid diagnose`:
 // effects x sizes x seeds on the `rich` preset, effect-free seeds (false alarms), pairs of
 // separable effects, and effects the `straight` preset cannot observe. One JSON line per case in
 // OUT/cases.jsonl (resumable: cases already there are skipped), then OUT/summary.json with the
 // confusion matrix and detection power per size. Figures: scripts/diagnose_campaign_report.py.
-// `--matrix mems` (issue 33): MEMS grade, windowed fitness (--windows), rich / racetrack /
+// `--matrix mems`: MEMS grade, windowed fitness (--windows), rich / racetrack /
 // multicopter, scored on names *and sizes* (a case is right only if the truth is named, its class
 // first, and its estimate lies within 3 sd + 10 % of the injected value), and a second scoring
 // of the detectable cases by whether the truth is separable from its collinear class
@@ -60,8 +60,8 @@ std::vector<Nominal> nominal_effects() {
           {"accel_bias_drift_x", 10.0 * 0.0005 / 3600.0, "0.005 m/s^2 per hour"}};
 }
 
-// The extended matrix of issue 15 adds the effects the issue names: accel_scale_z (the
-// misnamed one), a second gyro misalignment and a gyro_bias_z drift.
+// The extended matrix adds effects the original one lacks: accel_scale_z (easily named
+// as another effect), a second gyro misalignment and a gyro_bias_z drift.
 std::vector<Nominal> extended_effects() {
   std::vector<Nominal> e = nominal_effects();
   e.push_back({"accel_scale_z", 500e-6, "500 ppm"});
@@ -70,7 +70,7 @@ std::vector<Nominal> extended_effects() {
   return e;
 }
 
-// The MEMS / windowed matrix of issue 33: latency, the three lever arms, scale factors,
+// The MEMS / windowed matrix: latency, the three lever arms, scale factors,
 // misalignments and bias drifts, at sizes a MEMS unit can have. Effect-free 600 s MEMS flights
 // (seed 77, W = 10 and 20 s) put diagnose's minimum detectable sizes (95 % power) at: latency
 // 10-14 ms on rich and multicopter, 90-100 ms on racetrack; lever arms 0.1-0.15 m on
@@ -293,13 +293,13 @@ json case_record(const Case& c, const insid::diagnose::DiagnoseResult& res, doub
   j["grade"] = c.data.grade;
   j["window_s"] = c.window_s;
   j["found"] = res.report["found"];
-  j["withdrawn"] = res.report["withdrawn"];  // issue 33's backward check
+  j["withdrawn"] = res.report["withdrawn"];  // the backward check's withdrawals
   j["not_observable"] = res.report["not_observable"];
   j["gap"] = res.report["gap"];
   j["noise_floor"] = res.report["noise_floor"];
   j["threshold_z"] = res.report["iterations"][0]["threshold_z"];
   j["top"] = res.report["iterations"][0]["candidates"][0];
-  // Issue 15: what re-judging the first iteration under either family-wise rule needs
+  // What re-judging the first iteration under either family-wise rule needs
   // (every candidate's row, both thresholds, the replicas' own max |z|).
   {
     const json& i0 = res.report["iterations"][0];
@@ -364,8 +364,8 @@ bool in_class(const json& f, const std::string& name) {
   return false;
 }
 
-// Issue 7's summary: false alarms on the nulls, the confusion matrix (hidden effect -> first
-// named effect), detection power per size (the class and the exact effect), the shrink of the
+// The original matrix's summary: false alarms on the nulls, the confusion matrix (hidden effect ->
+// first named effect), detection power per size (the class and the exact effect), the shrink of the
 // gap at the nominal size, pairs and unobservable effects.
 void add_first_named_summary(const std::vector<json>& rows, const std::vector<Nominal>& effects,
                              json& summary) {
@@ -450,7 +450,7 @@ void add_first_named_summary(const std::vector<json>& rows, const std::vector<No
       {"n", unobs_n}, {"reported_not_observable", unobs_reported}, {"named", unobs_named}};
 }
 
-// Issue 15: every null flight (any preset, any length), the rate with its 95 % Wilson
+// The extended summary: every null flight (any preset, any length), the rate with its 95 % Wilson
 // interval, and the confusion of the first named effect with the ambiguity sets counted
 // separately: "(none)", the effect alone (unambiguous), or "{a, b, ...}" (named + partners).
 void add_null_and_set_summary(const std::vector<json>& rows, json& summary) {
@@ -524,12 +524,12 @@ void add_null_and_set_summary(const std::vector<json>& rows, json& summary) {
   summary["outcome"] = oj;
 }
 
-// Issue 33: names *and sizes*. A single case is right when the truth's class is named first
+// The MEMS summary: names *and sizes*. A single case is right when the truth's class is named first
 // and the truth itself is named (any iteration) with |estimate - injected| <= 3 sd + 10 % of
 // the injected value; "strict" also needs the truth to be the first name. Wrong first: the
 // first name's class does not hold the truth ("unflagged": and it carries no ambiguity flag).
-// Grouped by preset, W, effect and size; nulls by preset and W. Rows of campaigns before
-// issue 33 have no window_s: W = 0.
+// Grouped by preset, W, effect and size; nulls by preset and W. Rows without window_s
+// (the original and extended matrices) have W = 0.
 void add_size_scoring(const std::vector<json>& rows, json& summary) {
   auto window_of = [](const json& r) {
     return r.contains("window_s") ? r["window_s"].get<double>() : 0.0;
@@ -542,7 +542,7 @@ void add_size_scoring(const std::vector<json>& rows, json& summary) {
   std::map<std::string, Tally> groups;
   std::map<std::string, Tally> by_size;             // "size detectable|below_detection_limit"
   std::map<std::string, std::array<int, 2>> nulls;  // "preset W=w" -> named, n
-  // Issue 33's second scoring: detectable cases split by separability from the truth's
+  // The second scoring: detectable cases split by separability from the truth's
   // collinear class.
   struct SepTally {
     int n = 0, right = 0, strict = 0;

@@ -1,5 +1,5 @@
 // insid-kernel-budget: how exactly a fewer-operations fitness must reproduce the exact kernel
-// (issue 36; results/perf/fewer-ops/README.md). For each scenario x grade (x window):
+// (results/perf/fewer-ops/README.md). For each scenario x grade (x window):
 //
 //  1. The exact kernel's own floor: Eq. 15 of random candidates in the grade's box, on the
 //     kernel's FMA path (avx512, else avx2) and on its unfused baseline path, and the scalar
@@ -10,7 +10,8 @@
 //     constant specific-force error (an accelerometer bias change of 1e-9 m/s^2), each at two
 //     sizes (delta, 2 delta: the change must double). From the smallest change per unit over
 //     candidates and axes: the systematic error per IMU step (rad, m/s) that moves Eq. 15 by the
-//     tolerance (1e-7 relative at navigation grade, 1e-5 at MEMS grade: issue 36).
+//     tolerance (1e-7 relative at navigation grade, 1e-5 at MEMS grade: the target of a
+//     fewer-operations kernel).
 //
 //  3. The size of the first approximation a preintegrated kernel makes: the body rotation over an
 //     interval of N IMU steps taken to first order in the gyro bias. For the box corner b (4

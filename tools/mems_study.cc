@@ -187,8 +187,9 @@ int mems_study_main(int argc, char** argv) {
   std::vector<std::string> labels;
   for (const std::string& m : methods) labels.push_back(m == "swarm" ? spec.swarm : m);
   // Per method, the sd as reported and, where the answer carries its uncertainty report, the
-  // sd under the rules it is made of (identification/uncertainty.h): the sd before the change of
-  // issue 44 ("before") and the candidates measured for it.
+  // sd under the rules it is made of (identification/uncertainty.h): the filter's sd times
+  // the fitness misfit (labelled "before": the rule the NIS scaling replaced) and the
+  // candidate rules measured against it.
   using Rule = std::function<double(const ParameterUncertainty&, const UncertaintyReport&)>;
   const auto step_si = [](const ParameterUncertainty& p) {
     return p.step_to_optimum_sigma * p.sigma_si;

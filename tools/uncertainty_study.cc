@@ -1,4 +1,4 @@
-// Calibration study of the identification uncertainty (issue 15, results/uncertainty/): over
+// Calibration study of the identification uncertainty (results/uncertainty/): over
 // noise seeds of a simulated flight, does the 95 % interval of each parameter cover the injected
 // value, and is |error| / sd about 1 (RMS)? For LM (the least-squares optimum, the point the sd
 // describes), EKF-RTS (its estimate with the same sd, and the filter's own smoothed sd) and any

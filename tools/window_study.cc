@@ -1,4 +1,4 @@
-// insid-window-study: the windowed fitness's trade-off table (issue 14; results/window/).
+// insid-window-study: the windowed fitness's trade-off table (results/window/).
 //   insid-window-study [--grades mems,nav] [--windows 5,10,20,40,80,0] [--seeds 3]
 //                      [--flight-s 300] [--threads 2] [--csv FILE]
 //                      [--set-up fixed-given|grade]

@@ -10,7 +10,7 @@ optimizers/external_test.cc. Usage: external_test_client.py MODE [LOG]
   dimension answer ask 1 with a point of the wrong length
   outside   answer ask 1 with a point outside the box
   giveup    answer ask 1 with {"error": "..."}
-  deep N    answer ask 1 with {"points": N nested arrays} (hostile depth, issue 37)
+  deep N    answer ask 1 with {"points": N nested arrays} (hostile depth)
   twice     answer every ask with two replies in one write (the second one nobody asked for)
 """
 import json
