@@ -2,6 +2,7 @@
 // command's inputs, never through a symbolic link below an output directory, and no name that
 // could pass for one of its temporaries (issue 37, items 1, 2, 5, 6 and 8).
 #include "base/output_dir.h"
+#include "test_support/files.h"
 
 #include <sys/wait.h>
 #include <sys/xattr.h>
@@ -24,12 +25,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string text(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using test::fresh_dir;
+using test::read_file;
 
 std::string error_of(const std::function<void()>& f) {
   try {
@@ -43,8 +40,7 @@ std::string error_of(const std::function<void()>& f) {
 class OutputDir : public ::testing::Test {
  protected:
   void SetUp() override {
-    root_ = fs::temp_directory_path() / ("insid-output-dir-" + std::to_string(::getpid()));
-    fs::remove_all(root_);
+    root_ = fresh_dir("output-dir");
     fs::create_directories(root_);
     outside_ = root_ / "outside";
     fs::create_directories(outside_);
@@ -65,13 +61,13 @@ TEST_F(OutputDir, AFileIsInsidsOnlyWhileItMatchesItsMark) {
   EXPECT_EQ(file_owner(f), FileOwner::kOther);
   EXPECT_NE(error_of([&] { write_file_atomic(f, "{\"a\": 1}\n"); }).find("insid did not write it"),
             std::string::npos);
-  EXPECT_EQ(text(f), "{}\n");
+  EXPECT_EQ(read_file(f), "{}\n");
   WriteOptions force;
   force.replace_foreign = true;
   write_file_atomic(f, "{\"a\": 1}\n", force);
   EXPECT_EQ(file_owner(f), FileOwner::kInsid);
   write_file_atomic(f, "{\"a\": 2}\n");  // insid's own: replaced without --force
-  EXPECT_EQ(text(f), "{\"a\": 2}\n");
+  EXPECT_EQ(read_file(f), "{\"a\": 2}\n");
   std::ofstream(f, std::ios::app) << " ";  // edited by the user: no longer insid's
   EXPECT_EQ(file_owner(f), FileOwner::kOther);
   fs::copy_file(f, root_ / "copy.json");  // a copy does not carry the mark
@@ -87,7 +83,7 @@ TEST_F(OutputDir, ALinkIsNeverWrittenThroughOrReplaced) {
   EXPECT_NE(
       error_of([&] { write_file_atomic(root_ / "out.json", "x", force); }).find("symbolic link"),
       std::string::npos);
-  EXPECT_EQ(text(target), "keep");
+  EXPECT_EQ(read_file(target), "keep");
   EXPECT_TRUE(fs::is_symlink(root_ / "out.json"));
   // A link to a directory inside an output directory: refused, nothing written outside.
   const fs::path campaign = root_ / "campaign";
@@ -102,7 +98,7 @@ TEST_F(OutputDir, ALinkIsNeverWrittenThroughOrReplaced) {
   // ... and a real one works, creating what is missing.
   fs::remove(campaign / "runs");
   write_file_atomic_under(campaign, "runs/s/a/seed-1.json", "{}", create);
-  EXPECT_EQ(text(campaign / "runs/s/a/seed-1.json"), "{}");
+  EXPECT_EQ(read_file(campaign / "runs/s/a/seed-1.json"), "{}");
   EXPECT_NE(error_of([&] {
               write_file_atomic_under(campaign, "../escape.json", "{}", create);
             }).find("'..'"),
@@ -116,7 +112,7 @@ TEST_F(OutputDir, TheLockFileIsNotALink) {
   fs::create_symlink(target, root_ / ".insid-lock");
   EXPECT_NE(error_of([&] { FileLock lock(root_ / ".insid-lock"); }).find("symbolic link"),
             std::string::npos);
-  EXPECT_EQ(text(target), "root:x:0:0");
+  EXPECT_EQ(read_file(target), "root:x:0:0");
   fs::remove(root_ / ".insid-lock");
   FileLock lock(root_ / ".insid-lock");
   lock.write_text("pid 1 on here\n");
@@ -173,13 +169,13 @@ TEST_F(OutputDir, RemovingOwnFilesKeepsEverythingElse) {
   EXPECT_EQ(kept[0], fs::path("s/link"));
   EXPECT_EQ(kept[1], fs::path("s/notes.txt"));
   EXPECT_FALSE(fs::exists(runs / "s" / "a"));
-  EXPECT_EQ(text(runs / "s" / "notes.txt"), "mine");
-  EXPECT_EQ(text(outside_ / "victim.json"), "keep");
+  EXPECT_EQ(read_file(runs / "s" / "notes.txt"), "mine");
+  EXPECT_EQ(read_file(outside_ / "victim.json"), "keep");
   // A link in place of the directory: nothing below it is touched.
   fs::remove_all(runs);
   fs::create_directory_symlink(outside_, runs);
   EXPECT_EQ(remove_own_files(runs).size(), 1u);
-  EXPECT_EQ(text(outside_ / "victim.json"), "keep");
+  EXPECT_EQ(read_file(outside_ / "victim.json"), "keep");
 }
 
 // Issue 45: a temporary is insid's by its mark, never by its name alone.
@@ -213,9 +209,9 @@ TEST_F(OutputDir, ATemporaryIsRecognisedByItsMarkNotItsName) {
   EXPECT_FALSE(fs::exists(killed_file));
   EXPECT_FALSE(fs::exists(killed_dir));
   EXPECT_FALSE(fs::exists(finished));
-  EXPECT_EQ(text(out / "photos.tmp-laptop-12-3" / "img1.jpg"), "jpeg");
-  EXPECT_EQ(text(out / "list.tmp-h-1-2"), "mine");
-  EXPECT_EQ(text(out / "old.old-h-4-5" / "a.txt"), "mine");
+  EXPECT_EQ(read_file(out / "photos.tmp-laptop-12-3" / "img1.jpg"), "jpeg");
+  EXPECT_EQ(read_file(out / "list.tmp-h-1-2"), "mine");
+  EXPECT_EQ(read_file(out / "old.old-h-4-5" / "a.txt"), "mine");
 
   // remove_own_files: the same rule, and a temporary directory loses only insid's files.
   fs::create_directories(killed_dir);
@@ -230,7 +226,7 @@ TEST_F(OutputDir, ATemporaryIsRecognisedByItsMarkNotItsName) {
   std::sort(sorted_expected.begin(), sorted_expected.end());
   EXPECT_EQ(kept, sorted_expected);
   EXPECT_FALSE(fs::exists(killed_dir / "imu.csv"));
-  EXPECT_EQ(text(killed_dir / "notes.txt"), "mine");
+  EXPECT_EQ(read_file(killed_dir / "notes.txt"), "mine");
 }
 
 // Issue 45: a rerun removes what a killed process of this host left beside its target (a

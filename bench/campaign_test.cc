@@ -23,10 +23,15 @@
 #include "identification/ekf_rts.h"
 #include "identification/identify.h"
 #include "model/units.h"
+#include "test_support/files.h"
 
 namespace insid::campaign {
 namespace {
 namespace fs = std::filesystem;
+
+using test::fresh_dir;
+using test::read_file;
+using test::read_json;
 
 const char* kConfig = R"({
   "name": "test-small",
@@ -37,27 +42,6 @@ const char* kConfig = R"({
   "seeds": 4,
   "max_iterations": 5
 })";
-
-fs::path fresh_dir(const std::string& name) {
-  const fs::path dir =
-      fs::temp_directory_path() / ("insid-campaign-test-" + name + "-" + std::to_string(getpid()));
-  fs::remove_all(dir);
-  return dir;
-}
-
-nlohmann::json read(const fs::path& p) {
-  std::ifstream in(p);
-  nlohmann::json j;
-  in >> j;
-  return j;
-}
-
-std::string bytes(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 // Every field results/README.md documents as required, with its JSON type.
 void expect_fields(const nlohmann::json& j, const std::vector<std::pair<std::string, char>>& fields,
@@ -113,7 +97,7 @@ TEST(Campaign, FilesFollowTheDocumentedSchema) {
   const CampaignOutcome outcome = run_campaign(config, options);
   ASSERT_TRUE(outcome.complete);
   EXPECT_EQ(outcome.total_runs, 8);
-  const nlohmann::json manifest = read(dir / "manifest.json");
+  const nlohmann::json manifest = read_json(dir / "manifest.json");
   EXPECT_EQ(manifest["schema"], "insid-campaign/1");
   expect_fields(manifest,
                 {{"/build/git_revision", 's'},
@@ -128,7 +112,7 @@ TEST(Campaign, FilesFollowTheDocumentedSchema) {
                  {"/config/alignment", 's'},
                  {"/config/estimate", 'a'}},
                 "manifest");
-  const nlohmann::json run = read(run_file(dir.string(), "rich-short", "DVPIO", 2));
+  const nlohmann::json run = read_json(run_file(dir.string(), "rich-short", "DVPIO", 2));
   EXPECT_EQ(run["schema"], "insid-run/3");
   // issue 15: parameters with sd and flags, correlation and the uncertainty's own cost
   expect_fields(run,
@@ -175,7 +159,7 @@ TEST(Campaign, FilesFollowTheDocumentedSchema) {
                 "history");
   EXPECT_EQ(run["result"]["best_per_evaluation"].size(),
             run["result"]["evaluations"].get<std::size_t>());
-  const nlohmann::json summary = read(dir / "summary.json");
+  const nlohmann::json summary = read_json(dir / "summary.json");
   EXPECT_EQ(summary["schema"], "insid-summary/1");
   const std::string a = "/scenarios/rich-short/algorithms/PSO";
   expect_fields(summary,
@@ -233,13 +217,13 @@ TEST(Campaign, RunFilesOfTheOldSchemaStillResume) {
   options.quiet = true;
   ASSERT_TRUE(run_campaign(small_config(), options).complete);
   const fs::path file = run_file(dir.string(), "rich-short", "PSO", 1);
-  nlohmann::json run = read(file);
+  nlohmann::json run = read_json(file);
   ASSERT_EQ(run["schema"], "insid-run/3");
   run["schema"] = "insid-run/1";
   run["estimate_sigma"] = run["estimate_in_sigma_units"];
   run.erase("estimate_in_sigma_units");
   std::ofstream(file) << run.dump(1);
-  const std::string old_bytes = bytes(file);
+  const std::string old_bytes = read_file(file);
   // THEN it is kept: not redone, not rewritten, and the summary is written again
   fs::remove(dir / "summary.json");
   const CampaignOutcome outcome = run_campaign(small_config(), options);
@@ -247,21 +231,21 @@ TEST(Campaign, RunFilesOfTheOldSchemaStillResume) {
   EXPECT_EQ(outcome.new_runs, 0);
   EXPECT_TRUE(outcome.complete);
   EXPECT_TRUE(fs::exists(dir / "summary.json"));
-  EXPECT_EQ(bytes(file), old_bytes);
+  EXPECT_EQ(read_file(file), old_bytes);
   // ...but a schema that is neither is redone
   run["schema"] = "insid-run/0";
   std::ofstream(file) << run.dump(1);
   const CampaignOutcome redo = run_campaign(small_config(), options);
   EXPECT_EQ(redo.new_runs, 1);
-  EXPECT_EQ(read(file)["schema"], "insid-run/3");
+  EXPECT_EQ(read_json(file)["schema"], "insid-run/3");
   // ...and an insid-run/2 record (parameters listed by name, no sd) is kept as well
-  nlohmann::json previous = read(file);
+  nlohmann::json previous = read_json(file);
   previous["schema"] = "insid-run/2";
   previous["parameters"] = {"accel_bias_x", "accel_bias_y", "gyro_bias_x", "gyro_bias_y"};
   std::ofstream(file) << previous.dump(1);
-  const std::string previous_bytes = bytes(file);
+  const std::string previous_bytes = read_file(file);
   EXPECT_EQ(run_campaign(small_config(), options).new_runs, 0);
-  EXPECT_EQ(bytes(file), previous_bytes);
+  EXPECT_EQ(read_file(file), previous_bytes);
   fs::remove_all(dir);
 }
 
@@ -273,7 +257,7 @@ TEST(Campaign, ManifestWithoutANewDefaultParameterStillResumes) {
   options.quiet = true;
   options.max_new_runs = 2;
   run_campaign(small_config(), options);
-  nlohmann::json manifest = read(dir / "manifest.json");
+  nlohmann::json manifest = read_json(dir / "manifest.json");
   nlohmann::json& dvpio = manifest["config"]["algorithms"][1];
   ASSERT_EQ(dvpio["name"], "dvpio");
   ASSERT_EQ(dvpio["parameters"].erase("shrink_without_gain"), 1u);
@@ -333,7 +317,7 @@ TEST(Campaign, KilledCampaignResumesWithoutTouchingFinishedRuns) {
   std::map<fs::path, std::pair<std::string, fs::file_time_type>> before;
   for (const auto& e : fs::recursive_directory_iterator(runs))
     if (e.path().extension() == ".json")
-      before[e.path()] = {bytes(e.path()), fs::last_write_time(e.path())};
+      before[e.path()] = {read_file(e.path()), fs::last_write_time(e.path())};
 
   // WHEN the same campaign is run again on the directory
   RunOptions options;
@@ -348,7 +332,7 @@ TEST(Campaign, KilledCampaignResumesWithoutTouchingFinishedRuns) {
   EXPECT_EQ(resumed.skipped_runs, finished_before);
   EXPECT_EQ(resumed.new_runs, kKillRuns - finished_before);
   for (const auto& [path, old] : before) {
-    EXPECT_EQ(bytes(path), old.first) << path;
+    EXPECT_EQ(read_file(path), old.first) << path;
     EXPECT_EQ(fs::last_write_time(path), old.second) << path;
   }
   RunOptions ref_options;
@@ -358,8 +342,8 @@ TEST(Campaign, KilledCampaignResumesWithoutTouchingFinishedRuns) {
   ASSERT_TRUE(run_campaign(config, ref_options).complete);
   for (const char* label : {"PSO", "DVPIO", "GA", "PIO"})
     for (std::uint64_t seed = 1; seed <= 6; ++seed) {
-      nlohmann::json a = read(run_file(dir.string(), "rich-short", label, seed));
-      nlohmann::json b = read(run_file(ref.string(), "rich-short", label, seed));
+      nlohmann::json a = read_json(run_file(dir.string(), "rich-short", label, seed));
+      nlohmann::json b = read_json(run_file(ref.string(), "rich-short", label, seed));
       a["result"].erase("wall_s");
       if (a.contains("uncertainty")) a["uncertainty"].erase("wall_s");  // timing
       b["result"].erase("wall_s");
@@ -601,12 +585,12 @@ TEST(Campaign, SweepWritesPerSettingStatistics) {
   options.out_dir = dir.string();
   options.quiet = true;
   ASSERT_TRUE(run_sweep(sweep, options).complete);
-  const nlohmann::json s = read(dir / "sweep.json");
+  const nlohmann::json s = read_json(dir / "sweep.json");
   EXPECT_EQ(s["schema"], "insid-sweep/1");
   ASSERT_EQ(s["settings"].size(), 2u);
   EXPECT_DOUBLE_EQ(s["settings"][1]["parameters"]["R"].get<double>(), 0.2);
   // d0_sigma = 0.05 sigma is 0.0125 in the normalised [-4, 4] sigma box.
-  const nlohmann::json manifest = read(dir / "manifest.json");
+  const nlohmann::json manifest = read_json(dir / "manifest.json");
   EXPECT_DOUBLE_EQ(manifest["config"]["algorithms"][0]["parameters"]["d_initial"].get<double>(),
                    0.0125);
   const double lo = s["settings"][0]["median_ci95"][0], hi = s["settings"][0]["median_ci95"][1];
@@ -644,8 +628,8 @@ TEST(Campaign, RunFileAndIdentifyRecordTheSameAssessment) {
                          " 2>/dev/null")
                             .c_str()),
             0);
-  const nlohmann::json run = read(run_file(options.out_dir, "data", "DVPIO", 2));
-  const nlohmann::json id = read(identified);
+  const nlohmann::json run = read_json(run_file(options.out_dir, "data", "DVPIO", 2));
+  const nlohmann::json id = read_json(identified);
   // THEN both carry every assessment field (results/README.md), with the same values
   for (const char* key :
        {"estimate", "estimate_in_sigma_units", "truth_sigma", "error_sigma",
@@ -683,7 +667,7 @@ TEST(Campaign, IdentifyAndACampaignOnOneFlightShareDefaultSetAndGyroBiasAllowanc
                          identified.string() + " 2>/dev/null")
                             .c_str()),
             0);
-  const nlohmann::json id = read(identified);
+  const nlohmann::json id = read_json(identified);
   CampaignConfig config =
       parse_campaign({{"name", "same-flight"},
                       {"scenarios", {{{"name", "data"}, {"data", data.string()}}}},
@@ -791,10 +775,10 @@ TEST(Campaign, MemsCampaignRunsWithLevelHeadingAndAWindow) {
   EXPECT_NEAR(mems.navigation_options().initial_attitude.gyro_bias_allowance_rad_s, 4 * 0.001745,
               1e-12);
   ASSERT_TRUE(run_campaign(mems, options).complete);
-  const nlohmann::json manifest = read(dir / "manifest.json");
+  const nlohmann::json manifest = read_json(dir / "manifest.json");
   EXPECT_EQ(manifest["config"]["initial_attitude"], "level+heading");
   EXPECT_EQ(manifest["config"]["window_s"], 10.0);
-  const nlohmann::json run = read(run_file(dir.string(), "rich-mems", "PSO", 1));
+  const nlohmann::json run = read_json(run_file(dir.string(), "rich-mems", "PSO", 1));
   EXPECT_EQ(run["initial_attitude"], "level+heading");
   EXPECT_EQ(run["window_s"], 10.0);
   EXPECT_TRUE(std::isfinite(run["result"]["fitness"].get<double>()));
@@ -895,9 +879,9 @@ TEST(Campaign, EstimationGradeSetsTheParametersAndIsRecorded) {
   options.out_dir = dir.string();
   options.quiet = true;
   ASSERT_TRUE(run_campaign(mems, options).complete);
-  EXPECT_EQ(read(dir / "manifest.json")["config"]["estimation_grade"], "mems");
-  EXPECT_EQ(read(dir / "manifest.json")["config"]["estimate"].size(), 5u);
-  const nlohmann::json run = read(run_file(dir.string(), "rich-mems", "PSO", 1));
+  EXPECT_EQ(read_json(dir / "manifest.json")["config"]["estimation_grade"], "mems");
+  EXPECT_EQ(read_json(dir / "manifest.json")["config"]["estimate"].size(), 5u);
+  const nlohmann::json run = read_json(run_file(dir.string(), "rich-mems", "PSO", 1));
   EXPECT_EQ(run["estimation_grade"], "mems");
   ASSERT_EQ(run["parameters"].size(), 5u);
   EXPECT_EQ(run["parameters"][4]["name"], "gyro_bias_z");

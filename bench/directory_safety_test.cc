@@ -18,10 +18,14 @@
 #include "bench/campaign.h"
 #include "data/dataset.h"
 #include "scenarios/scenario.h"
+#include "test_support/files.h"
 
 namespace insid::campaign {
 namespace {
 namespace fs = std::filesystem;
+
+using test::fresh_dir;
+using test::read_file;
 
 const char* kConfig = R"({
   "name": "safety",
@@ -33,20 +37,6 @@ const char* kConfig = R"({
 })";
 
 CampaignConfig config() { return parse_campaign(nlohmann::json::parse(kConfig), "test"); }
-
-fs::path fresh_dir(const std::string& name) {
-  const fs::path dir =
-      fs::temp_directory_path() / ("insid-safety-test-" + name + "-" + std::to_string(getpid()));
-  fs::remove_all(dir);
-  return dir;
-}
-
-std::string text(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 RunOptions options_for(const fs::path& dir) {
   RunOptions options;
@@ -76,7 +66,7 @@ TEST(DirectorySafety, ForeignDirectoryIsRefusedAndKeptUnlessForce) {
   RunOptions force = options_for(dir);
   force.into_foreign_directory = true;
   EXPECT_TRUE(run_campaign(config(), force).complete);
-  EXPECT_EQ(text(dir / "src" / "code.c"), "int main;");
+  EXPECT_EQ(read_file(dir / "src" / "code.c"), "int main;");
   // Now a campaign directory: the same campaign resumes without --force.
   EXPECT_TRUE(run_campaign(config(), options_for(dir)).complete);
   fs::remove_all(dir);
@@ -105,7 +95,7 @@ TEST(DirectorySafety, ConfigNamesThatAreNotPlainNamesAreRefusedBeforeAnyWrite) {
 TEST(DirectorySafety, AnotherCampaignCannotStartWhileOneRuns) {
   const fs::path dir = fresh_dir("lock");
   ASSERT_TRUE(run_campaign(config(), options_for(dir)).complete);
-  const std::string run_bytes = text(run_file(dir.string(), "short", "PSO", 1));
+  const std::string run_bytes = read_file(run_file(dir.string(), "short", "PSO", 1));
   // A campaign running there holds the run lock shared (as run_campaign does).
   FileLock running(dir / FileLock::kRunLockName);
   ASSERT_TRUE(running.try_lock(FileLock::Mode::kShared));
@@ -115,7 +105,7 @@ TEST(DirectorySafety, AnotherCampaignCannotStartWhileOneRuns) {
   force_new.force_new = true;
   const std::string error = error_of(other, force_new);
   EXPECT_NE(error.find("is in use by another insid process"), std::string::npos) << error;
-  EXPECT_EQ(text(run_file(dir.string(), "short", "PSO", 1)), run_bytes);
+  EXPECT_EQ(read_file(run_file(dir.string(), "short", "PSO", 1)), run_bytes);
   // A shard of the same campaign may join (shards of one campaign share the directory); a
   // plain run, which would do every run again, may not.
   const std::string plain_error = error_of(config(), options_for(dir));
@@ -167,7 +157,7 @@ pid_t start_long_bench(const fs::path& dir, const fs::path& config_path, const s
   const fs::path lock = dir / FileLock::kRunLockName;
   const std::string holder_line = "pid " + std::to_string(holder) + " on ";
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
-  while (text(lock).find(holder_line) == std::string::npos &&
+  while (read_file(lock).find(holder_line) == std::string::npos &&
          std::chrono::steady_clock::now() < deadline)
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   return holder;
@@ -182,7 +172,7 @@ TEST(DirectorySafety, SecondPlainRunIsRefusedNamingTheHolderUntilTheHolderIsKill
   ASSERT_GT(holder, 0);
   const fs::path lock = dir / FileLock::kRunLockName;
   const std::string holder_line = "pid " + std::to_string(holder) + " on ";
-  ASSERT_NE(text(lock).find(holder_line), std::string::npos) << text(lock);
+  ASSERT_NE(read_file(lock).find(holder_line), std::string::npos) << read_file(lock);
 
   // WHEN a second plain run, and a shard, try the same directory, THEN both are refused, the
   // message naming the holder: pid, host, since when, what it does
@@ -201,14 +191,14 @@ TEST(DirectorySafety, SecondPlainRunIsRefusedNamingTheHolderUntilTheHolderIsKill
   kill(holder, SIGKILL);
   int status = 0;
   waitpid(holder, &status, 0);
-  ASSERT_NE(text(lock).find(holder_line), std::string::npos);
+  ASSERT_NE(read_file(lock).find(holder_line), std::string::npos);
   RunOptions next = options_for(dir);
   next.max_new_runs = 1;
   const CampaignOutcome outcome = run_campaign(long_config, next);
   EXPECT_EQ(outcome.new_runs, 1);
-  EXPECT_EQ(text(lock).find(holder_line), std::string::npos) << text(lock);
-  EXPECT_NE(text(lock).find("pid " + std::to_string(getpid()) + " on "), std::string::npos)
-      << text(lock);
+  EXPECT_EQ(read_file(lock).find(holder_line), std::string::npos) << read_file(lock);
+  EXPECT_NE(read_file(lock).find("pid " + std::to_string(getpid()) + " on "), std::string::npos)
+      << read_file(lock);
   fs::remove_all(dir);
   fs::remove(config_path);
 }
@@ -222,7 +212,7 @@ TEST(DirectorySafety, ShardRunsOnceAtATimeAndJoinsOnlyShardsOfItsSplit) {
   ASSERT_GT(holder, 0);
   const fs::path lock = dir / FileLock::kRunLockName;
   const std::string holder_line = "pid " + std::to_string(holder) + " on ";
-  ASSERT_NE(text(lock).find(holder_line), std::string::npos) << text(lock);
+  ASSERT_NE(read_file(lock).find(holder_line), std::string::npos) << read_file(lock);
 
   // WHEN the same shard starts again, THEN it is refused naming the running one
   RunOptions same = options_for(dir);
@@ -261,7 +251,7 @@ TEST(DirectorySafety, RerunRemovesTemporariesLeftByAKill) {
                                            dir / "summary.json.tmp-node-17-3"};
   // A killed write leaves its temporary marked as insid's (base/output_dir.h) and half-written.
   for (const fs::path& p : leftovers) {
-    std::ofstream(p) << text(run).substr(0, 10);
+    std::ofstream(p) << read_file(run).substr(0, 10);
     if (!mark_as_temporary(p)) GTEST_SKIP() << "no user extended attributes: nothing is marked";
   }
   const fs::path users = dir / "runs" / "short" / "PSO" / "notes.tmp-list";  // not insid's pattern
@@ -272,7 +262,7 @@ TEST(DirectorySafety, RerunRemovesTemporariesLeftByAKill) {
   ASSERT_TRUE(run_campaign(config(), options_for(dir)).complete);
   for (const fs::path& p : leftovers) EXPECT_FALSE(fs::exists(p)) << p;
   EXPECT_TRUE(fs::exists(users));
-  EXPECT_EQ(text(look_alike), "mine too");
+  EXPECT_EQ(read_file(look_alike), "mine too");
   EXPECT_TRUE(fs::exists(run));
   fs::remove_all(dir);
 }
@@ -303,7 +293,7 @@ TEST(DirectorySafety, DamagedRunFileIsNamedAndRedone) {
   const fs::path dir = fresh_dir("damaged-run");
   ASSERT_TRUE(run_campaign(config(), options_for(dir)).complete);
   const fs::path run = run_file(dir.string(), "short", "PSO", 1);
-  nlohmann::json record = nlohmann::json::parse(text(run));
+  nlohmann::json record = nlohmann::json::parse(read_file(run));
   const double fitness = record["result"]["fitness"].get<double>();
   record["result"]["fitness"] = "0.5";  // a string where a number was written
   std::ofstream(run) << record.dump(1);
@@ -326,7 +316,7 @@ TEST(DirectorySafety, DamagedRunFileIsNamedAndRedone) {
   EXPECT_TRUE(again.complete);
   EXPECT_EQ(again.new_runs, 1);
   EXPECT_EQ(run_file_problem(run, "short", "PSO", 1), "");
-  EXPECT_EQ(nlohmann::json::parse(text(run))["result"]["fitness"].get<double>(), fitness);
+  EXPECT_EQ(nlohmann::json::parse(read_file(run))["result"]["fitness"].get<double>(), fitness);
   fs::remove_all(dir);
 }
 

@@ -19,8 +19,16 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "test_support/files.h"
+#include "test_support/process.h"
+
 namespace {
 namespace fs = std::filesystem;
+
+using insid::test::contains;
+using insid::test::fresh_dir;
+using insid::test::read_file;
+using insid::test::shell;
 
 // Two scenarios (so that MPI units of both are in flight and one rank waits for the other's
 // optimum), three algorithms, three seeds: 18 runs, a few seconds on one core.
@@ -39,11 +47,8 @@ constexpr int kRuns = 18;
 class Distributed : public ::testing::Test {
  protected:
   void SetUp() override {
-    root_ = fs::temp_directory_path() /
-            ("insid-distributed-test-" +
-             std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()) + "-" +
-             std::to_string(getpid()));
-    fs::remove_all(root_);
+    root_ = fresh_dir("distributed-test-" +
+                      std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
     fs::create_directories(root_);
     config_ = root_ / "campaign.json";
     std::ofstream(config_) << kConfig;
@@ -60,25 +65,6 @@ class Distributed : public ::testing::Test {
 
   fs::path root_, config_;
 };
-
-// Run a shell command; its exit status, with stdout and stderr in `output`.
-int shell(const std::string& command, std::string* output = nullptr) {
-  FILE* pipe = popen((command + " 2>&1").c_str(), "r");
-  if (pipe == nullptr) return -1;
-  std::string text;
-  char buffer[4096];
-  while (std::fgets(buffer, sizeof(buffer), pipe) != nullptr) text += buffer;
-  const int status = pclose(pipe);
-  if (output != nullptr) *output = text;
-  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-}
-
-std::string bytes(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 // Remove every "wall_s" key (the only fields that depend on timing) at any depth.
 void drop_wall_times(nlohmann::json& j) {
@@ -97,7 +83,7 @@ std::map<std::string, nlohmann::json> run_files(const fs::path& dir) {
   if (!fs::exists(dir / "runs", ec)) return files;
   for (const auto& e : fs::recursive_directory_iterator(dir / "runs"))
     if (e.path().extension() == ".json") {
-      nlohmann::json j = nlohmann::json::parse(bytes(e.path()));
+      nlohmann::json j = nlohmann::json::parse(read_file(e.path()));
       drop_wall_times(j);
       files[fs::relative(e.path(), dir).string()] = j;
     }
@@ -105,7 +91,7 @@ std::map<std::string, nlohmann::json> run_files(const fs::path& dir) {
 }
 
 nlohmann::json summary_without_wall_times(const fs::path& dir) {
-  nlohmann::json j = nlohmann::json::parse(bytes(dir / "summary.json"));
+  nlohmann::json j = nlohmann::json::parse(read_file(dir / "summary.json"));
   drop_wall_times(j);
   return j;
 }
@@ -122,14 +108,10 @@ void expect_same_results(const fs::path& dir, const fs::path& ref) {
   }
   for (const char* scenario : {"a", "b"}) {
     const fs::path optimum = fs::path("optimum") / (std::string(scenario) + ".json");
-    EXPECT_EQ(bytes(dir / optimum), bytes(ref / optimum)) << optimum;
+    EXPECT_EQ(read_file(dir / optimum), read_file(ref / optimum)) << optimum;
   }
   ASSERT_TRUE(fs::exists(dir / "summary.json"));
   EXPECT_EQ(summary_without_wall_times(dir), summary_without_wall_times(ref));
-}
-
-bool contains(const std::string& text, const std::string& part) {
-  return text.find(part) != std::string::npos;
 }
 
 TEST_F(Distributed, ThreeShardsThenMergeEqualOneProcess) {
@@ -205,13 +187,14 @@ TEST_F(Distributed, ShardedSweepMergesIntoSweepTables) {
   EXPECT_TRUE(contains(out, "shard 2/2")) << out;
   ASSERT_EQ(shell(sweep + " --shard 2/2", &out), 0) << out;
   ASSERT_TRUE(fs::exists(dir / "sweep.json")) << out;
-  const std::string sweep_json = bytes(dir / "sweep.json"), sweep_csv = bytes(dir / "sweep.csv");
+  const std::string sweep_json = read_file(dir / "sweep.json"),
+                    sweep_csv = read_file(dir / "sweep.csv");
   fs::remove(dir / "sweep.json");
   fs::remove(dir / "sweep.csv");
   fs::remove(dir / "summary.json");
   ASSERT_EQ(shell(std::string(INSID_BINARY) + " merge " + dir.string(), &out), 0) << out;
-  EXPECT_EQ(bytes(dir / "sweep.json"), sweep_json);
-  EXPECT_EQ(bytes(dir / "sweep.csv"), sweep_csv);
+  EXPECT_EQ(read_file(dir / "sweep.json"), sweep_json);
+  EXPECT_EQ(read_file(dir / "sweep.csv"), sweep_csv);
   EXPECT_TRUE(fs::exists(dir / "summary.json"));
 }
 
@@ -239,7 +222,7 @@ TEST_F(Distributed, MpiTwoAndThreeRanksEqualOneProcess) {
     EXPECT_FALSE(per_rank.starts_with("0 ") || contains(per_rank, " 0 ") ||
                  per_rank.ends_with(" 0"))
         << "a rank did no run: " << per_rank;
-    const nlohmann::json manifest = nlohmann::json::parse(bytes(dir / "manifest.json"));
+    const nlohmann::json manifest = nlohmann::json::parse(read_file(dir / "manifest.json"));
     EXPECT_EQ(manifest.value("mpi_ranks", 0), ranks);
     expect_same_results(dir, ref);
   }
@@ -294,7 +277,7 @@ TEST_F(Distributed, MpiKilledRankResumesWithoutTouchingFinishedRuns) {
   std::map<fs::path, std::pair<std::string, fs::file_time_type>> before;
   for (const auto& e : fs::recursive_directory_iterator(dir / "runs"))
     if (e.path().extension() == ".json")
-      before[e.path()] = {bytes(e.path()), fs::last_write_time(e.path())};
+      before[e.path()] = {read_file(e.path()), fs::last_write_time(e.path())};
 
   // WHEN the same launch is run again
   std::string out;
@@ -306,7 +289,7 @@ TEST_F(Distributed, MpiKilledRankResumesWithoutTouchingFinishedRuns) {
       << out;
   EXPECT_TRUE(contains(out, ", " + std::to_string(finished_before) + " already done")) << out;
   for (const auto& [path, old] : before) {
-    EXPECT_EQ(bytes(path), old.first) << path;
+    EXPECT_EQ(read_file(path), old.first) << path;
     EXPECT_EQ(fs::last_write_time(path), old.second) << path;
   }
   ASSERT_EQ(shell(bench(ref)), 0);

@@ -15,36 +15,22 @@
 
 #include "bench/campaign.h"
 #include "identification/ins_problem.h"
+#include "test_support/files.h"
+#include "test_support/process.h"
 
 namespace insid::campaign {
 namespace {
 namespace fs = std::filesystem;
 
+using test::fresh_dir;
+using test::python_with_numpy;
+using test::read_json;
+using test::run_command;
+
 const std::string kPython = "/usr/bin/python3";
 const std::string kSource = INSID_SOURCE_DIR;
 const std::string kClient = kSource + "/scripts/external_random_search.py";
 const std::string kTestClient = kSource + "/optimizers/testdata/external_test_client.py";
-
-std::string run_command(const std::string& command) {
-  std::string out;
-  FILE* pipe = ::popen(command.c_str(), "r");
-  if (pipe == nullptr) return out;
-  char buffer[4096];
-  for (std::size_t n; (n = std::fread(buffer, 1, sizeof(buffer), pipe)) > 0;) out.append(buffer, n);
-  ::pclose(pipe);
-  return out;
-}
-
-bool python_with_numpy() {
-  return run_command(kPython + " -c 'import numpy; print(1)' 2>/dev/null") == "1\n";
-}
-
-nlohmann::json read(const fs::path& p) {
-  std::ifstream in(p);
-  nlohmann::json j;
-  in >> j;
-  return j;
-}
 
 nlohmann::json config_json(bool with_crash) {
   nlohmann::json algorithms = {
@@ -64,13 +50,6 @@ nlohmann::json config_json(bool with_crash) {
           {"seeds", 2},
           {"max_iterations", 0},
           {"max_evaluations", 25}};
-}
-
-fs::path fresh_dir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() /
-                       ("insid-external-campaign-" + name + "-" + std::to_string(getpid()));
-  fs::remove_all(dir);
-  return dir;
 }
 
 // numpy's default_rng(seed): `count` uniform points in [-1, 1]^n drawn at once.
@@ -117,8 +96,8 @@ TEST(ExternalCampaign, PythonRandomSearchEqualsDirectComputationFor1And2Threads)
     double best = std::numeric_limits<double>::infinity();
     for (double fi : f) best_per_evaluation.push_back(best = std::min(best, fi));
 
-    nlohmann::json one = read(run_file(dirs[1].string(), "rich-short", "RS-py", seed));
-    nlohmann::json two = read(run_file(dirs[2].string(), "rich-short", "RS-py", seed));
+    nlohmann::json one = read_json(run_file(dirs[1].string(), "rich-short", "RS-py", seed));
+    nlohmann::json two = read_json(run_file(dirs[2].string(), "rich-short", "RS-py", seed));
     EXPECT_EQ(one["result"]["best_per_evaluation"].get<std::vector<double>>(), best_per_evaluation)
         << "seed " << seed;
     EXPECT_EQ(one["result"]["fitness"].get<double>(), best);

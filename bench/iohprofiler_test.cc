@@ -13,10 +13,14 @@
 #include <nlohmann/json.hpp>
 
 #include "bench/campaign.h"
+#include "test_support/files.h"
 
 namespace insid::campaign {
 namespace {
 namespace fs = std::filesystem;
+
+using test::fresh_dir;
+using test::read_json;
 
 const char* kConfig = R"({
   "name": "test-ioh",
@@ -29,20 +33,6 @@ const char* kConfig = R"({
   "seeds": [3, 1],
   "max_iterations": 6
 })";
-
-fs::path fresh_dir(const std::string& name) {
-  const fs::path dir =
-      fs::temp_directory_path() / ("insid-ioh-test-" + name + "-" + std::to_string(getpid()));
-  fs::remove_all(dir);
-  return dir;
-}
-
-nlohmann::json read_json(const fs::path& p) {
-  std::ifstream in(p);
-  nlohmann::json j;
-  in >> j;
-  return j;
-}
 
 std::vector<std::string> lines_of(const fs::path& p) {
   std::ifstream in(p);

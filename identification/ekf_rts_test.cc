@@ -15,18 +15,11 @@
 #include "identification/ins_problem.h"
 #include "optimizers/registry.h"
 #include "scenarios/scenario.h"
+#include "test_support/test_support.h"
 
 namespace insid {
 namespace {
-
-std::shared_ptr<const Dataset> simulate_preset(const std::string& preset, double flight_s,
-                                               const std::string& grade, std::uint64_t seed) {
-  scenarios::ScenarioConfig cfg = scenarios::preset_scenario(preset);
-  cfg.flight_s = flight_s;
-  cfg.noise = scenarios::noise_grade(grade);
-  cfg.seed = seed;
-  return std::make_shared<const Dataset>(scenarios::simulate(cfg));
-}
+using test::simulate_preset;
 
 // Counting decorator around the INS problem: every fitness or residual evaluation (one full
 // INS run each).

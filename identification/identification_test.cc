@@ -16,6 +16,7 @@
 #include "identification/ins_problem.h"
 #include "identification/local_fit.h"
 #include "optimizers/registry.h"
+#include "test_support/files.h"
 #include "test_support/test_support.h"
 
 namespace insid {
@@ -23,7 +24,8 @@ namespace {
 
 constexpr double kLat = 40.068 * kDegToRad;
 
-using testing::paper_errors;
+using test::fresh_dir;
+using test::paper_errors;
 
 // Static data whose biases switch on after the alignment window, navigated with a fixed
 // (recorded-data) alignment: the attitude is then the true one and all four biases show in the
@@ -31,8 +33,8 @@ using testing::paper_errors;
 // gyrocompassing would absorb accel_bias_x/y and the east gyro bias on static data.)
 std::shared_ptr<const NavigationProblem> static_problem() {
   static const auto nav = [] {
-    Dataset ds = testing::make_static_dataset(EarthModel::paper(kLat, 50.0), kLat, 2.0, 50.0,
-                                              {0.0, 0.0, 0.7}, 1800.0, 600.0);
+    Dataset ds = test::make_static_dataset(EarthModel::paper(kLat, 50.0), kLat, 2.0, 50.0,
+                                           {0.0, 0.0, 0.7}, 1800.0, 600.0);
     const SensorErrors errors = paper_errors();
     for (ImuSample& s : ds.imu)
       if (s.t_s > 600.0 + 1e-9) apply_imu_errors(errors, 0.0, 0.01, s.dtheta_b_rad, s.dv_b_mps);
@@ -201,8 +203,8 @@ TEST(Identification, LocalFitOptionsAreValidatedBeforeAnyRunNamingTheBadValue) {
 // Static data with biases `scale` x the paper's after the alignment window, in `dir`.
 std::shared_ptr<const NavigationProblem> write_static_data(const std::filesystem::path& dir,
                                                            double scale) {
-  Dataset ds = testing::make_static_dataset(EarthModel::paper(kLat, 50.0), kLat, 2.0, 50.0,
-                                            {0.0, 0.0, 0.7}, 900.0, 300.0);
+  Dataset ds = test::make_static_dataset(EarthModel::paper(kLat, 50.0), kLat, 2.0, 50.0,
+                                         {0.0, 0.0, 0.7}, 900.0, 300.0);
   SensorErrors errors = paper_errors();
   errors.gyro.bias *= scale;
   errors.accel.bias *= scale;
@@ -216,9 +218,7 @@ std::shared_ptr<const NavigationProblem> write_static_data(const std::filesystem
 // Issue 16: the campaign finds the optimum with its starts on several threads; the optimum must
 // not depend on how many (start points drawn in order, best taken in start order).
 TEST(Identification, ReferenceOptimumIsTheSameForAnyThreadCount) {
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
-                                    ("insid-optimum-threads-" + std::to_string(getpid()));
-  std::filesystem::remove_all(dir);
+  const std::filesystem::path dir = fresh_dir("optimum-threads");
   const ParameterMapping mapping(EstimatedParameter::paper_four());
   const InsIdentificationProblem problem(write_static_data(dir, 1.0), mapping);
   const ReferenceOptimum one = find_reference_optimum(problem, 4, kReferenceOptimumSeed, 1);
@@ -237,9 +237,7 @@ TEST(Identification, ReferenceOptimumIsTheSameForAnyThreadCount) {
 }
 
 TEST(Identification, OptimumCacheFollowsTheDataNotTheDirectory) {
-  const std::filesystem::path dir =
-      std::filesystem::temp_directory_path() / ("insid-cache-test-" + std::to_string(getpid()));
-  std::filesystem::remove_all(dir);
+  const std::filesystem::path dir = fresh_dir("cache-test");
   const ParameterMapping mapping(EstimatedParameter::paper_four());
   const InsIdentificationProblem first(write_static_data(dir, 1.0), mapping);
   const ReferenceOptimum a = cached_reference_optimum(dir.string(), first);

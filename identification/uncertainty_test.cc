@@ -19,9 +19,11 @@
 #include "identification/uncertainty.h"
 #include "optimizers/registry.h"
 #include "scenarios/scenario.h"
+#include "test_support/test_support.h"
 
 namespace insid {
 namespace {
+using test::simulate_preset;
 
 constexpr double kZ95 = 1.959963984540054;
 // The short flight of the coverage test: long enough that the box [-4, 4] sigma does not
@@ -31,15 +33,6 @@ constexpr double kCoverageFlightS = 300.0;
 // The long flight of the flag test: the `paper` preset cut to one hour (the full 2.6 h flight
 // takes minutes here; identification/README.md gives the measured times).
 constexpr double kLongFlightS = 3600.0;
-
-std::shared_ptr<const Dataset> simulate_preset(const std::string& preset, double flight_s,
-                                               const std::string& grade, std::uint64_t seed) {
-  scenarios::ScenarioConfig cfg = scenarios::preset_scenario(preset);
-  cfg.flight_s = flight_s;
-  cfg.noise = scenarios::noise_grade(grade);
-  cfg.seed = seed;
-  return std::make_shared<const Dataset>(scenarios::simulate(cfg));
-}
 
 struct Trial {
   Eigen::VectorXd truth_sigma, estimate_sigma;

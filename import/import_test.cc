@@ -31,11 +31,14 @@
 #include "model/rotation.h"
 #include "nav/fitness.h"
 #include "scenarios/scenario.h"
+#include "test_support/files.h"
 #include "test_support/test_support.h"
 
 namespace insid::importers {
 namespace {
 namespace fs = std::filesystem;
+
+using test::read_file;
 
 // The `straight` preset (nav grade, 100 Hz IMU, 10 Hz GNSS) as an insid-dataset/2 on WGS-84,
 // what an import produces: the reference flight of the round-trip and refusal tests.
@@ -741,7 +744,7 @@ TEST(CsvImport, JitteredFlightRoundTripThroughAMappedCsvAndAPos) {
   cfg.noise.gm_gyro_sigma_deg_h = cfg.noise.gm_accel_sigma_mps2 = 0.0;
   const Dataset fine = scenarios::simulate(cfg);
   std::vector<std::size_t> last;
-  Dataset jittered = insid::testing::jittered_rows(fine, 7, 13, 31, 100.0, &last);
+  Dataset jittered = insid::test::jittered_rows(fine, 7, 13, 31, 100.0, &last);
   jittered.meta.earth = EarthModel::wgs84();
   Rates at_stamp;
   const double dt_fine = 1e-3;
@@ -771,7 +774,7 @@ TEST(CsvImport, JitteredIntervalMeansImportWithTheRowsOwnStep) {
   cfg.imu_rate_hz = 1000.0;
   cfg.substeps = 1;
   const Dataset fine = scenarios::simulate(cfg);
-  Dataset jittered = insid::testing::jittered_rows(fine, 7, 13, 31, 100.0);
+  Dataset jittered = insid::test::jittered_rows(fine, 7, 13, 31, 100.0);
   jittered.meta.earth = EarthModel::wgs84();
   const std::vector<double> means = csv_pos_round_trip(jittered, nullptr, "interval-mean");
   const std::vector<double> trapezoid = csv_pos_round_trip(jittered, nullptr, "point");
@@ -1461,11 +1464,6 @@ fs::path shared_px4_events_log() {
   const fs::path source = fs::path(INSID_SHARED_DATA) / "px4-ulog" / "sample_px4_events.ulg";
   return fs::exists(source) ? source : fs::path();
 }
-std::string file_bytes(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-}
-
 // Issue 34: the PX4 estimator's own biases (estimator_sensor_bias, instance 0) go to
 // autopilot_estimates in insid's names, axes and SI units: each compared with the float32 read
 // by hand at its byte offset in the file (the last message), so a swapped axis, a wrong field or
@@ -1473,7 +1471,7 @@ std::string file_bytes(const fs::path& path) {
 TEST(SharedData, Px4EstimatorBiasesAreReadWithTheirAxesUnitsAndVariance) {
   const fs::path source = shared_px4_events_log();
   if (source.empty()) GTEST_SKIP() << kNoSharedUlogs;
-  const std::string bytes = file_bytes(source);
+  const std::string bytes = read_file(source);
   const UlogFile log = UlogFile::parse(bytes, source.string());
   std::vector<std::string> notes;
   const nlohmann::json ap = px4_bias_estimates(log, "sensor_combined", 0, notes);
@@ -1511,7 +1509,7 @@ TEST(SharedData, Px4EstimatorBiasesAreReadWithTheirAxesUnitsAndVariance) {
 TEST(SharedData, OneCorruptedUlogTimestampDropsOneRowAndIsReported) {
   const fs::path source = shared_px4_events_log();
   if (source.empty()) GTEST_SKIP() << kNoSharedUlogs;
-  const std::string original = file_bytes(source);
+  const std::string original = read_file(source);
   AssembleOptions options;
   options.gnss_quality = {1};
   options.align_s = 1.0;

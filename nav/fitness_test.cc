@@ -22,10 +22,10 @@ std::shared_ptr<Dataset> static_dataset(const SensorErrors& errors, double durat
   const EarthModel earth = EarthModel::paper(kLat, 50.0);
   const EulerAngles att{0.5 * kDegToRad, -1.0 * kDegToRad, 75.0 * kDegToRad};
   return std::make_shared<Dataset>(
-      testing::make_static_dataset(earth, kLat, kLon, 50.0, att, duration_s, 600.0, errors));
+      test::make_static_dataset(earth, kLat, kLon, 50.0, att, duration_s, 600.0, errors));
 }
 
-using testing::paper_errors;
+using test::paper_errors;
 
 TEST(Fitness, ZeroForAPerfectMatch) {
   for (AlignmentMode mode : {AlignmentMode::kPerCandidate, AlignmentMode::kFixed}) {

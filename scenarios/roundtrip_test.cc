@@ -190,8 +190,8 @@ TEST(RoundTrip, JitteredImuStepsOnAMovingFlightNavigateLikeAConstantRate) {
   c.align_s = 120.0;
   c.flight_s = 600.0;
   const Dataset fine = simulate(c);
-  const Dataset constant = testing::jittered_rows(fine, 10, 10, 13, 100.0);
-  const Dataset jittered = testing::jittered_rows(fine, 7, 13, 13, 100.0);
+  const Dataset constant = test::jittered_rows(fine, 10, 10, 13, 100.0);
+  const Dataset jittered = test::jittered_rows(fine, 7, 13, 13, 100.0);
   double min_dt = 1.0, max_dt = 0.0;
   for (std::size_t i = 1; i < jittered.imu.size(); ++i) {
     const double dt = jittered.imu[i].t_s - jittered.imu[i - 1].t_s;

@@ -44,7 +44,7 @@ std::shared_ptr<const NavigationProblem> scenario_problem(
     cfg.imu_rate_hz = 1000.0;
     cfg.substeps = 1;
     const Dataset fine = scenarios::simulate(cfg);
-    Dataset jittered = testing::jittered_rows(fine, 7, 13, 5, 100.0);
+    Dataset jittered = test::jittered_rows(fine, 7, 13, 5, 100.0);
     ds = std::make_shared<const Dataset>(std::move(jittered));
   }
   if (!ds) {
@@ -487,7 +487,7 @@ std::shared_ptr<const Dataset> gnss_effects_flight() {
 TEST(BatchFitnessWindowed, TheFitnessIsLeastAtTheHiddenLatencyAndLeverArm) {
   // GIVEN the noise-free flight and the truth candidate
   const auto ds = gnss_effects_flight();
-  SensorErrors truth = testing::paper_errors();
+  SensorErrors truth = test::paper_errors();
   truth.gnss_latency_s = 0.2;
   truth.lever_arm_b_m = Eigen::Vector3d(1.0, 0.5, 0.0);
   // The truth moved along one GNSS-side effect by `step` (latency in s, lever arm in m).
@@ -562,7 +562,7 @@ TEST(BatchFitnessWindowed, TheFitnessIsContinuousInTheLatencyAcrossWindowBoundar
   options.window_s = 10.0;
   const auto nav = std::make_shared<const NavigationProblem>(gnss_effects_flight(), options);
   const BatchFitness kernel(nav);
-  SensorErrors c = testing::paper_errors();
+  SensorErrors c = test::paper_errors();
   c.accel.bias.x() += 2.0 * kSigmaAccelMps2;
   c.lever_arm_b_m = Eigen::Vector3d(1.0, 0.5, 0.0);
   // WHEN it is scored at latencies 0.2 s -+ 1e-7 s and -+ 1e-3 s
