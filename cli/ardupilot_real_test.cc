@@ -19,13 +19,17 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "cli/cli_test_support.h"
+#include "test_support/files.h"
+#include "test_support/process.h"
 
 namespace {
 namespace fs = std::filesystem;
 
-using insid::cli_test::insid;
-using insid::cli_test::Outcome;
+using insid::test::insid;
+using insid::test::Outcome;
+using insid::test::read_file;
+using insid::test::TempDir;
+using insid::test::write_file;
 
 const fs::path kLog = fs::path(INSID_SHARED_DATA) / "ardupilot-copter" / "log171.bin";
 constexpr const char* kNoLog =
@@ -37,24 +41,6 @@ constexpr const char* kNoLog =
 Outcome import_flight_window(const fs::path& ds) {
   return insid("import ardupilot " + kLog.string() + " --t-start 74.7 --t-end 215 --out " +
                ds.string());
-}
-
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    std::string t = (fs::temp_directory_path() / "insid-ardupilot-XXXXXX").string();
-    path = ::mkdtemp(t.data()) ? fs::path(t) : fs::path();
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-};
-
-std::string file_bytes(const fs::path& p) { return insid::cli_test::text(p); }
-
-void write_bytes(const fs::path& p, const std::string& bytes) {
-  std::ofstream(p, std::ios::binary) << bytes;
 }
 
 // Options are checked before any file is read (exit 2, the README's table); no shared data needed.
@@ -118,9 +104,9 @@ TEST(ArduPilotCli, TruncatedAndCorruptedCopies) {
   if (!fs::exists(kLog)) GTEST_SKIP() << kNoLog;
   TempDir tmp;
   ASSERT_FALSE(tmp.path.empty());
-  const std::string bytes = file_bytes(kLog);
+  const std::string bytes = read_file(kLog);
   ASSERT_GT(bytes.size(), 1500000u);
-  write_bytes(tmp.path / "cut.bin", bytes.substr(0, 1500000));
+  write_file(tmp.path / "cut.bin", bytes.substr(0, 1500000));
   Outcome o = insid("import ardupilot " + (tmp.path / "cut.bin").string() +
                     " --t-start 74.7 --out " + (tmp.path / "cut").string());
   EXPECT_EQ(o.status, 0) << o.output;
@@ -132,7 +118,7 @@ TEST(ArduPilotCli, TruncatedAndCorruptedCopies) {
   std::string corrupted = bytes;
   ASSERT_EQ(corrupted.compare(276, 10, "IffffffIIf"), 0);
   corrupted[277] = 'X';
-  write_bytes(tmp.path / "bad.bin", corrupted);
+  write_file(tmp.path / "bad.bin", corrupted);
   o = insid("import ardupilot " + (tmp.path / "bad.bin").string() + " --out " +
             (tmp.path / "bad").string());
   EXPECT_EQ(o.status, 1) << o.output;
@@ -152,12 +138,12 @@ TEST(ArduPilotCli, StrayBytesMidLogAreSkippedToTheNextRecord) {
   if (!fs::exists(kLog)) GTEST_SKIP() << kNoLog;
   TempDir tmp;
   ASSERT_FALSE(tmp.path.empty());
-  const std::string bytes = file_bytes(kLog);
+  const std::string bytes = read_file(kLog);
   // A record header near the middle, then 3 bytes inserted 7 bytes into that record.
   const std::size_t header = bytes.find("\xA3\x95", bytes.size() / 2);
   ASSERT_NE(header, std::string::npos);
   const std::size_t at = header + 7;
-  write_bytes(tmp.path / "stray.bin", bytes.substr(0, at) + "\x01\x02\x03" + bytes.substr(at));
+  write_file(tmp.path / "stray.bin", bytes.substr(0, at) + "\x01\x02\x03" + bytes.substr(at));
   const Outcome o = insid("import ardupilot " + (tmp.path / "stray.bin").string() +
                           " --t-start 74.7 --t-end 215 --out " + (tmp.path / "ds").string());
   ASSERT_EQ(o.status, 0) << o.output;
@@ -182,7 +168,7 @@ TEST(ArduPilotCli, OneDamagedGpsWeekDoesNotBreakTheBootClock) {
   if (!fs::exists(kLog)) GTEST_SKIP() << kNoLog;
   TempDir tmp;
   ASSERT_FALSE(tmp.path.empty());
-  std::string bytes = file_bytes(kLog);
+  std::string bytes = read_file(kLog);
   // The GPS message's id and the offset of its Week field, from its FMT record.
   std::size_t gps_fmt = std::string::npos;
   for (std::size_t q = bytes.find("\xA3\x95\x80"); q != std::string::npos && q < 20000;
@@ -236,7 +222,7 @@ TEST(ArduPilotCli, OneDamagedGpsWeekDoesNotBreakTheBootClock) {
   const std::size_t record = bytes.find(std::string("\xA3\x95", 2) + gps_id, bytes.size() / 2);
   ASSERT_NE(record, std::string::npos);
   bytes[record + week_offset + 1] ^= static_cast<char>(0x80);  // Week + 32768
-  write_bytes(tmp.path / "week.bin", bytes);
+  write_file(tmp.path / "week.bin", bytes);
   const Outcome ok = import_flight_window(tmp.path / "whole");
   ASSERT_EQ(ok.status, 0) << ok.output;
   const Outcome o = insid("import ardupilot " + (tmp.path / "week.bin").string() +
@@ -328,7 +314,7 @@ TEST(ArduPilotCli, FlightPhasesMatchTimesReadFromOtherMessages) {
 // fails here. The test re-reads those bytes so that the offsets themselves are checked.
 TEST(ArduPilotCli, AutopilotBiasesMatchBytesDecodedByHand) {
   if (!fs::exists(kLog)) GTEST_SKIP() << kNoLog;
-  const std::string bytes = file_bytes(kLog);
+  const std::string bytes = read_file(kLog);
   ASSERT_GT(bytes.size(), 2513790u);
   const auto i16 = [&](std::size_t at) {
     return static_cast<std::int16_t>(static_cast<unsigned char>(bytes[at]) |

@@ -13,36 +13,22 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "cli/cli_test_support.h"
+#include "test_support/files.h"
+#include "test_support/process.h"
 
 namespace {
 namespace fs = std::filesystem;
 
-using insid::cli_test::has;
-using insid::cli_test::insid;
-using insid::cli_test::Outcome;
+using insid::test::contains;
+using insid::test::insid;
+using insid::test::Outcome;
+using insid::test::read_json;
+using insid::test::TempDir;
 
 const fs::path kLog = fs::path(INSID_SHARED_DATA) / "ardupilot-copter" / "log171.bin";
 constexpr const char* kNoLog =
     "../shared/data/ardupilot-copter/log171.bin is absent (tests that need the shared real data "
     "skip without it)";
-
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    std::string t = (fs::temp_directory_path() / "insid-cross-imu-XXXXXX").string();
-    path = ::mkdtemp(t.data()) ? fs::path(t) : fs::path();
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-};
-
-nlohmann::json read_json(const fs::path& p) {
-  std::ifstream in(p);
-  return nlohmann::json::parse(in);
-}
 
 // The options are checked before any file is read (exit 2) and nothing is written.
 TEST(CrossImuCli, UsageErrors) {
@@ -52,34 +38,34 @@ TEST(CrossImuCli, UsageErrors) {
   const std::string out = " --out " + (tmp.path / "x.json").string();
   Outcome o = insid("cross-imu --data " + a + out);
   EXPECT_EQ(o.status, 2) << o.output;
-  EXPECT_TRUE(has(o.output, "give at least two datasets")) << o.output;
+  EXPECT_TRUE(contains(o.output, "give at least two datasets")) << o.output;
   o = insid("cross-imu --data " + a + " --data " + b + " --result r.json" + out);
   EXPECT_EQ(o.status, 2) << o.output;
-  EXPECT_TRUE(has(o.output, "--result: 1 results for 2 datasets")) << o.output;
+  EXPECT_TRUE(contains(o.output, "--result: 1 results for 2 datasets")) << o.output;
   o = insid("cross-imu --data " + a + " --data " + b + " --t-start 9 --t-end 3" + out);
   EXPECT_EQ(o.status, 2) << o.output;
-  EXPECT_TRUE(has(o.output, "--t-start 9 must be before --t-end 3")) << o.output;
+  EXPECT_TRUE(contains(o.output, "--t-start 9 must be before --t-end 3")) << o.output;
   o = insid("cross-imu --data " + a + " --data " + b + " --clock gps" + out);
   EXPECT_EQ(o.status, 2) << o.output;
-  EXPECT_TRUE(has(o.output, "--clock 'gps': must be dataset or boot")) << o.output;
+  EXPECT_TRUE(contains(o.output, "--clock 'gps': must be dataset or boot")) << o.output;
   o = insid("cross-imu --data " + a + " --data " + a + out);
   EXPECT_EQ(o.status, 2) << o.output;
-  EXPECT_TRUE(has(o.output, "is given twice")) << o.output;
+  EXPECT_TRUE(contains(o.output, "is given twice")) << o.output;
   o = insid("cross-imu --data " + a + " --data " + b + " --block-s 0" + out);
   EXPECT_EQ(o.status, 2) << o.output;
   o = insid("import ardupilot " + (tmp.path / "none.bin").string() + " --imu IMU9 --out " +
             (tmp.path / "ds").string());
   EXPECT_EQ(o.status, 2) << o.output;
-  EXPECT_TRUE(has(o.output, "or all (every one the log has")) << o.output;
+  EXPECT_TRUE(contains(o.output, "or all (every one the log has")) << o.output;
   o = insid("import ulog " + (tmp.path / "none.ulg").string() +
             " --imu-instance all --imu-topic sensor_combined --out " + (tmp.path / "ds").string());
   EXPECT_EQ(o.status, 2) << o.output;
-  EXPECT_TRUE(has(o.output, "--imu-instance all imports every instance of vehicle_imu"))
+  EXPECT_TRUE(contains(o.output, "--imu-instance all imports every instance of vehicle_imu"))
       << o.output;
   o = insid("import ulog " + (tmp.path / "none.ulg").string() + " --imu-instance 1x --out " +
             (tmp.path / "ds").string());
   EXPECT_EQ(o.status, 2) << o.output;
-  EXPECT_TRUE(has(o.output, "--imu-instance '1x': must be a whole number in 0-255, or all"))
+  EXPECT_TRUE(contains(o.output, "--imu-instance '1x': must be a whole number in 0-255, or all"))
       << o.output;
   EXPECT_FALSE(fs::exists(tmp.path / "x.json"));
   EXPECT_FALSE(fs::exists(tmp.path / "ds"));
@@ -95,7 +81,8 @@ TEST(CrossImuCli, UlogEveryInstanceNamesTheOneThatFails) {
   const Outcome o = insid("import ulog " + ulg.string() + " --imu-instance all --align-s 1 --out " +
                           (tmp.path / "px4").string());
   EXPECT_EQ(o.status, 1) << o.output;
-  EXPECT_TRUE(has(o.output, "--imu-instance all: vehicle_imu instance 0 failed, nothing written"))
+  EXPECT_TRUE(
+      contains(o.output, "--imu-instance all: vehicle_imu instance 0 failed, nothing written"))
       << o.output;
   EXPECT_FALSE(fs::exists(tmp.path / "px4"));
 }
@@ -111,8 +98,8 @@ TEST(CrossImuCli, RealLogAllImusAndTheirDifferences) {
   const fs::path refused = tmp.path / "refused";
   Outcome o = insid("import ardupilot " + kLog.string() + " --imu all --out " + refused.string());
   EXPECT_EQ(o.status, 1) << o.output;
-  EXPECT_TRUE(has(o.output, "--imu all: IMU failed, nothing written")) << o.output;
-  EXPECT_TRUE(has(o.output, "logging gap of 2.022 s")) << o.output;
+  EXPECT_TRUE(contains(o.output, "--imu all: IMU failed, nothing written")) << o.output;
+  EXPECT_TRUE(contains(o.output, "logging gap of 2.022 s")) << o.output;
   EXPECT_FALSE(fs::exists(refused));
 
   const fs::path ds = tmp.path / "copter";
@@ -134,7 +121,7 @@ TEST(CrossImuCli, RealLogAllImusAndTheirDifferences) {
   const fs::path flight = tmp.path / "flight.json";
   o = insid("cross-imu" + data + " --t-start 85 --t-end 215 --out " + flight.string());
   ASSERT_EQ(o.status, 0) << o.output;
-  EXPECT_TRUE(has(o.output, "IMU2 - IMU3")) << o.output;
+  EXPECT_TRUE(contains(o.output, "IMU2 - IMU3")) << o.output;
   const nlohmann::json f = read_json(flight);
   EXPECT_EQ(f.at("format"), "insid-cross-imu/1");
   const nlohmann::json& x = f.at("pairs").at(0).at("gyro").at("x");
@@ -187,7 +174,8 @@ TEST(CrossImuCli, RealLogAllImusAndTheirDifferences) {
   const fs::path cmp = tmp.path / "cmp.json";
   o = insid("cross-imu" + data + results + " --t-start 85 --t-end 215 --out " + cmp.string());
   ASSERT_EQ(o.status, 0) << o.output;
-  EXPECT_TRUE(has(o.output, "insid's estimated differences against the direct ones")) << o.output;
+  EXPECT_TRUE(contains(o.output, "insid's estimated differences against the direct ones"))
+      << o.output;
   const nlohmann::json c = read_json(cmp);
   ASSERT_EQ(c.at("comparison").size(), 3u);
   for (const nlohmann::json& row : c.at("comparison"))
@@ -196,7 +184,7 @@ TEST(CrossImuCli, RealLogAllImusAndTheirDifferences) {
   o = insid("cross-imu" + data + " --result " + flight.string() + " --result " + cmp.string() +
             " --out " + (tmp.path / "never.json").string());
   EXPECT_EQ(o.status, 1) << o.output;
-  EXPECT_TRUE(has(o.output, "format: expected \"insid-identify/2\"")) << o.output;
+  EXPECT_TRUE(contains(o.output, "format: expected \"insid-identify/2\"")) << o.output;
   EXPECT_FALSE(fs::exists(tmp.path / "never.json"));
 
   // An input is never overwritten.

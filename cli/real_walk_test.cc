@@ -19,18 +19,16 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "cli/cli_test_support.h"
+#include "test_support/files.h"
+#include "test_support/process.h"
 
 namespace {
 namespace fs = std::filesystem;
 
-using insid::cli_test::insid;
-using insid::cli_test::Outcome;
-
-nlohmann::json read_json(const fs::path& p) {
-  std::ifstream in(p);
-  return nlohmann::json::parse(in);
-}
+using insid::test::fresh_dir;
+using insid::test::insid;
+using insid::test::Outcome;
+using insid::test::read_json;
 
 // Mean angular rate (deg/s, body axes) over the dataset's first `span_s` seconds of IMU rows:
 // sum of the increments over their time (the first row, whose interval is unknown, left out).
@@ -79,8 +77,7 @@ TEST(RealWalk, ImportIdentifyCutsThePureInsErrorFourfoldAndMatchesThePadGyros) {
   if (!fs::exists(walk / "imu_1730_sf.csv") || !fs::exists(walk / "gnss_1730_sf.pos"))
     GTEST_SKIP() << "../shared/data/rtklib-walk is absent (tests that need the shared real data "
                     "skip outside CI)";
-  const fs::path root = fs::temp_directory_path() / ("insid-real-walk-" + std::to_string(getpid()));
-  fs::remove_all(root);
+  const fs::path root = fresh_dir("real-walk");
   fs::create_directories(root);
   const fs::path data = root / "walk";
 
@@ -176,9 +173,7 @@ TEST(RealWalk, InjectedClockShiftAndGyroBiasAreRecoveredBySize) {
   if (!fs::exists(walk / "imu_1730_sf.csv") || !fs::exists(walk / "gnss_1730_sf.pos"))
     GTEST_SKIP() << "../shared/data/rtklib-walk is absent (tests that need the shared real data "
                     "skip outside CI)";
-  const fs::path root =
-      fs::temp_directory_path() / ("insid-real-injection-" + std::to_string(getpid()));
-  fs::remove_all(root);
+  const fs::path root = fresh_dir("real-injection");
   fs::create_directories(root);
   // column 0: GPST seconds; column 4: the sensor x gyro (rad/s)
   auto variant = [&](const std::string& name, int column, double add) {
