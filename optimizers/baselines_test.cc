@@ -9,12 +9,12 @@
 
 #include "optimizers/registry.h"
 #include "optimizers/test_functions.h"
-#include "optimizers/test_util.h"
+#include "test_support/optimizer_runs.h"
 
 namespace insid::opt {
 namespace {
 
-using testing_util::expect_same_run;
+using test::expect_same_run;
 
 // Residual form of the shifted sphere / Rosenbrock (least squares: f = sum r_i^2).
 class LeastSquaresProblem final : public Problem, public ResidualProblem {

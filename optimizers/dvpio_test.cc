@@ -12,12 +12,12 @@
 
 #include "optimizers/registry.h"
 #include "optimizers/test_functions.h"
-#include "optimizers/test_util.h"
+#include "test_support/optimizer_runs.h"
 
 namespace insid::opt {
 namespace {
 
-using testing_util::same;
+using test::same;
 
 // f = (x0 + 5/8)^2 + (x1 - 1/16)^2: the optimum lies on the negative side of dim 0 and just on
 // the positive side of dim 1. Every number below is dyadic, so double arithmetic is exact.

@@ -19,32 +19,21 @@
 
 #include "optimizers/registry.h"
 #include "optimizers/test_functions.h"
-#include "optimizers/test_util.h"
+#include "test_support/optimizer_runs.h"
+#include "test_support/process.h"
 
 namespace insid::opt {
 namespace {
 namespace fs = std::filesystem;
-using testing_util::expect_same_run;
-using testing_util::same;
+using test::expect_same_run;
+using test::python_with_numpy;
+using test::run_command;
+using test::same;
 
 const std::string kPython = "/usr/bin/python3";
 const std::string kSource = INSID_SOURCE_DIR;
 const std::string kClient = kSource + "/scripts/external_random_search.py";
 const std::string kTestClient = kSource + "/optimizers/testdata/external_test_client.py";
-
-std::string run_command(const std::string& command) {
-  std::string out;
-  FILE* pipe = ::popen(command.c_str(), "r");
-  if (pipe == nullptr) return out;
-  char buffer[4096];
-  for (std::size_t n; (n = std::fread(buffer, 1, sizeof(buffer), pipe)) > 0;) out.append(buffer, n);
-  ::pclose(pipe);
-  return out;
-}
-
-bool python_with_numpy() {
-  return run_command(kPython + " -c 'import numpy; print(1)' 2>/dev/null") == "1\n";
-}
 
 #define REQUIRE_PYTHON() \
   if (!python_with_numpy()) GTEST_SKIP() << kPython << " with numpy is not available"

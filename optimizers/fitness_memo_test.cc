@@ -14,12 +14,12 @@
 
 #include "optimizers/optimizer.h"
 #include "optimizers/registry.h"
-#include "optimizers/test_util.h"
+#include "test_support/optimizer_runs.h"
 
 namespace insid::opt {
 namespace {
 
-using testing_util::expect_same_run;
+using test::expect_same_run;
 
 // Rastrigin-like fitness that counts the candidates it scores; `deterministic` says whether it
 // declares itself deterministic(), so the same function serves as its own memo-less twin.

@@ -17,12 +17,12 @@
 #include "optimizers/pio.h"
 #include "optimizers/registry.h"
 #include "optimizers/test_functions.h"
-#include "optimizers/test_util.h"
+#include "test_support/optimizer_runs.h"
 
 namespace insid::opt {
 namespace {
 
-using testing_util::expect_same_run;
+using test::expect_same_run;
 
 RunConfig config_with(std::uint64_t seed, int iterations, std::int64_t evaluations = 0) {
   RunConfig config;
@@ -42,7 +42,7 @@ TEST_P(EveryOptimizer, SameSeedSameRunDifferentSeedDifferentRun) {
   const Result c = optimize(GetParam(), *problem, config_with(6, 60));
   expect_same_run(a, b);
   EXPECT_NE(a.best_per_evaluation, c.best_per_evaluation);
-  EXPECT_FALSE(testing_util::same(a.best_x, c.best_x));
+  EXPECT_FALSE(test::same(a.best_x, c.best_x));
 }
 
 TEST_P(EveryOptimizer, SerialAndOpenMPEvaluatorsGiveBitIdenticalRuns) {
@@ -148,8 +148,8 @@ TEST_P(EveryOptimizer, InitialPositionsAreUsed) {
   RunConfig config = config_with(2, 3);
   config.initial_positions = {benchmark_optimum(3), Eigen::Vector3d(0.5, 0.5, 0.5)};
   const Result result = optimize(GetParam(), *problem, config);
-  EXPECT_TRUE(testing_util::same(result.history[0].positions[0], benchmark_optimum(3)));
-  EXPECT_TRUE(testing_util::same(result.history[0].positions[1], Eigen::Vector3d(0.5, 0.5, 0.5)));
+  EXPECT_TRUE(test::same(result.history[0].positions[0], benchmark_optimum(3)));
+  EXPECT_TRUE(test::same(result.history[0].positions[1], Eigen::Vector3d(0.5, 0.5, 0.5)));
   EXPECT_EQ(result.best_per_evaluation[0], 0.0);
 }
 
