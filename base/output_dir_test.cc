@@ -1,6 +1,6 @@
 // What insid may replace or delete (base/output_dir.h): only files carrying its own mark, never a
 // command's inputs, never through a symbolic link below an output directory, and no name that
-// could pass for one of its temporaries (issue 37, items 1, 2, 5, 6 and 8).
+// could pass for one of its temporaries.
 #include "base/output_dir.h"
 #include "test_support/files.h"
 
@@ -178,7 +178,7 @@ TEST_F(OutputDir, RemovingOwnFilesKeepsEverythingElse) {
   EXPECT_EQ(read_file(outside_ / "victim.json"), "keep");
 }
 
-// Issue 45: a temporary is insid's by its mark, never by its name alone.
+// A temporary is insid's by its mark, never by its name alone.
 TEST_F(OutputDir, ATemporaryIsRecognisedByItsMarkNotItsName) {
   if (!supported_) GTEST_SKIP() << root_ << ": no user extended attributes on this file system";
   const fs::path out = root_ / "out";
@@ -229,7 +229,7 @@ TEST_F(OutputDir, ATemporaryIsRecognisedByItsMarkNotItsName) {
   EXPECT_EQ(read_file(killed_dir / "notes.txt"), "mine");
 }
 
-// Issue 45: a rerun removes what a killed process of this host left beside its target (a
+// A rerun removes what a killed process of this host left beside its target (a
 // dataset's temporary directory), never a live process's or another host's.
 TEST_F(OutputDir, AbandonedSiblingsOfADeadProcessAreRemoved) {
   if (!supported_) GTEST_SKIP() << root_ << ": no user extended attributes on this file system";

@@ -114,7 +114,7 @@ TEST(Campaign, FilesFollowTheDocumentedSchema) {
                 "manifest");
   const nlohmann::json run = read_json(run_file(dir.string(), "rich-short", "DVPIO", 2));
   EXPECT_EQ(run["schema"], "insid-run/3");
-  // issue 15: parameters with sd and flags, correlation and the uncertainty's own cost
+  // Parameters with sd and flags, correlation and the uncertainty's own cost
   expect_fields(run,
                 {{"/parameters/0/name", 's'},
                  {"/parameters/0/sd", 'n'},
@@ -210,7 +210,7 @@ TEST(Campaign, DifferentConfigIsRefusedUnlessForceNew) {
 
 TEST(Campaign, RunFilesOfTheOldSchemaStillResume) {
   // GIVEN a finished campaign with one run written before insid-run/2 (the estimate in sigma
-  // units was "estimate_sigma"), issue 15
+  // units was "estimate_sigma")
   const fs::path dir = fresh_dir("old-run-schema");
   RunOptions options;
   options.out_dir = dir.string();
@@ -647,9 +647,9 @@ TEST(Campaign, RunFileAndIdentifyRecordTheSameAssessment) {
 // parameters (name, sigma, box) and check gyrocompassing against the same gyro bias allowance:
 // the expected heading sd identify records equals the campaign's navigation problem's. And for
 // a grade given to both (tactical), the same set and allowance (identify's spec, which the CLI
-// fills from its arguments, against the campaign's config). Before issue 35's one rule
-// (gyro_bias_allowance_rad_s) a campaign without "initial_attitude" checked against the
-// catalogue's 0.01 deg/h where identify used the box's 0.04 deg/h (nav) or 4 deg/h (tactical).
+// fills from its arguments, against the campaign's config): one rule, gyro_bias_allowance_rad_s,
+// not the catalogue's 0.01 deg/h for a campaign without "initial_attitude" where identify used
+// the box's 0.04 deg/h (nav) or 4 deg/h (tactical).
 TEST(Campaign, IdentifyAndACampaignOnOneFlightShareDefaultSetAndGyroBiasAllowance) {
   const fs::path dir = fresh_dir("same-flight");
   fs::create_directories(dir);
@@ -716,7 +716,7 @@ TEST(Campaign, IdentifyAndACampaignOnOneFlightShareDefaultSetAndGyroBiasAllowanc
 namespace insid::campaign {
 namespace {
 
-// A MEMS campaign (issue 14): the rich flight with mems noise and MEMS-size biases, searched
+// A MEMS campaign: the rich flight with mems noise and MEMS-size biases, searched
 // in a MEMS box (0.1 deg/s, 10 mg units).
 const char* kMemsConfig = R"({
   "name": "test-mems",

@@ -256,7 +256,7 @@ TEST(DirectorySafety, RerunRemovesTemporariesLeftByAKill) {
   }
   const fs::path users = dir / "runs" / "short" / "PSO" / "notes.tmp-list";  // not insid's pattern
   std::ofstream(users) << "mine";
-  // Insid's pattern, but not insid's mark: the user's (issue 45).
+  // Insid's pattern, but not insid's mark: the user's.
   const fs::path look_alike = dir / "runs" / "short" / "PSO" / "notes.tmp-laptop-12-3";
   std::ofstream(look_alike) << "mine too";
   ASSERT_TRUE(run_campaign(config(), options_for(dir)).complete);

@@ -1,4 +1,4 @@
-// External optimizers in campaigns (issue 18): the reference Python client
+// External optimizers in campaigns: the reference Python client
 // (scripts/external_random_search.py) gives the same runs as the same random search computed
 // directly (numpy draws, scored by the campaign's own INS problem) for 1 and 2 threads; a
 // crashing client fails its own runs with the documented error and the others are written.
@@ -150,7 +150,7 @@ TEST(ExternalCampaign, CrashingClientFailsOnlyItsOwnRuns) {
   fs::remove_all(dir);
 }
 
-// A wave's processes start together (issue 18): each client logs when its shell started, then
+// A wave's processes start together: each client logs when its shell started, then
 // sleeps 1 s before the Python client runs. Launched one after another at the first ask (as
 // before), the starts of 4 runs spread over at least 3 s; launched together, over far less.
 TEST(ExternalCampaign, WaveProcessesStartTogether) {

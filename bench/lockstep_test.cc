@@ -1,4 +1,4 @@
-// Campaign runs in lock-step with the batched kernel (issue 6): the same results as the scalar
+// Campaign runs in lock-step with the batched kernel: the same results as the scalar
 // reference evaluator within 1e-9 relative on every run's best fitness, and bit-identical run
 // files for 1 and 2 threads.
 #include <unistd.h>

@@ -128,7 +128,7 @@ TEST(ArduPilotCli, TruncatedAndCorruptedCopies) {
   EXPECT_FALSE(fs::exists(tmp.path / "bad"));
 }
 
-// Issue 45: 3 stray bytes inside a record in the middle of the log dropped 68 % of the IMU rows
+// 3 stray bytes inside a record in the middle of the log dropped 68 % of the IMU rows
 // (the reader stopped at the first broken header). GIVEN the shared log with 3 bytes inserted
 // 7 bytes into a record at its middle WHEN the flight window is imported THEN reading resumes
 // on the next valid record: at most the damaged record and its neighbours are lost (6941 rows
@@ -159,7 +159,7 @@ TEST(ArduPilotCli, StrayBytesMidLogAreSkippedToTheNextRecord) {
   EXPECT_FALSE(prov["dataflash"].contains("truncation"));
 }
 
-// Issue 45: one flipped bit in a GPS record's Week pulled the boot clock's first line fit off
+// One flipped bit in a GPS record's Week pulled the boot clock's first line fit off
 // every other fix ("fewer than 2 fixes within 0.1 s of the fit"). GIVEN the shared log with the
 // top bit of Week flipped in one GPS record mid-log WHEN imported THEN that fix is left out of
 // the clock fit like a late one (one more than in the undamaged log) and the import completes

@@ -1,4 +1,4 @@
-// The binary never loses a user's file (issue 37, items 1, 2, 5 and 6): an import into the folder
+// The binary never loses a user's file: an import into the folder
 // of its own raw log, outputs over the command's inputs or over files insid did not write, links
 // planted in a campaign directory, and --force-new over a user's file in runs/. Each case ends
 // non-zero with the file named, and the user's file is unchanged.
@@ -191,7 +191,7 @@ TEST_F(CliOwnership, CampaignDirectoriesFollowNoLinkAndDeleteOnlyInsidsFiles) {
   EXPECT_FALSE(fs::exists(run_file));
 }
 
-// Issue 45: a name that merely looks like one of insid's temporaries is the user's. bench --force
+// A name that merely looks like one of insid's temporaries is the user's. bench --force
 // into a folder of photos keeps "photos.tmp-laptop-12-3/img1.jpg" and "list.tmp-h-1-2"; a dataset
 // holding a user's folder named like a dataset file is not replaced.
 TEST_F(CliOwnership, LookAlikeTemporariesAndFoldersAreTheUsers) {
@@ -224,7 +224,7 @@ TEST_F(CliOwnership, LookAlikeTemporariesAndFoldersAreTheUsers) {
   EXPECT_EQ(read_file(ds / "provenance.json" / "notes.txt"), "mine");
 }
 
-// Issue 45: --force never overwrites a file the same command reads: simulate's config, bench's
+// --force never overwrites a file the same command reads: simulate's config, bench's
 // campaign config, at any path the command would write.
 TEST_F(CliOwnership, ForceNeverOverwritesTheCommandsOwnInput) {
   const fs::path cfg = root_ / "cfg";
@@ -253,7 +253,7 @@ TEST_F(CliOwnership, ForceNeverOverwritesTheCommandsOwnInput) {
   }
 }
 
-// Issue 45: two outputs of one command at the same path are a usage error (exit 2), not a
+// Two outputs of one command at the same path are a usage error (exit 2), not a
 // silent replacement of the first by the second.
 TEST_F(CliOwnership, TwoOutputsOfOneCommandAtOnePathAreRefused) {
   const fs::path x = root_ / "x.json";

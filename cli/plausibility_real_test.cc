@@ -1,5 +1,5 @@
-// Implausible data said in plain words on the shared real recordings (issue 45,
-// data/plausibility.h): their correct imports raise nothing; the audit's wrong imports of the
+// Implausible data said in plain words on the shared real recordings
+// (data/plausibility.h): their correct imports raise nothing; the audit's wrong imports of the
 // walk are each named (specific force in g declared as m/s^2 refused; rates in rad/s declared as
 // deg/s; an IMU clock 18 s off). Skips where ../shared/data is absent.
 #include <unistd.h>

@@ -1,4 +1,4 @@
-// The real pipeline on the shared MEMS walk (issue 14, ../shared/data/rtklib-walk), end to end
+// The real pipeline on the shared MEMS walk (../shared/data/rtklib-walk), end to end
 // through the insid binary as scripts/real_report.sh runs it: import with the documented mounting
 // and the measured static window, identify with one method (LM on the W = 20 s windowed fitness,
 // level+heading), then navigate with and without the estimate. Skips (with the reason) where the
@@ -98,7 +98,7 @@ TEST(RealWalk, ImportIdentifyCutsThePureInsErrorFourfoldAndMatchesThePadGyros) {
   const nlohmann::json result = read_json(root / "lm.json");
   ASSERT_EQ(result.at("parameters").size(), 5u);
   // --grade auto reads the imported walk's static window (no noise block in its meta.json):
-  // a MEMS unit (issue 33), the rule and its numbers recorded.
+  // a MEMS unit, the rule and its numbers recorded.
   const nlohmann::json& grade = result.at("grade_choice");
   EXPECT_EQ(grade.at("grade"), "mems") << grade.dump();
   EXPECT_EQ(grade.at("source"), "static window") << grade.dump();
@@ -157,7 +157,7 @@ TEST(RealWalk, ImportIdentifyCutsThePureInsErrorFourfoldAndMatchesThePadGyros) {
   fs::remove_all(root);
 }
 
-// Effects hidden in the real walk (issue 33, differential injection; the whole table:
+// Effects hidden in the real walk (differential injection; the whole table:
 // scripts/real_injection.py, results/real/injection.md): the background keeps all the walk's
 // unknown effects, the injected part is known. A copy of the raw IMU log with its clock shifted
 // by +0.25 s (the IMU stamps late: insid's gnss_latency moves by -0.25 s), and one with
@@ -165,9 +165,9 @@ TEST(RealWalk, ImportIdentifyCutsThePureInsErrorFourfoldAndMatchesThePadGyros) {
 // through the same import and LM on the W = 10 s windowed fitness as the plain log; the
 // difference of the estimates must equal the injected value within 3 sd + 20 % (sd: both runs'
 // combined). The sd must also be below half the injected size: the walk has to pin it down.
-// Measured (2-core Zen 4): latency difference -0.316 s, sd 0.052 (the code before issue 33's
-// window-start fix: -0.223 s, sd 0.015, also inside the bound, so this case is no red test of
-// that fix: WindowGnssEffects is); gyro_bias_y -0.09998 deg/s, sd 0.034.
+// Measured (2-core Zen 4): latency difference -0.316 s, sd 0.052 (without the windowed
+// fitness's window-start fix: -0.223 s, sd 0.015, also inside the bound, so this case is no red
+// test of that fix: WindowGnssEffects is); gyro_bias_y -0.09998 deg/s, sd 0.034.
 TEST(RealWalk, InjectedClockShiftAndGyroBiasAreRecoveredBySize) {
   const fs::path walk = fs::path(INSID_SHARED_DATA) / "rtklib-walk";
   if (!fs::exists(walk / "imu_1730_sf.csv") || !fs::exists(walk / "gnss_1730_sf.pos"))

@@ -124,7 +124,7 @@ TEST_F(CliSafety, ZeroAlignmentWindowWorksWithTruthAndIsNamedWithoutIt) {
   EXPECT_EQ(read_file(summary).find("null"), std::string::npos) << read_file(summary);
 }
 
-// --initial-attitude (issue 14): 'align' is gyrocompass and navigates exactly as the default; a
+// --initial-attitude: 'align' is gyrocompass and navigates exactly as the default; a
 // bad mode or a heading without level+heading is named; MEMS data are refused for gyrocompassing
 // (navigate and identify) with the expected sd, and level+heading records where the heading
 // came from.
@@ -251,15 +251,15 @@ std::vector<BadInput> option_cases(const std::string& data) {
   cases.push_back({sweep + " --grid R=0.1:0.2:2", {"--grid", "'R'", "twice"}, true});
   cases.push_back({sim + " --set gyro_bias_x=abc", {"--set", "gyro_bias_x"}, true});
   cases.push_back({sim + " --set nosuch=1", {"nosuch"}, true});
-  // Issue 45: a heading option without --heading was accepted (and nan with it) and ignored.
+  // A heading option without --heading was accepted (and nan with it) and ignored.
   cases.push_back(
       {sim + " --heading-rate-hz nan", {"--heading-rate-hz", "requires --heading"}, true});
   cases.push_back({"navigate --data " + data + " --compensate accel_bias_x",
                    {"--compensate", "NAME=VALUE"},
                    true});
-  // Values checked after parsing (issue 19 audit of every command's options), named: a value the
-  // command line got wrong is a usage error wherever the command reads it (issue 37 item 11,
-  // the README's table): exit 2.
+  // Values checked after parsing (every command's options), named: a value the
+  // command line got wrong is a usage error wherever the command reads it (the
+  // README's table): exit 2.
   cases.push_back({ident + " --estimate gyro_bias_x:0",
                    {"--estimate 'gyro_bias_x:0'", "SIGMA must be > 0"},
                    true});
@@ -353,7 +353,7 @@ std::vector<std::pair<std::string, std::vector<std::string>>> config_cases() {
        {"scenarios[0].set.nosuch: unknown effect name 'nosuch'"}},
       {"[1, 2]", {"expected an object, found an array [1,2]"}},
       {"{\"scenarios\": [", {"not valid JSON"}},
-      // Issue 45: 30 x 30 x 100000 = 90 million runs, refused at once with the count.
+      // 30 x 30 x 100000 = 90 million runs, refused at once with the count.
       {config(many_scenarios, many_algorithms, R"(, "seeds": 100000)"),
        {"90000000 runs (30 scenarios x 30 algorithms x 100000 seeds)", "limit"}},
   };
@@ -394,7 +394,7 @@ TEST_F(CliSafety, EveryBadOptionOrConfigValueIsRefusedUpFrontAndNamed) {
               options.size() + configs.size());
 }
 
-// --window-s is recorded in navigate's summary and identify's result (issue 14).
+// --window-s is recorded in navigate's summary and identify's result.
 TEST_F(CliSafety, WindowLengthIsRecordedInEveryResult) {
   const fs::path summary = root_ / "s.json", result = root_ / "r.json";
   Outcome o =
@@ -433,8 +433,8 @@ TEST_F(CliSafety, ImportAndExportRefuseBadInputAndNeverHalfWrite) {
   o = insid("navigate --data " + back.string() + " --summary " + (root_ / "s.json").string() +
             " --out " + (root_ / "n.csv").string());
   EXPECT_EQ(o.status, 0) << o.output;
-  // A UTF-8 byte-order mark at the start of a text log is skipped: every row is kept (issue 37
-  // item 13: the first data row was taken for a header and dropped silently).
+  // A UTF-8 byte-order mark at the start of a text log is skipped: every row is kept (the
+  // first data row is not taken for a header and dropped silently).
   for (const char* name : {"imu.txt", "gnss.txt"})
     std::ofstream(root_ / ("bom-" + std::string(name))) << "\xEF\xBB\xBF" << read_file(kf / name);
   const fs::path bom = root_ / "bom";
@@ -495,7 +495,7 @@ TEST_F(CliSafety, ImportAndExportRefuseBadInputAndNeverHalfWrite) {
 
 }  // namespace
 
-namespace manners {  // issue 19: command-line manners
+namespace manners {  // Command-line manners
 
 using insid::test::contains;
 using insid::test::insid;
@@ -503,7 +503,7 @@ using insid::test::Outcome;
 using insid::test::read_file;
 
 // `insid --version` prints the git revision the binary was built from (and exits 0).
-// Issue 37 item 9: inputs are checked before they are read whole. A 3 GiB log of garbage cost
+// Inputs are checked before they are read whole. A 3 GiB log of garbage cost
 // 3 GiB of memory (or a bare std::bad_alloc) before its format was looked at; now its magic is
 // read first, and any input over --max-input-mb is refused by its size.
 TEST_F(CliSafety, HugeInputsAreRefusedBeforeTheyAreReadNamingFileAndLimit) {
@@ -537,7 +537,7 @@ TEST_F(CliSafety, HugeInputsAreRefusedBeforeTheyAreReadNamingFileAndLimit) {
   EXPECT_EQ(o.status, 1) << o.output;
   EXPECT_TRUE(contains(o.output, "over the limit of 1 MiB; raise it with --max-input-mb"))
       << o.output;
-  // Issue 45: 2 GiB of zeros given as the IMU CSV (under the size limit) is not text: refused on
+  // 2 GiB of zeros given as the IMU CSV (under the size limit) is not text: refused on
   // its first bytes (it took 45-53 s and 6-8 GB before "out of memory").
   const fs::path zeros = root_ / "zeros.csv";
   std::ofstream(zeros).close();
@@ -600,7 +600,7 @@ TEST_F(CliSafety, ExitCodesAreTheDocumentedOnesWithOneErrorPrefix) {
        "relative --out " +
            never,
        "insid import csv: error: --imu-time relative needs --imu-time-offset-s", 2},
-      // Values the command line got wrong, wherever the command reads them (issue 37 item 11).
+      // Values the command line got wrong, wherever the command reads them.
       {"identify --data " + d + " --estimate gyro_bias_x:0", "insid identify: error: ", 2},
       {"identify --data " + d + " --estimate gyro_bias_x:1e-5:2:1", "insid identify: error: ", 2},
       {"identify --data " + d + " --param bogus=1", "insid identify: error: ", 2},
@@ -619,7 +619,7 @@ TEST_F(CliSafety, ExitCodesAreTheDocumentedOnesWithOneErrorPrefix) {
       {"bench --preset quick --shard 3/2 --out " + never, "insid bench: error: --shard", 2},
       {"bench --preset quick --shard 1/2 --force-new --out " + never, "insid bench: error: ", 2},
       {"bench --preset quick --out ''", "insid bench: error: ", 2},
-      // Issue 45: conflicting options are usage errors (exit 2), as the README says.
+      // Conflicting options are usage errors (exit 2), as the README says.
       {"navigate --data " + d + " --initial-attitude given --heading-deg 30",
        "insid navigate: error: --initial-attitude: a heading", 2},
       {"export --to iohprofiler --out " + never, "insid export: error: --to iohprofiler needs", 2},
@@ -808,7 +808,7 @@ TEST_F(CliSafety, NavigateCompensatesFromAnIdentifyResult) {
       << o.output;
 }
 
-// Issue 45: a log whose second half is sampled at 10 Hz passed the 20 Hz minimum on its median
+// A log whose second half is sampled at 10 Hz passed the 20 Hz minimum on its median
 // step. GIVEN a KF-GINS export of a 100 Hz flight with every tenth row kept in its second half
 // WHEN it is imported THEN it is refused, saying how much of the log is slow, and nothing is
 // written; the untouched export imports.

@@ -1,4 +1,4 @@
-// Reference baselines on INS data (issue 8): the EKF-RTS bias estimates against the injected
+// Reference baselines on INS data: the EKF-RTS bias estimates against the injected
 // values on a `rich` flight, and every generic baseline (pagmo CMA-ES / DE / compass, NLopt
 // BOBYQA / Nelder-Mead, Ceres LM) on a short noise-free flight at a documented accuracy, with
 // evaluation counts checked against the problem's own counter.

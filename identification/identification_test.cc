@@ -94,7 +94,7 @@ TEST(Identification, EstimateSpecParsingRejectsBadInput) {
                std::invalid_argument);
 }
 
-// Issue 37, item 12: a search box beyond what is physical is refused by name up front (a
+// A search box beyond what is physical is refused by name up front (a
 // 1e300-sigma accelerometer box ran into "coarse alignment ... (at a pole?)"); boxes users do
 // give (a MEMS gyro z at 8 sigma, a 4 s latency box) pass.
 TEST(Identification, EstimateSpecBeyondPhysicalLimitsIsRefusedNamingTheLimit) {
@@ -131,7 +131,7 @@ TEST(Identification, LocalFitFindsTheInjectedBiasesOnNoiseFreeData) {
   EXPECT_LT(fit.fitness, 1e-3 * problem.fitness(Eigen::VectorXd::Zero(4)));
 }
 
-// Issue 16: the reference optimum's starts run in lock-step, one batch a round. Each start must
+// The reference optimum's starts run in lock-step, one batch a round. Each start must
 // follow its own fit exactly: the starts below need different numbers of iterations and trials,
 // so rounds mix one start's Jacobian with another's trials, and some starts finish early.
 TEST(Identification, LocalFitsInLockStepEqualEachFitAlone) {
@@ -215,7 +215,7 @@ std::shared_ptr<const NavigationProblem> write_static_data(const std::filesystem
       std::make_shared<const Dataset>(load_dataset(dir)), NavigationOptions{AlignmentMode::kFixed});
 }
 
-// Issue 16: the campaign finds the optimum with its starts on several threads; the optimum must
+// The campaign finds the optimum with its starts on several threads; the optimum must
 // not depend on how many (start points drawn in order, best taken in start order).
 TEST(Identification, ReferenceOptimumIsTheSameForAnyThreadCount) {
   const std::filesystem::path dir = fresh_dir("optimum-threads");
@@ -259,7 +259,7 @@ TEST(Identification, OptimumCacheFollowsTheDataNotTheDirectory) {
 
 TEST(Identification, NonFiniteFitnessNamesTheCandidateInSiAndWhereItsNavigationBroke) {
   // One sigma of 1e200 m/s^2: the candidate at the box corner overflows; both evaluators refuse.
-  // (Built directly: `--estimate accel_bias_x:1e200` is refused up front since issue 37, and
+  // (Built directly: `--estimate accel_bias_x:1e200` is refused up front, and
   // this tests the evaluators' own guard, which any other overflow reaches.)
   EstimatedParameter huge = EstimatedParameter::parse("accel_bias_x");
   huge.sigma = 1e200;
@@ -331,7 +331,7 @@ TEST(Identification, ResultJsonHasEstimatesErrorsAndHistory) {
               j["estimate_in_sigma_units"]["accel_bias_y"].get<double>() - 1.5, 1e-12);
   EXPECT_NEAR(j["estimate"]["gyro_bias_y"].get<double>(),
               j["estimate_in_sigma_units"]["gyro_bias_y"].get<double>() * kSigmaGyroRadS, 1e-20);
-  EXPECT_FALSE(j.contains("estimate_sigma"));  // renamed (issue 15): it read as an sd
+  EXPECT_FALSE(j.contains("estimate_sigma"));  // renamed: it read as an sd
 }
 
 // GIVEN an IdentifySpec with one bad field WHEN validated THEN validate() says what is wrong and

@@ -1,4 +1,4 @@
-// Uncertainty of an identification (issue 15): the 95 % intervals of LM cover the truth over
+// Uncertainty of an identification: the 95 % intervals of LM cover the truth over
 // noise seeds of a short flight (and a mis-scaled or white-noise sd does not); the box-edge /
 // not-observable flags fire on a 120 s flight and not on a long one; old result files read.
 #include <algorithm>
@@ -203,7 +203,7 @@ TEST(Uncertainty, NotConvergedFiresAwayFromTheOptimum) {
   EXPECT_TRUE(has_flag(away.parameters[0], "not_converged"));
 }
 
-// Campaign uncertainty (issue 15): the noise replicas run once per scenario at the data's
+// Campaign uncertainty: the noise replicas run once per scenario at the data's
 // optimum and shared by every run give each run the sd that its own replicas (same seeds, run
 // at its own estimate) give: bit for bit at the point the replicas were run at, within 2 % at
 // runs that stopped 1-3 sd away (the noise response changes only weakly with the point; the
@@ -291,7 +291,7 @@ TEST(Uncertainty, ResultLayoutAndEngineeringUnits) {
   EXPECT_NEAR(out["correlation"]["matrix"][1][1].get<double>(), 1.0, 1e-12);
 }
 
-// The EKF-RTS's parameters[].sd is the filter-smoother's own smoothed sd (issue 15), the
+// The EKF-RTS's parameters[].sd is the filter-smoother's own smoothed sd, the
 // Gauss-Newton one kept beside it; any other algorithm reports the Gauss-Newton sd.
 TEST(Uncertainty, EkfRtsReportsItsOwnSmoothedSd) {
   register_ekf_rts();

@@ -38,7 +38,7 @@ TEST(Fitness, ZeroForAPerfectMatch) {
   EXPECT_GT(problem.fitness({}), 1e-2);
 }
 
-// Issue 13: IMU steps with +-30 % random jitter (insid-dataset/2: each row's own interval).
+// IMU steps with +-30 % random jitter (insid-dataset/2: each row's own interval).
 // Static data with exact increments over each jittered interval: compensated with the true
 // errors the navigation is as exact as at a constant rate (the same bound as above), and
 // uncompensated its fitness matches the constant-rate one (the same physics sampled otherwise).
@@ -147,7 +147,7 @@ TEST(Fitness, RejectsDataWithoutNavigationPart) {
   EXPECT_THROW(NavigationProblem{ds}, std::invalid_argument);
 }
 
-// ----- windowed fitness (issue 14; nav/fitness.h "Windowed fitness") --------------------------
+// ----- windowed fitness (nav/fitness.h "Windowed fitness") ---------------------------------------
 
 NavigationOptions windowed(double window_s, AlignmentMode mode = AlignmentMode::kPerCandidate) {
   NavigationOptions options;

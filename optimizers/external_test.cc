@@ -230,7 +230,7 @@ TEST(External, MalformedRepliesNameTheLine) {
 }
 
 TEST(External, HostilyDeepReplyIsRefusedAtTheDepthLimit) {
-  // Issue 37 item 3: 100000 nested arrays crashed insid (SIGSEGV: a recursive dump of the
+  // 100000 nested arrays crashed insid (SIGSEGV: a recursive dump of the
   // deepest value); 10000 and 30000 gave a message. Every depth now stops at the reader's limit.
   REQUIRE_PYTHON();
   for (const int depth : {65, 10000, 100000}) {
@@ -246,7 +246,7 @@ TEST(External, HostilyDeepReplyIsRefusedAtTheDepthLimit) {
 }
 
 TEST(External, ReplyNobodyAskedForIsRefused) {
-  // Issue 37 item 13: a client that replies twice per ask was read one ask late (its second
+  // A client that replies twice per ask was read one ask late (its second
   // reply to ask 1 taken as the reply to ask 2). The protocol is one reply line per ask.
   REQUIRE_PYTHON();
   expect_contains(error_of("twice"),

@@ -173,7 +173,7 @@ TEST(RoundTrip, ExactCandidateCompensatesInjectedErrors) {
       exact.max_dv_h, exact.max_resid, no_gnss_effects.max_resid, raw.max_dv_h);
 }
 
-// Issue 13: real IMUs stamp their rows with jitter (insid-dataset/2 navigates each row over its own
+// Real IMUs stamp their rows with jitter (insid-dataset/2 navigates each row over its own
 // interval). Increments are integrals of the body rates, so rows of a 1 kHz synthesis summed in
 // groups are the exact increments over the groups' spans: groups of 10 give a constant 100 Hz,
 // groups of 7-13 rows steps of 10 ms +-30 %. The jittered flight (a moving one, with turns) must

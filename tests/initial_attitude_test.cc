@@ -1,4 +1,4 @@
-// Initial-attitude modes (issue 14) on simulated flights: level+heading on a MEMS flight with a
+// Initial-attitude modes on simulated flights: level+heading on a MEMS flight with a
 // turn between the navigation start and the course epochs recovers roll/pitch/yaw within bounds
 // derived from the declared noise; gyrocompassing is refused on MEMS data with the expected
 // heading sd in the message and unchanged (bit for bit) on navigation-grade data; the batched
@@ -214,7 +214,7 @@ TEST(Gyrocompass, RefusedOnMemsDataWithTheExpectedHeadingSd) {
 }
 
 // On the navigation-grade presets gyrocompassing passes, and its attitude and fitness are bit for
-// bit those of the coarse alignment before issue 14 (align_window on the window sums, the same
+// bit those of the coarse alignment (align_window on the window sums, the same
 // arithmetic as main's NavigationProblem) for the raw data and a compensated candidate.
 TEST(Gyrocompass, NavGradePresetsPassUnchanged) {
   for (const char* preset : {"paper", "straight", "rich", "racetrack"}) {
