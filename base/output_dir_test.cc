@@ -2,6 +2,7 @@
 // command's inputs, never through a symbolic link below an output directory, and no name that
 // could pass for one of its temporaries.
 #include "base/output_dir.h"
+#include "test_support/errors.h"
 #include "test_support/files.h"
 
 #include <sys/wait.h>
@@ -12,8 +13,6 @@
 #include <array>
 #include <filesystem>
 #include <fstream>
-#include <functional>
-#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -25,22 +24,10 @@ namespace {
 
 namespace fs = std::filesystem;
 
-using test::fresh_dir;
-using test::read_file;
-
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const std::exception& e) {
-    return e.what();
-  }
-  return "";
-}
-
 class OutputDir : public ::testing::Test {
  protected:
   void SetUp() override {
-    root_ = fresh_dir("output-dir");
+    root_ = test::fresh_dir("output-dir");
     fs::create_directories(root_);
     outside_ = root_ / "outside";
     fs::create_directories(outside_);
@@ -59,15 +46,16 @@ TEST_F(OutputDir, AFileIsInsidsOnlyWhileItMatchesItsMark) {
   EXPECT_EQ(file_owner(f), FileOwner::kAbsent);
   std::ofstream(f) << "{}\n";  // the user's
   EXPECT_EQ(file_owner(f), FileOwner::kOther);
-  EXPECT_NE(error_of([&] { write_file_atomic(f, "{\"a\": 1}\n"); }).find("insid did not write it"),
-            std::string::npos);
-  EXPECT_EQ(read_file(f), "{}\n");
+  EXPECT_NE(
+      test::error_of([&] { write_file_atomic(f, "{\"a\": 1}\n"); }).find("insid did not write it"),
+      std::string::npos);
+  EXPECT_EQ(test::read_file(f), "{}\n");
   WriteOptions force;
   force.replace_foreign = true;
   write_file_atomic(f, "{\"a\": 1}\n", force);
   EXPECT_EQ(file_owner(f), FileOwner::kInsid);
   write_file_atomic(f, "{\"a\": 2}\n");  // insid's own: replaced without --force
-  EXPECT_EQ(read_file(f), "{\"a\": 2}\n");
+  EXPECT_EQ(test::read_file(f), "{\"a\": 2}\n");
   std::ofstream(f, std::ios::app) << " ";  // edited by the user: no longer insid's
   EXPECT_EQ(file_owner(f), FileOwner::kOther);
   fs::copy_file(f, root_ / "copy.json");  // a copy does not carry the mark
@@ -80,10 +68,11 @@ TEST_F(OutputDir, ALinkIsNeverWrittenThroughOrReplaced) {
   fs::create_symlink(target, root_ / "out.json");
   WriteOptions force;
   force.replace_foreign = true;
-  EXPECT_NE(
-      error_of([&] { write_file_atomic(root_ / "out.json", "x", force); }).find("symbolic link"),
-      std::string::npos);
-  EXPECT_EQ(read_file(target), "keep");
+  EXPECT_NE(test::error_of([&] {
+              write_file_atomic(root_ / "out.json", "x", force);
+            }).find("symbolic link"),
+            std::string::npos);
+  EXPECT_EQ(test::read_file(target), "keep");
   EXPECT_TRUE(fs::is_symlink(root_ / "out.json"));
   // A link to a directory inside an output directory: refused, nothing written outside.
   const fs::path campaign = root_ / "campaign";
@@ -91,15 +80,15 @@ TEST_F(OutputDir, ALinkIsNeverWrittenThroughOrReplaced) {
   fs::create_directory_symlink(outside_, campaign / "runs");
   WriteOptions create;
   create.create_directories = true;
-  const std::string e =
-      error_of([&] { write_file_atomic_under(campaign, "runs/s/a/seed-1.json", "{}", create); });
+  const std::string e = test::error_of(
+      [&] { write_file_atomic_under(campaign, "runs/s/a/seed-1.json", "{}", create); });
   EXPECT_NE(e.find("is a symbolic link or not a directory"), std::string::npos) << e;
   EXPECT_EQ(std::distance(fs::directory_iterator(outside_), fs::directory_iterator()), 1);
   // ... and a real one works, creating what is missing.
   fs::remove(campaign / "runs");
   write_file_atomic_under(campaign, "runs/s/a/seed-1.json", "{}", create);
-  EXPECT_EQ(read_file(campaign / "runs/s/a/seed-1.json"), "{}");
-  EXPECT_NE(error_of([&] {
+  EXPECT_EQ(test::read_file(campaign / "runs/s/a/seed-1.json"), "{}");
+  EXPECT_NE(test::error_of([&] {
               write_file_atomic_under(campaign, "../escape.json", "{}", create);
             }).find("'..'"),
             std::string::npos);
@@ -110,9 +99,9 @@ TEST_F(OutputDir, TheLockFileIsNotALink) {
   const fs::path target = outside_ / "passwd";
   std::ofstream(target) << "root:x:0:0";
   fs::create_symlink(target, root_ / ".insid-lock");
-  EXPECT_NE(error_of([&] { FileLock lock(root_ / ".insid-lock"); }).find("symbolic link"),
+  EXPECT_NE(test::error_of([&] { FileLock lock(root_ / ".insid-lock"); }).find("symbolic link"),
             std::string::npos);
-  EXPECT_EQ(read_file(target), "root:x:0:0");
+  EXPECT_EQ(test::read_file(target), "root:x:0:0");
   fs::remove(root_ / ".insid-lock");
   FileLock lock(root_ / ".insid-lock");
   lock.write_text("pid 1 on here\n");
@@ -128,16 +117,16 @@ TEST_F(OutputDir, AnOutputNeverReplacesAnInputOfTheSameCommand) {
   const std::vector<fs::path> inputs = {data / "imu.csv"};
   for (const fs::path& out : {data / "imu.csv", root_ / "hard.csv", root_ / "soft.csv",
                               data / "." / ".." / "walk" / "imu.csv"})
-    EXPECT_NE(error_of([&] { refuse_replacing_inputs(out, inputs, false); }).find("reads"),
+    EXPECT_NE(test::error_of([&] { refuse_replacing_inputs(out, inputs, false); }).find("reads"),
               std::string::npos)
         << out;
-  EXPECT_NE(error_of([&] { refuse_replacing_inputs(data, inputs, true); }).find("reads"),
+  EXPECT_NE(test::error_of([&] { refuse_replacing_inputs(data, inputs, true); }).find("reads"),
             std::string::npos);
-  EXPECT_NE(error_of([&] { refuse_replacing_inputs(root_, inputs, true); }).find("reads"),
+  EXPECT_NE(test::error_of([&] { refuse_replacing_inputs(root_, inputs, true); }).find("reads"),
             std::string::npos);
-  EXPECT_EQ(error_of([&] { refuse_replacing_inputs(data / "gnss.csv", inputs, false); }), "");
-  EXPECT_EQ(error_of([&] { refuse_replacing_inputs(root_ / "walk2", inputs, true); }), "");
-  EXPECT_EQ(error_of([&] { refuse_replacing_inputs(data / "sub", inputs, true); }), "");
+  EXPECT_EQ(test::error_of([&] { refuse_replacing_inputs(data / "gnss.csv", inputs, false); }), "");
+  EXPECT_EQ(test::error_of([&] { refuse_replacing_inputs(root_ / "walk2", inputs, true); }), "");
+  EXPECT_EQ(test::error_of([&] { refuse_replacing_inputs(data / "sub", inputs, true); }), "");
 }
 
 TEST_F(OutputDir, LookAlikeNamesDoNotMakeADirectoryInsids) {
@@ -145,12 +134,12 @@ TEST_F(OutputDir, LookAlikeNamesDoNotMakeADirectoryInsids) {
   const fs::path dir = root_ / "walk";
   fs::create_directories(dir);
   std::ofstream(dir / "imu.csv") << "the user's raw log";
-  const std::string e = error_of([&] { require_own_or_empty(dir, dataset, "give --force"); });
+  const std::string e = test::error_of([&] { require_own_or_empty(dir, dataset, "give --force"); });
   EXPECT_NE(e.find("it holds 'imu.csv'"), std::string::npos) << e;
   if (!supported_) return;
   fs::remove(dir / "imu.csv");
   write_file_atomic(dir / "imu.csv", "insid's");
-  EXPECT_EQ(error_of([&] { require_own_or_empty(dir, dataset, "give --force"); }), "");
+  EXPECT_EQ(test::error_of([&] { require_own_or_empty(dir, dataset, "give --force"); }), "");
 }
 
 TEST_F(OutputDir, RemovingOwnFilesKeepsEverythingElse) {
@@ -169,13 +158,13 @@ TEST_F(OutputDir, RemovingOwnFilesKeepsEverythingElse) {
   EXPECT_EQ(kept[0], fs::path("s/link"));
   EXPECT_EQ(kept[1], fs::path("s/notes.txt"));
   EXPECT_FALSE(fs::exists(runs / "s" / "a"));
-  EXPECT_EQ(read_file(runs / "s" / "notes.txt"), "mine");
-  EXPECT_EQ(read_file(outside_ / "victim.json"), "keep");
+  EXPECT_EQ(test::read_file(runs / "s" / "notes.txt"), "mine");
+  EXPECT_EQ(test::read_file(outside_ / "victim.json"), "keep");
   // A link in place of the directory: nothing below it is touched.
   fs::remove_all(runs);
   fs::create_directory_symlink(outside_, runs);
   EXPECT_EQ(remove_own_files(runs).size(), 1u);
-  EXPECT_EQ(read_file(outside_ / "victim.json"), "keep");
+  EXPECT_EQ(test::read_file(outside_ / "victim.json"), "keep");
 }
 
 // A temporary is insid's by its mark, never by its name alone.
@@ -209,9 +198,9 @@ TEST_F(OutputDir, ATemporaryIsRecognisedByItsMarkNotItsName) {
   EXPECT_FALSE(fs::exists(killed_file));
   EXPECT_FALSE(fs::exists(killed_dir));
   EXPECT_FALSE(fs::exists(finished));
-  EXPECT_EQ(read_file(out / "photos.tmp-laptop-12-3" / "img1.jpg"), "jpeg");
-  EXPECT_EQ(read_file(out / "list.tmp-h-1-2"), "mine");
-  EXPECT_EQ(read_file(out / "old.old-h-4-5" / "a.txt"), "mine");
+  EXPECT_EQ(test::read_file(out / "photos.tmp-laptop-12-3" / "img1.jpg"), "jpeg");
+  EXPECT_EQ(test::read_file(out / "list.tmp-h-1-2"), "mine");
+  EXPECT_EQ(test::read_file(out / "old.old-h-4-5" / "a.txt"), "mine");
 
   // remove_own_files: the same rule, and a temporary directory loses only insid's files.
   fs::create_directories(killed_dir);
@@ -226,7 +215,7 @@ TEST_F(OutputDir, ATemporaryIsRecognisedByItsMarkNotItsName) {
   std::sort(sorted_expected.begin(), sorted_expected.end());
   EXPECT_EQ(kept, sorted_expected);
   EXPECT_FALSE(fs::exists(killed_dir / "imu.csv"));
-  EXPECT_EQ(read_file(killed_dir / "notes.txt"), "mine");
+  EXPECT_EQ(test::read_file(killed_dir / "notes.txt"), "mine");
 }
 
 // A rerun removes what a killed process of this host left beside its target (a

@@ -30,7 +30,7 @@ std::string run_command(const std::string& command) {
 }
 
 bool python_with_numpy() {
-  return run_command("/usr/bin/python3 -c 'import numpy; print(1)' 2>/dev/null") == "1\n";
+  return run_command(kPython + " -c 'import numpy; print(1)' 2>/dev/null") == "1\n";
 }
 
 }  // namespace insid::test

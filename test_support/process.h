@@ -16,10 +16,22 @@ struct Outcome {
 /// (128 + the signal when killed, -1 when it could not be started), what it printed to `output`.
 int shell(const std::string& command, std::string* output = nullptr);
 
+/// The Python the external-optimizer tests run.
+inline const std::string kPython = "/usr/bin/python3";
+
+#ifdef INSID_SOURCE_DIR
+/// The reference external optimizer (a random search) and the misbehaving test client, for
+/// targets that define INSID_SOURCE_DIR, the source tree.
+inline const std::string kExternalClient =
+    std::string(INSID_SOURCE_DIR) + "/scripts/external_random_search.py";
+inline const std::string kExternalTestClient =
+    std::string(INSID_SOURCE_DIR) + "/optimizers/testdata/external_test_client.py";
+#endif
+
 /// What `command` writes to stdout (run through the shell; stderr not captured).
 std::string run_command(const std::string& command);
 
-/// Whether /usr/bin/python3 imports numpy (the external-optimizer tests skip without it).
+/// Whether kPython imports numpy (the external-optimizer tests skip without it).
 bool python_with_numpy();
 
 #ifdef INSID_BINARY
