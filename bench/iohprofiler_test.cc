@@ -7,7 +7,6 @@
 #include <filesystem>
 #include <fstream>
 #include <regex>
-#include <sstream>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -18,9 +17,6 @@
 namespace insid::campaign {
 namespace {
 namespace fs = std::filesystem;
-
-using test::fresh_dir;
-using test::read_json;
 
 const char* kConfig = R"({
   "name": "test-ioh",
@@ -43,8 +39,8 @@ std::vector<std::string> lines_of(const fs::path& p) {
 
 TEST(IohProfiler, ExportParsesBackToTheCampaignCurves) {
   // GIVEN a complete campaign of 2 scenarios x 2 algorithms x 2 seeds, exported
-  const fs::path campaign = fresh_dir("campaign");
-  const fs::path out = fresh_dir("out");
+  const fs::path campaign = test::fresh_dir("campaign");
+  const fs::path out = test::fresh_dir("out");
   const CampaignConfig config = parse_campaign(nlohmann::json::parse(kConfig), "test");
   RunOptions options;
   options.out_dir = campaign.string();
@@ -83,7 +79,7 @@ TEST(IohProfiler, ExportParsesBackToTheCampaignCurves) {
       ASSERT_EQ(runs.size(), 2u);
       for (std::size_t r = 0; r < 2; ++r) {
         const nlohmann::json record =
-            read_json(run_file(campaign.string(), scenario.name, label, config.seeds[r]));
+            test::read_json(run_file(campaign.string(), scenario.name, label, config.seeds[r]));
         const auto trace = record["result"]["best_per_evaluation"].get<std::vector<double>>();
         EXPECT_EQ(expand_best_so_far(runs[r]), trace)
             << label << " " << scenario.name << " run " << r;
@@ -122,7 +118,7 @@ TEST(IohProfiler, ExportParsesBackToTheCampaignCurves) {
 TEST(IohProfiler, ReaderReadsTheDocumentedExampleLayout) {
   // The layout of IOHanalyzer's dataformat.md: a header of name = value pairs, a '%' line, the
   // data file with instance:running time|best-so-far per run; separation lines in the .dat.
-  const fs::path dir = fresh_dir("example");
+  const fs::path dir = test::fresh_dir("example");
   fs::create_directories(dir / "data_f10");
   {
     std::ofstream info(dir / "IOHprofiler_f10_i1.info");

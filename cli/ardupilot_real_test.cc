@@ -1,10 +1,8 @@
 // `insid import ardupilot` end to end through the insid binary on the shared ArduPilot log
 // (../shared/data/ardupilot-copter/log171.bin, read in place; copies cut or corrupted only in a
 // temporary directory), then `insid navigate` on the dataset. Skips where the log is absent.
-#include <sys/wait.h>
 #include <unistd.h>
 
-#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -25,11 +23,9 @@
 namespace {
 namespace fs = std::filesystem;
 
+namespace test = insid::test;
 using insid::test::insid;
 using insid::test::Outcome;
-using insid::test::read_file;
-using insid::test::TempDir;
-using insid::test::write_file;
 
 const fs::path kLog = fs::path(INSID_SHARED_DATA) / "ardupilot-copter" / "log171.bin";
 constexpr const char* kNoLog =
@@ -45,7 +41,7 @@ Outcome import_flight_window(const fs::path& ds) {
 
 // Options are checked before any file is read (exit 2, the README's table); no shared data needed.
 TEST(ArduPilotCli, UsageErrorsBeforeReading) {
-  TempDir tmp;
+  test::TempDir tmp;
   ASSERT_FALSE(tmp.path.empty());
   const std::string out = " --out " + (tmp.path / "ds").string();
   Outcome o = insid("import ardupilot " + (tmp.path / "none.bin").string() + " --imu IMU4" + out);
@@ -65,7 +61,7 @@ TEST(ArduPilotCli, UsageErrorsBeforeReading) {
 // navigate runs on it.
 TEST(ArduPilotCli, ImportCutAndNavigate) {
   if (!fs::exists(kLog)) GTEST_SKIP() << kNoLog;
-  TempDir tmp;
+  test::TempDir tmp;
   ASSERT_FALSE(tmp.path.empty());
   const fs::path refused = tmp.path / "refused";
   Outcome o = insid("import ardupilot " + kLog.string() + " --out " + refused.string());
@@ -102,11 +98,11 @@ TEST(ArduPilotCli, ImportCutAndNavigate) {
 // FMT record has an unknown type letter is refused naming the offset, and nothing is written.
 TEST(ArduPilotCli, TruncatedAndCorruptedCopies) {
   if (!fs::exists(kLog)) GTEST_SKIP() << kNoLog;
-  TempDir tmp;
+  test::TempDir tmp;
   ASSERT_FALSE(tmp.path.empty());
-  const std::string bytes = read_file(kLog);
+  const std::string bytes = test::read_file(kLog);
   ASSERT_GT(bytes.size(), 1500000u);
-  write_file(tmp.path / "cut.bin", bytes.substr(0, 1500000));
+  test::write_file(tmp.path / "cut.bin", bytes.substr(0, 1500000));
   Outcome o = insid("import ardupilot " + (tmp.path / "cut.bin").string() +
                     " --t-start 74.7 --out " + (tmp.path / "cut").string());
   EXPECT_EQ(o.status, 0) << o.output;
@@ -118,7 +114,7 @@ TEST(ArduPilotCli, TruncatedAndCorruptedCopies) {
   std::string corrupted = bytes;
   ASSERT_EQ(corrupted.compare(276, 10, "IffffffIIf"), 0);
   corrupted[277] = 'X';
-  write_file(tmp.path / "bad.bin", corrupted);
+  test::write_file(tmp.path / "bad.bin", corrupted);
   o = insid("import ardupilot " + (tmp.path / "bad.bin").string() + " --out " +
             (tmp.path / "bad").string());
   EXPECT_EQ(o.status, 1) << o.output;
@@ -136,14 +132,14 @@ TEST(ArduPilotCli, TruncatedAndCorruptedCopies) {
 // skipped, and provenance.json counts it.
 TEST(ArduPilotCli, StrayBytesMidLogAreSkippedToTheNextRecord) {
   if (!fs::exists(kLog)) GTEST_SKIP() << kNoLog;
-  TempDir tmp;
+  test::TempDir tmp;
   ASSERT_FALSE(tmp.path.empty());
-  const std::string bytes = read_file(kLog);
+  const std::string bytes = test::read_file(kLog);
   // A record header near the middle, then 3 bytes inserted 7 bytes into that record.
   const std::size_t header = bytes.find("\xA3\x95", bytes.size() / 2);
   ASSERT_NE(header, std::string::npos);
   const std::size_t at = header + 7;
-  write_file(tmp.path / "stray.bin", bytes.substr(0, at) + "\x01\x02\x03" + bytes.substr(at));
+  test::write_file(tmp.path / "stray.bin", bytes.substr(0, at) + "\x01\x02\x03" + bytes.substr(at));
   const Outcome o = insid("import ardupilot " + (tmp.path / "stray.bin").string() +
                           " --t-start 74.7 --t-end 215 --out " + (tmp.path / "ds").string());
   ASSERT_EQ(o.status, 0) << o.output;
@@ -166,9 +162,9 @@ TEST(ArduPilotCli, StrayBytesMidLogAreSkippedToTheNextRecord) {
 // with the same clock slope; the fix is dropped from the GNSS epochs, with a note.
 TEST(ArduPilotCli, OneDamagedGpsWeekDoesNotBreakTheBootClock) {
   if (!fs::exists(kLog)) GTEST_SKIP() << kNoLog;
-  TempDir tmp;
+  test::TempDir tmp;
   ASSERT_FALSE(tmp.path.empty());
-  std::string bytes = read_file(kLog);
+  std::string bytes = test::read_file(kLog);
   // The GPS message's id and the offset of its Week field, from its FMT record.
   std::size_t gps_fmt = std::string::npos;
   for (std::size_t q = bytes.find("\xA3\x95\x80"); q != std::string::npos && q < 20000;
@@ -222,7 +218,7 @@ TEST(ArduPilotCli, OneDamagedGpsWeekDoesNotBreakTheBootClock) {
   const std::size_t record = bytes.find(std::string("\xA3\x95", 2) + gps_id, bytes.size() / 2);
   ASSERT_NE(record, std::string::npos);
   bytes[record + week_offset + 1] ^= static_cast<char>(0x80);  // Week + 32768
-  write_file(tmp.path / "week.bin", bytes);
+  test::write_file(tmp.path / "week.bin", bytes);
   const Outcome ok = import_flight_window(tmp.path / "whole");
   ASSERT_EQ(ok.status, 0) << ok.output;
   const Outcome o = insid("import ardupilot " + (tmp.path / "week.bin").string() +
@@ -253,7 +249,7 @@ TEST(LowRateCli, EightHertzUlogIsRefusedNamingTheRateAndTheMinimum) {
   if (!fs::exists(log))
     GTEST_SKIP() << "../shared/data/px4-ulog-real/esc_status_log.ulg is absent (tests that need "
                     "the shared real data skip without it)";
-  TempDir tmp;
+  test::TempDir tmp;
   ASSERT_FALSE(tmp.path.empty());
   const fs::path out = tmp.path / "ds";
   Outcome o = insid("import ulog " + log.string() + " --out " + out.string());
@@ -283,7 +279,7 @@ TEST(LowRateCli, EightHertzUlogIsRefusedNamingTheRateAndTheMinimum) {
 // window starts after the 2.0 s logging gap (74.628 s) and ends 2 s before the crash.
 TEST(ArduPilotCli, FlightPhasesMatchTimesReadFromOtherMessages) {
   if (!fs::exists(kLog)) GTEST_SKIP() << kNoLog;
-  TempDir tmp;
+  test::TempDir tmp;
   ASSERT_FALSE(tmp.path.empty());
   const fs::path ds = tmp.path / "ds";
   Outcome o = import_flight_window(ds);
@@ -314,7 +310,7 @@ TEST(ArduPilotCli, FlightPhasesMatchTimesReadFromOtherMessages) {
 // fails here. The test re-reads those bytes so that the offsets themselves are checked.
 TEST(ArduPilotCli, AutopilotBiasesMatchBytesDecodedByHand) {
   if (!fs::exists(kLog)) GTEST_SKIP() << kNoLog;
-  const std::string bytes = read_file(kLog);
+  const std::string bytes = test::read_file(kLog);
   ASSERT_GT(bytes.size(), 2513790u);
   const auto i16 = [&](std::size_t at) {
     return static_cast<std::int16_t>(static_cast<unsigned char>(bytes[at]) |
@@ -328,7 +324,7 @@ TEST(ArduPilotCli, AutopilotBiasesMatchBytesDecodedByHand) {
   ASSERT_EQ(static_cast<std::int8_t>(bytes[2513779 + 8]), 21);
   ASSERT_EQ(static_cast<std::int8_t>(bytes[2513779 + 9]), 41);
 
-  TempDir tmp;
+  test::TempDir tmp;
   ASSERT_FALSE(tmp.path.empty());
   const fs::path ds = tmp.path / "ds";
   const Outcome o = insid("import ardupilot " + kLog.string() +
@@ -373,7 +369,7 @@ TEST(ArduPilotCli, AutopilotBiasesMatchBytesDecodedByHand) {
 // accelerometer bias are listed as not compared.
 TEST(ArduPilotCli, IdentifyShowsTheAutopilotEstimatesBesideInsids) {
   if (!fs::exists(kLog)) GTEST_SKIP() << kNoLog;
-  TempDir tmp;
+  test::TempDir tmp;
   ASSERT_FALSE(tmp.path.empty());
   const fs::path ds = tmp.path / "ds";
   Outcome o = import_flight_window(ds);

@@ -2,15 +2,12 @@
 // of its own raw log, outputs over the command's inputs or over files insid did not write, links
 // planted in a campaign directory, and --force-new over a user's file in runs/. Each case ends
 // non-zero with the file named, and the user's file is unchanged.
-#include <sys/wait.h>
 #include <sys/xattr.h>
 #include <unistd.h>
 
-#include <array>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -21,16 +18,14 @@
 namespace {
 namespace fs = std::filesystem;
 
-using insid::test::contains;
-using insid::test::fresh_dir;
+namespace test = insid::test;
 using insid::test::insid;
 using insid::test::Outcome;
-using insid::test::read_file;
 
 class CliOwnership : public ::testing::Test {
  protected:
   void SetUp() override {
-    root_ = fresh_dir("cli-ownership");
+    root_ = test::fresh_dir("cli-ownership");
     fs::create_directories(root_);
     std::ofstream(root_ / "probe") << "x";
     marks_ = ::setxattr((root_ / "probe").c_str(), "user.insid.probe", "1", 1, 0) == 0;
@@ -58,16 +53,16 @@ TEST_F(CliOwnership, AnImportNeverReplacesItsOwnRawLog) {
   const fs::path walk = root_ / "walk";
   fs::create_directories(walk);
   fs::copy_file(kf_ / "imu.txt", walk / "imu.csv");  // the user's raw log, named like insid's
-  const std::string raw = read_file(walk / "imu.csv");
+  const std::string raw = test::read_file(walk / "imu.csv");
   Outcome o = insid(import_kf(walk / "imu.csv", walk));
   EXPECT_EQ(o.status, 1) << o.output;
-  EXPECT_TRUE(contains(o.output, "it holds 'imu.csv'")) << o.output;
-  EXPECT_EQ(read_file(walk / "imu.csv"), raw);
+  EXPECT_TRUE(test::contains(o.output, "it holds 'imu.csv'")) << o.output;
+  EXPECT_EQ(test::read_file(walk / "imu.csv"), raw);
   // --force adds the dataset's files to a foreign folder, but never over the command's input.
   o = insid(import_kf(walk / "imu.csv", walk) + " --force");
   EXPECT_EQ(o.status, 1) << o.output;
-  EXPECT_TRUE(contains(o.output, "which this command reads")) << o.output;
-  EXPECT_EQ(read_file(walk / "imu.csv"), raw);
+  EXPECT_TRUE(test::contains(o.output, "which this command reads")) << o.output;
+  EXPECT_EQ(test::read_file(walk / "imu.csv"), raw);
   EXPECT_FALSE(fs::exists(walk / "meta.json"));
   // simulate over a folder holding only look-alike names: refused too.
   const fs::path look = root_ / "look";
@@ -76,7 +71,7 @@ TEST_F(CliOwnership, AnImportNeverReplacesItsOwnRawLog) {
   std::ofstream(look / "gnss.csv") << "the user's";
   o = insid("simulate --preset straight --flight-s 5 --out " + look.string());
   EXPECT_EQ(o.status, 1) << o.output;
-  EXPECT_EQ(read_file(look / "gnss.csv"), "the user's");
+  EXPECT_EQ(test::read_file(look / "gnss.csv"), "the user's");
   // An insid dataset is still replaced as a whole (its files carry insid's mark).
   if (!marks_) GTEST_SKIP() << "no user extended attributes here: insid cannot mark its files";
   o = insid("simulate --preset straight --flight-s 10 --out " + data_.string());
@@ -91,7 +86,8 @@ TEST_F(CliOwnership, AnImportNeverReplacesItsOwnRawLog) {
 
 // Item 5: outputs over the command's inputs, or over a file insid did not write.
 TEST_F(CliOwnership, OutputsNeverReplaceInputsOrOtherFiles) {
-  const std::string imu = read_file(data_ / "imu.csv"), meta = read_file(data_ / "meta.json");
+  const std::string imu = test::read_file(data_ / "imu.csv"),
+                    meta = test::read_file(data_ / "meta.json");
   for (const std::string& args :
        {"navigate --data " + data_.string() + " --out " + (data_ / "imu.csv").string(),
         "navigate --data " + data_.string() + " --summary " + (data_ / "meta.json").string(),
@@ -101,10 +97,10 @@ TEST_F(CliOwnership, OutputsNeverReplaceInputsOrOtherFiles) {
         "diagnose --data " + data_.string() + " --out " + (data_ / "truth.csv").string()}) {
     const Outcome o = insid(args);
     EXPECT_EQ(o.status, 1) << args << "\n" << o.output;
-    EXPECT_TRUE(contains(o.output, "which this command reads")) << args << "\n" << o.output;
+    EXPECT_TRUE(test::contains(o.output, "which this command reads")) << args << "\n" << o.output;
   }
-  EXPECT_EQ(read_file(data_ / "imu.csv"), imu);
-  EXPECT_EQ(read_file(data_ / "meta.json"), meta);
+  EXPECT_EQ(test::read_file(data_ / "imu.csv"), imu);
+  EXPECT_EQ(test::read_file(data_ / "meta.json"), meta);
   EXPECT_EQ(insid("navigate --data " + data_.string()).status, 0);  // the dataset still loads
 
   // A file of the user's as an output: refused before the work, replaced with --force.
@@ -112,16 +108,16 @@ TEST_F(CliOwnership, OutputsNeverReplaceInputsOrOtherFiles) {
   std::ofstream(notes) << "mine";
   Outcome o = insid("navigate --data " + data_.string() + " --summary " + notes.string());
   EXPECT_EQ(o.status, 1) << o.output;
-  EXPECT_TRUE(contains(o.output, "insid did not write it")) << o.output;
-  EXPECT_TRUE(contains(o.output, "--force")) << o.output;
-  EXPECT_EQ(read_file(notes), "mine");
+  EXPECT_TRUE(test::contains(o.output, "insid did not write it")) << o.output;
+  EXPECT_TRUE(test::contains(o.output, "--force")) << o.output;
+  EXPECT_EQ(test::read_file(notes), "mine");
   o = insid("identify --algo pso --iterations 2 --data " + data_.string() + " --out " +
             notes.string());
   EXPECT_EQ(o.status, 1) << o.output;
-  EXPECT_EQ(read_file(notes), "mine");
+  EXPECT_EQ(test::read_file(notes), "mine");
   o = insid("navigate --force --data " + data_.string() + " --summary " + notes.string());
   EXPECT_EQ(o.status, 0) << o.output;
-  EXPECT_NE(read_file(notes), "mine");
+  EXPECT_NE(test::read_file(notes), "mine");
   // insid's own output is replaced by the next run without --force.
   if (!marks_) GTEST_SKIP() << "no user extended attributes here: insid cannot mark its files";
   const fs::path nav = root_ / "nav.csv";
@@ -146,8 +142,8 @@ TEST_F(CliOwnership, CampaignDirectoriesFollowNoLinkAndDeleteOnlyInsidsFiles) {
   std::ofstream(user / "summary.json") << "{\"mine\": true}";
   Outcome o = insid(bench + "--out " + user.string());
   EXPECT_EQ(o.status, 1) << o.output;
-  EXPECT_TRUE(contains(o.output, "it holds 'summary.json'")) << o.output;
-  EXPECT_EQ(read_file(user / "summary.json"), "{\"mine\": true}");
+  EXPECT_TRUE(test::contains(o.output, "it holds 'summary.json'")) << o.output;
+  EXPECT_EQ(test::read_file(user / "summary.json"), "{\"mine\": true}");
 
   const fs::path c = root_ / "campaign";
   o = insid(bench + "--out " + c.string());
@@ -162,8 +158,8 @@ TEST_F(CliOwnership, CampaignDirectoriesFollowNoLinkAndDeleteOnlyInsidsFiles) {
   fs::create_symlink(outside / "victim", c / ".insid-lock");
   o = insid(bench + "--out " + c.string());
   EXPECT_EQ(o.status, 1) << o.output;
-  EXPECT_TRUE(contains(o.output, "symbolic link")) << o.output;
-  EXPECT_EQ(read_file(outside / "victim"), "keep");
+  EXPECT_TRUE(test::contains(o.output, "symbolic link")) << o.output;
+  EXPECT_EQ(test::read_file(outside / "victim"), "keep");
   fs::remove(c / ".insid-lock");
 
   // runs/ and optimum/ as links to a directory outside: nothing is written there.
@@ -173,7 +169,7 @@ TEST_F(CliOwnership, CampaignDirectoriesFollowNoLinkAndDeleteOnlyInsidsFiles) {
     fs::create_directory_symlink(outside, c / sub);
     o = insid(bench + "--out " + c.string());
     EXPECT_EQ(o.status, 1) << sub << "\n" << o.output;
-    EXPECT_TRUE(contains(o.output, "symbolic link")) << sub << "\n" << o.output;
+    EXPECT_TRUE(test::contains(o.output, "symbolic link")) << sub << "\n" << o.output;
     EXPECT_EQ(std::distance(fs::directory_iterator(outside), fs::directory_iterator()), 1) << sub;
     fs::remove(c / sub);
     o = insid(bench + "--out " + c.string());  // the links gone, the campaign completes again
@@ -185,8 +181,8 @@ TEST_F(CliOwnership, CampaignDirectoriesFollowNoLinkAndDeleteOnlyInsidsFiles) {
   o = insid("bench --preset quick --seeds 2 --flight-s 20 --threads 2 --quiet --force-new --out " +
             c.string());
   EXPECT_EQ(o.status, 1) << o.output;
-  EXPECT_TRUE(contains(o.output, "runs/notes.txt")) << o.output;
-  EXPECT_EQ(read_file(c / "runs" / "notes.txt"), "mine");
+  EXPECT_TRUE(test::contains(o.output, "runs/notes.txt")) << o.output;
+  EXPECT_EQ(test::read_file(c / "runs" / "notes.txt"), "mine");
   EXPECT_TRUE(fs::exists(c / "manifest.json"));
   EXPECT_FALSE(fs::exists(run_file));
 }
@@ -205,8 +201,8 @@ TEST_F(CliOwnership, LookAlikeTemporariesAndFoldersAreTheUsers) {
   ASSERT_EQ(o.status, 0) << o.output;
   o = insid(bench + "--force --out " + photos.string());  // a rerun removes stale temporaries
   ASSERT_EQ(o.status, 0) << o.output;
-  EXPECT_EQ(read_file(photos / "photos.tmp-laptop-12-3" / "img1.jpg"), "jpeg");
-  EXPECT_EQ(read_file(photos / "list.tmp-h-1-2"), "mine");
+  EXPECT_EQ(test::read_file(photos / "photos.tmp-laptop-12-3" / "img1.jpg"), "jpeg");
+  EXPECT_EQ(test::read_file(photos / "list.tmp-h-1-2"), "mine");
 
   // ds/provenance.json/notes.txt: a folder where a dataset writes a file.
   const fs::path ds = root_ / "ds";
@@ -215,13 +211,13 @@ TEST_F(CliOwnership, LookAlikeTemporariesAndFoldersAreTheUsers) {
   std::ofstream(ds / "provenance.json" / "notes.txt") << "mine";
   o = insid("simulate --preset straight --flight-s 5 --out " + ds.string());
   EXPECT_EQ(o.status, 1) << o.output;
-  EXPECT_TRUE(contains(o.output, "it holds 'provenance.json'")) << o.output;
-  EXPECT_EQ(read_file(ds / "provenance.json" / "notes.txt"), "mine");
+  EXPECT_TRUE(test::contains(o.output, "it holds 'provenance.json'")) << o.output;
+  EXPECT_EQ(test::read_file(ds / "provenance.json" / "notes.txt"), "mine");
   o = insid("import kf-gins --imu " + (kf_ / "imu.txt").string() + " --gnss " +
             (kf_ / "gnss.txt").string() +
             " --align-s 600 --static-rate 5 --static-accel-sd 0.3 --force --out " + ds.string());
   EXPECT_EQ(o.status, 1) << o.output;  // provenance.json cannot be written over a folder
-  EXPECT_EQ(read_file(ds / "provenance.json" / "notes.txt"), "mine");
+  EXPECT_EQ(test::read_file(ds / "provenance.json" / "notes.txt"), "mine");
 }
 
 // --force never overwrites a file the same command reads: simulate's config, bench's
@@ -235,8 +231,8 @@ TEST_F(CliOwnership, ForceNeverOverwritesTheCommandsOwnInput) {
   std::ofstream(cfg / "meta.json") << scenario;
   o = insid("simulate --config " + (cfg / "meta.json").string() + " --force --out " + cfg.string());
   EXPECT_EQ(o.status, 1) << o.output;
-  EXPECT_TRUE(contains(o.output, "which this command reads")) << o.output;
-  EXPECT_EQ(read_file(cfg / "meta.json"), scenario);
+  EXPECT_TRUE(test::contains(o.output, "which this command reads")) << o.output;
+  EXPECT_EQ(test::read_file(cfg / "meta.json"), scenario);
 
   const fs::path bc = root_ / "bc";
   fs::create_directories(bc / "runs");
@@ -247,8 +243,8 @@ TEST_F(CliOwnership, ForceNeverOverwritesTheCommandsOwnInput) {
     std::ofstream(config) << campaign;
     o = insid("bench --config " + config.string() + " --force --quiet --out " + bc.string());
     EXPECT_EQ(o.status, 1) << config << "\n" << o.output;
-    EXPECT_TRUE(contains(o.output, "which this command reads")) << config << "\n" << o.output;
-    EXPECT_EQ(read_file(config), campaign) << config;
+    EXPECT_TRUE(test::contains(o.output, "which this command reads")) << config << "\n" << o.output;
+    EXPECT_EQ(test::read_file(config), campaign) << config;
     EXPECT_FALSE(fs::exists(bc / "manifest.json")) << config;  // refused before any work
   }
 }
@@ -260,7 +256,7 @@ TEST_F(CliOwnership, TwoOutputsOfOneCommandAtOnePathAreRefused) {
   Outcome o = insid("diagnose --data " + data_.string() + " --out " + x.string() + " --report " +
                     x.string());
   EXPECT_EQ(o.status, 2) << o.output;
-  EXPECT_TRUE(contains(o.output, "are the same file")) << o.output;
+  EXPECT_TRUE(test::contains(o.output, "are the same file")) << o.output;
   EXPECT_FALSE(fs::exists(x));
   o = insid("diagnose --data " + data_.string() + " --report " + x.string());
   EXPECT_EQ(o.status, 2) << o.output;  // the report's JSON would be x.json too

@@ -3,7 +3,6 @@
 // and the measured static window, identify with one method (LM on the W = 20 s windowed fitness,
 // level+heading), then navigate with and without the estimate. Skips (with the reason) where the
 // shared data are absent.
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <array>
@@ -25,10 +24,9 @@
 namespace {
 namespace fs = std::filesystem;
 
-using insid::test::fresh_dir;
+namespace test = insid::test;
 using insid::test::insid;
 using insid::test::Outcome;
-using insid::test::read_json;
 
 // Mean angular rate (deg/s, body axes) over the dataset's first `span_s` seconds of IMU rows:
 // sum of the increments over their time (the first row, whose interval is unknown, left out).
@@ -77,7 +75,7 @@ TEST(RealWalk, ImportIdentifyCutsThePureInsErrorFourfoldAndMatchesThePadGyros) {
   if (!fs::exists(walk / "imu_1730_sf.csv") || !fs::exists(walk / "gnss_1730_sf.pos"))
     GTEST_SKIP() << "../shared/data/rtklib-walk is absent (tests that need the shared real data "
                     "skip outside CI)";
-  const fs::path root = fresh_dir("real-walk");
+  const fs::path root = test::fresh_dir("real-walk");
   fs::create_directories(root);
   const fs::path data = root / "walk";
 
@@ -95,7 +93,7 @@ TEST(RealWalk, ImportIdentifyCutsThePureInsErrorFourfoldAndMatchesThePadGyros) {
             " --out " +
             (root / "lm.json").string());
   ASSERT_EQ(o.status, 0) << o.output;
-  const nlohmann::json result = read_json(root / "lm.json");
+  const nlohmann::json result = test::read_json(root / "lm.json");
   ASSERT_EQ(result.at("parameters").size(), 5u);
   // --grade auto reads the imported walk's static window (no noise block in its meta.json):
   // a MEMS unit, the rule and its numbers recorded.
@@ -111,7 +109,7 @@ TEST(RealWalk, ImportIdentifyCutsThePureInsErrorFourfoldAndMatchesThePadGyros) {
             (root / "auto.json").string());
   ASSERT_EQ(o.status, 0) << o.output;
   EXPECT_NE(o.output.find("grade mems (auto: static window"), std::string::npos) << o.output;
-  const nlohmann::json automatic = read_json(root / "auto.json");
+  const nlohmann::json automatic = test::read_json(root / "auto.json");
   EXPECT_EQ(automatic.at("window_s").get<double>(), 10.0);
   EXPECT_EQ(automatic.at("window_s_source"), "default for mems data");
   std::string compensate;
@@ -130,8 +128,8 @@ TEST(RealWalk, ImportIdentifyCutsThePureInsErrorFourfoldAndMatchesThePadGyros) {
   ASSERT_EQ(o.status, 0) << o.output;
   o = insid("navigate" + common + compensate + " --summary " + (root / "comp.json").string());
   ASSERT_EQ(o.status, 0) << o.output;
-  const double rms_none = read_json(root / "none.json").at("rms_dvh_mps").get<double>();
-  const double rms_comp = read_json(root / "comp.json").at("rms_dvh_mps").get<double>();
+  const double rms_none = test::read_json(root / "none.json").at("rms_dvh_mps").get<double>();
+  const double rms_comp = test::read_json(root / "comp.json").at("rms_dvh_mps").get<double>();
   std::cout << "[ walk ] pure-INS rms |dv_h|: uncompensated " << rms_none << " m/s, with the LM "
             << "estimate (W = 20 s) " << rms_comp << " m/s (" << rms_none / rms_comp << "x)\n";
   EXPECT_LT(rms_comp, 0.25 * rms_none);
@@ -173,7 +171,7 @@ TEST(RealWalk, InjectedClockShiftAndGyroBiasAreRecoveredBySize) {
   if (!fs::exists(walk / "imu_1730_sf.csv") || !fs::exists(walk / "gnss_1730_sf.pos"))
     GTEST_SKIP() << "../shared/data/rtklib-walk is absent (tests that need the shared real data "
                     "skip outside CI)";
-  const fs::path root = fresh_dir("real-injection");
+  const fs::path root = test::fresh_dir("real-injection");
   fs::create_directories(root);
   // column 0: GPST seconds; column 4: the sensor x gyro (rad/s)
   auto variant = [&](const std::string& name, int column, double add) {
@@ -211,7 +209,7 @@ TEST(RealWalk, InjectedClockShiftAndGyroBiasAreRecoveredBySize) {
                             " --quiet --out " +
                             out.string());
     EXPECT_EQ(o.status, 0) << o.output;
-    const nlohmann::json result = read_json(out);
+    const nlohmann::json result = test::read_json(out);
     for (const auto& p : result.at("parameters"))
       if (p.at("name").get<std::string>() == effect)
         return std::pair<double, double>(p.at("estimate").get<double>(), p.at("sd").get<double>());

@@ -2,10 +2,8 @@
 // imu.csv, a compensation that blows the navigation up, an alignment window of zero. Each must
 // end non-zero with the file, line or option named, and leave nothing half-written.
 #include <sys/resource.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
-#include <array>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -24,15 +22,14 @@
 namespace {
 namespace fs = std::filesystem;
 
-using insid::test::fresh_dir;
+namespace test = insid::test;
 using insid::test::insid;
 using insid::test::Outcome;
-using insid::test::read_file;
 
 class CliSafety : public ::testing::Test {
  protected:
   void SetUp() override {
-    root_ = fresh_dir("cli-safety");
+    root_ = test::fresh_dir("cli-safety");
     fs::create_directories(root_);
     data_ = root_ / "data";
     const Outcome o = insid("simulate --preset straight --flight-s 20 --out " + data_.string());
@@ -42,7 +39,7 @@ class CliSafety : public ::testing::Test {
 
   // Replace line `line` (1-based) of `file` by `value`.
   static void set_line(const fs::path& file, int line, const std::string& value) {
-    std::istringstream in(read_file(file));
+    std::istringstream in(test::read_file(file));
     std::ostringstream out;
     std::string l;
     for (int k = 1; std::getline(in, l); ++k) out << (k == line ? value : l) << '\n';
@@ -59,17 +56,17 @@ TEST_F(CliSafety, SimulateIntoAUserDirectoryKeepsTheUsersFiles) {
   const Outcome o = insid("simulate --preset straight --flight-s 5 --out " + proj.string());
   EXPECT_NE(o.status, 0);
   EXPECT_NE(o.output.find("it holds 'src'"), std::string::npos) << o.output;
-  EXPECT_EQ(read_file(proj / "src" / "code.c"), "int main;");
+  EXPECT_EQ(test::read_file(proj / "src" / "code.c"), "int main;");
   EXPECT_FALSE(fs::exists(proj / "imu.csv"));
   const Outcome forced =
       insid("simulate --preset straight --flight-s 5 --force --out " + proj.string());
   EXPECT_EQ(forced.status, 0) << forced.output;
-  EXPECT_EQ(read_file(proj / "src" / "code.c"), "int main;");
+  EXPECT_EQ(test::read_file(proj / "src" / "code.c"), "int main;");
   EXPECT_TRUE(fs::exists(proj / "imu.csv"));
 }
 
 TEST_F(CliSafety, OneHugeImuValueIsAnErrorNamingFileAndLine) {
-  const std::string clean = read_file(data_ / "imu.csv");
+  const std::string clean = test::read_file(data_ / "imu.csv");
   for (const std::string value : {"1e300", "-9.8e15"}) {
     set_line(data_ / "imu.csv", 123, "1.22," + value + ",0,0,0,0,-0.0979");
     const fs::path summary = root_ / "s.json";
@@ -107,7 +104,7 @@ TEST_F(CliSafety, NonFiniteNavigationIsAnErrorNamingTheCompensation) {
 }
 
 TEST_F(CliSafety, ZeroAlignmentWindowWorksWithTruthAndIsNamedWithoutIt) {
-  std::string meta = read_file(data_ / "meta.json");
+  std::string meta = test::read_file(data_ / "meta.json");
   const auto at = meta.find("\"align_s\"");
   const auto colon = meta.find(':', at);
   const auto end = meta.find_first_of(",}", colon);
@@ -120,8 +117,8 @@ TEST_F(CliSafety, ZeroAlignmentWindowWorksWithTruthAndIsNamedWithoutIt) {
   const Outcome truth = insid("navigate --data " + data_.string() +
                               " --initial-attitude truth --summary " + summary.string());
   EXPECT_EQ(truth.status, 0) << truth.output;
-  EXPECT_NE(read_file(summary).find("\"fitness\": "), std::string::npos);
-  EXPECT_EQ(read_file(summary).find("null"), std::string::npos) << read_file(summary);
+  EXPECT_NE(test::read_file(summary).find("\"fitness\": "), std::string::npos);
+  EXPECT_EQ(test::read_file(summary).find("null"), std::string::npos) << test::read_file(summary);
 }
 
 // --initial-attitude: 'align' is gyrocompass and navigates exactly as the default; a
@@ -140,9 +137,11 @@ TEST_F(CliSafety, InitialAttitudeModesOnTheCommandLine) {
   const Outcome align = insid("navigate --data " + data_.string() +
                               " --initial-attitude align --summary " + s_align.string());
   ASSERT_EQ(align.status, 0) << align.output;
-  EXPECT_EQ(line_of(read_file(s_align), "fitness"), line_of(read_file(s_default), "fitness"));
-  EXPECT_NE(read_file(s_align).find("\"initial_attitude\": \"gyrocompass\""), std::string::npos);
-  EXPECT_NE(read_file(s_align).find("\"gyrocompass_heading_sd_deg\""), std::string::npos);
+  EXPECT_EQ(line_of(test::read_file(s_align), "fitness"),
+            line_of(test::read_file(s_default), "fitness"));
+  EXPECT_NE(test::read_file(s_align).find("\"initial_attitude\": \"gyrocompass\""),
+            std::string::npos);
+  EXPECT_NE(test::read_file(s_align).find("\"gyrocompass_heading_sd_deg\""), std::string::npos);
   const Outcome bad = insid("navigate --data " + data_.string() + " --initial-attitude compass");
   EXPECT_NE(bad.status, 0);
   EXPECT_NE(bad.output.find("--initial-attitude must be"), std::string::npos) << bad.output;
@@ -181,13 +180,14 @@ TEST_F(CliSafety, InitialAttitudeModesOnTheCommandLine) {
       insid("navigate --data " + mems.string() +
             " --initial-attitude level+heading --heading-deg 0 --summary " + s_given.string());
   ASSERT_EQ(given.status, 0) << given.output;
-  EXPECT_NE(read_file(s_given).find("\"heading_source\": \"given\""), std::string::npos)
-      << read_file(s_given);
+  EXPECT_NE(test::read_file(s_given).find("\"heading_source\": \"given\""), std::string::npos)
+      << test::read_file(s_given);
   const Outcome course = insid("navigate --data " + mems.string() +
                                " --initial-attitude level+heading --summary " + s_course.string());
   ASSERT_EQ(course.status, 0) << course.output;
-  EXPECT_NE(read_file(s_course).find("\"heading_source\": \"gnss_course\""), std::string::npos);
-  EXPECT_NE(read_file(s_course).find("\"course_t_s\": "), std::string::npos);
+  EXPECT_NE(test::read_file(s_course).find("\"heading_source\": \"gnss_course\""),
+            std::string::npos);
+  EXPECT_NE(test::read_file(s_course).find("\"course_t_s\": "), std::string::npos);
 }
 
 // The command-line and config battery: every bad value is refused before any work, with a
@@ -401,16 +401,20 @@ TEST_F(CliSafety, WindowLengthIsRecordedInEveryResult) {
       insid("navigate --data " + data_.string() + " --window-s 5 --summary " + summary.string());
   ASSERT_EQ(o.status, 0) << o.output;
   // 20 s flight after the 600 s alignment: restarts at 605, 610, 615 s.
-  EXPECT_NE(read_file(summary).find("\"window_s\": 5.0"), std::string::npos) << read_file(summary);
-  EXPECT_NE(read_file(summary).find("\"windows\": 4"), std::string::npos) << read_file(summary);
+  EXPECT_NE(test::read_file(summary).find("\"window_s\": 5.0"), std::string::npos)
+      << test::read_file(summary);
+  EXPECT_NE(test::read_file(summary).find("\"windows\": 4"), std::string::npos)
+      << test::read_file(summary);
   o = insid("navigate --data " + data_.string() + " --summary " + summary.string());
   ASSERT_EQ(o.status, 0) << o.output;
-  EXPECT_NE(read_file(summary).find("\"window_s\": 0.0"), std::string::npos) << read_file(summary);
-  EXPECT_NE(read_file(summary).find("\"windows\": 1"), std::string::npos) << read_file(summary);
+  EXPECT_NE(test::read_file(summary).find("\"window_s\": 0.0"), std::string::npos)
+      << test::read_file(summary);
+  EXPECT_NE(test::read_file(summary).find("\"windows\": 1"), std::string::npos)
+      << test::read_file(summary);
   o = insid("identify --algo pso --iterations 1 --no-reference-optimum --data " + data_.string() +
             " --window-s 5 --out " + result.string());
   ASSERT_EQ(o.status, 0) << o.output;
-  EXPECT_NE(read_file(result).find("\"window_s\": 5.0"), std::string::npos);
+  EXPECT_NE(test::read_file(result).find("\"window_s\": 5.0"), std::string::npos);
 }
 
 // import/export: an export -> import round trip through the binary; a user directory as --out
@@ -423,12 +427,12 @@ TEST_F(CliSafety, ImportAndExportRefuseBadInputAndNeverHalfWrite) {
             (kf / "gnss.txt").string() +
             " --align-s 600 --static-rate 5 --static-accel-sd 0.3 --out " + back.string());
   ASSERT_EQ(o.status, 0) << o.output;
-  EXPECT_NE(read_file(back / "meta.json").find("insid-dataset/2"), std::string::npos);
-  EXPECT_NE(read_file(back / "provenance.json").find("\"sha256\""), std::string::npos);
+  EXPECT_NE(test::read_file(back / "meta.json").find("insid-dataset/2"), std::string::npos);
+  EXPECT_NE(test::read_file(back / "provenance.json").find("\"sha256\""), std::string::npos);
   // The shared import options (cli/cmd_import.cc, add_shared_import_options) are recorded.
-  EXPECT_NE(read_file(back / "provenance.json").find("\"static_rate_dps\": 5.0"),
+  EXPECT_NE(test::read_file(back / "provenance.json").find("\"static_rate_dps\": 5.0"),
             std::string::npos);
-  EXPECT_NE(read_file(back / "provenance.json").find("\"static_accel_sd_mps2\": 0.3"),
+  EXPECT_NE(test::read_file(back / "provenance.json").find("\"static_accel_sd_mps2\": 0.3"),
             std::string::npos);
   o = insid("navigate --data " + back.string() + " --summary " + (root_ / "s.json").string() +
             " --out " + (root_ / "n.csv").string());
@@ -436,14 +440,15 @@ TEST_F(CliSafety, ImportAndExportRefuseBadInputAndNeverHalfWrite) {
   // A UTF-8 byte-order mark at the start of a text log is skipped: every row is kept (the
   // first data row is not taken for a header and dropped silently).
   for (const char* name : {"imu.txt", "gnss.txt"})
-    std::ofstream(root_ / ("bom-" + std::string(name))) << "\xEF\xBB\xBF" << read_file(kf / name);
+    std::ofstream(root_ / ("bom-" + std::string(name)))
+        << "\xEF\xBB\xBF" << test::read_file(kf / name);
   const fs::path bom = root_ / "bom";
   o = insid("import kf-gins --imu " + (root_ / "bom-imu.txt").string() + " --gnss " +
             (root_ / "bom-gnss.txt").string() +
             " --align-s 600 --static-rate 5 --static-accel-sd 0.3 --out " + bom.string());
   ASSERT_EQ(o.status, 0) << o.output;
-  EXPECT_EQ(read_file(bom / "imu.csv"), read_file(back / "imu.csv"));
-  EXPECT_EQ(read_file(bom / "gnss.csv"), read_file(back / "gnss.csv"));
+  EXPECT_EQ(test::read_file(bom / "imu.csv"), test::read_file(back / "imu.csv"));
+  EXPECT_EQ(test::read_file(bom / "gnss.csv"), test::read_file(back / "gnss.csv"));
 
   // A user directory as --out: refused, kept.
   const fs::path proj = root_ / "proj";
@@ -455,7 +460,7 @@ TEST_F(CliSafety, ImportAndExportRefuseBadInputAndNeverHalfWrite) {
   EXPECT_NE(o.output.find("it holds 'notes.txt'"), std::string::npos) << o.output;
   o = insid("export --to kf-gins --data " + data_.string() + " --out " + proj.string());
   EXPECT_NE(o.status, 0);
-  EXPECT_EQ(read_file(proj / "notes.txt"), "mine");
+  EXPECT_EQ(test::read_file(proj / "notes.txt"), "mine");
   EXPECT_FALSE(fs::exists(proj / "imu.txt"));
 
   // Bad spec values and files: named, nothing written.
@@ -477,7 +482,7 @@ TEST_F(CliSafety, ImportAndExportRefuseBadInputAndNeverHalfWrite) {
   // GNSS of another week than the IMU: no overlap, named.
   std::string shifted;
   {
-    std::istringstream in(read_file(kf / "gnss.txt"));
+    std::istringstream in(test::read_file(kf / "gnss.txt"));
     std::string line;
     while (std::getline(in, line)) {
       const auto space = line.find(' ');
@@ -497,10 +502,9 @@ TEST_F(CliSafety, ImportAndExportRefuseBadInputAndNeverHalfWrite) {
 
 namespace manners {  // Command-line manners
 
-using insid::test::contains;
+namespace test = insid::test;
 using insid::test::insid;
 using insid::test::Outcome;
-using insid::test::read_file;
 
 // `insid --version` prints the git revision the binary was built from (and exits 0).
 // Inputs are checked before they are read whole. A 3 GiB log of garbage cost
@@ -520,22 +524,23 @@ TEST_F(CliSafety, HugeInputsAreRefusedBeforeTheyAreReadNamingFileAndLimit) {
   // option that lifts the limit), and nothing is written
   Outcome o = insid("import ulog " + big_log.string() + " --out " + out.string());
   EXPECT_EQ(o.status, 1) << o.output;
-  EXPECT_TRUE(contains(o.output, "LOG " + big_log.string() + ": not a PX4 ULog")) << o.output;
+  EXPECT_TRUE(test::contains(o.output, "LOG " + big_log.string() + ": not a PX4 ULog")) << o.output;
   o = insid("import ardupilot " + big_bin.string() + " --out " + out.string());
   EXPECT_EQ(o.status, 1) << o.output;
-  EXPECT_TRUE(contains(o.output, "LOG " + big_bin.string() + ": not an ArduPilot DataFlash log"))
+  EXPECT_TRUE(
+      test::contains(o.output, "LOG " + big_bin.string() + ": not an ArduPilot DataFlash log"))
       << o.output;
   o = insid("import kf-gins --imu " + big_text.string() + " --gnss " + big_text.string() +
             " --out " + out.string());
   EXPECT_EQ(o.status, 1) << o.output;
-  EXPECT_TRUE(contains(o.output, big_text.string() +
-                                     ": 5120 MiB (5368709120 bytes), over the limit "
-                                     "of 4096 MiB; raise it with --max-input-mb"))
+  EXPECT_TRUE(test::contains(o.output, big_text.string() +
+                                           ": 5120 MiB (5368709120 bytes), over the limit "
+                                           "of 4096 MiB; raise it with --max-input-mb"))
       << o.output;
   o = insid("import kf-gins --imu " + two_mb.string() + " --gnss " + two_mb.string() +
             " --max-input-mb 1 --out " + out.string());
   EXPECT_EQ(o.status, 1) << o.output;
-  EXPECT_TRUE(contains(o.output, "over the limit of 1 MiB; raise it with --max-input-mb"))
+  EXPECT_TRUE(test::contains(o.output, "over the limit of 1 MiB; raise it with --max-input-mb"))
       << o.output;
   // 2 GiB of zeros given as the IMU CSV (under the size limit) is not text: refused on
   // its first bytes (it took 45-53 s and 6-8 GB before "out of memory").
@@ -549,7 +554,7 @@ TEST_F(CliSafety, HugeInputsAreRefusedBeforeTheyAreReadNamingFileAndLimit) {
   o = insid("import kf-gins --imu " + zeros.string() + " --gnss " + gnss_text.string() + " --out " +
             out.string());
   EXPECT_EQ(o.status, 1) << o.output;
-  EXPECT_TRUE(contains(o.output, zeros.string() + ": not a text file: byte 0 is a NUL byte"))
+  EXPECT_TRUE(test::contains(o.output, zeros.string() + ": not a text file: byte 0 is a NUL byte"))
       << o.output;
   EXPECT_FALSE(fs::exists(out));
   // AND no child read them: the largest resident set of the commands stays far below 1 GiB
@@ -566,9 +571,9 @@ TEST(CliManners, VersionPrintsTheGitRevision) {
   ASSERT_NE(revision, "unknown") << "configured outside a git checkout";
   const Outcome o = insid("--version");
   EXPECT_EQ(o.status, 0) << o.output;
-  EXPECT_TRUE(contains(o.output, "git revision: " + revision)) << o.output;
-  EXPECT_TRUE(contains(o.output, "build type:")) << o.output;
-  EXPECT_TRUE(contains(o.output, "compiler:")) << o.output;
+  EXPECT_TRUE(test::contains(o.output, "git revision: " + revision)) << o.output;
+  EXPECT_TRUE(test::contains(o.output, "build type:")) << o.output;
+  EXPECT_TRUE(test::contains(o.output, "compiler:")) << o.output;
 }
 
 // The three documented exit codes, each with the one error prefix; the table is in --help.
@@ -577,7 +582,7 @@ TEST_F(CliSafety, ExitCodesAreTheDocumentedOnesWithOneErrorPrefix) {
   EXPECT_EQ(help.status, 0);
   for (const std::string line : {"Exit codes:", "  0  done", "  1  the command ran and failed",
                                  "  2  the command line was refused"})
-    EXPECT_TRUE(contains(help.output, line)) << help.output;
+    EXPECT_TRUE(test::contains(help.output, line)) << help.output;
 
   const std::string d = data_.string(), never = (root_ / "never").string();
   struct Case {
@@ -641,7 +646,7 @@ TEST_F(CliSafety, ExitCodesAreTheDocumentedOnesWithOneErrorPrefix) {
       EXPECT_EQ(o.output.rfind(c.prefix, 0), 0u) << "insid " << c.args << "\n" << o.output;
     }
     if (c.status == 2) {
-      EXPECT_TRUE(contains(o.output, "--help' for the options")) << o.output;
+      EXPECT_TRUE(test::contains(o.output, "--help' for the options")) << o.output;
     }
   }
   EXPECT_FALSE(fs::exists(never));
@@ -658,9 +663,10 @@ TEST_F(CliSafety, ProgressToANonTerminalHasNoCarriageReturn) {
       d + " --out " + result.string();
   const Outcome o = insid(ident);
   ASSERT_EQ(o.status, 0) << o.output;
-  EXPECT_FALSE(contains(o.output, "\r")) << o.output;
-  EXPECT_TRUE(contains(o.output, "insid identify: pso iteration 1/3")) << o.output;
-  EXPECT_TRUE(contains(o.output, "insid identify: pso stopped after 3 iteration(s)")) << o.output;
+  EXPECT_FALSE(test::contains(o.output, "\r")) << o.output;
+  EXPECT_TRUE(test::contains(o.output, "insid identify: pso iteration 1/3")) << o.output;
+  EXPECT_TRUE(test::contains(o.output, "insid identify: pso stopped after 3 iteration(s)"))
+      << o.output;
   const Outcome quiet = insid(ident + " --quiet");
   ASSERT_EQ(quiet.status, 0) << quiet.output;
   EXPECT_EQ(quiet.output, "");
@@ -671,8 +677,8 @@ TEST_F(CliSafety, ProgressToANonTerminalHasNoCarriageReturn) {
       "--uncertainty-replicas 0 --data " +
       d + " --out " + result.string());
   ASSERT_EQ(lm.status, 0) << lm.output;
-  EXPECT_TRUE(contains(lm.output, "insid identify: lm stopped after ")) << lm.output;
-  EXPECT_TRUE(contains(lm.output, " first reached at iteration ")) << lm.output;
+  EXPECT_TRUE(test::contains(lm.output, "insid identify: lm stopped after ")) << lm.output;
+  EXPECT_TRUE(test::contains(lm.output, " first reached at iteration ")) << lm.output;
 
   const fs::path sweep = root_ / "sweep";
   const Outcome s = insid(
@@ -680,9 +686,9 @@ TEST_F(CliSafety, ProgressToANonTerminalHasNoCarriageReturn) {
       "straight --flight-s 20 --out " +
       sweep.string());
   ASSERT_EQ(s.status, 0) << s.output;
-  EXPECT_FALSE(contains(s.output, "\r")) << s.output;
-  EXPECT_FALSE(contains(s.output, "insid bench")) << s.output;
-  EXPECT_TRUE(contains(s.output, "insid sweep: runs 2/2")) << s.output;
+  EXPECT_FALSE(test::contains(s.output, "\r")) << s.output;
+  EXPECT_FALSE(test::contains(s.output, "insid bench")) << s.output;
+  EXPECT_TRUE(test::contains(s.output, "insid sweep: runs 2/2")) << s.output;
   const Outcome sim =
       insid("simulate --preset straight --flight-s 5 --quiet --out " + (root_ / "q").string());
   ASSERT_EQ(sim.status, 0) << sim.output;
@@ -699,9 +705,9 @@ TEST_F(CliSafety, BenchRoundLogIsANewFileWithEveryRound) {
       "bench --preset quick --seeds 1 --flight-s 20 --threads 2 --quiet --out ";
   const Outcome refused = insid(bench + out.string() + " --round-log " + log.string());
   EXPECT_EQ(refused.status, 2) << refused.output;
-  EXPECT_TRUE(contains(refused.output, "--round-log " + log.string() + ": the file exists"))
+  EXPECT_TRUE(test::contains(refused.output, "--round-log " + log.string() + ": the file exists"))
       << refused.output;
-  EXPECT_EQ(read_file(log), "the user's notes\n");
+  EXPECT_EQ(test::read_file(log), "the user's notes\n");
   EXPECT_FALSE(fs::exists(out));
   // AND a campaign refused before its first round (--out holds a user's file) leaves no log
   fs::remove(log);
@@ -711,11 +717,11 @@ TEST_F(CliSafety, BenchRoundLogIsANewFileWithEveryRound) {
   const Outcome foreign = insid(bench + user_dir.string() + " --round-log " + log.string());
   EXPECT_NE(foreign.status, 0) << foreign.output;
   EXPECT_FALSE(fs::exists(log)) << foreign.output;
-  EXPECT_EQ(read_file(user_dir / "notes.txt"), "mine\n");
+  EXPECT_EQ(test::read_file(user_dir / "notes.txt"), "mine\n");
 
   const Outcome o = insid(bench + out.string() + " --round-log " + log.string());
   ASSERT_EQ(o.status, 0) << o.output;
-  std::istringstream lines(read_file(log));
+  std::istringstream lines(test::read_file(log));
   std::size_t rounds = 0, candidates = 0, evaluations = 0;
   for (std::string line; std::getline(lines, line); ++rounds) {
     const nlohmann::json r = nlohmann::json::parse(line);
@@ -724,7 +730,7 @@ TEST_F(CliSafety, BenchRoundLogIsANewFileWithEveryRound) {
   }
   for (const auto& entry : fs::recursive_directory_iterator(out / "runs"))
     if (entry.path().extension() == ".json")
-      evaluations += nlohmann::json::parse(read_file(entry.path()))["result"]["evaluations"]
+      evaluations += nlohmann::json::parse(test::read_file(entry.path()))["result"]["evaluations"]
                          .get<std::size_t>();
   EXPECT_GT(rounds, 0u);
   EXPECT_EQ(candidates, evaluations);
@@ -736,7 +742,7 @@ TEST_F(CliSafety, NavigationCsvTimesHaveSixDecimals) {
   const Outcome o = insid("navigate --data " + data_.string() + " --summary " +
                           (root_ / "s.json").string() + " --out " + nav.string());
   ASSERT_EQ(o.status, 0) << o.output;
-  std::istringstream in(read_file(nav));
+  std::istringstream in(test::read_file(nav));
   std::string line;
   std::getline(in, line);  // header
   int rows = 0;
@@ -760,7 +766,7 @@ TEST_F(CliSafety, NavigateCompensatesFromAnIdentifyResult) {
       "--uncertainty-replicas 10 --quiet --data " +
       d + " --out " + result.string());
   ASSERT_EQ(o.status, 0) << o.output;
-  const nlohmann::json r = nlohmann::json::parse(read_file(result));
+  const nlohmann::json r = nlohmann::json::parse(test::read_file(result));
   ASSERT_TRUE(r.contains("parameters"));
   std::string by_hand;
   char value[64];
@@ -772,7 +778,7 @@ TEST_F(CliSafety, NavigateCompensatesFromAnIdentifyResult) {
     const fs::path s = root_ / "s.json";
     const Outcome n = insid("navigate --data " + d + args + " --summary " + s.string());
     EXPECT_EQ(n.status, 0) << args << "\n" << n.output;
-    return nlohmann::json::parse(read_file(s))["fitness"].get<double>();
+    return nlohmann::json::parse(test::read_file(s))["fitness"].get<double>();
   };
   const double f_hand = fitness(by_hand);
   EXPECT_EQ(fitness(" --compensate-from " + result.string()), f_hand);
@@ -789,7 +795,7 @@ TEST_F(CliSafety, NavigateCompensatesFromAnIdentifyResult) {
   o = insid("navigate --data " + d + " --compensate-from " + result.string() + " --compensate " +
             first + "=0");
   EXPECT_EQ(o.status, 2) << o.output;
-  EXPECT_TRUE(contains(o.output, "--compensate " + first + " is also in --compensate-from"))
+  EXPECT_TRUE(test::contains(o.output, "--compensate " + first + " is also in --compensate-from"))
       << o.output;
   // Not an identify result; a broken estimate.
   nlohmann::json bad = v1;
@@ -797,14 +803,15 @@ TEST_F(CliSafety, NavigateCompensatesFromAnIdentifyResult) {
   std::ofstream(r1, std::ios::trunc) << bad.dump(2);
   o = insid("navigate --data " + d + " --compensate-from " + r1.string());
   EXPECT_EQ(o.status, 1);
-  EXPECT_TRUE(contains(o.output, "not an identify result (\"format\" is 'insid-run/2'"))
+  EXPECT_TRUE(test::contains(o.output, "not an identify result (\"format\" is 'insid-run/2'"))
       << o.output;
   bad = v1;
   bad["estimate"][first] = "big";
   std::ofstream(r1, std::ios::trunc) << bad.dump(2);
   o = insid("navigate --data " + d + " --compensate-from " + r1.string());
   EXPECT_EQ(o.status, 1);
-  EXPECT_TRUE(contains(o.output, "estimate." + first + " is \"big\", expected a finite number"))
+  EXPECT_TRUE(
+      test::contains(o.output, "estimate." + first + " is \"big\", expected a finite number"))
       << o.output;
 }
 
@@ -816,7 +823,7 @@ TEST_F(CliSafety, AMixedRateImuLogIsRefusedThoughItsMedianPasses) {
   const fs::path kf = root_ / "kf";
   Outcome o = insid("export --to kf-gins --data " + data_.string() + " --out " + kf.string());
   ASSERT_EQ(o.status, 0) << o.output;
-  std::istringstream in(read_file(kf / "imu.txt"));
+  std::istringstream in(test::read_file(kf / "imu.txt"));
   std::vector<std::string> lines;
   for (std::string l; std::getline(in, l);) lines.push_back(l);
   ASSERT_GT(lines.size(), 1000u);

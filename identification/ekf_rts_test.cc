@@ -19,7 +19,6 @@
 
 namespace insid {
 namespace {
-using test::simulate_preset;
 
 // Counting decorator around the INS problem: every fitness or residual evaluation (one full
 // INS run each).
@@ -46,7 +45,7 @@ class CountingInsProblem final : public opt::Problem, public opt::ResidualProble
 };
 
 TEST(EkfRts, BiasEstimatesConvergeToTheInjectedValuesWithinThreeSigma) {
-  const auto dataset = simulate_preset("rich", 2700.0, "nav", 7);
+  const auto dataset = test::simulate_preset("rich", 2700.0, "nav", 7);
   const NavigationProblem navigation(dataset);
   const EkfRtsResult r = run_ekf_rts(navigation);
   const auto& injected = *dataset->meta.injected;
@@ -69,7 +68,7 @@ TEST(EkfRts, BiasEstimatesConvergeToTheInjectedValuesWithinThreeSigma) {
 
 TEST(EkfRts, RunsAsARegisteredAlgorithmWithOneEvaluation) {
   register_ekf_rts();
-  const auto dataset = simulate_preset("rich", 900.0, "none", 1);
+  const auto dataset = test::simulate_preset("rich", 900.0, "none", 1);
   const auto navigation = std::make_shared<const NavigationProblem>(dataset);
   const InsIdentificationProblem problem(navigation,
                                          ParameterMapping(EstimatedParameter::paper_four()));
@@ -96,7 +95,7 @@ TEST(EkfRts, RunsAsARegisteredAlgorithmWithOneEvaluation) {
 // Each generic baseline on a short noise-free `rich` flight: the estimate's largest error
 // against the injected values (sigma units) at a fixed budget, and exact evaluation counts.
 TEST(Baselines, ReachTheDocumentedAccuracyOnNoiseFreeInsData) {
-  const auto dataset = simulate_preset("rich", 300.0, "none", 1);
+  const auto dataset = test::simulate_preset("rich", 300.0, "none", 1);
   const auto navigation = std::make_shared<const NavigationProblem>(dataset);
   opt::EvaluatorOptions evaluator;
   evaluator.parallelism = opt::Parallelism::kOpenMP;

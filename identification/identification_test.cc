@@ -1,4 +1,3 @@
-#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
@@ -24,9 +23,6 @@ namespace {
 
 constexpr double kLat = 40.068 * kDegToRad;
 
-using test::fresh_dir;
-using test::paper_errors;
-
 // Static data whose biases switch on after the alignment window, navigated with a fixed
 // (recorded-data) alignment: the attitude is then the true one and all four biases show in the
 // Schuler-type velocity error. (With biases present during alignment, levelling and
@@ -35,7 +31,7 @@ std::shared_ptr<const NavigationProblem> static_problem() {
   static const auto nav = [] {
     Dataset ds = test::make_static_dataset(EarthModel::paper(kLat, 50.0), kLat, 2.0, 50.0,
                                            {0.0, 0.0, 0.7}, 1800.0, 600.0);
-    const SensorErrors errors = paper_errors();
+    const SensorErrors errors = test::paper_errors();
     for (ImuSample& s : ds.imu)
       if (s.t_s > 600.0 + 1e-9) apply_imu_errors(errors, 0.0, 0.01, s.dtheta_b_rad, s.dv_b_mps);
     return std::make_shared<const NavigationProblem>(std::make_shared<const Dataset>(ds),
@@ -205,7 +201,7 @@ std::shared_ptr<const NavigationProblem> write_static_data(const std::filesystem
                                                            double scale) {
   Dataset ds = test::make_static_dataset(EarthModel::paper(kLat, 50.0), kLat, 2.0, 50.0,
                                          {0.0, 0.0, 0.7}, 900.0, 300.0);
-  SensorErrors errors = paper_errors();
+  SensorErrors errors = test::paper_errors();
   errors.gyro.bias *= scale;
   errors.accel.bias *= scale;
   for (ImuSample& s : ds.imu)
@@ -218,7 +214,7 @@ std::shared_ptr<const NavigationProblem> write_static_data(const std::filesystem
 // The campaign finds the optimum with its starts on several threads; the optimum must
 // not depend on how many (start points drawn in order, best taken in start order).
 TEST(Identification, ReferenceOptimumIsTheSameForAnyThreadCount) {
-  const std::filesystem::path dir = fresh_dir("optimum-threads");
+  const std::filesystem::path dir = test::fresh_dir("optimum-threads");
   const ParameterMapping mapping(EstimatedParameter::paper_four());
   const InsIdentificationProblem problem(write_static_data(dir, 1.0), mapping);
   const ReferenceOptimum one = find_reference_optimum(problem, 4, kReferenceOptimumSeed, 1);
@@ -237,7 +233,7 @@ TEST(Identification, ReferenceOptimumIsTheSameForAnyThreadCount) {
 }
 
 TEST(Identification, OptimumCacheFollowsTheDataNotTheDirectory) {
-  const std::filesystem::path dir = fresh_dir("cache-test");
+  const std::filesystem::path dir = test::fresh_dir("cache-test");
   const ParameterMapping mapping(EstimatedParameter::paper_four());
   const InsIdentificationProblem first(write_static_data(dir, 1.0), mapping);
   const ReferenceOptimum a = cached_reference_optimum(dir.string(), first);
@@ -323,7 +319,7 @@ TEST(Identification, ResultJsonHasEstimatesErrorsAndHistory) {
   config.max_iterations = 3;
   const opt::Result r = opt::optimize("pso", problem, config);
   nlohmann::json j = optimizer_result_json(r, m);
-  add_estimate_json(j, m, m.to_sigma(r.best_x), nonzero_effects(paper_errors()));
+  add_estimate_json(j, m, m.to_sigma(r.best_x), nonzero_effects(test::paper_errors()));
   EXPECT_EQ(j["history"].size(), 3u);
   EXPECT_EQ(j["best_per_evaluation"].size(), 30u);
   EXPECT_NEAR(j["truth_sigma"]["gyro_bias_x"].get<double>(), 2.0, 1e-12);

@@ -23,7 +23,6 @@
 
 namespace insid {
 namespace {
-using test::simulate_preset;
 
 constexpr double kZ95 = 1.959963984540054;
 // The short flight of the coverage test: long enough that the box [-4, 4] sigma does not
@@ -41,7 +40,7 @@ struct Trial {
 
 // LM (Ceres, the registry's "lm") on the paper's four, then the uncertainty at its estimate.
 Trial lm_trial(const std::string& preset, double flight_s, std::uint64_t seed) {
-  const auto dataset = simulate_preset(preset, flight_s, "nav", seed);
+  const auto dataset = test::simulate_preset(preset, flight_s, "nav", seed);
   const auto navigation = std::make_shared<const NavigationProblem>(dataset);
   opt::EvaluatorOptions evaluator;
   evaluator.parallelism = opt::Parallelism::kOpenMP;
@@ -180,7 +179,7 @@ TEST(Uncertainty, FlagsFireOnAShortFlightAndNotOnALongOne) {
 
 // A point away from the optimum is flagged not_converged with its distance; the optimum is not.
 TEST(Uncertainty, NotConvergedFiresAwayFromTheOptimum) {
-  const auto dataset = simulate_preset("rich", 600.0, "nav", 4);
+  const auto dataset = test::simulate_preset("rich", 600.0, "nav", 4);
   const auto navigation = std::make_shared<const NavigationProblem>(dataset);
   const InsIdentificationProblem problem(navigation,
                                          ParameterMapping(EstimatedParameter::paper_four()));
@@ -210,7 +209,7 @@ TEST(Uncertainty, NotConvergedFiresAwayFromTheOptimum) {
 // replicas' own sampling error is ~1/sqrt(2M) = 7 % at M = 100, so other seeds would not pass).
 // The per-run cost drops from 2n + 2 + M INS runs to 2n + 2.
 TEST(Uncertainty, SharedReplicasGiveEachRunItsOwnReplicasSd) {
-  const auto dataset = simulate_preset("rich", kCoverageFlightS, "nav", 7);
+  const auto dataset = test::simulate_preset("rich", kCoverageFlightS, "nav", 7);
   const auto navigation = std::make_shared<const NavigationProblem>(dataset);
   opt::EvaluatorOptions evaluator;
   evaluator.parallelism = opt::Parallelism::kOpenMP;
@@ -295,7 +294,7 @@ TEST(Uncertainty, ResultLayoutAndEngineeringUnits) {
 // Gauss-Newton one kept beside it; any other algorithm reports the Gauss-Newton sd.
 TEST(Uncertainty, EkfRtsReportsItsOwnSmoothedSd) {
   register_ekf_rts();
-  const auto dataset = simulate_preset("rich", 300.0, "nav", 4);
+  const auto dataset = test::simulate_preset("rich", 300.0, "nav", 4);
   const auto navigation = std::make_shared<const NavigationProblem>(dataset);
   opt::EvaluatorOptions evaluator;
   evaluator.parallelism = opt::Parallelism::kOpenMP;

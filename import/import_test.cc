@@ -38,8 +38,6 @@ namespace insid::importers {
 namespace {
 namespace fs = std::filesystem;
 
-using test::read_file;
-
 // The `straight` preset (nav grade, 100 Hz IMU, 10 Hz GNSS) as an insid-dataset/2 on WGS-84,
 // what an import produces: the reference flight of the round-trip and refusal tests.
 Dataset straight_v2_flight(double flight_s, double align_s) {
@@ -1471,7 +1469,7 @@ fs::path shared_px4_events_log() {
 TEST(SharedData, Px4EstimatorBiasesAreReadWithTheirAxesUnitsAndVariance) {
   const fs::path source = shared_px4_events_log();
   if (source.empty()) GTEST_SKIP() << kNoSharedUlogs;
-  const std::string bytes = read_file(source);
+  const std::string bytes = test::read_file(source);
   const UlogFile log = UlogFile::parse(bytes, source.string());
   std::vector<std::string> notes;
   const nlohmann::json ap = px4_bias_estimates(log, "sensor_combined", 0, notes);
@@ -1509,7 +1507,7 @@ TEST(SharedData, Px4EstimatorBiasesAreReadWithTheirAxesUnitsAndVariance) {
 TEST(SharedData, OneCorruptedUlogTimestampDropsOneRowAndIsReported) {
   const fs::path source = shared_px4_events_log();
   if (source.empty()) GTEST_SKIP() << kNoSharedUlogs;
-  const std::string original = read_file(source);
+  const std::string original = test::read_file(source);
   AssembleOptions options;
   options.gnss_quality = {1};
   options.align_s = 1.0;

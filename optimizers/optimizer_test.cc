@@ -22,8 +22,6 @@
 namespace insid::opt {
 namespace {
 
-using test::expect_same_run;
-
 RunConfig config_with(std::uint64_t seed, int iterations, std::int64_t evaluations = 0) {
   RunConfig config;
   config.seed = seed;
@@ -40,7 +38,7 @@ TEST_P(EveryOptimizer, SameSeedSameRunDifferentSeedDifferentRun) {
   const Result a = optimize(GetParam(), *problem, config_with(5, 60));
   const Result b = optimize(GetParam(), *problem, config_with(5, 60));
   const Result c = optimize(GetParam(), *problem, config_with(6, 60));
-  expect_same_run(a, b);
+  test::expect_same_run(a, b);
   EXPECT_NE(a.best_per_evaluation, c.best_per_evaluation);
   EXPECT_FALSE(test::same(a.best_x, c.best_x));
 }
@@ -51,8 +49,8 @@ TEST_P(EveryOptimizer, SerialAndOpenMPEvaluatorsGiveBitIdenticalRuns) {
   const auto one = make_benchmark("rosenbrock", 5, {Parallelism::kOpenMP, 1});
   const auto two = make_benchmark("rosenbrock", 5, {Parallelism::kOpenMP, 2});
   const Result reference = optimize(GetParam(), *serial, config);
-  expect_same_run(reference, optimize(GetParam(), *one, config));
-  expect_same_run(reference, optimize(GetParam(), *two, config));
+  test::expect_same_run(reference, optimize(GetParam(), *one, config));
+  test::expect_same_run(reference, optimize(GetParam(), *two, config));
 }
 
 TEST_P(EveryOptimizer, SharedBatchesGiveTheSameRunsAsSeparateRuns) {
@@ -70,7 +68,7 @@ TEST_P(EveryOptimizer, SharedBatchesGiveTheSameRunsAsSeparateRuns) {
   run_together(together, *problem);
   for (std::size_t r = 0; r < configs.size(); ++r) {
     SCOPED_TRACE("run " + std::to_string(r));
-    expect_same_run(together[r]->result(), optimize(GetParam(), *problem, configs[r]));
+    test::expect_same_run(together[r]->result(), optimize(GetParam(), *problem, configs[r]));
   }
 }
 
@@ -275,7 +273,7 @@ TEST(RunTogether, IsolatesAFailedRunAndReportsEachRunInTheRoundItFinishes) {
   EXPECT_EQ(finished_order, (std::vector<std::size_t>{3, 0, 2}));
   for (std::size_t i : {0, 2, 3}) {
     SCOPED_TRACE("run " + std::to_string(i));
-    expect_same_run(runs[i]->result(), optimize("pso", *sphere, configs[i]));
+    test::expect_same_run(runs[i]->result(), optimize("pso", *sphere, configs[i]));
   }
   // AND without the failed hook the error propagates
   std::vector<std::unique_ptr<Optimizer>> owners_again;

@@ -3,7 +3,6 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -21,9 +20,6 @@ namespace {
 
 using json = nlohmann::json;
 namespace fs = std::filesystem;
-
-using test::fresh_dir;
-using test::read_file;
 
 json base_json() {
   return json::parse(R"({
@@ -168,16 +164,16 @@ TEST(Seeds, SameSeedGivesByteIdenticalDatasetDifferentSeedDifferentNoise) {
   c.noise.gm_gyro_sigma_deg_h = 1.0;
   c.noise.gm_accel_sigma_mps2 = 1e-3;
   c.seed = 7;
-  const fs::path dir = fresh_dir("seed-test");
+  const fs::path dir = test::fresh_dir("seed-test");
   write_dataset(dir / "a", simulate(c));
   write_dataset(dir / "b", simulate(c));
   c.seed = 8;
   write_dataset(dir / "c", simulate(c));
   for (const char* f : {"imu.csv", "gnss.csv", "truth.csv", "meta.json"})
-    EXPECT_EQ(read_file(dir / "a" / f), read_file(dir / "b" / f)) << f;
-  EXPECT_NE(read_file(dir / "a" / "imu.csv"), read_file(dir / "c" / "imu.csv"));
-  EXPECT_NE(read_file(dir / "a" / "gnss.csv"), read_file(dir / "c" / "gnss.csv"));
-  EXPECT_EQ(read_file(dir / "a" / "truth.csv"), read_file(dir / "c" / "truth.csv"));
+    EXPECT_EQ(test::read_file(dir / "a" / f), test::read_file(dir / "b" / f)) << f;
+  EXPECT_NE(test::read_file(dir / "a" / "imu.csv"), test::read_file(dir / "c" / "imu.csv"));
+  EXPECT_NE(test::read_file(dir / "a" / "gnss.csv"), test::read_file(dir / "c" / "gnss.csv"));
+  EXPECT_EQ(test::read_file(dir / "a" / "truth.csv"), test::read_file(dir / "c" / "truth.csv"));
   // The written dataset loads back to the same numbers.
   const Dataset back = load_dataset(dir / "a");
   c.seed = 7;
@@ -327,7 +323,7 @@ TEST(BadInput, ScenarioFileFaultsAreNamedWithTheFieldPath) {
 }
 
 TEST(BadInput, UnwritableOutputLeavesNothingBehind) {
-  const fs::path base = fresh_dir("unwritable");
+  const fs::path base = test::fresh_dir("unwritable");
   fs::create_directories(base);
   { std::ofstream(base / "file") << "x"; }  // a regular file where a directory should go
   const Dataset ds = simulate(base_config());
