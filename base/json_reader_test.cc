@@ -51,7 +51,7 @@ TEST(JsonReader, KeyGivenTwiceIsNamedWithItsPath) {
 TEST(JsonReader, SyntaxErrorsAndOverflowsAreRuntimeErrorsWithTheLine) {
   EXPECT_NE(error_of("{\n\"a\": 1,\n}").find("cfg.json: not valid JSON"), std::string::npos);
   EXPECT_NE(error_of("{\n\"a\": 1,\n}").find("line 3"), std::string::npos);
-  // nlohmann's internal tag is not shown (issue 37 item 12)
+  // nlohmann's internal tag is not shown
   EXPECT_EQ(error_of("{\n\"a\": 1,\n}").find("json.exception"), std::string::npos)
       << error_of("{\n\"a\": 1,\n}");
   EXPECT_EQ(error_of(R"({"a": 1e999})").find("json.exception"), std::string::npos);
@@ -177,7 +177,7 @@ ChildParse parse_in_child(Parse parse, std::size_t headroom_bytes) {
 }
 
 TEST(JsonReader, HostileNestingCostsNoMemory) {
-  // Issue 37 item 7: 200 KB of nested '[' took 87 s and 17.9 GB before the depth was bounded
+  // 200 KB of nested '[' took 87 s and 17.9 GB before the depth was bounded
   // (the path of every open array was kept, quadratic in the depth). Now it stops at depth 65.
   const std::string hostile = std::string(100000, '[') + std::string(100000, ']');
   const ChildParse r =

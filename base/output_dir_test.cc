@@ -1,7 +1,9 @@
 // What insid may replace or delete (base/output_dir.h): only files carrying its own mark, never a
 // command's inputs, never through a symbolic link below an output directory, and no name that
-// could pass for one of its temporaries (issue 37, items 1, 2, 5, 6 and 8).
+// could pass for one of its temporaries.
 #include "base/output_dir.h"
+#include "test_support/errors.h"
+#include "test_support/files.h"
 
 #include <sys/wait.h>
 #include <sys/xattr.h>
@@ -11,8 +13,6 @@
 #include <array>
 #include <filesystem>
 #include <fstream>
-#include <functional>
-#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -24,27 +24,10 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string text(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const std::exception& e) {
-    return e.what();
-  }
-  return "";
-}
-
 class OutputDir : public ::testing::Test {
  protected:
   void SetUp() override {
-    root_ = fs::temp_directory_path() / ("insid-output-dir-" + std::to_string(::getpid()));
-    fs::remove_all(root_);
+    root_ = test::fresh_dir("output-dir");
     fs::create_directories(root_);
     outside_ = root_ / "outside";
     fs::create_directories(outside_);
@@ -63,15 +46,16 @@ TEST_F(OutputDir, AFileIsInsidsOnlyWhileItMatchesItsMark) {
   EXPECT_EQ(file_owner(f), FileOwner::kAbsent);
   std::ofstream(f) << "{}\n";  // the user's
   EXPECT_EQ(file_owner(f), FileOwner::kOther);
-  EXPECT_NE(error_of([&] { write_file_atomic(f, "{\"a\": 1}\n"); }).find("insid did not write it"),
-            std::string::npos);
-  EXPECT_EQ(text(f), "{}\n");
+  EXPECT_NE(
+      test::error_of([&] { write_file_atomic(f, "{\"a\": 1}\n"); }).find("insid did not write it"),
+      std::string::npos);
+  EXPECT_EQ(test::read_file(f), "{}\n");
   WriteOptions force;
   force.replace_foreign = true;
   write_file_atomic(f, "{\"a\": 1}\n", force);
   EXPECT_EQ(file_owner(f), FileOwner::kInsid);
   write_file_atomic(f, "{\"a\": 2}\n");  // insid's own: replaced without --force
-  EXPECT_EQ(text(f), "{\"a\": 2}\n");
+  EXPECT_EQ(test::read_file(f), "{\"a\": 2}\n");
   std::ofstream(f, std::ios::app) << " ";  // edited by the user: no longer insid's
   EXPECT_EQ(file_owner(f), FileOwner::kOther);
   fs::copy_file(f, root_ / "copy.json");  // a copy does not carry the mark
@@ -84,10 +68,11 @@ TEST_F(OutputDir, ALinkIsNeverWrittenThroughOrReplaced) {
   fs::create_symlink(target, root_ / "out.json");
   WriteOptions force;
   force.replace_foreign = true;
-  EXPECT_NE(
-      error_of([&] { write_file_atomic(root_ / "out.json", "x", force); }).find("symbolic link"),
-      std::string::npos);
-  EXPECT_EQ(text(target), "keep");
+  EXPECT_NE(test::error_of([&] {
+              write_file_atomic(root_ / "out.json", "x", force);
+            }).find("symbolic link"),
+            std::string::npos);
+  EXPECT_EQ(test::read_file(target), "keep");
   EXPECT_TRUE(fs::is_symlink(root_ / "out.json"));
   // A link to a directory inside an output directory: refused, nothing written outside.
   const fs::path campaign = root_ / "campaign";
@@ -95,15 +80,15 @@ TEST_F(OutputDir, ALinkIsNeverWrittenThroughOrReplaced) {
   fs::create_directory_symlink(outside_, campaign / "runs");
   WriteOptions create;
   create.create_directories = true;
-  const std::string e =
-      error_of([&] { write_file_atomic_under(campaign, "runs/s/a/seed-1.json", "{}", create); });
+  const std::string e = test::error_of(
+      [&] { write_file_atomic_under(campaign, "runs/s/a/seed-1.json", "{}", create); });
   EXPECT_NE(e.find("is a symbolic link or not a directory"), std::string::npos) << e;
   EXPECT_EQ(std::distance(fs::directory_iterator(outside_), fs::directory_iterator()), 1);
   // ... and a real one works, creating what is missing.
   fs::remove(campaign / "runs");
   write_file_atomic_under(campaign, "runs/s/a/seed-1.json", "{}", create);
-  EXPECT_EQ(text(campaign / "runs/s/a/seed-1.json"), "{}");
-  EXPECT_NE(error_of([&] {
+  EXPECT_EQ(test::read_file(campaign / "runs/s/a/seed-1.json"), "{}");
+  EXPECT_NE(test::error_of([&] {
               write_file_atomic_under(campaign, "../escape.json", "{}", create);
             }).find("'..'"),
             std::string::npos);
@@ -114,9 +99,9 @@ TEST_F(OutputDir, TheLockFileIsNotALink) {
   const fs::path target = outside_ / "passwd";
   std::ofstream(target) << "root:x:0:0";
   fs::create_symlink(target, root_ / ".insid-lock");
-  EXPECT_NE(error_of([&] { FileLock lock(root_ / ".insid-lock"); }).find("symbolic link"),
+  EXPECT_NE(test::error_of([&] { FileLock lock(root_ / ".insid-lock"); }).find("symbolic link"),
             std::string::npos);
-  EXPECT_EQ(text(target), "root:x:0:0");
+  EXPECT_EQ(test::read_file(target), "root:x:0:0");
   fs::remove(root_ / ".insid-lock");
   FileLock lock(root_ / ".insid-lock");
   lock.write_text("pid 1 on here\n");
@@ -132,16 +117,16 @@ TEST_F(OutputDir, AnOutputNeverReplacesAnInputOfTheSameCommand) {
   const std::vector<fs::path> inputs = {data / "imu.csv"};
   for (const fs::path& out : {data / "imu.csv", root_ / "hard.csv", root_ / "soft.csv",
                               data / "." / ".." / "walk" / "imu.csv"})
-    EXPECT_NE(error_of([&] { refuse_replacing_inputs(out, inputs, false); }).find("reads"),
+    EXPECT_NE(test::error_of([&] { refuse_replacing_inputs(out, inputs, false); }).find("reads"),
               std::string::npos)
         << out;
-  EXPECT_NE(error_of([&] { refuse_replacing_inputs(data, inputs, true); }).find("reads"),
+  EXPECT_NE(test::error_of([&] { refuse_replacing_inputs(data, inputs, true); }).find("reads"),
             std::string::npos);
-  EXPECT_NE(error_of([&] { refuse_replacing_inputs(root_, inputs, true); }).find("reads"),
+  EXPECT_NE(test::error_of([&] { refuse_replacing_inputs(root_, inputs, true); }).find("reads"),
             std::string::npos);
-  EXPECT_EQ(error_of([&] { refuse_replacing_inputs(data / "gnss.csv", inputs, false); }), "");
-  EXPECT_EQ(error_of([&] { refuse_replacing_inputs(root_ / "walk2", inputs, true); }), "");
-  EXPECT_EQ(error_of([&] { refuse_replacing_inputs(data / "sub", inputs, true); }), "");
+  EXPECT_EQ(test::error_of([&] { refuse_replacing_inputs(data / "gnss.csv", inputs, false); }), "");
+  EXPECT_EQ(test::error_of([&] { refuse_replacing_inputs(root_ / "walk2", inputs, true); }), "");
+  EXPECT_EQ(test::error_of([&] { refuse_replacing_inputs(data / "sub", inputs, true); }), "");
 }
 
 TEST_F(OutputDir, LookAlikeNamesDoNotMakeADirectoryInsids) {
@@ -149,12 +134,12 @@ TEST_F(OutputDir, LookAlikeNamesDoNotMakeADirectoryInsids) {
   const fs::path dir = root_ / "walk";
   fs::create_directories(dir);
   std::ofstream(dir / "imu.csv") << "the user's raw log";
-  const std::string e = error_of([&] { require_own_or_empty(dir, dataset, "give --force"); });
+  const std::string e = test::error_of([&] { require_own_or_empty(dir, dataset, "give --force"); });
   EXPECT_NE(e.find("it holds 'imu.csv'"), std::string::npos) << e;
   if (!supported_) return;
   fs::remove(dir / "imu.csv");
   write_file_atomic(dir / "imu.csv", "insid's");
-  EXPECT_EQ(error_of([&] { require_own_or_empty(dir, dataset, "give --force"); }), "");
+  EXPECT_EQ(test::error_of([&] { require_own_or_empty(dir, dataset, "give --force"); }), "");
 }
 
 TEST_F(OutputDir, RemovingOwnFilesKeepsEverythingElse) {
@@ -173,16 +158,16 @@ TEST_F(OutputDir, RemovingOwnFilesKeepsEverythingElse) {
   EXPECT_EQ(kept[0], fs::path("s/link"));
   EXPECT_EQ(kept[1], fs::path("s/notes.txt"));
   EXPECT_FALSE(fs::exists(runs / "s" / "a"));
-  EXPECT_EQ(text(runs / "s" / "notes.txt"), "mine");
-  EXPECT_EQ(text(outside_ / "victim.json"), "keep");
+  EXPECT_EQ(test::read_file(runs / "s" / "notes.txt"), "mine");
+  EXPECT_EQ(test::read_file(outside_ / "victim.json"), "keep");
   // A link in place of the directory: nothing below it is touched.
   fs::remove_all(runs);
   fs::create_directory_symlink(outside_, runs);
   EXPECT_EQ(remove_own_files(runs).size(), 1u);
-  EXPECT_EQ(text(outside_ / "victim.json"), "keep");
+  EXPECT_EQ(test::read_file(outside_ / "victim.json"), "keep");
 }
 
-// Issue 45: a temporary is insid's by its mark, never by its name alone.
+// A temporary is insid's by its mark, never by its name alone.
 TEST_F(OutputDir, ATemporaryIsRecognisedByItsMarkNotItsName) {
   if (!supported_) GTEST_SKIP() << root_ << ": no user extended attributes on this file system";
   const fs::path out = root_ / "out";
@@ -213,9 +198,9 @@ TEST_F(OutputDir, ATemporaryIsRecognisedByItsMarkNotItsName) {
   EXPECT_FALSE(fs::exists(killed_file));
   EXPECT_FALSE(fs::exists(killed_dir));
   EXPECT_FALSE(fs::exists(finished));
-  EXPECT_EQ(text(out / "photos.tmp-laptop-12-3" / "img1.jpg"), "jpeg");
-  EXPECT_EQ(text(out / "list.tmp-h-1-2"), "mine");
-  EXPECT_EQ(text(out / "old.old-h-4-5" / "a.txt"), "mine");
+  EXPECT_EQ(test::read_file(out / "photos.tmp-laptop-12-3" / "img1.jpg"), "jpeg");
+  EXPECT_EQ(test::read_file(out / "list.tmp-h-1-2"), "mine");
+  EXPECT_EQ(test::read_file(out / "old.old-h-4-5" / "a.txt"), "mine");
 
   // remove_own_files: the same rule, and a temporary directory loses only insid's files.
   fs::create_directories(killed_dir);
@@ -230,10 +215,10 @@ TEST_F(OutputDir, ATemporaryIsRecognisedByItsMarkNotItsName) {
   std::sort(sorted_expected.begin(), sorted_expected.end());
   EXPECT_EQ(kept, sorted_expected);
   EXPECT_FALSE(fs::exists(killed_dir / "imu.csv"));
-  EXPECT_EQ(text(killed_dir / "notes.txt"), "mine");
+  EXPECT_EQ(test::read_file(killed_dir / "notes.txt"), "mine");
 }
 
-// Issue 45: a rerun removes what a killed process of this host left beside its target (a
+// A rerun removes what a killed process of this host left beside its target (a
 // dataset's temporary directory), never a live process's or another host's.
 TEST_F(OutputDir, AbandonedSiblingsOfADeadProcessAreRemoved) {
   if (!supported_) GTEST_SKIP() << root_ << ": no user extended attributes on this file system";

@@ -12,7 +12,6 @@
 #include <filesystem>
 #include <fstream>
 #include <numbers>
-#include <sstream>
 #include <thread>
 
 #include <gtest/gtest.h>
@@ -23,6 +22,7 @@
 #include "identification/ekf_rts.h"
 #include "identification/identify.h"
 #include "model/units.h"
+#include "test_support/files.h"
 
 namespace insid::campaign {
 namespace {
@@ -37,27 +37,6 @@ const char* kConfig = R"({
   "seeds": 4,
   "max_iterations": 5
 })";
-
-fs::path fresh_dir(const std::string& name) {
-  const fs::path dir =
-      fs::temp_directory_path() / ("insid-campaign-test-" + name + "-" + std::to_string(getpid()));
-  fs::remove_all(dir);
-  return dir;
-}
-
-nlohmann::json read(const fs::path& p) {
-  std::ifstream in(p);
-  nlohmann::json j;
-  in >> j;
-  return j;
-}
-
-std::string bytes(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 // Every field results/README.md documents as required, with its JSON type.
 void expect_fields(const nlohmann::json& j, const std::vector<std::pair<std::string, char>>& fields,
@@ -104,7 +83,7 @@ const char* kKillConfig = R"({
 constexpr int kKillRuns = 24;
 
 TEST(Campaign, FilesFollowTheDocumentedSchema) {
-  const fs::path dir = fresh_dir("schema");
+  const fs::path dir = test::fresh_dir("schema");
   RunOptions options;
   options.out_dir = dir.string();
   options.quiet = true;
@@ -113,7 +92,7 @@ TEST(Campaign, FilesFollowTheDocumentedSchema) {
   const CampaignOutcome outcome = run_campaign(config, options);
   ASSERT_TRUE(outcome.complete);
   EXPECT_EQ(outcome.total_runs, 8);
-  const nlohmann::json manifest = read(dir / "manifest.json");
+  const nlohmann::json manifest = test::read_json(dir / "manifest.json");
   EXPECT_EQ(manifest["schema"], "insid-campaign/1");
   expect_fields(manifest,
                 {{"/build/git_revision", 's'},
@@ -128,9 +107,9 @@ TEST(Campaign, FilesFollowTheDocumentedSchema) {
                  {"/config/alignment", 's'},
                  {"/config/estimate", 'a'}},
                 "manifest");
-  const nlohmann::json run = read(run_file(dir.string(), "rich-short", "DVPIO", 2));
+  const nlohmann::json run = test::read_json(run_file(dir.string(), "rich-short", "DVPIO", 2));
   EXPECT_EQ(run["schema"], "insid-run/3");
-  // issue 15: parameters with sd and flags, correlation and the uncertainty's own cost
+  // Parameters with sd and flags, correlation and the uncertainty's own cost
   expect_fields(run,
                 {{"/parameters/0/name", 's'},
                  {"/parameters/0/sd", 'n'},
@@ -175,7 +154,7 @@ TEST(Campaign, FilesFollowTheDocumentedSchema) {
                 "history");
   EXPECT_EQ(run["result"]["best_per_evaluation"].size(),
             run["result"]["evaluations"].get<std::size_t>());
-  const nlohmann::json summary = read(dir / "summary.json");
+  const nlohmann::json summary = test::read_json(dir / "summary.json");
   EXPECT_EQ(summary["schema"], "insid-summary/1");
   const std::string a = "/scenarios/rich-short/algorithms/PSO";
   expect_fields(summary,
@@ -204,7 +183,7 @@ TEST(Campaign, FilesFollowTheDocumentedSchema) {
 }
 
 TEST(Campaign, DifferentConfigIsRefusedUnlessForceNew) {
-  const fs::path dir = fresh_dir("mismatch");
+  const fs::path dir = test::fresh_dir("mismatch");
   RunOptions options;
   options.out_dir = dir.string();
   options.quiet = true;
@@ -226,20 +205,20 @@ TEST(Campaign, DifferentConfigIsRefusedUnlessForceNew) {
 
 TEST(Campaign, RunFilesOfTheOldSchemaStillResume) {
   // GIVEN a finished campaign with one run written before insid-run/2 (the estimate in sigma
-  // units was "estimate_sigma"), issue 15
-  const fs::path dir = fresh_dir("old-run-schema");
+  // units was "estimate_sigma")
+  const fs::path dir = test::fresh_dir("old-run-schema");
   RunOptions options;
   options.out_dir = dir.string();
   options.quiet = true;
   ASSERT_TRUE(run_campaign(small_config(), options).complete);
   const fs::path file = run_file(dir.string(), "rich-short", "PSO", 1);
-  nlohmann::json run = read(file);
+  nlohmann::json run = test::read_json(file);
   ASSERT_EQ(run["schema"], "insid-run/3");
   run["schema"] = "insid-run/1";
   run["estimate_sigma"] = run["estimate_in_sigma_units"];
   run.erase("estimate_in_sigma_units");
   std::ofstream(file) << run.dump(1);
-  const std::string old_bytes = bytes(file);
+  const std::string old_bytes = test::read_file(file);
   // THEN it is kept: not redone, not rewritten, and the summary is written again
   fs::remove(dir / "summary.json");
   const CampaignOutcome outcome = run_campaign(small_config(), options);
@@ -247,33 +226,33 @@ TEST(Campaign, RunFilesOfTheOldSchemaStillResume) {
   EXPECT_EQ(outcome.new_runs, 0);
   EXPECT_TRUE(outcome.complete);
   EXPECT_TRUE(fs::exists(dir / "summary.json"));
-  EXPECT_EQ(bytes(file), old_bytes);
+  EXPECT_EQ(test::read_file(file), old_bytes);
   // ...but a schema that is neither is redone
   run["schema"] = "insid-run/0";
   std::ofstream(file) << run.dump(1);
   const CampaignOutcome redo = run_campaign(small_config(), options);
   EXPECT_EQ(redo.new_runs, 1);
-  EXPECT_EQ(read(file)["schema"], "insid-run/3");
+  EXPECT_EQ(test::read_json(file)["schema"], "insid-run/3");
   // ...and an insid-run/2 record (parameters listed by name, no sd) is kept as well
-  nlohmann::json previous = read(file);
+  nlohmann::json previous = test::read_json(file);
   previous["schema"] = "insid-run/2";
   previous["parameters"] = {"accel_bias_x", "accel_bias_y", "gyro_bias_x", "gyro_bias_y"};
   std::ofstream(file) << previous.dump(1);
-  const std::string previous_bytes = bytes(file);
+  const std::string previous_bytes = test::read_file(file);
   EXPECT_EQ(run_campaign(small_config(), options).new_runs, 0);
-  EXPECT_EQ(bytes(file), previous_bytes);
+  EXPECT_EQ(test::read_file(file), previous_bytes);
   fs::remove_all(dir);
 }
 
 TEST(Campaign, ManifestWithoutANewDefaultParameterStillResumes) {
   // GIVEN a directory whose manifest was written before DVPIO had shrink_without_gain
-  const fs::path dir = fresh_dir("added-default");
+  const fs::path dir = test::fresh_dir("added-default");
   RunOptions options;
   options.out_dir = dir.string();
   options.quiet = true;
   options.max_new_runs = 2;
   run_campaign(small_config(), options);
-  nlohmann::json manifest = read(dir / "manifest.json");
+  nlohmann::json manifest = test::read_json(dir / "manifest.json");
   nlohmann::json& dvpio = manifest["config"]["algorithms"][1];
   ASSERT_EQ(dvpio["name"], "dvpio");
   ASSERT_EQ(dvpio["parameters"].erase("shrink_without_gain"), 1u);
@@ -300,8 +279,8 @@ TEST(Campaign, ManifestWithoutANewDefaultParameterStillResumes) {
 
 TEST(Campaign, KilledCampaignResumesWithoutTouchingFinishedRuns) {
   // GIVEN a campaign process killed (SIGKILL) after some runs finished
-  const fs::path dir = fresh_dir("kill");
-  const fs::path ref = fresh_dir("kill-ref");
+  const fs::path dir = test::fresh_dir("kill");
+  const fs::path ref = test::fresh_dir("kill-ref");
   fs::create_directories(dir);
   const fs::path config_path = dir.string() + ".json";
   std::ofstream(config_path) << kKillConfig;
@@ -333,7 +312,7 @@ TEST(Campaign, KilledCampaignResumesWithoutTouchingFinishedRuns) {
   std::map<fs::path, std::pair<std::string, fs::file_time_type>> before;
   for (const auto& e : fs::recursive_directory_iterator(runs))
     if (e.path().extension() == ".json")
-      before[e.path()] = {bytes(e.path()), fs::last_write_time(e.path())};
+      before[e.path()] = {test::read_file(e.path()), fs::last_write_time(e.path())};
 
   // WHEN the same campaign is run again on the directory
   RunOptions options;
@@ -348,7 +327,7 @@ TEST(Campaign, KilledCampaignResumesWithoutTouchingFinishedRuns) {
   EXPECT_EQ(resumed.skipped_runs, finished_before);
   EXPECT_EQ(resumed.new_runs, kKillRuns - finished_before);
   for (const auto& [path, old] : before) {
-    EXPECT_EQ(bytes(path), old.first) << path;
+    EXPECT_EQ(test::read_file(path), old.first) << path;
     EXPECT_EQ(fs::last_write_time(path), old.second) << path;
   }
   RunOptions ref_options;
@@ -358,8 +337,8 @@ TEST(Campaign, KilledCampaignResumesWithoutTouchingFinishedRuns) {
   ASSERT_TRUE(run_campaign(config, ref_options).complete);
   for (const char* label : {"PSO", "DVPIO", "GA", "PIO"})
     for (std::uint64_t seed = 1; seed <= 6; ++seed) {
-      nlohmann::json a = read(run_file(dir.string(), "rich-short", label, seed));
-      nlohmann::json b = read(run_file(ref.string(), "rich-short", label, seed));
+      nlohmann::json a = test::read_json(run_file(dir.string(), "rich-short", label, seed));
+      nlohmann::json b = test::read_json(run_file(ref.string(), "rich-short", label, seed));
       a["result"].erase("wall_s");
       if (a.contains("uncertainty")) a["uncertainty"].erase("wall_s");  // timing
       b["result"].erase("wall_s");
@@ -374,7 +353,7 @@ TEST(Campaign, KilledCampaignResumesWithoutTouchingFinishedRuns) {
 // The message of the std::invalid_argument that reading the config file with `text` throws, or
 // "(accepted)".
 std::string config_file_error(const std::string& text) {
-  const fs::path path = fresh_dir("config-file").string() + ".json";
+  const fs::path path = test::fresh_dir("config-file").string() + ".json";
   std::ofstream(path) << text;
   std::string error = "(accepted)";
   try {
@@ -389,7 +368,7 @@ std::string config_file_error(const std::string& text) {
 // The one typed reader's wording (base/json_object.h): the file, the field's path, what was
 // expected and what was found, for each kind of fault of a campaign config file.
 TEST(Campaign, ConfigFileFaultsAreNamedWithTheFieldPath) {
-  const std::string path = fresh_dir("config-file").string() + ".json";
+  const std::string path = test::fresh_dir("config-file").string() + ".json";
   const std::string algorithms = R"("algorithms": [{"name": "pso"}], "max_iterations": 2)";
   // GIVEN a good config file THEN it reads
   EXPECT_EQ(
@@ -479,7 +458,7 @@ std::string invalid_argument_of(F f) {
 
 TEST(Campaign, OptionsAreValidatedBeforeAnyWorkNamingTheBadValue) {
   // GIVEN a valid campaign and options for a directory that does not exist
-  const fs::path dir = fresh_dir("validate");
+  const fs::path dir = test::fresh_dir("validate");
   const CampaignConfig good = parse_campaign(nlohmann::json::parse(kConfig), "c.json");
   RunOptions options;
   options.out_dir = dir.string();
@@ -588,7 +567,7 @@ TEST(Campaign, SweepGridKeepsTheAlgorithmsOwnSigmaParameters) {
 }
 
 TEST(Campaign, SweepWritesPerSettingStatistics) {
-  const fs::path dir = fresh_dir("sweep");
+  const fs::path dir = test::fresh_dir("sweep");
   SweepConfig sweep;
   sweep.algorithm = "dvpio";
   sweep.axes = {SweepAxis::parse("R=0.02,0.2"), SweepAxis::parse("d0_sigma=0.05")};
@@ -601,12 +580,12 @@ TEST(Campaign, SweepWritesPerSettingStatistics) {
   options.out_dir = dir.string();
   options.quiet = true;
   ASSERT_TRUE(run_sweep(sweep, options).complete);
-  const nlohmann::json s = read(dir / "sweep.json");
+  const nlohmann::json s = test::read_json(dir / "sweep.json");
   EXPECT_EQ(s["schema"], "insid-sweep/1");
   ASSERT_EQ(s["settings"].size(), 2u);
   EXPECT_DOUBLE_EQ(s["settings"][1]["parameters"]["R"].get<double>(), 0.2);
   // d0_sigma = 0.05 sigma is 0.0125 in the normalised [-4, 4] sigma box.
-  const nlohmann::json manifest = read(dir / "manifest.json");
+  const nlohmann::json manifest = test::read_json(dir / "manifest.json");
   EXPECT_DOUBLE_EQ(manifest["config"]["algorithms"][0]["parameters"]["d_initial"].get<double>(),
                    0.0125);
   const double lo = s["settings"][0]["median_ci95"][0], hi = s["settings"][0]["median_ci95"][1];
@@ -620,7 +599,7 @@ TEST(Campaign, SweepWritesPerSettingStatistics) {
 TEST(Campaign, RunFileAndIdentifyRecordTheSameAssessment) {
   // GIVEN a dataset directory, a one-run campaign over it and `insid identify` on it with the
   // same algorithm, seed and budget
-  const fs::path dir = fresh_dir("record");
+  const fs::path dir = test::fresh_dir("record");
   fs::create_directories(dir);
   const fs::path data = dir / "data";
   const fs::path identified = dir / "identify.json";
@@ -644,8 +623,8 @@ TEST(Campaign, RunFileAndIdentifyRecordTheSameAssessment) {
                          " 2>/dev/null")
                             .c_str()),
             0);
-  const nlohmann::json run = read(run_file(options.out_dir, "data", "DVPIO", 2));
-  const nlohmann::json id = read(identified);
+  const nlohmann::json run = test::read_json(run_file(options.out_dir, "data", "DVPIO", 2));
+  const nlohmann::json id = test::read_json(identified);
   // THEN both carry every assessment field (results/README.md), with the same values
   for (const char* key :
        {"estimate", "estimate_in_sigma_units", "truth_sigma", "error_sigma",
@@ -663,11 +642,11 @@ TEST(Campaign, RunFileAndIdentifyRecordTheSameAssessment) {
 // parameters (name, sigma, box) and check gyrocompassing against the same gyro bias allowance:
 // the expected heading sd identify records equals the campaign's navigation problem's. And for
 // a grade given to both (tactical), the same set and allowance (identify's spec, which the CLI
-// fills from its arguments, against the campaign's config). Before issue 35's one rule
-// (gyro_bias_allowance_rad_s) a campaign without "initial_attitude" checked against the
-// catalogue's 0.01 deg/h where identify used the box's 0.04 deg/h (nav) or 4 deg/h (tactical).
+// fills from its arguments, against the campaign's config): one rule, gyro_bias_allowance_rad_s,
+// not the catalogue's 0.01 deg/h for a campaign without "initial_attitude" where identify used
+// the box's 0.04 deg/h (nav) or 4 deg/h (tactical).
 TEST(Campaign, IdentifyAndACampaignOnOneFlightShareDefaultSetAndGyroBiasAllowance) {
-  const fs::path dir = fresh_dir("same-flight");
+  const fs::path dir = test::fresh_dir("same-flight");
   fs::create_directories(dir);
   const fs::path data = dir / "data";
   const fs::path identified = dir / "identify.json";
@@ -683,7 +662,7 @@ TEST(Campaign, IdentifyAndACampaignOnOneFlightShareDefaultSetAndGyroBiasAllowanc
                          identified.string() + " 2>/dev/null")
                             .c_str()),
             0);
-  const nlohmann::json id = read(identified);
+  const nlohmann::json id = test::read_json(identified);
   CampaignConfig config =
       parse_campaign({{"name", "same-flight"},
                       {"scenarios", {{{"name", "data"}, {"data", data.string()}}}},
@@ -732,7 +711,7 @@ TEST(Campaign, IdentifyAndACampaignOnOneFlightShareDefaultSetAndGyroBiasAllowanc
 namespace insid::campaign {
 namespace {
 
-// A MEMS campaign (issue 14): the rich flight with mems noise and MEMS-size biases, searched
+// A MEMS campaign: the rich flight with mems noise and MEMS-size biases, searched
 // in a MEMS box (0.1 deg/s, 10 mg units).
 const char* kMemsConfig = R"({
   "name": "test-mems",
@@ -767,7 +746,7 @@ TEST(Campaign, MemsCampaignRunsWithLevelHeadingAndAWindow) {
   EXPECT_FALSE(old_style.to_json().contains("initial_attitude"));
   EXPECT_FALSE(old_style.to_json().contains("window_s"));
   EXPECT_FALSE(old_style.to_json().contains("heading_deg"));
-  const fs::path dir = fresh_dir("mems");
+  const fs::path dir = test::fresh_dir("mems");
   RunOptions options;
   options.out_dir = dir.string();
   options.quiet = true;
@@ -791,10 +770,10 @@ TEST(Campaign, MemsCampaignRunsWithLevelHeadingAndAWindow) {
   EXPECT_NEAR(mems.navigation_options().initial_attitude.gyro_bias_allowance_rad_s, 4 * 0.001745,
               1e-12);
   ASSERT_TRUE(run_campaign(mems, options).complete);
-  const nlohmann::json manifest = read(dir / "manifest.json");
+  const nlohmann::json manifest = test::read_json(dir / "manifest.json");
   EXPECT_EQ(manifest["config"]["initial_attitude"], "level+heading");
   EXPECT_EQ(manifest["config"]["window_s"], 10.0);
-  const nlohmann::json run = read(run_file(dir.string(), "rich-mems", "PSO", 1));
+  const nlohmann::json run = test::read_json(run_file(dir.string(), "rich-mems", "PSO", 1));
   EXPECT_EQ(run["initial_attitude"], "level+heading");
   EXPECT_EQ(run["window_s"], 10.0);
   EXPECT_TRUE(std::isfinite(run["result"]["fitness"].get<double>()));
@@ -847,7 +826,7 @@ TEST(Campaign, MemsCampaignRunsWithLevelHeadingAndAWindow) {
   EXPECT_EQ(measured.to_json()["heading_source"], "measured");
   EXPECT_EQ(measured.navigation_options().initial_attitude.heading_source,
             HeadingSource::kMeasured);
-  const fs::path dir2 = fresh_dir("mems-measured");
+  const fs::path dir2 = test::fresh_dir("mems-measured");
   options.out_dir = dir2.string();
   std::string no_heading;
   try {
@@ -890,14 +869,14 @@ TEST(Campaign, EstimationGradeSetsTheParametersAndIsRecorded) {
   ASSERT_EQ(q.size(), 2u);
   EXPECT_NEAR(q[0].sigma, 10e-3 * 9.80665, 1e-15);
   EXPECT_EQ(q[1].sigma, 0.001);
-  const fs::path dir = fresh_dir("mems-grade");
+  const fs::path dir = test::fresh_dir("mems-grade");
   RunOptions options;
   options.out_dir = dir.string();
   options.quiet = true;
   ASSERT_TRUE(run_campaign(mems, options).complete);
-  EXPECT_EQ(read(dir / "manifest.json")["config"]["estimation_grade"], "mems");
-  EXPECT_EQ(read(dir / "manifest.json")["config"]["estimate"].size(), 5u);
-  const nlohmann::json run = read(run_file(dir.string(), "rich-mems", "PSO", 1));
+  EXPECT_EQ(test::read_json(dir / "manifest.json")["config"]["estimation_grade"], "mems");
+  EXPECT_EQ(test::read_json(dir / "manifest.json")["config"]["estimate"].size(), 5u);
+  const nlohmann::json run = test::read_json(run_file(dir.string(), "rich-mems", "PSO", 1));
   EXPECT_EQ(run["estimation_grade"], "mems");
   ASSERT_EQ(run["parameters"].size(), 5u);
   EXPECT_EQ(run["parameters"][4]["name"], "gyro_bias_z");

@@ -7,7 +7,6 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 #include <string>
 #include <thread>
 
@@ -18,6 +17,7 @@
 #include "bench/campaign.h"
 #include "data/dataset.h"
 #include "scenarios/scenario.h"
+#include "test_support/files.h"
 
 namespace insid::campaign {
 namespace {
@@ -33,20 +33,6 @@ const char* kConfig = R"({
 })";
 
 CampaignConfig config() { return parse_campaign(nlohmann::json::parse(kConfig), "test"); }
-
-fs::path fresh_dir(const std::string& name) {
-  const fs::path dir =
-      fs::temp_directory_path() / ("insid-safety-test-" + name + "-" + std::to_string(getpid()));
-  fs::remove_all(dir);
-  return dir;
-}
-
-std::string text(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 RunOptions options_for(const fs::path& dir) {
   RunOptions options;
@@ -65,7 +51,7 @@ std::string error_of(const CampaignConfig& c, const RunOptions& options) {
 }
 
 TEST(DirectorySafety, ForeignDirectoryIsRefusedAndKeptUnlessForce) {
-  const fs::path dir = fresh_dir("foreign");
+  const fs::path dir = test::fresh_dir("foreign");
   fs::create_directories(dir / "src");
   std::ofstream(dir / "src" / "code.c") << "int main;";
   const std::string error = error_of(config(), options_for(dir));
@@ -76,14 +62,14 @@ TEST(DirectorySafety, ForeignDirectoryIsRefusedAndKeptUnlessForce) {
   RunOptions force = options_for(dir);
   force.into_foreign_directory = true;
   EXPECT_TRUE(run_campaign(config(), force).complete);
-  EXPECT_EQ(text(dir / "src" / "code.c"), "int main;");
+  EXPECT_EQ(test::read_file(dir / "src" / "code.c"), "int main;");
   // Now a campaign directory: the same campaign resumes without --force.
   EXPECT_TRUE(run_campaign(config(), options_for(dir)).complete);
   fs::remove_all(dir);
 }
 
 TEST(DirectorySafety, ConfigNamesThatAreNotPlainNamesAreRefusedBeforeAnyWrite) {
-  const fs::path base = fresh_dir("names");
+  const fs::path base = test::fresh_dir("names");
   fs::create_directories(base);
   const fs::path dir = base / "a" / "out";
   for (const std::string name : {"../../escape_scn", "", ".", "..", "x/y", "sp ace", "/abs"}) {
@@ -103,9 +89,9 @@ TEST(DirectorySafety, ConfigNamesThatAreNotPlainNamesAreRefusedBeforeAnyWrite) {
 }
 
 TEST(DirectorySafety, AnotherCampaignCannotStartWhileOneRuns) {
-  const fs::path dir = fresh_dir("lock");
+  const fs::path dir = test::fresh_dir("lock");
   ASSERT_TRUE(run_campaign(config(), options_for(dir)).complete);
-  const std::string run_bytes = text(run_file(dir.string(), "short", "PSO", 1));
+  const std::string run_bytes = test::read_file(run_file(dir.string(), "short", "PSO", 1));
   // A campaign running there holds the run lock shared (as run_campaign does).
   FileLock running(dir / FileLock::kRunLockName);
   ASSERT_TRUE(running.try_lock(FileLock::Mode::kShared));
@@ -115,7 +101,7 @@ TEST(DirectorySafety, AnotherCampaignCannotStartWhileOneRuns) {
   force_new.force_new = true;
   const std::string error = error_of(other, force_new);
   EXPECT_NE(error.find("is in use by another insid process"), std::string::npos) << error;
-  EXPECT_EQ(text(run_file(dir.string(), "short", "PSO", 1)), run_bytes);
+  EXPECT_EQ(test::read_file(run_file(dir.string(), "short", "PSO", 1)), run_bytes);
   // A shard of the same campaign may join (shards of one campaign share the directory); a
   // plain run, which would do every run again, may not.
   const std::string plain_error = error_of(config(), options_for(dir));
@@ -125,7 +111,7 @@ TEST(DirectorySafety, AnotherCampaignCannotStartWhileOneRuns) {
   shard.shard = Shard::parse("1/1");
   EXPECT_TRUE(run_campaign(config(), shard).complete);
   // Into a fresh directory whose first campaign has not written its manifest yet.
-  const fs::path empty = fresh_dir("lock-empty");
+  const fs::path empty = test::fresh_dir("lock-empty");
   fs::create_directories(empty);
   FileLock starting(empty / FileLock::kRunLockName);
   ASSERT_TRUE(starting.try_lock(FileLock::Mode::kExclusive));
@@ -167,7 +153,7 @@ pid_t start_long_bench(const fs::path& dir, const fs::path& config_path, const s
   const fs::path lock = dir / FileLock::kRunLockName;
   const std::string holder_line = "pid " + std::to_string(holder) + " on ";
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
-  while (text(lock).find(holder_line) == std::string::npos &&
+  while (test::read_file(lock).find(holder_line) == std::string::npos &&
          std::chrono::steady_clock::now() < deadline)
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   return holder;
@@ -175,14 +161,14 @@ pid_t start_long_bench(const fs::path& dir, const fs::path& config_path, const s
 
 TEST(DirectorySafety, SecondPlainRunIsRefusedNamingTheHolderUntilTheHolderIsKilled) {
   // GIVEN a plain `insid bench` process running a campaign in dir
-  const fs::path dir = fresh_dir("holder");
+  const fs::path dir = test::fresh_dir("holder");
   const fs::path config_path = dir.string() + ".json";
   const CampaignConfig long_config = parse_campaign(nlohmann::json::parse(kLongConfig), "test");
   const pid_t holder = start_long_bench(dir, config_path, "");
   ASSERT_GT(holder, 0);
   const fs::path lock = dir / FileLock::kRunLockName;
   const std::string holder_line = "pid " + std::to_string(holder) + " on ";
-  ASSERT_NE(text(lock).find(holder_line), std::string::npos) << text(lock);
+  ASSERT_NE(test::read_file(lock).find(holder_line), std::string::npos) << test::read_file(lock);
 
   // WHEN a second plain run, and a shard, try the same directory, THEN both are refused, the
   // message naming the holder: pid, host, since when, what it does
@@ -201,28 +187,29 @@ TEST(DirectorySafety, SecondPlainRunIsRefusedNamingTheHolderUntilTheHolderIsKill
   kill(holder, SIGKILL);
   int status = 0;
   waitpid(holder, &status, 0);
-  ASSERT_NE(text(lock).find(holder_line), std::string::npos);
+  ASSERT_NE(test::read_file(lock).find(holder_line), std::string::npos);
   RunOptions next = options_for(dir);
   next.max_new_runs = 1;
   const CampaignOutcome outcome = run_campaign(long_config, next);
   EXPECT_EQ(outcome.new_runs, 1);
-  EXPECT_EQ(text(lock).find(holder_line), std::string::npos) << text(lock);
-  EXPECT_NE(text(lock).find("pid " + std::to_string(getpid()) + " on "), std::string::npos)
-      << text(lock);
+  EXPECT_EQ(test::read_file(lock).find(holder_line), std::string::npos) << test::read_file(lock);
+  EXPECT_NE(test::read_file(lock).find("pid " + std::to_string(getpid()) + " on "),
+            std::string::npos)
+      << test::read_file(lock);
   fs::remove_all(dir);
   fs::remove(config_path);
 }
 
 TEST(DirectorySafety, ShardRunsOnceAtATimeAndJoinsOnlyShardsOfItsSplit) {
   // GIVEN an `insid bench --shard 1/2` process running in dir
-  const fs::path dir = fresh_dir("shards");
+  const fs::path dir = test::fresh_dir("shards");
   const fs::path config_path = dir.string() + ".json";
   const CampaignConfig long_config = parse_campaign(nlohmann::json::parse(kLongConfig), "test");
   const pid_t holder = start_long_bench(dir, config_path, "1/2");
   ASSERT_GT(holder, 0);
   const fs::path lock = dir / FileLock::kRunLockName;
   const std::string holder_line = "pid " + std::to_string(holder) + " on ";
-  ASSERT_NE(text(lock).find(holder_line), std::string::npos) << text(lock);
+  ASSERT_NE(test::read_file(lock).find(holder_line), std::string::npos) << test::read_file(lock);
 
   // WHEN the same shard starts again, THEN it is refused naming the running one
   RunOptions same = options_for(dir);
@@ -253,7 +240,7 @@ TEST(DirectorySafety, ShardRunsOnceAtATimeAndJoinsOnlyShardsOfItsSplit) {
 }
 
 TEST(DirectorySafety, RerunRemovesTemporariesLeftByAKill) {
-  const fs::path dir = fresh_dir("tmp");
+  const fs::path dir = test::fresh_dir("tmp");
   ASSERT_TRUE(run_campaign(config(), options_for(dir)).complete);
   const fs::path run = run_file(dir.string(), "short", "PSO", 1);
   const std::vector<fs::path> leftovers = {run.string() + ".tmp-somehost-12345-0",
@@ -261,25 +248,25 @@ TEST(DirectorySafety, RerunRemovesTemporariesLeftByAKill) {
                                            dir / "summary.json.tmp-node-17-3"};
   // A killed write leaves its temporary marked as insid's (base/output_dir.h) and half-written.
   for (const fs::path& p : leftovers) {
-    std::ofstream(p) << text(run).substr(0, 10);
+    std::ofstream(p) << test::read_file(run).substr(0, 10);
     if (!mark_as_temporary(p)) GTEST_SKIP() << "no user extended attributes: nothing is marked";
   }
   const fs::path users = dir / "runs" / "short" / "PSO" / "notes.tmp-list";  // not insid's pattern
   std::ofstream(users) << "mine";
-  // Insid's pattern, but not insid's mark: the user's (issue 45).
+  // Insid's pattern, but not insid's mark: the user's.
   const fs::path look_alike = dir / "runs" / "short" / "PSO" / "notes.tmp-laptop-12-3";
   std::ofstream(look_alike) << "mine too";
   ASSERT_TRUE(run_campaign(config(), options_for(dir)).complete);
   for (const fs::path& p : leftovers) EXPECT_FALSE(fs::exists(p)) << p;
   EXPECT_TRUE(fs::exists(users));
-  EXPECT_EQ(text(look_alike), "mine too");
+  EXPECT_EQ(test::read_file(look_alike), "mine too");
   EXPECT_TRUE(fs::exists(run));
   fs::remove_all(dir);
 }
 
 TEST(DirectorySafety, CampaignOverDataThatChangedIsADifferentCampaign) {
-  const fs::path data = fresh_dir("data");
-  const fs::path dir = fresh_dir("data-campaign");
+  const fs::path data = test::fresh_dir("data");
+  const fs::path dir = test::fresh_dir("data-campaign");
   scenarios::ScenarioConfig flight = scenarios::preset_scenario("rich");
   flight.flight_s = 120;
   write_dataset(data, scenarios::simulate(flight));
@@ -300,10 +287,10 @@ TEST(DirectorySafety, CampaignOverDataThatChangedIsADifferentCampaign) {
 }
 
 TEST(DirectorySafety, DamagedRunFileIsNamedAndRedone) {
-  const fs::path dir = fresh_dir("damaged-run");
+  const fs::path dir = test::fresh_dir("damaged-run");
   ASSERT_TRUE(run_campaign(config(), options_for(dir)).complete);
   const fs::path run = run_file(dir.string(), "short", "PSO", 1);
-  nlohmann::json record = nlohmann::json::parse(text(run));
+  nlohmann::json record = nlohmann::json::parse(test::read_file(run));
   const double fitness = record["result"]["fitness"].get<double>();
   record["result"]["fitness"] = "0.5";  // a string where a number was written
   std::ofstream(run) << record.dump(1);
@@ -326,7 +313,8 @@ TEST(DirectorySafety, DamagedRunFileIsNamedAndRedone) {
   EXPECT_TRUE(again.complete);
   EXPECT_EQ(again.new_runs, 1);
   EXPECT_EQ(run_file_problem(run, "short", "PSO", 1), "");
-  EXPECT_EQ(nlohmann::json::parse(text(run))["result"]["fitness"].get<double>(), fitness);
+  EXPECT_EQ(nlohmann::json::parse(test::read_file(run))["result"]["fitness"].get<double>(),
+            fitness);
   fs::remove_all(dir);
 }
 

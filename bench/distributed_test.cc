@@ -8,7 +8,6 @@
 #include <unistd.h>
 
 #include <chrono>
-#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -19,8 +18,12 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "test_support/files.h"
+#include "test_support/process.h"
+
 namespace {
 namespace fs = std::filesystem;
+namespace test = insid::test;
 
 // Two scenarios (so that MPI units of both are in flight and one rank waits for the other's
 // optimum), three algorithms, three seeds: 18 runs, a few seconds on one core.
@@ -39,11 +42,9 @@ constexpr int kRuns = 18;
 class Distributed : public ::testing::Test {
  protected:
   void SetUp() override {
-    root_ = fs::temp_directory_path() /
-            ("insid-distributed-test-" +
-             std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()) + "-" +
-             std::to_string(getpid()));
-    fs::remove_all(root_);
+    root_ = test::fresh_dir(
+        "distributed-test-" +
+        std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
     fs::create_directories(root_);
     config_ = root_ / "campaign.json";
     std::ofstream(config_) << kConfig;
@@ -60,25 +61,6 @@ class Distributed : public ::testing::Test {
 
   fs::path root_, config_;
 };
-
-// Run a shell command; its exit status, with stdout and stderr in `output`.
-int shell(const std::string& command, std::string* output = nullptr) {
-  FILE* pipe = popen((command + " 2>&1").c_str(), "r");
-  if (pipe == nullptr) return -1;
-  std::string text;
-  char buffer[4096];
-  while (std::fgets(buffer, sizeof(buffer), pipe) != nullptr) text += buffer;
-  const int status = pclose(pipe);
-  if (output != nullptr) *output = text;
-  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-}
-
-std::string bytes(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 // Remove every "wall_s" key (the only fields that depend on timing) at any depth.
 void drop_wall_times(nlohmann::json& j) {
@@ -97,7 +79,7 @@ std::map<std::string, nlohmann::json> run_files(const fs::path& dir) {
   if (!fs::exists(dir / "runs", ec)) return files;
   for (const auto& e : fs::recursive_directory_iterator(dir / "runs"))
     if (e.path().extension() == ".json") {
-      nlohmann::json j = nlohmann::json::parse(bytes(e.path()));
+      nlohmann::json j = nlohmann::json::parse(test::read_file(e.path()));
       drop_wall_times(j);
       files[fs::relative(e.path(), dir).string()] = j;
     }
@@ -105,7 +87,7 @@ std::map<std::string, nlohmann::json> run_files(const fs::path& dir) {
 }
 
 nlohmann::json summary_without_wall_times(const fs::path& dir) {
-  nlohmann::json j = nlohmann::json::parse(bytes(dir / "summary.json"));
+  nlohmann::json j = nlohmann::json::parse(test::read_file(dir / "summary.json"));
   drop_wall_times(j);
   return j;
 }
@@ -122,74 +104,71 @@ void expect_same_results(const fs::path& dir, const fs::path& ref) {
   }
   for (const char* scenario : {"a", "b"}) {
     const fs::path optimum = fs::path("optimum") / (std::string(scenario) + ".json");
-    EXPECT_EQ(bytes(dir / optimum), bytes(ref / optimum)) << optimum;
+    EXPECT_EQ(test::read_file(dir / optimum), test::read_file(ref / optimum)) << optimum;
   }
   ASSERT_TRUE(fs::exists(dir / "summary.json"));
   EXPECT_EQ(summary_without_wall_times(dir), summary_without_wall_times(ref));
 }
 
-bool contains(const std::string& text, const std::string& part) {
-  return text.find(part) != std::string::npos;
-}
-
 TEST_F(Distributed, ThreeShardsThenMergeEqualOneProcess) {
   // GIVEN a single-process reference
   const fs::path ref = root_ / "ref", dir = root_ / "sharded";
-  ASSERT_EQ(shell(bench(ref)), 0);
+  ASSERT_EQ(test::shell(bench(ref)), 0);
 
   // WHEN shards 1/3 and 2/3 have run, merge refuses and lists the runs of shard 3/3 only
   std::string out;
-  ASSERT_EQ(shell(bench(dir, "--shard 1/3"), &out), 0) << out;
-  EXPECT_TRUE(contains(out, "incomplete")) << out;
-  ASSERT_EQ(shell(bench(dir, "--shard 2/3"), &out), 0) << out;
+  ASSERT_EQ(test::shell(bench(dir, "--shard 1/3"), &out), 0) << out;
+  EXPECT_TRUE(test::contains(out, "incomplete")) << out;
+  ASSERT_EQ(test::shell(bench(dir, "--shard 2/3"), &out), 0) << out;
   EXPECT_EQ(run_files(dir).size(), 12u);
   EXPECT_FALSE(fs::exists(dir / "summary.json"));
-  EXPECT_NE(shell(std::string(INSID_BINARY) + " merge " + dir.string(), &out), 0) << out;
-  EXPECT_TRUE(contains(out, "6 of 18 runs missing")) << out;
-  EXPECT_TRUE(contains(out, "shard 3/3 (6): runs/a/PSO/seed_3.json")) << out;
-  EXPECT_FALSE(contains(out, "shard 1/3")) << out;
-  EXPECT_FALSE(contains(out, "shard 2/3")) << out;
+  EXPECT_NE(test::shell(std::string(INSID_BINARY) + " merge " + dir.string(), &out), 0) << out;
+  EXPECT_TRUE(test::contains(out, "6 of 18 runs missing")) << out;
+  EXPECT_TRUE(test::contains(out, "shard 3/3 (6): runs/a/PSO/seed_3.json")) << out;
+  EXPECT_FALSE(test::contains(out, "shard 1/3")) << out;
+  EXPECT_FALSE(test::contains(out, "shard 2/3")) << out;
 
   // THEN the last shard completes the campaign and writes the summary, merge agrees, and
   // everything equals the single process
-  ASSERT_EQ(shell(bench(dir, "--shard 3/3"), &out), 0) << out;
-  EXPECT_TRUE(contains(out, "summary written")) << out;
+  ASSERT_EQ(test::shell(bench(dir, "--shard 3/3"), &out), 0) << out;
+  EXPECT_TRUE(test::contains(out, "summary written")) << out;
   fs::remove(dir / "summary.json");
-  ASSERT_EQ(shell(std::string(INSID_BINARY) + " merge " + dir.string(), &out), 0) << out;
-  EXPECT_TRUE(contains(out, "all 18 runs present")) << out;
+  ASSERT_EQ(test::shell(std::string(INSID_BINARY) + " merge " + dir.string(), &out), 0) << out;
+  EXPECT_TRUE(test::contains(out, "all 18 runs present")) << out;
   expect_same_results(dir, ref);
 }
 
 TEST_F(Distributed, PlainRunCompletesAShardedDirectory) {
   const fs::path dir = root_ / "sharded";
   std::string out;
-  ASSERT_EQ(shell(bench(dir, "--shard 2/3"), &out), 0) << out;
-  ASSERT_EQ(shell(bench(dir), &out), 0) << out;
-  EXPECT_TRUE(contains(out, "12 new runs, 6 already done, of 18")) << out;
+  ASSERT_EQ(test::shell(bench(dir, "--shard 2/3"), &out), 0) << out;
+  ASSERT_EQ(test::shell(bench(dir), &out), 0) << out;
+  EXPECT_TRUE(test::contains(out, "12 new runs, 6 already done, of 18")) << out;
   EXPECT_TRUE(fs::exists(dir / "summary.json"));
 }
 
 TEST_F(Distributed, BadShardsAndMergesGetClearErrors) {
   const fs::path dir = root_ / "bad";
   std::string out;
-  EXPECT_NE(shell(bench(dir, "--shard 0/3"), &out), 0);
-  EXPECT_TRUE(contains(out, "--shard '0/3': shard index 0 is out of range; it must be in 1..3"))
+  EXPECT_NE(test::shell(bench(dir, "--shard 0/3"), &out), 0);
+  EXPECT_TRUE(
+      test::contains(out, "--shard '0/3': shard index 0 is out of range; it must be in 1..3"))
       << out;
-  EXPECT_NE(shell(bench(dir, "--shard 4/3"), &out), 0);
-  EXPECT_TRUE(contains(out, "shard index 4 is out of range; it must be in 1..3")) << out;
-  EXPECT_NE(shell(bench(dir, "--shard 2"), &out), 0);
-  EXPECT_TRUE(contains(out, "--shard '2': expected i/N")) << out;
+  EXPECT_NE(test::shell(bench(dir, "--shard 4/3"), &out), 0);
+  EXPECT_TRUE(test::contains(out, "shard index 4 is out of range; it must be in 1..3")) << out;
+  EXPECT_NE(test::shell(bench(dir, "--shard 2"), &out), 0);
+  EXPECT_TRUE(test::contains(out, "--shard '2': expected i/N")) << out;
   EXPECT_FALSE(fs::exists(dir / "runs"));
-  EXPECT_NE(shell(std::string(INSID_BINARY) + " merge " + dir.string(), &out), 0);
-  EXPECT_TRUE(contains(out, "manifest.json")) << out;
+  EXPECT_NE(test::shell(std::string(INSID_BINARY) + " merge " + dir.string(), &out), 0);
+  EXPECT_TRUE(test::contains(out, "manifest.json")) << out;
   // A shard pointed at another campaign's directory fails like a single process.
-  ASSERT_EQ(shell(bench(dir, "--max-new-runs 1"), &out), 0) << out;
+  ASSERT_EQ(test::shell(bench(dir, "--max-new-runs 1"), &out), 0) << out;
   nlohmann::json other = nlohmann::json::parse(kConfig);
   other["max_iterations"] = 7;
   std::ofstream(config_) << other.dump();
-  EXPECT_NE(shell(bench(dir, "--shard 1/2"), &out), 0);
-  EXPECT_TRUE(contains(out, "holds results of a different campaign")) << out;
-  EXPECT_TRUE(contains(out, "first difference at config.max_iterations")) << out;
+  EXPECT_NE(test::shell(bench(dir, "--shard 1/2"), &out), 0);
+  EXPECT_TRUE(test::contains(out, "holds results of a different campaign")) << out;
+  EXPECT_TRUE(test::contains(out, "first difference at config.max_iterations")) << out;
 }
 
 TEST_F(Distributed, ShardedSweepMergesIntoSweepTables) {
@@ -199,19 +178,20 @@ TEST_F(Distributed, ShardedSweepMergesIntoSweepTables) {
                             "--seeds 2 --iterations 4 --threads 1 --out " +
                             dir.string();
   std::string out;
-  ASSERT_EQ(shell(sweep + " --shard 1/2", &out), 0) << out;
+  ASSERT_EQ(test::shell(sweep + " --shard 1/2", &out), 0) << out;
   EXPECT_FALSE(fs::exists(dir / "sweep.json"));
-  EXPECT_NE(shell(std::string(INSID_BINARY) + " merge " + dir.string(), &out), 0);
-  EXPECT_TRUE(contains(out, "shard 2/2")) << out;
-  ASSERT_EQ(shell(sweep + " --shard 2/2", &out), 0) << out;
+  EXPECT_NE(test::shell(std::string(INSID_BINARY) + " merge " + dir.string(), &out), 0);
+  EXPECT_TRUE(test::contains(out, "shard 2/2")) << out;
+  ASSERT_EQ(test::shell(sweep + " --shard 2/2", &out), 0) << out;
   ASSERT_TRUE(fs::exists(dir / "sweep.json")) << out;
-  const std::string sweep_json = bytes(dir / "sweep.json"), sweep_csv = bytes(dir / "sweep.csv");
+  const std::string sweep_json = test::read_file(dir / "sweep.json"),
+                    sweep_csv = test::read_file(dir / "sweep.csv");
   fs::remove(dir / "sweep.json");
   fs::remove(dir / "sweep.csv");
   fs::remove(dir / "summary.json");
-  ASSERT_EQ(shell(std::string(INSID_BINARY) + " merge " + dir.string(), &out), 0) << out;
-  EXPECT_EQ(bytes(dir / "sweep.json"), sweep_json);
-  EXPECT_EQ(bytes(dir / "sweep.csv"), sweep_csv);
+  ASSERT_EQ(test::shell(std::string(INSID_BINARY) + " merge " + dir.string(), &out), 0) << out;
+  EXPECT_EQ(test::read_file(dir / "sweep.json"), sweep_json);
+  EXPECT_EQ(test::read_file(dir / "sweep.csv"), sweep_csv);
   EXPECT_TRUE(fs::exists(dir / "summary.json"));
 }
 
@@ -225,21 +205,22 @@ std::string mpirun(int ranks) {
 
 TEST_F(Distributed, MpiTwoAndThreeRanksEqualOneProcess) {
   const fs::path ref = root_ / "ref";
-  ASSERT_EQ(shell(bench(ref)), 0);
+  ASSERT_EQ(test::shell(bench(ref)), 0);
   for (int ranks : {2, 3}) {
     SCOPED_TRACE(std::to_string(ranks) + " ranks");
     const fs::path dir = root_ / ("np" + std::to_string(ranks));
     std::string out;
-    ASSERT_EQ(shell("timeout 120 " + mpirun(ranks) + bench(dir), &out), 0) << out;
-    EXPECT_TRUE(contains(out, "18 new runs on " + std::to_string(ranks) + " MPI ranks (")) << out;
+    ASSERT_EQ(test::shell("timeout 120 " + mpirun(ranks) + bench(dir), &out), 0) << out;
+    EXPECT_TRUE(test::contains(out, "18 new runs on " + std::to_string(ranks) + " MPI ranks ("))
+        << out;
     // Every rank took work: "(9 + 9)", no rank with 0 runs.
     const auto open = out.find("MPI ranks ("), close = out.find(')', open);
     ASSERT_NE(close, std::string::npos) << out;
     const std::string per_rank = out.substr(open + 11, close - open - 11);
-    EXPECT_FALSE(per_rank.starts_with("0 ") || contains(per_rank, " 0 ") ||
+    EXPECT_FALSE(per_rank.starts_with("0 ") || test::contains(per_rank, " 0 ") ||
                  per_rank.ends_with(" 0"))
         << "a rank did no run: " << per_rank;
-    const nlohmann::json manifest = nlohmann::json::parse(bytes(dir / "manifest.json"));
+    const nlohmann::json manifest = nlohmann::json::parse(test::read_file(dir / "manifest.json"));
     EXPECT_EQ(manifest.value("mpi_ranks", 0), ranks);
     expect_same_results(dir, ref);
   }
@@ -294,34 +275,35 @@ TEST_F(Distributed, MpiKilledRankResumesWithoutTouchingFinishedRuns) {
   std::map<fs::path, std::pair<std::string, fs::file_time_type>> before;
   for (const auto& e : fs::recursive_directory_iterator(dir / "runs"))
     if (e.path().extension() == ".json")
-      before[e.path()] = {bytes(e.path()), fs::last_write_time(e.path())};
+      before[e.path()] = {test::read_file(e.path()), fs::last_write_time(e.path())};
 
   // WHEN the same launch is run again
   std::string out;
-  ASSERT_EQ(shell("timeout 120 " + mpirun(2) + bench(dir), &out), 0) << out;
+  ASSERT_EQ(test::shell("timeout 120 " + mpirun(2) + bench(dir), &out), 0) << out;
 
   // THEN it does only the missing runs, leaves the finished ones untouched, and the results
   // equal an uninterrupted single process's
-  EXPECT_TRUE(contains(out, std::to_string(kRuns - finished_before) + " new runs on 2 MPI ranks"))
+  EXPECT_TRUE(
+      test::contains(out, std::to_string(kRuns - finished_before) + " new runs on 2 MPI ranks"))
       << out;
-  EXPECT_TRUE(contains(out, ", " + std::to_string(finished_before) + " already done")) << out;
+  EXPECT_TRUE(test::contains(out, ", " + std::to_string(finished_before) + " already done")) << out;
   for (const auto& [path, old] : before) {
-    EXPECT_EQ(bytes(path), old.first) << path;
+    EXPECT_EQ(test::read_file(path), old.first) << path;
     EXPECT_EQ(fs::last_write_time(path), old.second) << path;
   }
-  ASSERT_EQ(shell(bench(ref)), 0);
+  ASSERT_EQ(test::shell(bench(ref)), 0);
   expect_same_results(dir, ref);
 }
 
 TEST_F(Distributed, MpiLaunchOnADifferentCampaignFailsOnEveryRank) {
   const fs::path dir = root_ / "other";
   std::string out;
-  ASSERT_EQ(shell(bench(dir, "--max-new-runs 1"), &out), 0) << out;
+  ASSERT_EQ(test::shell(bench(dir, "--max-new-runs 1"), &out), 0) << out;
   nlohmann::json other = nlohmann::json::parse(kConfig);
   other["max_iterations"] = 7;
   std::ofstream(config_) << other.dump();
   // `timeout`: a rank left waiting for the others would hang the launch.
-  const int status = shell("timeout 60 " + mpirun(3) + bench(dir), &out);
+  const int status = test::shell("timeout 60 " + mpirun(3) + bench(dir), &out);
   EXPECT_NE(status, 0) << out;
   EXPECT_NE(status, 124) << "the launch hung: " << out;
   const std::string message = "first difference at config.max_iterations";
@@ -335,10 +317,10 @@ TEST_F(Distributed, MpiLaunchOnADifferentCampaignFailsOnEveryRank) {
 TEST_F(Distributed, MpiLaunchOfABuildWithoutMpiIsRefused) {
   // What mpirun sets for each of its processes; this build cannot share the work.
   std::string out;
-  EXPECT_NE(shell("OMPI_COMM_WORLD_SIZE=2 " + bench(root_ / "x")), 0);
-  shell("OMPI_COMM_WORLD_SIZE=2 " + bench(root_ / "x"), &out);
-  EXPECT_TRUE(contains(out, "built without MPI")) << out;
-  EXPECT_TRUE(contains(out, "--shard i/N")) << out;
+  EXPECT_NE(test::shell("OMPI_COMM_WORLD_SIZE=2 " + bench(root_ / "x")), 0);
+  test::shell("OMPI_COMM_WORLD_SIZE=2 " + bench(root_ / "x"), &out);
+  EXPECT_TRUE(test::contains(out, "built without MPI")) << out;
+  EXPECT_TRUE(test::contains(out, "--shard i/N")) << out;
   EXPECT_FALSE(fs::exists(root_ / "x" / "runs"));
 }
 #endif

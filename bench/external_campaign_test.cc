@@ -1,11 +1,10 @@
-// External optimizers in campaigns (issue 18): the reference Python client
+// External optimizers in campaigns: the reference Python client
 // (scripts/external_random_search.py) gives the same runs as the same random search computed
 // directly (numpy draws, scored by the campaign's own INS problem) for 1 and 2 threads; a
 // crashing client fails its own runs with the documented error and the others are written.
 #include <unistd.h>
 
 #include <algorithm>
-#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -15,44 +14,21 @@
 
 #include "bench/campaign.h"
 #include "identification/ins_problem.h"
+#include "test_support/files.h"
+#include "test_support/process.h"
 
 namespace insid::campaign {
 namespace {
 namespace fs = std::filesystem;
 
-const std::string kPython = "/usr/bin/python3";
-const std::string kSource = INSID_SOURCE_DIR;
-const std::string kClient = kSource + "/scripts/external_random_search.py";
-const std::string kTestClient = kSource + "/optimizers/testdata/external_test_client.py";
-
-std::string run_command(const std::string& command) {
-  std::string out;
-  FILE* pipe = ::popen(command.c_str(), "r");
-  if (pipe == nullptr) return out;
-  char buffer[4096];
-  for (std::size_t n; (n = std::fread(buffer, 1, sizeof(buffer), pipe)) > 0;) out.append(buffer, n);
-  ::pclose(pipe);
-  return out;
-}
-
-bool python_with_numpy() {
-  return run_command(kPython + " -c 'import numpy; print(1)' 2>/dev/null") == "1\n";
-}
-
-nlohmann::json read(const fs::path& p) {
-  std::ifstream in(p);
-  nlohmann::json j;
-  in >> j;
-  return j;
-}
-
 nlohmann::json config_json(bool with_crash) {
   nlohmann::json algorithms = {
-      {{"label", "RS-py"}, {"name", "external:" + kPython + " " + kClient}},
+      {{"label", "RS-py"}, {"name", "external:" + test::kPython + " " + test::kExternalClient}},
       {{"label", "PSO"}, {"name", "pso"}}};
   if (with_crash)
     algorithms.push_back(
-        {{"label", "crash"}, {"name", "external:" + kPython + " " + kTestClient + " crash"}});
+        {{"label", "crash"},
+         {"name", "external:" + test::kPython + " " + test::kExternalTestClient + " crash"}});
   return {{"name", "test-external"},
           {"scenarios",
            {{{"name", "rich-short"},
@@ -66,20 +42,14 @@ nlohmann::json config_json(bool with_crash) {
           {"max_evaluations", 25}};
 }
 
-fs::path fresh_dir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() /
-                       ("insid-external-campaign-" + name + "-" + std::to_string(getpid()));
-  fs::remove_all(dir);
-  return dir;
-}
-
 // numpy's default_rng(seed): `count` uniform points in [-1, 1]^n drawn at once.
 std::vector<Eigen::VectorXd> numpy_points(std::uint64_t seed, int n, int count) {
   const std::string script = "import json, numpy as np; p = np.random.default_rng(" +
                              std::to_string(seed) + ").uniform([-1.0] * " + std::to_string(n) +
                              ", [1.0] * " + std::to_string(n) + ", size=(" + std::to_string(count) +
                              ", " + std::to_string(n) + ")); print(json.dumps(p.tolist()))";
-  const nlohmann::json j = nlohmann::json::parse(run_command(kPython + " -c '" + script + "'"));
+  const nlohmann::json j =
+      nlohmann::json::parse(test::run_command(test::kPython + " -c '" + script + "'"));
   std::vector<Eigen::VectorXd> points;
   for (const auto& row : j) {
     Eigen::VectorXd x(n);
@@ -90,11 +60,11 @@ std::vector<Eigen::VectorXd> numpy_points(std::uint64_t seed, int n, int count) 
 }
 
 TEST(ExternalCampaign, PythonRandomSearchEqualsDirectComputationFor1And2Threads) {
-  if (!python_with_numpy()) GTEST_SKIP() << kPython << " with numpy is not available";
+  if (!test::python_with_numpy()) GTEST_SKIP() << test::kPython << " with numpy is not available";
   const CampaignConfig config = parse_campaign(config_json(false), "test");
   std::map<int, fs::path> dirs;
   for (const int threads : {1, 2}) {
-    dirs[threads] = fresh_dir("threads-" + std::to_string(threads));
+    dirs[threads] = test::fresh_dir("threads-" + std::to_string(threads));
     RunOptions options;
     options.out_dir = dirs[threads].string();
     options.threads = threads;
@@ -117,8 +87,8 @@ TEST(ExternalCampaign, PythonRandomSearchEqualsDirectComputationFor1And2Threads)
     double best = std::numeric_limits<double>::infinity();
     for (double fi : f) best_per_evaluation.push_back(best = std::min(best, fi));
 
-    nlohmann::json one = read(run_file(dirs[1].string(), "rich-short", "RS-py", seed));
-    nlohmann::json two = read(run_file(dirs[2].string(), "rich-short", "RS-py", seed));
+    nlohmann::json one = test::read_json(run_file(dirs[1].string(), "rich-short", "RS-py", seed));
+    nlohmann::json two = test::read_json(run_file(dirs[2].string(), "rich-short", "RS-py", seed));
     EXPECT_EQ(one["result"]["best_per_evaluation"].get<std::vector<double>>(), best_per_evaluation)
         << "seed " << seed;
     EXPECT_EQ(one["result"]["fitness"].get<double>(), best);
@@ -142,9 +112,9 @@ TEST(ExternalCampaign, PythonRandomSearchEqualsDirectComputationFor1And2Threads)
 }
 
 TEST(ExternalCampaign, CrashingClientFailsOnlyItsOwnRuns) {
-  if (!python_with_numpy()) GTEST_SKIP() << kPython << " with numpy is not available";
+  if (!test::python_with_numpy()) GTEST_SKIP() << test::kPython << " with numpy is not available";
   const CampaignConfig config = parse_campaign(config_json(true), "test");
-  const fs::path dir = fresh_dir("crash");
+  const fs::path dir = test::fresh_dir("crash");
   RunOptions options;
   options.out_dir = dir.string();
   options.threads = 2;
@@ -158,8 +128,9 @@ TEST(ExternalCampaign, CrashingClientFailsOnlyItsOwnRuns) {
   // The error names both failed runs, the command and what happened.
   for (std::uint64_t seed = 1; seed <= 2; ++seed) {
     const std::string expected = "run " + run_file(dir.string(), "rich-short", "crash", seed) +
-                                 " failed: external optimizer '" + kPython + " " + kTestClient +
-                                 " crash' (seed " + std::to_string(seed) +
+                                 " failed: external optimizer '" + test::kPython + " " +
+                                 test::kExternalTestClient + " crash' (seed " +
+                                 std::to_string(seed) +
                                  "): the process exited with status 3 before replying to ask 2";
     EXPECT_NE(error.find(expected), std::string::npos) << "'" << expected << "' not in: " << error;
     EXPECT_FALSE(fs::exists(run_file(dir.string(), "rich-short", "crash", seed)));
@@ -171,20 +142,21 @@ TEST(ExternalCampaign, CrashingClientFailsOnlyItsOwnRuns) {
   fs::remove_all(dir);
 }
 
-// A wave's processes start together (issue 18): each client logs when its shell started, then
+// A wave's processes start together: each client logs when its shell started, then
 // sleeps 1 s before the Python client runs. Launched one after another at the first ask (as
 // before), the starts of 4 runs spread over at least 3 s; launched together, over far less.
 TEST(ExternalCampaign, WaveProcessesStartTogether) {
-  if (!python_with_numpy()) GTEST_SKIP() << kPython << " with numpy is not available";
-  const fs::path dir = fresh_dir("launch");
+  if (!test::python_with_numpy()) GTEST_SKIP() << test::kPython << " with numpy is not available";
+  const fs::path dir = test::fresh_dir("launch");
   fs::create_directories(dir);
   const fs::path starts = dir / "starts.txt";
   nlohmann::json j = config_json(false);
-  j["algorithms"] = {{{"label", "RS-slow"},
-                      {"name",
-                       "external:/usr/bin/python3 -c 'import time; print(repr(time.time()))' "
-                       ">> " +
-                           starts.string() + "; sleep 1; exec " + kPython + " " + kClient}}};
+  j["algorithms"] = {
+      {{"label", "RS-slow"},
+       {"name",
+        "external:/usr/bin/python3 -c 'import time; print(repr(time.time()))' "
+        ">> " +
+            starts.string() + "; sleep 1; exec " + test::kPython + " " + test::kExternalClient}}};
   j["seeds"] = 4;
   const CampaignConfig config = parse_campaign(j, "test");
   RunOptions options;

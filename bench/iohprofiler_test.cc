@@ -7,12 +7,12 @@
 #include <filesystem>
 #include <fstream>
 #include <regex>
-#include <sstream>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
 #include "bench/campaign.h"
+#include "test_support/files.h"
 
 namespace insid::campaign {
 namespace {
@@ -30,20 +30,6 @@ const char* kConfig = R"({
   "max_iterations": 6
 })";
 
-fs::path fresh_dir(const std::string& name) {
-  const fs::path dir =
-      fs::temp_directory_path() / ("insid-ioh-test-" + name + "-" + std::to_string(getpid()));
-  fs::remove_all(dir);
-  return dir;
-}
-
-nlohmann::json read_json(const fs::path& p) {
-  std::ifstream in(p);
-  nlohmann::json j;
-  in >> j;
-  return j;
-}
-
 std::vector<std::string> lines_of(const fs::path& p) {
   std::ifstream in(p);
   std::vector<std::string> lines;
@@ -53,8 +39,8 @@ std::vector<std::string> lines_of(const fs::path& p) {
 
 TEST(IohProfiler, ExportParsesBackToTheCampaignCurves) {
   // GIVEN a complete campaign of 2 scenarios x 2 algorithms x 2 seeds, exported
-  const fs::path campaign = fresh_dir("campaign");
-  const fs::path out = fresh_dir("out");
+  const fs::path campaign = test::fresh_dir("campaign");
+  const fs::path out = test::fresh_dir("out");
   const CampaignConfig config = parse_campaign(nlohmann::json::parse(kConfig), "test");
   RunOptions options;
   options.out_dir = campaign.string();
@@ -93,7 +79,7 @@ TEST(IohProfiler, ExportParsesBackToTheCampaignCurves) {
       ASSERT_EQ(runs.size(), 2u);
       for (std::size_t r = 0; r < 2; ++r) {
         const nlohmann::json record =
-            read_json(run_file(campaign.string(), scenario.name, label, config.seeds[r]));
+            test::read_json(run_file(campaign.string(), scenario.name, label, config.seeds[r]));
         const auto trace = record["result"]["best_per_evaluation"].get<std::vector<double>>();
         EXPECT_EQ(expand_best_so_far(runs[r]), trace)
             << label << " " << scenario.name << " run " << r;
@@ -132,7 +118,7 @@ TEST(IohProfiler, ExportParsesBackToTheCampaignCurves) {
 TEST(IohProfiler, ReaderReadsTheDocumentedExampleLayout) {
   // The layout of IOHanalyzer's dataformat.md: a header of name = value pairs, a '%' line, the
   // data file with instance:running time|best-so-far per run; separation lines in the .dat.
-  const fs::path dir = fresh_dir("example");
+  const fs::path dir = test::fresh_dir("example");
   fs::create_directories(dir / "data_f10");
   {
     std::ofstream info(dir / "IOHprofiler_f10_i1.info");

@@ -1,11 +1,10 @@
-// Campaign runs in lock-step with the batched kernel (issue 6): the same results as the scalar
+// Campaign runs in lock-step with the batched kernel: the same results as the scalar
 // reference evaluator within 1e-9 relative on every run's best fitness, and bit-identical run
 // files for 1 and 2 threads.
 #include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <functional>
 #include <limits>
 #include <memory>
@@ -16,6 +15,7 @@
 #include "bench/campaign.h"
 #include "identification/identify.h"
 #include "identification/ins_problem.h"
+#include "test_support/files.h"
 
 namespace insid::campaign {
 namespace {
@@ -31,17 +31,8 @@ const char* kConfig = R"({
   "max_iterations": 4
 })";
 
-nlohmann::json read(const fs::path& p) {
-  std::ifstream in(p);
-  nlohmann::json j;
-  in >> j;
-  return j;
-}
-
 fs::path run_campaign_into(const std::string& name, int threads, bool scalar) {
-  const fs::path dir =
-      fs::temp_directory_path() / ("insid-lockstep-" + name + "-" + std::to_string(getpid()));
-  fs::remove_all(dir);
+  const fs::path dir = test::fresh_dir("lockstep-" + name);
   RunOptions options;
   options.out_dir = dir.string();
   options.threads = threads;
@@ -60,9 +51,10 @@ TEST(Lockstep, BatchedCampaignEqualsScalarAndDoesNotDependOnThreads) {
   const fs::path scalar = run_campaign_into("scalar", 2, true);
   for (const char* label : {"GA", "PSO", "DVPIO"})
     for (std::uint64_t seed = 1; seed <= 3; ++seed) {
-      nlohmann::json a = read(run_file(one.string(), "rich-short", label, seed));
-      nlohmann::json b = read(run_file(two.string(), "rich-short", label, seed));
-      const nlohmann::json c = read(run_file(scalar.string(), "rich-short", label, seed));
+      nlohmann::json a = test::read_json(run_file(one.string(), "rich-short", label, seed));
+      nlohmann::json b = test::read_json(run_file(two.string(), "rich-short", label, seed));
+      const nlohmann::json c =
+          test::read_json(run_file(scalar.string(), "rich-short", label, seed));
       // THEN the thread count changes nothing but wall times
       a["result"].erase("wall_s");
       if (a.contains("uncertainty")) a["uncertainty"].erase("wall_s");  // timing
@@ -94,12 +86,7 @@ TEST(Lockstep, LeastSquaresRunsScoredTogetherEqualRunsDoneAlone) {
     "max_evaluations": 60
   })";
   const CampaignConfig config = parse_campaign(nlohmann::json::parse(config_text), "test");
-  auto dir_for = [](const std::string& name) {
-    const fs::path dir =
-        fs::temp_directory_path() / ("insid-lockstep-" + name + "-" + std::to_string(getpid()));
-    fs::remove_all(dir);
-    return dir;
-  };
+  auto dir_for = [](const std::string& name) { return test::fresh_dir("lockstep-" + name); };
   const fs::path together = dir_for("lsq-together");
   const fs::path alone = dir_for("lsq-alone");
   RunOptions options;
@@ -115,8 +102,8 @@ TEST(Lockstep, LeastSquaresRunsScoredTogetherEqualRunsDoneAlone) {
   // THEN every run file is the same but for the wall time
   for (const char* label : {"LM", "BOBYQA"})
     for (std::uint64_t seed = 1; seed <= 3; ++seed) {
-      nlohmann::json a = read(run_file(together.string(), "rich-short", label, seed));
-      nlohmann::json b = read(run_file(alone.string(), "rich-short", label, seed));
+      nlohmann::json a = test::read_json(run_file(together.string(), "rich-short", label, seed));
+      nlohmann::json b = test::read_json(run_file(alone.string(), "rich-short", label, seed));
       a["result"].erase("wall_s");
       if (a.contains("uncertainty")) a["uncertainty"].erase("wall_s");  // timing
       b["result"].erase("wall_s");
@@ -165,17 +152,16 @@ Waves run_runner_into(
   EXPECT_EQ(runner.first_error(), "");
   EXPECT_EQ(runner.new_runs(), static_cast<int>(runs.size()));
   for (const RunSpec& run : runs)
-    waves.evaluations += read(run.path)["result"]["evaluations"].get<std::size_t>();
+    waves.evaluations += test::read_json(run.path)["result"]["evaluations"].get<std::size_t>();
   return waves;
 }
 
 TEST(Lockstep, WavesOfBoundedWallTimeKeepEveryResultAndTheOptimum) {
   // GIVEN the nine runs of kConfig done by the runner with no wave bound (one wave), with a
   // bound no wave can meet, and with a bound every wave meets
-  const std::string tag = std::to_string(getpid());
-  const fs::path one_wave = fs::temp_directory_path() / ("insid-lockstep-one-wave-" + tag);
-  const fs::path tight = fs::temp_directory_path() / ("insid-lockstep-tight-" + tag);
-  const fs::path loose = fs::temp_directory_path() / ("insid-lockstep-loose-" + tag);
+  const fs::path one_wave = test::fresh_dir("lockstep-one-wave");
+  const fs::path tight = test::fresh_dir("lockstep-tight");
+  const fs::path loose = test::fresh_dir("lockstep-loose");
   const Waves unbounded = run_runner_into(one_wave, 0.0);
   const Waves smallest = run_runner_into(tight, 1e-9);
   const Waves measured = run_runner_into(loose, 1e9);
@@ -226,12 +212,13 @@ TEST(Lockstep, WavesOfBoundedWallTimeKeepEveryResultAndTheOptimum) {
   // AND every run file and the optimum (found alongside the first wave) are the same
   const CampaignConfig config = parse_campaign(nlohmann::json::parse(kConfig), "test");
   for (const fs::path& dir : {tight, loose}) {
-    EXPECT_EQ(read(optimum_file(dir.string(), "rich-short")),
-              read(optimum_file(one_wave.string(), "rich-short")));
+    EXPECT_EQ(test::read_json(optimum_file(dir.string(), "rich-short")),
+              test::read_json(optimum_file(one_wave.string(), "rich-short")));
     for (const AlgorithmSpec& algo : config.algorithms)
       for (std::uint64_t seed : config.seeds) {
-        nlohmann::json a = read(run_file(dir.string(), "rich-short", algo.label, seed));
-        nlohmann::json b = read(run_file(one_wave.string(), "rich-short", algo.label, seed));
+        nlohmann::json a = test::read_json(run_file(dir.string(), "rich-short", algo.label, seed));
+        nlohmann::json b =
+            test::read_json(run_file(one_wave.string(), "rich-short", algo.label, seed));
         a["result"].erase("wall_s");
         if (a.contains("uncertainty")) a["uncertainty"].erase("wall_s");  // timing
         b["result"].erase("wall_s");
@@ -250,15 +237,14 @@ TEST(Lockstep, WavesOfBoundedWallTimeKeepEveryResultAndTheOptimum) {
       FitnessEvaluator::kBatched);
   nlohmann::json alone = find_reference_optimum(problem).to_json(problem.mapping());
   alone["scenario"] = "rich-short";
-  EXPECT_EQ(read(optimum_file(one_wave.string(), "rich-short")), alone);
+  EXPECT_EQ(test::read_json(optimum_file(one_wave.string(), "rich-short")), alone);
   for (const fs::path& dir : {one_wave, tight, loose}) fs::remove_all(dir);
 }
 
 TEST(Lockstep, ASmallTailOfRunsJoinsTheLastWave) {
   // GIVEN five runs of 10 candidates (PSO seeds 1-3, DVPIO seeds 1-2) under the tight bound, whose
   // waves hold at most 48 candidates a round on one thread
-  const fs::path dir =
-      fs::temp_directory_path() / ("insid-lockstep-tail-" + std::to_string(getpid()));
+  const fs::path dir = test::fresh_dir("lockstep-tail");
   const Waves waves = run_runner_into(dir, 1e-9, [](const std::string& label, std::uint64_t seed) {
     return label == "PSO" || (label == "DVPIO" && seed <= 2);
   });

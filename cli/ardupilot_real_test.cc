@@ -1,10 +1,8 @@
 // `insid import ardupilot` end to end through the insid binary on the shared ArduPilot log
 // (../shared/data/ardupilot-copter/log171.bin, read in place; copies cut or corrupted only in a
 // temporary directory), then `insid navigate` on the dataset. Skips where the log is absent.
-#include <sys/wait.h>
 #include <unistd.h>
 
-#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -19,13 +17,15 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "cli/cli_test_support.h"
+#include "test_support/files.h"
+#include "test_support/process.h"
 
 namespace {
 namespace fs = std::filesystem;
 
-using insid::cli_test::insid;
-using insid::cli_test::Outcome;
+namespace test = insid::test;
+using insid::test::insid;
+using insid::test::Outcome;
 
 const fs::path kLog = fs::path(INSID_SHARED_DATA) / "ardupilot-copter" / "log171.bin";
 constexpr const char* kNoLog =
@@ -39,27 +39,9 @@ Outcome import_flight_window(const fs::path& ds) {
                ds.string());
 }
 
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    std::string t = (fs::temp_directory_path() / "insid-ardupilot-XXXXXX").string();
-    path = ::mkdtemp(t.data()) ? fs::path(t) : fs::path();
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-};
-
-std::string file_bytes(const fs::path& p) { return insid::cli_test::text(p); }
-
-void write_bytes(const fs::path& p, const std::string& bytes) {
-  std::ofstream(p, std::ios::binary) << bytes;
-}
-
 // Options are checked before any file is read (exit 2, the README's table); no shared data needed.
 TEST(ArduPilotCli, UsageErrorsBeforeReading) {
-  TempDir tmp;
+  test::TempDir tmp;
   ASSERT_FALSE(tmp.path.empty());
   const std::string out = " --out " + (tmp.path / "ds").string();
   Outcome o = insid("import ardupilot " + (tmp.path / "none.bin").string() + " --imu IMU4" + out);
@@ -79,7 +61,7 @@ TEST(ArduPilotCli, UsageErrorsBeforeReading) {
 // navigate runs on it.
 TEST(ArduPilotCli, ImportCutAndNavigate) {
   if (!fs::exists(kLog)) GTEST_SKIP() << kNoLog;
-  TempDir tmp;
+  test::TempDir tmp;
   ASSERT_FALSE(tmp.path.empty());
   const fs::path refused = tmp.path / "refused";
   Outcome o = insid("import ardupilot " + kLog.string() + " --out " + refused.string());
@@ -116,11 +98,11 @@ TEST(ArduPilotCli, ImportCutAndNavigate) {
 // FMT record has an unknown type letter is refused naming the offset, and nothing is written.
 TEST(ArduPilotCli, TruncatedAndCorruptedCopies) {
   if (!fs::exists(kLog)) GTEST_SKIP() << kNoLog;
-  TempDir tmp;
+  test::TempDir tmp;
   ASSERT_FALSE(tmp.path.empty());
-  const std::string bytes = file_bytes(kLog);
+  const std::string bytes = test::read_file(kLog);
   ASSERT_GT(bytes.size(), 1500000u);
-  write_bytes(tmp.path / "cut.bin", bytes.substr(0, 1500000));
+  test::write_file(tmp.path / "cut.bin", bytes.substr(0, 1500000));
   Outcome o = insid("import ardupilot " + (tmp.path / "cut.bin").string() +
                     " --t-start 74.7 --out " + (tmp.path / "cut").string());
   EXPECT_EQ(o.status, 0) << o.output;
@@ -132,7 +114,7 @@ TEST(ArduPilotCli, TruncatedAndCorruptedCopies) {
   std::string corrupted = bytes;
   ASSERT_EQ(corrupted.compare(276, 10, "IffffffIIf"), 0);
   corrupted[277] = 'X';
-  write_bytes(tmp.path / "bad.bin", corrupted);
+  test::write_file(tmp.path / "bad.bin", corrupted);
   o = insid("import ardupilot " + (tmp.path / "bad.bin").string() + " --out " +
             (tmp.path / "bad").string());
   EXPECT_EQ(o.status, 1) << o.output;
@@ -142,7 +124,7 @@ TEST(ArduPilotCli, TruncatedAndCorruptedCopies) {
   EXPECT_FALSE(fs::exists(tmp.path / "bad"));
 }
 
-// Issue 45: 3 stray bytes inside a record in the middle of the log dropped 68 % of the IMU rows
+// 3 stray bytes inside a record in the middle of the log dropped 68 % of the IMU rows
 // (the reader stopped at the first broken header). GIVEN the shared log with 3 bytes inserted
 // 7 bytes into a record at its middle WHEN the flight window is imported THEN reading resumes
 // on the next valid record: at most the damaged record and its neighbours are lost (6941 rows
@@ -150,14 +132,14 @@ TEST(ArduPilotCli, TruncatedAndCorruptedCopies) {
 // skipped, and provenance.json counts it.
 TEST(ArduPilotCli, StrayBytesMidLogAreSkippedToTheNextRecord) {
   if (!fs::exists(kLog)) GTEST_SKIP() << kNoLog;
-  TempDir tmp;
+  test::TempDir tmp;
   ASSERT_FALSE(tmp.path.empty());
-  const std::string bytes = file_bytes(kLog);
+  const std::string bytes = test::read_file(kLog);
   // A record header near the middle, then 3 bytes inserted 7 bytes into that record.
   const std::size_t header = bytes.find("\xA3\x95", bytes.size() / 2);
   ASSERT_NE(header, std::string::npos);
   const std::size_t at = header + 7;
-  write_bytes(tmp.path / "stray.bin", bytes.substr(0, at) + "\x01\x02\x03" + bytes.substr(at));
+  test::write_file(tmp.path / "stray.bin", bytes.substr(0, at) + "\x01\x02\x03" + bytes.substr(at));
   const Outcome o = insid("import ardupilot " + (tmp.path / "stray.bin").string() +
                           " --t-start 74.7 --t-end 215 --out " + (tmp.path / "ds").string());
   ASSERT_EQ(o.status, 0) << o.output;
@@ -173,16 +155,16 @@ TEST(ArduPilotCli, StrayBytesMidLogAreSkippedToTheNextRecord) {
   EXPECT_FALSE(prov["dataflash"].contains("truncation"));
 }
 
-// Issue 45: one flipped bit in a GPS record's Week pulled the boot clock's first line fit off
+// One flipped bit in a GPS record's Week pulled the boot clock's first line fit off
 // every other fix ("fewer than 2 fixes within 0.1 s of the fit"). GIVEN the shared log with the
 // top bit of Week flipped in one GPS record mid-log WHEN imported THEN that fix is left out of
 // the clock fit like a late one (one more than in the undamaged log) and the import completes
 // with the same clock slope; the fix is dropped from the GNSS epochs, with a note.
 TEST(ArduPilotCli, OneDamagedGpsWeekDoesNotBreakTheBootClock) {
   if (!fs::exists(kLog)) GTEST_SKIP() << kNoLog;
-  TempDir tmp;
+  test::TempDir tmp;
   ASSERT_FALSE(tmp.path.empty());
-  std::string bytes = file_bytes(kLog);
+  std::string bytes = test::read_file(kLog);
   // The GPS message's id and the offset of its Week field, from its FMT record.
   std::size_t gps_fmt = std::string::npos;
   for (std::size_t q = bytes.find("\xA3\x95\x80"); q != std::string::npos && q < 20000;
@@ -236,7 +218,7 @@ TEST(ArduPilotCli, OneDamagedGpsWeekDoesNotBreakTheBootClock) {
   const std::size_t record = bytes.find(std::string("\xA3\x95", 2) + gps_id, bytes.size() / 2);
   ASSERT_NE(record, std::string::npos);
   bytes[record + week_offset + 1] ^= static_cast<char>(0x80);  // Week + 32768
-  write_bytes(tmp.path / "week.bin", bytes);
+  test::write_file(tmp.path / "week.bin", bytes);
   const Outcome ok = import_flight_window(tmp.path / "whole");
   ASSERT_EQ(ok.status, 0) << ok.output;
   const Outcome o = insid("import ardupilot " + (tmp.path / "week.bin").string() +
@@ -267,7 +249,7 @@ TEST(LowRateCli, EightHertzUlogIsRefusedNamingTheRateAndTheMinimum) {
   if (!fs::exists(log))
     GTEST_SKIP() << "../shared/data/px4-ulog-real/esc_status_log.ulg is absent (tests that need "
                     "the shared real data skip without it)";
-  TempDir tmp;
+  test::TempDir tmp;
   ASSERT_FALSE(tmp.path.empty());
   const fs::path out = tmp.path / "ds";
   Outcome o = insid("import ulog " + log.string() + " --out " + out.string());
@@ -297,7 +279,7 @@ TEST(LowRateCli, EightHertzUlogIsRefusedNamingTheRateAndTheMinimum) {
 // window starts after the 2.0 s logging gap (74.628 s) and ends 2 s before the crash.
 TEST(ArduPilotCli, FlightPhasesMatchTimesReadFromOtherMessages) {
   if (!fs::exists(kLog)) GTEST_SKIP() << kNoLog;
-  TempDir tmp;
+  test::TempDir tmp;
   ASSERT_FALSE(tmp.path.empty());
   const fs::path ds = tmp.path / "ds";
   Outcome o = import_flight_window(ds);
@@ -328,7 +310,7 @@ TEST(ArduPilotCli, FlightPhasesMatchTimesReadFromOtherMessages) {
 // fails here. The test re-reads those bytes so that the offsets themselves are checked.
 TEST(ArduPilotCli, AutopilotBiasesMatchBytesDecodedByHand) {
   if (!fs::exists(kLog)) GTEST_SKIP() << kNoLog;
-  const std::string bytes = file_bytes(kLog);
+  const std::string bytes = test::read_file(kLog);
   ASSERT_GT(bytes.size(), 2513790u);
   const auto i16 = [&](std::size_t at) {
     return static_cast<std::int16_t>(static_cast<unsigned char>(bytes[at]) |
@@ -342,7 +324,7 @@ TEST(ArduPilotCli, AutopilotBiasesMatchBytesDecodedByHand) {
   ASSERT_EQ(static_cast<std::int8_t>(bytes[2513779 + 8]), 21);
   ASSERT_EQ(static_cast<std::int8_t>(bytes[2513779 + 9]), 41);
 
-  TempDir tmp;
+  test::TempDir tmp;
   ASSERT_FALSE(tmp.path.empty());
   const fs::path ds = tmp.path / "ds";
   const Outcome o = insid("import ardupilot " + kLog.string() +
@@ -387,7 +369,7 @@ TEST(ArduPilotCli, AutopilotBiasesMatchBytesDecodedByHand) {
 // accelerometer bias are listed as not compared.
 TEST(ArduPilotCli, IdentifyShowsTheAutopilotEstimatesBesideInsids) {
   if (!fs::exists(kLog)) GTEST_SKIP() << kNoLog;
-  TempDir tmp;
+  test::TempDir tmp;
   ASSERT_FALSE(tmp.path.empty());
   const fs::path ds = tmp.path / "ds";
   Outcome o = import_flight_window(ds);

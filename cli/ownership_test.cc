@@ -1,35 +1,31 @@
-// The binary never loses a user's file (issue 37, items 1, 2, 5 and 6): an import into the folder
+// The binary never loses a user's file: an import into the folder
 // of its own raw log, outputs over the command's inputs or over files insid did not write, links
 // planted in a campaign directory, and --force-new over a user's file in runs/. Each case ends
 // non-zero with the file named, and the user's file is unchanged.
-#include <sys/wait.h>
 #include <sys/xattr.h>
 #include <unistd.h>
 
-#include <array>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 #include <string>
 
 #include <gtest/gtest.h>
 
-#include "cli/cli_test_support.h"
+#include "test_support/files.h"
+#include "test_support/process.h"
 
 namespace {
 namespace fs = std::filesystem;
 
-using insid::cli_test::has;
-using insid::cli_test::insid;
-using insid::cli_test::Outcome;
-using insid::cli_test::text;
+namespace test = insid::test;
+using insid::test::insid;
+using insid::test::Outcome;
 
 class CliOwnership : public ::testing::Test {
  protected:
   void SetUp() override {
-    root_ = fs::temp_directory_path() / ("insid-cli-ownership-" + std::to_string(getpid()));
-    fs::remove_all(root_);
+    root_ = test::fresh_dir("cli-ownership");
     fs::create_directories(root_);
     std::ofstream(root_ / "probe") << "x";
     marks_ = ::setxattr((root_ / "probe").c_str(), "user.insid.probe", "1", 1, 0) == 0;
@@ -57,16 +53,16 @@ TEST_F(CliOwnership, AnImportNeverReplacesItsOwnRawLog) {
   const fs::path walk = root_ / "walk";
   fs::create_directories(walk);
   fs::copy_file(kf_ / "imu.txt", walk / "imu.csv");  // the user's raw log, named like insid's
-  const std::string raw = text(walk / "imu.csv");
+  const std::string raw = test::read_file(walk / "imu.csv");
   Outcome o = insid(import_kf(walk / "imu.csv", walk));
   EXPECT_EQ(o.status, 1) << o.output;
-  EXPECT_TRUE(has(o.output, "it holds 'imu.csv'")) << o.output;
-  EXPECT_EQ(text(walk / "imu.csv"), raw);
+  EXPECT_TRUE(test::contains(o.output, "it holds 'imu.csv'")) << o.output;
+  EXPECT_EQ(test::read_file(walk / "imu.csv"), raw);
   // --force adds the dataset's files to a foreign folder, but never over the command's input.
   o = insid(import_kf(walk / "imu.csv", walk) + " --force");
   EXPECT_EQ(o.status, 1) << o.output;
-  EXPECT_TRUE(has(o.output, "which this command reads")) << o.output;
-  EXPECT_EQ(text(walk / "imu.csv"), raw);
+  EXPECT_TRUE(test::contains(o.output, "which this command reads")) << o.output;
+  EXPECT_EQ(test::read_file(walk / "imu.csv"), raw);
   EXPECT_FALSE(fs::exists(walk / "meta.json"));
   // simulate over a folder holding only look-alike names: refused too.
   const fs::path look = root_ / "look";
@@ -75,7 +71,7 @@ TEST_F(CliOwnership, AnImportNeverReplacesItsOwnRawLog) {
   std::ofstream(look / "gnss.csv") << "the user's";
   o = insid("simulate --preset straight --flight-s 5 --out " + look.string());
   EXPECT_EQ(o.status, 1) << o.output;
-  EXPECT_EQ(text(look / "gnss.csv"), "the user's");
+  EXPECT_EQ(test::read_file(look / "gnss.csv"), "the user's");
   // An insid dataset is still replaced as a whole (its files carry insid's mark).
   if (!marks_) GTEST_SKIP() << "no user extended attributes here: insid cannot mark its files";
   o = insid("simulate --preset straight --flight-s 10 --out " + data_.string());
@@ -90,7 +86,8 @@ TEST_F(CliOwnership, AnImportNeverReplacesItsOwnRawLog) {
 
 // Item 5: outputs over the command's inputs, or over a file insid did not write.
 TEST_F(CliOwnership, OutputsNeverReplaceInputsOrOtherFiles) {
-  const std::string imu = text(data_ / "imu.csv"), meta = text(data_ / "meta.json");
+  const std::string imu = test::read_file(data_ / "imu.csv"),
+                    meta = test::read_file(data_ / "meta.json");
   for (const std::string& args :
        {"navigate --data " + data_.string() + " --out " + (data_ / "imu.csv").string(),
         "navigate --data " + data_.string() + " --summary " + (data_ / "meta.json").string(),
@@ -100,10 +97,10 @@ TEST_F(CliOwnership, OutputsNeverReplaceInputsOrOtherFiles) {
         "diagnose --data " + data_.string() + " --out " + (data_ / "truth.csv").string()}) {
     const Outcome o = insid(args);
     EXPECT_EQ(o.status, 1) << args << "\n" << o.output;
-    EXPECT_TRUE(has(o.output, "which this command reads")) << args << "\n" << o.output;
+    EXPECT_TRUE(test::contains(o.output, "which this command reads")) << args << "\n" << o.output;
   }
-  EXPECT_EQ(text(data_ / "imu.csv"), imu);
-  EXPECT_EQ(text(data_ / "meta.json"), meta);
+  EXPECT_EQ(test::read_file(data_ / "imu.csv"), imu);
+  EXPECT_EQ(test::read_file(data_ / "meta.json"), meta);
   EXPECT_EQ(insid("navigate --data " + data_.string()).status, 0);  // the dataset still loads
 
   // A file of the user's as an output: refused before the work, replaced with --force.
@@ -111,16 +108,16 @@ TEST_F(CliOwnership, OutputsNeverReplaceInputsOrOtherFiles) {
   std::ofstream(notes) << "mine";
   Outcome o = insid("navigate --data " + data_.string() + " --summary " + notes.string());
   EXPECT_EQ(o.status, 1) << o.output;
-  EXPECT_TRUE(has(o.output, "insid did not write it")) << o.output;
-  EXPECT_TRUE(has(o.output, "--force")) << o.output;
-  EXPECT_EQ(text(notes), "mine");
+  EXPECT_TRUE(test::contains(o.output, "insid did not write it")) << o.output;
+  EXPECT_TRUE(test::contains(o.output, "--force")) << o.output;
+  EXPECT_EQ(test::read_file(notes), "mine");
   o = insid("identify --algo pso --iterations 2 --data " + data_.string() + " --out " +
             notes.string());
   EXPECT_EQ(o.status, 1) << o.output;
-  EXPECT_EQ(text(notes), "mine");
+  EXPECT_EQ(test::read_file(notes), "mine");
   o = insid("navigate --force --data " + data_.string() + " --summary " + notes.string());
   EXPECT_EQ(o.status, 0) << o.output;
-  EXPECT_NE(text(notes), "mine");
+  EXPECT_NE(test::read_file(notes), "mine");
   // insid's own output is replaced by the next run without --force.
   if (!marks_) GTEST_SKIP() << "no user extended attributes here: insid cannot mark its files";
   const fs::path nav = root_ / "nav.csv";
@@ -145,8 +142,8 @@ TEST_F(CliOwnership, CampaignDirectoriesFollowNoLinkAndDeleteOnlyInsidsFiles) {
   std::ofstream(user / "summary.json") << "{\"mine\": true}";
   Outcome o = insid(bench + "--out " + user.string());
   EXPECT_EQ(o.status, 1) << o.output;
-  EXPECT_TRUE(has(o.output, "it holds 'summary.json'")) << o.output;
-  EXPECT_EQ(text(user / "summary.json"), "{\"mine\": true}");
+  EXPECT_TRUE(test::contains(o.output, "it holds 'summary.json'")) << o.output;
+  EXPECT_EQ(test::read_file(user / "summary.json"), "{\"mine\": true}");
 
   const fs::path c = root_ / "campaign";
   o = insid(bench + "--out " + c.string());
@@ -161,8 +158,8 @@ TEST_F(CliOwnership, CampaignDirectoriesFollowNoLinkAndDeleteOnlyInsidsFiles) {
   fs::create_symlink(outside / "victim", c / ".insid-lock");
   o = insid(bench + "--out " + c.string());
   EXPECT_EQ(o.status, 1) << o.output;
-  EXPECT_TRUE(has(o.output, "symbolic link")) << o.output;
-  EXPECT_EQ(text(outside / "victim"), "keep");
+  EXPECT_TRUE(test::contains(o.output, "symbolic link")) << o.output;
+  EXPECT_EQ(test::read_file(outside / "victim"), "keep");
   fs::remove(c / ".insid-lock");
 
   // runs/ and optimum/ as links to a directory outside: nothing is written there.
@@ -172,7 +169,7 @@ TEST_F(CliOwnership, CampaignDirectoriesFollowNoLinkAndDeleteOnlyInsidsFiles) {
     fs::create_directory_symlink(outside, c / sub);
     o = insid(bench + "--out " + c.string());
     EXPECT_EQ(o.status, 1) << sub << "\n" << o.output;
-    EXPECT_TRUE(has(o.output, "symbolic link")) << sub << "\n" << o.output;
+    EXPECT_TRUE(test::contains(o.output, "symbolic link")) << sub << "\n" << o.output;
     EXPECT_EQ(std::distance(fs::directory_iterator(outside), fs::directory_iterator()), 1) << sub;
     fs::remove(c / sub);
     o = insid(bench + "--out " + c.string());  // the links gone, the campaign completes again
@@ -184,13 +181,13 @@ TEST_F(CliOwnership, CampaignDirectoriesFollowNoLinkAndDeleteOnlyInsidsFiles) {
   o = insid("bench --preset quick --seeds 2 --flight-s 20 --threads 2 --quiet --force-new --out " +
             c.string());
   EXPECT_EQ(o.status, 1) << o.output;
-  EXPECT_TRUE(has(o.output, "runs/notes.txt")) << o.output;
-  EXPECT_EQ(text(c / "runs" / "notes.txt"), "mine");
+  EXPECT_TRUE(test::contains(o.output, "runs/notes.txt")) << o.output;
+  EXPECT_EQ(test::read_file(c / "runs" / "notes.txt"), "mine");
   EXPECT_TRUE(fs::exists(c / "manifest.json"));
   EXPECT_FALSE(fs::exists(run_file));
 }
 
-// Issue 45: a name that merely looks like one of insid's temporaries is the user's. bench --force
+// A name that merely looks like one of insid's temporaries is the user's. bench --force
 // into a folder of photos keeps "photos.tmp-laptop-12-3/img1.jpg" and "list.tmp-h-1-2"; a dataset
 // holding a user's folder named like a dataset file is not replaced.
 TEST_F(CliOwnership, LookAlikeTemporariesAndFoldersAreTheUsers) {
@@ -204,8 +201,8 @@ TEST_F(CliOwnership, LookAlikeTemporariesAndFoldersAreTheUsers) {
   ASSERT_EQ(o.status, 0) << o.output;
   o = insid(bench + "--force --out " + photos.string());  // a rerun removes stale temporaries
   ASSERT_EQ(o.status, 0) << o.output;
-  EXPECT_EQ(text(photos / "photos.tmp-laptop-12-3" / "img1.jpg"), "jpeg");
-  EXPECT_EQ(text(photos / "list.tmp-h-1-2"), "mine");
+  EXPECT_EQ(test::read_file(photos / "photos.tmp-laptop-12-3" / "img1.jpg"), "jpeg");
+  EXPECT_EQ(test::read_file(photos / "list.tmp-h-1-2"), "mine");
 
   // ds/provenance.json/notes.txt: a folder where a dataset writes a file.
   const fs::path ds = root_ / "ds";
@@ -214,16 +211,16 @@ TEST_F(CliOwnership, LookAlikeTemporariesAndFoldersAreTheUsers) {
   std::ofstream(ds / "provenance.json" / "notes.txt") << "mine";
   o = insid("simulate --preset straight --flight-s 5 --out " + ds.string());
   EXPECT_EQ(o.status, 1) << o.output;
-  EXPECT_TRUE(has(o.output, "it holds 'provenance.json'")) << o.output;
-  EXPECT_EQ(text(ds / "provenance.json" / "notes.txt"), "mine");
+  EXPECT_TRUE(test::contains(o.output, "it holds 'provenance.json'")) << o.output;
+  EXPECT_EQ(test::read_file(ds / "provenance.json" / "notes.txt"), "mine");
   o = insid("import kf-gins --imu " + (kf_ / "imu.txt").string() + " --gnss " +
             (kf_ / "gnss.txt").string() +
             " --align-s 600 --static-rate 5 --static-accel-sd 0.3 --force --out " + ds.string());
   EXPECT_EQ(o.status, 1) << o.output;  // provenance.json cannot be written over a folder
-  EXPECT_EQ(text(ds / "provenance.json" / "notes.txt"), "mine");
+  EXPECT_EQ(test::read_file(ds / "provenance.json" / "notes.txt"), "mine");
 }
 
-// Issue 45: --force never overwrites a file the same command reads: simulate's config, bench's
+// --force never overwrites a file the same command reads: simulate's config, bench's
 // campaign config, at any path the command would write.
 TEST_F(CliOwnership, ForceNeverOverwritesTheCommandsOwnInput) {
   const fs::path cfg = root_ / "cfg";
@@ -234,8 +231,8 @@ TEST_F(CliOwnership, ForceNeverOverwritesTheCommandsOwnInput) {
   std::ofstream(cfg / "meta.json") << scenario;
   o = insid("simulate --config " + (cfg / "meta.json").string() + " --force --out " + cfg.string());
   EXPECT_EQ(o.status, 1) << o.output;
-  EXPECT_TRUE(has(o.output, "which this command reads")) << o.output;
-  EXPECT_EQ(text(cfg / "meta.json"), scenario);
+  EXPECT_TRUE(test::contains(o.output, "which this command reads")) << o.output;
+  EXPECT_EQ(test::read_file(cfg / "meta.json"), scenario);
 
   const fs::path bc = root_ / "bc";
   fs::create_directories(bc / "runs");
@@ -246,20 +243,20 @@ TEST_F(CliOwnership, ForceNeverOverwritesTheCommandsOwnInput) {
     std::ofstream(config) << campaign;
     o = insid("bench --config " + config.string() + " --force --quiet --out " + bc.string());
     EXPECT_EQ(o.status, 1) << config << "\n" << o.output;
-    EXPECT_TRUE(has(o.output, "which this command reads")) << config << "\n" << o.output;
-    EXPECT_EQ(text(config), campaign) << config;
+    EXPECT_TRUE(test::contains(o.output, "which this command reads")) << config << "\n" << o.output;
+    EXPECT_EQ(test::read_file(config), campaign) << config;
     EXPECT_FALSE(fs::exists(bc / "manifest.json")) << config;  // refused before any work
   }
 }
 
-// Issue 45: two outputs of one command at the same path are a usage error (exit 2), not a
+// Two outputs of one command at the same path are a usage error (exit 2), not a
 // silent replacement of the first by the second.
 TEST_F(CliOwnership, TwoOutputsOfOneCommandAtOnePathAreRefused) {
   const fs::path x = root_ / "x.json";
   Outcome o = insid("diagnose --data " + data_.string() + " --out " + x.string() + " --report " +
                     x.string());
   EXPECT_EQ(o.status, 2) << o.output;
-  EXPECT_TRUE(has(o.output, "are the same file")) << o.output;
+  EXPECT_TRUE(test::contains(o.output, "are the same file")) << o.output;
   EXPECT_FALSE(fs::exists(x));
   o = insid("diagnose --data " + data_.string() + " --report " + x.string());
   EXPECT_EQ(o.status, 2) << o.output;  // the report's JSON would be x.json too

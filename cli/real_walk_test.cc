@@ -1,9 +1,8 @@
-// The real pipeline on the shared MEMS walk (issue 14, ../shared/data/rtklib-walk), end to end
+// The real pipeline on the shared MEMS walk (../shared/data/rtklib-walk), end to end
 // through the insid binary as scripts/real_report.sh runs it: import with the documented mounting
 // and the measured static window, identify with one method (LM on the W = 20 s windowed fitness,
 // level+heading), then navigate with and without the estimate. Skips (with the reason) where the
 // shared data are absent.
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <array>
@@ -19,18 +18,15 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "cli/cli_test_support.h"
+#include "test_support/files.h"
+#include "test_support/process.h"
 
 namespace {
 namespace fs = std::filesystem;
 
-using insid::cli_test::insid;
-using insid::cli_test::Outcome;
-
-nlohmann::json read_json(const fs::path& p) {
-  std::ifstream in(p);
-  return nlohmann::json::parse(in);
-}
+namespace test = insid::test;
+using insid::test::insid;
+using insid::test::Outcome;
 
 // Mean angular rate (deg/s, body axes) over the dataset's first `span_s` seconds of IMU rows:
 // sum of the increments over their time (the first row, whose interval is unknown, left out).
@@ -79,8 +75,7 @@ TEST(RealWalk, ImportIdentifyCutsThePureInsErrorFourfoldAndMatchesThePadGyros) {
   if (!fs::exists(walk / "imu_1730_sf.csv") || !fs::exists(walk / "gnss_1730_sf.pos"))
     GTEST_SKIP() << "../shared/data/rtklib-walk is absent (tests that need the shared real data "
                     "skip outside CI)";
-  const fs::path root = fs::temp_directory_path() / ("insid-real-walk-" + std::to_string(getpid()));
-  fs::remove_all(root);
+  const fs::path root = test::fresh_dir("real-walk");
   fs::create_directories(root);
   const fs::path data = root / "walk";
 
@@ -98,10 +93,10 @@ TEST(RealWalk, ImportIdentifyCutsThePureInsErrorFourfoldAndMatchesThePadGyros) {
             " --out " +
             (root / "lm.json").string());
   ASSERT_EQ(o.status, 0) << o.output;
-  const nlohmann::json result = read_json(root / "lm.json");
+  const nlohmann::json result = test::read_json(root / "lm.json");
   ASSERT_EQ(result.at("parameters").size(), 5u);
   // --grade auto reads the imported walk's static window (no noise block in its meta.json):
-  // a MEMS unit (issue 33), the rule and its numbers recorded.
+  // a MEMS unit, the rule and its numbers recorded.
   const nlohmann::json& grade = result.at("grade_choice");
   EXPECT_EQ(grade.at("grade"), "mems") << grade.dump();
   EXPECT_EQ(grade.at("source"), "static window") << grade.dump();
@@ -114,7 +109,7 @@ TEST(RealWalk, ImportIdentifyCutsThePureInsErrorFourfoldAndMatchesThePadGyros) {
             (root / "auto.json").string());
   ASSERT_EQ(o.status, 0) << o.output;
   EXPECT_NE(o.output.find("grade mems (auto: static window"), std::string::npos) << o.output;
-  const nlohmann::json automatic = read_json(root / "auto.json");
+  const nlohmann::json automatic = test::read_json(root / "auto.json");
   EXPECT_EQ(automatic.at("window_s").get<double>(), 10.0);
   EXPECT_EQ(automatic.at("window_s_source"), "default for mems data");
   std::string compensate;
@@ -133,8 +128,8 @@ TEST(RealWalk, ImportIdentifyCutsThePureInsErrorFourfoldAndMatchesThePadGyros) {
   ASSERT_EQ(o.status, 0) << o.output;
   o = insid("navigate" + common + compensate + " --summary " + (root / "comp.json").string());
   ASSERT_EQ(o.status, 0) << o.output;
-  const double rms_none = read_json(root / "none.json").at("rms_dvh_mps").get<double>();
-  const double rms_comp = read_json(root / "comp.json").at("rms_dvh_mps").get<double>();
+  const double rms_none = test::read_json(root / "none.json").at("rms_dvh_mps").get<double>();
+  const double rms_comp = test::read_json(root / "comp.json").at("rms_dvh_mps").get<double>();
   std::cout << "[ walk ] pure-INS rms |dv_h|: uncompensated " << rms_none << " m/s, with the LM "
             << "estimate (W = 20 s) " << rms_comp << " m/s (" << rms_none / rms_comp << "x)\n";
   EXPECT_LT(rms_comp, 0.25 * rms_none);
@@ -160,7 +155,7 @@ TEST(RealWalk, ImportIdentifyCutsThePureInsErrorFourfoldAndMatchesThePadGyros) {
   fs::remove_all(root);
 }
 
-// Effects hidden in the real walk (issue 33, differential injection; the whole table:
+// Effects hidden in the real walk (differential injection; the whole table:
 // scripts/real_injection.py, results/real/injection.md): the background keeps all the walk's
 // unknown effects, the injected part is known. A copy of the raw IMU log with its clock shifted
 // by +0.25 s (the IMU stamps late: insid's gnss_latency moves by -0.25 s), and one with
@@ -168,17 +163,15 @@ TEST(RealWalk, ImportIdentifyCutsThePureInsErrorFourfoldAndMatchesThePadGyros) {
 // through the same import and LM on the W = 10 s windowed fitness as the plain log; the
 // difference of the estimates must equal the injected value within 3 sd + 20 % (sd: both runs'
 // combined). The sd must also be below half the injected size: the walk has to pin it down.
-// Measured (2-core Zen 4): latency difference -0.316 s, sd 0.052 (the code before issue 33's
-// window-start fix: -0.223 s, sd 0.015, also inside the bound, so this case is no red test of
-// that fix: WindowGnssEffects is); gyro_bias_y -0.09998 deg/s, sd 0.034.
+// Measured (2-core Zen 4): latency difference -0.316 s, sd 0.052 (without the windowed
+// fitness's window-start fix: -0.223 s, sd 0.015, also inside the bound, so this case is no red
+// test of that fix: WindowGnssEffects is); gyro_bias_y -0.09998 deg/s, sd 0.034.
 TEST(RealWalk, InjectedClockShiftAndGyroBiasAreRecoveredBySize) {
   const fs::path walk = fs::path(INSID_SHARED_DATA) / "rtklib-walk";
   if (!fs::exists(walk / "imu_1730_sf.csv") || !fs::exists(walk / "gnss_1730_sf.pos"))
     GTEST_SKIP() << "../shared/data/rtklib-walk is absent (tests that need the shared real data "
                     "skip outside CI)";
-  const fs::path root =
-      fs::temp_directory_path() / ("insid-real-injection-" + std::to_string(getpid()));
-  fs::remove_all(root);
+  const fs::path root = test::fresh_dir("real-injection");
   fs::create_directories(root);
   // column 0: GPST seconds; column 4: the sensor x gyro (rad/s)
   auto variant = [&](const std::string& name, int column, double add) {
@@ -216,7 +209,7 @@ TEST(RealWalk, InjectedClockShiftAndGyroBiasAreRecoveredBySize) {
                             " --quiet --out " +
                             out.string());
     EXPECT_EQ(o.status, 0) << o.output;
-    const nlohmann::json result = read_json(out);
+    const nlohmann::json result = test::read_json(out);
     for (const auto& p : result.at("parameters"))
       if (p.at("name").get<std::string>() == effect)
         return std::pair<double, double>(p.at("estimate").get<double>(), p.at("sd").get<double>());

@@ -10,15 +10,14 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
-#include <fstream>
 #include <random>
-#include <sstream>
 #include <string>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
 #include "model/rotation.h"
+#include "test_support/files.h"
 
 namespace insid {
 namespace {
@@ -34,18 +33,6 @@ namespace fs = std::filesystem;
 #define EXPECT_CONTAINS(text, part) EXPECT_PRED_FORMAT2(Contains, text, part)
 
 // ---- helpers --------------------------------------------------------------------------------
-
-std::string read_text(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-void write_text(const fs::path& p, const std::string& s) {
-  std::ofstream out(p, std::ios::binary | std::ios::trunc);
-  out << s;
-}
 
 std::vector<std::string> split_lines(const std::string& s) {
   std::vector<std::string> lines;
@@ -67,10 +54,10 @@ std::string join_lines(const std::vector<std::string>& lines) {
 
 // Replace 1-based line `line_no` of a file.
 void replace_line(const fs::path& p, std::size_t line_no, const std::string& text) {
-  auto lines = split_lines(read_text(p));
+  auto lines = split_lines(test::read_file(p));
   ASSERT_LE(line_no, lines.size());
   lines[line_no - 1] = text;
-  write_text(p, join_lines(lines));
+  test::write_file(p, join_lines(lines));
 }
 
 std::uint64_t bits(double v) { return std::bit_cast<std::uint64_t>(v); }
@@ -191,9 +178,7 @@ class DatasetTest : public ::testing::Test {
  protected:
   void SetUp() override {
     const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    root_ = fs::temp_directory_path() /
-            ("insid_dataset_test_" + std::to_string(::getpid()) + "_" + info->name());
-    fs::remove_all(root_);
+    root_ = test::fresh_dir(std::string("dataset-test-") + info->name());
     fs::create_directories(root_);
     dir_ = root_ / "ds";
   }
@@ -207,10 +192,10 @@ class DatasetTest : public ::testing::Test {
   // Drop the "files" record from dir_'s meta.json: the dataset becomes one made by hand, whose
   // data files may be edited (tests that edit data on purpose to reach another check use this).
   void forget_recorded_files() {
-    nlohmann::json meta = nlohmann::json::parse(read_text(dir_ / "meta.json"));
+    nlohmann::json meta = nlohmann::json::parse(test::read_file(dir_ / "meta.json"));
     ASSERT_TRUE(meta.contains("files"));
     meta.erase("files");
-    write_text(dir_ / "meta.json", meta.dump(2));
+    test::write_file(dir_ / "meta.json", meta.dump(2));
   }
 
   // Load dir_, expecting a DatasetError; return its message.
@@ -246,15 +231,15 @@ TEST_F(DatasetTest, RoundTripIsBitIdenticalWithTruthInjectedAndNoise) {
   // Nothing else left next to the dataset (no temporary directories).
   EXPECT_EQ(entries(root_), std::vector<std::string>{"ds"});
   // Degrees are written as the short decimal they came from.
-  EXPECT_CONTAINS(read_text(dir_ / "meta.json"), "\"lat_deg\": 40.068");
-  EXPECT_CONTAINS(read_text(dir_ / "meta.json"), "\"yaw_deg\": 271.5");
+  EXPECT_CONTAINS(test::read_file(dir_ / "meta.json"), "\"lat_deg\": 40.068");
+  EXPECT_CONTAINS(test::read_file(dir_ / "meta.json"), "\"yaw_deg\": 271.5");
 }
 
 TEST_F(DatasetTest, RoundTripIsBitIdenticalWithoutOptionalParts) {
   const Dataset ds = make_dataset(false, false, false);
   write_dataset(dir_, ds);
   EXPECT_EQ(entries(dir_), (std::vector<std::string>{"gnss.csv", "imu.csv", "meta.json"}));
-  const std::string meta = read_text(dir_ / "meta.json");
+  const std::string meta = test::read_file(dir_ / "meta.json");
   EXPECT_EQ(meta.find("injected"), std::string::npos);
   EXPECT_EQ(meta.find("noise"), std::string::npos);
   const Dataset back = load_dataset(dir_);
@@ -300,36 +285,37 @@ TEST_F(DatasetTest, CrlfFilesLoad) {
   const Dataset expected = load_dataset(dir_);
   for (const char* name : {"imu.csv", "gnss.csv", "truth.csv", "meta.json"}) {
     std::string crlf;
-    for (const auto& l : split_lines(read_text(dir_ / name))) crlf += l + "\r\n";
-    write_text(dir_ / name, crlf);
+    for (const auto& l : split_lines(test::read_file(dir_ / name))) crlf += l + "\r\n";
+    test::write_file(dir_ / name, crlf);
   }
-  ASSERT_NE(read_text(dir_ / "imu.csv").find("\r\n"), std::string::npos);
+  ASSERT_NE(test::read_file(dir_ / "imu.csv").find("\r\n"), std::string::npos);
   expect_identical(expected, load_dataset(dir_));
 }
 
 TEST_F(DatasetTest, ToleratesBomTrailingBlanksPaddingExtraFilesAndUnknownMetaKeys) {
   write_valid();
   const Dataset expected = load_dataset(dir_);
-  write_text(dir_ / "imu.csv", "\xEF\xBB\xBF" + read_text(dir_ / "imu.csv") + "\n  \n\n");
+  test::write_file(dir_ / "imu.csv",
+                   "\xEF\xBB\xBF" + test::read_file(dir_ / "imu.csv") + "\n  \n\n");
   replace_line(dir_ / "gnss.csv", 1, "t_s, lat_deg, lon_deg, h_m, vE_mps, vN_mps, vU_mps  ");
-  write_text(dir_ / "README.txt", "extra file\n");
-  std::string meta = read_text(dir_ / "meta.json");
+  test::write_file(dir_ / "README.txt", "extra file\n");
+  std::string meta = test::read_file(dir_ / "meta.json");
   meta.insert(meta.find('{') + 1, "\"comment\": \"made by hand\", \"extra\": [1, 2],");
-  write_text(dir_ / "meta.json", meta);
+  test::write_file(dir_ / "meta.json", meta);
   expect_identical(expected, load_dataset(dir_));
 }
 
 TEST_F(DatasetTest, RecordedRowsAndDigestCatchCutsAndEditsOfWhatInsidWrote) {
   write_valid();
-  const nlohmann::json meta = nlohmann::json::parse(read_text(dir_ / "meta.json"));
+  const nlohmann::json meta = nlohmann::json::parse(test::read_file(dir_ / "meta.json"));
   ASSERT_EQ(meta["files"]["imu.csv"]["rows"].get<std::size_t>(), load_dataset(dir_).imu.size());
-  const std::string imu = read_text(dir_ / "imu.csv");
+  const std::string imu = test::read_file(dir_ / "imu.csv");
 
   // Cut at a line boundary: every other check passes (a shorter flight), the count does not.
   auto lines = split_lines(imu);
   const std::size_t rows = lines.size() - 1;
   lines.resize(lines.size() - 5);
-  write_text(dir_ / "imu.csv", join_lines(lines));
+  test::write_file(dir_ / "imu.csv", join_lines(lines));
   std::string msg = load_error();
   EXPECT_CONTAINS(msg, "imu.csv: holds " + std::to_string(rows - 5) + " data rows");
   EXPECT_CONTAINS(msg, "files.imu.csv.rows) records " + std::to_string(rows));
@@ -339,8 +325,8 @@ TEST_F(DatasetTest, RecordedRowsAndDigestCatchCutsAndEditsOfWhatInsidWrote) {
   std::string& row = lines[7];
   const auto last = row.find_last_of("0123456789");
   row[last] = row[last] == '1' ? '2' : '1';
-  write_text(dir_ / "gnss.csv", read_text(dir_ / "gnss.csv"));  // untouched
-  write_text(dir_ / "imu.csv", join_lines(lines));
+  test::write_file(dir_ / "gnss.csv", test::read_file(dir_ / "gnss.csv"));  // untouched
+  test::write_file(dir_ / "imu.csv", join_lines(lines));
   msg = load_error();
   EXPECT_CONTAINS(msg, "imu.csv: its values differ");
   EXPECT_CONTAINS(msg, "files.imu.csv.sha256");
@@ -352,9 +338,9 @@ TEST_F(DatasetTest, RecordedRowsAndDigestCatchCutsAndEditsOfWhatInsidWrote) {
 
 TEST_F(DatasetTest, MetaKeyGivenTwiceIsAnError) {
   write_valid();
-  std::string meta = read_text(dir_ / "meta.json");
+  std::string meta = test::read_file(dir_ / "meta.json");
   meta.insert(meta.find('{') + 1, "\"align_s\": 5,");
-  write_text(dir_ / "meta.json", meta);
+  test::write_file(dir_ / "meta.json", meta);
   const std::string msg = load_error();
   EXPECT_EQ(msg, dir_.string() +
                      ": meta.json: align_s: key given twice in one object (JSON objects must not "
@@ -379,7 +365,7 @@ TEST_F(DatasetTest, MissingFileIsAnError) {
 
 TEST_F(DatasetTest, EmptyFileIsAnError) {
   write_valid();
-  write_text(dir_ / "gnss.csv", "");
+  test::write_file(dir_ / "gnss.csv", "");
   const std::string msg = load_error();
   EXPECT_CONTAINS(msg, dir_.string() + ": gnss.csv line 1: empty file");
   EXPECT_CONTAINS(msg, "t_s,lat_deg,lon_deg,h_m,vE_mps,vN_mps,vU_mps");
@@ -405,19 +391,19 @@ TEST_F(DatasetTest, ColumnsOutOfOrderAreAnError) {
 TEST_F(DatasetTest, MissingColumnIsAnError) {
   write_valid();
   // Drop vU_mps from the header and from every row.
-  auto lines = split_lines(read_text(dir_ / "gnss.csv"));
+  auto lines = split_lines(test::read_file(dir_ / "gnss.csv"));
   for (auto& l : lines) l = l.substr(0, l.rfind(','));
-  write_text(dir_ / "gnss.csv", join_lines(lines));
+  test::write_file(dir_ / "gnss.csv", join_lines(lines));
   const std::string msg = load_error();
   EXPECT_CONTAINS(msg, "gnss.csv line 1, column vU_mps: missing column");
 }
 
 TEST_F(DatasetTest, UnknownExtraColumnIsAnError) {
   write_valid();
-  auto lines = split_lines(read_text(dir_ / "imu.csv"));
+  auto lines = split_lines(test::read_file(dir_ / "imu.csv"));
   lines[0] += ",temp_c";
   for (std::size_t i = 1; i < lines.size(); ++i) lines[i] += ",20";
-  write_text(dir_ / "imu.csv", join_lines(lines));
+  test::write_file(dir_ / "imu.csv", join_lines(lines));
   const std::string msg = load_error();
   EXPECT_CONTAINS(msg, "imu.csv line 1, column temp_c: unknown column");
   EXPECT_CONTAINS(msg, "expected header 't_s,dtheta_x_rad");
@@ -490,19 +476,19 @@ TEST_F(DatasetTest, RepeatedTimeIsAnError) {
 
 TEST_F(DatasetTest, MissingMetaFieldIsAnError) {
   write_valid();
-  std::string meta = read_text(dir_ / "meta.json");
+  std::string meta = test::read_file(dir_ / "meta.json");
   const std::size_t at = meta.find("\"g_eq_mps2\"");
   ASSERT_NE(at, std::string::npos);
   meta.replace(at, 2, "\"x");  // rename the key
-  write_text(dir_ / "meta.json", meta);
+  test::write_file(dir_ / "meta.json", meta);
   // The misspelt key is named (before the one it replaces is missed), with the valid ones.
   EXPECT_EQ(load_error(), dir_.string() +
                               ": meta.json: earth.x_eq_mps2: unknown key (valid keys: a_m, f, "
                               "omega_ie_rad_s, g_eq_mps2)");
   // Without it: missing.
-  nlohmann::json j = nlohmann::json::parse(read_text(dir_ / "meta.json"));
+  nlohmann::json j = nlohmann::json::parse(test::read_file(dir_ / "meta.json"));
   j["earth"].erase("x_eq_mps2");
-  write_text(dir_ / "meta.json", j.dump(2));
+  test::write_file(dir_ / "meta.json", j.dump(2));
   EXPECT_EQ(load_error(),
             dir_.string() + ": meta.json: earth.g_eq_mps2: missing, expected a finite number");
 }
@@ -510,9 +496,9 @@ TEST_F(DatasetTest, MissingMetaFieldIsAnError) {
 TEST_F(DatasetTest, UnknownMetaKeyInABlockIsNamedWithTheValidOnes) {
   // The blocks insid defines are closed (the top level is open: the test above).
   write_valid();
-  nlohmann::json j = nlohmann::json::parse(read_text(dir_ / "meta.json"));
+  nlohmann::json j = nlohmann::json::parse(test::read_file(dir_ / "meta.json"));
   j["initial"]["lat"] = 40.0;
-  write_text(dir_ / "meta.json", j.dump(2));
+  test::write_file(dir_ / "meta.json", j.dump(2));
   EXPECT_EQ(load_error(), dir_.string() +
                               ": meta.json: initial.lat: unknown key (valid keys: t_s, lat_deg, "
                               "lon_deg, h_m, vE_mps, vN_mps, vU_mps, roll_deg, pitch_deg, "
@@ -521,8 +507,8 @@ TEST_F(DatasetTest, UnknownMetaKeyInABlockIsNamedWithTheValidOnes) {
 
 TEST_F(DatasetTest, BadJsonIsAnErrorWithPosition) {
   write_valid();
-  write_text(dir_ / "meta.json",
-             "{\n  \"format\": \"insid-dataset/1\",\n  \"imu_rate_hz\": 100,,\n}\n");
+  test::write_file(dir_ / "meta.json",
+                   "{\n  \"format\": \"insid-dataset/1\",\n  \"imu_rate_hz\": 100,,\n}\n");
   const std::string msg = load_error();
   EXPECT_CONTAINS(msg, "meta.json: not valid JSON");
   EXPECT_CONTAINS(msg, "line 3");
@@ -531,11 +517,11 @@ TEST_F(DatasetTest, BadJsonIsAnErrorWithPosition) {
 
 TEST_F(DatasetTest, WrongTypeInMetaIsAnError) {
   write_valid();
-  std::string meta = read_text(dir_ / "meta.json");
+  std::string meta = test::read_file(dir_ / "meta.json");
   const std::size_t at = meta.find("\"align_s\": ");
   ASSERT_NE(at, std::string::npos);
   meta.replace(at, meta.find(',', at) - at, "\"align_s\": \"10\"");
-  write_text(dir_ / "meta.json", meta);
+  test::write_file(dir_ / "meta.json", meta);
   EXPECT_EQ(load_error(), dir_.string() +
                               ": meta.json: align_s: expected a finite number, found a string "
                               "\"10\"");
@@ -543,9 +529,9 @@ TEST_F(DatasetTest, WrongTypeInMetaIsAnError) {
 
 TEST_F(DatasetTest, WrongFormatIsAnError) {
   write_valid();
-  std::string meta = read_text(dir_ / "meta.json");
+  std::string meta = test::read_file(dir_ / "meta.json");
   meta.replace(meta.find("insid-dataset/1"), 15, "insid-dataset/3");
-  write_text(dir_ / "meta.json", meta);
+  test::write_file(dir_ / "meta.json", meta);
   EXPECT_CONTAINS(load_error(),
                   "meta.json: format: expected \"insid-dataset/1\" or \"insid-dataset/2\", "
                   "found a string \"insid-dataset/3\"");
@@ -563,7 +549,7 @@ TEST_F(DatasetTest, Version2AcceptsJitteryStepsAndListsGaps) {
   for (std::size_t i = 1; i + 1 < ds.imu.size(); ++i) ds.imu[i].t_s += jitter(rng) * 0.5 * dt;
   ds.imu.erase(ds.imu.begin() + 50, ds.imu.begin() + 55);  // a gap of 6 steps
   write_dataset(dir_, ds);
-  const std::string meta = read_text(dir_ / "meta.json");
+  const std::string meta = test::read_file(dir_ / "meta.json");
   EXPECT_CONTAINS(meta, "\"format\": \"insid-dataset/2\"");
   EXPECT_CONTAINS(meta, "\"roll_deg\": null");
   const Dataset back = load_dataset(dir_);
@@ -598,9 +584,9 @@ TEST_F(DatasetTest, Version2AcceptsJitteryStepsAndListsGaps) {
 TEST_F(DatasetTest, UnknownInjectedEffectIsAnError) {
   Dataset ds = make_dataset(false, true, false);
   write_dataset(dir_, ds);
-  std::string meta = read_text(dir_ / "meta.json");
+  std::string meta = test::read_file(dir_ / "meta.json");
   meta.replace(meta.find("\"accel_bias_x\""), 14, "\"accel_bais_x\"");
-  write_text(dir_ / "meta.json", meta);
+  test::write_file(dir_ / "meta.json", meta);
   const std::string msg = load_error();
   EXPECT_CONTAINS(msg, "meta.json: injected.accel_bais_x: unknown effect name");
   EXPECT_CONTAINS(msg, "gyro_bias_y");  // lists the catalogue
@@ -633,12 +619,12 @@ TEST_F(DatasetTest, GnssNotCoveringTheStartIsAnError) {
 TEST_F(DatasetTest, GnssNotCoveringTheEndIsAnError) {
   write_valid(false);
   forget_recorded_files();
-  auto lines = split_lines(read_text(dir_ / "gnss.csv"));
+  auto lines = split_lines(test::read_file(dir_ / "gnss.csv"));
   lines.resize(lines.size() - 1);  // last GNSS at 29.9 s, IMU to 30 s: still covered
-  write_text(dir_ / "gnss.csv", join_lines(lines));
+  test::write_file(dir_ / "gnss.csv", join_lines(lines));
   EXPECT_NO_THROW(load_dataset(dir_));
   lines.resize(lines.size() - 1);  // last GNSS at 29.8 s: 0.2 s > 0.15 s uncovered
-  write_text(dir_ / "gnss.csv", join_lines(lines));
+  test::write_file(dir_ / "gnss.csv", join_lines(lines));
   const std::string msg = load_error();
   EXPECT_CONTAINS(msg, "gnss.csv line " + std::to_string(lines.size()) +
                            ", column t_s: GNSS does not cover the end");
@@ -699,7 +685,7 @@ TEST_F(DatasetTest, ValidateRejectsBadInMemoryDatasets) {
 
 TEST_F(DatasetTest, UnwritableLocationIsAnErrorAndLeavesNothingBehind) {
   // (Tests may run as root, so use a path under a regular file rather than permissions.)
-  write_text(root_ / "plain_file", "x");
+  test::write_file(root_ / "plain_file", "x");
   const Dataset ds = make_dataset(false, false, false);
   for (const fs::path& target :
        {root_ / "plain_file" / "ds", root_ / "plain_file" / "a" / "ds", root_ / "plain_file"}) {
@@ -710,7 +696,7 @@ TEST_F(DatasetTest, UnwritableLocationIsAnErrorAndLeavesNothingBehind) {
       EXPECT_CONTAINS(e.what(), "cannot write dataset '" + target.string() + "'");
     }
     EXPECT_EQ(entries(root_), std::vector<std::string>{"plain_file"});
-    EXPECT_EQ(read_text(root_ / "plain_file"), "x");
+    EXPECT_EQ(test::read_file(root_ / "plain_file"), "x");
   }
   // Under /proc nothing can be created, even by root.
   EXPECT_THROW(write_dataset("/proc/insid_dataset_test/ds", ds), DatasetError);
@@ -750,7 +736,7 @@ TEST_F(DatasetTest, WriteNeverDeletesFilesItDidNotWrite) {
   // A user's project directory: refused, untouched.
   const fs::path proj = root_ / "proj";
   fs::create_directories(proj / "src");
-  write_text(proj / "src" / "code.c", "int main;");
+  test::write_file(proj / "src" / "code.c", "int main;");
   try {
     write_dataset(proj, fresh);
     FAIL() << "no error";
@@ -759,25 +745,25 @@ TEST_F(DatasetTest, WriteNeverDeletesFilesItDidNotWrite) {
     EXPECT_CONTAINS(e.what(), "--force");
   }
   EXPECT_EQ(entries(proj), std::vector<std::string>{"src"});
-  EXPECT_EQ(read_text(proj / "src" / "code.c"), "int main;");
+  EXPECT_EQ(test::read_file(proj / "src" / "code.c"), "int main;");
   // A dataset directory with a user's note in it: refused too (the note would go).
   write_valid(true);
-  write_text(dir_ / "notes.txt", "mine");
+  test::write_file(dir_ / "notes.txt", "mine");
   EXPECT_THROW(write_dataset(dir_, fresh), DatasetError);
-  EXPECT_EQ(read_text(dir_ / "notes.txt"), "mine");
+  EXPECT_EQ(test::read_file(dir_ / "notes.txt"), "mine");
   // A meta.json of another format is not an insid dataset.
   const fs::path other = root_ / "other";
   fs::create_directories(other);
-  write_text(other / "meta.json", R"({"format": "somebody-else/2"})");
+  test::write_file(other / "meta.json", R"({"format": "somebody-else/2"})");
   EXPECT_THROW(write_dataset(other, fresh), DatasetError);
-  EXPECT_EQ(read_text(other / "meta.json"), R"({"format": "somebody-else/2"})");
+  EXPECT_EQ(test::read_file(other / "meta.json"), R"({"format": "somebody-else/2"})");
 
   // --force adds the dataset's files and keeps the rest.
   DatasetWriteOptions force;
   force.into_foreign_directory = true;
   write_dataset(proj, fresh, force);
   EXPECT_EQ(entries(proj), (std::vector<std::string>{"gnss.csv", "imu.csv", "meta.json", "src"}));
-  EXPECT_EQ(read_text(proj / "src" / "code.c"), "int main;");
+  EXPECT_EQ(test::read_file(proj / "src" / "code.c"), "int main;");
   expect_identical(fresh, load_dataset(proj));
   // ... but refuses to leave a stale truth.csv beside a dataset that has none.
   write_dataset(dir_, make_dataset(true, false, true, 2001), force);
@@ -788,7 +774,7 @@ TEST_F(DatasetTest, WriteNeverDeletesFilesItDidNotWrite) {
   } catch (const DatasetError& e) {
     EXPECT_CONTAINS(e.what(), "it holds 'truth.csv'");
   }
-  EXPECT_EQ(read_text(dir_ / "notes.txt"), "mine");
+  EXPECT_EQ(test::read_file(dir_ / "notes.txt"), "mine");
 }
 
 TEST_F(DatasetTest, WriteRefusesTheWorkingDirectoryAndItsParents) {
@@ -813,9 +799,9 @@ TEST_F(DatasetTest, WriteRefusesTheWorkingDirectoryAndItsParents) {
 TEST_F(DatasetTest, WriteFileAtomicWritesReplacesAndFailsCleanly) {
   const fs::path p = root_ / "out.json";
   write_file_atomic(p, "first\n");
-  EXPECT_EQ(read_text(p), "first\n");
+  EXPECT_EQ(test::read_file(p), "first\n");
   write_file_atomic(p, "second\n");
-  EXPECT_EQ(read_text(p), "second\n");
+  EXPECT_EQ(test::read_file(p), "second\n");
   EXPECT_EQ(entries(root_), std::vector<std::string>{"out.json"});
   try {
     write_file_atomic(root_ / "out.json" / "x.json", "x");

@@ -73,7 +73,7 @@ TEST(CaseLimits, NotObservableOrNoRow) {
   const CaseLimits c = case_limits(row("accel_scale_y", {}, false), 10.0);
   EXPECT_FALSE(c.detectable);
   EXPECT_FALSE(c.separable);
-  // A campaign before issue 33 has no row: counted detectable (as the issue-33 scoring did).
+  // A campaign without a limits row for the case: counted detectable.
   const CaseLimits none = case_limits(json(), 1.0);
   EXPECT_FALSE(none.has_row);
   EXPECT_TRUE(none.detectable);

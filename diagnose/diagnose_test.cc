@@ -1,4 +1,4 @@
-// Quick subset of the hidden-effect tests of issue 7 (the full matrix: insid-diagnose-campaign,
+// Quick subset of the hidden-effect tests (the full matrix: insid-diagnose-campaign,
 // results/diagnose/). Data: `rich` preset (nav-grade noise, the paper's four biases) with a
 // 1200 s flight plus hidden effects, written as measured-looking data (no `injected`, no
 // `noise` in the metadata), so diagnose must estimate the noise levels itself.
@@ -214,7 +214,7 @@ INSTANTIATE_TEST_SUITE_P(Effects, HiddenSingle,
                          });
 
 // GIVEN a MEMS flight whose gyro x bias, 0.6 deg/s, lies outside the base's first box (+-0.4)
-// WHEN diagnose fits its base THEN the box widens (issue 44), the base recovers the bias within
+// WHEN diagnose fits its base THEN the box widens, the base recovers the bias within
 // 3 sd and sits near the noise floor, and no stand-in beyond a physical limit is named; with the
 // box fixed the clipped base leaves a misfit several times the floor for stand-ins to fill.
 TEST(BaseWidening, AClippedBaseBiasIsWidenedNotExplainedByStandIns) {
@@ -287,7 +287,7 @@ TEST(HiddenUnobservable, LeverArmOnStraightFlight) {
   EXPECT_TRUE(reported) << r.report["not_observable"].dump();
 }
 
-// Issue 15: a hidden accel_scale_z (the issue's 5e-4) was named lever_arm_z first, without a
+// A hidden accel_scale_z (5e-4) was named lever_arm_z first, without a
 // flag. The named set must contain accel_scale_z and every other named effect must be flagged
 // ambiguous with it (either way round).
 TEST(HiddenAccelScaleZ, NamedAndAnyOtherNameIsAmbiguousWithIt) {
@@ -313,7 +313,7 @@ TEST(HiddenAccelScaleZ, NamedAndAnyOtherNameIsAmbiguousWithIt) {
       EXPECT_TRUE(c.contains(key)) << key;
 }
 
-// Issue 33: the backward check. On a MEMS `rich` flight hiding a gyro z bias drift of 0.2 deg/s
+// The backward check. On a MEMS `rich` flight hiding a gyro z bias drift of 0.2 deg/s
 // per hour, the first iteration names gyro_misalign_zy (z 8.8, the drift's one-at-a-time
 // estimate there is a tenth of its size), the second lever_arm_y, the third the drift; in the
 // joint model the misalignment and the lever arm are 0.7 and 1.5 sd from zero. Both are
@@ -348,7 +348,7 @@ TEST(BackwardCheck, AStandInNamedFirstIsWithdrawnAndTheTruthKeepsItsSize) {
   EXPECT_TRUE(misalign_withdrawn) << r.report["withdrawn"].dump();
 }
 
-// Issue 15: effect-free `straight` flights name nothing (the base fit, unbounded, ran to
+// Effect-free `straight` flights name nothing (the base fit, unbounded, ran to
 // hundreds of sigma there and the test fired on seed 4201 with the campaign's settings: 5
 // optimizer iterations, 30 + 60 replicas).
 TEST(HiddenNone, NothingNamedOnStraightFlights) {
@@ -363,7 +363,7 @@ TEST(HiddenNone, NothingNamedOnStraightFlights) {
   }
 }
 
-// Issue 15: the family-wise calibration on statistics whose joint law is not Gaussian. Data and
+// The family-wise calibration on statistics whose joint law is not Gaussian. Data and
 // M = 60 noise replicas are exchangeable draws of q = 30 candidate estimators whose noise level
 // varies from draw to draw (scale 1, or 3 with probability 0.15: a heavy-tailed scale mixture,
 // as when a few replicas excite a poorly damped direction). The data's |z| is its estimate over
@@ -439,7 +439,7 @@ TEST(Report, JsonShapeAndMarkdown) {
     EXPECT_TRUE(j["gap"].contains(key)) << key;
   EXPECT_EQ(j["base"]["parameters"].size(), 4u);
   EXPECT_GT(j["base"]["parameters"][0]["sd"].get<double>(), 0.0);
-  // Issue 15: the family-wise rule in use is the replicas' own max |z| (Westfall-Young): the
+  // The family-wise rule in use is the replicas' own max |z| (Westfall-Young): the
   // threshold is the (k+1)-th largest of the calibration replicas' maxima, k = floor(0.05 x 51)
   // - 1 = 1, and the Gaussian rule's threshold is reported beside it.
   const auto& i0 = j["iterations"][0];

@@ -25,8 +25,8 @@ const fs::path& valid_dataset() {
     fs::remove_all(d);
     constexpr double kLat = 0.6;
     insid::Dataset ds =
-        insid::testing::make_static_dataset(insid::EarthModel::paper(kLat, 50.0), kLat, 2.0, 50.0,
-                                            {0.0, 0.0, 0.7}, 3.0, 1.0, {}, 100.0, 10.0);
+        insid::test::make_static_dataset(insid::EarthModel::paper(kLat, 50.0), kLat, 2.0, 50.0,
+                                         {0.0, 0.0, 0.7}, 3.0, 1.0, {}, 100.0, 10.0);
     ds.truth.clear();
     for (std::size_t k = 0; k < ds.imu.size(); k += 10)
       ds.heading.push_back({ds.imu[k].t_s, 0.7, 0.01});

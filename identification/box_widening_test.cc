@@ -1,4 +1,4 @@
-// No answer clipped by its box (issue 44, identification/box_widening.h): a pressed bound widens
+// No answer clipped by its box (identification/box_widening.h): a pressed bound widens
 // by half the box's width, never past the grade's physical limit; identify() finds a truth
 // outside the first box and records each widening; with the box fixed the same truth is clipped
 // and flagged at_box_edge.

@@ -1,4 +1,4 @@
-// Reference baselines on INS data (issue 8): the EKF-RTS bias estimates against the injected
+// Reference baselines on INS data: the EKF-RTS bias estimates against the injected
 // values on a `rich` flight, and every generic baseline (pagmo CMA-ES / DE / compass, NLopt
 // BOBYQA / Nelder-Mead, Ceres LM) on a short noise-free flight at a documented accuracy, with
 // evaluation counts checked against the problem's own counter.
@@ -15,18 +15,10 @@
 #include "identification/ins_problem.h"
 #include "optimizers/registry.h"
 #include "scenarios/scenario.h"
+#include "test_support/test_support.h"
 
 namespace insid {
 namespace {
-
-std::shared_ptr<const Dataset> simulate_preset(const std::string& preset, double flight_s,
-                                               const std::string& grade, std::uint64_t seed) {
-  scenarios::ScenarioConfig cfg = scenarios::preset_scenario(preset);
-  cfg.flight_s = flight_s;
-  cfg.noise = scenarios::noise_grade(grade);
-  cfg.seed = seed;
-  return std::make_shared<const Dataset>(scenarios::simulate(cfg));
-}
 
 // Counting decorator around the INS problem: every fitness or residual evaluation (one full
 // INS run each).
@@ -53,7 +45,7 @@ class CountingInsProblem final : public opt::Problem, public opt::ResidualProble
 };
 
 TEST(EkfRts, BiasEstimatesConvergeToTheInjectedValuesWithinThreeSigma) {
-  const auto dataset = simulate_preset("rich", 2700.0, "nav", 7);
+  const auto dataset = test::simulate_preset("rich", 2700.0, "nav", 7);
   const NavigationProblem navigation(dataset);
   const EkfRtsResult r = run_ekf_rts(navigation);
   const auto& injected = *dataset->meta.injected;
@@ -76,7 +68,7 @@ TEST(EkfRts, BiasEstimatesConvergeToTheInjectedValuesWithinThreeSigma) {
 
 TEST(EkfRts, RunsAsARegisteredAlgorithmWithOneEvaluation) {
   register_ekf_rts();
-  const auto dataset = simulate_preset("rich", 900.0, "none", 1);
+  const auto dataset = test::simulate_preset("rich", 900.0, "none", 1);
   const auto navigation = std::make_shared<const NavigationProblem>(dataset);
   const InsIdentificationProblem problem(navigation,
                                          ParameterMapping(EstimatedParameter::paper_four()));
@@ -103,7 +95,7 @@ TEST(EkfRts, RunsAsARegisteredAlgorithmWithOneEvaluation) {
 // Each generic baseline on a short noise-free `rich` flight: the estimate's largest error
 // against the injected values (sigma units) at a fixed budget, and exact evaluation counts.
 TEST(Baselines, ReachTheDocumentedAccuracyOnNoiseFreeInsData) {
-  const auto dataset = simulate_preset("rich", 300.0, "none", 1);
+  const auto dataset = test::simulate_preset("rich", 300.0, "none", 1);
   const auto navigation = std::make_shared<const NavigationProblem>(dataset);
   opt::EvaluatorOptions evaluator;
   evaluator.parallelism = opt::Parallelism::kOpenMP;

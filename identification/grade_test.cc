@@ -1,4 +1,4 @@
-// `--grade auto` reads the data (issue 33, item 2): the meta.json noise block when there is one,
+// `--grade auto` reads the data: the meta.json noise block when there is one,
 // else the static window's measured noise and gyro bias; nav only as a stated assumption.
 #include "identification/grade.h"
 
@@ -78,7 +78,7 @@ TEST(GradeChoice, DeclaredNoiseWinsAndNoStaticWindowIsSaidToBeAnAssumption) {
   EXPECT_THROW(choose_grade(d, "consumer"), std::invalid_argument);
 }
 
-// One grade table (data/grade_table.h, issue 35): the estimation grades, the simulator's noise
+// One grade table (data/grade_table.h): the estimation grades, the simulator's noise
 // grades and the window study read its figures, which before each wrote themselves. The figures
 // are pinned to their physical values (the table at the top of grade_table.h), so a changed
 // number fails here as well as a reader that stops reading the table.

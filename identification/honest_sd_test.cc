@@ -1,4 +1,4 @@
-// Honest sd from every estimator (issue 44; identification/README.md, "How sure an estimate
+// Honest sd from every estimator (identification/README.md, "How sure an estimate
 // is"), on the drone flight of identification/mems_study.h (50 Hz IMU, 5 Hz GNSS, 8 s on the
 // ground, MEMS biases drawn per seed, the IMU noise of the shared quadcopter log's flight):
 //   - the IMU noise the EKF-RTS measures in the flight (no noise block) is the simulated one;

@@ -1,4 +1,3 @@
-#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
@@ -16,6 +15,7 @@
 #include "identification/ins_problem.h"
 #include "identification/local_fit.h"
 #include "optimizers/registry.h"
+#include "test_support/files.h"
 #include "test_support/test_support.h"
 
 namespace insid {
@@ -23,17 +23,15 @@ namespace {
 
 constexpr double kLat = 40.068 * kDegToRad;
 
-using testing::paper_errors;
-
 // Static data whose biases switch on after the alignment window, navigated with a fixed
 // (recorded-data) alignment: the attitude is then the true one and all four biases show in the
 // Schuler-type velocity error. (With biases present during alignment, levelling and
 // gyrocompassing would absorb accel_bias_x/y and the east gyro bias on static data.)
 std::shared_ptr<const NavigationProblem> static_problem() {
   static const auto nav = [] {
-    Dataset ds = testing::make_static_dataset(EarthModel::paper(kLat, 50.0), kLat, 2.0, 50.0,
-                                              {0.0, 0.0, 0.7}, 1800.0, 600.0);
-    const SensorErrors errors = paper_errors();
+    Dataset ds = test::make_static_dataset(EarthModel::paper(kLat, 50.0), kLat, 2.0, 50.0,
+                                           {0.0, 0.0, 0.7}, 1800.0, 600.0);
+    const SensorErrors errors = test::paper_errors();
     for (ImuSample& s : ds.imu)
       if (s.t_s > 600.0 + 1e-9) apply_imu_errors(errors, 0.0, 0.01, s.dtheta_b_rad, s.dv_b_mps);
     return std::make_shared<const NavigationProblem>(std::make_shared<const Dataset>(ds),
@@ -92,7 +90,7 @@ TEST(Identification, EstimateSpecParsingRejectsBadInput) {
                std::invalid_argument);
 }
 
-// Issue 37, item 12: a search box beyond what is physical is refused by name up front (a
+// A search box beyond what is physical is refused by name up front (a
 // 1e300-sigma accelerometer box ran into "coarse alignment ... (at a pole?)"); boxes users do
 // give (a MEMS gyro z at 8 sigma, a 4 s latency box) pass.
 TEST(Identification, EstimateSpecBeyondPhysicalLimitsIsRefusedNamingTheLimit) {
@@ -129,7 +127,7 @@ TEST(Identification, LocalFitFindsTheInjectedBiasesOnNoiseFreeData) {
   EXPECT_LT(fit.fitness, 1e-3 * problem.fitness(Eigen::VectorXd::Zero(4)));
 }
 
-// Issue 16: the reference optimum's starts run in lock-step, one batch a round. Each start must
+// The reference optimum's starts run in lock-step, one batch a round. Each start must
 // follow its own fit exactly: the starts below need different numbers of iterations and trials,
 // so rounds mix one start's Jacobian with another's trials, and some starts finish early.
 TEST(Identification, LocalFitsInLockStepEqualEachFitAlone) {
@@ -201,9 +199,9 @@ TEST(Identification, LocalFitOptionsAreValidatedBeforeAnyRunNamingTheBadValue) {
 // Static data with biases `scale` x the paper's after the alignment window, in `dir`.
 std::shared_ptr<const NavigationProblem> write_static_data(const std::filesystem::path& dir,
                                                            double scale) {
-  Dataset ds = testing::make_static_dataset(EarthModel::paper(kLat, 50.0), kLat, 2.0, 50.0,
-                                            {0.0, 0.0, 0.7}, 900.0, 300.0);
-  SensorErrors errors = paper_errors();
+  Dataset ds = test::make_static_dataset(EarthModel::paper(kLat, 50.0), kLat, 2.0, 50.0,
+                                         {0.0, 0.0, 0.7}, 900.0, 300.0);
+  SensorErrors errors = test::paper_errors();
   errors.gyro.bias *= scale;
   errors.accel.bias *= scale;
   for (ImuSample& s : ds.imu)
@@ -213,12 +211,10 @@ std::shared_ptr<const NavigationProblem> write_static_data(const std::filesystem
       std::make_shared<const Dataset>(load_dataset(dir)), NavigationOptions{AlignmentMode::kFixed});
 }
 
-// Issue 16: the campaign finds the optimum with its starts on several threads; the optimum must
+// The campaign finds the optimum with its starts on several threads; the optimum must
 // not depend on how many (start points drawn in order, best taken in start order).
 TEST(Identification, ReferenceOptimumIsTheSameForAnyThreadCount) {
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
-                                    ("insid-optimum-threads-" + std::to_string(getpid()));
-  std::filesystem::remove_all(dir);
+  const std::filesystem::path dir = test::fresh_dir("optimum-threads");
   const ParameterMapping mapping(EstimatedParameter::paper_four());
   const InsIdentificationProblem problem(write_static_data(dir, 1.0), mapping);
   const ReferenceOptimum one = find_reference_optimum(problem, 4, kReferenceOptimumSeed, 1);
@@ -237,9 +233,7 @@ TEST(Identification, ReferenceOptimumIsTheSameForAnyThreadCount) {
 }
 
 TEST(Identification, OptimumCacheFollowsTheDataNotTheDirectory) {
-  const std::filesystem::path dir =
-      std::filesystem::temp_directory_path() / ("insid-cache-test-" + std::to_string(getpid()));
-  std::filesystem::remove_all(dir);
+  const std::filesystem::path dir = test::fresh_dir("cache-test");
   const ParameterMapping mapping(EstimatedParameter::paper_four());
   const InsIdentificationProblem first(write_static_data(dir, 1.0), mapping);
   const ReferenceOptimum a = cached_reference_optimum(dir.string(), first);
@@ -261,7 +255,7 @@ TEST(Identification, OptimumCacheFollowsTheDataNotTheDirectory) {
 
 TEST(Identification, NonFiniteFitnessNamesTheCandidateInSiAndWhereItsNavigationBroke) {
   // One sigma of 1e200 m/s^2: the candidate at the box corner overflows; both evaluators refuse.
-  // (Built directly: `--estimate accel_bias_x:1e200` is refused up front since issue 37, and
+  // (Built directly: `--estimate accel_bias_x:1e200` is refused up front, and
   // this tests the evaluators' own guard, which any other overflow reaches.)
   EstimatedParameter huge = EstimatedParameter::parse("accel_bias_x");
   huge.sigma = 1e200;
@@ -325,7 +319,7 @@ TEST(Identification, ResultJsonHasEstimatesErrorsAndHistory) {
   config.max_iterations = 3;
   const opt::Result r = opt::optimize("pso", problem, config);
   nlohmann::json j = optimizer_result_json(r, m);
-  add_estimate_json(j, m, m.to_sigma(r.best_x), nonzero_effects(paper_errors()));
+  add_estimate_json(j, m, m.to_sigma(r.best_x), nonzero_effects(test::paper_errors()));
   EXPECT_EQ(j["history"].size(), 3u);
   EXPECT_EQ(j["best_per_evaluation"].size(), 30u);
   EXPECT_NEAR(j["truth_sigma"]["gyro_bias_x"].get<double>(), 2.0, 1e-12);
@@ -333,7 +327,7 @@ TEST(Identification, ResultJsonHasEstimatesErrorsAndHistory) {
               j["estimate_in_sigma_units"]["accel_bias_y"].get<double>() - 1.5, 1e-12);
   EXPECT_NEAR(j["estimate"]["gyro_bias_y"].get<double>(),
               j["estimate_in_sigma_units"]["gyro_bias_y"].get<double>() * kSigmaGyroRadS, 1e-20);
-  EXPECT_FALSE(j.contains("estimate_sigma"));  // renamed (issue 15): it read as an sd
+  EXPECT_FALSE(j.contains("estimate_sigma"));  // renamed: it read as an sd
 }
 
 // GIVEN an IdentifySpec with one bad field WHEN validated THEN validate() says what is wrong and

@@ -1,4 +1,4 @@
-// Simulated MEMS flights identified within their stated sd (issue 14; set-up in
+// Simulated MEMS flights identified within their stated sd (set-up in
 // identification/mems_study.h, figures in results/mems/README.md): 10 noise seeds of a 400 s
 // MEMS `rich` flight (30 s static, biases 0.2 / -0.15 / 0.2 deg/s and 20 / -15 mg,
 // level+heading from the GNSS course). For EKF-RTS (grade-aware set-up, its own smoothed sd) and

@@ -1,4 +1,4 @@
-// Uncertainty of an identification (issue 15): the 95 % intervals of LM cover the truth over
+// Uncertainty of an identification: the 95 % intervals of LM cover the truth over
 // noise seeds of a short flight (and a mis-scaled or white-noise sd does not); the box-edge /
 // not-observable flags fire on a 120 s flight and not on a long one; old result files read.
 #include <algorithm>
@@ -19,6 +19,7 @@
 #include "identification/uncertainty.h"
 #include "optimizers/registry.h"
 #include "scenarios/scenario.h"
+#include "test_support/test_support.h"
 
 namespace insid {
 namespace {
@@ -32,15 +33,6 @@ constexpr double kCoverageFlightS = 300.0;
 // takes minutes here; identification/README.md gives the measured times).
 constexpr double kLongFlightS = 3600.0;
 
-std::shared_ptr<const Dataset> simulate_preset(const std::string& preset, double flight_s,
-                                               const std::string& grade, std::uint64_t seed) {
-  scenarios::ScenarioConfig cfg = scenarios::preset_scenario(preset);
-  cfg.flight_s = flight_s;
-  cfg.noise = scenarios::noise_grade(grade);
-  cfg.seed = seed;
-  return std::make_shared<const Dataset>(scenarios::simulate(cfg));
-}
-
 struct Trial {
   Eigen::VectorXd truth_sigma, estimate_sigma;
   UncertaintyReport report;
@@ -48,7 +40,7 @@ struct Trial {
 
 // LM (Ceres, the registry's "lm") on the paper's four, then the uncertainty at its estimate.
 Trial lm_trial(const std::string& preset, double flight_s, std::uint64_t seed) {
-  const auto dataset = simulate_preset(preset, flight_s, "nav", seed);
+  const auto dataset = test::simulate_preset(preset, flight_s, "nav", seed);
   const auto navigation = std::make_shared<const NavigationProblem>(dataset);
   opt::EvaluatorOptions evaluator;
   evaluator.parallelism = opt::Parallelism::kOpenMP;
@@ -187,7 +179,7 @@ TEST(Uncertainty, FlagsFireOnAShortFlightAndNotOnALongOne) {
 
 // A point away from the optimum is flagged not_converged with its distance; the optimum is not.
 TEST(Uncertainty, NotConvergedFiresAwayFromTheOptimum) {
-  const auto dataset = simulate_preset("rich", 600.0, "nav", 4);
+  const auto dataset = test::simulate_preset("rich", 600.0, "nav", 4);
   const auto navigation = std::make_shared<const NavigationProblem>(dataset);
   const InsIdentificationProblem problem(navigation,
                                          ParameterMapping(EstimatedParameter::paper_four()));
@@ -210,14 +202,14 @@ TEST(Uncertainty, NotConvergedFiresAwayFromTheOptimum) {
   EXPECT_TRUE(has_flag(away.parameters[0], "not_converged"));
 }
 
-// Campaign uncertainty (issue 15): the noise replicas run once per scenario at the data's
+// Campaign uncertainty: the noise replicas run once per scenario at the data's
 // optimum and shared by every run give each run the sd that its own replicas (same seeds, run
 // at its own estimate) give: bit for bit at the point the replicas were run at, within 2 % at
 // runs that stopped 1-3 sd away (the noise response changes only weakly with the point; the
 // replicas' own sampling error is ~1/sqrt(2M) = 7 % at M = 100, so other seeds would not pass).
 // The per-run cost drops from 2n + 2 + M INS runs to 2n + 2.
 TEST(Uncertainty, SharedReplicasGiveEachRunItsOwnReplicasSd) {
-  const auto dataset = simulate_preset("rich", kCoverageFlightS, "nav", 7);
+  const auto dataset = test::simulate_preset("rich", kCoverageFlightS, "nav", 7);
   const auto navigation = std::make_shared<const NavigationProblem>(dataset);
   opt::EvaluatorOptions evaluator;
   evaluator.parallelism = opt::Parallelism::kOpenMP;
@@ -298,11 +290,11 @@ TEST(Uncertainty, ResultLayoutAndEngineeringUnits) {
   EXPECT_NEAR(out["correlation"]["matrix"][1][1].get<double>(), 1.0, 1e-12);
 }
 
-// The EKF-RTS's parameters[].sd is the filter-smoother's own smoothed sd (issue 15), the
+// The EKF-RTS's parameters[].sd is the filter-smoother's own smoothed sd, the
 // Gauss-Newton one kept beside it; any other algorithm reports the Gauss-Newton sd.
 TEST(Uncertainty, EkfRtsReportsItsOwnSmoothedSd) {
   register_ekf_rts();
-  const auto dataset = simulate_preset("rich", 300.0, "nav", 4);
+  const auto dataset = test::simulate_preset("rich", 300.0, "nav", 4);
   const auto navigation = std::make_shared<const NavigationProblem>(dataset);
   opt::EvaluatorOptions evaluator;
   evaluator.parallelism = opt::Parallelism::kOpenMP;

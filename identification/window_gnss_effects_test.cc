@@ -1,4 +1,4 @@
-// The GNSS-side effects under the windowed fitness (issue 33, item 1): a hidden GNSS latency or
+// The GNSS-side effects under the windowed fitness: a hidden GNSS latency or
 // antenna lever arm is recovered by LM within 3 of its reported sd for one run (W = 0) and for
 // windows of 10 and 20 s. Each window starts from the GNSS solution; were that start taken
 // candidate-independently (the GNSS solution tagged at the restart epoch, antenna velocity as the

@@ -1,4 +1,4 @@
-// The windowed fitness on simulated MEMS flights (issue 14; identification/window_study.h for
+// The windowed fitness on simulated MEMS flights (identification/window_study.h for
 // the set-up: rich preset shortened to 300 s, MEMS noise, biases of 0.2 / -0.15 deg/s and
 // -20 / 15 mg switched on after the alignment window, attitude aligned once as recorded).
 #include <cmath>

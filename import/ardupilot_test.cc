@@ -1,4 +1,4 @@
-// The DataFlash reader and the ArduPilot import (issue 34): synthetic records for every type
+// The DataFlash reader and the ArduPilot import: synthetic records for every type
 // letter and every refusal, and the shared real log (../shared/data/ardupilot-copter/log171.bin,
 // read in place, never copied; the tests that need it skip where it is absent).
 #include <algorithm>
@@ -318,7 +318,7 @@ TEST(ArduPilotReal, AFlippedImuStampCostsItsOwnRecord) {
   }
 }
 
-// A NaN gyro in one IMU record of the shared log (issue 37 item 10): the dataset check names the
+// A NaN gyro in one IMU record of the shared log: the dataset check names the
 // log, the IMU, the record and the byte where the record starts (the record's header and its
 // TimeMS are checked at that byte here, independently of the reader).
 TEST(ArduPilotReal, ANonFiniteGyroIsNamedWithItsRecordAndByte) {

@@ -1,4 +1,4 @@
-// insid import (issue 13): the RTKLIB .pos reader, the mapped IMU CSV reader, the mounting
+// insid import: the RTKLIB .pos reader, the mapped IMU CSV reader, the mounting
 // convention, the assembly into an insid-dataset/2, and the shared rtklib-walk recording.
 #include <unistd.h>
 
@@ -31,6 +31,7 @@
 #include "model/rotation.h"
 #include "nav/fitness.h"
 #include "scenarios/scenario.h"
+#include "test_support/files.h"
 #include "test_support/test_support.h"
 
 namespace insid::importers {
@@ -98,7 +99,7 @@ TEST(RtklibPos, ReadsDateTimeAndWeekTowOnOneGpstScale) {
   EXPECT_EQ(b.format, "rtklib-pos (week tow)");
 }
 
-// Issue 37, item 13: what was silently tolerated is refused, named.
+// What was silently tolerated is refused, named.
 TEST(RtklibPos, ImpossibleDatesAndFractionalFlagsAreRefused) {
   const std::string e1 =
       error_of(std::string(kPosHeader) + pos_row("2025/02/30 17:30:39.749", 40.1, 1, 0, 0));
@@ -344,7 +345,7 @@ TEST(KfGins, ExportImportRoundTripNavigatesAsTheOriginal) {
 }
 
 // Rows a KF-GINS import refuses in the dataset checks are named by the user's file and line
-// (issue 37 item 10: line 30001 of the user's file was "imu.csv line 30002"). The IMU file has no
+// (line 30001 of the user's file, not "imu.csv line 30002"). The IMU file has no
 // header, so row k is line k + 1; the GNSS file's first epoch precedes the IMU and is not kept.
 TEST(KfGins, DatasetCheckErrorsNameTheUsersFileAndLine) {
   scenarios::ScenarioConfig cfg = scenarios::preset_scenario("straight");
@@ -634,8 +635,8 @@ std::vector<double> csv_pos_round_trip(const Dataset& original, const Rates* rat
 }
 
 // The dataset checks an import runs before it writes name the user's files and options, not
-// the imu.csv / gnss.csv / meta.json insid has not written (issue 37, item 10: a .pos line 201
-// was reported as "gnss.csv line 196", --align-s 1000 as "meta.json: field align_s").
+// the imu.csv / gnss.csv / meta.json insid has not written (a .pos line 201 is
+// not reported as "gnss.csv line 196", nor --align-s 1000 as "meta.json: field align_s").
 TEST(CsvImport, DatasetCheckErrorsNameTheUsersFileLineAndOption) {
   scenarios::ScenarioConfig cfg = scenarios::preset_scenario("straight");
   cfg.flight_s = 30.0;
@@ -741,7 +742,7 @@ TEST(CsvImport, JitteredFlightRoundTripThroughAMappedCsvAndAPos) {
   cfg.noise.gm_gyro_sigma_deg_h = cfg.noise.gm_accel_sigma_mps2 = 0.0;
   const Dataset fine = scenarios::simulate(cfg);
   std::vector<std::size_t> last;
-  Dataset jittered = insid::testing::jittered_rows(fine, 7, 13, 31, 100.0, &last);
+  Dataset jittered = insid::test::jittered_rows(fine, 7, 13, 31, 100.0, &last);
   jittered.meta.earth = EarthModel::wgs84();
   Rates at_stamp;
   const double dt_fine = 1e-3;
@@ -771,7 +772,7 @@ TEST(CsvImport, JitteredIntervalMeansImportWithTheRowsOwnStep) {
   cfg.imu_rate_hz = 1000.0;
   cfg.substeps = 1;
   const Dataset fine = scenarios::simulate(cfg);
-  Dataset jittered = insid::testing::jittered_rows(fine, 7, 13, 31, 100.0);
+  Dataset jittered = insid::test::jittered_rows(fine, 7, 13, 31, 100.0);
   jittered.meta.earth = EarthModel::wgs84();
   const std::vector<double> means = csv_pos_round_trip(jittered, nullptr, "interval-mean");
   const std::vector<double> trapezoid = csv_pos_round_trip(jittered, nullptr, "point");
@@ -937,7 +938,7 @@ TEST(Ulog, SimulatedFlightRoundTripNavigatesAsTheOriginal) {
   }
 }
 
-// select_increasing_stamps (issue 37 item 4) on 100 stamps 10 ms apart, one corruption each.
+// select_increasing_stamps on 100 stamps 10 ms apart, one corruption each.
 TEST(Ulog, TimestampJumpsCostTheirOwnMessagesOnly) {
   const auto select = [](const std::function<void(std::vector<double>&)>& corrupt) {
     std::vector<double> t;
@@ -1058,8 +1059,8 @@ TEST(Ulog, OneFlippedTimestampBitDropsOneRowOfItsTopic) {
       << notes;
 }
 
-// A NaN in one gyro increment (issue 37 item 10: it was named "imu.csv line 650", insid's own
-// file, with neither message nor byte): the error names the log, topic, message and the byte
+// A NaN in one gyro increment (not "imu.csv line 650", insid's own file, with neither message
+// nor byte): the error names the log, topic, message and the byte
 // where that message starts, so that a user can find it with a hex viewer.
 TEST(Ulog, ANonFiniteSampleIsNamedWithItsMessageAndByte) {
   Dataset original = straight_v2_flight(60.0, 30.0);
@@ -1259,7 +1260,7 @@ TEST(Ulog, GpsAndMagnetometerHeadingsImportWithUnitsAndSign) {
   }
 }
 
-// Issue 37, item 12: GNSS epochs lost to repeated stamps are named as such ("1 epochs with
+// GNSS epochs lost to repeated stamps are named as such ("1 epochs with
 // fix_type >= 3 (of 583)" blamed the fix type for epochs dropped for their timestamps).
 TEST(Ulog, TooFewGnssEpochsSayWhyTheOthersWereDropped) {
   UlogWriter w(0);
@@ -1461,19 +1462,14 @@ fs::path shared_px4_events_log() {
   const fs::path source = fs::path(INSID_SHARED_DATA) / "px4-ulog" / "sample_px4_events.ulg";
   return fs::exists(source) ? source : fs::path();
 }
-std::string file_bytes(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-}
-
-// Issue 34: the PX4 estimator's own biases (estimator_sensor_bias, instance 0) go to
+// The PX4 estimator's own biases (estimator_sensor_bias, instance 0) go to
 // autopilot_estimates in insid's names, axes and SI units: each compared with the float32 read
 // by hand at its byte offset in the file (the last message), so a swapped axis, a wrong field or
 // a unit conversion (deg/s, mg) fails; sd_si is the square root of the logged variance.
 TEST(SharedData, Px4EstimatorBiasesAreReadWithTheirAxesUnitsAndVariance) {
   const fs::path source = shared_px4_events_log();
   if (source.empty()) GTEST_SKIP() << kNoSharedUlogs;
-  const std::string bytes = file_bytes(source);
+  const std::string bytes = test::read_file(source);
   const UlogFile log = UlogFile::parse(bytes, source.string());
   std::vector<std::string> notes;
   const nlohmann::json ap = px4_bias_estimates(log, "sensor_combined", 0, notes);
@@ -1504,14 +1500,14 @@ TEST(SharedData, Px4EstimatorBiasesAreReadWithTheirAxesUnitsAndVariance) {
           .get<bool>());
 }
 
-// Issue 37 item 4: one corrupted sensor_combined timestamp (a flipped bit 48, 2^48 us ahead)
+// One corrupted sensor_combined timestamp (a flipped bit 48, 2^48 us ahead)
 // imported 301 of 5487 IMU rows (1.2 s of 21.9 s), exit 0, no note, and rows_read hid the drop.
 // Now the message is dropped as a timestamp jump, named with its byte offset, and every other row
 // is kept. The corrupted copies are written to a temporary folder, never into the repository.
 TEST(SharedData, OneCorruptedUlogTimestampDropsOneRowAndIsReported) {
   const fs::path source = shared_px4_events_log();
   if (source.empty()) GTEST_SKIP() << kNoSharedUlogs;
-  const std::string original = file_bytes(source);
+  const std::string original = test::read_file(source);
   AssembleOptions options;
   options.gnss_quality = {1};
   options.align_s = 1.0;
@@ -1682,7 +1678,7 @@ TEST(SharedData, RtklibWalkImportsAndItsStaticGyroMeansMatchTheCsv) {
   EXPECT_TRUE(std::isfinite(problem.fitness(SensorErrors{})));
 }
 
-// The walk with the initial-attitude modes (issue 14): gyrocompassing is refused (the ARW,
+// The walk with the initial-attitude modes: gyrocompassing is refused (the ARW,
 // estimated from the static window since the import declares none, and Earth rate 0.004 deg/s
 // make the expected heading sd far above 1 deg); level+heading navigates, its heading taken from
 // the first GNSS epochs at >= 1 m/s and carried back to the start, reported here; given is

@@ -22,7 +22,7 @@ TEST(Alignment, ErrorFreeStaticDataAlignsExactly) {
   const EarthModel earth = EarthModel::paper(kLat, 50.0);
   for (double yaw_deg : {0.0, 45.0, 170.0, 260.0}) {
     const EulerAngles att{1.5 * kDegToRad, -2.0 * kDegToRad, yaw_deg * kDegToRad};
-    const Dataset ds = testing::make_static_dataset(earth, kLat, 0.0, 50.0, att, 600.0, 600.0);
+    const Dataset ds = test::make_static_dataset(earth, kLat, 0.0, 50.0, att, 600.0, 600.0);
     const Eigen::Matrix3d C = align_window(window_of(ds), ImuCompensator(SensorErrors{}));
     EXPECT_LT((C - C_b_n_from_euler(att)).norm(), 1e-9) << "yaw " << yaw_deg;
   }
@@ -37,8 +37,7 @@ TEST(Alignment, LevellingErrorIsMinusBiasOverG) {
   const EulerAngles att{0, 0, 0};
   SensorErrors errors;
   errors.accel.bias = Eigen::Vector3d(3 * kSigmaAccelMps2, -2 * kSigmaAccelMps2, 0);
-  const Dataset ds =
-      testing::make_static_dataset(earth, kLat, 0.0, 50.0, att, 600.0, 600.0, errors);
+  const Dataset ds = test::make_static_dataset(earth, kLat, 0.0, 50.0, att, 600.0, 600.0, errors);
   const EulerAngles e = euler_from_C_b_n(align_window(window_of(ds), ImuCompensator({})));
   EXPECT_NEAR(e.pitch_rad, errors.accel.bias.x() / g, 0.05 * std::abs(errors.accel.bias.x() / g));
   EXPECT_NEAR(e.roll_rad, -errors.accel.bias.y() / g, 0.05 * std::abs(errors.accel.bias.y() / g));
@@ -55,8 +54,7 @@ TEST(Alignment, HeadingErrorFromEastGyroBias) {
   const EulerAngles att{0, 0, 0};  // body y axis = east
   SensorErrors errors;
   errors.gyro.bias.y() = 2 * kSigmaGyroRadS;
-  const Dataset ds =
-      testing::make_static_dataset(earth, kLat, 0.0, 50.0, att, 600.0, 600.0, errors);
+  const Dataset ds = test::make_static_dataset(earth, kLat, 0.0, 50.0, att, 600.0, 600.0, errors);
   const EulerAngles e = euler_from_C_b_n(align_window(window_of(ds), ImuCompensator({})));
   const double expected = -errors.gyro.bias.y() / (earth.omega_ie_rad_s * std::cos(kLat));
   EXPECT_NEAR(wrap_pi(e.yaw_rad), expected, 0.05 * std::abs(expected));
@@ -71,8 +69,7 @@ TEST(Alignment, DriftCompensationUsesWindowMeanTime) {
   errors.gyro.bias_drift = Eigen::Vector3d(1e-11, 2e-11, -1e-11);
   errors.accel.scale = Eigen::Vector3d(1e-4, -2e-4, 3e-4);
   errors.gyro.misalign(0, 1) = 2e-4;
-  const Dataset ds =
-      testing::make_static_dataset(earth, kLat, 0.0, 50.0, att, 600.0, 600.0, errors);
+  const Dataset ds = test::make_static_dataset(earth, kLat, 0.0, 50.0, att, 600.0, 600.0, errors);
   const Eigen::Matrix3d C = align_window(window_of(ds), ImuCompensator(errors));
   EXPECT_LT((C - C_b_n_from_euler(att)).norm(), 1e-9);
   const Eigen::Matrix3d C_uncompensated = align_window(window_of(ds), ImuCompensator({}));
@@ -93,7 +90,7 @@ TEST(Alignment, LevellingWithTheGyrocompassYawIsTheCoarseAlignment) {
   for (double yaw_deg : {0.0, 45.0, 170.0, 260.0})
     for (double roll_deg : {-20.0, 0.0, 3.0}) {
       const EulerAngles att{roll_deg * kDegToRad, 7.0 * kDegToRad, yaw_deg * kDegToRad};
-      const Dataset ds = testing::make_static_dataset(earth, kLat, 0.0, 50.0, att, 60.0, 60.0);
+      const Dataset ds = test::make_static_dataset(earth, kLat, 0.0, 50.0, att, 60.0, 60.0);
       const AlignmentWindow w = window_of(ds);
       const Eigen::Matrix3d C = align_window(w, ImuCompensator(SensorErrors{}));
       const Eigen::Matrix3d L =

@@ -22,10 +22,8 @@ std::shared_ptr<Dataset> static_dataset(const SensorErrors& errors, double durat
   const EarthModel earth = EarthModel::paper(kLat, 50.0);
   const EulerAngles att{0.5 * kDegToRad, -1.0 * kDegToRad, 75.0 * kDegToRad};
   return std::make_shared<Dataset>(
-      testing::make_static_dataset(earth, kLat, kLon, 50.0, att, duration_s, 600.0, errors));
+      test::make_static_dataset(earth, kLat, kLon, 50.0, att, duration_s, 600.0, errors));
 }
-
-using testing::paper_errors;
 
 TEST(Fitness, ZeroForAPerfectMatch) {
   for (AlignmentMode mode : {AlignmentMode::kPerCandidate, AlignmentMode::kFixed}) {
@@ -33,19 +31,20 @@ TEST(Fitness, ZeroForAPerfectMatch) {
     EXPECT_LT(clean.fitness({}), 1e-9 * static_cast<double>(clean.num_epochs()));
   }
   // Data with the paper's errors, compensated with exactly those errors.
-  const NavigationProblem problem(static_dataset(paper_errors()));
-  EXPECT_LT(problem.fitness(paper_errors()), 1e-9 * static_cast<double>(problem.num_epochs()));
+  const NavigationProblem problem(static_dataset(test::paper_errors()));
+  EXPECT_LT(problem.fitness(test::paper_errors()),
+            1e-9 * static_cast<double>(problem.num_epochs()));
   EXPECT_GT(problem.fitness({}), 1e-2);
 }
 
-// Issue 13: IMU steps with +-30 % random jitter (insid-dataset/2: each row's own interval).
+// IMU steps with +-30 % random jitter (insid-dataset/2: each row's own interval).
 // Static data with exact increments over each jittered interval: compensated with the true
 // errors the navigation is as exact as at a constant rate (the same bound as above), and
 // uncompensated its fitness matches the constant-rate one (the same physics sampled otherwise).
 TEST(Fitness, JitteredImuStepsNavigateLikeAConstantRate) {
   const EarthModel earth = EarthModel::paper(kLat, 50.0);
   const EulerAngles att{0.5 * kDegToRad, -1.0 * kDegToRad, 75.0 * kDegToRad};
-  const SensorErrors errors = paper_errors();
+  const SensorErrors errors = test::paper_errors();
   const auto constant = static_dataset(errors);
   auto jittered = std::make_shared<Dataset>(*constant);
   jittered->meta.format = DatasetFormat::kV2;
@@ -106,7 +105,7 @@ TEST(Fitness, OneSumOfResidualsForEq15AndSumOfSquares) {
   EXPECT_EQ(fitness_from_residuals(r, FitnessKind::kSumSquares), 26.0);
   EXPECT_EQ(fitness_from_residuals(std::vector<double>{}), 0.0);
   // NavigationProblem::fitness is this sum of its residuals, bit for bit.
-  const NavigationProblem problem(static_dataset(paper_errors(), 700.0));
+  const NavigationProblem problem(static_dataset(test::paper_errors(), 700.0));
   std::vector<double> residuals;
   problem.residuals({}, residuals);
   for (FitnessKind kind : {FitnessKind::kEq15, FitnessKind::kSumSquares})
@@ -114,16 +113,17 @@ TEST(Fitness, OneSumOfResidualsForEq15AndSumOfSquares) {
 }
 
 TEST(Fitness, PerCandidateAlignmentDiffersFromFixed) {
-  const auto ds = static_dataset(paper_errors());
+  const auto ds = static_dataset(test::paper_errors());
   const NavigationProblem per(ds, {AlignmentMode::kPerCandidate});
   const NavigationProblem fixed(ds, {AlignmentMode::kFixed});
   // Fixed: the attitude does not depend on the candidate.
-  EXPECT_LT((fixed.initial_attitude({}) - fixed.initial_attitude(paper_errors())).norm(), 1e-15);
-  EXPECT_GT((per.initial_attitude({}) - per.initial_attitude(paper_errors())).norm(), 1e-6);
+  EXPECT_LT((fixed.initial_attitude({}) - fixed.initial_attitude(test::paper_errors())).norm(),
+            1e-15);
+  EXPECT_GT((per.initial_attitude({}) - per.initial_attitude(test::paper_errors())).norm(), 1e-6);
   // Compensating the true errors: per-candidate re-aligns with the compensated data and
   // matches; fixed keeps the attitude levelled on the biased data, which then mismatches.
-  EXPECT_LT(per.fitness(paper_errors()), 1e-9 * static_cast<double>(per.num_epochs()));
-  EXPECT_GT(fixed.fitness(paper_errors()), 1e-2);
+  EXPECT_LT(per.fitness(test::paper_errors()), 1e-9 * static_cast<double>(per.num_epochs()));
+  EXPECT_GT(fixed.fitness(test::paper_errors()), 1e-2);
 }
 
 TEST(Fitness, InterpolatedGnssEpochsAndModes) {
@@ -147,7 +147,7 @@ TEST(Fitness, RejectsDataWithoutNavigationPart) {
   EXPECT_THROW(NavigationProblem{ds}, std::invalid_argument);
 }
 
-// ----- windowed fitness (issue 14; nav/fitness.h "Windowed fitness") --------------------------
+// ----- windowed fitness (nav/fitness.h "Windowed fitness") ---------------------------------------
 
 NavigationOptions windowed(double window_s, AlignmentMode mode = AlignmentMode::kPerCandidate) {
   NavigationOptions options;
@@ -202,7 +202,7 @@ TEST(WindowedFitness, RestartEpochsFollowTheDocumentedRule) {
 }
 
 TEST(WindowedFitness, AWindowLongerThanTheFlightIsOneRunBitForBit) {
-  const auto ds = static_dataset(paper_errors(), 900.0);
+  const auto ds = static_dataset(test::paper_errors(), 900.0);
   for (AlignmentMode mode : {AlignmentMode::kPerCandidate, AlignmentMode::kFixed}) {
     const NavigationProblem one(ds, windowed(0.0, mode)), longer(ds, windowed(1e6, mode));
     std::vector<double> r_one, r_longer;

@@ -22,7 +22,7 @@ constexpr double kLon = 116.246 * kDegToRad;
 TEST(Mechanization, StationaryImuStaysPutForAnHour) {
   const EarthModel earth = EarthModel::paper(kLat, 50.0);
   const EulerAngles att{2 * kDegToRad, -3 * kDegToRad, 130 * kDegToRad};
-  const Dataset ds = testing::make_static_dataset(earth, kLat, kLon, 50.0, att, 3600.0, 0.0);
+  const Dataset ds = test::make_static_dataset(earth, kLat, kLon, 50.0, att, 3600.0, 0.0);
   NavState s0;
   s0.lat_rad = kLat;
   s0.lon_rad = kLon;
@@ -59,7 +59,7 @@ struct SchulerRun {
 SchulerRun run_static_with_errors(const SensorErrors& errors, const EulerAngles& att) {
   const EarthModel earth = EarthModel::paper(kLat, 50.0);
   auto ds = std::make_shared<Dataset>(
-      testing::make_static_dataset(earth, kLat, kLon, 50.0, att, 3600.0 + 1.0, 1.0, errors));
+      test::make_static_dataset(earth, kLat, kLon, 50.0, att, 3600.0 + 1.0, 1.0, errors));
   const NavigationProblem problem(ds);
   std::vector<double> r;
   problem.run(SensorErrors{}, C_b_n_from_euler(att), {}, r);

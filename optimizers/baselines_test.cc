@@ -9,12 +9,10 @@
 
 #include "optimizers/registry.h"
 #include "optimizers/test_functions.h"
-#include "optimizers/test_util.h"
+#include "test_support/optimizer_runs.h"
 
 namespace insid::opt {
 namespace {
-
-using testing_util::expect_same_run;
 
 // Residual form of the shifted sphere / Rosenbrock (least squares: f = sum r_i^2).
 class LeastSquaresProblem final : public Problem, public ResidualProblem {
@@ -156,7 +154,7 @@ TEST(Baselines, SameSeedSameRunAndRunTogetherEqualsSeparateRuns) {
     SCOPED_TRACE(name);
     const Result a = optimize(name, rosenbrock, budget(300, 11));
     const Result b = optimize(name, rosenbrock, budget(300, 11));
-    expect_same_run(a, b);
+    test::expect_same_run(a, b);
     const Result c = optimize(name, rosenbrock, budget(300, 12));
     EXPECT_NE(a.best_per_evaluation, c.best_per_evaluation);
   }
@@ -169,8 +167,8 @@ TEST(Baselines, SameSeedSameRunAndRunTogetherEqualsSeparateRuns) {
   run_together(raw, rosenbrock);
   for (std::size_t i = 0; i < owned.size(); ++i) {
     SCOPED_TRACE(baseline_algorithm_names()[i]);
-    expect_same_run(owned[i]->result(),
-                    optimize(baseline_algorithm_names()[i], rosenbrock, budget(200, 5)));
+    test::expect_same_run(owned[i]->result(),
+                          optimize(baseline_algorithm_names()[i], rosenbrock, budget(200, 5)));
   }
 }
 
@@ -224,7 +222,7 @@ TEST(Baselines, RunTogetherScoresTheLeastSquaresRunsOfARoundInOneResidualCall) {
   // AND every run equals its separate run
   for (std::size_t i = 0; i < specs.size(); ++i) {
     SCOPED_TRACE(specs[i].first + " run " + std::to_string(i));
-    expect_same_run(raw[i]->result(), optimize(specs[i].first, rosenbrock, specs[i].second));
+    test::expect_same_run(raw[i]->result(), optimize(specs[i].first, rosenbrock, specs[i].second));
   }
 }
 

@@ -12,12 +12,10 @@
 
 #include "optimizers/registry.h"
 #include "optimizers/test_functions.h"
-#include "optimizers/test_util.h"
+#include "test_support/optimizer_runs.h"
 
 namespace insid::opt {
 namespace {
-
-using testing_util::same;
 
 // f = (x0 + 5/8)^2 + (x1 - 1/16)^2: the optimum lies on the negative side of dim 0 and just on
 // the positive side of dim 1. Every number below is dyadic, so double arithmetic is exact.
@@ -70,10 +68,10 @@ TEST(Dvpio, ProbesFlagsAndDAdaptationFollowEq10To14) {
 
   // Iteration 2: the worst pigeons (2, 1, 3, 0) go to X_gbest + d e0, - d e0, + d e1, - d e1.
   const IterationRecord& second = result.history[1];
-  EXPECT_TRUE(same(second.positions[2], Eigen::Vector2d(0.125, 0)));
-  EXPECT_TRUE(same(second.positions[1], Eigen::Vector2d(-0.125, 0)));
-  EXPECT_TRUE(same(second.positions[3], Eigen::Vector2d(0, 0.125)));
-  EXPECT_TRUE(same(second.positions[0], Eigen::Vector2d(0, -0.125)));
+  EXPECT_TRUE(test::same(second.positions[2], Eigen::Vector2d(0.125, 0)));
+  EXPECT_TRUE(test::same(second.positions[1], Eigen::Vector2d(-0.125, 0)));
+  EXPECT_TRUE(test::same(second.positions[3], Eigen::Vector2d(0, 0.125)));
+  EXPECT_TRUE(test::same(second.positions[0], Eigen::Vector2d(0, -0.125)));
 
   const std::vector<Generation> expected = {
       // It. 2, d = 1/8: dim 0 f+ = 145/256 > f- = 65/256 -> T0 = -1; dim 1 f+ = 101/256 <
@@ -105,12 +103,14 @@ TEST(Dvpio, ProbesFlagsAndDAdaptationFollowEq10To14) {
     const IterationRecord& record = result.history[g + 1];
     EXPECT_TRUE(record.premature);
     EXPECT_EQ(record.phase, "dimension_vectors");
-    EXPECT_TRUE(same(record.d_positive, expected[g].d_positive)) << record.d_positive.transpose();
-    EXPECT_TRUE(same(record.d_negative, expected[g].d_negative)) << record.d_negative.transpose();
+    EXPECT_TRUE(test::same(record.d_positive, expected[g].d_positive))
+        << record.d_positive.transpose();
+    EXPECT_TRUE(test::same(record.d_negative, expected[g].d_negative))
+        << record.d_negative.transpose();
     EXPECT_EQ(record.direction_flags, expected[g].flags);
     EXPECT_EQ(record.best_fitness, expected[g].best_f);
   }
-  EXPECT_TRUE(same(result.best_x, Eigen::Vector2d(-0.5, 3.0 / 64)));
+  EXPECT_TRUE(test::same(result.best_x, Eigen::Vector2d(-0.5, 3.0 / 64)));
 }
 
 TEST(Dvpio, ShrinkWithoutGainVariantHalvesDWhereNeitherProbeGainsAndUnlocks) {
@@ -220,7 +220,7 @@ TEST(Dvpio, NeverPrematureWithZeroThreshold) {
   for (const IterationRecord& record : result.history) {
     EXPECT_FALSE(record.premature);
     EXPECT_EQ(record.direction_flags, std::vector<int>(4, 0));
-    EXPECT_TRUE(same(record.d_positive, Eigen::VectorXd::Constant(4, 0.0125)));
+    EXPECT_TRUE(test::same(record.d_positive, Eigen::VectorXd::Constant(4, 0.0125)));
   }
 }
 

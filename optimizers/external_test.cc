@@ -7,7 +7,6 @@
 #include <unistd.h>
 
 #include <chrono>
-#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -19,35 +18,15 @@
 
 #include "optimizers/registry.h"
 #include "optimizers/test_functions.h"
-#include "optimizers/test_util.h"
+#include "test_support/optimizer_runs.h"
+#include "test_support/process.h"
 
 namespace insid::opt {
 namespace {
 namespace fs = std::filesystem;
-using testing_util::expect_same_run;
-using testing_util::same;
-
-const std::string kPython = "/usr/bin/python3";
-const std::string kSource = INSID_SOURCE_DIR;
-const std::string kClient = kSource + "/scripts/external_random_search.py";
-const std::string kTestClient = kSource + "/optimizers/testdata/external_test_client.py";
-
-std::string run_command(const std::string& command) {
-  std::string out;
-  FILE* pipe = ::popen(command.c_str(), "r");
-  if (pipe == nullptr) return out;
-  char buffer[4096];
-  for (std::size_t n; (n = std::fread(buffer, 1, sizeof(buffer), pipe)) > 0;) out.append(buffer, n);
-  ::pclose(pipe);
-  return out;
-}
-
-bool python_with_numpy() {
-  return run_command(kPython + " -c 'import numpy; print(1)' 2>/dev/null") == "1\n";
-}
 
 #define REQUIRE_PYTHON() \
-  if (!python_with_numpy()) GTEST_SKIP() << kPython << " with numpy is not available"
+  if (!test::python_with_numpy()) GTEST_SKIP() << test::kPython << " with numpy is not available"
 
 // An asymmetric box: a swapped lower/upper or a dropped offset shows.
 Bounds test_box() {
@@ -72,7 +51,8 @@ std::vector<Eigen::VectorXd> numpy_points(std::uint64_t seed, const Bounds& box,
       std::to_string(box.dimension()) +
       ")); "
       "print(json.dumps(p.tolist()))";
-  const nlohmann::json j = nlohmann::json::parse(run_command(kPython + " -c '" + script + "'"));
+  const nlohmann::json j =
+      nlohmann::json::parse(test::run_command(test::kPython + " -c '" + script + "'"));
   std::vector<Eigen::VectorXd> points;
   for (const auto& row : j) {
     Eigen::VectorXd x(box.dimension());
@@ -83,7 +63,7 @@ std::vector<Eigen::VectorXd> numpy_points(std::uint64_t seed, const Bounds& box,
 }
 
 std::string client_algo(const std::string& extra = "") {
-  return "external:" + kPython + " " + kClient + extra;
+  return "external:" + test::kPython + " " + test::kExternalClient + extra;
 }
 
 TEST(External, PythonRandomSearchEqualsDirectComputation) {
@@ -113,7 +93,7 @@ TEST(External, PythonRandomSearchEqualsDirectComputation) {
     EXPECT_EQ(result.iterations, 5);
     EXPECT_EQ(result.termination, Termination::kEvaluations);
     EXPECT_EQ(result.best_per_evaluation, best_per_evaluation) << "seed " << seed;
-    EXPECT_TRUE(same(result.best_x, best_x))
+    EXPECT_TRUE(test::same(result.best_x, best_x))
         << format_vector(result.best_x) << " vs " << format_vector(best_x);
     EXPECT_EQ(result.best_f, best);
     EXPECT_EQ(result.history.back().batch_size, 7);
@@ -141,7 +121,7 @@ TEST(External, LockStepEqualsSeparateRuns) {
     config.seed = seed;
     const Result alone =
         optimize(client_algo(" --batch " + std::to_string(3 + seed)), problem, config);
-    expect_same_run(together[seed - 1]->result(), alone);
+    test::expect_same_run(together[seed - 1]->result(), alone);
     EXPECT_EQ(alone.evaluations, 4 * static_cast<std::int64_t>(3 + seed));
   }
 }
@@ -159,7 +139,8 @@ TEST(External, MessagesFollowTheProtocol) {
   config.max_evaluations = 5;  // 2 + 2 + (2 truncated to 1)
   {
     auto optimizer = make_optimizer(
-        "external:" + kPython + " " + kTestClient + " log " + log.string(), box, config);
+        "external:" + test::kPython + " " + test::kExternalTestClient + " log " + log.string(), box,
+        config);
     run(*optimizer, problem);
     EXPECT_EQ(optimizer->result().evaluations, 5);
   }  // destroyed: "stop" sent, the client exits
@@ -195,8 +176,8 @@ std::string error_of(const std::string& mode, double timeout_s = 60.0) {
   config.seed = 11;
   config.max_iterations = 5;
   try {
-    optimize("external:" + kPython + " " + kTestClient + " " + mode, problem, config,
-             {{"timeout_s", timeout_s}});
+    optimize("external:" + test::kPython + " " + test::kExternalTestClient + " " + mode, problem,
+             config, {{"timeout_s", timeout_s}});
   } catch (const ExternalOptimizerError& e) {
     return e.what();
   }
@@ -210,7 +191,8 @@ void expect_contains(const std::string& text, const std::string& part) {
 TEST(External, CrashingClientNamesItsExitStatus) {
   REQUIRE_PYTHON();
   const std::string e = error_of("crash");
-  expect_contains(e, "external optimizer '" + kPython + " " + kTestClient + " crash' (seed 11)");
+  expect_contains(e, "external optimizer '" + test::kPython + " " + test::kExternalTestClient +
+                         " crash' (seed 11)");
   expect_contains(e, "the process exited with status 3 before replying to ask 2");
 }
 
@@ -241,7 +223,7 @@ TEST(External, MalformedRepliesNameTheLine) {
 }
 
 TEST(External, HostilyDeepReplyIsRefusedAtTheDepthLimit) {
-  // Issue 37 item 3: 100000 nested arrays crashed insid (SIGSEGV: a recursive dump of the
+  // 100000 nested arrays crashed insid (SIGSEGV: a recursive dump of the
   // deepest value); 10000 and 30000 gave a message. Every depth now stops at the reader's limit.
   REQUIRE_PYTHON();
   for (const int depth : {65, 10000, 100000}) {
@@ -257,7 +239,7 @@ TEST(External, HostilyDeepReplyIsRefusedAtTheDepthLimit) {
 }
 
 TEST(External, ReplyNobodyAskedForIsRefused) {
-  // Issue 37 item 13: a client that replies twice per ask was read one ask late (its second
+  // A client that replies twice per ask was read one ask late (its second
   // reply to ask 1 taken as the reply to ask 2). The protocol is one reply line per ask.
   REQUIRE_PYTHON();
   expect_contains(error_of("twice"),
@@ -322,10 +304,11 @@ TEST(External, FailedRunLeavesTheOthersAlone) {
   config.max_iterations = 4;
   std::vector<std::unique_ptr<Optimizer>> runs;
   runs.push_back(make_optimizer(client_algo(), box, config));
-  runs.push_back(make_optimizer("external:" + kPython + " " + kTestClient + " crash", box, config));
+  runs.push_back(make_optimizer(
+      "external:" + test::kPython + " " + test::kExternalTestClient + " crash", box, config));
   runs.push_back(make_optimizer("pso", box, config));
-  runs.push_back(
-      make_optimizer("external:" + kPython + " " + kTestClient + " notjson", box, config));
+  runs.push_back(make_optimizer(
+      "external:" + test::kPython + " " + test::kExternalTestClient + " notjson", box, config));
   std::vector<Optimizer*> pointers;
   for (auto& r : runs) pointers.push_back(r.get());
   std::map<std::size_t, std::string> failures;
@@ -341,8 +324,8 @@ TEST(External, FailedRunLeavesTheOthersAlone) {
   ASSERT_EQ(failures.size(), 2u);
   expect_contains(failures[1], "exited with status 3 before replying to ask 2");
   expect_contains(failures[3], "not valid JSON");
-  expect_same_run(runs[0]->result(), optimize(client_algo(), problem, config));
-  expect_same_run(runs[2]->result(), optimize("pso", problem, config));
+  test::expect_same_run(runs[0]->result(), optimize(client_algo(), problem, config));
+  test::expect_same_run(runs[2]->result(), optimize("pso", problem, config));
 }
 
 TEST(External, BadNamesAndParameters) {

@@ -14,12 +14,10 @@
 
 #include "optimizers/optimizer.h"
 #include "optimizers/registry.h"
-#include "optimizers/test_util.h"
+#include "test_support/optimizer_runs.h"
 
 namespace insid::opt {
 namespace {
-
-using testing_util::expect_same_run;
 
 // Rastrigin-like fitness that counts the candidates it scores; `deterministic` says whether it
 // declares itself deterministic(), so the same function serves as its own memo-less twin.
@@ -182,7 +180,7 @@ TEST(FitnessMemo, RunsTogetherAreTheSameAndRepeatedCandidatesAreScoredOnce) {
   run_together(make_runs(twin, without), twin, hooks);
   // THEN every run is the same, bit for bit
   for (std::size_t i = 0; i < with_memo.size(); ++i)
-    expect_same_run(with_memo[i]->result(), without[i]->result());
+    test::expect_same_run(with_memo[i]->result(), without[i]->result());
   // AND the problem scored fewer candidates than were asked, as the round hook says
   EXPECT_EQ(twin.scored.load(), static_cast<long>(asked));
   EXPECT_EQ(twin_scored, asked);
@@ -203,7 +201,7 @@ TEST(FitnessMemo, AMemoGivenToRunTogetherServesItsLaterCalls) {
   run_together(two, problem, {}, &memo);
   // THEN the second scored nothing and is the same run
   EXPECT_EQ(problem.scored.load(), scored);
-  expect_same_run(first->result(), again->result());
+  test::expect_same_run(first->result(), again->result());
 }
 
 TEST(FitnessMemo, RunScoresARepeatedCandidateOnceAndGivesTheSameRun) {
@@ -212,7 +210,7 @@ TEST(FitnessMemo, RunScoresARepeatedCandidateOnceAndGivesTheSameRun) {
   auto without = make_optimizer("ga", twin.bounds(), config_with(11, 60));
   const Result& a = run(*with_memo, problem);
   const Result& b = run(*without, twin);
-  expect_same_run(a, b);
+  test::expect_same_run(a, b);
   EXPECT_EQ(twin.scored.load(), b.evaluations);
   EXPECT_LT(problem.scored.load(), twin.scored.load());
 }

@@ -17,12 +17,10 @@
 #include "optimizers/pio.h"
 #include "optimizers/registry.h"
 #include "optimizers/test_functions.h"
-#include "optimizers/test_util.h"
+#include "test_support/optimizer_runs.h"
 
 namespace insid::opt {
 namespace {
-
-using testing_util::expect_same_run;
 
 RunConfig config_with(std::uint64_t seed, int iterations, std::int64_t evaluations = 0) {
   RunConfig config;
@@ -40,9 +38,9 @@ TEST_P(EveryOptimizer, SameSeedSameRunDifferentSeedDifferentRun) {
   const Result a = optimize(GetParam(), *problem, config_with(5, 60));
   const Result b = optimize(GetParam(), *problem, config_with(5, 60));
   const Result c = optimize(GetParam(), *problem, config_with(6, 60));
-  expect_same_run(a, b);
+  test::expect_same_run(a, b);
   EXPECT_NE(a.best_per_evaluation, c.best_per_evaluation);
-  EXPECT_FALSE(testing_util::same(a.best_x, c.best_x));
+  EXPECT_FALSE(test::same(a.best_x, c.best_x));
 }
 
 TEST_P(EveryOptimizer, SerialAndOpenMPEvaluatorsGiveBitIdenticalRuns) {
@@ -51,8 +49,8 @@ TEST_P(EveryOptimizer, SerialAndOpenMPEvaluatorsGiveBitIdenticalRuns) {
   const auto one = make_benchmark("rosenbrock", 5, {Parallelism::kOpenMP, 1});
   const auto two = make_benchmark("rosenbrock", 5, {Parallelism::kOpenMP, 2});
   const Result reference = optimize(GetParam(), *serial, config);
-  expect_same_run(reference, optimize(GetParam(), *one, config));
-  expect_same_run(reference, optimize(GetParam(), *two, config));
+  test::expect_same_run(reference, optimize(GetParam(), *one, config));
+  test::expect_same_run(reference, optimize(GetParam(), *two, config));
 }
 
 TEST_P(EveryOptimizer, SharedBatchesGiveTheSameRunsAsSeparateRuns) {
@@ -70,7 +68,7 @@ TEST_P(EveryOptimizer, SharedBatchesGiveTheSameRunsAsSeparateRuns) {
   run_together(together, *problem);
   for (std::size_t r = 0; r < configs.size(); ++r) {
     SCOPED_TRACE("run " + std::to_string(r));
-    expect_same_run(together[r]->result(), optimize(GetParam(), *problem, configs[r]));
+    test::expect_same_run(together[r]->result(), optimize(GetParam(), *problem, configs[r]));
   }
 }
 
@@ -148,8 +146,8 @@ TEST_P(EveryOptimizer, InitialPositionsAreUsed) {
   RunConfig config = config_with(2, 3);
   config.initial_positions = {benchmark_optimum(3), Eigen::Vector3d(0.5, 0.5, 0.5)};
   const Result result = optimize(GetParam(), *problem, config);
-  EXPECT_TRUE(testing_util::same(result.history[0].positions[0], benchmark_optimum(3)));
-  EXPECT_TRUE(testing_util::same(result.history[0].positions[1], Eigen::Vector3d(0.5, 0.5, 0.5)));
+  EXPECT_TRUE(test::same(result.history[0].positions[0], benchmark_optimum(3)));
+  EXPECT_TRUE(test::same(result.history[0].positions[1], Eigen::Vector3d(0.5, 0.5, 0.5)));
   EXPECT_EQ(result.best_per_evaluation[0], 0.0);
 }
 
@@ -275,7 +273,7 @@ TEST(RunTogether, IsolatesAFailedRunAndReportsEachRunInTheRoundItFinishes) {
   EXPECT_EQ(finished_order, (std::vector<std::size_t>{3, 0, 2}));
   for (std::size_t i : {0, 2, 3}) {
     SCOPED_TRACE("run " + std::to_string(i));
-    expect_same_run(runs[i]->result(), optimize("pso", *sphere, configs[i]));
+    test::expect_same_run(runs[i]->result(), optimize("pso", *sphere, configs[i]));
   }
   // AND without the failed hook the error propagates
   std::vector<std::unique_ptr<Optimizer>> owners_again;

@@ -173,7 +173,7 @@ TEST(RoundTrip, ExactCandidateCompensatesInjectedErrors) {
       exact.max_dv_h, exact.max_resid, no_gnss_effects.max_resid, raw.max_dv_h);
 }
 
-// Issue 13: real IMUs stamp their rows with jitter (insid-dataset/2 navigates each row over its own
+// Real IMUs stamp their rows with jitter (insid-dataset/2 navigates each row over its own
 // interval). Increments are integrals of the body rates, so rows of a 1 kHz synthesis summed in
 // groups are the exact increments over the groups' spans: groups of 10 give a constant 100 Hz,
 // groups of 7-13 rows steps of 10 ms +-30 %. The jittered flight (a moving one, with turns) must
@@ -190,8 +190,8 @@ TEST(RoundTrip, JitteredImuStepsOnAMovingFlightNavigateLikeAConstantRate) {
   c.align_s = 120.0;
   c.flight_s = 600.0;
   const Dataset fine = simulate(c);
-  const Dataset constant = testing::jittered_rows(fine, 10, 10, 13, 100.0);
-  const Dataset jittered = testing::jittered_rows(fine, 7, 13, 13, 100.0);
+  const Dataset constant = test::jittered_rows(fine, 10, 10, 13, 100.0);
+  const Dataset jittered = test::jittered_rows(fine, 7, 13, 13, 100.0);
   double min_dt = 1.0, max_dt = 0.0;
   for (std::size_t i = 1; i < jittered.imu.size(); ++i) {
     const double dt = jittered.imu[i].t_s - jittered.imu[i - 1].t_s;

@@ -3,7 +3,6 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -14,6 +13,7 @@
 #include "data/dataset.h"
 #include "model/sensor_errors.h"
 #include "scenarios/synthesis.h"
+#include "test_support/files.h"
 
 namespace insid::scenarios {
 namespace {
@@ -158,31 +158,22 @@ TEST(Effects, LeverArmAddsRotationTermAndOffset) {
 
 // ----- seeds -------------------------------------------------------------------------------------
 
-std::string read_all(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
 TEST(Seeds, SameSeedGivesByteIdenticalDatasetDifferentSeedDifferentNoise) {
   ScenarioConfig c = base_config();
   c.noise = noise_grade("mems");
   c.noise.gm_gyro_sigma_deg_h = 1.0;
   c.noise.gm_accel_sigma_mps2 = 1e-3;
   c.seed = 7;
-  const fs::path dir =
-      fs::temp_directory_path() / ("insid_seed_test_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
+  const fs::path dir = test::fresh_dir("seed-test");
   write_dataset(dir / "a", simulate(c));
   write_dataset(dir / "b", simulate(c));
   c.seed = 8;
   write_dataset(dir / "c", simulate(c));
   for (const char* f : {"imu.csv", "gnss.csv", "truth.csv", "meta.json"})
-    EXPECT_EQ(read_all(dir / "a" / f), read_all(dir / "b" / f)) << f;
-  EXPECT_NE(read_all(dir / "a" / "imu.csv"), read_all(dir / "c" / "imu.csv"));
-  EXPECT_NE(read_all(dir / "a" / "gnss.csv"), read_all(dir / "c" / "gnss.csv"));
-  EXPECT_EQ(read_all(dir / "a" / "truth.csv"), read_all(dir / "c" / "truth.csv"));
+    EXPECT_EQ(test::read_file(dir / "a" / f), test::read_file(dir / "b" / f)) << f;
+  EXPECT_NE(test::read_file(dir / "a" / "imu.csv"), test::read_file(dir / "c" / "imu.csv"));
+  EXPECT_NE(test::read_file(dir / "a" / "gnss.csv"), test::read_file(dir / "c" / "gnss.csv"));
+  EXPECT_EQ(test::read_file(dir / "a" / "truth.csv"), test::read_file(dir / "c" / "truth.csv"));
   // The written dataset loads back to the same numbers.
   const Dataset back = load_dataset(dir / "a");
   c.seed = 7;
@@ -332,9 +323,7 @@ TEST(BadInput, ScenarioFileFaultsAreNamedWithTheFieldPath) {
 }
 
 TEST(BadInput, UnwritableOutputLeavesNothingBehind) {
-  const fs::path base =
-      fs::temp_directory_path() / ("insid_unwritable_" + std::to_string(::getpid()));
-  fs::remove_all(base);
+  const fs::path base = test::fresh_dir("unwritable");
   fs::create_directories(base);
   { std::ofstream(base / "file") << "x"; }  // a regular file where a directory should go
   const Dataset ds = simulate(base_config());

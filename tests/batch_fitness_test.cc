@@ -44,7 +44,7 @@ std::shared_ptr<const NavigationProblem> scenario_problem(
     cfg.imu_rate_hz = 1000.0;
     cfg.substeps = 1;
     const Dataset fine = scenarios::simulate(cfg);
-    Dataset jittered = testing::jittered_rows(fine, 7, 13, 5, 100.0);
+    Dataset jittered = test::jittered_rows(fine, 7, 13, 5, 100.0);
     ds = std::make_shared<const Dataset>(std::move(jittered));
   }
   if (!ds) {
@@ -102,7 +102,7 @@ double relative_difference(double a, double b) {
   return std::abs(a - b) / std::max(std::abs(b), 1e-300);
 }
 
-// ----- instruction-set paths (issue 35) ---------------------------------------------------------
+// ----- instruction-set paths ---------------------------------------------------------------------
 
 // The x86-64 levels this CPU has by its /proc/cpuinfo flags, independently of insid's own check
 // (scripts/test_cpu_paths.py reads them the same way). LZCNT ("abm") is left out: some
@@ -357,7 +357,7 @@ TEST(BatchFitness, AFailingCandidateIsReportedAndTheOthersScored) {
   EXPECT_NE(r[0], std::vector<double>(ref.size(), 0.0));
 }
 
-// ----- windowed fitness (issue 14) --------------------------------------------------------------
+// ----- windowed fitness --------------------------------------------------------------------------
 
 // The random candidates plus a few far outside the paper's box (MEMS-like: 0.5 deg/s gyro,
 // 20 mg accelerometer biases), whose one-run navigation drifts by kilometres: their restarts
@@ -465,7 +465,7 @@ TEST(BatchFitnessWindowed, NoRestartIsTheOneRunKernelBitForBit) {
   for (std::size_t i = 0; i < pool.size(); ++i) EXPECT_NE(a[i], b[i]) << i;
 }
 
-// ----- GNSS latency and lever arm under the windowed fitness (issue 33) -----------------------
+// ----- GNSS latency and lever arm under the windowed fitness -------------------------------------
 
 // A noise-free racetrack flight (60 s legs: takeoff, a speed-up to 20 m/s, two 180 deg turns at
 // 3 deg/s; 300 s after the 600 s alignment) with the paper's four, a GNSS latency of 0.2 s and a
@@ -487,7 +487,7 @@ std::shared_ptr<const Dataset> gnss_effects_flight() {
 TEST(BatchFitnessWindowed, TheFitnessIsLeastAtTheHiddenLatencyAndLeverArm) {
   // GIVEN the noise-free flight and the truth candidate
   const auto ds = gnss_effects_flight();
-  SensorErrors truth = testing::paper_errors();
+  SensorErrors truth = test::paper_errors();
   truth.gnss_latency_s = 0.2;
   truth.lever_arm_b_m = Eigen::Vector3d(1.0, 0.5, 0.0);
   // The truth moved along one GNSS-side effect by `step` (latency in s, lever arm in m).
@@ -519,8 +519,8 @@ TEST(BatchFitnessWindowed, TheFitnessIsLeastAtTheHiddenLatencyAndLeverArm) {
       // window start that cancels the effects' signal puts the least far below it)
       // On noise-free data every fitness of this pool is a near-cancellation (Eq. 15 of 0.007-27
       // from velocities of 10-20 m/s, the sum of squares down to 1e-4): each is compared
-      // relative to the surface's scale, the largest fitness of the pool of that kind. Since
-      // issue 35 the scalar reference is compiled for baseline x86-64 (no FMA) while the
+      // relative to the surface's scale, the largest fitness of the pool of that kind. The
+      // scalar reference is compiled for baseline x86-64 (no FMA) while the
       // kernel's AVX-512 and AVX2 paths fuse: they differ by rounding of 1e-11 absolute, which
       // is 1.1-1.3e-9 of the lever-arm candidates' own sums of squares (0.007-0.02) at W = 10
       // and 20 s (printed below relative to the scale).
@@ -562,7 +562,7 @@ TEST(BatchFitnessWindowed, TheFitnessIsContinuousInTheLatencyAcrossWindowBoundar
   options.window_s = 10.0;
   const auto nav = std::make_shared<const NavigationProblem>(gnss_effects_flight(), options);
   const BatchFitness kernel(nav);
-  SensorErrors c = testing::paper_errors();
+  SensorErrors c = test::paper_errors();
   c.accel.bias.x() += 2.0 * kSigmaAccelMps2;
   c.lever_arm_b_m = Eigen::Vector3d(1.0, 0.5, 0.0);
   // WHEN it is scored at latencies 0.2 s -+ 1e-7 s and -+ 1e-3 s

@@ -7,7 +7,6 @@
 #include <unistd.h>
 
 #include <filesystem>
-#include <fstream>
 #include <functional>
 #include <sstream>
 #include <string>
@@ -17,21 +16,11 @@
 
 #include "data/dataset.h"
 #include "scenarios/scenario.h"
+#include "test_support/files.h"
 
 namespace insid {
 namespace {
 namespace fs = std::filesystem;
-
-std::string read_text(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-void write_text(const fs::path& p, const std::string& text) {
-  std::ofstream(p, std::ios::binary | std::ios::trunc) << text;
-}
 
 std::vector<std::string> split(const std::string& text, char sep) {
   std::vector<std::string> parts;
@@ -50,26 +39,26 @@ std::string join(const std::vector<std::string>& parts, char sep) {
 
 // Replace field `column` (0-based) of `line` (1-based, the header is line 1).
 void set_field(const fs::path& file, int line, int column, const std::string& value) {
-  std::vector<std::string> lines = split(read_text(file), '\n');
+  std::vector<std::string> lines = split(test::read_file(file), '\n');
   std::vector<std::string> fields = split(lines.at(static_cast<std::size_t>(line - 1)), ',');
   fields.at(static_cast<std::size_t>(column)) = value;
   lines[static_cast<std::size_t>(line - 1)] = join(fields, ',');
-  write_text(file, join(lines, '\n'));
+  test::write_file(file, join(lines, '\n'));
 }
 
 void edit_lines(const fs::path& file, const std::function<void(std::vector<std::string>&)>& edit) {
-  std::vector<std::string> lines = split(read_text(file), '\n');
+  std::vector<std::string> lines = split(test::read_file(file), '\n');
   edit(lines);
-  write_text(file, join(lines, '\n'));
+  test::write_file(file, join(lines, '\n'));
 }
 
 // Replace the value of a top-level number in meta.json by `text`.
 void set_meta_number(const fs::path& dir, const std::string& key, const std::string& text) {
-  std::string meta = read_text(dir / "meta.json");
+  std::string meta = test::read_file(dir / "meta.json");
   const auto at = meta.find("\"" + key + "\"");
   const auto colon = meta.find(':', at);
   const auto end = meta.find_first_of(",}", colon);
-  write_text(dir / "meta.json", meta.substr(0, colon + 1) + " " + text + meta.substr(end));
+  test::write_file(dir / "meta.json", meta.substr(0, colon + 1) + " " + text + meta.substr(end));
 }
 
 struct Case {
@@ -81,22 +70,22 @@ struct Case {
 
 // meta.json text with `from` replaced by `to` (once; the test fails when `from` is absent).
 void replace_in_meta(const fs::path& dir, const std::string& from, const std::string& to) {
-  std::string meta = read_text(dir / "meta.json");
+  std::string meta = test::read_file(dir / "meta.json");
   const auto at = meta.find(from);
   ASSERT_NE(at, std::string::npos) << from;
   meta.replace(at, from.size(), to);
-  write_text(dir / "meta.json", meta);
+  test::write_file(dir / "meta.json", meta);
 }
 
 // meta.json without its "heading" block.
 void remove_meta_heading(const fs::path& dir) {
-  std::string meta = read_text(dir / "meta.json");
+  std::string meta = test::read_file(dir / "meta.json");
   const auto at = meta.find("\"heading\"");
   ASSERT_NE(at, std::string::npos);
   const auto close = meta.find('}', at);
   const auto comma = meta.find(',', close);
   meta.erase(at, comma + 1 - at);
-  write_text(dir / "meta.json", meta);
+  test::write_file(dir / "meta.json", meta);
 }
 
 const std::vector<std::string> kHeadingColumns = {"t_s", "heading_deg", "sd_deg"};
@@ -160,7 +149,7 @@ void add_heading_cases(std::vector<Case>& cases) {
                    true});
   cases.push_back(
       {"heading_only_header",
-       [](const fs::path& d) { write_text(d / "heading.csv", "t_s,heading_deg,sd_deg\n"); },
+       [](const fs::path& d) { test::write_file(d / "heading.csv", "t_s,heading_deg,sd_deg\n"); },
        {"meta.json", "\"heading\"", "no heading.csv"},
        true});
   cases.push_back({"heading_file_without_meta",
@@ -335,9 +324,9 @@ std::vector<Case> make_cases() {
                    {"meta.json", "not valid JSON", "number overflow"}});
   cases.push_back({"meta_duplicate_key",
                    [](const fs::path& d) {
-                     std::string meta = read_text(d / "meta.json");
+                     std::string meta = test::read_file(d / "meta.json");
                      meta.insert(meta.find('{') + 1, "\"imu_rate_hz\": 100,");
-                     write_text(d / "meta.json", meta);
+                     test::write_file(d / "meta.json", meta);
                    },
                    {"meta.json: imu_rate_hz: key given twice in one object"}});
   // A data file cut at a line boundary, or one value edited: the rows and digest insid recorded.
@@ -394,7 +383,7 @@ std::vector<Case> make_cases() {
                      [file](const fs::path& d) { fs::remove(d / file); },
                      {file}});
     cases.push_back({file.substr(0, file.find('.')) + "_empty",
-                     [file](const fs::path& d) { write_text(d / file, ""); },
+                     [file](const fs::path& d) { test::write_file(d / file, ""); },
                      {file}});
   }
   // Special files: a FIFO must not hang the loader, broken links are not "missing".
@@ -429,9 +418,7 @@ std::vector<Case> make_cases() {
 class DatasetBattery : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    valid_ = new fs::path(fs::temp_directory_path() /
-                          ("insid-battery-valid-" + std::to_string(getpid())));
-    fs::remove_all(*valid_);
+    valid_ = new fs::path(test::fresh_dir("battery-valid"));
     scenarios::ScenarioConfig flight = scenarios::preset_scenario("straight");
     flight.align_s = 20.0;
     flight.flight_s = 100.0;
@@ -496,7 +483,7 @@ TEST_F(DatasetBattery, HeadingRoundTripsAndItsAbsenceChangesNothing) {
   EXPECT_TRUE(plain.heading.empty());
   EXPECT_FALSE(plain.meta.heading.has_value());
   EXPECT_FALSE(fs::exists(*valid_ / "heading.csv"));
-  EXPECT_EQ(read_text(*valid_ / "meta.json").find("heading"), std::string::npos);
+  EXPECT_EQ(test::read_file(*valid_ / "meta.json").find("heading"), std::string::npos);
 
   const Dataset written = with_heading(plain);
   const Dataset back = load_dataset(*valid_heading_);
@@ -517,7 +504,7 @@ TEST_F(DatasetBattery, HeadingRoundTripsAndItsAbsenceChangesNothing) {
   mag.meta.heading = HeadingMeta{HeadingSourceKind::kMagnetometer, -2.5};
   const fs::path dir = valid_->string() + "-mag";
   write_dataset(dir, mag);
-  EXPECT_EQ(read_text(dir / "heading.csv").substr(0, 16), "t_s,heading_deg\n");
+  EXPECT_EQ(test::read_file(dir / "heading.csv").substr(0, 16), "t_s,heading_deg\n");
   const Dataset mag_back = load_dataset(dir);
   ASSERT_EQ(mag_back.heading.size(), mag.heading.size());
   EXPECT_FALSE(mag_back.heading[3].sd_rad.has_value());

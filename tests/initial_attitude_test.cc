@@ -1,11 +1,10 @@
-// Initial-attitude modes (issue 14) on simulated flights: level+heading on a MEMS flight with a
+// Initial-attitude modes on simulated flights: level+heading on a MEMS flight with a
 // turn between the navigation start and the course epochs recovers roll/pitch/yaw within bounds
 // derived from the declared noise; gyrocompassing is refused on MEMS data with the expected
 // heading sd in the message and unchanged (bit for bit) on navigation-grade data; the batched
 // kernel equals the scalar reference in every mode; given/truth/level+heading refuse the data
 // they cannot work on, naming what to give instead.
 #include <cmath>
-#include <functional>
 #include <iomanip>
 #include <iostream>
 #include <memory>
@@ -21,6 +20,7 @@
 #include "nav/alignment.h"
 #include "nav/fitness.h"
 #include "scenarios/scenario.h"
+#include "test_support/errors.h"
 
 namespace insid {
 namespace {
@@ -28,15 +28,6 @@ namespace {
 constexpr double kDegS = kDegToRad;       // 1 deg/s in rad/s
 constexpr double kMg = 9.80665e-3;        // 1 mg in m/s^2
 constexpr double kRthToRts = 1.0 / 60.0;  // per sqrt(h) -> per sqrt(s)
-
-std::string message_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const std::exception& e) {
-    return e.what();
-  }
-  return "(no exception)";
-}
 
 // A drone-like MEMS flight: static on the pad (align_s, tilted, heading 30 deg), a turn on the
 // spot (right 90 deg unless said otherwise), then it accelerates along its heading and flies
@@ -188,7 +179,7 @@ TEST(LevelHeading, GivenHeadingIsTheYawAtTheStart) {
 TEST(Gyrocompass, RefusedOnMemsDataWithTheExpectedHeadingSd) {
   const scenarios::ScenarioConfig cfg = mems_flight(1);
   const auto ds = simulate_shared(cfg);
-  const std::string m = message_of([&] { NavigationProblem p(ds, NavigationOptions{}); });
+  const std::string m = test::error_of([&] { NavigationProblem p(ds, NavigationOptions{}); });
   const double arw = 0.2 * kDegToRad * kRthToRts, T = 30.0, lat = cfg.initial.lat_rad;
   const double sd_deg = std::sqrt(arw * arw / T + kSigmaGyroRadS * kSigmaGyroRadS) /
                         (ds->meta.earth.omega_ie_rad_s * std::cos(lat)) * kRadToDeg;
@@ -203,18 +194,18 @@ TEST(Gyrocompass, RefusedOnMemsDataWithTheExpectedHeadingSd) {
   undeclared.meta.noise.reset();
   const double estimated = estimate_arw_rad_rts(undeclared.imu, 0, 3000, 0.0);
   EXPECT_NEAR(estimated, arw, 0.1 * arw);
-  const std::string m2 = message_of([&] {
+  const std::string m2 = test::error_of([&] {
     NavigationProblem p(std::make_shared<const Dataset>(undeclared), NavigationOptions{});
   });
   EXPECT_NE(m2.find("estimated from the static window's rate scatter"), std::string::npos) << m2;
   // A 600 s window does not rescue it at this grade (2.4 deg > 1 deg).
-  const std::string m3 = message_of(
+  const std::string m3 = test::error_of(
       [&] { NavigationProblem p(simulate_shared(mems_flight(1, 600.0)), NavigationOptions{}); });
   EXPECT_NE(m3.find("refused"), std::string::npos) << m3;
 }
 
 // On the navigation-grade presets gyrocompassing passes, and its attitude and fitness are bit for
-// bit those of the coarse alignment before issue 14 (align_window on the window sums, the same
+// bit those of the coarse alignment (align_window on the window sums, the same
 // arithmetic as main's NavigationProblem) for the raw data and a compensated candidate.
 TEST(Gyrocompass, NavGradePresetsPassUnchanged) {
   for (const char* preset : {"paper", "straight", "rich", "racetrack"}) {
@@ -309,13 +300,13 @@ TEST(InitialAttitudeModes, GivenUsesMetaInitialAndIsRefusedWhenNull) {
   ds.truth.clear();
   const auto shared = std::make_shared<const Dataset>(ds);
   const std::string m =
-      message_of([&] { NavigationProblem p(shared, with_mode(InitialAttitudeMode::kGiven)); });
+      test::error_of([&] { NavigationProblem p(shared, with_mode(InitialAttitudeMode::kGiven)); });
   EXPECT_NE(m.find("--initial-attitude given: meta.json \"initial\" gives no attitude"),
             std::string::npos)
       << m;
   EXPECT_NE(m.find("null"), std::string::npos) << m;
   const std::string t =
-      message_of([&] { NavigationProblem p(shared, with_mode(InitialAttitudeMode::kTruth)); });
+      test::error_of([&] { NavigationProblem p(shared, with_mode(InitialAttitudeMode::kTruth)); });
   EXPECT_NE(t.find("no truth.csv"), std::string::npos) << t;
 }
 
@@ -335,20 +326,20 @@ TEST(InitialAttitudeModes, ShortAbsentAndMovingWindows) {
        {InitialAttitudeMode::kLevelHeading, InitialAttitudeMode::kGyrocompass}) {
     Dataset moving = *ds;
     moving.meta.align_s = 0.0;
-    const std::string m = message_of(
+    const std::string m = test::error_of(
         [&] { NavigationProblem p(std::make_shared<const Dataset>(moving), with_mode(mode)); });
     EXPECT_NE(m.find("align_s = 0 s"), std::string::npos) << m;
     EXPECT_NE(m.find("--initial-attitude given"), std::string::npos) << m;
     Dataset late = *ds;
     late.meta.align_s = 30.0;  // 10 s into the turn and the take-off
-    const std::string m2 = message_of(
+    const std::string m2 = test::error_of(
         [&] { NavigationProblem p(std::make_shared<const Dataset>(late), with_mode(mode)); });
     EXPECT_NE(m2.find("is not static: the GNSS horizontal speed is"), std::string::npos) << m2;
     EXPECT_NE(m2.find("--initial-attitude given"), std::string::npos) << m2;
   }
   NavigationOptions slow = with_mode(InitialAttitudeMode::kLevelHeading);
   slow.initial_attitude.course_min_speed_mps = 50.0;
-  const std::string m3 = message_of([&] { NavigationProblem p(ds, slow); });
+  const std::string m3 = test::error_of([&] { NavigationProblem p(ds, slow); });
   EXPECT_NE(m3.find("never reaches 50 m/s"), std::string::npos) << m3;
   EXPECT_NE(m3.find("--heading-deg"), std::string::npos) << m3;
 }
@@ -485,7 +476,7 @@ TEST(MeasuredHeading, MagnetometerTiltCompensationInvertsTheRotation) {
 TEST(MeasuredHeading, RefusedWithoutHeadingDataAndWithContradictoryOptions) {
   const auto ds = simulate_shared(mems_flight(1));
   const std::string no_data =
-      message_of([&] { NavigationProblem problem(ds, measured_heading()); });
+      test::error_of([&] { NavigationProblem problem(ds, measured_heading()); });
   EXPECT_NE(no_data.find("--heading-source measured: this dataset has no measured heading (no "
                          "heading.csv)"),
             std::string::npos)

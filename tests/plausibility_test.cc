@@ -1,4 +1,4 @@
-// Implausible data said in plain words (issue 45, data/plausibility.h): on simulated flights
+// Implausible data said in plain words (data/plausibility.h): on simulated flights
 // with each mistake of the audit made on purpose (specific force in g declared as m/s^2, gyros
 // scaled by 1/57.3 or 57.3, east and north velocities swapped, negated, in km/h, an IMU clock
 // 18 s off) the matching check fires and names the likely cause; on the correct flights (nav

@@ -1,16 +1,15 @@
-// Helpers shared by the optimizer tests (not part of the library).
-#pragma once
+#include "test_support/optimizer_runs.h"
+
+#include <string>
 
 #include <gtest/gtest.h>
 
-#include "optimizers/optimizer.h"
+namespace insid::test {
 
-namespace insid::opt::testing_util {
-
-inline bool same(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
+bool same(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
   return a.size() == b.size() && (a.size() == 0 || a == b);
 }
-inline bool same(const std::vector<Eigen::VectorXd>& a, const std::vector<Eigen::VectorXd>& b) {
+bool same(const std::vector<Eigen::VectorXd>& a, const std::vector<Eigen::VectorXd>& b) {
   if (a.size() != b.size()) return false;
   for (std::size_t i = 0; i < a.size(); ++i) {
     if (!same(a[i], b[i])) return false;
@@ -18,8 +17,7 @@ inline bool same(const std::vector<Eigen::VectorXd>& a, const std::vector<Eigen:
   return true;
 }
 
-/// Bit-for-bit equality of everything in two results except the wall time.
-inline void expect_same_run(const Result& a, const Result& b) {
+void expect_same_run(const opt::Result& a, const opt::Result& b) {
   EXPECT_EQ(a.algorithm, b.algorithm);
   EXPECT_EQ(a.parameters, b.parameters);
   EXPECT_EQ(a.seed, b.seed);
@@ -32,8 +30,8 @@ inline void expect_same_run(const Result& a, const Result& b) {
   ASSERT_EQ(a.history.size(), b.history.size());
   for (std::size_t k = 0; k < a.history.size(); ++k) {
     SCOPED_TRACE("iteration " + std::to_string(k + 1));
-    const IterationRecord& x = a.history[k];
-    const IterationRecord& y = b.history[k];
+    const opt::IterationRecord& x = a.history[k];
+    const opt::IterationRecord& y = b.history[k];
     EXPECT_EQ(x.iteration, y.iteration);
     EXPECT_EQ(x.evaluations, y.evaluations);
     EXPECT_EQ(x.batch_size, y.batch_size);
@@ -50,4 +48,4 @@ inline void expect_same_run(const Result& a, const Result& b) {
   }
 }
 
-}  // namespace insid::opt::testing_util
+}  // namespace insid::test
