@@ -173,15 +173,15 @@ CampaignArgs parse_args(int argc, char** argv) {
   app.add_option("--replicas-basis", args.rb)->capture_default_str();
   app.add_option("--replicas-calibration", args.rc)->capture_default_str();
   app.add_option("--family-calibration", args.family_calibration,
-                 "replica-max (Westfall-Young, default) | gaussian (the rule before issue 15)")
+                 "replica-max (Westfall-Young, default) | gaussian (a normal-theory family rule)")
       ->capture_default_str();
   app.add_flag("--summary-only", args.summary_only, "only rebuild summary.json from cases.jsonl");
   app.add_option("--matrix", args.matrix,
-                 "original: issue 7's case list; extended: issue 15's (11 effects x --sizes x "
-                 "--seeds on rich --flight-s, --null-seeds per preset and null flight length, "
-                 "interleaved so that any prefix is balanced); mems: issue 33's (MEMS grade, "
+                 "original: the first case list (results/diagnose/); extended: 11 "
+                 "effects x --sizes x --seeds on rich --flight-s, --null-seeds per preset and null "
+                 "flight length, interleaved so that any prefix is balanced; mems: MEMS grade, "
                  "11 effects x --sizes x --seeds x --presets x --windows at --flight-s, "
-                 "--null-seeds per preset and window, level+heading alignment, interleaved)")
+                 "--null-seeds per preset and window, level+heading alignment, interleaved")
       ->check(CLI::IsMember({"original", "extended", "mems"}))
       ->capture_default_str();
   app.add_option("--null-flights", args.null_flights, "extended: null flight lengths (s)");

@@ -237,7 +237,7 @@ json run_case(const Case& cs, double flight_s, int n, std::uint64_t seed, int th
 int kernel_budget_main(int argc, char** argv) {
   CLI::App app{
       "How exactly a fewer-operations fitness must reproduce the exact kernel: its rounding floor "
-      "and the systematic errors per IMU step that move Eq. 15 by the tolerance (issue 36).",
+      "and the systematic errors per IMU step that move Eq. 15 by the tolerance.",
       "insid-kernel-budget"};
   std::vector<std::string> presets = {"paper", "rich", "racetrack"};
   std::vector<std::string> grades = {"nav", "mems"};

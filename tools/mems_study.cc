@@ -101,7 +101,7 @@ int mems_study_main(int argc, char** argv) {
   app.add_flag("--ekf-only", ekf_only, "EKF-RTS only (seconds instead of a minute)");
   app.add_flag("--heading-check", heading_check,
                "per seed: the level+heading attitude's error at the true biases against the "
-               "EKF-RTS's modelled heading sd (issue 14, the z gyro's sd)");
+               "EKF-RTS's modelled heading sd (the z gyro's sd)");
   app.add_option("--csv", csv, "one row per seed, method and parameter");
   tools::parse(app, argc, argv);
   register_ekf_rts();
