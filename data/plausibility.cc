@@ -128,7 +128,8 @@ void check_static(const Dataset& ds, PlausibilityReport& report) {
   }
   const double lat = ds.meta.initial.lat_rad, h = ds.meta.initial.h_m;
   const double g = ds.meta.earth.normal_gravity_mps2(lat, h);
-  const double f = (f_sum / t_sum).norm();
+  const Vector3d f_mean_b = f_sum / t_sum;
+  const double f = f_mean_b.norm();
   const double off_g = std::abs(f - g) / kStandardGravity_mps2;
   if (off_g > 0.1) {
     PlausibilityFinding x;
@@ -149,7 +150,6 @@ void check_static(const Dataset& ds, PlausibilityReport& report) {
   }
   // The body frame at rest is forward-right-down: on a vehicle standing on its wheels, skids or
   // feet the specific force (up) lies within 90 deg of -z. Beyond it the frame is upside down.
-  const Vector3d f_mean_b = f_sum / t_sum;
   const double tilt = std::acos(std::clamp(-f_mean_b.z() / f, -1.0, 1.0));
   if (tilt > std::numbers::pi / 2) {
     PlausibilityFinding x;

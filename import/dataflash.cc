@@ -1,4 +1,5 @@
 #include "import/dataflash.h"
+#include "import/log_damage.h"
 
 #include <cstring>
 #include <fstream>
@@ -293,9 +294,7 @@ const DataFlashFile::Format& DataFlashFile::format(const std::string& name) cons
 std::string DataFlashFile::damage() const {
   std::string out;
   if (!truncation_.empty()) out += "; the file is truncated or damaged: " + truncation_;
-  if (skip_count_ > 0)
-    out += "; " + std::to_string(skip_count_) + " damaged place" + (skip_count_ == 1 ? "" : "s") +
-           " skipped (" + std::to_string(skipped_bytes_) + " bytes), first: " + skips_.front();
+  out += skipped_damage_clause(skip_count_, skipped_bytes_, skips_);
   std::size_t records = 0;
   for (const auto& [id, f] : formats_)
     if (id != kFmtId) records += f.records.size();

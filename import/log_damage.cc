@@ -18,4 +18,12 @@ void record_skipped_damage(std::size_t places, std::size_t bytes,
                   key + ".skipped)");
 }
 
+std::string skipped_damage_clause(std::size_t places, std::size_t bytes,
+                                  const std::vector<std::string>& first) {
+  if (places == 0) return "";
+  return "; " + std::to_string(places) + " damaged place" + (places == 1 ? "" : "s") +
+         " skipped (" + std::to_string(bytes) +
+         " bytes), first: " + (first.empty() ? std::string("(not listed)") : first.front());
+}
+
 }  // namespace insid::importers

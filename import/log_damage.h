@@ -19,4 +19,9 @@ void record_skipped_damage(std::size_t places, std::size_t bytes,
                            const std::string& key, nlohmann::json& prov,
                            std::vector<std::string>& notes);
 
+/// "; N damaged place(s) skipped (B bytes), first: <the first place>" for an error message that
+/// a missing message or topic may owe to the damage; empty when `places` is 0.
+std::string skipped_damage_clause(std::size_t places, std::size_t bytes,
+                                  const std::vector<std::string>& first);
+
 }  // namespace insid::importers

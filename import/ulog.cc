@@ -1,5 +1,6 @@
 #include "import/ulog.h"
 #include "base/file_read.h"
+#include "import/log_damage.h"
 
 #include <algorithm>
 #include <cctype>
@@ -443,9 +444,7 @@ std::string UlogFile::damage() const {
     out += "; the file holds no subscription ('A') or data message after its " +
            std::to_string(format_texts_.size()) + " formats (" + std::to_string(bytes_.size()) +
            " bytes): it looks truncated after its definitions";
-  if (skip_count_ > 0)
-    out += "; " + std::to_string(skip_count_) + " damaged place" + (skip_count_ == 1 ? "" : "s") +
-           " skipped (" + std::to_string(skipped_bytes_) + " bytes), first: " + skips_.front();
+  out += skipped_damage_clause(skip_count_, skipped_bytes_, skips_);
   std::size_t orphans = 0;
   for (const auto& [id, sub] : subscriptions_)
     if (!formats_.count(sub.topic) && !damaged_formats_.count(sub.topic)) ++orphans;
