@@ -313,9 +313,18 @@ RecordedFile parse_heading_csv(const std::string& text, const CsvWhere& where, O
 // Other keys at the top level are left alone (a dataset made by hand may carry its notes,
 // "comment"); the blocks insid defines (earth, initial, noise, heading, files) refuse a key
 // they do not have, naming theirs.
-const std::vector<std::string> kMetaKeys = {"format",  "imu_rate_hz", "gnss_rate_hz",       "earth",
-                                            "align_s", "initial",     "injected",           "noise",
-                                            "heading", "files",       "autopilot_estimates"};
+const std::vector<std::string> kMetaKeys = {"format",
+                                            "imu_rate_hz",
+                                            "gnss_rate_hz",
+                                            "earth",
+                                            "align_s",
+                                            "initial",
+                                            "injected",
+                                            "noise",
+                                            "heading",
+                                            "files",
+                                            "autopilot_estimates",
+                                            "motors"};
 
 // The fields of meta.json through insid's one typed reader (base/json_object.h): errors name the
 // field's path ("<dir>: meta.json: initial.lat_deg: expected a finite number, found ...").
@@ -391,6 +400,16 @@ DatasetMeta read_meta_fields(const json& j, const std::string& source,
                    : HeadingSourceKind::kMagnetometer;
     if (heading.given("declination_deg")) h.declination_deg = heading.number("declination_deg");
     m.heading = h;
+  }
+  if (const std::optional<JsonField> motors_field = r.optional_given("motors")) {
+    const JsonObject motors = motors_field->object({"source", "on_s"});
+    m.motors_source = motors.string("source");
+    const JsonArray on = motors.array("on_s");
+    for (std::size_t i = 0; i < on.size(); ++i) {
+      const std::vector<double> pair = on[i].array().numbers();
+      if (pair.size() != 2) on[i].fail("expected [on_s, off_s], two numbers");
+      m.motors.on_s.emplace_back(pair[0], pair[1]);
+    }
   }
   if (const std::optional<JsonField> ap = r.optional_given("autopilot_estimates"))
     m.autopilot_estimates_json = ap->map().value().dump();  // kept verbatim, never computed with
@@ -602,6 +621,8 @@ struct Validator {
       meta_fail("field \"initial.lat_deg\" = " + number_text(ini.lat_rad * kRadToDeg) +
                 " must lie strictly within (-90, 90) deg");
 
+    if (const std::string bad = m.motors.validate(); !bad.empty())
+      meta_fail("field \"motors.on_s\": " + bad);
     if (m.injected) {
       for (const auto& [name, v] : *m.injected) {
         if (!is_effect_name(name))
@@ -924,6 +945,11 @@ std::string meta_text(const DatasetMeta& m, const std::map<std::string, Recorded
   if (m.heading) {
     j["heading"] = {{"source", to_string(m.heading->source)}};
     if (m.heading->declination_deg) j["heading"]["declination_deg"] = *m.heading->declination_deg;
+  }
+  if (!m.motors.empty()) {
+    nlohmann::ordered_json on = nlohmann::ordered_json::array();
+    for (const auto& [t_on, t_off] : m.motors.on_s) on.push_back({t_on, t_off});
+    j["motors"] = {{"source", m.motors_source}, {"on_s", on}};
   }
   if (!m.autopilot_estimates_json.empty())
     j["autopilot_estimates"] = nlohmann::ordered_json::parse(m.autopilot_estimates_json);

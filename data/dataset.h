@@ -16,6 +16,7 @@
 #include "base/output_dir.h"  // write_file_atomic
 #include "model/earth.h"
 #include "model/rotation.h"
+#include "model/sensor_errors.h"
 
 namespace insid {
 
@@ -90,6 +91,11 @@ struct DatasetMeta {
   std::optional<std::map<std::string, double>> injected;  ///< catalogue name -> SI value
   std::optional<NoiseLevels> noise;
   std::optional<HeadingMeta> heading;  ///< present exactly when heading.csv is
+  /// meta.json "motors": when the motors ran (dataset time), for the motor offsets of the error
+  /// model (model/sensor_errors.h); empty when the data do not say.
+  MotorSchedule motors;
+  /// meta.json "motors.source": where the schedule was read (e.g. "RCOU Ch1-Ch4 above 1100 us").
+  std::string motors_source;
   /// meta.json "autopilot_estimates": what the recording's own autopilot estimated (e.g. the
   /// ArduPilot EKF's gyro and accelerometer biases), written by the importer for comparison and
   /// never used by insid's computations. Kept verbatim (a JSON object's text, "" when absent)

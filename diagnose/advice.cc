@@ -22,6 +22,8 @@ std::string effect_kind(const std::string& name) {
       return std::string(sensor) + "scale";
     case EffectKind::kMisalign:
       return std::string(sensor) + "misalign";
+    case EffectKind::kMotorOffset:
+      return std::string(sensor) + "motor";
     case EffectKind::kLatency:
       return "latency";
     case EffectKind::kLeverArm:
@@ -52,6 +54,11 @@ std::string separating_manoeuvre(const std::string& a, const std::string& b) {
   if (ka == "lever_arm" || kb == "lever_arm")
     return "turns both ways at different rates, and roll/pitch changes: a lever arm acts only "
            "while the body rotates";
+  const auto motor = [](const std::string& k) { return k == "accel_motor" || k == "gyro_motor"; };
+  if (motor(ka) || motor(kb))
+    return "navigation with the motors off as well as on (on the ground before the motor start: "
+           "end the static window earlier with --align-s): a motor offset steps at motor start, "
+           "the other terms do not";
   if ((ka == "accel_bias" && kb == "accel_drift") || (ka == "gyro_bias" && kb == "gyro_drift"))
     return "a longer flight, with reciprocal headings flown late as well as early: a drift grows "
            "linearly in time, a constant bias does not";

@@ -729,8 +729,12 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
   std::vector<std::string> candidates;
   if (options.candidates.empty() ||
       (options.candidates.size() == 1 && options.candidates[0] == "all")) {
+    // A motor offset needs the motor state; without it its column would be zero.
+    const bool motors_known = !dataset->meta.motors.empty();
     for (const EffectInfo& e : effect_catalogue())
-      if (!in_model.count(std::string(e.name))) candidates.emplace_back(e.name);
+      if (!in_model.count(std::string(e.name)) &&
+          (motors_known || e.kind != EffectKind::kMotorOffset))
+        candidates.emplace_back(e.name);
   } else {
     for (const std::string& c : options.candidates) {
       effect_info(c);  // throws on unknown names

@@ -417,7 +417,8 @@ EkfRtsResult ekf_pass(const NavigationProblem& navigation, const EkfRtsParams& p
   auto compensated = [&](std::size_t k, const ImuCompensator& comp) {
     ImuSample inc = ds.imu[k];
     const double t_before = k >= 1 ? ds.imu[k - 1].t_s : inc.t_s - 1.0 / ds.meta.imu_rate_hz;
-    comp.compensate(inc.t_s, inc.t_s - t_before, inc.dtheta_b_rad, inc.dv_b_mps);
+    comp.compensate(inc.t_s, inc.t_s - t_before, inc.dtheta_b_rad, inc.dv_b_mps,
+                    navigation.motor_on(k));
     return inc;
   };
   auto compensator = std::make_unique<ImuCompensator>(est);

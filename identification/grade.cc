@@ -30,6 +30,7 @@ double SensorGrade::sigma(std::string_view effect) const {
   const bool gyro = info.sensor == EffectSensor::kGyro;
   switch (info.kind) {
     case EffectKind::kBias:
+    case EffectKind::kMotorOffset:  // a bias that steps at motor start: the bias's size
       return gyro ? gyro_bias_rad_s : accel_bias_mps2;
     case EffectKind::kBiasDrift:
       return (gyro ? gyro_bias_rad_s : accel_bias_mps2) / 3600.0;
@@ -51,6 +52,7 @@ PhysicalLimit SensorGrade::physical_limit(std::string_view effect) const {
   const bool gyro = info.sensor == EffectSensor::kGyro;
   switch (info.kind) {
     case EffectKind::kBias:
+    case EffectKind::kMotorOffset:
       return {gyro ? gyro_bias_limit_rad_s : accel_bias_limit_mps2, grade_source};
     case EffectKind::kBiasDrift:
       return {(gyro ? gyro_bias_limit_rad_s : accel_bias_limit_mps2) / 3600.0, grade_source};

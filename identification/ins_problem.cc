@@ -56,6 +56,7 @@ PhysicalLimit physical_limit(const std::string& name) {
                                   "an accelerometer bias drift that leaves the 50 g range within "
                                   "a minute is not physical"};
     case EffectKind::kBias:
+    case EffectKind::kMotorOffset:
       return gyro ? PhysicalLimit{gyro_rad_s,
                                   "a gyro bias beyond 2000 deg/s (the largest rate insid accepts "
                                   "in data) is not physical"}
@@ -176,7 +177,17 @@ InsIdentificationProblem::InsIdentificationProblem(
       mapping_(std::move(mapping)),
       kind_(kind),
       options_(evaluator.validated()),
-      implementation_(implementation) {}
+      implementation_(implementation) {
+  if (!navigation_->dataset().meta.motors.empty()) return;
+  for (const EstimatedParameter& p : mapping_.parameters()) {
+    const EffectInfo* info = find_effect_info(p.name);
+    if (info != nullptr && info->kind == EffectKind::kMotorOffset)
+      throw std::invalid_argument(
+          "'" + p.name +
+          "' needs the motor state, and the dataset has none (meta.json \"motors\": an "
+          "ArduPilot import whose log has RCOU, or a scenario's motors_on_s)");
+  }
+}
 
 double InsIdentificationProblem::fitness(const Eigen::VectorXd& x) const {
   return navigation_->fitness(mapping_.to_errors(x), kind_);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <stdexcept>
 
 #include "base/number_text.h"
@@ -545,6 +546,11 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
                       number_text(rate_hz / 2, 3) +
                       " Hz aliases into them and what happens between samples is lost to the "
                       "integration; treat identified gyro and accelerometer errors with care");
+  if (const std::optional<MotorRuns> motors = motor_runs_from_rcou(log, out.notes)) {
+    for (const auto& [on, off] : motors->on_boot_s)
+      imu.motors_on_gpst.emplace_back(boot_to_gpst(on * 1e3), boot_to_gpst(off * 1e3));
+    imu.motors_source = motors->source;
+  }
   if (options.t_start_s || options.t_end_s) {
     prov["cut_boot_s"] = {
         {"t_start",
@@ -557,6 +563,89 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
         " s: " + std::to_string(imu_outside) + " IMU records and " + std::to_string(outside) +
         " GPS fixes outside");
   }
+  return out;
+}
+
+std::optional<MotorRuns> motor_runs_from_rcou(const DataFlashFile& log,
+                                              std::vector<std::string>& notes) {
+  const std::string kMessage = "RCOU";
+  if (log.count(kMessage) == 0 || !log.has_field(kMessage, "TimeMS")) {
+    notes.push_back("no RCOU records with TimeMS: the motor state is unknown (no motor offsets)");
+    return std::nullopt;
+  }
+  std::vector<std::string> fields = {"TimeMS"};
+  for (int c = 1; c <= kMotorChannels; ++c) {
+    const std::string ch = "Ch" + std::to_string(c), short_ch = "C" + std::to_string(c);
+    if (log.has_field(kMessage, ch)) {
+      fields.push_back(ch);
+    } else if (log.has_field(kMessage, short_ch)) {
+      fields.push_back(short_ch);
+    } else {
+      notes.push_back("RCOU has no output " + std::to_string(c) + " (Ch" + std::to_string(c) +
+                      " or C" + std::to_string(c) +
+                      "): the motor state is unknown (no motor offsets)");
+      return std::nullopt;
+    }
+  }
+  const std::vector<std::vector<double>> rows = log.read(kMessage, fields);
+  const std::vector<std::size_t> bytes = log.offsets(kMessage);
+  const std::size_t time_field = log.field_offset(kMessage, "TimeMS");
+  std::vector<double> stamps_us;
+  std::vector<std::size_t> stamp_bytes;
+  for (std::size_t k = 0; k < rows.size(); ++k) {
+    stamps_us.push_back(rows[k][0] * 1e3);
+    stamp_bytes.push_back(bytes.at(k) + time_field);
+  }
+  const TimestampSelection sel = select_increasing_stamps(stamps_us, stamp_bytes);
+  nlohmann::json unused;
+  record_stamp_selection(sel, stamps_us, kMessage, "TimeMS", unused, notes);
+  if (sel.kept.size() < 2) {
+    notes.push_back("RCOU has fewer than 2 usable records: the motor state is unknown");
+    return std::nullopt;
+  }
+  // A record whose outputs are not PWM widths (damage: a flipped bit, stray bytes read as a
+  // record) is left out; so is a run shorter than kMotorMinRunS (a single damaged record).
+  std::vector<std::size_t> usable;
+  for (const std::size_t k : sel.kept) {
+    bool pwm = true;
+    for (int c = 0; c < kMotorChannels; ++c)
+      pwm = pwm && rows[k][c + 1] >= kMotorPwmMinUs && rows[k][c + 1] <= kMotorPwmMaxUs;
+    if (pwm) usable.push_back(k);
+  }
+  if (usable.size() < sel.kept.size())
+    notes.push_back("RCOU: " + std::to_string(sel.kept.size() - usable.size()) +
+                    " records with an output outside " + number_text(kMotorPwmMinUs, 4) + "-" +
+                    number_text(kMotorPwmMaxUs, 4) + " us left out of the motor state");
+  if (usable.size() < 2) {
+    notes.push_back("RCOU has fewer than 2 usable records: the motor state is unknown");
+    return std::nullopt;
+  }
+  std::vector<double> lowest(kMotorChannels, std::numeric_limits<double>::infinity());
+  for (const std::size_t k : usable)
+    for (int c = 0; c < kMotorChannels; ++c) lowest[c] = std::min(lowest[c], rows[k][c + 1]);
+  MotorRuns out;
+  bool running = false;
+  for (const std::size_t k : usable) {
+    const double t_s = rows[k][0] * 1e-3;
+    bool on = false;
+    for (int c = 0; c < kMotorChannels; ++c)
+      on = on || rows[k][c + 1] > lowest[c] + kMotorRunningUs;
+    if (on && !running) {
+      if (!out.on_boot_s.empty() && t_s - out.on_boot_s.back().second < kMotorOffMergeS)
+        out.on_boot_s.back().second = t_s;  // a short dip: the same run goes on
+      else
+        out.on_boot_s.emplace_back(t_s, t_s);
+    }
+    if (on || running) out.on_boot_s.back().second = t_s;  // until the first record off
+    running = on;
+  }
+  std::erase_if(out.on_boot_s, [](const std::pair<double, double>& run) {
+    return run.second - run.first < kMotorMinRunS;
+  });
+  std::string lows;
+  for (int c = 0; c < kMotorChannels; ++c) lows += (c ? "/" : "") + number_text(lowest[c], 6);
+  out.source = "RCOU " + fields[1] + "-" + fields.back() + " more than " +
+               number_text(kMotorRunningUs, 4) + " us above their lowest (" + lows + " us)";
   return out;
 }
 

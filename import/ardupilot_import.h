@@ -84,11 +84,34 @@ nlohmann::json autopilot_bias_estimates(const DataFlashFile& log, const FlightPh
                                         const ArduPilotImportOptions& options,
                                         std::vector<std::string>& notes);
 
+/// When the motors ran, on the boot clock, from RCOU (the autopilot's servo/motor outputs, PWM
+/// microseconds; ArduCopter drives a quadcopter's four motors on outputs 1-4): a record counts
+/// as running when any of channels 1-4 (fields Ch1..Ch4, or C1..C4) lies more than
+/// kMotorRunningUs above that channel's lowest value in the log (disarmed: 1000 us; the armed idle,
+/// 1049 us on the shared copter log, is below it: the offsets it moves are not seen there).
+/// Runs of running records, separated by less than kMotorOffMergeS, make one interval from its
+/// first running record to the first record after it that is not (or the last record); a run
+/// shorter than kMotorMinRunS is dropped. RCOU stamps are filtered like the IMU's
+/// (select_increasing_stamps), and a record with an output outside kMotorPwmMinUs-kMotorPwmMaxUs
+/// (not a PWM width: damage) is left out. nullopt, with a note, when the log has no usable RCOU.
+struct MotorRuns {
+  std::vector<std::pair<double, double>> on_boot_s;  ///< (on, off), boot seconds
+  std::string source;                                ///< e.g. "RCOU Ch1-Ch4 above 1100 us"
+};
+inline constexpr double kMotorRunningUs = 100.0;
+inline constexpr double kMotorOffMergeS = 1.0;
+inline constexpr double kMotorMinRunS = 0.5;
+inline constexpr double kMotorPwmMinUs = 500.0, kMotorPwmMaxUs = 2500.0;
+inline constexpr int kMotorChannels = 4;
+std::optional<MotorRuns> motor_runs_from_rcou(const DataFlashFile& log,
+                                              std::vector<std::string>& notes);
+
 /// Reads options.imu and GPS. IMU: TimeMS, GyrX/Y/Z, AccX/Y/Z (sampled values, not increments:
 /// assemble_dataset integrates them as point samples by the trapezoid); records whose TimeMS does
 /// not increase are dropped and counted. GPS: Status >= min_status; horizontal velocity
 /// Spd along GCrs, vertical from VZ with the sign the fit gives (down positive, ArduPilot's
-/// convention, when the fit is not conclusive); height Alt (MSL). Throws std::runtime_error
+/// convention, when the fit is not conclusive); height Alt (MSL); the motor state
+/// (motor_runs_from_rcou) into imu.motors_on_gpst. Throws std::runtime_error
 /// naming the file and what is missing.
 ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& where,
                                   const ArduPilotImportOptions& options);

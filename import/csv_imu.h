@@ -6,6 +6,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -85,6 +86,10 @@ struct CsvImu {
   bool gyro_is_increment = false;
   bool rates_are_interval_means = false;  ///< spec.rate_samples == "interval-mean"
   std::optional<HeadingInput> heading;    ///< when the spec maps hdg or mx, my, mz
+  /// When the motors ran, GPST (an autopilot's motor outputs): assemble_dataset writes them as
+  /// meta.json "motors" on the dataset's clock and ends the static window at motor start.
+  std::vector<std::pair<GpstTime, GpstTime>> motors_on_gpst;
+  std::string motors_source;  ///< how the motor state was read, for meta.json and the notes
   /// Rows (lines, messages) of the source and those the reader did not keep, by reason (e.g.
   /// "timestamp_jump"), for the assembly's provenance and notes; source_rows 0: every row was
   /// kept (the CSV reader keeps every row or refuses the file).

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <optional>
 #include <stdexcept>
@@ -461,16 +462,51 @@ GnssRows add_gnss_epochs(const GnssSolution& gnss, const std::vector<GnssEpoch>&
   return rows;
 }
 
-// The static alignment window: --align-s, else from the first IMU row to the earlier of 1 s
-// before the GNSS first shows motion and the IMU's own end of stillness (static_window_end);
-// and the initial state at the first IMU row (interpolated GNSS). Refuses a window under 1 s.
+// meta.json "motors": the source's motor intervals on the dataset's clock, kept where they
+// overlap the IMU rows (clipped to them).
+void add_motors(const CsvImu& imu, const ImuSpan& span, Assembled& out) {
+  if (imu.motors_on_gpst.empty()) return;
+  DatasetMeta& m = out.dataset.meta;
+  const double t0 = out.dataset.imu.front().t_s, t1 = out.dataset.imu.back().t_s;
+  nlohmann::json list = nlohmann::json::array();
+  for (const auto& [on, off] : imu.motors_on_gpst) {
+    const double t_on = std::max(t0, static_cast<double>(on - span.t_origin));
+    const double t_off = std::min(t1, static_cast<double>(off - span.t_origin));
+    if (!(t_on < t_off)) continue;
+    m.motors.on_s.emplace_back(t_on, t_off);
+    list.push_back({t_on, t_off});
+  }
+  m.motors_source = imu.motors_source;
+  out.provenance["motors"] = {{"source", imu.motors_source}, {"on_s", list}};
+  std::string spans;
+  for (std::size_t i = 0; i < m.motors.on_s.size() && i < 4; ++i)
+    spans += (i ? ", " : "") + number_text(m.motors.on_s[i].first, 6) + " - " +
+             number_text(m.motors.on_s[i].second, 6) + " s";
+  if (m.motors.on_s.size() > 4) spans += ", ... (" + std::to_string(m.motors.on_s.size()) + ")";
+  out.notes.push_back("motors running (" + imu.motors_source +
+                      "): " + (spans.empty() ? std::string("never inside the data") : spans) +
+                      " (meta.json motors; the motor offsets of the error model use them)");
+}
+
+// The static alignment window: --align-s, else from the first IMU row to the earliest of 1 s
+// before the GNSS first shows motion, the IMU's own end of stillness (static_window_end) and the
+// motor start (vibration moves a MEMS sensor's offsets: a window with the motors running
+// levels with them); and the initial state at the first IMU row (interpolated GNSS). Refuses a
+// window under 1 s.
 void set_static_window_and_start(const AssembleOptions& options, Assembled& out) {
   nlohmann::json& prov = out.provenance;
   Dataset& ds = out.dataset;
   DatasetMeta& m = ds.meta;
+  const double t_motors =
+      m.motors.empty() ? std::numeric_limits<double>::infinity() : m.motors.on_s.front().first;
   if (options.align_s) {
     m.align_s = *options.align_s;
     prov["alignment_window"] = {{"align_s", m.align_s}, {"how", "given (--align-s)"}};
+    if (t_motors < ds.imu.front().t_s + m.align_s)
+      out.notes.push_back("the static window (--align-s " + number_text(m.align_s, 6) + ") holds " +
+                          number_text(ds.imu.front().t_s + m.align_s - t_motors, 4) +
+                          " s with the motors running: the alignment levels with their "
+                          "vibration offsets");
   } else {
     double t_moving = ds.gnss.back().t_s;
     for (const GnssSample& g : ds.gnss)
@@ -479,8 +515,15 @@ void set_static_window_and_start(const AssembleOptions& options, Assembled& out)
         break;
       }
     // The GNSS sees translation only: the IMU criteria end the window earlier at a turn on the
-    // spot or handling (static_window_end).
-    const ImuStaticEnd imu_end = static_window_end(ds.imu, t_moving - 1.0, options);
+    // spot or handling (static_window_end); the motor start ends it too.
+    ImuStaticEnd imu_end = static_window_end(ds.imu, t_moving - 1.0, options);
+    const double t_imu_end = imu_end.why.empty() ? t_moving - 1.0 : imu_end.t_end_s;
+    const bool by_motors = t_motors < t_imu_end;
+    if (by_motors) {
+      imu_end.t_end_s = t_motors;
+      imu_end.why = "the motors start at t = " + number_text(t_motors - ds.imu.front().t_s, 6) +
+                    " s (" + m.motors_source + ")";
+    }
     // (The block starts lie on 0.5 s steps from the first row: the 1e-9 keeps 9.0 from reading
     // 8.9 by round-off; the GNSS end is floored to 0.1 s.)
     m.align_s = imu_end.why.empty()
@@ -504,11 +547,15 @@ void set_static_window_and_start(const AssembleOptions& options, Assembled& out)
              " m/s and the 0.5 s IMU block before the first one that moves (mean rate departing "
              "by more than " +
              number_text(options.static_rate_dps, 6) + " deg/s, or |specific force| sd above " +
-             number_text(options.static_accel_sd_mps2, 6) + " m/s^2)"},
+             number_text(options.static_accel_sd_mps2, 6) + " m/s^2)" +
+             (m.motors.empty() ? "" : ", and the motor start")},
         {"ended_by", imu_end.why.empty() ? std::string("gnss speed") : imu_end.why},
         {"gnss_moving_t_s", t_moving - ds.imu.front().t_s}};
     if (!imu_end.why.empty())
-      out.notes.push_back("static window ended by the IMU before the GNSS moved: " + imu_end.why);
+      out.notes.push_back(std::string(by_motors ? "static window ended before the GNSS moved: "
+                                                : "static window ended by the IMU before the "
+                                                  "GNSS moved: ") +
+                          imu_end.why);
   }
   out.notes.push_back("static alignment window: the first " + number_text(m.align_s, 6) + " s");
   const GnssSample g0 = interpolate_gnss(ds.gnss, ds.imu.front().t_s);
@@ -576,6 +623,7 @@ Assembled assemble_dataset(const CsvImu& imu, const GnssSolution& gnss,
   // A damaged sample (a flipped exponent bit: 1e19 m/s^2) is named by its record and byte
   // before the static window is looked for in the data it would spoil.
   validate_imu_values(out.dataset, sources);
+  add_motors(imu, span, out);
   set_static_window_and_start(options, out);
   record_imu_gaps(dt_median, out);
   if (heading) add_heading(*heading, options, span.t_origin, out);

@@ -94,7 +94,8 @@ void setup_lane(const NavigationProblem& nav, const SensorErrors& c, const Event
   const Eigen::Matrix3d C0 = nav.initial_attitude(c);
   ImuSample prev = ds.imu[nb - 1];
   const double t_before = nb >= 2 ? ds.imu[nb - 2].t_s : prev.t_s - 1.0 / ds.meta.imu_rate_hz;
-  compensator.compensate(prev.t_s, prev.t_s - t_before, prev.dtheta_b_rad, prev.dv_b_mps);
+  compensator.compensate(prev.t_s, prev.t_s - t_before, prev.dtheta_b_rad, prev.dv_b_mps,
+                         nav.motor_on(nb - 1));
   const Eigen::Vector3d omega_mid_prev = prev.dtheta_b_rad / (prev.t_s - t_before);
   const NavState s0 = nav.initial_state(C0, c, prev, prev.t_s - t_before);
 
@@ -106,12 +107,16 @@ void setup_lane(const NavigationProblem& nav, const SensorErrors& c, const Event
       li.accel_distortion_inv[3 * i + j] = Ai(i, j);
     }
   li.general = !(Gi == Eigen::Matrix3d::Identity() && Ai == Eigen::Matrix3d::Identity()) ||
-               !c.gyro.bias_drift.isZero(0) || !c.accel.bias_drift.isZero(0);
+               !c.gyro.bias_drift.isZero(0) || !c.accel.bias_drift.isZero(0) ||
+               (!ds.meta.motors.empty() &&
+                (!c.gyro.motor_offset.isZero(0) || !c.accel.motor_offset.isZero(0)));
   for (int i = 0; i < 3; ++i) {
     li.gyro_bias_b_rad_s[i] = c.gyro.bias[i];
     li.gyro_bias_drift_b_rad_s2[i] = c.gyro.bias_drift[i];
     li.accel_bias_b_mps2[i] = c.accel.bias[i];
     li.accel_bias_drift_b_mps3[i] = c.accel.bias_drift[i];
+    li.gyro_motor_offset_b_rad_s[i] = c.gyro.motor_offset[i];
+    li.accel_motor_offset_b_mps2[i] = c.accel.motor_offset[i];
     li.lever_arm_b_m[i] = c.lever_arm_b_m[i];
   }
   li.lever = !c.lever_arm_b_m.isZero(0);

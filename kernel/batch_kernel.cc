@@ -340,6 +340,13 @@ void run_group(const NavigationProblem& nav, const Precomputed& im, LaneInit* co
   PN dax = gather([](const LaneInit& li) { return li.accel_bias_drift_b_mps3[0]; });
   PN day = gather([](const LaneInit& li) { return li.accel_bias_drift_b_mps3[1]; });
   PN daz = gather([](const LaneInit& li) { return li.accel_bias_drift_b_mps3[2]; });
+  // mg* / mf*: the gyro [rad/s] and accelerometer [m/s^2] offsets while the motors run.
+  PN mgx = gather([](const LaneInit& li) { return li.gyro_motor_offset_b_rad_s[0]; });
+  PN mgy = gather([](const LaneInit& li) { return li.gyro_motor_offset_b_rad_s[1]; });
+  PN mgz = gather([](const LaneInit& li) { return li.gyro_motor_offset_b_rad_s[2]; });
+  PN mfx = gather([](const LaneInit& li) { return li.accel_motor_offset_b_mps2[0]; });
+  PN mfy = gather([](const LaneInit& li) { return li.accel_motor_offset_b_mps2[1]; });
+  PN mfz = gather([](const LaneInit& li) { return li.accel_motor_offset_b_mps2[2]; });
   PN Gi[9], Ai[9];
   if constexpr (kGeneral) {
     // Identity rows and columns give the same bits as the fast path (1 x + 0 y + 0 z = x).
@@ -539,16 +546,18 @@ void run_group(const NavigationProblem& nav, const Precomputed& im, LaneInit* co
       const ImuSample& m = imu[k];
       const double dt = m.t_s - imu[k - 1].t_s;
       const double t_mid = m.t_s - 0.5 * dt;
-      // Compensation (ImuCompensator::compensate): m - (b + b_dot t_mid) dt, then D^-1.
-      // Without drift b + b_dot t_mid = b exactly, so both forms give the same bits.
+      // Compensation (ImuCompensator::compensate): m - (b + b_dot t_mid + b_motor u) dt, then
+      // D^-1, u the part of the step the motors ran. Without drift b + b_dot t_mid = b exactly,
+      // and b_motor 0 u = 0 adds nothing, so every form gives the fast path's bits.
       PN gx, gy, gz, fx0, fy0, fz0;
       if constexpr (kGeneral) {
-        gx = fma(-fma(dgx, t_mid, bgx), dt, m.dtheta_b_rad.x());
-        gy = fma(-fma(dgy, t_mid, bgy), dt, m.dtheta_b_rad.y());
-        gz = fma(-fma(dgz, t_mid, bgz), dt, m.dtheta_b_rad.z());
-        fx0 = fma(-fma(dax, t_mid, bax), dt, m.dv_b_mps.x());
-        fy0 = fma(-fma(day, t_mid, bay), dt, m.dv_b_mps.y());
-        fz0 = fma(-fma(daz, t_mid, baz), dt, m.dv_b_mps.z());
+        const double u = nav.motor_on(k);
+        gx = fma(-fma(mgx, u, fma(dgx, t_mid, bgx)), dt, m.dtheta_b_rad.x());
+        gy = fma(-fma(mgy, u, fma(dgy, t_mid, bgy)), dt, m.dtheta_b_rad.y());
+        gz = fma(-fma(mgz, u, fma(dgz, t_mid, bgz)), dt, m.dtheta_b_rad.z());
+        fx0 = fma(-fma(mfx, u, fma(dax, t_mid, bax)), dt, m.dv_b_mps.x());
+        fy0 = fma(-fma(mfy, u, fma(day, t_mid, bay)), dt, m.dv_b_mps.y());
+        fz0 = fma(-fma(mfz, u, fma(daz, t_mid, baz)), dt, m.dv_b_mps.z());
       } else {
         (void)t_mid;
         gx = fma(-bgx, dt, m.dtheta_b_rad.x());

@@ -52,24 +52,26 @@ using StartList = std::vector<Start>;
 // Everything one lane needs, set up in scalar code from the candidate (O(1) except the
 // events and window starts of a non-zero latency).
 struct LaneInit {
-  double gyro_distortion_inv[9];       ///< (I + S_g + M_g)^-1, row-major [1]
-  double accel_distortion_inv[9];      ///< (I + S_a + M_a)^-1, row-major [1]
-  bool general = false;                ///< distortion (scale, misalignment) or bias drift present
-  double gyro_bias_b_rad_s[3];         ///< gyro bias at t = 0, body FRD [rad/s]
-  double gyro_bias_drift_b_rad_s2[3];  ///< its linear drift [rad/s^2]
-  double accel_bias_b_mps2[3];         ///< accelerometer bias at t = 0, body FRD [m/s^2]
-  double accel_bias_drift_b_mps3[3];   ///< its linear drift [m/s^3]
-  double lat_rad;                      ///< geodetic latitude at the navigation start [rad]
-  double v_eb_n_east_mps;              ///< INS velocity, east component of n = ENU [m/s]
-  double v_eb_n_north_mps;             ///< INS velocity, north component [m/s]
-  double q_b_n[4];                     ///< attitude quaternion b -> n: w, x, y, z [1]
-  double dtheta_prev_b_rad[3];         ///< compensated angle increment of the step before [rad]
-  double dv_prev_b_mps[3];             ///< compensated velocity increment of the step before [m/s]
-  double omega_ib_b_prev_rad_s[3];     ///< mean angular rate over the step before [rad/s]
-  double lever_arm_b_m[3];             ///< GNSS antenna relative to the IMU, body FRD [m]
-  bool lever = false;                  ///< lever arm non-zero
-  double v_ant_n_east_mps;             ///< antenna velocity at the navigation start, east [m/s]
-  double v_ant_n_north_mps;            ///< antenna velocity at the navigation start, north [m/s]
+  double gyro_distortion_inv[9];        ///< (I + S_g + M_g)^-1, row-major [1]
+  double accel_distortion_inv[9];       ///< (I + S_a + M_a)^-1, row-major [1]
+  bool general = false;                 ///< distortion, bias drift or motor offset present
+  double gyro_bias_b_rad_s[3];          ///< gyro bias at t = 0, body FRD [rad/s]
+  double gyro_bias_drift_b_rad_s2[3];   ///< its linear drift [rad/s^2]
+  double accel_bias_b_mps2[3];          ///< accelerometer bias at t = 0, body FRD [m/s^2]
+  double accel_bias_drift_b_mps3[3];    ///< its linear drift [m/s^3]
+  double gyro_motor_offset_b_rad_s[3];  ///< gyro offset while the motors run [rad/s]
+  double accel_motor_offset_b_mps2[3];  ///< accelerometer offset while the motors run [m/s^2]
+  double lat_rad;                       ///< geodetic latitude at the navigation start [rad]
+  double v_eb_n_east_mps;               ///< INS velocity, east component of n = ENU [m/s]
+  double v_eb_n_north_mps;              ///< INS velocity, north component [m/s]
+  double q_b_n[4];                      ///< attitude quaternion b -> n: w, x, y, z [1]
+  double dtheta_prev_b_rad[3];          ///< compensated angle increment of the step before [rad]
+  double dv_prev_b_mps[3];              ///< compensated velocity increment of the step before [m/s]
+  double omega_ib_b_prev_rad_s[3];      ///< mean angular rate over the step before [rad/s]
+  double lever_arm_b_m[3];              ///< GNSS antenna relative to the IMU, body FRD [m]
+  bool lever = false;                   ///< lever arm non-zero
+  double v_ant_n_east_mps;              ///< antenna velocity at the navigation start, east [m/s]
+  double v_ant_n_north_mps;             ///< antenna velocity at the navigation start, north [m/s]
   double eq15_sum_at_start = 0.0;  ///< epochs clamped to the start, already summed (Eq. 15 terms)
   const EventList* events = nullptr;
   std::size_t cursor = 0;             ///< first event not yet emitted

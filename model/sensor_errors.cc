@@ -1,5 +1,6 @@
 #include "model/sensor_errors.h"
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <sstream>
@@ -105,6 +106,21 @@ std::vector<Entry> build_catalogue() {
         "GNSS antenna position in b relative to the IMU",
         [i](SensorErrors& e) -> double& { return e.lever_arm_b_m[i]; });
   }
+  // Last, so that the catalogue's older entries keep their places in every listing.
+  for (const char* a : kAxes) {
+    const int i = axis_index(a[0]);
+    term(EffectSensor::kAccel, EffectKind::kMotorOffset, i);
+    add(std::string("accel_motor_offset_") + a, "m/s^2", EffectSide::kImu, kSigmaAccelMps2,
+        "accelerometer offset while the motors run (vibration), a step at motor start",
+        [i](SensorErrors& e) -> double& { return e.accel.motor_offset[i]; });
+  }
+  for (const char* a : kAxes) {
+    const int i = axis_index(a[0]);
+    term(EffectSensor::kGyro, EffectKind::kMotorOffset, i);
+    add(std::string("gyro_motor_offset_") + a, "rad/s", EffectSide::kImu, kSigmaGyroRadS,
+        "gyro offset while the motors run (vibration), a step at motor start",
+        [i](SensorErrors& e) -> double& { return e.gyro.motor_offset[i]; });
+  }
   return out;
 }
 
@@ -131,7 +147,32 @@ Eigen::Matrix3d TriadErrors::distortion() const {
 }
 
 bool TriadErrors::is_zero() const {
-  return bias.isZero(0) && bias_drift.isZero(0) && scale.isZero(0) && misalign.isZero(0);
+  return bias.isZero(0) && bias_drift.isZero(0) && scale.isZero(0) && misalign.isZero(0) &&
+         motor_offset.isZero(0);
+}
+
+double MotorSchedule::fraction(double t_begin_s, double t_end_s) const {
+  const double length = t_end_s - t_begin_s;
+  if (!(length > 0.0)) return 0.0;
+  double on = 0.0;
+  for (const auto& [t_on, t_off] : on_s) {
+    const double overlap = std::min(t_off, t_end_s) - std::max(t_on, t_begin_s);
+    if (overlap > 0.0) on += overlap;
+  }
+  return on >= length ? 1.0 : on / length;
+}
+
+std::string MotorSchedule::validate() const {
+  for (std::size_t i = 0; i < on_s.size(); ++i) {
+    const auto& [t_on, t_off] = on_s[i];
+    std::ostringstream msg;
+    msg << "motor interval " << i << " (on " << t_on << " s, off " << t_off << " s): ";
+    if (!std::isfinite(t_on) || !std::isfinite(t_off)) return msg.str() + "not finite";
+    if (!(t_on < t_off)) return msg.str() + "must start before it ends";
+    if (i > 0 && !(on_s[i - 1].second <= t_on))
+      return msg.str() + "overlaps or precedes the interval before it";
+  }
+  return "";
 }
 
 const std::vector<EffectInfo>& effect_catalogue() {
@@ -196,12 +237,16 @@ std::map<std::string, double> nonzero_effects(const SensorErrors& errors) {
 }
 
 void apply_imu_errors(const SensorErrors& errors, double t_s, double dt_s,
-                      Eigen::Vector3d& dtheta_b, Eigen::Vector3d& dv_b) {
+                      Eigen::Vector3d& dtheta_b, Eigen::Vector3d& dv_b, double motor_on) {
   const double t_mid = t_s - 0.5 * dt_s;
   dtheta_b = errors.gyro.distortion() * dtheta_b +
              (errors.gyro.bias + errors.gyro.bias_drift * t_mid) * dt_s;
   dv_b = errors.accel.distortion() * dv_b +
          (errors.accel.bias + errors.accel.bias_drift * t_mid) * dt_s;
+  if (motor_on != 0.0) {
+    dtheta_b += errors.gyro.motor_offset * (motor_on * dt_s);
+    dv_b += errors.accel.motor_offset * (motor_on * dt_s);
+  }
 }
 
 ImuCompensator::ImuCompensator(const SensorErrors& errors)
@@ -211,24 +256,38 @@ ImuCompensator::ImuCompensator(const SensorErrors& errors)
       accel_inv_(errors.accel.distortion().inverse()) {}
 
 void ImuCompensator::compensate(double t_s, double dt_s, Eigen::Vector3d& dtheta_b,
-                                Eigen::Vector3d& dv_b) const {
+                                Eigen::Vector3d& dv_b, double motor_on) const {
   const double t_mid = t_s - 0.5 * dt_s;
-  dtheta_b = gyro_inv_ * (dtheta_b - (gyro_.bias + gyro_.bias_drift * t_mid) * dt_s);
-  dv_b = accel_inv_ * (dv_b - (accel_.bias + accel_.bias_drift * t_mid) * dt_s);
+  // Without a motor part the bias is b0 + b_dot t_mid exactly (the same bits as before the
+  // motor term existed: the batch kernel is held to them).
+  if (motor_on == 0.0) {
+    dtheta_b = gyro_inv_ * (dtheta_b - (gyro_.bias + gyro_.bias_drift * t_mid) * dt_s);
+    dv_b = accel_inv_ * (dv_b - (accel_.bias + accel_.bias_drift * t_mid) * dt_s);
+    return;
+  }
+  dtheta_b =
+      gyro_inv_ *
+      (dtheta_b - (gyro_.bias + gyro_.bias_drift * t_mid + gyro_.motor_offset * motor_on) * dt_s);
+  dv_b = accel_inv_ *
+         (dv_b - (accel_.bias + accel_.bias_drift * t_mid + accel_.motor_offset * motor_on) * dt_s);
 }
 
 void ImuCompensator::compensate_mean(double t_mid_mean_s, Eigen::Vector3d& omega_ib_b,
-                                     Eigen::Vector3d& f_ib_b) const {
-  omega_ib_b = gyro_inv_ * (omega_ib_b - (gyro_.bias + gyro_.bias_drift * t_mid_mean_s));
-  f_ib_b = accel_inv_ * (f_ib_b - (accel_.bias + accel_.bias_drift * t_mid_mean_s));
+                                     Eigen::Vector3d& f_ib_b, double motor_on_mean) const {
+  omega_ib_b = gyro_inv_ * (omega_ib_b - (gyro_.bias + gyro_.bias_drift * t_mid_mean_s +
+                                          gyro_.motor_offset * motor_on_mean));
+  f_ib_b = accel_inv_ * (f_ib_b - (accel_.bias + accel_.bias_drift * t_mid_mean_s +
+                                   accel_.motor_offset * motor_on_mean));
 }
 
 double ImuCompensator::projected_gyro_sum(const Eigen::Matrix3d& sum_u_dtheta,
                                           const Eigen::Vector3d& sum_u_dt,
-                                          const Eigen::Vector3d& sum_u_tmid_dt) const {
+                                          const Eigen::Vector3d& sum_u_tmid_dt,
+                                          const Eigen::Vector3d& sum_u_motor_dt) const {
   // sum_k u_k^T G^-1 dtheta_k = sum_ij (G^-1)_ij (sum_k u_k,i dtheta_k,j).
   return gyro_inv_.cwiseProduct(sum_u_dtheta).sum() - sum_u_dt.dot(gyro_inv_ * gyro_.bias) -
-         sum_u_tmid_dt.dot(gyro_inv_ * gyro_.bias_drift);
+         sum_u_tmid_dt.dot(gyro_inv_ * gyro_.bias_drift) -
+         sum_u_motor_dt.dot(gyro_inv_ * gyro_.motor_offset);
 }
 
 }  // namespace insid

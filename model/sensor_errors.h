@@ -1,10 +1,12 @@
 // Sensor error model and the one catalogue of effect names (docs/design.md sec. 3-4).
 //
 // IMU model, measured from true (docs/design.md sec. 3):
-//   m = (I + S + M) * true + b(t) + noise,   b(t) = b0 + b_dot * t,
+//   m = (I + S + M) * true + b(t) + noise,   b(t) = b0 + b_dot * t + b_motor * u(t),
 // S diagonal scale factors, M off-diagonal misalignments (M(i,j): sensor axis i sensing true
-// axis j). For increments over (t - dt, t] the bias integrates to
-//   b0 * dt + b_dot * (t - dt / 2) * dt.
+// axis j), u(t) = 1 while the motors run and 0 otherwise (MotorSchedule: the offset vibration
+// adds to a MEMS sensor's zero, a step at motor start). For increments over (t - dt, t] the
+// bias integrates to
+//   b0 * dt + b_dot * (t - dt / 2) * dt + b_motor * (the part of dt the motors ran).
 // Compensation inverts the model exactly. GNSS-side effects: the GNSS solution tagged t is the
 // true antenna state at t - latency; the antenna sits at lever_arm_b from the IMU.
 #pragma once
@@ -12,6 +14,7 @@
 #include <map>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -25,6 +28,8 @@ struct TriadErrors {
   Eigen::Vector3d bias_drift = Eigen::Vector3d::Zero();  ///< b_dot (rad/s^2 or m/s^3)
   Eigen::Vector3d scale = Eigen::Vector3d::Zero();       ///< diag(S) (1)
   Eigen::Matrix3d misalign = Eigen::Matrix3d::Zero();    ///< M, zero diagonal (rad)
+  /// b_motor: added to the bias while the motors run (rad/s or m/s^2)
+  Eigen::Vector3d motor_offset = Eigen::Vector3d::Zero();
 
   /// I + S + M.
   Eigen::Matrix3d distortion() const;
@@ -43,7 +48,21 @@ enum class EffectSide { kImu, kGnss };
 enum class EffectSensor { kGyro, kAccel, kGnss };
 /// The term of the error model it is: b0, b_dot, diag(S), M (IMU); the latency and the lever arm
 /// (GNSS).
-enum class EffectKind { kBias, kBiasDrift, kScale, kMisalign, kLatency, kLeverArm };
+enum class EffectKind { kBias, kBiasDrift, kScale, kMisalign, kMotorOffset, kLatency, kLeverArm };
+
+/// When the motors run, in the dataset's time (s): half-open intervals [on, off), sorted and
+/// disjoint (DatasetMeta::motors; an importer reads them from the autopilot's motor outputs, a
+/// simulation from its scenario). Empty: no motor state known, and the motor offsets do nothing.
+struct MotorSchedule {
+  std::vector<std::pair<double, double>> on_s;  ///< (on, off) pairs
+  bool empty() const { return on_s.empty(); }
+  /// The part of (t_begin_s, t_end_s] the motors ran, as a fraction of its length (0 when the
+  /// interval is empty): u averaged over an IMU increment.
+  double fraction(double t_begin_s, double t_end_s) const;
+  /// "" when the intervals are finite, each on < off, sorted and disjoint; else the first bad
+  /// interval, named by its index and values.
+  std::string validate() const;
+};
 
 /// One entry of the effect catalogue. Its name is for files and people: code decides by the
 /// typed fields (sensor, kind, axes), never by parts of the name.
@@ -86,25 +105,31 @@ std::map<std::string, double> nonzero_effects(const SensorErrors& errors);
 constexpr double kSigmaAccelMps2 = 0.0005;  // sigma_A = 0.0005 m/s^2
 constexpr double kSigmaGyroRadS = 0.01 * 3.14159265358979323846 / 180.0 / 3600.0;  // 0.01 deg/h
 
-/// Apply the IMU error model to one pair of true increments over (t_s - dt_s, t_s].
+/// Apply the IMU error model to one pair of true increments over (t_s - dt_s, t_s]; `motor_on`
+/// is the part of the step the motors ran (MotorSchedule::fraction).
 void apply_imu_errors(const SensorErrors& errors, double t_s, double dt_s,
-                      Eigen::Vector3d& dtheta_b, Eigen::Vector3d& dv_b);
+                      Eigen::Vector3d& dtheta_b, Eigen::Vector3d& dv_b, double motor_on = 0.0);
 
 /// Precomputed inverse of the IMU error model (compensation), cheap per sample.
 class ImuCompensator {
  public:
   explicit ImuCompensator(const SensorErrors& errors);
-  /// Compensate measured increments over (t_s - dt_s, t_s] in place.
-  void compensate(double t_s, double dt_s, Eigen::Vector3d& dtheta_b, Eigen::Vector3d& dv_b) const;
+  /// Compensate measured increments over (t_s - dt_s, t_s] in place; `motor_on` as for
+  /// apply_imu_errors.
+  void compensate(double t_s, double dt_s, Eigen::Vector3d& dtheta_b, Eigen::Vector3d& dv_b,
+                  double motor_on = 0.0) const;
   /// Compensate the mean rate / specific force of a window whose sample mid-times average
-  /// to t_mid_mean_s (the model is affine, so this is exact for window means).
-  void compensate_mean(double t_mid_mean_s, Eigen::Vector3d& omega_ib_b,
-                       Eigen::Vector3d& f_ib_b) const;
-  /// sum_k u_k^T G^-1 (dtheta_k - (b0 + b_dot t_mid_k) dt_k): compensated gyro increments
-  /// projected on directions u_k, in O(1) from sum u dtheta^T, sum u dt and sum u t_mid dt
-  /// (the model is affine; level+heading carries a course back with it, nav/alignment.h).
+  /// to t_mid_mean_s and whose motor state averages to motor_on_mean (the model is affine, so
+  /// this is exact for window means).
+  void compensate_mean(double t_mid_mean_s, Eigen::Vector3d& omega_ib_b, Eigen::Vector3d& f_ib_b,
+                       double motor_on_mean = 0.0) const;
+  /// sum_k u_k^T G^-1 (dtheta_k - (b0 + b_dot t_mid_k + b_motor m_k) dt_k): compensated gyro
+  /// increments projected on directions u_k, in O(1) from sum u dtheta^T, sum u dt, sum u t_mid
+  /// dt and sum u m dt (m_k the motor part of step k; the model is affine; level+heading carries
+  /// a course back with it, nav/alignment.h).
   double projected_gyro_sum(const Eigen::Matrix3d& sum_u_dtheta, const Eigen::Vector3d& sum_u_dt,
-                            const Eigen::Vector3d& sum_u_tmid_dt) const;
+                            const Eigen::Vector3d& sum_u_tmid_dt,
+                            const Eigen::Vector3d& sum_u_motor_dt = Eigen::Vector3d::Zero()) const;
 
  private:
   TriadErrors gyro_, accel_;

@@ -16,8 +16,9 @@ TEST(SensorErrors, CatalogueHasDesignNamesAndNoDuplicates) {
                         "accel_scale_z", "gyro_scale_z", "accel_misalign_xy", "gyro_misalign_zx",
                         "accel_bias_drift_x", "gyro_bias_drift_y", "gnss_latency", "lever_arm_x"})
     EXPECT_TRUE(names.count(n)) << n;
-  // (bias, scale, drift) x 3 axes x 2 sensors + 6 misalignments x 2 + latency + lever arm.
-  EXPECT_EQ(names.size(), 3u * 3 * 2 + 6u * 2 + 1 + 3);
+  // (bias, scale, drift, motor offset) x 3 axes x 2 sensors + 6 misalignments x 2 + latency +
+  // lever arm.
+  EXPECT_EQ(names.size(), 4u * 3 * 2 + 6u * 2 + 1 + 3);
 }
 
 TEST(SensorErrors, UnknownNameListsValidOnes) {
@@ -74,6 +75,36 @@ TEST(SensorErrors, ModelTermsHaveTheDocumentedMeaning) {
   EXPECT_NEAR(dtheta.x(), 2e-3 * 0.5, 1e-15);                // misalignment M(x, y)
 }
 
+// The motor offset adds to the bias for the part of the step the motors ran, and compensation
+// removes exactly what was applied (the alignment's window means too).
+TEST(SensorErrors, MotorOffsetActsOnlyWhileTheMotorsRun) {
+  SensorErrors e;
+  e.gyro.bias.x() = 1e-4;
+  e.gyro.motor_offset.x() = 5e-3;
+  e.accel.motor_offset.z() = -0.2;
+  const Eigen::Vector3d dtheta0(0.01, -0.02, 0.005), dv0(0.03, 0.01, -0.098);
+  for (const double u : {0.0, 0.25, 1.0}) {
+    Eigen::Vector3d dtheta = dtheta0, dv = dv0;
+    apply_imu_errors(e, 10.0, 0.01, dtheta, dv, u);
+    EXPECT_NEAR(dtheta.x() - dtheta0.x(), (1e-4 + 5e-3 * u) * 0.01, 1e-17) << u;
+    EXPECT_NEAR(dv.z() - dv0.z(), -0.2 * u * 0.01, 1e-17) << u;
+    ImuCompensator(e).compensate(10.0, 0.01, dtheta, dv, u);
+    EXPECT_LT((dtheta - dtheta0).norm(), 1e-17) << u;
+    EXPECT_LT((dv - dv0).norm(), 1e-16) << u;
+  }
+  MotorSchedule motors;
+  motors.on_s = {{1.0, 2.0}, {3.0, 3.5}};
+  EXPECT_EQ(motors.validate(), "");
+  EXPECT_DOUBLE_EQ(motors.fraction(0.0, 1.0), 0.0);
+  EXPECT_DOUBLE_EQ(motors.fraction(0.5, 1.5), 0.5);
+  EXPECT_DOUBLE_EQ(motors.fraction(1.2, 1.3), 1.0);
+  EXPECT_DOUBLE_EQ(motors.fraction(1.5, 3.5), 0.5);  // 0.5 s + 0.5 s of 2 s
+  motors.on_s = {{1.0, 2.0}, {1.5, 3.0}};
+  EXPECT_NE(motors.validate().find("motor interval 1"), std::string::npos) << motors.validate();
+  motors.on_s = {{2.0, 1.0}};
+  EXPECT_NE(motors.validate().find("must start before it ends"), std::string::npos);
+}
+
 // Each entry's typed fields say what its value moves: setting it changes exactly the model term
 // its sensor, kind and axes name, and the typed look-up finds it again.
 TEST(SensorErrors, TypedFieldsNameTheTermTheValueMoves) {
@@ -94,6 +125,9 @@ TEST(SensorErrors, TypedFieldsNameTheTermTheValueMoves) {
         break;
       case EffectKind::kMisalign:
         moved = triad.misalign(info.axis, info.true_axis);
+        break;
+      case EffectKind::kMotorOffset:
+        moved = triad.motor_offset[info.axis];
         break;
       case EffectKind::kLatency:
         moved = e.gnss_latency_s;

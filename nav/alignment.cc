@@ -14,11 +14,12 @@
 namespace insid {
 
 AlignmentWindow AlignmentWindow::from_imu(const std::vector<ImuSample>& imu, std::size_t begin,
-                                          std::size_t end, double t_start_s) {
+                                          std::size_t end, double t_start_s,
+                                          const MotorSchedule& motors) {
   if (begin >= end || end > imu.size())
     throw std::invalid_argument("alignment window is empty or out of range");
   AlignmentWindow w;
-  double sum_t_mid_dt = 0.0;
+  double sum_t_mid_dt = 0.0, sum_motor_dt = 0.0;
   double t_prev = t_start_s;
   for (std::size_t k = begin; k < end; ++k) {
     const double dt = imu[k].t_s - t_prev;
@@ -26,10 +27,12 @@ AlignmentWindow AlignmentWindow::from_imu(const std::vector<ImuSample>& imu, std
     w.sum_dv_b += imu[k].dv_b_mps;
     w.sum_dt_s += dt;
     sum_t_mid_dt += (imu[k].t_s - 0.5 * dt) * dt;
+    if (!motors.empty()) sum_motor_dt += motors.fraction(t_prev, imu[k].t_s) * dt;
     t_prev = imu[k].t_s;
   }
   w.count = end - begin;
   w.mean_t_mid_s = sum_t_mid_dt / w.sum_dt_s;
+  w.mean_motor_on = sum_motor_dt / w.sum_dt_s;
   return w;
 }
 
@@ -57,7 +60,7 @@ Eigen::Matrix3d coarse_align(const Eigen::Vector3d& f_ib_b, const Eigen::Vector3
 Eigen::Matrix3d align_window(const AlignmentWindow& window, const ImuCompensator& compensator) {
   Eigen::Vector3d omega_ib_b = window.sum_dtheta_b / window.sum_dt_s;
   Eigen::Vector3d f_ib_b = window.sum_dv_b / window.sum_dt_s;
-  compensator.compensate_mean(window.mean_t_mid_s, omega_ib_b, f_ib_b);
+  compensator.compensate_mean(window.mean_t_mid_s, omega_ib_b, f_ib_b, window.mean_motor_on);
   return coarse_align(f_ib_b, omega_ib_b);
 }
 
@@ -276,7 +279,8 @@ double magnetometer_true_heading_rad(const Eigen::Vector3d& mag_b, const Eigen::
 double yaw_change_rad(const YawCarry& carry, const ImuCompensator& compensator,
                       double earth_up_rate_rad_s) {
   // psi_dot = d + sin(theta) phi_dot, d = -u_b . omega_ib_b + W sin(lat).
-  return -compensator.projected_gyro_sum(carry.sum_u_dtheta, carry.sum_u_dt, carry.sum_u_tmid_dt) +
+  return -compensator.projected_gyro_sum(carry.sum_u_dtheta, carry.sum_u_dt, carry.sum_u_tmid_dt,
+                                         carry.sum_u_motor_dt) +
          earth_up_rate_rad_s * carry.span_s + carry.roll_pitch_term_rad;
 }
 
@@ -463,6 +467,8 @@ std::vector<YawCarry> carry_sums(const Dataset& ds, const std::vector<CourseFix>
     step.sum_u_dtheta = u_mid * dtheta.transpose();
     step.sum_u_dt = u_mid * dt;
     step.sum_u_tmid_dt = u_mid * (t_mid * dt);
+    if (!ds.meta.motors.empty())
+      step.sum_u_motor_dt = u_mid * (ds.meta.motors.fraction(t_prev, t_k) * dt);
     step.span_s = dt;
     step.roll_pitch_term_rad =
         std::sin(0.5 * (e.pitch_rad + e_prev.pitch_rad)) * wrap_pi(e.roll_rad - e_prev.roll_rad);
@@ -474,6 +480,7 @@ std::vector<YawCarry> carry_sums(const Dataset& ds, const std::vector<CourseFix>
       c.sum_u_dtheta = sums.sum_u_dtheta + w * step.sum_u_dtheta;
       c.sum_u_dt = sums.sum_u_dt + w * step.sum_u_dt;
       c.sum_u_tmid_dt = sums.sum_u_tmid_dt + w * step.sum_u_tmid_dt;
+      c.sum_u_motor_dt = sums.sum_u_motor_dt + w * step.sum_u_motor_dt;
       c.span_s = sums.span_s + w * step.span_s;
       c.roll_pitch_term_rad = sums.roll_pitch_term_rad + w * step.roll_pitch_term_rad;
       ++next_fix;
@@ -481,6 +488,7 @@ std::vector<YawCarry> carry_sums(const Dataset& ds, const std::vector<CourseFix>
     sums.sum_u_dtheta += step.sum_u_dtheta;
     sums.sum_u_dt += step.sum_u_dt;
     sums.sum_u_tmid_dt += step.sum_u_tmid_dt;
+    sums.sum_u_motor_dt += step.sum_u_motor_dt;
     sums.span_s += step.span_s;
     sums.roll_pitch_term_rad += step.roll_pitch_term_rad;
   }
@@ -610,7 +618,7 @@ EulerAngles InitialAttitude::tilt_offset(const ImuCompensator& compensator) cons
   // The candidate's levelling, against the reference track's start.
   Eigen::Vector3d omega_ib_b = window_.sum_dtheta_b / window_.sum_dt_s;
   Eigen::Vector3d f_ib_b = window_.sum_dv_b / window_.sum_dt_s;
-  compensator.compensate_mean(window_.mean_t_mid_s, omega_ib_b, f_ib_b);
+  compensator.compensate_mean(window_.mean_t_mid_s, omega_ib_b, f_ib_b, window_.mean_motor_on);
   const EulerAngles tilt = euler_from_C_b_n(level_with_yaw(f_ib_b, 0.0));
   EulerAngles d;
   d.roll_rad = wrap_pi(tilt.roll_rad - reference_tilt_.roll_rad);
@@ -651,7 +659,7 @@ Eigen::Matrix3d InitialAttitude::attitude(const ImuCompensator& compensator) con
     case InitialAttitudeMode::kLevelHeading: {
       Eigen::Vector3d omega_ib_b = window_.sum_dtheta_b / window_.sum_dt_s;
       Eigen::Vector3d f_ib_b = window_.sum_dv_b / window_.sum_dt_s;
-      compensator.compensate_mean(window_.mean_t_mid_s, omega_ib_b, f_ib_b);
+      compensator.compensate_mean(window_.mean_t_mid_s, omega_ib_b, f_ib_b, window_.mean_motor_on);
       return level_with_yaw(f_ib_b, level_heading_yaw_rad(compensator));
     }
     case InitialAttitudeMode::kGiven:

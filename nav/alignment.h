@@ -22,12 +22,15 @@ struct AlignmentWindow {
   Eigen::Vector3d sum_dtheta_b = Eigen::Vector3d::Zero();  ///< (rad)
   Eigen::Vector3d sum_dv_b = Eigen::Vector3d::Zero();      ///< (m/s)
   double sum_dt_s = 0.0;
-  double mean_t_mid_s = 0.0;  ///< dt-weighted mean of the samples' mid-times (for bias drifts)
+  double mean_t_mid_s = 0.0;   ///< dt-weighted mean of the samples' mid-times (for bias drifts)
+  double mean_motor_on = 0.0;  ///< part of the window the motors ran (for the motor offsets)
   std::size_t count = 0;
 
-  /// Window over imu[begin, end); the first sample's interval starts at t_start_s.
+  /// Window over imu[begin, end); the first sample's interval starts at t_start_s. `motors`:
+  /// when the motors ran (DatasetMeta::motors).
   static AlignmentWindow from_imu(const std::vector<ImuSample>& imu, std::size_t begin,
-                                  std::size_t end, double t_start_s);
+                                  std::size_t end, double t_start_s,
+                                  const MotorSchedule& motors = {});
 };
 
 /// C_b_n from mean specific force f_ib_b (m/s^2) and mean angular rate omega_ib_b (rad/s) of a
@@ -156,10 +159,11 @@ double magnetometer_true_heading_rad(const Eigen::Vector3d& mag_b, const Eigen::
 /// data as recorded, from the levelled start); the candidate enters through the compensated
 /// increments: sum u_b^T G^-1 (dtheta - (b0 + b_dot t_mid) dt), linear in the sums below.
 struct YawCarry {
-  Eigen::Matrix3d sum_u_dtheta = Eigen::Matrix3d::Zero();   ///< sum u_b dtheta_b^T (rad)
-  Eigen::Vector3d sum_u_dt = Eigen::Vector3d::Zero();       ///< sum u_b dt (s)
-  Eigen::Vector3d sum_u_tmid_dt = Eigen::Vector3d::Zero();  ///< sum u_b t_mid dt (s^2)
-  double span_s = 0.0;                                      ///< time from the navigation start
+  Eigen::Matrix3d sum_u_dtheta = Eigen::Matrix3d::Zero();    ///< sum u_b dtheta_b^T (rad)
+  Eigen::Vector3d sum_u_dt = Eigen::Vector3d::Zero();        ///< sum u_b dt (s)
+  Eigen::Vector3d sum_u_tmid_dt = Eigen::Vector3d::Zero();   ///< sum u_b t_mid dt (s^2)
+  Eigen::Vector3d sum_u_motor_dt = Eigen::Vector3d::Zero();  ///< sum u_b m dt (s), m motor part
+  double span_s = 0.0;                                       ///< time from the navigation start
   double roll_pitch_term_rad = 0.0;  ///< sum sin(theta) dphi on the reference track
 };
 /// Yaw change (rad, clockwise +) from the navigation start over the carry's span.

@@ -64,7 +64,16 @@ NavigationProblem::NavigationProblem(std::shared_ptr<const Dataset> dataset,
                                 " s leaves no IMU data to navigate");
   nav_begin_ = std::max<std::size_t>(n_align, 1);
   if (n_align > 0)
-    window_ = AlignmentWindow::from_imu(ds.imu, window_begin, n_align, t_window_start);
+    window_ =
+        AlignmentWindow::from_imu(ds.imu, window_begin, n_align, t_window_start, ds.meta.motors);
+
+  if (!ds.meta.motors.empty()) {
+    motor_on_.resize(ds.imu.size());
+    for (std::size_t k = 0; k < ds.imu.size(); ++k) {
+      const double t_before = k > 0 ? ds.imu[k - 1].t_s : ds.imu[0].t_s - dt_nominal;
+      motor_on_[k] = ds.meta.motors.fraction(t_before, ds.imu[k].t_s);
+    }
+  }
 
   // Height and vertical-velocity reference at every IMU epoch (GNSS, linear interpolation).
   h_ref_m_.resize(ds.imu.size());
@@ -314,7 +323,8 @@ void NavigationProblem::run(const SensorErrors& candidate,
   ImuSample prev = ds.imu[nav_begin_ - 1];
   const double t_before =
       nav_begin_ >= 2 ? ds.imu[nav_begin_ - 2].t_s : prev.t_s - 1.0 / ds.meta.imu_rate_hz;
-  compensator.compensate(prev.t_s, prev.t_s - t_before, prev.dtheta_b_rad, prev.dv_b_mps);
+  compensator.compensate(prev.t_s, prev.t_s - t_before, prev.dtheta_b_rad, prev.dv_b_mps,
+                         motor_on(nav_begin_ - 1));
   Strapdown ins(earth, initial_state(C_b_n0, candidate, prev, prev.t_s - t_before), prev,
                 prev.t_s - t_before);
 
@@ -353,7 +363,8 @@ void NavigationProblem::run(const SensorErrors& candidate,
   std::size_t next_restart = 0;  // the next in starts
   for (std::size_t k = nav_begin_; k < ds.imu.size(); ++k) {
     ImuSample inc = ds.imu[k];
-    compensator.compensate(inc.t_s, inc.t_s - ds.imu[k - 1].t_s, inc.dtheta_b_rad, inc.dv_b_mps);
+    compensator.compensate(inc.t_s, inc.t_s - ds.imu[k - 1].t_s, inc.dtheta_b_rad, inc.dv_b_mps,
+                           motor_on(k));
     ins.step_aided(inc, h_ref_m_[k], vU_ref_mps_[k]);
     const NavState& s = ins.state();
     const Eigen::Vector3d omega_at_epoch = 1.5 * ins.omega_ib_b() - 0.5 * omega_mid_prev;

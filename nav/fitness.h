@@ -173,6 +173,9 @@ class NavigationProblem {
   const std::vector<double>& height_reference_m() const { return h_ref_m_; }
   const std::vector<double>& vertical_velocity_reference_mps() const { return vU_ref_mps_; }
   const std::vector<std::size_t>& epoch_gnss_indices() const { return epoch_gnss_index_; }
+  /// The part of IMU row k's step the motors ran (DatasetMeta::motors; row 0's step is one
+  /// nominal period long); 0 for every row when the dataset has no motor state.
+  double motor_on(std::size_t k) const { return motor_on_.empty() ? 0.0 : motor_on_[k]; }
   /// Window sums of the alignment (count == 0 when align_s = 0).
   const AlignmentWindow& alignment_window() const { return window_; }
   /// The restarts of the windowed fitness in time order (empty when window_s = 0 or W covers
@@ -237,6 +240,7 @@ class NavigationProblem {
   std::vector<double> vU_ref_mps_;  // GNSS vertical velocity interpolated at every IMU epoch
   std::vector<std::size_t> epoch_gnss_index_;  // GNSS rows compared, in time order
   std::vector<WindowRestart> restarts_;        // windowed fitness, in time order
+  std::vector<double> motor_on_;  // motor part of every IMU row's step; empty without motors
 };
 
 }  // namespace insid

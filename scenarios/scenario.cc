@@ -196,7 +196,7 @@ ScenarioConfig parse_scenario(const json& j, const std::string& origin) {
       JsonObject::document(j, origin,
                            {"name", "description", "comment", "imu_rate_hz", "gnss_rate_hz",
                             "earth", "initial", "align_s", "flight_s", "substeps", "seed", "noise",
-                            "injected", "injected_sigma", "segments", "repeat"});
+                            "injected", "injected_sigma", "segments", "repeat", "motors_on_s"});
   ScenarioConfig c;
   c.origin = origin;
   c.name = r.string("name", "custom");
@@ -228,6 +228,15 @@ ScenarioConfig parse_scenario(const json& j, const std::string& origin) {
                   "gm_gyro_sigma_deg_h", "gm_accel_sigma_mps2", "gm_tau_s", "comment"}));
   if (r.has("injected")) parse_injected(r.field("injected").map(), false, c.injected);
   if (r.has("injected_sigma")) parse_injected(r.field("injected_sigma").map(), true, c.injected);
+  if (r.has("motors_on_s")) {
+    const JsonArray on = r.array("motors_on_s");
+    for (std::size_t i = 0; i < on.size(); ++i) {
+      const std::vector<double> pair = on[i].array().numbers();
+      if (pair.size() != 2) on[i].fail("expected [on_s, off_s], two numbers");
+      c.motors.on_s.emplace_back(pair[0], pair[1]);
+    }
+    if (const std::string bad = c.motors.validate(); !bad.empty()) on.fail(bad);
+  }
   if (r.has("segments")) c.segments = r.array("segments").value();
   if (r.has("repeat")) c.repeat = r.array("repeat").value();
   for (std::size_t i = 0; i < c.segments.size(); ++i)
@@ -315,6 +324,10 @@ json scenario_to_json(const ScenarioConfig& c) {
   for (const auto& [k, v] : nonzero_effects(c.injected)) j["injected"][k] = v;
   j["segments"] = c.segments;
   j["repeat"] = c.repeat;
+  if (!c.motors.empty()) {
+    j["motors_on_s"] = json::array();
+    for (const auto& [t_on, t_off] : c.motors.on_s) j["motors_on_s"].push_back({t_on, t_off});
+  }
   return j;
 }
 
@@ -481,6 +494,9 @@ Dataset simulate(const ScenarioConfig& cfg, const ScenarioPlan& plan, bool recor
   m.initial.lon_rad = cfg.initial.lon_rad;
   m.initial.h_m = cfg.initial.h_m;
   m.initial.attitude = cfg.initial.attitude;
+  // The motor state is what an autopilot logs, measured like the IMU: written in any case.
+  m.motors = cfg.motors;
+  if (!cfg.motors.empty()) m.motors_source = "scenario motors_on_s";
   if (record_truth_in_meta) {
     m.injected = nonzero_effects(cfg.injected);
     m.noise = cfg.noise.levels();
@@ -507,7 +523,8 @@ Dataset simulate(const ScenarioConfig& cfg, const ScenarioPlan& plan, bool recor
   }
   ds.imu = synth.take_imu();  // moved, not copied: 860 000 rows for paper-fig9
   for (ImuSample& s : ds.imu) {
-    apply_imu_errors(cfg.injected, s.t_s, dt, s.dtheta_b_rad, s.dv_b_mps);
+    apply_imu_errors(cfg.injected, s.t_s, dt, s.dtheta_b_rad, s.dv_b_mps,
+                     cfg.motors.empty() ? 0.0 : cfg.motors.fraction(s.t_s - dt, s.t_s));
     if (has_gm) {
       for (int i = 0; i < 3; ++i)
         gm_b_gyro[i] = gm_phi * gm_b_gyro[i] + gm_gyro * gm_drive * gm_rng.normal();

@@ -37,6 +37,9 @@ struct ScenarioConfig {
   int substeps = 4;                                   ///< RK4 sub-steps per IMU interval
   NoiseSpec noise;                                    ///< default: grade "none"
   SensorErrors injected;                              ///< SI
+  /// "motors_on_s": when the motors run (data time, s), for the motor offsets; written to the
+  /// dataset's meta.json "motors" like an autopilot's log would give it. Empty: not modelled.
+  MotorSchedule motors;
   std::uint64_t seed = 1;
 };
 

@@ -47,6 +47,14 @@ std::shared_ptr<const NavigationProblem> scenario_problem(
     Dataset jittered = test::jittered_rows(fine, 7, 13, 5, 100.0);
     ds = std::make_shared<const Dataset>(std::move(jittered));
   }
+  if (!ds && preset == "rich-motors") {
+    // A motor schedule: on 20 s into the navigation, off 100 s before its end, each edge inside
+    // an IMU step (the steps that hold an edge carry a fractional motor part).
+    scenarios::ScenarioConfig cfg = scenarios::preset_scenario("rich");
+    cfg.flight_s = 600.0;
+    cfg.motors.on_s = {{cfg.align_s + 20.0037, cfg.align_s + 500.0051}};
+    ds = std::make_shared<const Dataset>(scenarios::simulate(cfg));
+  }
   if (!ds) {
     scenarios::ScenarioConfig cfg = scenarios::preset_scenario(preset);
     cfg.flight_s = 600.0;
@@ -93,6 +101,11 @@ std::vector<SensorErrors> random_candidates(int n, unsigned seed) {
     if (kind == 3 || kind == 5)
       for (int j = 0; j < 3; ++j) c.lever_arm_b_m[j] = u(rng) * 0.1;
     if (kind == 4 || kind == 5) c.gnss_latency_s = u(rng) * 0.01;  // up to 4 IMU steps, +-
+    if (kind == 0 || kind == 5)  // nothing without a motor schedule; in the general path with one
+      for (int j = 0; j < 3; ++j) {
+        c.gyro.motor_offset[j] = u(rng) * kSigmaGyroRadS;
+        c.accel.motor_offset[j] = u(rng) * kSigmaAccelMps2;
+      }
     out.push_back(c);
   }
   return out;
@@ -248,7 +261,7 @@ TEST_P(BatchVsScalar, ResidualsAndSumOfSquaresMatchTheReference) {
 
 INSTANTIATE_TEST_SUITE_P(Scenarios, BatchVsScalar,
                          ::testing::Combine(::testing::Values("paper", "rich", "straight",
-                                                              "rich-jittered"),
+                                                              "rich-jittered", "rich-motors"),
                                             ::testing::ValuesIn(compiled_cpu_paths())),
                          [](const auto& param_info) {
                            std::string name =
