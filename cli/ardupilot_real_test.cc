@@ -301,6 +301,39 @@ TEST(ArduPilotCli, FlightPhasesMatchTimesReadFromOtherMessages) {
   EXPECT_EQ(o.status, 0) << o.output;
 }
 
+// The motor schedule (meta.json "motors") from RCOU: the first record with an output above
+// 1100 us is at TimeMS 82864 (all four outputs 1117 us, read from the log; the armed idle before
+// it, at 82844, is 1049 us, disarmed 1000 us), and the IMU's own motor-start detector (flight
+// phases, from the vibration) puts it at 82.96 s: two sources, one instant. The schedule runs to
+// the end of the cut (the last IMU row inside the GNSS span, before 215 s), and the detected
+// static window ends before it.
+TEST(ArduPilotCli, MotorScheduleFromRcouMatchesTheImuMotorStart) {
+  if (!fs::exists(kLog)) GTEST_SKIP() << kNoLog;
+  test::TempDir tmp;
+  ASSERT_FALSE(tmp.path.empty());
+  const fs::path ds = tmp.path / "ds";
+  const Outcome o = import_flight_window(ds);
+  ASSERT_EQ(o.status, 0) << o.output;
+  const nlohmann::json meta = test::read_json(ds / "meta.json");
+  const nlohmann::json prov = test::read_json(ds / "provenance.json");
+  ASSERT_TRUE(meta.contains("motors")) << o.output;
+  const nlohmann::json& on = meta.at("motors").at("on_s");
+  ASSERT_EQ(on.size(), 1u) << on.dump();
+  // dataset t -> boot s: GPST = t + origin = gpst_at_boot_zero + slope * boot.
+  const double origin = prov.at("time_origin_gpst_unix_s").get<double>();
+  const double gpst0 = prov.at("clock").at("gpst_at_boot_zero_unix_s").get<double>();
+  const double slope = prov.at("clock").at("slope").get<double>();
+  const auto boot_of = [&](double t_s) { return (t_s + origin - gpst0) / slope; };
+  EXPECT_NEAR(boot_of(on[0][0].get<double>()), 82.864, 2e-3) << on.dump();
+  EXPECT_NEAR(boot_of(on[0][0].get<double>()),
+              prov.at("flight_phases").at("motors_on_boot_s").get<double>(), 0.1);
+  EXPECT_GT(boot_of(on[0][1].get<double>()), 214.8) << on.dump();
+  EXPECT_LE(boot_of(on[0][1].get<double>()), 215.0) << on.dump();
+  const double t0 = meta.at("initial").at("t_s").get<double>();
+  EXPECT_LE(t0 + meta.at("align_s").get<double>(), on[0][0].get<double>());
+  EXPECT_NE(o.output.find("motors running (RCOU Ch1-Ch4"), std::string::npos) << o.output;
+}
+
 // The autopilot EKF's bias estimates in meta.json, against values decoded by hand from the bytes
 // of log171.bin: the last EKF1 record at or before boot 215 s is at byte 2513736 (a3 95 8c, then
 // TimeMS 214979 = 0x000347c3); GX, GY, GZ are its int16 at bytes +37, +39, +41 = 20, 2, 6
