@@ -1,6 +1,7 @@
 #include "import/ardupilot_import.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -547,7 +548,7 @@ ArduPilotSeries extract_ardupilot(const DataFlashFile& log, const std::string& w
                       " Hz aliases into them and what happens between samples is lost to the "
                       "integration; treat identified gyro and accelerometer errors with care");
   if (const std::optional<MotorRuns> motors = motor_runs_from_rcou(log, out.notes)) {
-    for (const auto& [on, off] : motors->on_boot_s)
+    for (const auto& [on, off] : motors->on_s)
       imu.motors_on_gpst.emplace_back(boot_to_gpst(on * 1e3), boot_to_gpst(off * 1e3));
     imu.motors_source = motors->source;
   }
@@ -603,50 +604,15 @@ std::optional<MotorRuns> motor_runs_from_rcou(const DataFlashFile& log,
     notes.push_back("RCOU has fewer than 2 usable records: the motor state is unknown");
     return std::nullopt;
   }
-  // A record whose outputs are not PWM widths (damage: a flipped bit, stray bytes read as a
-  // record) is left out; so is a run shorter than kMotorMinRunS (a single damaged record).
-  std::vector<std::size_t> usable;
+  std::vector<double> t_s;
+  std::vector<std::array<double, kMotorChannels>> outputs;
   for (const std::size_t k : sel.kept) {
-    bool pwm = true;
-    for (int c = 0; c < kMotorChannels; ++c)
-      pwm = pwm && rows[k][c + 1] >= kMotorPwmMinUs && rows[k][c + 1] <= kMotorPwmMaxUs;
-    if (pwm) usable.push_back(k);
+    t_s.push_back(rows[k][0] * 1e-3);
+    std::array<double, kMotorChannels> o;
+    for (int c = 0; c < kMotorChannels; ++c) o[c] = rows[k][c + 1];
+    outputs.push_back(o);
   }
-  if (usable.size() < sel.kept.size())
-    notes.push_back("RCOU: " + std::to_string(sel.kept.size() - usable.size()) +
-                    " records with an output outside " + number_text(kMotorPwmMinUs, 4) + "-" +
-                    number_text(kMotorPwmMaxUs, 4) + " us left out of the motor state");
-  if (usable.size() < 2) {
-    notes.push_back("RCOU has fewer than 2 usable records: the motor state is unknown");
-    return std::nullopt;
-  }
-  std::vector<double> lowest(kMotorChannels, std::numeric_limits<double>::infinity());
-  for (const std::size_t k : usable)
-    for (int c = 0; c < kMotorChannels; ++c) lowest[c] = std::min(lowest[c], rows[k][c + 1]);
-  MotorRuns out;
-  bool running = false;
-  for (const std::size_t k : usable) {
-    const double t_s = rows[k][0] * 1e-3;
-    bool on = false;
-    for (int c = 0; c < kMotorChannels; ++c)
-      on = on || rows[k][c + 1] > lowest[c] + kMotorRunningUs;
-    if (on && !running) {
-      if (!out.on_boot_s.empty() && t_s - out.on_boot_s.back().second < kMotorOffMergeS)
-        out.on_boot_s.back().second = t_s;  // a short dip: the same run goes on
-      else
-        out.on_boot_s.emplace_back(t_s, t_s);
-    }
-    if (on || running) out.on_boot_s.back().second = t_s;  // until the first record off
-    running = on;
-  }
-  std::erase_if(out.on_boot_s, [](const std::pair<double, double>& run) {
-    return run.second - run.first < kMotorMinRunS;
-  });
-  std::string lows;
-  for (int c = 0; c < kMotorChannels; ++c) lows += (c ? "/" : "") + number_text(lowest[c], 6);
-  out.source = "RCOU " + fields[1] + "-" + fields.back() + " more than " +
-               number_text(kMotorRunningUs, 4) + " us above their lowest (" + lows + " us)";
-  return out;
+  return motor_runs(t_s, outputs, "RCOU " + fields[1] + "-" + fields.back(), notes);
 }
 
 }  // namespace insid::importers

@@ -16,6 +16,7 @@
 #include "import/dataflash.h"
 #include "import/flight_phases.h"
 #include "import/gnss_solution.h"
+#include "import/motor_state.h"
 
 namespace insid::importers {
 
@@ -84,25 +85,9 @@ nlohmann::json autopilot_bias_estimates(const DataFlashFile& log, const FlightPh
                                         const ArduPilotImportOptions& options,
                                         std::vector<std::string>& notes);
 
-/// When the motors ran, on the boot clock, from RCOU (the autopilot's servo/motor outputs, PWM
-/// microseconds; ArduCopter drives a quadcopter's four motors on outputs 1-4): a record counts
-/// as running when any of channels 1-4 (fields Ch1..Ch4, or C1..C4) lies more than
-/// kMotorRunningUs above that channel's lowest value in the log (disarmed: 1000 us; the armed idle,
-/// 1049 us on the shared copter log, is below it: the offsets it moves are not seen there).
-/// Runs of running records, separated by less than kMotorOffMergeS, make one interval from its
-/// first running record to the first record after it that is not (or the last record); a run
-/// shorter than kMotorMinRunS is dropped. RCOU stamps are filtered like the IMU's
-/// (select_increasing_stamps), and a record with an output outside kMotorPwmMinUs-kMotorPwmMaxUs
-/// (not a PWM width: damage) is left out. nullopt, with a note, when the log has no usable RCOU.
-struct MotorRuns {
-  std::vector<std::pair<double, double>> on_boot_s;  ///< (on, off), boot seconds
-  std::string source;                                ///< e.g. "RCOU Ch1-Ch4 above 1100 us"
-};
-inline constexpr double kMotorRunningUs = 100.0;
-inline constexpr double kMotorOffMergeS = 1.0;
-inline constexpr double kMotorMinRunS = 0.5;
-inline constexpr double kMotorPwmMinUs = 500.0, kMotorPwmMaxUs = 2500.0;
-inline constexpr int kMotorChannels = 4;
+/// When the motors ran, on the boot clock (s), from RCOU (outputs 1-4: fields Ch1..Ch4, or
+/// C1..C4; TimeMS filtered like the IMU's by select_increasing_stamps), by motor_runs. nullopt,
+/// with a note, when the log has no usable RCOU.
 std::optional<MotorRuns> motor_runs_from_rcou(const DataFlashFile& log,
                                               std::vector<std::string>& notes);
 

@@ -1500,6 +1500,33 @@ TEST(SharedData, Px4EstimatorBiasesAreReadWithTheirAxesUnitsAndVariance) {
           .get<bool>());
 }
 
+// The motor schedule of a PX4 log from actuator_outputs instance 0: outputs 900 us disarmed,
+// 1000-1016 us armed at idle (below the 100 us threshold), 1146-1155 us and more once the motors
+// run (values read from the log). The first running message and the schedule's start agree,
+// and the static window ends there at the latest.
+TEST(SharedData, UlogMotorScheduleFromActuatorOutputs) {
+  const fs::path source = shared_px4_events_log();
+  if (source.empty()) GTEST_SKIP() << kNoSharedUlogs;
+  const UlogFile log = UlogFile::read(source.string());
+  const std::vector<std::vector<double>> rows = log.read(
+      "actuator_outputs", 0, {"timestamp", "output[0]", "output[1]", "output[2]", "output[3]"});
+  double first_running_s = NAN;
+  for (const auto& r : rows)
+    if (std::isnan(first_running_s) && std::max({r[1], r[2], r[3], r[4]}) > 900.0 + kMotorRunningUs)
+      first_running_s = r[0] * 1e-6;
+  ASSERT_FALSE(std::isnan(first_running_s));
+  const UlogSeries series = extract_ulog(log, "events.ulg", UlogImportOptions{});
+  ASSERT_FALSE(series.imu.motors_on_gpst.empty());
+  EXPECT_NEAR(static_cast<double>(series.imu.motors_on_gpst.front().first), first_running_s, 1e-6);
+  AssembleOptions options;
+  options.gnss_quality = {1};
+  const Assembled a = assemble_dataset(series.imu, series.gnss, options);
+  ASSERT_EQ(a.dataset.meta.motors.on_s.size(), 1u);
+  EXPECT_LE(a.dataset.imu.front().t_s + a.dataset.meta.align_s,
+            a.dataset.meta.motors.on_s.front().first);
+  EXPECT_NE(a.dataset.meta.motors_source.find("actuator_outputs instance 0"), std::string::npos);
+}
+
 // One corrupted sensor_combined timestamp (a flipped bit 48, 2^48 us ahead)
 // imported 301 of 5487 IMU rows (1.2 s of 21.9 s), exit 0, no note, and rows_read hid the drop.
 // Now the message is dropped as a timestamp jump, named with its byte offset, and every other row

@@ -483,8 +483,13 @@ void add_motors(const CsvImu& imu, const ImuSpan& span, Assembled& out) {
     spans += (i ? ", " : "") + number_text(m.motors.on_s[i].first, 6) + " - " +
              number_text(m.motors.on_s[i].second, 6) + " s";
   if (m.motors.on_s.size() > 4) spans += ", ... (" + std::to_string(m.motors.on_s.size()) + ")";
-  out.notes.push_back("motors running (" + imu.motors_source +
-                      "): " + (spans.empty() ? std::string("never inside the data") : spans) +
+  if (spans.empty()) {
+    out.notes.push_back("motor outputs (" + imu.motors_source +
+                        "): no run inside the data: the motor state stays unknown (no motor "
+                        "offsets)");
+    return;
+  }
+  out.notes.push_back("motors running (" + imu.motors_source + "): " + spans +
                       " (meta.json motors; the motor offsets of the error model use them)");
 }
 

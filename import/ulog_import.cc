@@ -1,6 +1,7 @@
 #include "import/ulog_import.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
@@ -384,7 +385,42 @@ UlogSeries extract_ulog(const UlogFile& log, const std::string& where,
   else if (options.heading == "mag")
     out.heading = read_mag_heading(log, where, options, out);
   out.autopilot_estimates = px4_bias_estimates(log, topics.imu, options.imu_instance, out.notes);
+  if (const std::optional<MotorRuns> motors = motor_runs_from_actuator_outputs(log, out.notes)) {
+    for (const auto& [on, off] : motors->on_s)
+      out.imu.motors_on_gpst.emplace_back(static_cast<GpstTime>(on), static_cast<GpstTime>(off));
+    out.imu.motors_source = motors->source;
+    out.provenance["motors_read"] = motors->source;
+  }
   return out;
+}
+
+std::optional<MotorRuns> motor_runs_from_actuator_outputs(const UlogFile& log,
+                                                          std::vector<std::string>& notes) {
+  const std::string kTopic = "actuator_outputs";
+  std::vector<std::string> fields = {"timestamp"};
+  for (int c = 0; c < kMotorChannels; ++c) fields.push_back("output[" + std::to_string(c) + "]");
+  std::vector<std::string> why_not;
+  for (const auto& [instance, count] : log.instances(kTopic)) {
+    if (count < 2) continue;
+    const std::vector<std::vector<double>> rows = log.read(kTopic, instance, fields);
+    nlohmann::json prov;
+    const TimestampSelection sel =
+        select_topic_stamps(log, kTopic, instance, "timestamp", rows, prov, notes);
+    std::vector<double> t_s;
+    std::vector<std::array<double, kMotorChannels>> outputs;
+    for (const std::size_t k : sel.kept) {
+      t_s.push_back(rows[k][0] * 1e-6);
+      std::array<double, kMotorChannels> o;
+      for (int c = 0; c < kMotorChannels; ++c) o[c] = rows[k][c + 1];
+      outputs.push_back(o);
+    }
+    std::optional<MotorRuns> runs = motor_runs(
+        t_s, outputs, kTopic + " instance " + std::to_string(instance) + " output[0-3]", why_not);
+    if (runs) return runs;
+  }
+  if (why_not.empty()) why_not.push_back("no " + kTopic + ": the motor state is unknown");
+  notes.insert(notes.end(), why_not.begin(), why_not.end());
+  return std::nullopt;
 }
 
 nlohmann::json px4_bias_estimates(const UlogFile& log, const std::string& imu_topic,

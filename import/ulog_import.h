@@ -12,6 +12,7 @@
 
 #include "import/csv_imu.h"
 #include "import/gnss_solution.h"
+#include "import/motor_state.h"
 #include "import/timestamps.h"
 #include "import/ulog.h"
 
@@ -56,6 +57,13 @@ struct UlogSeries {
 nlohmann::json px4_bias_estimates(const UlogFile& log, const std::string& imu_topic,
                                   int imu_instance, std::vector<std::string>& notes);
 
+/// When the motors ran, on the log's clock (s), from actuator_outputs output[0..3] (a
+/// quadcopter's motors on PX4's main outputs), by motor_runs: the first instance whose outputs
+/// are PWM widths (an instance of zeros, e.g. one driving ESCs over a bus, is passed over).
+/// nullopt, with notes, when none is.
+std::optional<MotorRuns> motor_runs_from_actuator_outputs(const UlogFile& log,
+                                                          std::vector<std::string>& notes);
+
 /// Reads the IMU and GNSS topics. vehicle_imu gives delta_angle/delta_velocity increments (kept
 /// as they are, at timestamp_sample when logged); sensor_combined gives gyro_rad and
 /// accelerometer_m_s2, PX4's means over each sample's integration interval, turned into increments
@@ -65,7 +73,8 @@ nlohmann::json px4_bias_estimates(const UlogFile& log, const std::string& imu_to
 /// a note), NED velocity; epochs below min_fix_type or with vel_ned_valid false are dropped.
 /// Every topic's stamps go through select_increasing_stamps: what it drops is counted in the
 /// provenance ("timestamps" of imu, gnss, heading_read; imu.rows_dropped for the assembly) and
-/// each jump is a note naming the message and the byte offset of its stamp.
+/// each jump is a note naming the message and the byte offset of its stamp. The motor schedule
+/// (motor_runs_from_actuator_outputs) goes to imu.motors_on_gpst.
 /// Throws std::runtime_error naming the file and what is missing: a log without a GNSS topic is
 /// refused ("identification needs GNSS velocity") and the message lists the IMU topics it has.
 UlogSeries extract_ulog(const UlogFile& log, const std::string& where,
