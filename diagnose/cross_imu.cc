@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 #include <utility>
@@ -23,8 +24,8 @@ namespace {
 constexpr const char* kAxis[3] = {"x", "y", "z"};
 
 // The catalogue name of the gyro bias on body axis i (0, 1, 2: x, y, z).
-std::string gyro_bias_name(int axis) {
-  return std::string(effect_info(EffectSensor::kGyro, EffectKind::kBias, axis).name);
+std::string gyro_bias_name(int axis, EffectKind kind = EffectKind::kBias) {
+  return std::string(effect_info(EffectSensor::kGyro, kind, axis).name);
 }
 
 /// Fewest blocks a segment's SE is computed from.
@@ -154,6 +155,9 @@ RateSeries rates_from_dataset(const Dataset& dataset, std::string name, double t
     s.t_s.push_back((dataset.imu[k].t_s + t_offset_s) * t_scale);
     s.dt_s.push_back(dt * t_scale);
     s.omega_ib_b_rad_s.push_back(dataset.imu[k].dtheta_b_rad / dt);
+    if (!dataset.meta.motors.empty())
+      s.motor_on.push_back(
+          dataset.meta.motors.fraction(dataset.imu[k - 1].t_s, dataset.imu[k].t_s));
   }
   return s;
 }
@@ -304,6 +308,39 @@ CrossImuReport direct_differences(const std::vector<RateSeries>& series,
               length, Vl ? std::optional<double>(std::sqrt((*Vl)(0, 0))) : std::nullopt);
         }
       }
+      // The step at motor start: the same regression with the motor state as a column.
+      if (!a.motor_on.empty() && !b.motor_on.empty()) {
+        Eigen::VectorXd u(static_cast<Eigen::Index>(n));
+        std::set<long> off_blocks, on_blocks;
+        for (std::size_t q = 0; q < n; ++q) {
+          u(static_cast<Eigen::Index>(q)) = b.motor_on[m.ib[q]];
+          const bool on = b.motor_on[m.ib[q]] >= 0.5;
+          (on ? pair.motor_on_samples : pair.motor_off_samples)++;
+          (on ? on_blocks : off_blocks).insert(ids[q]);
+        }
+        // Each side as a segment's SE needs it; the SE itself, from every block of the window,
+        // needs min_blocks of them.
+        const auto min_side = static_cast<std::size_t>(kMinSegmentBlocks);
+        if (off_blocks.size() >= min_side && on_blocks.size() >= min_side) {
+          Eigen::MatrixXd Xm(static_cast<Eigen::Index>(n), p + 1);
+          Xm.col(0) = X.col(0);
+          Xm.col(1) = u;
+          Xm.rightCols(p - 1) = X.rightCols(p - 1);
+          const Eigen::LDLT<Eigen::MatrixXd> ldlt_m(Xm.transpose() * Xm);
+          const Eigen::MatrixXd XtX_inv_m = ldlt_m.solve(Eigen::MatrixXd::Identity(p + 1, p + 1));
+          if (ldlt_m.info() == Eigen::Success && XtX_inv_m.allFinite())
+            for (int i = 0; i < 3; ++i) {
+              const Eigen::VectorXd y = Y.col(i);
+              const Eigen::VectorXd beta = XtX_inv_m * (Xm.transpose() * y);
+              const Eigen::VectorXd e = y - Xm * beta;
+              AxisDifference& ax = pair.axes[static_cast<std::size_t>(i)];
+              ax.motor_jump_rad_s = beta(1);
+              if (const std::optional<Eigen::MatrixXd> V =
+                      block_covariance(Xm, e, XtX_inv_m, ids, options.min_blocks))
+                ax.motor_jump_se_rad_s = std::sqrt((*V)(1, 1));
+            }
+        }
+      }
       // Per segment: the mean of y - K wbar, its SE from the blocks inside the segment.
       std::size_t k = 0;
       for (long segment = 0; t0 + static_cast<double>(segment) * options.segment_s < t1 && k < n;
@@ -385,7 +422,7 @@ ResultEstimates read_identify_result(const std::filesystem::path& path) {
       const std::string name = o.string("name");
       const EffectInfo* effect = find_effect_info(name);
       if (effect == nullptr || effect->sensor != EffectSensor::kGyro ||
-          effect->kind != EffectKind::kBias)
+          (effect->kind != EffectKind::kBias && effect->kind != EffectKind::kMotorOffset))
         continue;
       const int axis = effect->axis;
       EstimatedBias e;
@@ -399,7 +436,8 @@ ResultEstimates read_identify_result(const std::filesystem::path& path) {
         e.sd_rad_s = v;
       }
       if (const auto flags = o.optional_given("flags")) e.flags = flags->array().strings();
-      r.gyro_bias[static_cast<std::size_t>(axis)] = e;
+      (effect->kind == EffectKind::kBias ? r.gyro_bias
+                                         : r.gyro_motor_offset)[static_cast<std::size_t>(axis)] = e;
     }
     return r;
   } catch (const JsonFieldError& e) {
@@ -436,48 +474,61 @@ std::vector<ComparisonRow> compare_with_results(const CrossImuReport& report,
                                 std::to_string(report.names.size()) +
                                 " --data directories: give one result per dataset, same order");
   std::vector<ComparisonRow> rows;
-  for (std::size_t pi = 0; pi < report.pairs.size(); ++pi) {
+  const auto compare = [&](std::size_t pi, int i, EffectKind kind) {
     const PairDifference& p = report.pairs[pi];
-    for (int i = 0; i < 3; ++i) {
-      ComparisonRow row;
-      row.pair = pi;
-      row.axis = i;
-      const AxisDifference& ax = p.axes[static_cast<std::size_t>(i)];
-      row.direct_rad_s = ax.bias_diff_rad_s;
-      row.direct_se_rad_s = ax.se_rad_s;
-      const std::string param = gyro_bias_name(i);
-      const auto& ea = results[p.a].gyro_bias[static_cast<std::size_t>(i)];
-      const auto& eb = results[p.b].gyro_bias[static_cast<std::size_t>(i)];
-      for (const auto& [who, e] : {std::pair{&p.name_a, &ea}, std::pair{&p.name_b, &eb}})
-        if (*e)
-          for (const std::string& flag : (*e)->flags)
-            if (flag == "at_box_edge" || flag == "not_converged")
-              row.flags.push_back(*who + " " + flag);
-      if (!ea || !eb) {
-        row.reason = param + " not estimated in the result of " + (!ea ? p.name_a : p.name_b);
+    const bool motor = kind == EffectKind::kMotorOffset;
+    ComparisonRow row;
+    row.pair = pi;
+    row.axis = i;
+    row.kind = kind;
+    const AxisDifference& ax = p.axes[static_cast<std::size_t>(i)];
+    row.direct_rad_s = motor ? *ax.motor_jump_rad_s : ax.bias_diff_rad_s;
+    row.direct_se_rad_s = motor ? ax.motor_jump_se_rad_s : ax.se_rad_s;
+    const std::string param = gyro_bias_name(i, kind);
+    const auto& ea = (motor ? results[p.a].gyro_motor_offset
+                            : results[p.a].gyro_bias)[static_cast<std::size_t>(i)];
+    const auto& eb = (motor ? results[p.b].gyro_motor_offset
+                            : results[p.b].gyro_bias)[static_cast<std::size_t>(i)];
+    for (const auto& [who, e] : {std::pair{&p.name_a, &ea}, std::pair{&p.name_b, &eb}})
+      if (*e)
+        for (const std::string& flag : (*e)->flags)
+          if (flag == "at_box_edge" || flag == "not_converged")
+            row.flags.push_back(*who + " " + flag);
+    if (!ea || !eb) {
+      row.reason = param + " not estimated in the result of " + (!ea ? p.name_a : p.name_b);
+    } else {
+      row.insid_diff_rad_s = ea->estimate_rad_s - eb->estimate_rad_s;
+      if (!ea->sd_rad_s || !eb->sd_rad_s) {
+        row.reason =
+            "the result of " + (!ea->sd_rad_s ? p.name_a : p.name_b) + " gives no sd for " + param;
       } else {
-        row.insid_diff_rad_s = ea->estimate_rad_s - eb->estimate_rad_s;
-        if (!ea->sd_rad_s || !eb->sd_rad_s) {
-          row.reason = "the result of " + (!ea->sd_rad_s ? p.name_a : p.name_b) +
-                       " gives no sd for " + param;
+        row.insid_sd_rad_s = std::hypot(*ea->sd_rad_s, *eb->sd_rad_s);
+        if (!row.direct_se_rad_s) {
+          row.reason = "the direct difference has no SE (fewer than " +
+                       std::to_string(report.options.min_blocks) + " blocks)";
         } else {
-          row.insid_sd_rad_s = std::hypot(*ea->sd_rad_s, *eb->sd_rad_s);
-          if (!ax.se_rad_s) {
-            row.reason = "the direct difference has no SE (fewer than " +
-                         std::to_string(report.options.min_blocks) + " blocks)";
+          const double denom = std::hypot(*row.insid_sd_rad_s, *row.direct_se_rad_s);
+          if (denom > 0.0) {
+            row.z = (*row.insid_diff_rad_s - row.direct_rad_s) / denom;
+            row.verdict = verdict_from_z(*row.z);
           } else {
-            const double denom = std::hypot(*row.insid_sd_rad_s, *ax.se_rad_s);
-            if (denom > 0.0) {
-              row.z = (*row.insid_diff_rad_s - row.direct_rad_s) / denom;
-              row.verdict = verdict_from_z(*row.z);
-            } else {
-              row.reason = "every sd is zero";
-            }
+            row.reason = "every sd is zero";
           }
         }
       }
-      rows.push_back(std::move(row));
     }
+    rows.push_back(std::move(row));
+  };
+  for (std::size_t pi = 0; pi < report.pairs.size(); ++pi)
+    for (int i = 0; i < 3; ++i) compare(pi, i, EffectKind::kBias);
+  // The motor offsets against the jumps at motor start, where both are there to compare.
+  for (std::size_t pi = 0; pi < report.pairs.size(); ++pi) {
+    const PairDifference& p = report.pairs[pi];
+    for (int i = 0; i < 3; ++i)
+      if (p.axes[static_cast<std::size_t>(i)].motor_jump_rad_s &&
+          (results[p.a].gyro_motor_offset[static_cast<std::size_t>(i)] ||
+           results[p.b].gyro_motor_offset[static_cast<std::size_t>(i)]))
+        compare(pi, i, EffectKind::kMotorOffset);
   }
   return rows;
 }
@@ -488,7 +539,7 @@ std::vector<std::string> comparison_warnings(const CrossImuReport& report,
   std::map<std::string, std::string> edges;  // "gyro_bias_x of IMU2" -> the pairs it enters
   for (const ComparisonRow& r : rows) {
     const PairDifference& p = report.pairs[r.pair];
-    const std::string param = gyro_bias_name(r.axis);
+    const std::string param = gyro_bias_name(r.axis, r.kind);
     if (r.verdict == Verdict::kDisagree) {
       char z[32];
       std::snprintf(z, sizeof z, "%.1f", *r.z);
@@ -541,6 +592,8 @@ nlohmann::json report_json(const CrossImuReport& report, const std::vector<Compa
     pj["wbar_sd_deg_s"] = {p.wbar_sd_rad_s.x() * kRadToDeg, p.wbar_sd_rad_s.y() * kRadToDeg,
                            p.wbar_sd_rad_s.z() * kRadToDeg};
     pj["rate_columns_used"] = {p.rate_column_used[0], p.rate_column_used[1], p.rate_column_used[2]};
+    if (p.motor_off_samples + p.motor_on_samples > 0)
+      pj["motor_samples"] = {{"off", p.motor_off_samples}, {"on", p.motor_on_samples}};
     nlohmann::json axes = nlohmann::json::object();
     for (int i = 0; i < 3; ++i) {
       const AxisDifference& ax = p.axes[static_cast<std::size_t>(i)];
@@ -562,6 +615,10 @@ nlohmann::json report_json(const CrossImuReport& report, const std::vector<Compa
       for (const auto& [len, se] : ax.se_by_block)
         ladder.push_back({{"block_s", len}, {"se_deg_s", opt_json(se, kRadToDeg)}});
       a["se_by_block"] = ladder;
+      if (ax.motor_jump_rad_s) {
+        a["motor_jump_deg_s"] = *ax.motor_jump_rad_s * kRadToDeg;
+        a["motor_jump_se_deg_s"] = opt_json(ax.motor_jump_se_rad_s, kRadToDeg);
+      }
       axes[kAxis[i]] = a;
     }
     pj["gyro"] = axes;
@@ -583,13 +640,13 @@ nlohmann::json report_json(const CrossImuReport& report, const std::vector<Compa
   j["pairs"] = pairs;
   if (rows) {
     nlohmann::json cmp = nlohmann::json::array();
-    std::map<std::string, int> counts;
+    std::map<std::string, int> counts, motor_counts;
     for (const ComparisonRow& r : *rows) {
       const PairDifference& p = report.pairs[r.pair];
       nlohmann::json c;
       c["difference"] = p.name_a + " - " + p.name_b;
       c["against_first"] = p.against_first;
-      c["parameter"] = gyro_bias_name(r.axis);
+      c["parameter"] = gyro_bias_name(r.axis, r.kind);
       c["insid_diff_deg_s"] = opt_json(r.insid_diff_rad_s, kRadToDeg);
       c["insid_sd_deg_s"] = opt_json(r.insid_sd_rad_s, kRadToDeg);
       c["direct_deg_s"] = r.direct_rad_s * kRadToDeg;
@@ -599,16 +656,43 @@ nlohmann::json report_json(const CrossImuReport& report, const std::vector<Compa
       if (!r.reason.empty()) c["reason"] = r.reason;
       c["flags"] = r.flags;
       cmp.push_back(c);
-      if (p.against_first) ++counts[to_string(r.verdict)];
+      if (p.against_first && r.kind == EffectKind::kBias) ++counts[to_string(r.verdict)];
+      if (p.against_first && r.kind == EffectKind::kMotorOffset)
+        ++motor_counts[to_string(r.verdict)];
     }
     j["comparison"] = cmp;
     j["comparison_independent_counts"] = counts;
+    if (!motor_counts.empty()) j["comparison_motor_offset_independent_counts"] = motor_counts;
     j["comparison_rule"] =
         "z = (insid difference - direct) / sqrt(sd_a^2 + sd_b^2 + se_direct^2); agree |z| <= 2, "
         "check 2-3, disagree > 3; counts over the pairs against the first IMU (independent)";
   }
   return j;
 }
+
+namespace {
+
+// The jumps at motor start, one line per pair ("" when no pair has one).
+std::string motor_jump_text(const CrossImuReport& report, const std::string& indent) {
+  std::ostringstream s;
+  for (const PairDifference& p : report.pairs) {
+    if (!p.axes[0].motor_jump_rad_s) continue;
+    if (s.tellp() == 0)
+      s << indent.substr(2) << "jump of the difference at motor start (deg/s, +- SE; "
+        << "the pair's motor offset difference):\n";
+    s << indent << pair_name(p) << " (" << p.motor_off_samples << " samples motors off, "
+      << p.motor_on_samples << " on):";
+    for (int i = 0; i < 3; ++i) {
+      const AxisDifference& ax = p.axes[static_cast<std::size_t>(i)];
+      s << "  " << kAxis[i] << " " << deg(*ax.motor_jump_rad_s) << " +- "
+        << deg_opt(ax.motor_jump_se_rad_s);
+    }
+    s << "\n";
+  }
+  return s.str();
+}
+
+}  // namespace
 
 std::string report_text(const CrossImuReport& report, const std::vector<ComparisonRow>* rows) {
   std::ostringstream s;
@@ -657,6 +741,7 @@ std::string report_text(const CrossImuReport& report, const std::vector<Comparis
       s << line;
     }
   }
+  s << motor_jump_text(report, "  ");
   if (rows) {
     s << "insid's estimated differences against the direct ones (deg/s):\n";
     std::snprintf(line, sizeof line, "  %-16s %-12s %10s %8s %10s %8s %7s  %-12s %s\n",
@@ -671,7 +756,7 @@ std::string report_text(const CrossImuReport& report, const std::vector<Comparis
       char z[32] = "n/a";
       if (r.z) std::snprintf(z, sizeof z, "%+.2f", *r.z);
       std::snprintf(line, sizeof line, "  %-16s %-12s %10s %8s %10s %8s %7s  %-12s %s\n",
-                    pair_name(p).c_str(), gyro_bias_name(r.axis).c_str(),
+                    pair_name(p).c_str(), gyro_bias_name(r.axis, r.kind).c_str(),
                     r.insid_diff_rad_s ? deg(*r.insid_diff_rad_s).c_str() : "n/a",
                     deg_opt(r.insid_sd_rad_s).c_str(), deg(r.direct_rad_s).c_str(),
                     deg_opt(r.direct_se_rad_s).c_str(), z, to_string(r.verdict), flags.c_str());
@@ -704,6 +789,7 @@ std::string report_markdown(const CrossImuReport& report, const std::vector<Comp
                     deg_opt(ax.se_iid_rad_s).c_str(), K.c_str());
       s << line;
     }
+  if (const std::string jumps = motor_jump_text(report, "    "); !jumps.empty()) s << "\n" << jumps;
   if (rows) {
     s << "\ninsid's estimated differences against the direct ones (deg/s):\n\n"
          "| difference | parameter | insid | sd | direct | SE | z | verdict | flags |\n"
@@ -714,8 +800,8 @@ std::string report_markdown(const CrossImuReport& report, const std::vector<Comp
       for (const std::string& f : r.flags) flags.append(flags.empty() ? "" : ", ").append(f);
       char z[32] = "n/a";
       if (r.z) std::snprintf(z, sizeof z, "%+.2f", *r.z);
-      std::snprintf(line, sizeof line, "| %s | gyro_bias_%s | %s | %s | %s | %s | %s | %s | %s |\n",
-                    pair_name(p).c_str(), kAxis[r.axis],
+      std::snprintf(line, sizeof line, "| %s | %s | %s | %s | %s | %s | %s | %s | %s |\n",
+                    pair_name(p).c_str(), gyro_bias_name(r.axis, r.kind).c_str(),
                     r.insid_diff_rad_s ? deg(*r.insid_diff_rad_s).c_str() : "n/a",
                     deg_opt(r.insid_sd_rad_s).c_str(), deg(r.direct_rad_s).c_str(),
                     deg_opt(r.direct_se_rad_s).c_str(), z, to_string(r.verdict), flags.c_str());

@@ -46,6 +46,8 @@ struct RateSeries {
   std::vector<double> t_s;                        ///< end of each step (the shared clock)
   std::vector<double> dt_s;                       ///< length of each step
   std::vector<Eigen::Vector3d> omega_ib_b_rad_s;  ///< dtheta / dt over the step, body FRD
+  /// The part of each step the motors ran (the dataset's motor schedule); empty when unknown.
+  std::vector<double> motor_on;
 };
 
 /// Rates from a dataset's increments, omega = dtheta / dt over each step (rows 1..n-1: the first
@@ -89,6 +91,11 @@ struct AxisDifference {
   double residual_sd_rad_s = 0.0;
   /// (block length s, SE rad/s) over the ladder; SE nullopt where fewer than min_blocks blocks.
   std::vector<std::pair<double, std::optional<double>>> se_by_block;
+  /// The step of the difference at motor start, when the window holds 5 blocks (as a segment's
+  /// SE needs) with the motors off and as many with them on: y = db_off + jump u + K wbar + e, u
+  /// the motor state (the pair's motor offset difference, gyro_motor_offset_a -
+  /// gyro_motor_offset_b), block SE.
+  std::optional<double> motor_jump_rad_s, motor_jump_se_rad_s;
 };
 
 /// The bias difference over one segment of the window: mean of y - K wbar (K from the whole
@@ -108,6 +115,7 @@ struct PairDifference {
   std::size_t unmatched = 0;   ///< samples of a or b in the window without a partner
   Eigen::Vector3d wbar_sd_rad_s = Eigen::Vector3d::Zero();  ///< sd of the regressors
   std::array<bool, 3> rate_column_used{};
+  std::size_t motor_off_samples = 0, motor_on_samples = 0;  ///< u < 0.5, u >= 0.5 (both known)
   std::array<AxisDifference, 3> axes;
   std::vector<Segment> segments;
 };
@@ -139,6 +147,7 @@ struct ResultEstimates {
   std::string source;  ///< the file
   std::string algorithm;
   std::array<std::optional<EstimatedBias>, 3> gyro_bias;
+  std::array<std::optional<EstimatedBias>, 3> gyro_motor_offset;
 };
 
 /// Reads `path` (an insid-identify/2 result). Throws std::runtime_error naming the file and the
@@ -155,6 +164,10 @@ Verdict verdict_from_z(double z);
 struct ComparisonRow {
   std::size_t pair = 0;  ///< index into CrossImuReport::pairs
   int axis = 0;          ///< 0 x, 1 y, 2 z
+  /// The quantity compared: the bias difference (gyro_bias), or the motor offset difference
+  /// against the direct jump at motor start (gyro_motor_offset; rows only where the window has a
+  /// jump and a result estimates the offset).
+  EffectKind kind = EffectKind::kBias;
   std::optional<double> insid_diff_rad_s, insid_sd_rad_s;
   double direct_rad_s = 0.0;
   std::optional<double> direct_se_rad_s;

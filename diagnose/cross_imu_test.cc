@@ -202,6 +202,59 @@ TEST(CrossImu, SegmentsShowABiasStep) {
   EXPECT_GE(checked, 12);
 }
 
+// GIVEN three IMUs of one airframe whose gyro offsets step by known, different amounts when the
+// motors start (a motor schedule from 17 s: 12 s of ground with the motors off after the 5 s
+// static window, then the preset's flight) WHEN the direct differences are measured over
+// 2-174 s with 1 s blocks THEN every pair-axis's jump at motor start equals the difference of the
+// two motor offsets within 3.5 SE, and the pair's motors-off and -on samples are counted.
+TEST(CrossImu, MotorJumpRecoversTheMotorOffsetDifference) {
+  const Eigen::Vector3d offsets[3] = {Eigen::Vector3d(0.30, -0.10, 0.05) * kDeg,
+                                      Eigen::Vector3d(-0.25, 0.20, 0.40) * kDeg,
+                                      Eigen::Vector3d(0.05, 0.35, -0.20) * kDeg};
+  std::vector<RateSeries> series;
+  const char* names[3] = {"A", "B", "C"};
+  for (int k = 0; k < 3; ++k) {
+    scenarios::ScenarioConfig cfg = scenarios::preset_scenario("multicopter");
+    cfg.align_s = 5.0;
+    scenarios::ScenarioOverrides o;
+    o.clean = true;
+    o.seed = 40 + static_cast<std::uint64_t>(k);
+    o.flight_s = 170.0;
+    const char* axis[3] = {"x", "y", "z"};
+    for (int i = 0; i < 3; ++i) {
+      o.set[std::string("gyro_bias_") + axis[i]] = three_imus()[k].gyro_bias_rad_s(i);
+      o.set[std::string("gyro_motor_offset_") + axis[i]] = offsets[k](i);
+    }
+    cfg = scenarios::with_overrides(cfg, o);
+    cfg.segments.insert(cfg.segments.begin(),
+                        nlohmann::json{{"type", "static"}, {"duration_s", 12.0}});
+    cfg.motors.on_s = {{17.0, 175.0}};
+    cfg.noise.gm_gyro_sigma_deg_h = 0.05 * 3600.0;
+    cfg.noise.gm_tau_s = 0.3;
+    series.push_back(rates_from_dataset(scenarios::simulate(cfg), names[k]));
+    ASSERT_FALSE(series.back().motor_on.empty());
+  }
+  CrossImuOptions o;
+  o.t_start_s = 2.0;
+  o.t_end_s = 174.0;
+  o.block_s = 1.0;
+  const CrossImuReport r = direct_differences(series, o);
+  ASSERT_EQ(r.pairs.size(), 3u);
+  for (const PairDifference& p : r.pairs) {
+    EXPECT_NEAR(static_cast<double>(p.motor_off_samples), 15.0 * 100.0, 1.0) << p.name_a;
+    for (int i = 0; i < 3; ++i) {
+      const AxisDifference& ax = p.axes[static_cast<std::size_t>(i)];
+      ASSERT_TRUE(ax.motor_jump_rad_s && ax.motor_jump_se_rad_s) << p.name_a << " - " << p.name_b;
+      const double truth = offsets[p.a](i) - offsets[p.b](i);
+      std::cout << p.name_a << " - " << p.name_b << " axis " << i << ": jump "
+                << *ax.motor_jump_rad_s / kDeg << " +- " << *ax.motor_jump_se_rad_s / kDeg
+                << " deg/s, truth " << truth / kDeg << "\n";
+      EXPECT_NEAR(*ax.motor_jump_rad_s, truth, 3.5 * *ax.motor_jump_se_rad_s)
+          << p.name_a << " - " << p.name_b << " axis " << i;
+    }
+  }
+}
+
 TEST(CrossImu, OptionsAndInputsRefusedWithReasons) {
   CrossImuOptions o;
   o.block_s = 0.0;
