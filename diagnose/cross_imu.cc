@@ -530,6 +530,24 @@ std::vector<ComparisonRow> compare_with_results(const CrossImuReport& report,
            results[p.b].gyro_motor_offset[static_cast<std::size_t>(i)]))
         compare(pi, i, EffectKind::kMotorOffset);
   }
+  // An estimated difference whose sd exceeds the largest difference the airframe shows (of the
+  // same quantity) cannot tell these IMUs apart: its |z| would be small whatever it says.
+  for (const EffectKind kind : {EffectKind::kBias, EffectKind::kMotorOffset}) {
+    double largest = 0.0;
+    for (const ComparisonRow& r : rows)
+      if (r.kind == kind) largest = std::max(largest, std::abs(r.direct_rad_s));
+    for (ComparisonRow& r : rows)
+      if (r.kind == kind && r.z && r.insid_sd_rad_s && *r.insid_sd_rad_s > largest) {
+        char text[160];
+        std::snprintf(text, sizeof text,
+                      "insid's sd, %.3f deg/s, exceeds the largest difference the airframe shows "
+                      "(%.3f deg/s): the estimate cannot tell these IMUs apart",
+                      *r.insid_sd_rad_s * kRadToDeg, largest * kRadToDeg);
+        r.reason = text;
+        r.z.reset();
+        r.verdict = Verdict::kNotCompared;
+      }
+  }
   return rows;
 }
 

@@ -351,6 +351,35 @@ TEST(CrossImu, ComparisonVerdicts) {
   const nlohmann::json j = report_json(report, &rows);
   EXPECT_EQ(j.at("comparison").at(2).at("verdict"), "disagree");
   EXPECT_EQ(j.at("comparison_independent_counts").at("agree"), 1);
+  // An sd larger than any difference the airframe shows (0.2 deg/s here) tells nothing: not
+  // compared, whatever its z would be (0.84 +- 0.3: z 2.1), and said why.
+  ResultEstimates wide = r2;
+  wide.gyro_bias[2]->sd_rad_s = 0.3 * kDeg;
+  const std::vector<ComparisonRow> rows3 = compare_with_results(report, {base, wide});
+  EXPECT_EQ(rows3[0].verdict, Verdict::kAgree);
+  EXPECT_EQ(rows3[2].verdict, Verdict::kNotCompared);
+  EXPECT_NE(rows3[2].reason.find("cannot tell these IMUs apart"), std::string::npos)
+      << rows3[2].reason;
+  // Motor offsets are compared with the jump at motor start where the pair has one.
+  report.pairs[0].axes[0].motor_jump_rad_s = 0.5 * kDeg;
+  report.pairs[0].axes[0].motor_jump_se_rad_s = 0.04 * kDeg;
+  ResultEstimates motor = r2;
+  EstimatedBias offset;
+  offset.estimate_rad_s = 0.45 * kDeg;
+  offset.sd_rad_s = 0.03 * kDeg;
+  motor.gyro_motor_offset[0] = offset;
+  const std::vector<ComparisonRow> rows4 = compare_with_results(report, {base, motor});
+  ASSERT_EQ(rows4.size(), 4u);
+  EXPECT_EQ(rows4[3].kind, EffectKind::kMotorOffset);
+  EXPECT_EQ(rows4[3].reason, "gyro_motor_offset_x not estimated in the result of IMU");
+  ResultEstimates base_motor = base;
+  offset.estimate_rad_s = 0.0;
+  base_motor.gyro_motor_offset[0] = offset;
+  const std::vector<ComparisonRow> rows5 = compare_with_results(report, {base_motor, motor});
+  ASSERT_EQ(rows5.size(), 4u);
+  EXPECT_NEAR(*rows5[3].z, (0.45 - 0.5) / std::sqrt(0.03 * 0.03 * 2 + 0.04 * 0.04), 1e-9);
+  EXPECT_EQ(report_json(report, &rows5).at("comparison").at(3).at("parameter"),
+            "gyro_motor_offset_x");
 }
 
 // An insid-identify/2 file is read by name; another format is refused naming the field.
