@@ -335,9 +335,12 @@ CrossImuReport direct_differences(const std::vector<RateSeries>& series,
               const Eigen::VectorXd e = y - Xm * beta;
               AxisDifference& ax = pair.axes[static_cast<std::size_t>(i)];
               ax.motor_jump_rad_s = beta(1);
+              ax.motors_off_bias_diff_rad_s = beta(0);
               if (const std::optional<Eigen::MatrixXd> V =
-                      block_covariance(Xm, e, XtX_inv_m, ids, options.min_blocks))
+                      block_covariance(Xm, e, XtX_inv_m, ids, options.min_blocks)) {
                 ax.motor_jump_se_rad_s = std::sqrt((*V)(1, 1));
+                ax.motors_off_se_rad_s = std::sqrt((*V)(0, 0));
+              }
             }
         }
       }
@@ -484,6 +487,14 @@ std::vector<ComparisonRow> compare_with_results(const CrossImuReport& report,
     const AxisDifference& ax = p.axes[static_cast<std::size_t>(i)];
     row.direct_rad_s = motor ? *ax.motor_jump_rad_s : ax.bias_diff_rad_s;
     row.direct_se_rad_s = motor ? ax.motor_jump_se_rad_s : ax.se_rad_s;
+    // Results that estimate this axis's motor offsets call the motors-off bias their bias.
+    if (!motor && ax.motors_off_bias_diff_rad_s &&
+        results[p.a].gyro_motor_offset[static_cast<std::size_t>(i)] &&
+        results[p.b].gyro_motor_offset[static_cast<std::size_t>(i)]) {
+      row.direct_rad_s = *ax.motors_off_bias_diff_rad_s;
+      row.direct_se_rad_s = ax.motors_off_se_rad_s;
+      row.flags.push_back("direct: motors off");
+    }
     const std::string param = gyro_bias_name(i, kind);
     const auto& ea = (motor ? results[p.a].gyro_motor_offset
                             : results[p.a].gyro_bias)[static_cast<std::size_t>(i)];
@@ -816,6 +827,7 @@ std::string report_markdown(const CrossImuReport& report, const std::vector<Comp
       const PairDifference& p = report.pairs[r.pair];
       std::string flags;
       for (const std::string& f : r.flags) flags.append(flags.empty() ? "" : ", ").append(f);
+      if (!r.reason.empty()) flags.append(flags.empty() ? "" : "; ").append(r.reason);
       char z[32] = "n/a";
       if (r.z) std::snprintf(z, sizeof z, "%+.2f", *r.z);
       std::snprintf(line, sizeof line, "| %s | %s | %s | %s | %s | %s | %s | %s | %s |\n",

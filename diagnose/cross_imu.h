@@ -96,6 +96,9 @@ struct AxisDifference {
   /// the motor state (the pair's motor offset difference, gyro_motor_offset_a -
   /// gyro_motor_offset_b), block SE.
   std::optional<double> motor_jump_rad_s, motor_jump_se_rad_s;
+  /// db_off of that regression: the bias difference with the motors off (what a result that
+  /// estimates motor offsets calls the bias difference), with its block SE.
+  std::optional<double> motors_off_bias_diff_rad_s, motors_off_se_rad_s;
 };
 
 /// The bias difference over one segment of the window: mean of y - K wbar (K from the whole

@@ -8,6 +8,10 @@
 #   ground before the motors (75-82.5 s)
 #   -> results/real/ardupilot/cross_imu.json (EKF-RTS), cross_imu_dvpio.json,
 #      cross_imu_ground.json, cross_imu.md
+#   and the motor offsets: import with --align-s 3 (5.2 s of motors-off navigation before the
+#   motors start at 82.86 s), identify each IMU by LM with gyro_motor_offset_x|y|z beside the
+#   biases, cross-imu over 75-215 s with 1 s blocks (the jump at motor start per pair)
+#   -> cross_imu_motor.json
 #   scripts/cross_imu_report.sh     # from the repository root, after a build (about 35 s)
 # Without the shared log it says so and exits 0 ("skipped"). Intermediate files go to
 # build/real-cross-imu/ (not committed).
@@ -54,6 +58,22 @@ data=(--data "$work/copter/IMU" --data "$work/copter/IMU2" --data "$work/copter/
   tee "$work/flight_dvpio.txt" >&2
 "$insid" cross-imu "${data[@]}" --t-start 75 --t-end 82.5 --force \
   --out "$out/cross_imu_ground.json" --markdown "$work/ground.md" 2>&1 | tee "$work/ground.txt" >&2
+# The motor offsets against the jump of each pair's difference at motor start.
+"$insid" import ardupilot "$log" --imu all --t-start 74.7 --t-end 215 --align-s 3 \
+  --out "$work/motors" 2>"$work/import_motors.txt"
+motor=()
+for imu in IMU IMU2 IMU3; do
+  "$insid" identify --data "$work/motors/$imu" --grade mems --initial-attitude level+heading \
+    --window-s 10 --estimate gyro_bias_x gyro_bias_y gyro_bias_z accel_bias_z \
+    gyro_motor_offset_x gyro_motor_offset_y gyro_motor_offset_z --algo lm \
+    --no-reference-optimum --uncertainty-replicas 40 --threads 2 \
+    --out "$work/$imu.motor.json" 2>"$work/$imu.identify_motor.txt"
+  motor+=(--result "$work/$imu.motor.json")
+done
+"$insid" cross-imu --data "$work/motors/IMU" --data "$work/motors/IMU2" \
+  --data "$work/motors/IMU3" --clock boot "${motor[@]}" --t-start 75 --t-end 215 --block-s 1 \
+  --force --out "$out/cross_imu_motor.json" --markdown "$work/motor.md" 2>&1 |
+  tee "$work/motor.txt" >&2
 {
   echo "# Cross-IMU check: the shared ArduPilot quadcopter (log171.bin)"
   echo
@@ -74,6 +94,14 @@ data=(--data "$work/copter/IMU" --data "$work/copter/IMU2" --data "$work/copter/
   echo "## On the ground before the motors start, boot 75-82.5 s"
   echo
   sed 1,2d "$work/ground.md"
+  echo
+  echo "## The motor offsets: the jump at motor start, boot 75-215 s (1 s blocks)"
+  echo
+  echo "Imported with \`--align-s 3\` (5.2 s of navigation with the motors off); insid ="
+  echo "\`identify --algo lm\` with \`gyro_motor_offset_x|y|z\` beside the four biases. The"
+  echo "gyro_bias rows compare the motors-off biases with the regression's mean difference."
+  echo
+  sed -n '/jump of the difference/,$p' "$work/motor.md"
 } >"$out/cross_imu.md"
 echo "cross_imu_report: wrote $out/cross_imu.json, $out/cross_imu_dvpio.json," \
-  "$out/cross_imu_ground.json, $out/cross_imu.md" >&2
+  "$out/cross_imu_ground.json, $out/cross_imu_motor.json, $out/cross_imu.md" >&2
