@@ -235,6 +235,27 @@ TEST_F(DatasetTest, RoundTripIsBitIdenticalWithTruthInjectedAndNoise) {
   EXPECT_CONTAINS(test::read_file(dir_ / "meta.json"), "\"yaw_deg\": 271.5");
 }
 
+TEST_F(DatasetTest, MotorScheduleRoundTripsAndIsOptional) {
+  Dataset ds = make_dataset(false, false, false);
+  ds.meta.motors.on_s = {{0.1234567890123, 0.5}, {0.75, 1.0 / 3.0 + 1.0}};
+  ds.meta.motors_source = "RCOU Ch1-Ch4 (test)";
+  write_dataset(dir_, ds);
+  EXPECT_CONTAINS(test::read_file(dir_ / "meta.json"), "\"motors\"");
+  const Dataset back = load_dataset(dir_);
+  expect_identical(ds, back);
+  ASSERT_EQ(back.meta.motors.on_s.size(), 2u);
+  for (std::size_t i = 0; i < 2; ++i) {
+    EXPECT_SAME_BITS(back.meta.motors.on_s[i].first, ds.meta.motors.on_s[i].first);
+    EXPECT_SAME_BITS(back.meta.motors.on_s[i].second, ds.meta.motors.on_s[i].second);
+  }
+  EXPECT_EQ(back.meta.motors_source, ds.meta.motors_source);
+  // Without one, meta.json says nothing of motors (datasets written before read as they were).
+  ds.meta.motors = {};
+  write_dataset(dir_, ds);
+  EXPECT_EQ(test::read_file(dir_ / "meta.json").find("motors"), std::string::npos);
+  EXPECT_TRUE(load_dataset(dir_).meta.motors.empty());
+}
+
 TEST_F(DatasetTest, RoundTripIsBitIdenticalWithoutOptionalParts) {
   const Dataset ds = make_dataset(false, false, false);
   write_dataset(dir_, ds);

@@ -185,6 +185,24 @@ void add_heading_cases(std::vector<Case>& cases) {
                    },
                    {"meta.json", "heading.declination_deg", "[-180, 180]"},
                    true});
+  // meta.json "motors" (the motor schedule): each interval checked, named by its index.
+  const auto with_motors = [](const std::string& block) {
+    return [block](const fs::path& d) {
+      replace_in_meta(d, "\"align_s\"", "\"motors\": " + block + ", \"align_s\"");
+    };
+  };
+  cases.push_back({"motors_overlapping",
+                   with_motors(R"({"source": "x", "on_s": [[1, 5], [4, 6]]})"),
+                   {"meta.json", "motors.on_s", "motor interval 1", "overlaps"}});
+  cases.push_back({"motors_reversed",
+                   with_motors(R"({"source": "x", "on_s": [[5, 1]]})"),
+                   {"meta.json", "motor interval 0", "must start before it ends"}});
+  cases.push_back({"motors_three_numbers",
+                   with_motors(R"({"source": "x", "on_s": [[1, 2, 3]]})"),
+                   {"meta.json", "motors.on_s[0]", "expected [on_s, off_s]"}});
+  cases.push_back({"motors_without_source",
+                   with_motors(R"({"on_s": [[1, 2]]})"),
+                   {"meta.json", "motors.source", "missing"}});
   cases.push_back({"heading_unknown_field",
                    [](const fs::path& d) {
                      replace_in_meta(d, "\"dual_antenna\"", "\"dual_antenna\", \"frame\": 1");
