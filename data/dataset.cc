@@ -404,12 +404,7 @@ DatasetMeta read_meta_fields(const json& j, const std::string& source,
   if (const std::optional<JsonField> motors_field = r.optional_given("motors")) {
     const JsonObject motors = motors_field->object({"source", "on_s"});
     m.motors_source = motors.string("source");
-    const JsonArray on = motors.array("on_s");
-    for (std::size_t i = 0; i < on.size(); ++i) {
-      const std::vector<double> pair = on[i].array().numbers();
-      if (pair.size() != 2) on[i].fail("expected [on_s, off_s], two numbers");
-      m.motors.on_s.emplace_back(pair[0], pair[1]);
-    }
+    m.motors = read_motor_schedule(motors.array("on_s"));
   }
   if (const std::optional<JsonField> ap = r.optional_given("autopilot_estimates"))
     m.autopilot_estimates_json = ap->map().value().dump();  // kept verbatim, never computed with
@@ -997,6 +992,17 @@ void write_dataset_files_into(const fs::path& dir, const std::map<std::string, s
 }  // namespace
 
 // ------------------------------------------------------------------------------------------
+
+MotorSchedule read_motor_schedule(const JsonArray& on_s) {
+  MotorSchedule motors;
+  for (std::size_t i = 0; i < on_s.size(); ++i) {
+    const std::vector<double> pair = on_s[i].array().numbers();
+    if (pair.size() != 2) on_s[i].fail("expected [on_s, off_s], two numbers");
+    motors.on_s.emplace_back(pair[0], pair[1]);
+  }
+  if (const std::string bad = motors.validate(); !bad.empty()) on_s.fail(bad);
+  return motors;
+}
 
 Dataset load_dataset(const fs::path& dir) {
   const std::string prefix = dir.string() + ": ";

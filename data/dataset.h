@@ -13,7 +13,8 @@
 
 #include <Eigen/Core>
 
-#include "base/output_dir.h"  // write_file_atomic
+#include "base/json_object.h"  // JsonArray
+#include "base/output_dir.h"   // write_file_atomic
 #include "model/earth.h"
 #include "model/rotation.h"
 #include "model/sensor_errors.h"
@@ -147,6 +148,11 @@ class DatasetError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };
+
+/// A motor schedule from its JSON form, [[on_s, off_s], ...] (meta.json "motors.on_s", a
+/// scenario's "motors_on_s"). Throws JsonFieldError naming the element that is not two numbers,
+/// or the first bad interval (MotorSchedule::validate).
+MotorSchedule read_motor_schedule(const JsonArray& on_s);
 
 /// Load and validate a dataset directory. Throws DatasetError.
 Dataset load_dataset(const std::filesystem::path& dir);

@@ -228,15 +228,7 @@ ScenarioConfig parse_scenario(const json& j, const std::string& origin) {
                   "gm_gyro_sigma_deg_h", "gm_accel_sigma_mps2", "gm_tau_s", "comment"}));
   if (r.has("injected")) parse_injected(r.field("injected").map(), false, c.injected);
   if (r.has("injected_sigma")) parse_injected(r.field("injected_sigma").map(), true, c.injected);
-  if (r.has("motors_on_s")) {
-    const JsonArray on = r.array("motors_on_s");
-    for (std::size_t i = 0; i < on.size(); ++i) {
-      const std::vector<double> pair = on[i].array().numbers();
-      if (pair.size() != 2) on[i].fail("expected [on_s, off_s], two numbers");
-      c.motors.on_s.emplace_back(pair[0], pair[1]);
-    }
-    if (const std::string bad = c.motors.validate(); !bad.empty()) on.fail(bad);
-  }
+  if (r.has("motors_on_s")) c.motors = read_motor_schedule(r.array("motors_on_s"));
   if (r.has("segments")) c.segments = r.array("segments").value();
   if (r.has("repeat")) c.repeat = r.array("repeat").value();
   for (std::size_t i = 0; i < c.segments.size(); ++i)
