@@ -117,7 +117,8 @@ EkfRtsResult run_ekf_rts(const NavigationProblem& navigation, const EkfRtsParams
                          const SensorErrors& base = {},
                          const std::optional<EkfRtsGradeSetup>& setup = std::nullopt);
 
-/// The filter-smoother as an optimizer of the registry ("ekf-rts"): a ProblemConsumer that
+/// The filter-smoother as an optimizer of the registry ("ekf-rts", registered by ekf_rts.cc itself
+/// for every program that links insid_identification): a ProblemConsumer that
 /// runs on the InsIdentificationProblem it is bound to, then asks for exactly one evaluation,
 /// its own estimate (clamped to the box), so the result has the Eq. 15 fitness of the estimate;
 /// the run ends after that one iteration. parameters() lists the settings and, after the run,
@@ -158,9 +159,5 @@ class EkfRtsOptimizer final : public opt::Optimizer, public opt::ProblemConsumer
   Eigen::VectorXd x_, estimate_sigma_, std_sigma_;
   double equivalent_ins_runs_ = 0.0;
 };
-
-/// Registers "ekf-rts" with the optimizer registry (idempotent). Call before make_optimizer /
-/// optimize / parse_campaign use the name (insid's main does).
-void register_ekf_rts();
 
 }  // namespace insid

@@ -22,6 +22,7 @@
 #include "model/units.h"
 #include "optimizers/parameters.h"
 #include "optimizers/random.h"
+#include "optimizers/registry.h"
 
 namespace insid {
 namespace {
@@ -264,8 +265,8 @@ std::string to_string(UncertaintyCriterion criterion) {
 }
 
 UncertaintyCriterion criterion_for_algorithm(const std::string& algorithm) {
-  return (algorithm == "lm" || algorithm == "ekf-rts") ? UncertaintyCriterion::kLeastSquares
-                                                       : UncertaintyCriterion::kEq15;
+  return opt::algorithm_traits(algorithm).least_squares ? UncertaintyCriterion::kLeastSquares
+                                                        : UncertaintyCriterion::kEq15;
 }
 
 std::string UncertaintyOptions::validate() const {

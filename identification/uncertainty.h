@@ -43,7 +43,8 @@ enum class UncertaintyCriterion {
   kLeastSquares,  ///< sum of squares of the residuals (lm, ekf-rts): Gauss-Newton step
 };
 std::string to_string(UncertaintyCriterion criterion);
-/// The criterion an algorithm of the registry minimises ("lm", "ekf-rts" -> least squares).
+/// The criterion an algorithm of the registry minimises (its least_squares trait, registry.h).
+/// Throws std::invalid_argument for an unknown algorithm.
 UncertaintyCriterion criterion_for_algorithm(const std::string& algorithm);
 
 struct UncertaintyOptions {

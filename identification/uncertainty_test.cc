@@ -293,7 +293,6 @@ TEST(Uncertainty, ResultLayoutAndEngineeringUnits) {
 // The EKF-RTS's parameters[].sd is the filter-smoother's own smoothed sd, the
 // Gauss-Newton one kept beside it; any other algorithm reports the Gauss-Newton sd.
 TEST(Uncertainty, EkfRtsReportsItsOwnSmoothedSd) {
-  register_ekf_rts();
   const auto dataset = test::simulate_preset("rich", 300.0, "nav", 4);
   const auto navigation = std::make_shared<const NavigationProblem>(dataset);
   opt::EvaluatorOptions evaluator;
