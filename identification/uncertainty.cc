@@ -260,10 +260,6 @@ NoiseReplicaSet noise_replica_set(const InsIdentificationProblem& problem,
   return set;
 }
 
-std::string to_string(UncertaintyCriterion criterion) {
-  return criterion == UncertaintyCriterion::kEq15 ? "eq15" : "least-squares";
-}
-
 UncertaintyCriterion criterion_for_algorithm(const std::string& algorithm) {
   return opt::algorithm_traits(algorithm).least_squares ? UncertaintyCriterion::kLeastSquares
                                                         : UncertaintyCriterion::kEq15;

@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include "optimizers/test_functions.h"
+#include "test_support/enum_tables.h"
 #include "test_support/optimizer_runs.h"
 
 namespace insid::opt {
@@ -149,6 +150,15 @@ TEST(Registry, StochasticTraitMatchesWhetherTheSeedChangesTheRun) {
     const Result b = optimize(name, sphere, two);
     EXPECT_EQ(algorithm_traits(name).stochastic, !test::same(a.best_x, b.best_x));
   }
+}
+
+// The names written to results' "termination".
+TEST(Termination, NamesRoundTrip) {
+  test::expect_enum_table(kTerminationNames, {{Termination::kNone, "running"},
+                                              {Termination::kIterations, "iterations"},
+                                              {Termination::kEvaluations, "evaluations"},
+                                              {Termination::kTarget, "target"}});
+  EXPECT_EQ(to_string(Termination::kEvaluations), "evaluations");
 }
 
 }  // namespace
