@@ -708,7 +708,7 @@ extern "C" const bool insid_ekf_rts_registered = opt::register_algorithm(
                 const opt::ParameterMap& overrides) -> std::unique_ptr<opt::Optimizer> {
        return std::make_unique<EkfRtsOptimizer>(bounds, config, EkfRtsParams::from_map(overrides));
      },
-     .defaults = [] { return EkfRtsParams{}.list(); },
+     .parameters = [] { return EkfRtsParams{}.info(); },
      .traits = {.family = opt::AlgorithmTraits::Family::kProblemSpecific,
                 .least_squares = true,
                 .needs_problem = true,

@@ -41,6 +41,7 @@ struct EkfRtsParams {
   static std::span<const opt::ParameterField<EkfRtsParams>> fields();
   std::string validate() const;
   opt::ParameterList list() const { return opt::list_parameters(*this); }
+  opt::ParameterInfoList info() const { return opt::list_parameter_info(*this); }
   static EkfRtsParams from_map(const opt::ParameterMap& overrides) {
     return opt::parameters_from_map<EkfRtsParams>(overrides);
   }

@@ -232,9 +232,9 @@ IdentifyReport identify(const IdentifySpec& spec, const IdentifyProgress& progre
   report.setup = identify_setup(spec, *dataset);
   IdentifySetup& setup = report.setup;
   const SensorGrade& grade = *setup.grade;
-  opt::ParameterList own;
+  opt::ParameterInfoList own;
   try {
-    own = opt::default_parameters(spec.algorithm);
+    own = opt::parameter_info(spec.algorithm);
   } catch (const std::invalid_argument& e) {  // validate() checked it; kept for the wording
     throw IdentifySpecError("algorithm", "algorithm: " + std::string(e.what()));
   }

@@ -29,7 +29,7 @@ AlgorithmEntry entry(std::string name, AlgorithmTraits traits) {
              const ParameterMap& overrides) -> std::unique_ptr<Optimizer> {
             return std::make_unique<OptimizerT>(bounds, config, ParamsT::from_map(overrides));
           },
-          [] { return ParamsT{}.list(); }, std::move(traits)};
+          [] { return ParamsT{}.info(); }, std::move(traits)};
 }
 
 AlgorithmEntry nlopt_entry(std::string name, NloptOptimizer::Method method,
@@ -40,7 +40,7 @@ AlgorithmEntry nlopt_entry(std::string name, NloptOptimizer::Method method,
             return std::make_unique<NloptOptimizer>(method, bounds, config,
                                                     NloptParams::from_map(overrides));
           },
-          [] { return NloptParams{}.list(); },
+          [] { return NloptParams{}.info(); },
           {.family = Family::kBaseline, .description = std::move(description)}};
 }
 
@@ -84,7 +84,7 @@ std::vector<AlgorithmEntry> built_in() {
              std::string(name.substr(kExternalPrefix.size())), bounds, config,
              ExternalParams::from_map(overrides));
        },
-       [] { return ExternalParams{}.list(); },
+       [] { return ExternalParams{}.info(); },
        {.family = Family::kExternal,
         .description = "a program speaking the JSON-lines protocol (optimizers/README.md)"}});
   return table;
@@ -160,9 +160,9 @@ bool register_algorithm(AlgorithmEntry entry) {
   if (entry.name.empty() || is_prefix(entry.name))
     throw std::invalid_argument("register_algorithm: '" + entry.name +
                                 "' is not a name an algorithm can be registered under");
-  if (!entry.make || !entry.defaults)
+  if (!entry.make || !entry.parameters)
     throw std::invalid_argument("register_algorithm: '" + entry.name +
-                                "' needs a factory and its default parameters");
+                                "' needs a factory and its parameters");
   Table& t = table();
   std::lock_guard<std::mutex> lock(t.mutex);
   const auto it = std::find_if(t.entries.begin(), t.entries.end(),
@@ -183,7 +183,13 @@ std::unique_ptr<Optimizer> make_optimizer(std::string_view algorithm, const Boun
 }
 
 ParameterList default_parameters(std::string_view algorithm) {
-  return algorithm_entry(algorithm).defaults();
+  ParameterList list;
+  for (ParameterInfo& p : parameter_info(algorithm)) list.emplace_back(std::move(p.name), p.value);
+  return list;
+}
+
+ParameterInfoList parameter_info(std::string_view algorithm) {
+  return algorithm_entry(algorithm).parameters();
 }
 
 Result optimize(std::string_view algorithm, const Problem& problem, const RunConfig& config,

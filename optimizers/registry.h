@@ -55,8 +55,9 @@ struct AlgorithmEntry {
   /// "external:CMD" for any CMD).
   std::string name;
   OptimizerFactory make;
-  /// Its parameters and their defaults (the paper's Table 4 presets for the paper's four).
-  std::function<ParameterList()> defaults;
+  /// Its parameters with their defaults (the paper's Table 4 presets for the paper's four) and
+  /// units.
+  std::function<ParameterInfoList()> parameters;
   AlgorithmTraits traits;
 };
 
@@ -85,6 +86,8 @@ std::unique_ptr<Optimizer> make_optimizer(std::string_view algorithm, const Boun
 
 /// The algorithm's default parameters (the paper's Table 4 presets).
 ParameterList default_parameters(std::string_view algorithm);
+/// The same with each parameter's unit.
+ParameterInfoList parameter_info(std::string_view algorithm);
 
 /// make_optimizer + run() (which binds problem consumers and feeds residual consumers).
 Result optimize(std::string_view algorithm, const Problem& problem, const RunConfig& config,
@@ -93,7 +96,7 @@ Result optimize(std::string_view algorithm, const Problem& problem, const RunCon
 /// Adds an algorithm defined outside optimizers/ (problem-specific, e.g. a Kalman filter that is
 /// a ProblemConsumer) to the table; registering a registered name again replaces it.
 /// Thread-safe. Throws std::invalid_argument for the name of a built-in algorithm, a prefix
-/// name, or an entry without factory or defaults. Returns true, so that a static registrar can
+/// name, or an entry without factory or parameters. Returns true, so that a static registrar can
 /// be initialised from it.
 bool register_algorithm(AlgorithmEntry entry);
 

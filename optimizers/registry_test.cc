@@ -152,6 +152,26 @@ TEST(Registry, StochasticTraitMatchesWhetherTheSeedChangesTheRun) {
   }
 }
 
+// parameter_info lists default_parameters with units; the distances in the box are exactly the
+// parameters documented in normalised (problem) units.
+TEST(Registry, ParameterInfoGivesTheDefaultsAndTheDistanceUnits) {
+  std::vector<std::string> distances;
+  for (const std::string& name : algorithm_names()) {
+    SCOPED_TRACE(name);
+    const ParameterInfoList info = parameter_info(name);
+    ParameterList list;
+    for (const ParameterInfo& p : info) {
+      list.emplace_back(p.name, p.value);
+      if (p.unit == ParameterUnit::kBoxDistance) distances.push_back(name + "." + p.name);
+    }
+    EXPECT_EQ(list, default_parameters(name));
+  }
+  EXPECT_EQ(distances, (std::vector<std::string>{
+                           "dvpio.dist_threshold", "dvpio.d_initial", "dvpio.d_min", "dvpio.d_max",
+                           "lm.fd_step", "bobyqa.initial_step", "bobyqa.xtol_abs",
+                           "neldermead.initial_step", "neldermead.xtol_abs"}));
+}
+
 // The names written to results' "termination".
 TEST(Termination, NamesRoundTrip) {
   test::expect_enum_table(kTerminationNames, {{Termination::kNone, "running"},
