@@ -641,7 +641,7 @@ void EkfRtsOptimizer::bind(const opt::Problem& problem) {
   for (const EstimatedParameter& e : mapping.parameters())
     if (e.name.find("_scale_") != std::string::npos) needs_scale = true;
   if (needs_scale) p.scale_factors = 1;
-  const SensorGrade& grade = grade_for(ins->navigation().dataset(), grade_);
+  const SensorGrade& grade = grade_ ? *grade_ : grade_for(ins->navigation().dataset());
   ekf_ =
       run_ekf_rts(ins->navigation(), p, mapping.base(), ekf_grade_setup(ins->navigation(), grade));
   const int n = mapping.dimension();

@@ -134,9 +134,9 @@ class EkfRtsOptimizer final : public opt::Optimizer, public opt::ProblemConsumer
                   const EkfRtsParams& params = {});
   opt::ParameterList parameters() const override;
   void bind(const opt::Problem& problem) override;
-  /// The sensor grade ("nav" | "tactical" | "mems"; "auto", the default: the one the dataset
-  /// declares, identification/grade.h). Before bind().
-  void set_grade(std::string grade) { grade_ = std::move(grade); }
+  /// The sensor grade, as the caller settled it (identify: settle_grade_and_window). Without
+  /// one, the grade of the dataset (grade_for, identification/grade.h). Before bind().
+  void set_grade(const SensorGrade& grade) { grade_ = &grade; }
   /// The filter's output (after bind()).
   const std::optional<EkfRtsResult>& ekf() const { return ekf_; }
   /// Estimate and standard deviation of the problem's parameters, sigma units.
@@ -153,7 +153,7 @@ class EkfRtsOptimizer final : public opt::Optimizer, public opt::ProblemConsumer
 
  private:
   EkfRtsParams params_;
-  std::string grade_ = "auto";
+  const SensorGrade* grade_ = nullptr;  // a row of the grade table (static storage)
   const opt::Problem* bound_ = nullptr;
   std::optional<EkfRtsResult> ekf_;
   std::vector<std::string> names_;

@@ -101,6 +101,29 @@ TEST(EkfRts, RunsAsARegisteredAlgorithmWithOneEvaluation) {
   EXPECT_THROW(opt::optimize("ekf-rts", sphere, config), std::invalid_argument);
 }
 
+// The grade the caller settled reaches the filter's set-up as it is; without one the filter takes
+// the dataset's own (grade_for: nav for a simulated flight without a noise block, which with
+// gyrocompassing needs no grade set-up: "").
+TEST(EkfRts, UsesTheGradeItIsGivenElseTheDatasets) {
+  const auto dataset = test::simulate_preset("rich", 300.0, "none", 1);
+  const auto navigation = std::make_shared<const NavigationProblem>(dataset);
+  const InsIdentificationProblem problem(navigation,
+                                         ParameterMapping(EstimatedParameter::paper_four()));
+  opt::RunConfig config;
+  config.max_iterations = 0;
+  config.max_evaluations = 10;
+  const auto setup_grade = [&](const SensorGrade* grade) {
+    EkfRtsOptimizer ekf(problem.bounds(), config);
+    if (grade) ekf.set_grade(*grade);
+    opt::run(ekf, problem);
+    const nlohmann::json j = ekf.ekf()->to_json();
+    return j.contains("setup") ? j["setup"]["grade"].get<std::string>() : std::string();
+  };
+  EXPECT_EQ(setup_grade(nullptr), "");
+  EXPECT_EQ(setup_grade(&sensor_grade("nav")), "");
+  EXPECT_EQ(setup_grade(&sensor_grade("tactical")), "tactical");
+}
+
 // Each generic baseline on a short noise-free `rich` flight: the estimate's largest error
 // against the injected values (sigma units) at a fixed budget, and exact evaluation counts.
 TEST(Baselines, ReachTheDocumentedAccuracyOnNoiseFreeInsData) {
