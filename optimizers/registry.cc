@@ -46,8 +46,8 @@ AlgorithmEntry nlopt_entry(std::string name, NloptOptimizer::Method method,
 
 // The built-in algorithms, in the order algorithm_names() lists them. Every one of them draws
 // from the run's seed: the population-based ones their population, the single-start ones
-// (compass, lm, bobyqa, neldermead) the point of every start after the first
-// (detail::BridgedOptimizer::start_point).
+// (compass, lm, bobyqa, neldermead) their start points, the first one too unless the run gives
+// initial positions (detail::BridgedOptimizer::start_point).
 std::vector<AlgorithmEntry> built_in() {
   std::vector<AlgorithmEntry> table;
   table.push_back(entry<GaOptimizer, GaParams>(
