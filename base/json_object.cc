@@ -113,12 +113,16 @@ std::string JsonField::string() const {
 }
 
 std::string JsonField::choice(std::initializer_list<std::string_view> choices) const {
+  return choice(std::span<const std::string_view>(choices.begin(), choices.size()));
+}
+
+std::string JsonField::choice(std::span<const std::string_view> choices) const {
   // "a" or "b"; one of "a", "b", "c"
   std::string expected = choices.size() > 2 ? "one of " : "";
   const std::string_view separator = choices.size() > 2 ? ", " : " or ";
-  for (const std::string_view* c = choices.begin(); c != choices.end(); ++c) {
-    if (c != choices.begin()) expected.append(separator);
-    expected.append("\"").append(*c).append("\"");
+  for (std::size_t i = 0; i < choices.size(); ++i) {
+    if (i > 0) expected.append(separator);
+    expected.append("\"").append(choices[i]).append("\"");
   }
   if (!value_ || !value_->is_string()) wrong(expected);
   const std::string v = value_->get<std::string>();

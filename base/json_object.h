@@ -21,15 +21,20 @@
 // contract is another type (DatasetError) catch and rethrow it with the same text.
 #pragma once
 
+#include <array>
+#include <cstddef>
 #include <cstdint>
 #include <initializer_list>
 #include <optional>
+#include <span>
 #include <stdexcept>
 #include <string>
 #include <string_view>
 #include <vector>
 
 #include <nlohmann/json.hpp>
+
+#include "base/enum_table.h"
 
 namespace insid {
 
@@ -79,6 +84,13 @@ class JsonField {
   std::string string() const;
   /// A string, one of `choices`; refused naming them.
   std::string choice(std::initializer_list<std::string_view> choices) const;
+  std::string choice(std::span<const std::string_view> choices) const;
+  /// The value of `table` (base/enum_table.h) the string names; refused naming every name.
+  template <class E, std::size_t N>
+  E choice(const EnumTable<E, N>& table) const {
+    const std::array<std::string_view, N> names = table.names();
+    return table.value(choice(std::span<const std::string_view>(names)));
+  }
   JsonArray array() const;
   /// An object whose keys are among `keys` (an unknown key refused, naming the valid ones).
   JsonObject object(std::vector<std::string> keys) const;

@@ -19,7 +19,6 @@
 #include "base/json_reader.h"
 #include "bench/lockstep_runner.h"
 #include "bench/sweep.h"
-#include "identification/ekf_rts.h"
 #include "identification/identify.h"
 #include "model/units.h"
 #include "test_support/files.h"
@@ -401,7 +400,6 @@ TEST(Campaign, ConfigFileFaultsAreNamedWithTheFieldPath) {
 TEST(Campaign, EveryCommittedConfigAndManifestStillReads) {
   // Files insid wrote earlier (results/: campaign configs and manifests of old schemas) read
   // with today's reader.
-  register_ekf_rts();  // as insid's main does (paper-plus-baselines runs it)
   int configs = 0, manifests = 0;
   for (const auto& entry :
        fs::recursive_directory_iterator(fs::path(INSID_SOURCE_DIR) / "results")) {
@@ -549,7 +547,6 @@ TEST(Campaign, OptionsAreValidatedBeforeAnyWorkNamingTheBadValue) {
 TEST(Campaign, SweepGridKeepsTheAlgorithmsOwnSigmaParameters) {
   // A _sigma key that is the algorithm's own parameter (ekf-rts's initial_bias_sigma, a prior
   // in catalogue sigma) passes unchanged; a DVPIO distance in sigma is converted to the box.
-  register_ekf_rts();  // as insid's main does
   SweepConfig ekf;
   ekf.algorithm = "ekf-rts";
   ekf.axes = {SweepAxis::parse("initial_bias_sigma=2,8")};

@@ -156,18 +156,6 @@ double iqr(const std::vector<double>& x) {
 // Mann-Whitney U
 // -------------------------------------------------------------------------------------------
 
-std::string_view to_string(MannWhitneyMethod method) {
-  switch (method) {
-    case MannWhitneyMethod::kAuto:
-      return "auto";
-    case MannWhitneyMethod::kExact:
-      return "exact";
-    case MannWhitneyMethod::kAsymptotic:
-      return "asymptotic";
-  }
-  return "unknown";
-}
-
 MannWhitneyResult mann_whitney_u(const std::vector<double>& a, const std::vector<double>& b,
                                  MannWhitneyMethod method) {
   check_sample("mann_whitney_u", a, "sample a");
@@ -295,20 +283,6 @@ A12Magnitude a12_magnitude(double a12_value) {
   if (d < 0.14 - kTol) return A12Magnitude::kSmall;
   if (d < 0.21 - kTol) return A12Magnitude::kMedium;
   return A12Magnitude::kLarge;
-}
-
-std::string_view to_string(A12Magnitude magnitude) {
-  switch (magnitude) {
-    case A12Magnitude::kNegligible:
-      return "negligible";
-    case A12Magnitude::kSmall:
-      return "small";
-    case A12Magnitude::kMedium:
-      return "medium";
-    case A12Magnitude::kLarge:
-      return "large";
-  }
-  return "unknown";
 }
 
 // -------------------------------------------------------------------------------------------

@@ -13,6 +13,8 @@
 #include <string_view>
 #include <vector>
 
+#include "base/enum_table.h"
+
 namespace insid::stats {
 
 // ---------------------------------------------------------------------------------------------
@@ -49,8 +51,15 @@ enum class MannWhitneyMethod {
   kAsymptotic,  ///< normal approximation with tie correction and continuity correction
 };
 
-/// "auto", "exact" or "asymptotic" (the strings written to summary.json's "method").
-std::string_view to_string(MannWhitneyMethod method);
+/// The names written to summary.json's "method".
+inline constexpr EnumTable<MannWhitneyMethod, 3> kMannWhitneyMethodNames{
+    "Mann-Whitney method",
+    {{{MannWhitneyMethod::kAuto, "auto"},
+      {MannWhitneyMethod::kExact, "exact"},
+      {MannWhitneyMethod::kAsymptotic, "asymptotic"}}}};
+inline std::string_view to_string(MannWhitneyMethod method) {
+  return kMannWhitneyMethodNames.name(method);
+}
 
 struct MannWhitneyResult {
   double u = 0.0;  ///< U statistic of sample a: R_a - n_a (n_a + 1) / 2 (scipy's statistic)
@@ -93,8 +102,15 @@ enum class A12Magnitude { kNegligible, kSmall, kMedium, kLarge };
 /// A12 must be in [0, 1].
 A12Magnitude a12_magnitude(double a12_value);
 
-/// "negligible", "small", "medium" or "large".
-std::string_view to_string(A12Magnitude magnitude);
+inline constexpr EnumTable<A12Magnitude, 4> kA12MagnitudeNames{
+    "A12 magnitude",
+    {{{A12Magnitude::kNegligible, "negligible"},
+      {A12Magnitude::kSmall, "small"},
+      {A12Magnitude::kMedium, "medium"},
+      {A12Magnitude::kLarge, "large"}}}};
+inline std::string_view to_string(A12Magnitude magnitude) {
+  return kA12MagnitudeNames.name(magnitude);
+}
 
 // ---------------------------------------------------------------------------------------------
 // Expected running time (COCO)

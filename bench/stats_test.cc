@@ -11,6 +11,8 @@
 
 #include <gtest/gtest.h>
 
+#include "test_support/enum_tables.h"
+
 namespace insid::stats {
 namespace {
 
@@ -437,6 +439,20 @@ TEST(Bootstrap, RejectsBadInput) {
   ExpectInvalid([] { bootstrap_median_ci({1.0, kNaN}); }, "NaN at index 1");
   ExpectInvalid([] { bootstrap_median_ci({1.0}, 1.0); }, "level");
   ExpectInvalid([] { bootstrap_median_ci({1.0}, 0.95, 0); }, "resamples");
+}
+
+// The names written to summary.json.
+TEST(StatsNames, MethodAndMagnitudeTablesRoundTrip) {
+  test::expect_enum_table(kMannWhitneyMethodNames,
+                          {{MannWhitneyMethod::kAuto, "auto"},
+                           {MannWhitneyMethod::kExact, "exact"},
+                           {MannWhitneyMethod::kAsymptotic, "asymptotic"}});
+  test::expect_enum_table(kA12MagnitudeNames, {{A12Magnitude::kNegligible, "negligible"},
+                                               {A12Magnitude::kSmall, "small"},
+                                               {A12Magnitude::kMedium, "medium"},
+                                               {A12Magnitude::kLarge, "large"}});
+  EXPECT_EQ(to_string(MannWhitneyMethod::kAsymptotic), "asymptotic");
+  EXPECT_EQ(to_string(A12Magnitude::kMedium), "medium");
 }
 
 }  // namespace

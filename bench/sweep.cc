@@ -36,19 +36,20 @@ std::vector<std::string> split(const std::string& s, char sep) {
   return out;
 }
 
-// Setting values in the optimizer's units: keys ending in _sigma are distances in sigma units,
-// converted through the (common) box width of the estimated parameters
-// (ParameterMapping::algorithm_parameter_in_box), except the algorithm's own "..._sigma"
-// parameters (ekf-rts's initial_bias_sigma), which pass unchanged, as in identify --param;
-// "d0" is d_initial.
+// Setting values in the optimizer's units: NAME_sigma for a distance parameter NAME is that
+// distance in sigma units, converted through the (common) box width of the estimated parameters
+// (ParameterMapping::algorithm_parameter_in_box); every other key (ekf-rts's own
+// initial_bias_sigma included) passes unchanged, as in identify --param. "d0" is d_initial.
 std::map<std::string, double> optimizer_parameters(const std::map<std::string, double>& setting,
                                                    const std::string& algorithm) {
   const ParameterMapping mapping(EstimatedParameter::paper_four());
-  const opt::ParameterList own = opt::default_parameters(algorithm);
+  const opt::ParameterInfoList own = opt::parameter_info(algorithm);
   std::map<std::string, double> out;
   for (const auto& [key_in, value_in] : setting) {
-    auto [key, value] = mapping.algorithm_parameter_in_box(key_in, value_in, own);
-    if (key == "d0") key = "d_initial";
+    std::string name = key_in;
+    if (name == "d0") name = "d_initial";
+    if (name == "d0_sigma") name = "d_initial_sigma";
+    const auto [key, value] = mapping.algorithm_parameter_in_box(name, value_in, own);
     out[key] = value;
   }
   return out;

@@ -76,7 +76,7 @@ void run(const DiagnoseArgs& a) {
   // --grade as identify's: every --base NAME without SIGMA gets the grade's sigma.
   const GradeAndWindow settled = settle_grade_and_window(*dataset, a.grade, a.window_s);
   const SensorGrade& grade = sensor_grade(settled.grade.grade);
-  o.grade = grade.name;
+  o.grade = &grade;
   for (const std::string& b : a.base)
     o.base.push_back(parse_option("--base", [&] { return grade.parameter(b); }));
   for (const std::string& c : a.candidates)  // conflicting options: a usage error

@@ -8,7 +8,6 @@
 
 #include "bench/campaign.h"
 #include "cli/commands.h"
-#include "identification/ekf_rts.h"
 #include "identification/identify.h"
 #include "kernel/cpu_path.h"
 
@@ -52,7 +51,6 @@ int main(int argc, char** argv) {
           "\n  CPU path:     " + build.value("cpu_path", "?"),
       "print the version, git revision, build type, compiler and CPU path, and exit");
   app.footer(insid::cli::kExitCodeHelp);
-  insid::register_ekf_rts();  // "ekf-rts" in the optimizer registry (identification/)
   insid::cli::add_navigate_command(app);
   insid::cli::add_identify_command(app);
   insid::cli::add_bench_command(app);

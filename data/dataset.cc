@@ -42,6 +42,7 @@
 #include <nlohmann/json.hpp>
 
 #include "base/digest.h"
+#include "base/enum_table.h"
 #include "base/file_read.h"
 #include "base/json_object.h"
 #include "base/json_reader.h"
@@ -326,6 +327,12 @@ const std::vector<std::string> kMetaKeys = {"format",
                                             "autopilot_estimates",
                                             "motors"};
 
+// meta.json's "heading": {"source": ...}.
+constexpr EnumTable<HeadingSourceKind, 2> kHeadingSourceKindNames{
+    "heading source",
+    {{{HeadingSourceKind::kDualAntenna, "dual_antenna"},
+      {HeadingSourceKind::kMagnetometer, "magnetometer"}}}};
+
 // The fields of meta.json through insid's one typed reader (base/json_object.h): errors name the
 // field's path ("<dir>: meta.json: initial.lat_deg: expected a finite number, found ...").
 // `files` receives the "files" block (the data files' rows and digests) when meta.json has one.
@@ -395,9 +402,7 @@ DatasetMeta read_meta_fields(const json& j, const std::string& source,
   if (const std::optional<JsonField> heading_field = r.optional_given("heading")) {
     const JsonObject heading = heading_field->object({"source", "declination_deg"});
     HeadingMeta h;
-    h.source = heading.field("source").choice({"dual_antenna", "magnetometer"}) == "dual_antenna"
-                   ? HeadingSourceKind::kDualAntenna
-                   : HeadingSourceKind::kMagnetometer;
+    h.source = heading.field("source").choice(kHeadingSourceKindNames);
     if (heading.given("declination_deg")) h.declination_deg = heading.number("declination_deg");
     m.heading = h;
   }
@@ -1110,7 +1115,7 @@ void validate_imu_values(const Dataset& dataset, const DatasetSources& sources) 
 }
 
 std::string to_string(HeadingSourceKind kind) {
-  return kind == HeadingSourceKind::kMagnetometer ? "magnetometer" : "dual_antenna";
+  return std::string(kHeadingSourceKindNames.name(kind));
 }
 
 std::vector<ImuGap> imu_gaps(const Dataset& dataset) {

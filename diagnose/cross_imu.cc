@@ -448,20 +448,6 @@ ResultEstimates read_identify_result(const std::filesystem::path& path) {
   }
 }
 
-const char* to_string(Verdict v) {
-  switch (v) {
-    case Verdict::kAgree:
-      return "agree";
-    case Verdict::kCheck:
-      return "check";
-    case Verdict::kDisagree:
-      return "disagree";
-    case Verdict::kNotCompared:
-      return "not_compared";
-  }
-  return "not_compared";
-}
-
 Verdict verdict_from_z(double z) {
   if (!std::isfinite(z)) return Verdict::kNotCompared;
   const double a = std::abs(z);

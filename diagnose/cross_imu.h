@@ -36,6 +36,7 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
+#include "base/enum_table.h"
 #include "data/dataset.h"
 
 namespace insid::cross_imu {
@@ -158,7 +159,12 @@ struct ResultEstimates {
 ResultEstimates read_identify_result(const std::filesystem::path& path);
 
 enum class Verdict { kAgree, kCheck, kDisagree, kNotCompared };
-const char* to_string(Verdict v);  ///< "agree" | "check" | "disagree" | "not_compared"
+inline constexpr EnumTable<Verdict, 4> kVerdictNames{"verdict",
+                                                     {{{Verdict::kAgree, "agree"},
+                                                       {Verdict::kCheck, "check"},
+                                                       {Verdict::kDisagree, "disagree"},
+                                                       {Verdict::kNotCompared, "not_compared"}}}};
+inline const char* to_string(Verdict v) { return kVerdictNames.name(v).data(); }
 
 /// Verdict from |z|: agree <= 2, check <= 3, disagree beyond.
 Verdict verdict_from_z(double z);

@@ -18,6 +18,7 @@
 
 #include "model/units.h"
 #include "scenarios/scenario.h"
+#include "test_support/enum_tables.h"
 
 namespace insid::cross_imu {
 namespace {
@@ -411,6 +412,14 @@ TEST(CrossImu, ReadsIdentifyResults) {
         << e.what();
   }
   std::filesystem::remove(good);
+}
+
+TEST(CrossImu, VerdictNamesRoundTrip) {
+  test::expect_enum_table(kVerdictNames, {{Verdict::kAgree, "agree"},
+                                          {Verdict::kCheck, "check"},
+                                          {Verdict::kDisagree, "disagree"},
+                                          {Verdict::kNotCompared, "not_compared"}});
+  EXPECT_STREQ(to_string(Verdict::kNotCompared), "not_compared");
 }
 
 }  // namespace

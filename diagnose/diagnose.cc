@@ -501,11 +501,6 @@ std::string DiagnoseOptions::validate() const {
   if (!std::isfinite(window_s) || window_s < 0.0)
     return "DiagnoseOptions.window_s = " + opt::format_number(window_s) +
            ": must be a finite number of seconds >= 0 (0 = one pure-INS run)";
-  if (grade != "auto") {
-    const std::vector<std::string> names = sensor_grade_names();
-    if (std::find(names.begin(), names.end(), grade) == names.end())
-      return "DiagnoseOptions.grade = '" + grade + "': must be auto, nav, tactical or mems";
-  }
   if (const std::string why = base_widening.validate(); !why.empty())
     return "DiagnoseOptions.base_" + why;
   if (!(base_widening_min_gain >= 0.0 && base_widening_min_gain < 1.0))
@@ -712,7 +707,7 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
   // gyrocompassed data would be refused, as `insid identify --grade tactical` refuses it
   // (diagnose_test Options.TheGradeSetsTheBaseAndTheCandidatesUnits runs exactly that). Kept on
   // purpose: the reason in docs/design.md, section 9.
-  const SensorGrade& grade = grade_for(*dataset, options.grade);
+  const SensorGrade& grade = options.grade ? *options.grade : grade_for(*dataset);
   std::vector<EstimatedParameter> base = options.base;
   if (base.empty()) base = default_estimated(grade);
   NavigationOptions nav_options;

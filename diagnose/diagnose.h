@@ -26,6 +26,7 @@
 
 #include "data/dataset.h"
 #include "identification/box_widening.h"
+#include "identification/grade.h"
 #include "identification/ins_problem.h"
 #include "nav/fitness.h"
 
@@ -33,14 +34,15 @@ namespace insid::diagnose {
 
 struct DiagnoseOptions {
   std::vector<EstimatedParameter> base;  ///< default: the grade's (nav: the paper's four)
-  /// Sensor grade (identification/grade.h), as `insid identify --grade`: auto | nav | tactical |
-  /// mems. It sets the default base (nav: the paper's four; tactical, mems: also gyro_bias_z,
-  /// each at the grade's sigma) and the unit (sigma) of every candidate: its sensitivity step,
+  /// Sensor grade (identification/grade.h), settled by the caller (the CLI's --grade through
+  /// settle_grade_and_window, or sensor_grade(name)); nullptr: auto, grade_for the dataset here.
+  /// It sets the default base (nav: the paper's four; tactical, mems: also gyro_bias_z, each at
+  /// the grade's sigma) and the unit (sigma) of every candidate: its sensitivity step,
   /// estimate_sigma, sd_sigma, min_detectable_sigma against observable_max_sigma, and the box
-  /// of a found effect. auto: meta.json's noise block, nav without one. nav is the catalogue's
-  /// sigmas. (A base given with `base` keeps its own sigmas: the CLI gives every
-  /// --base NAME without SIGMA the grade's, SensorGrade::parameter.)
-  std::string grade = "auto";
+  /// of a found effect. nav is the catalogue's sigmas. (A base given with `base` keeps its own
+  /// sigmas: the CLI gives every --base NAME without SIGMA the grade's,
+  /// SensorGrade::parameter.)
+  const SensorGrade* grade = nullptr;
   std::vector<std::string> candidates;  ///< empty: every catalogue effect not in the base
   int max_effects = 3;
   std::uint64_t seed = 1;

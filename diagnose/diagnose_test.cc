@@ -118,7 +118,7 @@ TEST(Options, TheGradeSetsTheBaseAndTheCandidatesUnits) {
     return e["sd"].get<double>() / e["sd_sigma"].get<double>();
   };
   for (const std::string grade : {"tactical", "nav"}) {
-    o.grade = grade;
+    o.grade = &sensor_grade(grade);
     const DiagnoseResult r = run_diagnose(ds, o);
     const nlohmann::json& base = r.report["base"]["parameters"];
     const nlohmann::json& candidate = r.report["iterations"][0]["candidates"][0];
@@ -136,9 +136,8 @@ TEST(Options, TheGradeSetsTheBaseAndTheCandidatesUnits) {
       EXPECT_NEAR(unit(candidate), 1e-4, 1e-12) << candidate.dump();
     }
   }
-  o.grade = "consumer";
-  EXPECT_EQ(o.validate(),
-            "DiagnoseOptions.grade = 'consumer': must be auto, nav, tactical or mems");
+  // A grade name is resolved once, by the caller: an unknown one never reaches the options.
+  EXPECT_THROW(sensor_grade("consumer"), std::invalid_argument);
 }
 
 TEST(NoiseModel, EstimatesNavGradeLevelsFromTheAlignmentWindow) {
@@ -222,7 +221,7 @@ TEST(BaseWidening, AClippedBaseBiasIsWidenedNotExplainedByStandIns) {
   const double truth = 0.6 * std::numbers::pi / 180.0;
   const auto ds = make_hidden_dataset({"rich", 300.0, 5, {{"gyro_bias_x", truth}}, "mems"});
   DiagnoseOptions o = quick_options(5);
-  o.grade = "mems";
+  o.grade = &sensor_grade("mems");
   o.window_s = 10.0;
   o.initial_attitude.mode = InitialAttitudeMode::kLevelHeading;
   o.threads = 2;
@@ -386,7 +385,7 @@ TEST(BackwardCheck, AStandInNamedFirstIsWithdrawnAndTheTruthKeepsItsSize) {
   o.replicas_basis = 30;
   o.replicas_calibration = 60;
   o.max_effects = 3;
-  o.grade = "mems";
+  o.grade = &sensor_grade("mems");
   o.window_s = 10.0;
   o.initial_attitude.mode = InitialAttitudeMode::kLevelHeading;
   const DiagnoseResult r = run_diagnose(ds, o);

@@ -642,7 +642,7 @@ void EkfRtsOptimizer::bind(const opt::Problem& problem) {
   for (const EstimatedParameter& e : mapping.parameters())
     if (e.name.find("_scale_") != std::string::npos) needs_scale = true;
   if (needs_scale) p.scale_factors = 1;
-  const SensorGrade& grade = grade_for(ins->navigation().dataset(), grade_);
+  const SensorGrade& grade = grade_ ? *grade_ : grade_for(ins->navigation().dataset());
   ekf_ =
       run_ekf_rts(ins->navigation(), p, mapping.base(), ekf_grade_setup(ins->navigation(), grade));
   const int n = mapping.dimension();
@@ -699,14 +699,21 @@ nlohmann::json EkfRtsOptimizer::report_json(const ParameterMapping& mapping) con
   return j;
 }
 
-void register_ekf_rts() {
-  opt::AlgorithmFactory factory;
-  factory.make = [](const opt::Bounds& bounds, const opt::RunConfig& config,
-                    const opt::ParameterMap& overrides) -> std::unique_ptr<opt::Optimizer> {
-    return std::make_unique<EkfRtsOptimizer>(bounds, config, EkfRtsParams::from_map(overrides));
-  };
-  factory.defaults = [] { return EkfRtsParams{}.list(); };
-  opt::register_algorithm("ekf-rts", std::move(factory));
-}
+// "ekf-rts" in the optimizer registry, registered when the program starts. A static library
+// contributes an object file to a program only when something refers to it, so
+// insid_identification's link interface names this symbol (identification/CMakeLists.txt) and
+// every program that links the library has the entry without a call of its own.
+extern "C" const bool insid_ekf_rts_registered = opt::register_algorithm(
+    {.name = "ekf-rts",
+     .make = [](std::string_view, const opt::Bounds& bounds, const opt::RunConfig& config,
+                const opt::ParameterMap& overrides) -> std::unique_ptr<opt::Optimizer> {
+       return std::make_unique<EkfRtsOptimizer>(bounds, config, EkfRtsParams::from_map(overrides));
+     },
+     .parameters = [] { return EkfRtsParams{}.info(); },
+     .traits = {.family = opt::AlgorithmTraits::Family::kProblemSpecific,
+                .least_squares = true,
+                .needs_problem = true,
+                .stochastic = false,
+                .description = "loosely coupled INS/GNSS error-state EKF with RTS smoother"}});
 
 }  // namespace insid

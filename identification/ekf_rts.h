@@ -41,6 +41,7 @@ struct EkfRtsParams {
   static std::span<const opt::ParameterField<EkfRtsParams>> fields();
   std::string validate() const;
   opt::ParameterList list() const { return opt::list_parameters(*this); }
+  opt::ParameterInfoList info() const { return opt::list_parameter_info(*this); }
   static EkfRtsParams from_map(const opt::ParameterMap& overrides) {
     return opt::parameters_from_map<EkfRtsParams>(overrides);
   }
@@ -117,7 +118,8 @@ EkfRtsResult run_ekf_rts(const NavigationProblem& navigation, const EkfRtsParams
                          const SensorErrors& base = {},
                          const std::optional<EkfRtsGradeSetup>& setup = std::nullopt);
 
-/// The filter-smoother as an optimizer of the registry ("ekf-rts"): a ProblemConsumer that
+/// The filter-smoother as an optimizer of the registry ("ekf-rts", registered by ekf_rts.cc itself
+/// for every program that links insid_identification): a ProblemConsumer that
 /// runs on the InsIdentificationProblem it is bound to, then asks for exactly one evaluation,
 /// its own estimate (clamped to the box), so the result has the Eq. 15 fitness of the estimate;
 /// the run ends after that one iteration. parameters() lists the settings and, after the run,
@@ -132,9 +134,9 @@ class EkfRtsOptimizer final : public opt::Optimizer, public opt::ProblemConsumer
                   const EkfRtsParams& params = {});
   opt::ParameterList parameters() const override;
   void bind(const opt::Problem& problem) override;
-  /// The sensor grade ("nav" | "tactical" | "mems"; "auto", the default: the one the dataset
-  /// declares, identification/grade.h). Before bind().
-  void set_grade(std::string grade) { grade_ = std::move(grade); }
+  /// The sensor grade, as the caller settled it (identify: settle_grade_and_window). Without
+  /// one, the grade of the dataset (grade_for, identification/grade.h). Before bind().
+  void set_grade(const SensorGrade& grade) { grade_ = &grade; }
   /// The filter's output (after bind()).
   const std::optional<EkfRtsResult>& ekf() const { return ekf_; }
   /// Estimate and standard deviation of the problem's parameters, sigma units.
@@ -151,16 +153,12 @@ class EkfRtsOptimizer final : public opt::Optimizer, public opt::ProblemConsumer
 
  private:
   EkfRtsParams params_;
-  std::string grade_ = "auto";
+  const SensorGrade* grade_ = nullptr;  // a row of the grade table (static storage)
   const opt::Problem* bound_ = nullptr;
   std::optional<EkfRtsResult> ekf_;
   std::vector<std::string> names_;
   Eigen::VectorXd x_, estimate_sigma_, std_sigma_;
   double equivalent_ins_runs_ = 0.0;
 };
-
-/// Registers "ekf-rts" with the optimizer registry (idempotent). Call before make_optimizer /
-/// optimize / parse_campaign use the name (insid's main does).
-void register_ekf_rts();
 
 }  // namespace insid

@@ -67,7 +67,6 @@ TEST(EkfRts, BiasEstimatesConvergeToTheInjectedValuesWithinThreeSigma) {
 }
 
 TEST(EkfRts, RunsAsARegisteredAlgorithmWithOneEvaluation) {
-  register_ekf_rts();
   const auto dataset = test::simulate_preset("rich", 900.0, "none", 1);
   const auto navigation = std::make_shared<const NavigationProblem>(dataset);
   const InsIdentificationProblem problem(navigation,
@@ -86,10 +85,43 @@ TEST(EkfRts, RunsAsARegisteredAlgorithmWithOneEvaluation) {
   std::cout << "[ ekf-rts ] noise-free 900 s: error " << err.transpose() << " sigma, std "
             << ekf.std_sigma().transpose() << ", " << ekf.equivalent_ins_runs() << " INS runs\n";
   for (int k = 0; k < 4; ++k) EXPECT_LE(std::abs(err[k]), 3.0 * ekf.std_sigma()[k] + 0.05);
+  // Its registry traits say what it does: it takes the problem itself, and the seed does not
+  // change its answer.
+  const opt::AlgorithmTraits traits = opt::algorithm_traits("ekf-rts");
+  EXPECT_EQ(traits.needs_problem, dynamic_cast<opt::ProblemConsumer*>(optimizer.get()) != nullptr);
+  EXPECT_EQ(traits.needs_residuals,
+            dynamic_cast<opt::ResidualConsumer*>(optimizer.get()) != nullptr);
+  ASSERT_FALSE(traits.stochastic);
+  opt::RunConfig other_seed = config;
+  other_seed.seed = config.seed + 1;
+  EXPECT_EQ(opt::optimize("ekf-rts", problem, other_seed).best_x, result.best_x);
   // Other problems are refused with a clear message.
   const auto sphere = opt::FunctionProblem(
       opt::Bounds::unit_box(4), [](const Eigen::VectorXd& x) { return x.squaredNorm(); });
   EXPECT_THROW(opt::optimize("ekf-rts", sphere, config), std::invalid_argument);
+}
+
+// The grade the caller settled reaches the filter's set-up as it is; without one the filter takes
+// the dataset's own (grade_for: nav for a simulated flight without a noise block, which with
+// gyrocompassing needs no grade set-up: "").
+TEST(EkfRts, UsesTheGradeItIsGivenElseTheDatasets) {
+  const auto dataset = test::simulate_preset("rich", 300.0, "none", 1);
+  const auto navigation = std::make_shared<const NavigationProblem>(dataset);
+  const InsIdentificationProblem problem(navigation,
+                                         ParameterMapping(EstimatedParameter::paper_four()));
+  opt::RunConfig config;
+  config.max_iterations = 0;
+  config.max_evaluations = 10;
+  const auto setup_grade = [&](const SensorGrade* grade) {
+    EkfRtsOptimizer ekf(problem.bounds(), config);
+    if (grade) ekf.set_grade(*grade);
+    opt::run(ekf, problem);
+    const nlohmann::json j = ekf.ekf()->to_json();
+    return j.contains("setup") ? j["setup"]["grade"].get<std::string>() : std::string();
+  };
+  EXPECT_EQ(setup_grade(nullptr), "");
+  EXPECT_EQ(setup_grade(&sensor_grade("nav")), "");
+  EXPECT_EQ(setup_grade(&sensor_grade("tactical")), "tactical");
 }
 
 // Each generic baseline on a short noise-free `rich` flight: the estimate's largest error

@@ -168,7 +168,6 @@ TEST(HonestSd, NotConvergedSdCoversItsStepToTheOptimum) {
   uo.threads = 1;
   uo.criterion = UncertaintyCriterion::kLeastSquares;
   const UncertaintyReport far = estimate_uncertainty(problem, Eigen::VectorXd::Zero(n), uo);
-  register_ekf_rts();
   opt::RunConfig config;
   config.max_iterations = 0;
   config.max_evaluations = 300;
@@ -199,7 +198,6 @@ TEST(HonestSd, NotConvergedSdCoversItsStepToTheOptimum) {
 // truths over 4 seeds x 6 biases (before the rule: the filter's sd times the fitness's misfit
 // covered about a third of them).
 TEST(HonestSd, EkfRtsIntervalsCoverTheTruthsOfDroneFlights) {
-  register_ekf_rts();
   mems_study::Spec spec = drone(60.0, false);
   spec.replicas = 30;
   spec.threads = 2;

@@ -55,17 +55,30 @@ TEST(Identification, MappingRoundTripsAndUsesThePaperBox) {
   EXPECT_DOUBLE_EQ(m.sigma_per_unit(0), 4.0);
 }
 
-// `--param KEY_sigma=V` is a distance in sigma units (DVPIO's d_initial_sigma) converted to the
-// normalised box, but an algorithm's own parameter whose name ends in _sigma (ekf-rts's
-// initial_bias_sigma, a prior in catalogue sigma units) is passed through: before, it was
-// stripped to "initial_bias" and refused as unknown, so no MEMS prior could be given.
-TEST(Identification, AlgorithmParameterInBoxKeepsTheAlgorithmsOwnSigmaSettings) {
+// `--param NAME_sigma=V` for a distance parameter NAME (its unit kBoxDistance: DVPIO's d_initial)
+// is that distance in sigma units, converted to the normalised box; an algorithm's own parameter
+// whose name ends in _sigma (ekf-rts's initial_bias_sigma, a prior in catalogue sigma units) and
+// NAME_sigma for a parameter that is no distance pass unchanged.
+TEST(Identification, AlgorithmParameterInBoxConvertsOnlyDistances) {
   const ParameterMapping m(EstimatedParameter::paper_four());  // [-4, 4] sigma -> [-1, 1]
-  const opt::ParameterList dvpio = opt::default_parameters("dvpio");
+  const opt::ParameterInfoList dvpio = opt::parameter_info("dvpio");
   const auto [d_key, d_value] = m.algorithm_parameter_in_box("d_initial_sigma", 0.4, dvpio);
   EXPECT_EQ(d_key, "d_initial");
   EXPECT_DOUBLE_EQ(d_value, 0.1);
-  const opt::ParameterList ekf = EkfRtsParams{}.list();
+  const auto [t_key, t_value] = m.algorithm_parameter_in_box("dist_threshold_sigma", 0.2, dvpio);
+  EXPECT_EQ(t_key, "dist_threshold");
+  EXPECT_DOUBLE_EQ(t_value, 0.05);
+  // R is a factor, not a distance: R_sigma is no spelling of it (the optimizer refuses the key).
+  const auto [r_key, r_value] = m.algorithm_parameter_in_box("R_sigma", 0.2, dvpio);
+  EXPECT_EQ(r_key, "R_sigma");
+  EXPECT_DOUBLE_EQ(r_value, 0.2);
+  EXPECT_THROW(opt::make_optimizer("dvpio", opt::Bounds::unit_box(4), {}, {{r_key, r_value}}),
+               std::invalid_argument);
+  const auto [s_key, s_value] =
+      m.algorithm_parameter_in_box("initial_step_sigma", 0.8, opt::parameter_info("bobyqa"));
+  EXPECT_EQ(s_key, "initial_step");
+  EXPECT_DOUBLE_EQ(s_value, 0.2);
+  const opt::ParameterInfoList ekf = EkfRtsParams{}.info();
   const auto [e_key, e_value] = m.algorithm_parameter_in_box("initial_bias_sigma", 36000.0, ekf);
   EXPECT_EQ(e_key, "initial_bias_sigma");
   EXPECT_DOUBLE_EQ(e_value, 36000.0);

@@ -359,12 +359,12 @@ IdentifySetup identify_setup(const IdentifySpec& spec, const Dataset& dataset) {
 
 opt::ParameterMap algorithm_params_in_box(const std::vector<std::string>& items,
                                           const ParameterMapping& mapping,
-                                          const opt::ParameterList& own) {
+                                          const opt::ParameterInfoList& own) {
   opt::ParameterMap overrides;
   for (const std::string& item : items) {
     const auto [key, value] = key_value(item);
     // Distances given in sigma units (e.g. d_initial_sigma=0.05) are converted to the
-    // optimizer's normalised box; the algorithm's own "..._sigma" settings are not.
+    // optimizer's normalised box; every other setting passes as given.
     try {
       const auto [box_key, box_value] = mapping.algorithm_parameter_in_box(key, value, own);
       overrides[box_key] = box_value;  // a key given twice: the last one counts

@@ -203,12 +203,12 @@ struct IdentifySetup {
 /// leaves the catalogue's range at the grade's sigma).
 IdentifySetup identify_setup(const IdentifySpec& spec, const Dataset& dataset);
 
-/// KEY=VALUE algorithm parameters; keys ending in _sigma are distances in sigma units,
-/// converted to the normalised box of `mapping`, unless the algorithm has a parameter of that
-/// very name (`own`, its opt::default_parameters: ekf-rts's initial_bias_sigma). A key given
+/// KEY=VALUE algorithm parameters; NAME_sigma for a distance parameter NAME of the algorithm
+/// (`own`, its opt::parameter_info) is that distance in sigma units, converted to the
+/// normalised box of `mapping` (ParameterMapping::algorithm_parameter_in_box). A key given
 /// twice: the last one counts. Throws IdentifySpecError (field "params") naming the item.
 opt::ParameterMap algorithm_params_in_box(const std::vector<std::string>& items,
                                           const ParameterMapping& mapping,
-                                          const opt::ParameterList& own = {});
+                                          const opt::ParameterInfoList& own);
 
 }  // namespace insid

@@ -169,8 +169,7 @@ Search run_search(const IdentifySpec& spec, const std::shared_ptr<const Dataset>
   }
   if (!first_note.empty() && progress.note) progress.note(first_note);
   opt::Optimizer& optimizer = *search.optimizer;
-  if (auto* ekf = dynamic_cast<EkfRtsOptimizer*>(&optimizer))
-    ekf->set_grade(std::string(grade.name));
+  if (auto* ekf = dynamic_cast<EkfRtsOptimizer*>(&optimizer)) ekf->set_grade(grade);
 
   // ask / evaluate / tell, with progress (opt::step also feeds the baselines that need residual
   // vectors or the problem itself: lm, ekf-rts). The status shows the iterations done; the
@@ -232,9 +231,9 @@ IdentifyReport identify(const IdentifySpec& spec, const IdentifyProgress& progre
   report.setup = identify_setup(spec, *dataset);
   IdentifySetup& setup = report.setup;
   const SensorGrade& grade = *setup.grade;
-  opt::ParameterList own;
+  opt::ParameterInfoList own;
   try {
-    own = opt::default_parameters(spec.algorithm);
+    own = opt::parameter_info(spec.algorithm);
   } catch (const std::invalid_argument& e) {  // validate() checked it; kept for the wording
     throw IdentifySpecError("algorithm", "algorithm: " + std::string(e.what()));
   }

@@ -152,20 +152,19 @@ double ParameterMapping::sigma_per_unit(int j) const {
 }
 
 std::pair<std::string, double> ParameterMapping::algorithm_parameter_in_box(
-    std::string key, double value, const opt::ParameterList& own) const {
-  const std::string suffix = "_sigma";
-  if (key.size() <= suffix.size() || !key.ends_with(suffix)) return {std::move(key), value};
-  for (const auto& [name, default_value] : own)
-    if (name == key) return {std::move(key), value};  // the algorithm's own "..._sigma" setting
-  key.erase(key.size() - suffix.size());
-  const double unit = sigma_per_unit(0);
-  for (int k = 1; k < dimension(); ++k)
-    if (sigma_per_unit(k) != unit)
-      throw std::invalid_argument(key + suffix +
-                                  ": the estimated parameters have boxes of different widths; "
-                                  "give " +
-                                  key + " in normalised units");
-  return {std::move(key), value / unit};
+    std::string key, double value, const opt::ParameterInfoList& own) const {
+  for (const opt::ParameterInfo& p : own) {
+    if (p.unit != opt::ParameterUnit::kBoxDistance || key != p.name + "_sigma") continue;
+    const double unit = sigma_per_unit(0);
+    for (int k = 1; k < dimension(); ++k)
+      if (sigma_per_unit(k) != unit)
+        throw std::invalid_argument(key +
+                                    ": the estimated parameters have boxes of different widths; "
+                                    "give " +
+                                    p.name + " in normalised units");
+    return {p.name, value / unit};
+  }
+  return {std::move(key), value};
 }
 
 InsIdentificationProblem::InsIdentificationProblem(

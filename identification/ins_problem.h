@@ -48,15 +48,15 @@ class ParameterMapping {
   SensorErrors to_errors(const Eigen::VectorXd& x) const;
   /// Sigma-unit distance that one normalised unit spans in dimension j.
   double sigma_per_unit(int j) const;
-  /// An algorithm parameter as the optimizer takes it: a key ending in `_sigma` is a distance in
-  /// sigma units (DVPIO's `d_initial_sigma=0.05`), returned without the suffix and divided by
-  /// the sigma span of one normalised unit; any other key comes back unchanged, and so does a
-  /// key in `own` (the algorithm's own parameter names, opt::default_parameters): ekf-rts's
-  /// `initial_bias_sigma` is a prior in catalogue sigma units, not a DVPIO-style distance to be
-  /// stripped to `initial_bias`. Throws std::invalid_argument naming the key when the estimated
-  /// parameters' boxes differ in width (no common unit).
+  /// An algorithm parameter as the optimizer takes it. `own`: the algorithm's parameters with
+  /// their units (opt::parameter_info). `NAME_sigma` for a parameter NAME whose unit is
+  /// opt::ParameterUnit::kBoxDistance (DVPIO's `d_initial_sigma=0.05`) is that distance in sigma
+  /// units: returned as NAME, divided by the sigma span of one normalised unit. Any other key
+  /// comes back unchanged (ekf-rts's own `initial_bias_sigma`, a prior in catalogue sigma units,
+  /// included). Throws std::invalid_argument naming the key when the estimated parameters' boxes
+  /// differ in width (no common unit).
   std::pair<std::string, double> algorithm_parameter_in_box(
-      std::string key, double value, const opt::ParameterList& own = {}) const;
+      std::string key, double value, const opt::ParameterInfoList& own) const;
 
  private:
   std::vector<EstimatedParameter> parameters_;

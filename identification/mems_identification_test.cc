@@ -138,7 +138,6 @@ TEST(MemsIdentification, EkfRtsWithAMeasuredHeadingRecoversTheBiasesAndTheStartH
 // by more than 20 % here), sd_source says so, and a filter sd wider than the box makes the
 // parameter not_observable.
 TEST(MemsIdentification, IdentifyReportsTheFiltersOwnSdForEkfRts) {
-  register_ekf_rts();
   const mems_study::Spec spec;
   const auto data = mems_study::flight(spec, 1);
   const InsIdentificationProblem problem = mems_study::problem(data, 0.0, 0);

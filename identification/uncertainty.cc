@@ -22,6 +22,7 @@
 #include "model/units.h"
 #include "optimizers/parameters.h"
 #include "optimizers/random.h"
+#include "optimizers/registry.h"
 
 namespace insid {
 namespace {
@@ -259,13 +260,9 @@ NoiseReplicaSet noise_replica_set(const InsIdentificationProblem& problem,
   return set;
 }
 
-std::string to_string(UncertaintyCriterion criterion) {
-  return criterion == UncertaintyCriterion::kEq15 ? "eq15" : "least-squares";
-}
-
 UncertaintyCriterion criterion_for_algorithm(const std::string& algorithm) {
-  return (algorithm == "lm" || algorithm == "ekf-rts") ? UncertaintyCriterion::kLeastSquares
-                                                       : UncertaintyCriterion::kEq15;
+  return opt::algorithm_traits(algorithm).least_squares ? UncertaintyCriterion::kLeastSquares
+                                                        : UncertaintyCriterion::kEq15;
 }
 
 std::string UncertaintyOptions::validate() const {

@@ -30,6 +30,7 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
+#include "base/enum_table.h"
 #include "data/dataset.h"
 #include "identification/ins_problem.h"
 #include "optimizers/optimizer.h"
@@ -42,8 +43,16 @@ enum class UncertaintyCriterion {
   kEq15,          ///< Eq. 15 sum of norms (GA, PSO, PIO, DVPIO, CMA-ES, DE, ... ): IRLS step
   kLeastSquares,  ///< sum of squares of the residuals (lm, ekf-rts): Gauss-Newton step
 };
-std::string to_string(UncertaintyCriterion criterion);
-/// The criterion an algorithm of the registry minimises ("lm", "ekf-rts" -> least squares).
+/// The names written to the uncertainty block ("criterion").
+inline constexpr EnumTable<UncertaintyCriterion, 2> kUncertaintyCriterionNames{
+    "uncertainty criterion",
+    {{{UncertaintyCriterion::kEq15, "eq15"},
+      {UncertaintyCriterion::kLeastSquares, "least-squares"}}}};
+inline std::string to_string(UncertaintyCriterion criterion) {
+  return std::string(kUncertaintyCriterionNames.name(criterion));
+}
+/// The criterion an algorithm of the registry minimises (its least_squares trait, registry.h).
+/// Throws std::invalid_argument for an unknown algorithm.
 UncertaintyCriterion criterion_for_algorithm(const std::string& algorithm);
 
 struct UncertaintyOptions {

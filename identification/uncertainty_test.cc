@@ -19,6 +19,7 @@
 #include "identification/uncertainty.h"
 #include "optimizers/registry.h"
 #include "scenarios/scenario.h"
+#include "test_support/enum_tables.h"
 #include "test_support/test_support.h"
 
 namespace insid {
@@ -293,7 +294,6 @@ TEST(Uncertainty, ResultLayoutAndEngineeringUnits) {
 // The EKF-RTS's parameters[].sd is the filter-smoother's own smoothed sd, the
 // Gauss-Newton one kept beside it; any other algorithm reports the Gauss-Newton sd.
 TEST(Uncertainty, EkfRtsReportsItsOwnSmoothedSd) {
-  register_ekf_rts();
   const auto dataset = test::simulate_preset("rich", 300.0, "nav", 4);
   const auto navigation = std::make_shared<const NavigationProblem>(dataset);
   opt::EvaluatorOptions evaluator;
@@ -394,6 +394,25 @@ TEST(Uncertainty, OldResultFilesStillRead) {
     EXPECT_NE(std::string(e.what()).find("estimate_in_sigma_units"), std::string::npos);
     EXPECT_NE(std::string(e.what()).find("estimate_sigma"), std::string::npos);
   }
+}
+
+// The criterion's names (the uncertainty block's "criterion"), and the criterion an algorithm
+// gets from its least_squares trait.
+TEST(Uncertainty, CriterionNamesAndTheCriterionOfEveryAlgorithm) {
+  test::expect_enum_table(kUncertaintyCriterionNames,
+                          {{UncertaintyCriterion::kEq15, "eq15"},
+                           {UncertaintyCriterion::kLeastSquares, "least-squares"}});
+  EXPECT_EQ(to_string(UncertaintyCriterion::kLeastSquares), "least-squares");
+  for (const std::string& name : opt::algorithm_names())
+    EXPECT_EQ(criterion_for_algorithm(name), opt::algorithm_traits(name).least_squares
+                                                 ? UncertaintyCriterion::kLeastSquares
+                                                 : UncertaintyCriterion::kEq15)
+        << name;
+  EXPECT_EQ(criterion_for_algorithm("lm"), UncertaintyCriterion::kLeastSquares);
+  EXPECT_EQ(criterion_for_algorithm("ekf-rts"), UncertaintyCriterion::kLeastSquares);
+  EXPECT_EQ(criterion_for_algorithm("dvpio"), UncertaintyCriterion::kEq15);
+  EXPECT_EQ(criterion_for_algorithm("external:x"), UncertaintyCriterion::kEq15);
+  EXPECT_THROW(criterion_for_algorithm("annealing"), std::invalid_argument);
 }
 
 }  // namespace

@@ -32,13 +32,6 @@ bool with_gyro_z(const Grade& g, SetUp set_up) {
 
 }  // namespace
 
-SetUp set_up_from_string(const std::string& text) {
-  if (text == "fixed-given") return SetUp::kFixedGiven;
-  if (text == "grade") return SetUp::kGradeAlignment;
-  throw std::invalid_argument("window study: set-up must be 'fixed-given' or 'grade', got '" +
-                              text + "'");
-}
-
 Eigen::VectorXd truth_sigma(const Grade& g, SetUp set_up) {
   if (with_gyro_z(g, set_up)) {
     Eigen::VectorXd t(5);

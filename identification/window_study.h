@@ -19,6 +19,7 @@
 
 #include <Eigen/Core>
 
+#include "base/enum_table.h"
 #include "data/dataset.h"
 #include "identification/ins_problem.h"
 #include "nav/fitness.h"
@@ -47,8 +48,11 @@ enum class SetUp {
   /// heading it builds is what level+heading cannot see), injected 2 sigma (0.2 deg/s).
   kGradeAlignment,
 };
+inline constexpr EnumTable<SetUp, 2> kSetUpNames{
+    "window study: set-up",
+    {{{SetUp::kFixedGiven, "fixed-given"}, {SetUp::kGradeAlignment, "grade"}}}};
 /// "fixed-given" | "grade"; throws std::invalid_argument naming the value otherwise.
-SetUp set_up_from_string(const std::string& text);
+inline SetUp set_up_from_string(const std::string& text) { return kSetUpNames.value(text); }
 
 /// The injected biases in sigma units, in the mapping's order.
 Eigen::VectorXd truth_sigma(const Grade& g = grade("nav"), SetUp set_up = SetUp::kFixedGiven);

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "identification/window_study.h"
+#include "test_support/enum_tables.h"
 
 namespace insid {
 namespace {
@@ -46,6 +47,14 @@ TEST(WindowedFitnessMems, TheWindowedOptimumStaysNearTheInjectedBiases) {
             << " sigma\n";
   EXPECT_LT(worst_windowed, 0.05);
   EXPECT_LT(rms_windowed, 0.5 * rms_one_run);
+}
+
+TEST(WindowStudy, SetUpNamesRoundTrip) {
+  test::expect_enum_table(window_study::kSetUpNames,
+                          {{window_study::SetUp::kFixedGiven, "fixed-given"},
+                           {window_study::SetUp::kGradeAlignment, "grade"}});
+  EXPECT_EQ(window_study::set_up_from_string("grade"), window_study::SetUp::kGradeAlignment);
+  EXPECT_THROW(window_study::set_up_from_string("fixed"), std::invalid_argument);
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 
 #include <Eigen/Geometry>
 
+#include "base/enum_table.h"
 #include "base/number_text.h"
 #include "data/gnss_interpolation.h"
 #include "model/rotation.h"
@@ -74,51 +75,35 @@ constexpr double kRadRtsToDegRth = kRadToDeg * 60.0;  // sqrt(h) = 60 sqrt(s)
 
 }  // namespace
 
+// "align": the older name of gyrocompass, still read.
+constexpr EnumTable<InitialAttitudeMode, 5> kInitialAttitudeModeNames{
+    "--initial-attitude",
+    {{{InitialAttitudeMode::kGyrocompass, "gyrocompass"},
+      {InitialAttitudeMode::kGyrocompass, "align"},
+      {InitialAttitudeMode::kLevelHeading, "level+heading"},
+      {InitialAttitudeMode::kGiven, "given"},
+      {InitialAttitudeMode::kTruth, "truth"}}}};
+
+constexpr EnumTable<HeadingSource, 3> kHeadingSourceNames{
+    "--heading-source",
+    {{{HeadingSource::kCourse, "course"},
+      {HeadingSource::kGiven, "given"},
+      {HeadingSource::kMeasured, "measured"}}}};
+
 std::string to_string(InitialAttitudeMode mode) {
-  switch (mode) {
-    case InitialAttitudeMode::kGyrocompass:
-      return "gyrocompass";
-    case InitialAttitudeMode::kLevelHeading:
-      return "level+heading";
-    case InitialAttitudeMode::kGiven:
-      return "given";
-    case InitialAttitudeMode::kTruth:
-      return "truth";
-  }
-  return "?";
+  return std::string(kInitialAttitudeModeNames.name(mode));
 }
 
 InitialAttitudeMode initial_attitude_mode_from_string(const std::string& text) {
-  if (text == "gyrocompass" || text == "align") return InitialAttitudeMode::kGyrocompass;
-  if (text == "level+heading") return InitialAttitudeMode::kLevelHeading;
-  if (text == "given") return InitialAttitudeMode::kGiven;
-  if (text == "truth") return InitialAttitudeMode::kTruth;
-  throw std::invalid_argument(
-      "--initial-attitude must be 'gyrocompass' (or 'align'), 'level+heading', 'given' or "
-      "'truth', got '" +
-      text + "'");
+  return kInitialAttitudeModeNames.value(text);
 }
 
 std::string to_string(HeadingSource source) {
-  switch (source) {
-    case HeadingSource::kCourse:
-      return "course";
-    case HeadingSource::kGiven:
-      return "given";
-    case HeadingSource::kMeasured:
-      return "measured";
-  }
-  return "?";
+  return std::string(kHeadingSourceNames.name(source));
 }
 
 HeadingSource heading_source_from_string(const std::string& text) {
-  if (text == "course") return HeadingSource::kCourse;
-  if (text == "given") return HeadingSource::kGiven;
-  if (text == "measured") return HeadingSource::kMeasured;
-  throw std::invalid_argument(
-      "--heading-source must be 'course' (the GNSS course), 'given' (--heading-deg H) or "
-      "'measured' (the dataset's heading.csv: dual antenna or magnetometer), got '" +
-      text + "'");
+  return kHeadingSourceNames.value(text);
 }
 
 std::string InitialAttitudeOptions::validate() const {

@@ -5,20 +5,20 @@
 #include <stdexcept>
 #include <string>
 
+#include "base/enum_table.h"
 #include "base/number_text.h"
 #include "data/gnss_interpolation.h"
 
 namespace insid {
 
-std::string to_string(AlignmentMode mode) {
-  return mode == AlignmentMode::kPerCandidate ? "per-candidate" : "fixed";
-}
+constexpr EnumTable<AlignmentMode, 2> kAlignmentModeNames{
+    "alignment mode",
+    {{{AlignmentMode::kPerCandidate, "per-candidate"}, {AlignmentMode::kFixed, "fixed"}}}};
+
+std::string to_string(AlignmentMode mode) { return std::string(kAlignmentModeNames.name(mode)); }
 
 AlignmentMode alignment_mode_from_string(const std::string& text) {
-  if (text == "per-candidate") return AlignmentMode::kPerCandidate;
-  if (text == "fixed") return AlignmentMode::kFixed;
-  throw std::invalid_argument("alignment mode must be 'per-candidate' or 'fixed', got '" + text +
-                              "'");
+  return kAlignmentModeNames.value(text);
 }
 
 std::string NavigationOptions::validate() const {

@@ -24,7 +24,8 @@ namespace insid::opt {
 
 std::span<const ParameterField<LmParams>> LmParams::fields() {
   static const ParameterField<LmParams> kFields[] = {
-      {"fd_step", &LmParams::fd_step, "forward-difference step, normalised units"},
+      {"fd_step", &LmParams::fd_step, "forward-difference step, normalised units",
+       ParameterUnit::kBoxDistance},
       {"max_iterations_per_start", &LmParams::max_iterations_per_start,
        "Ceres iterations of one start"},
       {"parameter_tolerance", &LmParams::parameter_tolerance, "Ceres parameter_tolerance"},

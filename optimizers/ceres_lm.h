@@ -27,6 +27,7 @@ struct LmParams {
   static std::span<const ParameterField<LmParams>> fields();
   std::string validate() const;
   ParameterList list() const { return list_parameters(*this); }
+  ParameterInfoList info() const { return list_parameter_info(*this); }
   void set(std::string_view name, double value) { set_parameter(*this, name, value); }
   static LmParams from_map(const ParameterMap& overrides) {
     return parameters_from_map<LmParams>(overrides);

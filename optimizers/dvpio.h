@@ -40,6 +40,7 @@ struct DvpioParams {
   static std::span<const ParameterField<DvpioParams>> fields();
   std::string validate() const;
   ParameterList list() const { return list_parameters(*this); }
+  ParameterInfoList info() const { return list_parameter_info(*this); }
   void set(std::string_view name, double value) { set_parameter(*this, name, value); }
   static DvpioParams from_map(const ParameterMap& overrides) {
     return parameters_from_map<DvpioParams>(overrides);

@@ -53,6 +53,7 @@ struct ExternalParams {
   static std::span<const ParameterField<ExternalParams>> fields();
   std::string validate() const;
   ParameterList list() const { return list_parameters(*this); }
+  ParameterInfoList info() const { return list_parameter_info(*this); }
   void set(std::string_view name, double value) { set_parameter(*this, name, value); }
   static ExternalParams from_map(const ParameterMap& overrides) {
     return parameters_from_map<ExternalParams>(overrides);

@@ -29,6 +29,7 @@ struct GaParams {
   static std::span<const ParameterField<GaParams>> fields();
   std::string validate() const;
   ParameterList list() const { return list_parameters(*this); }
+  ParameterInfoList info() const { return list_parameter_info(*this); }
   void set(std::string_view name, double value) { set_parameter(*this, name, value); }
   static GaParams from_map(const ParameterMap& overrides) {
     return parameters_from_map<GaParams>(overrides);

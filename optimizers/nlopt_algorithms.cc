@@ -15,8 +15,10 @@ namespace insid::opt {
 std::span<const ParameterField<NloptParams>> NloptParams::fields() {
   static const ParameterField<NloptParams> kFields[] = {
       {"initial_step", &NloptParams::initial_step,
-       "initial trust radius (BOBYQA) / simplex size (Nelder-Mead), normalised units"},
-      {"xtol_abs", &NloptParams::xtol_abs, "step size that ends a start (normalised units)"},
+       "initial trust radius (BOBYQA) / simplex size (Nelder-Mead), normalised units",
+       ParameterUnit::kBoxDistance},
+      {"xtol_abs", &NloptParams::xtol_abs, "step size that ends a start (normalised units)",
+       ParameterUnit::kBoxDistance},
       {"ftol_rel", &NloptParams::ftol_rel, "relative fitness change that ends a start (0 = none)"},
   };
   return kFields;

@@ -23,6 +23,7 @@ struct NloptParams {
   static std::span<const ParameterField<NloptParams>> fields();
   std::string validate() const;
   ParameterList list() const { return list_parameters(*this); }
+  ParameterInfoList info() const { return list_parameter_info(*this); }
   void set(std::string_view name, double value) { set_parameter(*this, name, value); }
   static NloptParams from_map(const ParameterMap& overrides) {
     return parameters_from_map<NloptParams>(overrides);

@@ -26,20 +26,6 @@ std::string RunConfig::validate() const {
   return {};
 }
 
-std::string_view to_string(Termination termination) {
-  switch (termination) {
-    case Termination::kNone:
-      return "running";
-    case Termination::kIterations:
-      return "iterations";
-    case Termination::kEvaluations:
-      return "evaluations";
-    case Termination::kTarget:
-      return "target";
-  }
-  return "unknown";
-}
-
 Optimizer::Optimizer(std::string name, Bounds bounds, RunConfig config)
     : bounds_(std::move(bounds)), config_(std::move(config)), rng_(config_.seed) {
   if (std::string error = bounds_.validate(); !error.empty()) throw std::invalid_argument(error);

@@ -39,6 +39,7 @@
 
 #include <Eigen/Core>
 
+#include "base/enum_table.h"
 #include "optimizers/parameters.h"
 #include "optimizers/problem.h"
 #include "optimizers/random.h"
@@ -65,7 +66,16 @@ enum class Termination {
   kEvaluations,  ///< max_evaluations reached
   kTarget,       ///< best fitness <= target_fitness
 };
-std::string_view to_string(Termination termination);
+/// The names written to results ("termination").
+inline constexpr EnumTable<Termination, 4> kTerminationNames{
+    "termination",
+    {{{Termination::kNone, "running"},
+      {Termination::kIterations, "iterations"},
+      {Termination::kEvaluations, "evaluations"},
+      {Termination::kTarget, "target"}}}};
+inline std::string_view to_string(Termination termination) {
+  return kTerminationNames.name(termination);
+}
 
 /// One iteration (batch). Population statistics are over the candidates evaluated in it.
 struct IterationRecord {

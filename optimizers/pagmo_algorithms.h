@@ -33,6 +33,7 @@ struct CmaesParams {
   static std::span<const ParameterField<CmaesParams>> fields();
   std::string validate() const;
   ParameterList list() const { return list_parameters(*this); }
+  ParameterInfoList info() const { return list_parameter_info(*this); }
   void set(std::string_view name, double value) { set_parameter(*this, name, value); }
   static CmaesParams from_map(const ParameterMap& overrides) {
     return parameters_from_map<CmaesParams>(overrides);
@@ -50,6 +51,7 @@ struct DeParams {
   static std::span<const ParameterField<DeParams>> fields();
   std::string validate() const;
   ParameterList list() const { return list_parameters(*this); }
+  ParameterInfoList info() const { return list_parameter_info(*this); }
   void set(std::string_view name, double value) { set_parameter(*this, name, value); }
   static DeParams from_map(const ParameterMap& overrides) {
     return parameters_from_map<DeParams>(overrides);
@@ -66,6 +68,7 @@ struct CompassParams {
   static std::span<const ParameterField<CompassParams>> fields();
   std::string validate() const;
   ParameterList list() const { return list_parameters(*this); }
+  ParameterInfoList info() const { return list_parameter_info(*this); }
   void set(std::string_view name, double value) { set_parameter(*this, name, value); }
   static CompassParams from_map(const ParameterMap& overrides) {
     return parameters_from_map<CompassParams>(overrides);

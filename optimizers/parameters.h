@@ -43,12 +43,31 @@ inline std::string format_vector(const Eigen::VectorXd& x) {
   return text + "]";
 }
 
+/// What a parameter's value measures, so that a front end that takes values in the problem's own
+/// units knows which to convert.
+enum class ParameterUnit {
+  kPlain,        ///< a count, factor, probability, switch or fraction, or a value in units of its
+                 ///< own (named in its description): never converted
+  kBoxDistance,  ///< a distance in the problem's box (normalised units): a problem whose box is a
+                 ///< scaled physical range may take it in that range's units
+};
+
 template <class Params>
 struct ParameterField {
   std::string_view name;
   std::variant<double Params::*, int Params::*> member;
   std::string_view description;
+  ParameterUnit unit = ParameterUnit::kPlain;
 };
+
+/// One parameter of an algorithm: name, value (the default in a registry listing) and unit.
+struct ParameterInfo {
+  std::string name;
+  double value = 0.0;
+  ParameterUnit unit = ParameterUnit::kPlain;
+  bool operator==(const ParameterInfo&) const = default;
+};
+using ParameterInfoList = std::vector<ParameterInfo>;
 
 template <class Params>
 ParameterList list_parameters(const Params& params) {
@@ -57,6 +76,17 @@ ParameterList list_parameters(const Params& params) {
     const double value =
         std::visit([&](auto member) { return static_cast<double>(params.*member); }, field.member);
     list.emplace_back(std::string(field.name), value);
+  }
+  return list;
+}
+
+template <class Params>
+ParameterInfoList list_parameter_info(const Params& params) {
+  ParameterInfoList list;
+  for (const ParameterField<Params>& field : Params::fields()) {
+    const double value =
+        std::visit([&](auto member) { return static_cast<double>(params.*member); }, field.member);
+    list.push_back({std::string(field.name), value, field.unit});
   }
   return list;
 }

@@ -30,6 +30,7 @@ struct PioParams {
   static std::span<const ParameterField<PioParams>> fields();
   std::string validate() const;
   ParameterList list() const { return list_parameters(*this); }
+  ParameterInfoList info() const { return list_parameter_info(*this); }
   void set(std::string_view name, double value) { set_parameter(*this, name, value); }
   static PioParams from_map(const ParameterMap& overrides) {
     return parameters_from_map<PioParams>(overrides);

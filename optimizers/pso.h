@@ -26,6 +26,7 @@ struct PsoParams {
   static std::span<const ParameterField<PsoParams>> fields();
   std::string validate() const;
   ParameterList list() const { return list_parameters(*this); }
+  ParameterInfoList info() const { return list_parameter_info(*this); }
   void set(std::string_view name, double value) { set_parameter(*this, name, value); }
   static PsoParams from_map(const ParameterMap& overrides) {
     return parameters_from_map<PsoParams>(overrides);

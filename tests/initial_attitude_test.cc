@@ -11,6 +11,7 @@
 #include <random>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -502,6 +503,40 @@ TEST(MeasuredHeading, RefusedWithoutHeadingDataAndWithContradictoryOptions) {
   EXPECT_EQ(d.effective_heading_source(), HeadingSource::kCourse);
   d.heading_deg = 3.0;
   EXPECT_EQ(d.effective_heading_source(), HeadingSource::kGiven);
+}
+
+// The option names of the alignment and the initial attitude, both directions, and one message
+// naming every valid name for an unknown one.
+TEST(OptionNames, AlignmentInitialAttitudeAndHeadingSourceRoundTrip) {
+  for (const auto& [mode, name] : {std::pair{AlignmentMode::kPerCandidate, "per-candidate"},
+                                   std::pair{AlignmentMode::kFixed, "fixed"}}) {
+    EXPECT_EQ(to_string(mode), name);
+    EXPECT_EQ(alignment_mode_from_string(name), mode);
+  }
+  EXPECT_EQ(test::error_of([] { alignment_mode_from_string("sometimes"); }),
+            "alignment mode must be 'per-candidate' or 'fixed', got 'sometimes'");
+  for (const auto& [mode, name] : {std::pair{InitialAttitudeMode::kGyrocompass, "gyrocompass"},
+                                   std::pair{InitialAttitudeMode::kLevelHeading, "level+heading"},
+                                   std::pair{InitialAttitudeMode::kGiven, "given"},
+                                   std::pair{InitialAttitudeMode::kTruth, "truth"}}) {
+    EXPECT_EQ(to_string(mode), name);
+    EXPECT_EQ(initial_attitude_mode_from_string(name), mode);
+  }
+  EXPECT_EQ(initial_attitude_mode_from_string("align"), InitialAttitudeMode::kGyrocompass);
+  EXPECT_EQ(test::error_of([] { initial_attitude_mode_from_string("compass"); }),
+            "--initial-attitude must be 'gyrocompass', 'align', 'level+heading', 'given' or "
+            "'truth', got 'compass'");
+  for (const auto& [source, name] :
+       {std::pair{HeadingSource::kCourse, "course"}, std::pair{HeadingSource::kGiven, "given"},
+        std::pair{HeadingSource::kMeasured, "measured"}}) {
+    EXPECT_EQ(to_string(source), name);
+    EXPECT_EQ(heading_source_from_string(name), source);
+  }
+  EXPECT_EQ(test::error_of([] { heading_source_from_string("compass"); }),
+            "--heading-source must be 'course', 'given' or 'measured', got 'compass'");
+  // meta.json's heading source (read back in the dataset battery, tests/dataset_battery_test.cc).
+  EXPECT_EQ(to_string(HeadingSourceKind::kDualAntenna), "dual_antenna");
+  EXPECT_EQ(to_string(HeadingSourceKind::kMagnetometer), "magnetometer");
 }
 
 }  // namespace

@@ -339,7 +339,7 @@ void run_missing_cases(const std::vector<Case>& cases, const CampaignArgs& args,
     o.threads = args.threads;
     o.max_effects = 3;
     o.family_calibration = args.family_calibration;
-    o.grade = c.data.grade;
+    o.grade = &insid::sensor_grade(c.data.grade);
     o.window_s = c.window_s;
     // MEMS gyros cannot gyrocompass (insid refuses it): level + the GNSS course, as a user
     // of a MEMS log would run it.

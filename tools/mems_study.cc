@@ -104,7 +104,6 @@ int mems_study_main(int argc, char** argv) {
                "EKF-RTS's modelled heading sd (the z gyro's sd)");
   app.add_option("--csv", csv, "one row per seed, method and parameter");
   tools::parse(app, argc, argv);
-  register_ekf_rts();
   // Names checked before any work (a bad one is a usage error).
   cli::parse_option("--ekf-param", [&] {
     for (const std::string& item : spec.ekf_params) {

@@ -57,7 +57,6 @@ int uncertainty_study_main(int argc, char** argv) {
   app.add_option("--algo", algorithms, "algorithms")->capture_default_str();
   app.add_option("--jsonl", jsonl, "one JSON line per run");
   tools::parse(app, argc, argv);
-  register_ekf_rts();
   // Names checked before any work (a bad one is a usage error).
   cli::parse_option("--preset", [&] { return scenarios::preset_scenario(preset); });
   cli::parse_option("--grade", [&] { return scenarios::noise_grade(grade); });
