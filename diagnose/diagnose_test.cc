@@ -273,7 +273,7 @@ std::shared_ptr<const Dataset> motor_flight(const std::map<std::string, double>&
 
 DiagnoseOptions mems_options(std::uint64_t seed) {
   DiagnoseOptions o = quick_options(seed);
-  o.grade = "mems";
+  o.grade = &sensor_grade("mems");
   o.window_s = 10.0;
   o.initial_attitude.mode = InitialAttitudeMode::kLevelHeading;
   o.threads = 2;
