@@ -325,6 +325,13 @@ json scenario_to_json(const ScenarioConfig& c) {
 
 ScenarioPlan plan_scenario(const ScenarioConfig& c) {
   auto fail = [&](const std::string& what) { throw std::invalid_argument(c.origin + ": " + what); };
+  // A motor offset acts only while the motors run: without a schedule it would do nothing.
+  if (c.motors.empty())
+    for (const auto& [name, value] : nonzero_effects(c.injected))
+      if (effect_info(name).kind == EffectKind::kMotorOffset)
+        fail("injected " + name +
+             " acts only while the motors run, and the scenario has no "
+             "motors_on_s");
   if (!(c.imu_rate_hz > 0.0 && c.imu_rate_hz <= 10000.0))
     fail("imu_rate_hz must be in (0, 10000] Hz, got " + number_text(c.imu_rate_hz, 12));
   if (!(c.gnss_rate_hz > 0.0 && c.gnss_rate_hz <= c.imu_rate_hz))

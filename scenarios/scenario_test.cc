@@ -79,6 +79,28 @@ TEST(Effects, GyroBiasAndDriftAddRateTimesDt) {
               1e-8 * (s.t_s - 0.005) * 0.01, 1e-20);
 }
 
+// A motor offset adds to the increments only while the motors run (a step inside an IMU
+// interval: that step gets its part), is written with the schedule to meta.json, and is refused
+// without a schedule.
+TEST(Effects, MotorOffsetActsWhileTheMotorsRun) {
+  ScenarioConfig c = base_config();
+  const Dataset clean = simulate(c);
+  set_effect(c.injected, "gyro_motor_offset_y", 1e-3);
+  EXPECT_THROW(simulate(c), std::invalid_argument);
+  const double t_on = clean.imu[3000].t_s - 0.25 * 0.01;  // a quarter step before row 3000
+  c.motors.on_s = {{t_on, clean.imu[5000].t_s}};
+  const Dataset with = simulate(c);
+  const auto added = [&](std::size_t k) {
+    return with.imu[k].dtheta_b_rad.y() - clean.imu[k].dtheta_b_rad.y();
+  };
+  EXPECT_EQ(added(2999), 0.0);
+  EXPECT_NEAR(added(3000), 1e-3 * 0.25 * 0.01, 1e-17);
+  EXPECT_NEAR(added(4000), 1e-3 * 0.01, 1e-17);
+  EXPECT_EQ(added(5001), 0.0);
+  ASSERT_EQ(with.meta.motors.on_s.size(), 1u);
+  EXPECT_EQ(with.meta.motors.on_s[0].first, t_on);
+}
+
 TEST(Effects, ScaleFactorScalesTheIncrement) {
   const Pair p = simulate_with("accel_scale_z", 1e-3);
   for (std::size_t k : {0, 3000}) {
