@@ -253,6 +253,22 @@ IdentifyReport identify(const IdentifySpec& spec, const IdentifyProgress& progre
          " first reached at iteration " + std::to_string(s.best_at_iteration));
   };
   closing_line(search);
+  // A motor offset differs from its bias only where the motors are off: say how long that is.
+  if (std::any_of(setup.estimated.begin(), setup.estimated.end(), [](const EstimatedParameter& p) {
+        return effect_info(p.name).kind == EffectKind::kMotorOffset;
+      })) {
+    const NavigationProblem& nav = *search.navigation;
+    double off_s = 0.0, on_s = 0.0;
+    for (std::size_t k = nav.nav_begin(); k < dataset->imu.size(); ++k) {
+      const double dt = dataset->imu[k].t_s - dataset->imu[k - 1].t_s;
+      on_s += nav.motor_on(k) * dt;
+      off_s += (1.0 - nav.motor_on(k)) * dt;
+    }
+    note("motor offsets: the navigation holds " + number_text(off_s, 3) +
+         " s with the motors off and " + number_text(on_s, 3) +
+         " s with them on; only the motors-off part tells an offset from its bias (a short one "
+         "shows as a large sd on both; a shorter static window, --align-s, lengthens it)");
+  }
   nlohmann::json rounds = nlohmann::json::array();
   auto round_json = [&](const Search& s) {
     const opt::Result& r = s.optimizer->result();

@@ -8,7 +8,7 @@
 #   ground before the motors (75-82.5 s)
 #   -> results/real/ardupilot/cross_imu.json (EKF-RTS), cross_imu_dvpio.json,
 #      cross_imu_ground.json, cross_imu.md
-#   and the motor offsets: import with --align-s 3 (5.2 s of motors-off navigation before the
+#   and the motor offsets: import with --align-s 3 (5.0 s of motors-off navigation before the
 #   motors start at 82.86 s), identify each IMU by LM with gyro_motor_offset_x|y|z beside the
 #   biases, cross-imu over 75-215 s with 1 s blocks (the jump at motor start per pair)
 #   -> cross_imu_motor.json
@@ -97,7 +97,7 @@ done
   echo
   echo "## The motor offsets: the jump at motor start, boot 75-215 s (1 s blocks)"
   echo
-  echo "Imported with \`--align-s 3\` (5.2 s of navigation with the motors off); insid ="
+  echo "Imported with \`--align-s 3\` (5.0 s of navigation with the motors off); insid ="
   echo "\`identify --algo lm\` with \`gyro_motor_offset_x|y|z\` beside the four biases. The"
   echo "gyro_bias rows compare the motors-off biases with the regression's mean difference."
   echo
