@@ -258,8 +258,8 @@ ImuCompensator::ImuCompensator(const SensorErrors& errors)
 void ImuCompensator::compensate(double t_s, double dt_s, Eigen::Vector3d& dtheta_b,
                                 Eigen::Vector3d& dv_b, double motor_on) const {
   const double t_mid = t_s - 0.5 * dt_s;
-  // Without a motor part the bias is b0 + b_dot t_mid exactly (the same bits as before the
-  // motor term existed: the batch kernel is held to them).
+  // Without a motor part the bias is b0 + b_dot t_mid exactly, the form the batch kernel's fast
+  // path reproduces bit for bit.
   if (motor_on == 0.0) {
     dtheta_b = gyro_inv_ * (dtheta_b - (gyro_.bias + gyro_.bias_drift * t_mid) * dt_s);
     dv_b = accel_inv_ * (dv_b - (accel_.bias + accel_.bias_drift * t_mid) * dt_s);

@@ -46,8 +46,8 @@ struct SensorErrors {
 enum class EffectSide { kImu, kGnss };
 /// The instrument an effect belongs to.
 enum class EffectSensor { kGyro, kAccel, kGnss };
-/// The term of the error model it is: b0, b_dot, diag(S), M (IMU); the latency and the lever arm
-/// (GNSS).
+/// The term of the error model it is: b0, b_dot, diag(S), M, b_motor (IMU); the latency and the
+/// lever arm (GNSS).
 enum class EffectKind { kBias, kBiasDrift, kScale, kMisalign, kMotorOffset, kLatency, kLeverArm };
 
 /// When the motors run, in the dataset's time (s): half-open intervals [on, off), sorted and
