@@ -1,7 +1,6 @@
 #include "import/ardupilot_import.h"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -604,15 +603,7 @@ std::optional<MotorRuns> motor_runs_from_rcou(const DataFlashFile& log,
     notes.push_back("RCOU has fewer than 2 usable records: the motor state is unknown");
     return std::nullopt;
   }
-  std::vector<double> t_s;
-  std::vector<std::array<double, kMotorChannels>> outputs;
-  for (const std::size_t k : sel.kept) {
-    t_s.push_back(rows[k][0] * 1e-3);
-    std::array<double, kMotorChannels> o;
-    for (int c = 0; c < kMotorChannels; ++c) o[c] = rows[k][c + 1];
-    outputs.push_back(o);
-  }
-  return motor_runs(t_s, outputs, "RCOU " + fields[1] + "-" + fields.back(), notes);
+  return motor_runs(rows, sel.kept, 1e-3, "RCOU " + fields[1] + "-" + fields.back(), notes);
 }
 
 }  // namespace insid::importers

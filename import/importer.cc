@@ -468,16 +468,13 @@ void add_motors(const CsvImu& imu, const ImuSpan& span, Assembled& out) {
   if (imu.motors_on_gpst.empty()) return;
   DatasetMeta& m = out.dataset.meta;
   const double t0 = out.dataset.imu.front().t_s, t1 = out.dataset.imu.back().t_s;
-  nlohmann::json list = nlohmann::json::array();
   for (const auto& [on, off] : imu.motors_on_gpst) {
     const double t_on = std::max(t0, static_cast<double>(on - span.t_origin));
     const double t_off = std::min(t1, static_cast<double>(off - span.t_origin));
-    if (!(t_on < t_off)) continue;
-    m.motors.on_s.emplace_back(t_on, t_off);
-    list.push_back({t_on, t_off});
+    if (t_on < t_off) m.motors.on_s.emplace_back(t_on, t_off);
   }
   m.motors_source = imu.motors_source;
-  out.provenance["motors"] = {{"source", imu.motors_source}, {"on_s", list}};
+  out.provenance["motors"] = {{"source", imu.motors_source}, {"on_s", m.motors.on_s}};
   std::string spans;
   for (std::size_t i = 0; i < m.motors.on_s.size() && i < 4; ++i)
     spans += (i ? ", " : "") + number_text(m.motors.on_s[i].first, 6) + " - " +

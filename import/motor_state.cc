@@ -7,9 +7,17 @@
 
 namespace insid::importers {
 
-std::optional<MotorRuns> motor_runs(const std::vector<double>& t_s,
-                                    const std::vector<std::array<double, kMotorChannels>>& outputs,
+std::optional<MotorRuns> motor_runs(const std::vector<std::vector<double>>& rows,
+                                    const std::vector<std::size_t>& kept, double seconds_per_stamp,
                                     const std::string& series, std::vector<std::string>& notes) {
+  std::vector<double> t_s;
+  std::vector<std::array<double, kMotorChannels>> outputs;
+  for (const std::size_t k : kept) {
+    t_s.push_back(rows[k][0] * seconds_per_stamp);
+    std::array<double, kMotorChannels> o;
+    for (int c = 0; c < kMotorChannels; ++c) o[c] = rows[k][static_cast<std::size_t>(c) + 1];
+    outputs.push_back(o);
+  }
   std::vector<std::size_t> usable;
   for (std::size_t k = 0; k < outputs.size() && k < t_s.size(); ++k)
     if (std::all_of(outputs[k].begin(), outputs[k].end(),

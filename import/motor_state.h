@@ -30,13 +30,15 @@ struct MotorRuns {
   std::string source;  ///< e.g. "RCOU Ch1-Ch4 more than 100 us above their lowest (...)"
 };
 
-/// The runs of a series of motor outputs (`t_s` increasing, the caller's clock; `outputs` PWM
-/// us, one row per record): runs of running records, apart by less than kMotorOffMergeS, make
-/// one interval from its first running record to the first record after it that is not (or the
-/// last record); runs under kMotorMinRunS are dropped. `series` names the outputs in the source
-/// and notes ("RCOU Ch1-Ch4"). nullopt, with a note, when fewer than 2 records are PWM widths.
-std::optional<MotorRuns> motor_runs(const std::vector<double>& t_s,
-                                    const std::vector<std::array<double, kMotorChannels>>& outputs,
+/// The runs of a series of motor outputs: `rows` one per logged record, its stamp then outputs
+/// 1-4 (PWM us); `kept` the records whose stamps select_increasing_stamps kept, in order;
+/// `seconds_per_stamp` the stamp's unit (1e-3: ms, 1e-6: us), giving times on the log's clock.
+/// Runs of running records, apart by less than kMotorOffMergeS, make one interval from its first
+/// running record to the first record after it that is not (or the last record); runs under
+/// kMotorMinRunS are dropped. `series` names the outputs in the source and notes ("RCOU
+/// Ch1-Ch4"). nullopt, with a note, when fewer than 2 records are PWM widths.
+std::optional<MotorRuns> motor_runs(const std::vector<std::vector<double>>& rows,
+                                    const std::vector<std::size_t>& kept, double seconds_per_stamp,
                                     const std::string& series, std::vector<std::string>& notes);
 
 }  // namespace insid::importers

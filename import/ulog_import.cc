@@ -1,7 +1,6 @@
 #include "import/ulog_import.h"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
@@ -406,16 +405,9 @@ std::optional<MotorRuns> motor_runs_from_actuator_outputs(const UlogFile& log,
     nlohmann::json prov;
     const TimestampSelection sel =
         select_topic_stamps(log, kTopic, instance, "timestamp", rows, prov, notes);
-    std::vector<double> t_s;
-    std::vector<std::array<double, kMotorChannels>> outputs;
-    for (const std::size_t k : sel.kept) {
-      t_s.push_back(rows[k][0] * 1e-6);
-      std::array<double, kMotorChannels> o;
-      for (int c = 0; c < kMotorChannels; ++c) o[c] = rows[k][c + 1];
-      outputs.push_back(o);
-    }
-    std::optional<MotorRuns> runs = motor_runs(
-        t_s, outputs, kTopic + " instance " + std::to_string(instance) + " output[0-3]", why_not);
+    std::optional<MotorRuns> runs =
+        motor_runs(rows, sel.kept, 1e-6,
+                   kTopic + " instance " + std::to_string(instance) + " output[0-3]", why_not);
     if (runs) return runs;
   }
   if (why_not.empty()) why_not.push_back("no " + kTopic + ": the motor state is unknown");
