@@ -417,6 +417,21 @@ TEST(FlightPhases, SyntheticFlightGivesItsPhases) {
   EXPECT_NE(bad.validate().find("spin_fraction"), std::string::npos);
 }
 
+// Stamps so large that a 0.5 s block adds nothing to them (a damaged log the fuzzer made): every
+// record still opens or joins a block, one block per record at most (this looped, allocating
+// blocks until memory ran out).
+TEST(FlightPhases, StampsBeyondTheBlockResolutionStillEnd) {
+  FlightPhaseInput in;
+  for (int k = 0; k < 50; ++k) {
+    in.imu_boot_s.push_back(1e17 + 16.0 * k);  // the ulp at 1e17 is 16 s
+    in.f_b_mps2.emplace_back(0.0, 0.0, -9.80665);
+    in.omega_b_rad_s.emplace_back(0.0, 0.0, 0.0);
+  }
+  const FlightPhases p = find_flight_phases(in, FlightPhaseOptions{});
+  EXPECT_EQ(p.log_start_s, 1e17);
+  EXPECT_FALSE(p.motors_on_s);
+}
+
 // The EKF bias fields of a crafted log (ArduPilot 3.x layouts "IccCffffffccc" and
 // "Ibbbcchhhhhh", LogStructure.h) with distinct values per axis: GX = -150, GY = 250, GZ = -5
 // centi-deg/s and AZ1bias = -7, AZ2bias = 12 cm/s^2 give -1.5, 2.5, -0.05 deg/s and -0.07,

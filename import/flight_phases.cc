@@ -72,7 +72,9 @@ FlightPhases find_flight_phases(const FlightPhaseInput& in, const FlightPhaseOpt
         std::floor((in.imu_boot_s[k] - out.log_start_s) / options.block_s) * options.block_s;
     double sum = 0, sum2 = 0, fz = 0;
     std::size_t j = k;
-    for (; j < n && in.imu_boot_s[j] < b.t_start_s + options.block_s; ++j) {
+    // The record that opens the block always belongs to it: stamps so large that adding block_s
+    // changes nothing (damage) must not leave an empty block and no progress.
+    for (; j < n && (j == k || in.imu_boot_s[j] < b.t_start_s + options.block_s); ++j) {
       const double a = in.f_b_mps2[j].norm();
       sum += a, sum2 += a * a, fz += in.f_b_mps2[j].z();
     }
