@@ -142,21 +142,22 @@ TEST(ExternalCampaign, CrashingClientFailsOnlyItsOwnRuns) {
   fs::remove_all(dir);
 }
 
-// A wave's processes start together: each client logs when its shell started, then
-// sleeps 1 s before the Python client runs. Launched one after another at the first ask (as
-// before), the starts of 4 runs spread over at least 3 s; launched together, over far less.
+// A wave's processes start together: each client writes when its shell started into a file
+// of its own (one shared file appended by 4 processes once came back as 3 numbers and a
+// fragment), then sleeps 1 s before the Python client runs. Launched one after another at the
+// first ask (as before), the starts of 4 runs spread over at least 3 s; launched together,
+// over far less.
 TEST(ExternalCampaign, WaveProcessesStartTogether) {
   if (!test::python_with_numpy()) GTEST_SKIP() << test::kPython << " with numpy is not available";
   const fs::path dir = test::fresh_dir("launch");
-  fs::create_directories(dir);
-  const fs::path starts = dir / "starts.txt";
+  const fs::path starts = dir / "starts";
+  fs::create_directories(starts);
   nlohmann::json j = config_json(false);
   j["algorithms"] = {
       {{"label", "RS-slow"},
-       {"name",
-        "external:/usr/bin/python3 -c 'import time; print(repr(time.time()))' "
-        ">> " +
-            starts.string() + "; sleep 1; exec " + test::kPython + " " + test::kExternalClient}}};
+       {"name", "external:/usr/bin/python3 -c 'import os, time; open(\"" + starts.string() +
+                    "/\" + str(os.getpid()), \"w\").write(repr(time.time()))'; sleep 1; exec " +
+                    test::kPython + " " + test::kExternalClient}}};
   j["seeds"] = 4;
   const CampaignConfig config = parse_campaign(j, "test");
   RunOptions options;
@@ -164,9 +165,13 @@ TEST(ExternalCampaign, WaveProcessesStartTogether) {
   options.threads = 2;
   options.quiet = true;
   ASSERT_TRUE(run_campaign(config, options).complete);
-  std::ifstream in(starts);
   std::vector<double> t;
-  for (double x; in >> x;) t.push_back(x);
+  for (const auto& entry : fs::directory_iterator(starts)) {
+    std::ifstream in(entry.path());
+    double x = 0.0;
+    ASSERT_TRUE(in >> x) << entry.path() << " holds no start time";
+    t.push_back(x);
+  }
   ASSERT_EQ(t.size(), 4u);
   const double spread =
       *std::max_element(t.begin(), t.end()) - *std::min_element(t.begin(), t.end());
