@@ -39,6 +39,7 @@ struct IdentifyArgs {
   int uncertainty_replicas = 100;
   bool fixed_box = false;
   int max_widenings = BoxWideningOptions{}.max_rounds;
+  bool gyro_bias_at_rest = false;
   std::string out;
   bool force = false;
   Verbosity verbosity = Verbosity::kNormal;
@@ -58,7 +59,8 @@ std::string option_of(const std::string& field) {
       {"threads", "--threads"},
       {"uncertainty_replicas", "--uncertainty-replicas"},
       {"initial_attitude", "--initial-attitude"},
-      {"box_widening.max_rounds", "--max-widenings"}};
+      {"box_widening.max_rounds", "--max-widenings"},
+      {"gyro_bias_at_rest", "--gyro-bias-at-rest"}};
   const auto it = kOptions.find(field);
   return it == kOptions.end() ? field : it->second;
 }
@@ -95,6 +97,7 @@ void run_identify(const IdentifyArgs& args) {
   spec.uncertainty_replicas = args.uncertainty_replicas;
   spec.box_widening.enabled = !args.fixed_box;
   spec.box_widening.max_rounds = args.max_widenings;
+  spec.gyro_bias_at_rest = args.gyro_bias_at_rest;
   if (const std::optional<IdentifySpecError> problem = spec_problem(spec))
     throw_usage(*problem);  // before the dataset is read
   ProgressPrinter progress("insid identify", args.verbosity);
@@ -175,6 +178,11 @@ void add_identify_command(CLI::App& app) {
                   "most re-runs of the search in a widened box")
       ->capture_default_str()
       ->check(whole_in(1, 32));
+  cmd->add_flag("--gyro-bias-at-rest", args->gyro_bias_at_rest,
+                "measure the gyro biases as the static window's mean rate less the Earth rate "
+                "(nav/gyro_at_rest.h) instead of searching them; the window must end before the "
+                "motors start, so that a motor offset (gyro_motor_offset_*) is told apart from "
+                "the bias. Needs --initial-attitude level+heading or given");
   cmd->add_option("--out", args->out, "result JSON file (default: stdout)");
   add_verbosity_flags(cmd, args->verbosity);
   cmd->callback([args] { run_identify(*args); });

@@ -103,6 +103,7 @@ std::string cache_key(const std::string& data_dir, const InsIdentificationProble
         << opt::format_number(p.lower_sigma) << ":" << opt::format_number(p.upper_sigma);
   for (const auto& [name, value] : nonzero_effects(problem.mapping().base()))
     key << ";base:" << name << "=" << opt::format_number(value);
+  if (problem.mapping().gyro_at_rest()) key << ";gyro_bias_at_rest";
   return key.str();
 }
 
@@ -330,6 +331,11 @@ std::optional<IdentifySpecError> spec_problem(const IdentifySpec& spec) {
     return IdentifySpecError("initial_attitude", "initial_attitude: " + why);
   if (const std::string why = spec.box_widening.validate(); !why.empty())
     return IdentifySpecError("box_widening", why);
+  if (spec.gyro_bias_at_rest && spec.algorithm == "ekf-rts")
+    return IdentifySpecError("gyro_bias_at_rest",
+                             "gyro_bias_at_rest: ekf-rts estimates the gyro biases as filter "
+                             "states from the navigation start; use it without the rest "
+                             "measurement, or a search algorithm or lm with it");
   return std::nullopt;
 }
 
@@ -347,6 +353,23 @@ IdentifySetup identify_setup(const IdentifySpec& spec, const Dataset& dataset) {
     setup.estimated = identify_parameters(*setup.grade, spec.estimate);
   } catch (const std::invalid_argument& e) {
     throw field_error("estimate", e.what());
+  }
+  if (spec.gyro_bias_at_rest) {
+    const auto measured = [](const EstimatedParameter& p) {
+      const EffectInfo& info = effect_info(p.name);
+      return info.sensor == EffectSensor::kGyro && info.kind == EffectKind::kBias;
+    };
+    if (spec.estimate.empty())  // the default set, less what the rest window measures
+      std::erase_if(setup.estimated, measured);
+    for (const EstimatedParameter& p : setup.estimated)
+      if (measured(p))
+        throw field_error("estimate", "--estimate '" + p.name +
+                                          "': the gyro biases are measured at rest "
+                                          "(--gyro-bias-at-rest); leave them out");
+    if (setup.estimated.empty())
+      throw field_error("estimate",
+                        "--estimate: with the gyro biases measured at rest nothing is left to "
+                        "estimate; name the parameters");
   }
   setup.navigation.alignment = spec.alignment;
   setup.navigation.initial_attitude = spec.initial_attitude;

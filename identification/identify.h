@@ -175,6 +175,10 @@ struct IdentifySpec {
   /// An estimate at an edge of its box widens the box and runs the search again, up to the
   /// grade's physical limits (identification/box_widening.h); off: the box stays as given.
   BoxWideningOptions box_widening;
+  /// The gyro biases measured at rest over the static window (nav/gyro_at_rest.h) instead of
+  /// searched: gyro_bias_x|y|z leave the default set and may not be named in `estimate`; what
+  /// the flight sees beyond them (a motor offset) is then told apart from them.
+  bool gyro_bias_at_rest = false;
 
   /// "" when the spec can be run, else what is wrong, naming the bad field and value (the
   /// project's convention for options; spec_problem keeps the field for a front end): no data

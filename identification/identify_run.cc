@@ -150,7 +150,15 @@ Search run_search(const IdentifySpec& spec, const std::shared_ptr<const Dataset>
   navigation_options.initial_attitude.gyro_bias_allowance_rad_s =
       gyro_bias_allowance_rad_s(estimated);
   search.navigation = std::make_shared<const NavigationProblem>(dataset, navigation_options);
-  ParameterMapping mapping(estimated);
+  std::optional<GyroAtRest> rest;
+  if (spec.gyro_bias_at_rest) {
+    try {
+      rest = gyro_at_rest(*search.navigation);
+    } catch (const std::invalid_argument& e) {
+      throw IdentifySpecError("gyro_bias_at_rest", e.what());
+    }
+  }
+  ParameterMapping mapping(estimated, {}, rest);
   opt::EvaluatorOptions evaluator;
   evaluator.parallelism = spec.threads == 1 ? opt::Parallelism::kSerial : opt::Parallelism::kOpenMP;
   evaluator.num_threads = spec.threads;
@@ -253,10 +261,19 @@ IdentifyReport identify(const IdentifySpec& spec, const IdentifyProgress& progre
          " first reached at iteration " + std::to_string(s.best_at_iteration));
   };
   closing_line(search);
-  // A motor offset differs from its bias only where the motors are off: say how long that is.
-  if (std::any_of(setup.estimated.begin(), setup.estimated.end(), [](const EstimatedParameter& p) {
-        return effect_info(p.name).kind == EffectKind::kMotorOffset;
-      })) {
+  // A motor offset differs from its bias only where the motors are off, or where the bias is
+  // measured at rest: say which, and how long.
+  if (const std::optional<GyroAtRest>& rest = search.problem->mapping().gyro_at_rest()) {
+    const Eigen::Vector3d mean_deg_s = (rest->mean_omega_ib_b - rest->omega_ie_b) * kRadToDeg;
+    note("gyro biases measured at rest over " + number_text(rest->t_begin_s, 6) + "-" +
+         number_text(rest->t_end_s, 6) + " s (" + std::to_string(rest->samples) +
+         " samples): mean rate " + number_text(mean_deg_s.x(), 4) + ", " +
+         number_text(mean_deg_s.y(), 4) + ", " + number_text(mean_deg_s.z(), 4) +
+         " deg/s, the Earth rate removed");
+  } else if (std::any_of(setup.estimated.begin(), setup.estimated.end(),
+                         [](const EstimatedParameter& p) {
+                           return effect_info(p.name).kind == EffectKind::kMotorOffset;
+                         })) {
     const NavigationProblem& nav = *search.navigation;
     double off_s = 0.0, on_s = 0.0;
     for (std::size_t k = nav.nav_begin(); k < dataset->imu.size(); ++k) {
@@ -326,6 +343,22 @@ IdentifyReport identify(const IdentifySpec& spec, const IdentifyProgress& progre
 
   nlohmann::json& out = report.result;
   out = optimizer_result_json(result, mapping);
+  if (const std::optional<GyroAtRest>& rest = mapping.gyro_at_rest()) {
+    const Eigen::Vector3d bias = mapping.to_errors(result.best_x).gyro.bias;
+    const auto deg_s = [](const Eigen::Vector3d& v) {
+      return std::vector<double>{v.x() * kRadToDeg, v.y() * kRadToDeg, v.z() * kRadToDeg};
+    };
+    out["gyro_bias_at_rest"] = {
+        {"window_s", {rest->t_begin_s, rest->t_end_s}},
+        {"samples", rest->samples},
+        {"mean_rate_deg_s", deg_s(rest->mean_omega_ib_b)},
+        {"earth_rate_deg_s", deg_s(rest->omega_ie_b)},
+        {"sd_of_mean_deg_s", deg_s(rest->sd_of_mean_rad_s)},
+        {"bias_deg_s", deg_s(bias)},
+        {"model",
+         "b0 = mean rate - (I + S + M) Earth rate - b_dot t_mid - b_motor u_mid at the estimate "
+         "(nav/gyro_at_rest.h); bias_deg_s is b0, the bias with the motors off"}};
+  }
   if (const auto* ekf = dynamic_cast<const EkfRtsOptimizer*>(&optimizer))
     out["ekf"] = ekf->report_json(mapping);
   out["format"] = "insid-identify/2";  // /2: estimate_sigma -> estimate_in_sigma_units, parameters

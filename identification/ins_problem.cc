@@ -109,13 +109,30 @@ std::vector<EstimatedParameter> EstimatedParameter::paper_four() {
   return {parse("accel_bias_x"), parse("accel_bias_y"), parse("gyro_bias_x"), parse("gyro_bias_y")};
 }
 
-ParameterMapping::ParameterMapping(std::vector<EstimatedParameter> parameters, SensorErrors base)
-    : parameters_(std::move(parameters)), base_(std::move(base)) {
+ParameterMapping::ParameterMapping(std::vector<EstimatedParameter> parameters, SensorErrors base,
+                                   std::optional<GyroAtRest> gyro_at_rest)
+    : parameters_(std::move(parameters)),
+      base_(std::move(base)),
+      gyro_at_rest_(std::move(gyro_at_rest)) {
   if (parameters_.empty()) throw std::invalid_argument("no parameter to estimate");
   for (std::size_t i = 0; i < parameters_.size(); ++i)
     for (std::size_t j = i + 1; j < parameters_.size(); ++j)
       if (parameters_[i].name == parameters_[j].name)
         throw std::invalid_argument("parameter '" + parameters_[i].name + "' is estimated twice");
+  if (!gyro_at_rest_) return;
+  for (const EstimatedParameter& p : parameters_) {
+    const EffectInfo* info = find_effect_info(p.name);
+    if (info != nullptr && info->sensor == EffectSensor::kGyro && info->kind == EffectKind::kBias)
+      throw std::invalid_argument("'" + p.name +
+                                  "' is measured at rest (the gyro bias at rest), so it cannot be "
+                                  "estimated as well: leave it out of the estimated parameters");
+  }
+}
+
+ParameterMapping ParameterMapping::with_gyro_at_rest(const GyroAtRest& rest) const {
+  ParameterMapping copy = *this;
+  copy.gyro_at_rest_ = rest;
+  return copy;
 }
 
 Eigen::VectorXd ParameterMapping::to_sigma(const Eigen::VectorXd& x) const {
@@ -143,6 +160,7 @@ SensorErrors ParameterMapping::to_errors(const Eigen::VectorXd& x) const {
     const EstimatedParameter& p = parameters_[static_cast<std::size_t>(j)];
     set_effect(errors, p.name, s[j] * p.sigma);
   }
+  if (gyro_at_rest_) errors.gyro.bias = gyro_at_rest_->bias_for(errors.gyro);
   return errors;
 }
 

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <utility>
@@ -14,6 +15,7 @@
 #include "kernel/batch_fitness.h"
 #include "model/sensor_errors.h"
 #include "nav/fitness.h"
+#include "nav/gyro_at_rest.h"
 #include "optimizers/parameters.h"
 #include "optimizers/problem.h"
 
@@ -37,10 +39,18 @@ struct EstimatedParameter {
 /// Maps between the optimizer's normalised coordinates x in [-1, 1]^n, sigma units and SI.
 class ParameterMapping {
  public:
-  explicit ParameterMapping(std::vector<EstimatedParameter> parameters, SensorErrors base = {});
+  /// `gyro_at_rest`: the gyro biases b0 are not searched but measured at rest (nav/
+  /// gyro_at_rest.h): every candidate gets the b0 that makes the static window's compensated
+  /// rate the Earth rate, given its other gyro terms (drift, scale, misalignment, motor offset).
+  /// Throws std::invalid_argument when a gyro_bias_* is estimated as well.
+  explicit ParameterMapping(std::vector<EstimatedParameter> parameters, SensorErrors base = {},
+                            std::optional<GyroAtRest> gyro_at_rest = std::nullopt);
   int dimension() const { return static_cast<int>(parameters_.size()); }
   const std::vector<EstimatedParameter>& parameters() const { return parameters_; }
   const SensorErrors& base() const { return base_; }
+  const std::optional<GyroAtRest>& gyro_at_rest() const { return gyro_at_rest_; }
+  /// The same mapping with another rest measurement (a noise replica's window).
+  ParameterMapping with_gyro_at_rest(const GyroAtRest& rest) const;
 
   Eigen::VectorXd to_sigma(const Eigen::VectorXd& x) const;
   Eigen::VectorXd from_sigma(const Eigen::VectorXd& value_sigma) const;
@@ -61,6 +71,7 @@ class ParameterMapping {
  private:
   std::vector<EstimatedParameter> parameters_;
   SensorErrors base_;
+  std::optional<GyroAtRest> gyro_at_rest_;
 };
 
 /// Which implementation scores candidates (docs/design.md sec. 8).

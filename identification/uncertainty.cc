@@ -150,8 +150,13 @@ Vec gauss_newton_step(const Mat& J, const Vec& r, const Vec& w, const std::vecto
 
 // The noise replicas' responses at one point: replica run minus the data run r0 (scalar
 // reference), M = options.replicas draws, seeds mix_seed(options.seed, 7000 + k).
-NoiseReplicaSet run_noise_replicas(const NavigationProblem& nav, const SensorErrors& errors,
-                                   const Vec& r0, const UncertaintyOptions& options) {
+// Residuals of the noise replicas at the point x of `mapping`. With a gyro bias measured at
+// rest (ParameterMapping::gyro_at_rest) each replica measures it again on its own window, so the
+// window's noise reaches the estimates as it would on another flight.
+NoiseReplicaSet run_noise_replicas(const NavigationProblem& nav, const ParameterMapping& mapping,
+                                   const Eigen::VectorXd& x, const Vec& r0,
+                                   const UncertaintyOptions& options) {
+  const SensorErrors errors = mapping.to_errors(x);
   const auto t0 = std::chrono::steady_clock::now();
   NoiseReplicaSet set;
   const Dataset& dataset = nav.dataset();
@@ -188,7 +193,10 @@ NoiseReplicaSet run_noise_replicas(const NavigationProblem& nav, const SensorErr
         const std::shared_ptr<const Dataset> replica(std::shared_ptr<const Dataset>(), &buffer);
         const NavigationProblem rnav(replica, nav.options());
         std::vector<double> rr;
-        rnav.residuals(errors, rr);
+        if (mapping.gyro_at_rest())
+          rnav.residuals(mapping.with_gyro_at_rest(gyro_at_rest(rnav)).to_errors(x), rr);
+        else
+          rnav.residuals(errors, rr);
         const Vec d = to_vec(rr) - r0;
         if (static_cast<Eigen::Index>(rr.size()) != m || !d.allFinite())
           throw std::runtime_error("its residuals are not finite");
@@ -254,7 +262,8 @@ NoiseReplicaSet noise_replica_set(const InsIdentificationProblem& problem,
   const SensorErrors errors = mapping.to_errors(mapping.from_sigma(at_sigma));
   std::vector<double> r_scalar;
   nav.residuals(errors, r_scalar);
-  NoiseReplicaSet set = run_noise_replicas(nav, errors, to_vec(r_scalar), options);
+  NoiseReplicaSet set =
+      run_noise_replicas(nav, mapping, mapping.from_sigma(at_sigma), to_vec(r_scalar), options);
   set.at_sigma = at_sigma;
   ++set.evaluations;
   return set;
@@ -369,7 +378,7 @@ UncertaintyReport estimate_uncertainty(const InsIdentificationProblem& problem,
   const Vec r0 = to_vec(r_scalar);
   NoiseReplicaSet own;
   if (!shared) {
-    own = run_noise_replicas(nav, errors, r0, options);
+    own = run_noise_replicas(nav, mapping, xs[0], r0, options);
     report.evaluations += own.evaluations;
   } else {
     if (shared->responses.rows() != m || shared->responses.cols() < 2)
