@@ -40,6 +40,7 @@ struct DiagnoseArgs {
   Verbosity verbosity = Verbosity::kNormal;
   bool no_plots = false;
   bool fixed_box = false;
+  bool gyro_bias_at_rest = false;
   bool force = false;
 };
 
@@ -103,6 +104,7 @@ void run(const DiagnoseArgs& a) {
   o.initial_attitude = initial_attitude_options(a.initial_attitude);
   o.threads = a.threads;
   o.base_widening.enabled = !a.fixed_box;
+  o.gyro_bias_at_rest = a.gyro_bias_at_rest;
   // The diagnosis prints plain timed lines, one per step (never '\r'); --verbose adds nothing.
   o.progress = a.verbosity != Verbosity::kQuiet;
   diagnose::DiagnoseResult res = diagnose::run_diagnose(dataset, o);
@@ -214,6 +216,10 @@ void add_diagnose_command(CLI::App& app) {
       ->check(whole_in(0, kMaxThreads));
   add_verbosity_flags(cmd, a->verbosity);
   cmd->add_flag("--no-plots", a->no_plots, "report.md without figures");
+  cmd->add_flag("--gyro-bias-at-rest", a->gyro_bias_at_rest,
+                "measure the gyro biases as the static window's mean rate less the Earth rate "
+                "(nav/gyro_at_rest.h) in every model instead of fitting them; the window must "
+                "end before the motors start. Needs --initial-attitude level+heading or given");
   cmd->add_flag("--fixed-box", a->fixed_box,
                 "keep the base's box as given. Default: a base parameter pressing its box is "
                 "widened (as identify's, up to the grade's physical limits) and the wider fit "

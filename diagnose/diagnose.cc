@@ -29,6 +29,8 @@
 #include "identification/grade.h"
 #include "identification/identify.h"
 #include "identification/local_fit.h"
+#include "model/units.h"
+#include "nav/gyro_at_rest.h"
 #include "optimizers/parameters.h"
 #include "optimizers/random.h"
 #include "optimizers/registry.h"
@@ -107,8 +109,8 @@ struct ModelFit {
 // LS Levenberg-Marquardt polish from `start_sigma`; then the Jacobian at the final point.
 ModelFit refit(const std::shared_ptr<const NavigationProblem>& nav,
                const std::vector<EstimatedParameter>& params, const Vec& start_sigma,
-               const opt::EvaluatorOptions& evaluator) {
-  ParameterMapping mapping(params);
+               const opt::EvaluatorOptions& evaluator, const std::optional<GyroAtRest>& rest) {
+  ParameterMapping mapping(params, {}, rest);
   InsIdentificationProblem problem(nav, mapping, FitnessKind::kSumSquares, evaluator);
   LocalFitOptions lo;
   lo.eq15 = false;  // least squares: consistent with the linear noise statistics
@@ -143,10 +145,11 @@ double unit_sigma(const SensorGrade& grade, const std::string& name) {
 }
 
 // Sensitivity columns (per unit sigma, `sigma_si`) of `names` at `errors`, forward differences
-// with a step of `step_sigma` sigmas, one full pipeline run each.
+// with a step of `step_sigma` sigmas, one full pipeline run each. With a gyro bias measured at
+// `rest`, each step keeps the window's compensated rate (the bias follows a drift step, say).
 Mat sensitivity_columns(const NavigationProblem& nav, const SensorErrors& errors, const Vec& r0,
                         const std::vector<std::string>& names, const std::vector<double>& sigma_si,
-                        double step_sigma, int threads) {
+                        double step_sigma, int threads, const std::optional<GyroAtRest>& rest) {
   Mat C(r0.size(), static_cast<Eigen::Index>(names.size()));
   std::vector<std::string> failures(names.size());
 #pragma omp parallel for schedule(dynamic) num_threads(threads)
@@ -155,6 +158,7 @@ Mat sensitivity_columns(const NavigationProblem& nav, const SensorErrors& errors
       SensorErrors e = errors;
       const double h = step_sigma * sigma_si[static_cast<std::size_t>(c)];
       add_effect(e, names[static_cast<std::size_t>(c)], h);
+      if (rest) e.gyro.bias = rest->bias_for(e.gyro);
       std::vector<double> rc;
       nav.residuals(e, rc);
       C.col(c) = (to_vec(rc) - r0) / step_sigma;
@@ -516,8 +520,9 @@ namespace {
 ModelFit fit_base_model(const std::shared_ptr<const NavigationProblem>& nav,
                         const std::vector<EstimatedParameter>& base, const SensorGrade& grade,
                         const DiagnoseOptions& options, const opt::EvaluatorOptions& evaluator,
-                        const Progress& progress, json& procedure) {
-  ParameterMapping mapping(base);
+                        const std::optional<GyroAtRest>& rest, const Progress& progress,
+                        json& procedure) {
+  ParameterMapping mapping(base, {}, rest);
   Vec start = Vec::Zero(mapping.dimension());
   json oj = {{"algorithm", options.algorithm}};
   if (options.algorithm != "none") {
@@ -535,7 +540,7 @@ ModelFit fit_base_model(const std::shared_ptr<const NavigationProblem>& nav,
     oj["best_fitness"] = res.best_f;
   }
   progress("base fit: least-squares Levenberg-Marquardt polish");
-  ModelFit fit = refit(nav, base, start, evaluator);
+  ModelFit fit = refit(nav, base, start, evaluator, rest);
   oj["polish"] = {{"method", "levenberg-marquardt least squares"},
                   {"iterations", fit.iterations},
                   {"evaluations", fit.evaluations}};
@@ -548,7 +553,7 @@ ModelFit fit_base_model(const std::shared_ptr<const NavigationProblem>& nav,
     const std::vector<BoxWidening> moved =
         widen_pressed_bounds(wider, fit.value_sigma, grade, options.base_widening, round);
     if (moved.empty()) break;
-    ModelFit wide = refit(nav, wider, fit.value_sigma, evaluator);
+    ModelFit wide = refit(nav, wider, fit.value_sigma, evaluator, rest);
     const double sum_sq = fit.r.squaredNorm(), wide_sum_sq = wide.r.squaredNorm();
     const double gain = sum_sq > 0.0 ? (sum_sq - wide_sum_sq) / sum_sq : 0.0;
     for (const BoxWidening& w : moved)
@@ -579,7 +584,7 @@ ModelFit fit_base_model(const std::shared_ptr<const NavigationProblem>& nav,
 // at `levels`, seed mix_seed(seed, 1000 + m)) at the base fit's errors, on `threads` threads.
 Mat replica_deviations(const Dataset& dataset, const NoiseLevels& levels,
                        const NavigationOptions& nav_options, const ModelFit& fit, int replicas,
-                       std::uint64_t seed, int threads) {
+                       std::uint64_t seed, int threads, bool gyro_bias_at_rest) {
   Mat D(fit.r.size(), replicas);
   std::vector<std::string> failures(static_cast<std::size_t>(replicas));
 #pragma omp parallel for schedule(dynamic) num_threads(threads)
@@ -589,7 +594,9 @@ Mat replica_deviations(const Dataset& dataset, const NoiseLevels& levels,
           std::make_shared<const Dataset>(noise_replica(dataset, levels, mix_seed(seed, 1000 + m)));
       const NavigationProblem rnav(rep, nav_options);
       std::vector<double> r;
-      rnav.residuals(fit.errors, r);
+      SensorErrors errors = fit.errors;  // a bias measured at rest: measured on the replica
+      if (gyro_bias_at_rest) errors.gyro.bias = gyro_at_rest(rnav).bias_for(errors.gyro);
+      rnav.residuals(errors, r);
       D.col(m) = to_vec(r) - fit.r;
     } catch (const std::exception& e) {
       failures[static_cast<std::size_t>(m)] = e.what();
@@ -613,9 +620,10 @@ Mat replica_deviations(const Dataset& dataset, const NoiseLevels& levels,
 // "withdrawn" with its joint estimate. The last-named effect is never withdrawn. `fit`, `found`
 // and `found_names` are updated; returns the withdrawn effects.
 json withdraw_stand_ins(const std::shared_ptr<const NavigationProblem>& nav,
-                        const opt::EvaluatorOptions& evaluator, const Mat& D,
-                        const json& iterations, const Progress& progress, ModelFit& fit,
-                        json& found, std::vector<std::string>& found_names) {
+                        const opt::EvaluatorOptions& evaluator,
+                        const std::optional<GyroAtRest>& rest, const Mat& D, const json& iterations,
+                        const Progress& progress, ModelFit& fit, json& found,
+                        std::vector<std::string>& found_names) {
   json withdrawn = json::array();
   for (;;) {
     const Vec sd = parameter_sd(fit.J, D);
@@ -657,7 +665,7 @@ json withdraw_stand_ins(const std::shared_ptr<const NavigationProblem>& nav,
             fit.value_sigma[static_cast<Eigen::Index>(k)];
         params.push_back(fit.params[k]);
       }
-    fit = refit(nav, params, start, evaluator);
+    fit = refit(nav, params, start, evaluator, rest);
     found.erase(found.begin() + static_cast<std::ptrdiff_t>(weakest));
     found_names.erase(std::find(found_names.begin(), found_names.end(), name));
   }
@@ -709,12 +717,22 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
   // purpose: the reason in docs/design.md, section 9.
   const SensorGrade& grade = options.grade ? *options.grade : grade_for(*dataset);
   std::vector<EstimatedParameter> base = options.base;
-  if (base.empty()) base = default_estimated(grade);
+  const auto measured_at_rest = [&options](std::string_view name) {
+    const EffectInfo& info = effect_info(name);
+    return options.gyro_bias_at_rest && info.sensor == EffectSensor::kGyro &&
+           info.kind == EffectKind::kBias;
+  };
+  if (base.empty()) {
+    base = default_estimated(grade);
+    std::erase_if(base, [&](const EstimatedParameter& p) { return measured_at_rest(p.name); });
+  }
   NavigationOptions nav_options;
   nav_options.alignment = options.alignment;
   nav_options.window_s = options.window_s;
   nav_options.initial_attitude = options.initial_attitude;
   auto nav = std::make_shared<const NavigationProblem>(dataset, nav_options);
+  std::optional<GyroAtRest> rest;
+  if (options.gyro_bias_at_rest) rest = gyro_at_rest(*nav);
   opt::EvaluatorOptions evaluator;
   evaluator.parallelism = threads == 1 ? opt::Parallelism::kSerial : opt::Parallelism::kOpenMP;
   evaluator.num_threads = threads;
@@ -727,7 +745,7 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
     // A motor offset needs the motor state; without it its column would be zero.
     const bool motors_known = !dataset->meta.motors.empty();
     for (const EffectInfo& e : effect_catalogue())
-      if (!in_model.count(std::string(e.name)) &&
+      if (!in_model.count(std::string(e.name)) && !measured_at_rest(e.name) &&
           (motors_known || e.kind != EffectKind::kMotorOffset))
         candidates.emplace_back(e.name);
   } else {
@@ -735,6 +753,8 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
       effect_info(c);  // throws on unknown names
       if (in_model.count(c))
         throw std::invalid_argument("candidate '" + c + "' is in the base model");
+      if (measured_at_rest(c))
+        throw std::invalid_argument("candidate '" + c + "' is measured at rest");
       if (std::find(candidates.begin(), candidates.end(), c) == candidates.end())
         candidates.push_back(c);
     }
@@ -750,13 +770,23 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
   report["window_s"] = options.window_s;
   if (grade.name != "nav") report["grade"] = grade.name;  // nav (the catalogue) is implied
   report["initial_attitude"] = options.initial_attitude.describe();
+  if (rest) {
+    const Eigen::Vector3d rate_deg_s = (rest->mean_omega_ib_b - rest->omega_ie_b) * kRadToDeg;
+    report["gyro_bias_at_rest"] = {
+        {"window_s", {rest->t_begin_s, rest->t_end_s}},
+        {"samples", rest->samples},
+        {"mean_rate_less_earth_rate_deg_s", {rate_deg_s.x(), rate_deg_s.y(), rate_deg_s.z()}},
+        {"sd_of_mean_deg_s",
+         {rest->sd_of_mean_rad_s.x() * kRadToDeg, rest->sd_of_mean_rad_s.y() * kRadToDeg,
+          rest->sd_of_mean_rad_s.z() * kRadToDeg}}};
+  }
   report["seed"] = options.seed;
   report["num_epochs"] = nav->num_epochs();
   report["nav_start_t_s"] = nav->nav_start_t_s();
 
   // 1. Base fit: optimizer, then the LS polish.
-  ModelFit fit =
-      fit_base_model(nav, base, grade, options, evaluator, progress, report["base_fit_procedure"]);
+  ModelFit fit = fit_base_model(nav, base, grade, options, evaluator, rest, progress,
+                                report["base_fit_procedure"]);
   const ModelFit base_fit = fit;
 
   // 2. Noise model: replicas of the flight with the data's noise levels.
@@ -768,8 +798,8 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
   const int MA = options.replicas_basis, MB = options.replicas_calibration, M = MA + MB;
   progress("noise model: " + std::to_string(M) + " replicas (" + noise.source + ")");
   const Eigen::Index n = fit.r.size();
-  const Mat D =
-      replica_deviations(*dataset, noise.levels, nav_options, fit, M, options.seed, threads);
+  const Mat D = replica_deviations(*dataset, noise.levels, nav_options, fit, M, options.seed,
+                                   threads, rest.has_value());
   const Mat D_basis = D.leftCols(MA) / std::sqrt(static_cast<double>(MA));
   const Mat D_cal = D.rightCols(MB);
   // Diagonal part: calibration replicas' mean square outside the basis span (out of sample).
@@ -825,8 +855,8 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
              std::to_string(remaining.size()) + " candidates");
     std::vector<double> remaining_sigma;
     for (const std::string& name : remaining) remaining_sigma.push_back(unit_sigma(grade, name));
-    const Mat C =
-        sensitivity_columns(*nav, fit.errors, fit.r, remaining, remaining_sigma, 1.0, threads);
+    const Mat C = sensitivity_columns(*nav, fit.errors, fit.r, remaining, remaining_sigma, 1.0,
+                                      threads, rest);
     progress("iteration " + std::to_string(it + 1) + ": scoring");
     IterationStats st =
         score_candidates(fit, C, remaining, W, D_cal, options, mix_seed(options.seed, it));
@@ -973,7 +1003,7 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
     Vec start(fit.value_sigma.size() + 1);
     start << fit.value_sigma, best->estimate_sigma;
     progress("re-fit with " + best->name);
-    fit = refit(nav, params, start, evaluator);
+    fit = refit(nav, params, start, evaluator, rest);
     {  // its z in the model it joined (the backward check's reference, same sd as there)
       const Vec sd_added = parameter_sd(fit.J, D);
       const Eigen::Index last = fit.value_sigma.size() - 1;
@@ -986,7 +1016,7 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
 
   // 7. Backward check: withdraw the names that later names made insignificant.
   const json withdrawn =
-      withdraw_stand_ins(nav, evaluator, D, iterations, progress, fit, found, found_names);
+      withdraw_stand_ins(nav, evaluator, rest, D, iterations, progress, fit, found, found_names);
 
   // Final estimates (SI) with sd from the noise model.
   const Vec sd_final = parameter_sd(fit.J, D);

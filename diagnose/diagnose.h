@@ -80,6 +80,11 @@ struct DiagnoseOptions {
   /// cannot observe only drifts to its edge and gains nothing. enabled = false: the box as given.
   BoxWideningOptions base_widening;
   double base_widening_min_gain = 1e-3;
+  /// The gyro biases measured at rest over the static window (nav/gyro_at_rest.h), in the base
+  /// and in every model after it, instead of fitted: gyro_bias_x|y|z leave the default base and
+  /// the candidates (a base that names one is refused). What the flight sees beyond the motors-off
+  /// bias (a motor offset) then shows as misfit, and a candidate can take it.
+  bool gyro_bias_at_rest = false;
 
   /// "" when every field is usable, else a message naming the first bad field, its value and
   /// the allowed range (run_diagnose throws std::invalid_argument with it; nothing is clamped).

@@ -308,6 +308,46 @@ TEST(HiddenMotorOffset, NamedWithItsSizeAndNotWithout) {
         << found_names(none.report);
 }
 
+// GIVEN a MEMS multicopter flight whose motors start where its 60 s static window ends (no
+// navigation with the motors off) and run with a gyro x offset of 0.3 deg/s WHEN diagnose
+// measures the gyro biases at rest THEN it names that offset first, within 3 sd of the truth
+// with an sd below a third of it, and the gap shrinks. WITHOUT the rest measurement the base's
+// fitted gyro x bias takes the offset whole (the flight sees only their sum): no motor offset
+// is named.
+TEST(HiddenMotorOffset, NamedFromTheRestWindowWithoutMotorsOffNavigation) {
+  const double truth = 0.3 * std::numbers::pi / 180.0;
+  scenarios::ScenarioOverrides overrides;
+  overrides.flight_s = 280.0;
+  overrides.seed = 4;
+  overrides.grade = "mems";
+  overrides.set = {{"gyro_motor_offset_x", truth}};
+  scenarios::ScenarioConfig cfg =
+      scenarios::with_overrides(scenarios::preset_scenario("multicopter"), overrides);
+  cfg.align_s = 60.0;
+  cfg.motors.on_s = {{cfg.align_s, cfg.align_s + *cfg.flight_s + 10.0}};
+  const auto data = std::make_shared<const Dataset>(scenarios::simulate(cfg, false));
+  DiagnoseOptions o = mems_options(4);
+  o.gyro_bias_at_rest = true;
+  const DiagnoseResult r = run_diagnose(data, o);
+  ASSERT_FALSE(r.report["found"].empty());
+  const nlohmann::json& f0 = r.report["found"][0];
+  std::cout << "at rest: found " << found_names(r.report) << "; first " << f0["estimate"] << " +- "
+            << f0["sd"] << "; gap shrink " << r.report["gap"]["shrink"] << "\n";
+  ASSERT_EQ(f0["effect"], "gyro_motor_offset_x") << found_names(r.report);
+  EXPECT_LE(std::abs(f0["estimate"].get<double>() - truth), 3.0 * f0["sd"].get<double>())
+      << f0.dump();
+  EXPECT_LT(f0["sd"].get<double>(), truth / 3.0) << f0.dump();
+  EXPECT_GE(r.report["gap"]["shrink"].get<double>(), 0.8) << r.report["gap"].dump();
+  EXPECT_TRUE(r.report.contains("gyro_bias_at_rest"));
+
+  o.gyro_bias_at_rest = false;
+  const DiagnoseResult fitted = run_diagnose(data, o);
+  std::cout << "bias fitted: found " << found_names(fitted.report) << "\n";
+  for (const auto& f : fitted.report["found"])
+    EXPECT_NE(effect_info(f["effect"].get<std::string>()).kind, EffectKind::kMotorOffset)
+        << found_names(fitted.report);
+}
+
 // Effect-free data: nothing named (family-wise 5 %: allow one of four seeds).
 TEST(HiddenNone, NothingFound) {
   int with_found = 0;
