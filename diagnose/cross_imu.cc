@@ -401,14 +401,15 @@ ResultEstimates read_identify_result(const std::filesystem::path& path) {
   const std::string src = path.string();
   const nlohmann::json j = read_json_file(path);
   try {
-    const JsonObject doc =
-        JsonObject::with_other_keys(j, src, "", {"format", "parameters", "algorithm"});
+    const JsonObject doc = JsonObject::with_other_keys(
+        j, src, "", {"format", "parameters", "algorithm", "gyro_bias_at_rest"});
     const std::string format = doc.string("format");
     if (format != "insid-identify/2")
       doc.field("format").fail(
           "expected \"insid-identify/2\" (an insid identify result), found \"" + format + "\"");
     ResultEstimates r;
     r.source = src;
+    r.gyro_bias_at_rest = doc.has("gyro_bias_at_rest");
     if (const auto algo = doc.optional_given("algorithm")) {  // {"name": ..., "parameters": ...}
       const nlohmann::json& v = algo->value();
       if (v.is_object() && v.contains("name") && v["name"].is_string())
@@ -492,7 +493,11 @@ std::vector<ComparisonRow> compare_with_results(const CrossImuReport& report,
           if (flag == "at_box_edge" || flag == "not_converged")
             row.flags.push_back(*who + " " + flag);
     if (!ea || !eb) {
-      row.reason = param + " not estimated in the result of " + (!ea ? p.name_a : p.name_b);
+      const std::string& who = !ea ? p.name_a : p.name_b;
+      row.reason = results[!ea ? p.a : p.b].gyro_bias_at_rest && !motor
+                       ? param + " measured at rest in the result of " + who +
+                             " (the direct difference's own samples)"
+                       : param + " not estimated in the result of " + who;
     } else {
       row.insid_diff_rad_s = ea->estimate_rad_s - eb->estimate_rad_s;
       if (!ea->sd_rad_s || !eb->sd_rad_s) {

@@ -152,6 +152,9 @@ struct ResultEstimates {
   std::string algorithm;
   std::array<std::optional<EstimatedBias>, 3> gyro_bias;
   std::array<std::optional<EstimatedBias>, 3> gyro_motor_offset;
+  /// The result measured its gyro biases at rest (identify --gyro-bias-at-rest) rather than
+  /// estimating them from the flight.
+  bool gyro_bias_at_rest = false;
 };
 
 /// Reads `path` (an insid-identify/2 result). Throws std::runtime_error naming the file and the
