@@ -29,6 +29,7 @@
 #include "identification/grade.h"
 #include "identification/identify.h"
 #include "identification/local_fit.h"
+#include "identification/uncertainty.h"
 #include "model/units.h"
 #include "nav/gyro_at_rest.h"
 #include "optimizers/parameters.h"
@@ -392,6 +393,16 @@ Vec parameter_sd(const Mat& J, const Mat& D) {
   return (dtheta.array().square().rowwise().sum() / static_cast<double>(D.cols())).sqrt();
 }
 
+json misfit_json(const MisfitRatio& m) {
+  return {{"residual_vs_noise_rms",
+           num(m.residual_vs_noise_rms.value_or(std::numeric_limits<double>::quiet_NaN()))},
+          {"residual_above_every_replica", m.residual_above_every_replica},
+          {"sd_scale_for_misfit", m.sd_scale},
+          {"rule",
+           "sd scaled by the residual's RMS over the noise replicas' (unabsorbed parts) when the "
+           "residual exceeds every replica's and the ratio exceeds misfit_min_ratio"}};
+}
+
 json params_json(const ModelFit& fit, const Vec& sd_sigma) {
   json arr = json::array();
   for (std::size_t k = 0; k < fit.params.size(); ++k) {
@@ -510,6 +521,9 @@ std::string DiagnoseOptions::validate() const {
   if (!(base_widening_min_gain >= 0.0 && base_widening_min_gain < 1.0))
     return "DiagnoseOptions.base_widening_min_gain = " + number_text(base_widening_min_gain) +
            ": must be in [0, 1)";
+  if (!(misfit_min_ratio >= 1.0 && misfit_min_ratio <= 1e12))
+    return "DiagnoseOptions.misfit_min_ratio = " + number_text(misfit_min_ratio) +
+           ": must be a finite number in [1, 1e12]";
   return "";
 }
 
@@ -836,11 +850,14 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
       throw std::logic_error("diagnose: epoch bookkeeping disagrees with the residual vector");
   }
 
-  // Base parameters with sd from the same noise model.
+  // Base parameters with sd from the same noise model, scaled by the base's misfit.
   {
-    const Vec sd = parameter_sd(fit.J, D);
-    report["base"] = {
-        {"parameters", params_json(fit, sd)}, {"fitness", fit.fitness}, {"rms_mps", fit.rms}};
+    const MisfitRatio misfit = misfit_ratio(fit.J, fit.r, D, options.misfit_min_ratio);
+    const Vec sd = parameter_sd(fit.J, D) * misfit.sd_scale;
+    report["base"] = {{"parameters", params_json(fit, sd)},
+                      {"fitness", fit.fitness},
+                      {"rms_mps", fit.rms},
+                      {"misfit", misfit_json(misfit)}};
   }
 
   // 3-6. Iterate.
@@ -1018,10 +1035,17 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
   const json withdrawn =
       withdraw_stand_ins(nav, evaluator, rest, D, iterations, progress, fit, found, found_names);
 
-  // Final estimates (SI) with sd from the noise model.
-  const Vec sd_final = parameter_sd(fit.J, D);
-  report["model"] = {
-      {"parameters", params_json(fit, sd_final)}, {"fitness", fit.fitness}, {"rms_mps", fit.rms}};
+  // Final estimates (SI) with sd from the noise model, scaled by the final model's misfit.
+  const MisfitRatio misfit_final = misfit_ratio(fit.J, fit.r, D, options.misfit_min_ratio);
+  const Vec sd_final = parameter_sd(fit.J, D) * misfit_final.sd_scale;
+  report["model"] = {{"parameters", params_json(fit, sd_final)},
+                     {"fitness", fit.fitness},
+                     {"rms_mps", fit.rms},
+                     {"misfit", misfit_json(misfit_final)}};
+  if (misfit_final.sd_scale > 1.0)
+    progress("the final model's residual is " +
+             number_text(*misfit_final.residual_vs_noise_rms, 3) +
+             " times the noise replicas' (above every one): the sizes' sd are scaled by it");
   for (auto& f : found) {
     for (std::size_t k = 0; k < fit.params.size(); ++k)
       if (fit.params[k].name == f["effect"].get<std::string>()) {

@@ -85,6 +85,11 @@ struct DiagnoseOptions {
   /// the candidates (a base that names one is refused). What the flight sees beyond the motors-off
   /// bias (a motor offset) then shows as misfit, and a candidate can take it.
   bool gyro_bias_at_rest = false;
+  /// The sd reported with the base's and the final model's sizes are scaled by the model misfit
+  /// (identification/uncertainty.h, misfit_ratio) when the residual exceeds every replica's and
+  /// this ratio: a real flight whose residual is 30x the noise floor does not know its sizes to
+  /// the noise's precision. The naming statistics stay those of the noise replicas.
+  double misfit_min_ratio = 4.0;
 
   /// "" when every field is usable, else a message naming the first bad field, its value and
   /// the allowed range (run_diagnose throws std::invalid_argument with it; nothing is clamped).

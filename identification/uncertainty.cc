@@ -269,6 +269,28 @@ NoiseReplicaSet noise_replica_set(const InsIdentificationProblem& problem,
   return set;
 }
 
+MisfitRatio misfit_ratio(const Mat& J, const Vec& r, const Mat& D, double min_ratio) {
+  MisfitRatio out;
+  const Eigen::ColPivHouseholderQR<Mat> qr(J);
+  const double data_sq = (r - J * qr.solve(r)).squaredNorm();
+  const Mat D_unabsorbed = D - J * qr.solve(D);
+  double noise_sq_mean = 0.0, noise_sq_max = 0.0;
+  for (Eigen::Index k = 0; k < D.cols(); ++k) {
+    const double e = D_unabsorbed.col(k).squaredNorm();
+    noise_sq_mean += e / static_cast<double>(D.cols());
+    noise_sq_max = std::max(noise_sq_max, e);
+  }
+  if (!(noise_sq_mean > 0.0)) return out;
+  const double ratio = data_sq / noise_sq_mean;
+  out.residual_vs_noise_rms = std::sqrt(ratio);
+  out.residual_above_every_replica = data_sq > noise_sq_max;
+  if (out.residual_above_every_replica && ratio > min_ratio) {
+    out.sd_scale = std::sqrt(ratio);
+    out.covariance_scale = ratio;
+  }
+  return out;
+}
+
 UncertaintyCriterion criterion_for_algorithm(const std::string& algorithm) {
   return opt::algorithm_traits(algorithm).least_squares ? UncertaintyCriterion::kLeastSquares
                                                         : UncertaintyCriterion::kEq15;
@@ -431,32 +453,14 @@ UncertaintyReport estimate_uncertainty(const InsIdentificationProblem& problem,
       for (std::size_t b = 0; b < computable.size(); ++b)
         report.covariance_sigma(computable[a], computable[b]) =
             cov(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b));
-    // 4b. Model misfit (a Birge ratio): the part of the data's residual that the parameters
-    //     cannot absorb, |P_perp r|^2, against the same part of the replicas' noise responses,
-    //     |P_perp d_k|^2. With the model right and the noise at the replicas' levels the two
-    //     have the same distribution; a flight whose residual is far above every replica has
-    //     structure the model lacks (an effect not estimated, a wrong noise level), and the
-    //     noise-only covariance is then too small by about that ratio. When the data's value
+    // 4b. Model misfit (misfit_ratio, a Birge ratio): when the data's unabsorbed residual
     //     exceeds every replica's (p < 1/(M+1)) and the ratio exceeds misfit_min_ratio, the
     //     covariance is scaled by the ratio (sd by its square root) and the result says so.
-    //     The replicas' parts are D + JF theta (theta = the least-squares response above).
-    const double data_sq = (r0 - JF * qr.solve(r0)).squaredNorm();
-    const Mat D_unabsorbed = D + JF * theta;
-    double noise_sq_mean = 0.0, noise_sq_max = 0.0;
-    for (int k = 0; k < M; ++k) {
-      const double e = D_unabsorbed.col(k).squaredNorm();
-      noise_sq_mean += e / static_cast<double>(M);
-      noise_sq_max = std::max(noise_sq_max, e);
-    }
-    if (noise_sq_mean > 0.0) {
-      const double ratio = data_sq / noise_sq_mean;
-      report.residual_vs_noise_rms = std::sqrt(ratio);
-      report.residual_above_every_replica = data_sq > noise_sq_max;
-      if (report.residual_above_every_replica && ratio > options.misfit_min_ratio) {
-        report.sd_scale = std::sqrt(ratio);
-        report.covariance_sigma *= ratio;
-      }
-    }
+    const MisfitRatio misfit = misfit_ratio(JF, r0, D, options.misfit_min_ratio);
+    report.residual_vs_noise_rms = misfit.residual_vs_noise_rms;
+    report.residual_above_every_replica = misfit.residual_above_every_replica;
+    report.sd_scale = misfit.sd_scale;
+    if (misfit.sd_scale > 1.0) report.covariance_sigma *= misfit.covariance_scale;
     for (int j : computable) sd_sigma[j] = std::sqrt(report.covariance_sigma(j, j));
     for (int a : computable)
       for (int b : computable)

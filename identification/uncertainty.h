@@ -109,6 +109,24 @@ struct ParameterUncertainty {
   double estimate_sigma_units() const { return estimate_si / sigma_si; }
 };
 
+/// Model misfit as a Birge ratio: the part of a residual r that the columns of J cannot absorb,
+/// |P_perp r|^2, against the same part of noise replica responses (the columns of D),
+/// mean_k |P_perp d_k|^2. With the model right and the noise at the replicas' levels the two
+/// have the same distribution; a flight whose residual is far above every replica has structure
+/// the model lacks (an effect not estimated, a wrong noise level), and a noise-only covariance
+/// is then too small by about that ratio (Particle Data Group, "Review of Particle Physics",
+/// Introduction, "Averages and fits": the scale factor S = sqrt(chi^2 / dof), applied when S > 1).
+struct MisfitRatio {
+  std::optional<double> residual_vs_noise_rms;  ///< sqrt of the ratio; none without noise
+  bool residual_above_every_replica = false;
+  /// sqrt(ratio) when the residual exceeds every replica's and the ratio exceeds `min_ratio`,
+  /// else 1: the factor on every noise-only sd.
+  double sd_scale = 1.0;
+  double covariance_scale = 1.0;  ///< the ratio itself where sd_scale is its root, else 1
+};
+MisfitRatio misfit_ratio(const Eigen::MatrixXd& J, const Eigen::VectorXd& r,
+                         const Eigen::MatrixXd& D, double min_ratio);
+
 struct UncertaintyReport {
   std::vector<ParameterUncertainty> parameters;
   Eigen::MatrixXd covariance_sigma;  ///< sigma units (NaN rows/cols where sd is missing)
