@@ -429,7 +429,7 @@ TEST_F(CliSafety, ImportAndExportRefuseBadInputAndNeverHalfWrite) {
   ASSERT_EQ(o.status, 0) << o.output;
   EXPECT_NE(test::read_file(back / "meta.json").find("insid-dataset/2"), std::string::npos);
   EXPECT_NE(test::read_file(back / "provenance.json").find("\"sha256\""), std::string::npos);
-  // The shared import options (cli/cmd_import.cc, add_shared_import_options) are recorded.
+  // The shared import options (import/import_recording.h, ImportAssembly::record) are recorded.
   EXPECT_NE(test::read_file(back / "provenance.json").find("\"static_rate_dps\": 5.0"),
             std::string::npos);
   EXPECT_NE(test::read_file(back / "provenance.json").find("\"static_accel_sd_mps2\": 0.3"),
