@@ -303,7 +303,407 @@ INSID_AI V3<N> cross(const P<N>& ax, const P<N>& ay, const P<N>& az, const P<N>&
   return {ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx};
 }
 
-// The kernel: N vectors of W lanes from `lanes` (N * W entries), whole navigation run.
+// One value per lane from each lane's LaneInit.
+template <int N, class Get>
+INSID_AI P<N> gather_lanes(LaneInit* const* lanes, Get get) {
+  P<N> r;
+  for (int l = 0; l < N * W; ++l) r.c[l / W][l % W] = get(*lanes[l]);
+  return r;
+}
+
+// Phase A's result for one step, kept in a block buffer for phase B.
+template <int N>
+struct Pre {
+  P<N> fx, fy, fz;        // velocity increment in b, sculling-corrected [m/s]
+  P<N> pw, px, py, pz;    // body-rotation quaternion of the step (coning-corrected)
+  P<N> dthx, dthy, dthz;  // compensated angle increment in b [rad]
+};
+
+// The lanes of one group: their error model, navigation state and Earth terms, and the phases
+// of a step as member functions, always inlined into run_group (one object per group, on the
+// stack; the arithmetic and its order are those of the single function it was).
+template <int N, bool kGeneral, bool kLever>
+struct Group {
+  static constexpr int L = N * W;
+  using PN = P<N>;
+
+  // Parameters, one lane per candidate (LaneInit's fields): bg* gyro bias b [rad/s], dg* its
+  // drift [rad/s^2], ba* accelerometer bias b [m/s^2], da* its drift [m/s^3], Gi / Ai the inverse
+  // distortion matrices [1], l* lever arm b [m].
+  PN bgx, bgy, bgz, dgx, dgy, dgz, bax, bay, baz, dax, day, daz;
+  // mg* / mf*: the gyro [rad/s] and accelerometer [m/s^2] offsets while the motors run.
+  PN mgx, mgy, mgz, mfx, mfy, mfz;
+  PN Gi[9], Ai[9];
+  PN lx{}, ly{}, lz{};
+  // State: lat [rad]; vE, vN the INS velocity in n = ENU [m/s] (vEp, vNp at the step before);
+  // q* the attitude quaternion b -> n; dthp* [rad], dvp* [m/s], omp* [rad/s] the compensated
+  // increments and mean rate of the step before (two-sample corrections, lever arm); vaEp, vaNp
+  // the antenna velocity at the step before [m/s] and acc the running Eq. 15 sum are the
+  // driver's (run_group's epoch handling holds them by reference, so they live on its stack,
+  // not in this object, which then stays in registers).
+  PN lat, em{}, vE, vN, vEp, vNp, qw, qx, qy, qz;
+  PN dthpx, dthpy, dthpz, dvpx, dvpy, dvpz, ompx{}, ompy{}, ompz{};
+  // Earth terms of each lane at its current latitude: exact (series about the reference, one
+  // square root and division) every 32 steps, carried between by first-order updates in the
+  // step's latitude change (~3e-8 rad; the dropped second-order terms sum to < 2e-14 relative
+  // over 32 steps). kk = (dRN/dlat)/RN = (dRM/dlat)/(3 RM) and the derivatives are held.
+  PN es{}, ec{}, eRN{}, eRM{}, edRN{}, edRM{}, ekk{}, ekk3{};
+
+  // Each lane from its LaneInit.
+  INSID_AI explicit Group(LaneInit* const* lanes) {
+    auto gather = [lanes](auto get) { return gather_lanes<N>(lanes, get); };
+    bgx = gather([](const LaneInit& li) { return li.gyro_bias_b_rad_s[0]; });
+    bgy = gather([](const LaneInit& li) { return li.gyro_bias_b_rad_s[1]; });
+    bgz = gather([](const LaneInit& li) { return li.gyro_bias_b_rad_s[2]; });
+    dgx = gather([](const LaneInit& li) { return li.gyro_bias_drift_b_rad_s2[0]; });
+    dgy = gather([](const LaneInit& li) { return li.gyro_bias_drift_b_rad_s2[1]; });
+    dgz = gather([](const LaneInit& li) { return li.gyro_bias_drift_b_rad_s2[2]; });
+    bax = gather([](const LaneInit& li) { return li.accel_bias_b_mps2[0]; });
+    bay = gather([](const LaneInit& li) { return li.accel_bias_b_mps2[1]; });
+    baz = gather([](const LaneInit& li) { return li.accel_bias_b_mps2[2]; });
+    dax = gather([](const LaneInit& li) { return li.accel_bias_drift_b_mps3[0]; });
+    day = gather([](const LaneInit& li) { return li.accel_bias_drift_b_mps3[1]; });
+    daz = gather([](const LaneInit& li) { return li.accel_bias_drift_b_mps3[2]; });
+    mgx = gather([](const LaneInit& li) { return li.gyro_motor_offset_b_rad_s[0]; });
+    mgy = gather([](const LaneInit& li) { return li.gyro_motor_offset_b_rad_s[1]; });
+    mgz = gather([](const LaneInit& li) { return li.gyro_motor_offset_b_rad_s[2]; });
+    mfx = gather([](const LaneInit& li) { return li.accel_motor_offset_b_mps2[0]; });
+    mfy = gather([](const LaneInit& li) { return li.accel_motor_offset_b_mps2[1]; });
+    mfz = gather([](const LaneInit& li) { return li.accel_motor_offset_b_mps2[2]; });
+    if constexpr (kGeneral) {
+      // Identity rows and columns give the same bits as the fast path (1 x + 0 y + 0 z = x).
+#pragma GCC unroll 9
+      for (int j = 0; j < 9; ++j) {
+        Gi[j] = gather([j](const LaneInit& li) { return li.gyro_distortion_inv[j]; });
+        Ai[j] = gather([j](const LaneInit& li) { return li.accel_distortion_inv[j]; });
+      }
+    }
+    if constexpr (kLever) {
+      lx = gather([](const LaneInit& li) { return li.lever_arm_b_m[0]; });
+      ly = gather([](const LaneInit& li) { return li.lever_arm_b_m[1]; });
+      lz = gather([](const LaneInit& li) { return li.lever_arm_b_m[2]; });
+    }
+    lat = gather([](const LaneInit& li) { return li.lat_rad; });
+    vE = gather([](const LaneInit& li) { return li.v_eb_n_east_mps; });
+    vN = gather([](const LaneInit& li) { return li.v_eb_n_north_mps; });
+    vEp = vE, vNp = vN;
+    qw = gather([](const LaneInit& li) { return li.q_b_n[0]; });
+    qx = gather([](const LaneInit& li) { return li.q_b_n[1]; });
+    qy = gather([](const LaneInit& li) { return li.q_b_n[2]; });
+    qz = gather([](const LaneInit& li) { return li.q_b_n[3]; });
+    dthpx = gather([](const LaneInit& li) { return li.dtheta_prev_b_rad[0]; });
+    dthpy = gather([](const LaneInit& li) { return li.dtheta_prev_b_rad[1]; });
+    dthpz = gather([](const LaneInit& li) { return li.dtheta_prev_b_rad[2]; });
+    dvpx = gather([](const LaneInit& li) { return li.dv_prev_b_mps[0]; });
+    dvpy = gather([](const LaneInit& li) { return li.dv_prev_b_mps[1]; });
+    dvpz = gather([](const LaneInit& li) { return li.dv_prev_b_mps[2]; });
+    if constexpr (kLever) {
+      ompx = gather([](const LaneInit& li) { return li.omega_ib_b_prev_rad_s[0]; });
+      ompy = gather([](const LaneInit& li) { return li.omega_ib_b_prev_rad_s[1]; });
+      ompz = gather([](const LaneInit& li) { return li.omega_ib_b_prev_rad_s[2]; });
+    }
+  }
+
+  // The Earth terms exact at each lane's latitude: sin and cos by their series about the
+  // block's reference latitude (Precomputed::ref_lat, ref_sin, ref_cos).
+  INSID_AI void anchor(const Precomputed& im, std::size_t blk, double a_m, double e2, double a1e2) {
+    const double lref = im.ref_lat[blk], sref = im.ref_sin[blk], cref = im.ref_cos[blk];
+    const PN d = lat - lref;
+    const PN z = d * d;
+    const PN sd =
+        fma(d * z, fma(z, fma(z, fma(z, 1.0 / 362880, -1.0 / 5040), 1.0 / 120), -1.0 / 6), d);
+    const PN cm1 =
+        z * fma(z, fma(z, fma(z, fma(z, -1.0 / 3628800, 1.0 / 40320), -1.0 / 720), 1.0 / 24), -0.5);
+    es = sref + fma(sref, cm1, cref * sd);
+    ec = cref + fma(cref, cm1, -(sref * sd));
+    const PN rs = 1.0 / vsqrt(fma(-e2 * es, es, 1.0));  // 1 / sqrt(1 - e2 sin^2)
+    const PN rs2 = rs * rs;
+    eRN = a_m * rs;
+    eRM = a1e2 * (rs2 * rs);
+    ekk = e2 * (es * ec) * rs2;
+    ekk3 = 3.0 * ekk;
+    edRN = eRN * ekk;
+    edRM = eRM * ekk3;
+  }
+
+  // Phase A of a step (data and parameters only): the compensated increments, the sculling-
+  // corrected velocity increment and the coning-corrected body-rotation quaternion; the step's
+  // increments become the lanes' previous ones. `u`: the part of the step the motors ran;
+  // `divisor`: the two-sample divisor of the step and the one before (two_sample_divisor).
+  INSID_AI Pre<N> compensate_and_rotate(const ImuSample& m, double dt, double u, double divisor) {
+    const double t_mid = m.t_s - 0.5 * dt;
+    // Compensation (ImuCompensator::compensate): m - (b + b_dot t_mid + b_motor u) dt, then
+    // D^-1, u the part of the step the motors ran. Without drift b + b_dot t_mid = b exactly,
+    // and b_motor 0 u = 0 adds nothing, so every form gives the fast path's bits.
+    PN gx, gy, gz, fx0, fy0, fz0;
+    if constexpr (kGeneral) {
+      gx = fma(-fma(mgx, u, fma(dgx, t_mid, bgx)), dt, m.dtheta_b_rad.x());
+      gy = fma(-fma(mgy, u, fma(dgy, t_mid, bgy)), dt, m.dtheta_b_rad.y());
+      gz = fma(-fma(mgz, u, fma(dgz, t_mid, bgz)), dt, m.dtheta_b_rad.z());
+      fx0 = fma(-fma(mfx, u, fma(dax, t_mid, bax)), dt, m.dv_b_mps.x());
+      fy0 = fma(-fma(mfy, u, fma(day, t_mid, bay)), dt, m.dv_b_mps.y());
+      fz0 = fma(-fma(mfz, u, fma(daz, t_mid, baz)), dt, m.dv_b_mps.z());
+    } else {
+      (void)t_mid;
+      gx = fma(-bgx, dt, m.dtheta_b_rad.x());
+      gy = fma(-bgy, dt, m.dtheta_b_rad.y());
+      gz = fma(-bgz, dt, m.dtheta_b_rad.z());
+      fx0 = fma(-bax, dt, m.dv_b_mps.x());
+      fy0 = fma(-bay, dt, m.dv_b_mps.y());
+      fz0 = fma(-baz, dt, m.dv_b_mps.z());
+    }
+    PN dthx, dthy, dthz, dvx, dvy, dvz;
+    if constexpr (kGeneral) {
+      dthx = fma(Gi[2], gz, fma(Gi[1], gy, Gi[0] * gx));
+      dthy = fma(Gi[5], gz, fma(Gi[4], gy, Gi[3] * gx));
+      dthz = fma(Gi[8], gz, fma(Gi[7], gy, Gi[6] * gx));
+      dvx = fma(Ai[2], fz0, fma(Ai[1], fy0, Ai[0] * fx0));
+      dvy = fma(Ai[5], fz0, fma(Ai[4], fy0, Ai[3] * fx0));
+      dvz = fma(Ai[8], fz0, fma(Ai[7], fy0, Ai[6] * fx0));
+    } else {
+      dthx = gx, dthy = gy, dthz = gz, dvx = fx0, dvy = fy0, dvz = fz0;
+    }
+    Pre<N> p;
+    // Sculling and rotation (Savage two-sample): f = dv + dth x dv / 2 + (dthp x dv +
+    // dvp x dth) / D = dv + ((D/2 dth + dthp) x dv + dvp x dth) / D, D = 12 for equal steps.
+    const double weight = 1.0 / divisor;  // 1/12 for equal steps
+    const PN ax6 = fma(0.5 * divisor, dthx, dthpx), ay6 = fma(0.5 * divisor, dthy, dthpy),
+             az6 = fma(0.5 * divisor, dthz, dthpz);
+    p.fx = fma(fma(ay6, dvz, fma(-az6, dvy, fma(dvpy, dthz, -(dvpz * dthy)))), weight, dvx);
+    p.fy = fma(fma(az6, dvx, fma(-ax6, dvz, fma(dvpz, dthx, -(dvpx * dthz)))), weight, dvy);
+    p.fz = fma(fma(ax6, dvy, fma(-ay6, dvx, fma(dvpx, dthy, -(dvpy * dthx)))), weight, dvz);
+    // Coning-corrected body rotation vector (Savage) and its quaternion: cos(x/2) and
+    // sin(x/2)/x to degree 6 (truncation < 2e-22 for |x| < 0.06 rad per step).
+    const PN phx = fma(fma(dthpy, dthz, -(dthpz * dthy)), weight, dthx);
+    const PN phy = fma(fma(dthpz, dthx, -(dthpx * dthz)), weight, dthy);
+    const PN phz = fma(fma(dthpx, dthy, -(dthpy * dthx)), weight, dthz);
+    const PN th2 = fma(phx, phx, fma(phy, phy, phz * phz));
+    p.pw = fma(th2, fma(th2, fma(th2, -1.0 / 46080, 1.0 / 384), -1.0 / 8), 1.0);
+    const PN kp = fma(th2, fma(th2, fma(th2, -1.0 / 645120, 1.0 / 3840), -1.0 / 48), 0.5);
+    p.px = kp * phx;
+    p.py = kp * phy;
+    p.pz = kp * phz;
+    if constexpr (kLever) {
+      p.dthx = dthx;
+      p.dthy = dthy;
+      p.dthz = dthz;
+    }
+    dthpx = dthx, dthpy = dthy, dthpz = dthz;
+    dvpx = dvx, dvpy = dvy, dvpz = dvz;
+    return p;
+  }
+
+  // Phase B of a step (the recurrence): velocity, position and attitude from the step's phase
+  // A and the shared height and vertical velocity (h_mid, vz_mid at the extrapolated mid-point,
+  // h_avg the trapezoidal mid-height), the Earth terms carried to the new latitude.
+  INSID_AI void navigate(const Pre<N>& p, const PN& h_mid, const PN& vz_mid, double h_avg,
+                         double dt, double wdt) {
+    // Extrapolated mid-point (Strapdown::update step 1): lat_mid = lat + em, |em| ~ 1e-8:
+    // first-order expansions about the old latitude (the dropped terms, ~1e-16 relative, turn
+    // the attitude by < 1e-22 rad per step).
+    const PN etn = es / ec;
+    const PN T1 = fma(etn, etn, 1.0);  // d tan / d lat
+    const PN s_m = fma(ec, em, es);
+    const PN c_m = fma(-es, em, ec);
+    const PN tan_m = fma(T1, em, etn);
+    // Rates are carried multiplied by dt (zeta = (omega_ie + omega_en) dt and the Coriolis
+    // increment): dt/(R + h) costs the same division as 1/(R + h).
+    const PN Adt = dt / (fma(edRM, em, eRM) + h_mid);  // dt/(RM(lat_mid) + h_mid)
+    const PN Bdt = dt / (fma(edRN, em, eRN) + h_mid);  // dt/(RN(lat_mid) + h_mid)
+    const PN vEm = fma(0.5, vE - vEp, vE);
+    const PN vNm = fma(0.5, vN - vNp, vN);
+    const PN zx = -(vNm * Adt);                     // omega_en_x dt (omega_ie_x = 0)
+    const PN zen_y = vEm * Bdt;                     // omega_en_y dt
+    const PN zen_z = zen_y * tan_m;                 // omega_en_z dt
+    const PN zie_y = wdt * c_m, zie_z = wdt * s_m;  // omega_ie dt
+    const PN zy = zie_y + zen_y, zz = zie_z + zen_z;
+
+    // u = q f q* (old attitude): t = 2 qv x f, u = f + w t + qv x t.
+    const PN qx2 = qx + qx, qy2 = qy + qy, qz2 = qz + qz;
+    const PN tx = fma(qy2, p.fz, -(qz2 * p.fy));
+    const PN ty = fma(qz2, p.fx, -(qx2 * p.fz));
+    const PN tz = fma(qx2, p.fy, -(qy2 * p.fx));
+    const PN ux = fma(qw, tx, p.fx) + fma(qy, tz, -(qz * ty));
+    const PN uy = fma(qw, ty, p.fy) + fma(qz, tx, -(qx * tz));
+    const PN uz = fma(qw, tz, p.fz) + fma(qx, ty, -(qy * tx));
+    // (I - 0.5 skew(zeta)) u
+    const PN nx = fma(-0.5, fma(zy, uz, -(zz * uy)), ux);
+    const PN ny = fma(-0.5, fma(zz, ux, -(zx * uz)), uy);
+    // Coriolis: dv = -(2 omega_ie + omega_en) x v_mid dt (gravity is vertical only).
+    const PN ay = zy + zie_y, az = zz + zie_z;
+    const PN cx = fma(ay, vz_mid, -(az * vNm));
+    const PN cy = fma(az, vEm, -(zx * vz_mid));
+    // Summed in the reference's order: (v + dv_sf_n) + dv_gcor.
+    const PN vE_n = (vE + nx) - cx;
+    const PN vN_n = (vN + ny) - cy;
+
+    // Position (trapezoidal, two latitude iterations). 1/(R(lat + d) + h) =
+    // 1/(R + h) (1 - R' d/(R + h)) to first order (d ~ 1e-8, the next term ~1e-20); R'/(R + h)
+    // is taken as R'/R (relative error h/R in a 1e-10 correction).
+    //   x = v_avg_N dt/(RM(lat) + h_avg), first iteration's latitude increment;
+    //   lat_n - lat = x (1 - RM' (x/2)/(RM + h)) = x - (3 kk / 2) x^2.
+    const PN hC1 = dt * 0.5 / (eRM + h_avg);  // (dt/2)/(RM(lat) + h_avg)
+    const PN hE0 = dt * 0.5 / (eRN + h_avg);  // (dt/2)/(RN(lat) + h_avg)
+    const PN x = (vN + vN_n) * hC1;
+    const PN inc = fma(-0.5 * ekk3 * x, x, x);
+    const PN lat_n = lat + inc;
+    const PN dl = lat_n - lat;
+    const PN e = 0.5 * inc;  // lat_avg2 - lat
+    const PN s2 = fma(ec, e, es);
+    const PN c2 = fma(-es, e, ec);
+    const PN tan2 = fma(T1, e, etn);
+
+    // Attitude: q(-zeta_mid) * q * q(phi), zeta_mid = (omega_ie + omega_en)(lat_avg2, h_avg,
+    // v_avg) dt; dt/(R(lat_avg2) + h_avg) = dt/(R + h_avg) (1 - kk' e).
+    const PN y = (vE + vE_n) * hE0;
+    const PN vEE = fma(-y, ekk * e, y);
+    const PN zmx = -fma(-x, ekk3 * e, x);
+    const PN zmy = fma(wdt, c2, vEE);
+    const PN zmz = fma(vEE, tan2, wdt * s2);
+    // cos(|z|/2) and sin(|z|/2)/|z| of the tiny n-frame rotation need |z|^2 only to ~1e-3
+    // relative (it enters as 1e-14 corrections): the mid-point rotation's, known early.
+    const PN th2z = fma(zx, zx, fma(zy, zy, zz * zz));
+    const PN qzw = fma(th2z, -1.0 / 8, 1.0);  // cos(x/2), |x| < 1e-5
+    const PN kz = fma(th2z, 1.0 / 48, -0.5);  // -sin(x/2)/x
+    const PN pzx = kz * zmx, pzy = kz * zmy, pzz = kz * zmz;
+    const PN pw = p.pw, ppx = p.px, ppy = p.py, ppz = p.pz;
+    // q(-zeta) * q * q(phi) in the reference's arithmetic order: Eigen's SSE quaternion
+    // product as GCC compiles it (t1 = ww*xy + yy*zw etc., the second product of each pair
+    // fused), then normalize(). The attitude integrates ~1e5 rotations far below its ulp;
+    // another grouping biases the rounding and the attitude drifts ~1e-17 rad per step away
+    // from the reference (1e-9 of the fitness after ten minutes).
+    const PN rx = fma(pzy, qz, qzw * qx) - fma(-pzx, qw, pzz * qy);
+    const PN ry = fma(pzy, qw, qzw * qy) + fma(-pzx, qz, pzz * qx);
+    const PN rz = fma(-pzy, qx, qzw * qz) + fma(pzx, qy, pzz * qw);
+    const PN rw = fma(-pzy, qy, qzw * qw) - fma(pzx, qx, pzz * qz);
+    const PN nqx = fma(ry, ppz, rw * ppx) - fma(-rx, pw, rz * ppy);
+    const PN nqy = fma(ry, pw, rw * ppy) + fma(-rx, ppz, rz * ppx);
+    const PN nqz = fma(-ry, ppx, rw * ppz) + fma(rx, ppy, rz * pw);
+    const PN nw = fma(-ry, ppy, rw * pw) - fma(rx, ppx, rz * ppz);
+    // normalize(), exactly as q / RN(sqrt(n2)) but without square root or division: n2 is
+    // within a few ulps of 1 (|n2 - 1| = k ulp), where RN(sqrt(1 + e)) = RN(1 + e/2 - e^2/8)
+    // is 1 + e/2 rounded with ties toward 1 - sign(e) (the e^2 term only breaks ties): one FMA
+    // with a multiplier nudged off 1/2. Then q / (1 + d) = RN(q - q d) (the q d^2 term only
+    // matters at exact midpoints). Valid for |n2 - 1| < 2^-32; the products keep
+    // |n2 - 1| < 1e-15.
+    const PN en = ((nqx * nqx + nqz * nqz) + (nqy * nqy + nw * nw)) - 1.0;
+    M<N> pos;
+    for (int i = 0; i < N; ++i) pos.c[i] = en.c[i] > 0.0;
+    const PN dn = fma(en, blend(pos, bcast<N>(0.5 - 0x1p-21), bcast<N>(0.5 + 0x1p-21)), 1.0) - 1.0;
+    qw = fma(-nw, dn, nw);
+    qx = fma(-nqx, dn, nqx);
+    qy = fma(-nqy, dn, nqy);
+    qz = fma(-nqz, dn, nqz);
+
+    // Earth terms carried to the new latitude (first order in dl).
+    {
+      const PN s_old = es;
+      es = fma(ec, dl, s_old);
+      ec = fma(-s_old, dl, ec);
+      eRN = fma(edRN, dl, eRN);
+      eRM = fma(edRM, dl, eRM);
+    }
+
+    em = e;  // next step's lat_mid - lat: 1.5 lat_n - 0.5 lat - lat_n
+    lat = lat_n;
+    vEp = vE;
+    vNp = vN;
+    vE = vE_n;
+    vN = vN_n;
+  }
+
+  // C_b_n of the lanes' attitude quaternion.
+  struct Dcm {
+    PN C00, C01, C02, C10, C11, C12, C20, C21, C22;
+  };
+  INSID_AI Dcm attitude_matrix() const {
+    const PN Tx = 2.0 * qx, Ty = 2.0 * qy, Tz = 2.0 * qz;
+    const PN Twx = Tx * qw, Twy = Ty * qw, Twz = Tz * qw;
+    const PN Txx = Tx * qx, Txy = Ty * qx, Txz = Tz * qx;
+    const PN Tyy = Ty * qy, Tyz = Tz * qy, Tzz = Tz * qz;
+    return {1.0 - (Tyy + Tzz), Txy - Twz, Txz + Twy, Txy + Twz,        1.0 - (Txx + Tzz),
+            Tyz - Twx,         Txz - Twy, Tyz + Twx, 1.0 - (Txx + Tyy)};
+  }
+
+  // v_ant_n = v_eb_n + C_b_n (omega_ib_b x l_b) - omega_ie_n x (C_b_n l_b) of the lanes'
+  // current state, omega_ib_b extrapolated to the epoch (oex, oey, oez), the Earth rate wie.
+  INSID_AI void antenna(const PN& oex, const PN& oey, const PN& oez, double wie, PN& outE,
+                        PN& outN) const {
+    const Dcm C = attitude_matrix();
+    const V3<N> wl = cross(oex, oey, oez, lx, ly, lz);
+    const PN bx = C.C00 * lx + C.C01 * ly + C.C02 * lz;
+    const PN by = C.C10 * lx + C.C11 * ly + C.C12 * lz;
+    const PN bz = C.C20 * lx + C.C21 * ly + C.C22 * lz;
+    const PN Oy = wie * ec, Oz = wie * es;  // Earth rate at the current latitude
+    outE = vE + (C.C00 * wl.x + C.C01 * wl.y + C.C02 * wl.z) - (Oy * bz - Oz * by);
+    outN = vN + (C.C10 * wl.x + C.C11 * wl.y + C.C12 * wl.z) - (Oz * bx);
+  }
+
+  // Windowed fitness: the lanes of `rm` restart after this step (the driver's comment in
+  // run_group says from what), their GNSS solution rlat, rgE, rgN and shift rshift (`sm`: the
+  // lanes whose shift is not 0); vaE, vaN the antenna velocity of every lane at this step,
+  // (oex, oey, oez) the rate at the epoch, h_old the shared height, blk the Earth reference.
+  INSID_AI void restart(const M<N>& rm, const M<N>& sm, const PN& rlat, const PN& rgE,
+                        const PN& rgN, const PN& rshift, const PN& oex, const PN& oey,
+                        const PN& oez, double dt, double h_old, const Precomputed& im,
+                        std::size_t blk, double a_m, double e2, double a1e2, double wie,
+                        const PN& vaEp, const PN& vaNp, PN& vaE, PN& vaN) {
+    // The antenna's acceleration over this step (vaE, vaN at this step, vaEp, vaNp at the one
+    // before: the antenna is computed on the step before a restart too).
+    const PN aE = (vaE - vaEp) / dt, aN = (vaN - vaNp) / dt;
+    // The other lanes keep their state and carried Earth terms bit for bit.
+    const PN lat0 = lat, es0 = es, ec0 = ec, eRN0 = eRN, eRM0 = eRM, edRN0 = edRN, edRM0 = edRM,
+             ekk0 = ekk, ekk30 = ekk3;
+    lat = rlat;
+    anchor(im, blk, a_m, e2, a1e2);  // Earth terms at the GNSS latitude (its RM)
+    // North shift of the start [m]: shift * vN (GNSS), less the lever arm's north part.
+    PN shift_N = rshift * rgN;
+    Dcm C{};
+    PN bx{}, by{}, bz{};
+    if constexpr (kLever) {
+      C = attitude_matrix();
+      bx = C.C00 * lx + C.C01 * ly + C.C02 * lz;
+      by = C.C10 * lx + C.C11 * ly + C.C12 * lz;
+      bz = C.C20 * lx + C.C21 * ly + C.C22 * lz;
+      shift_N = shift_N - by;
+    }
+    // lat = lat_GNSS + (shift vN - (C_b_n l_b)_N) / (RM(lat_GNSS) + h), then the Earth terms
+    // at the IMU's latitude (a lane with neither effect shifts by exactly 0).
+    lat = lat + shift_N / (eRM + h_old);
+    anchor(im, blk, a_m, e2, a1e2);
+    PN vEs = blend(sm, rgE + rshift * aE, rgE), vNs = blend(sm, rgN + rshift * aN, rgN);
+    if constexpr (kLever) {
+      // less C_b_n (omega_ib_b x l_b) - omega_ie_n x (C_b_n l_b), omega_ib_b extrapolated to
+      // the epoch (oex, oey, oez), Earth rate at the IMU's latitude.
+      const V3<N> wl = cross(oex, oey, oez, lx, ly, lz);
+      const PN Oy = wie * ec, Oz = wie * es;
+      vEs = vEs - ((C.C00 * wl.x + C.C01 * wl.y + C.C02 * wl.z) - (Oy * bz - Oz * by));
+      vNs = vNs - ((C.C10 * wl.x + C.C11 * wl.y + C.C12 * wl.z) - (Oz * bx));
+    }
+    lat = blend(rm, lat, lat0);
+    es = blend(rm, es, es0);
+    ec = blend(rm, ec, ec0);
+    eRN = blend(rm, eRN, eRN0);
+    eRM = blend(rm, eRM, eRM0);
+    edRN = blend(rm, edRN, edRN0);
+    edRM = blend(rm, edRM, edRM0);
+    ekk = blend(rm, ekk, ekk0);
+    ekk3 = blend(rm, ekk3, ekk30);
+    vE = blend(rm, vEs, vE);
+    vN = blend(rm, vNs, vN);
+    vEp = blend(rm, vE, vEp);
+    vNp = blend(rm, vN, vNp);
+    em = blend(rm, bcast<N>(0.0), em);
+    PN vaEs = vE, vaNs = vN;
+    if constexpr (kLever) antenna(oex, oey, oez, wie, vaEs, vaNs);
+    vaE = blend(rm, vaEs, vaE);
+    vaN = blend(rm, vaNs, vaN);
+  }
+};
+// The kernel: N vectors of W lanes from `lanes` (N * W entries), whole navigation run. The
+// driver of the phases (Group): blocks of steps, phase A over a block, the Earth anchors, phase
+// B step by step with the shared height, the antenna velocity, the GNSS epochs (residuals and
+// Eq. 15) and the window restarts.
 template <int N, bool kGeneral, bool kLever>
 void run_group(const NavigationProblem& nav, const Precomputed& im, LaneInit* const* lanes,
                bool sum_squares, double* acc_out) {
@@ -320,75 +720,11 @@ void run_group(const NavigationProblem& nav, const Precomputed& im, LaneInit* co
   const double wie = earth.omega_ie_rad_s;
   const std::size_t nb = im.nb, n = im.n;
 
-  auto gather = [&](auto get) {
-    PN r;
-    for (int l = 0; l < L; ++l) r.c[l / W][l % W] = get(*lanes[l]);
-    return r;
-  };
-  // Parameters, one lane per candidate (LaneInit's fields): bg* gyro bias b [rad/s], dg* its
-  // drift [rad/s^2], ba* accelerometer bias b [m/s^2], da* its drift [m/s^3], Gi / Ai the inverse
-  // distortion matrices [1], l* lever arm b [m].
-  PN bgx = gather([](const LaneInit& li) { return li.gyro_bias_b_rad_s[0]; });
-  PN bgy = gather([](const LaneInit& li) { return li.gyro_bias_b_rad_s[1]; });
-  PN bgz = gather([](const LaneInit& li) { return li.gyro_bias_b_rad_s[2]; });
-  PN dgx = gather([](const LaneInit& li) { return li.gyro_bias_drift_b_rad_s2[0]; });
-  PN dgy = gather([](const LaneInit& li) { return li.gyro_bias_drift_b_rad_s2[1]; });
-  PN dgz = gather([](const LaneInit& li) { return li.gyro_bias_drift_b_rad_s2[2]; });
-  PN bax = gather([](const LaneInit& li) { return li.accel_bias_b_mps2[0]; });
-  PN bay = gather([](const LaneInit& li) { return li.accel_bias_b_mps2[1]; });
-  PN baz = gather([](const LaneInit& li) { return li.accel_bias_b_mps2[2]; });
-  PN dax = gather([](const LaneInit& li) { return li.accel_bias_drift_b_mps3[0]; });
-  PN day = gather([](const LaneInit& li) { return li.accel_bias_drift_b_mps3[1]; });
-  PN daz = gather([](const LaneInit& li) { return li.accel_bias_drift_b_mps3[2]; });
-  // mg* / mf*: the gyro [rad/s] and accelerometer [m/s^2] offsets while the motors run.
-  PN mgx = gather([](const LaneInit& li) { return li.gyro_motor_offset_b_rad_s[0]; });
-  PN mgy = gather([](const LaneInit& li) { return li.gyro_motor_offset_b_rad_s[1]; });
-  PN mgz = gather([](const LaneInit& li) { return li.gyro_motor_offset_b_rad_s[2]; });
-  PN mfx = gather([](const LaneInit& li) { return li.accel_motor_offset_b_mps2[0]; });
-  PN mfy = gather([](const LaneInit& li) { return li.accel_motor_offset_b_mps2[1]; });
-  PN mfz = gather([](const LaneInit& li) { return li.accel_motor_offset_b_mps2[2]; });
-  PN Gi[9], Ai[9];
-  if constexpr (kGeneral) {
-    // Identity rows and columns give the same bits as the fast path (1 x + 0 y + 0 z = x).
-    for (int j = 0; j < 9; ++j) {
-      Gi[j] = gather([j](const LaneInit& li) { return li.gyro_distortion_inv[j]; });
-      Ai[j] = gather([j](const LaneInit& li) { return li.accel_distortion_inv[j]; });
-    }
-  }
-  PN lx{}, ly{}, lz{};
-  if constexpr (kLever) {
-    lx = gather([](const LaneInit& li) { return li.lever_arm_b_m[0]; });
-    ly = gather([](const LaneInit& li) { return li.lever_arm_b_m[1]; });
-    lz = gather([](const LaneInit& li) { return li.lever_arm_b_m[2]; });
-  }
-  // State: lat [rad]; vE, vN the INS velocity in n = ENU [m/s] (vEp, vNp at the step before);
-  // q* the attitude quaternion b -> n; dthp* [rad], dvp* [m/s], omp* [rad/s] the compensated
-  // increments and mean rate of the step before (two-sample corrections, lever arm); vaEp, vaNp
-  // the antenna velocity at the step before [m/s]; acc the running Eq. 15 sum.
-  PN lat = gather([](const LaneInit& li) { return li.lat_rad; });
-  PN em{};  // lat_mid - lat (0 at the first step: the previous state is the initial one)
-  PN vE = gather([](const LaneInit& li) { return li.v_eb_n_east_mps; });
-  PN vN = gather([](const LaneInit& li) { return li.v_eb_n_north_mps; });
-  PN vEp = vE, vNp = vN;
-  PN qw = gather([](const LaneInit& li) { return li.q_b_n[0]; });
-  PN qx = gather([](const LaneInit& li) { return li.q_b_n[1]; });
-  PN qy = gather([](const LaneInit& li) { return li.q_b_n[2]; });
-  PN qz = gather([](const LaneInit& li) { return li.q_b_n[3]; });
-  PN dthpx = gather([](const LaneInit& li) { return li.dtheta_prev_b_rad[0]; });
-  PN dthpy = gather([](const LaneInit& li) { return li.dtheta_prev_b_rad[1]; });
-  PN dthpz = gather([](const LaneInit& li) { return li.dtheta_prev_b_rad[2]; });
-  PN dvpx = gather([](const LaneInit& li) { return li.dv_prev_b_mps[0]; });
-  PN dvpy = gather([](const LaneInit& li) { return li.dv_prev_b_mps[1]; });
-  PN dvpz = gather([](const LaneInit& li) { return li.dv_prev_b_mps[2]; });
-  PN ompx{}, ompy{}, ompz{};
-  if constexpr (kLever) {
-    ompx = gather([](const LaneInit& li) { return li.omega_ib_b_prev_rad_s[0]; });
-    ompy = gather([](const LaneInit& li) { return li.omega_ib_b_prev_rad_s[1]; });
-    ompz = gather([](const LaneInit& li) { return li.omega_ib_b_prev_rad_s[2]; });
-  }
-  PN vaEp = gather([](const LaneInit& li) { return li.v_ant_n_east_mps; });
-  PN vaNp = gather([](const LaneInit& li) { return li.v_ant_n_north_mps; });
-  PN acc = gather([](const LaneInit& li) { return li.eq15_sum_at_start; });
+  Group<N, kGeneral, kLever> g(lanes);
+  // vaEp, vaNp the antenna velocity at the step before [m/s]; acc the running Eq. 15 sum.
+  PN vaEp = gather_lanes<N>(lanes, [](const LaneInit& li) { return li.v_ant_n_east_mps; });
+  PN vaNp = gather_lanes<N>(lanes, [](const LaneInit& li) { return li.v_ant_n_north_mps; });
+  PN acc = gather_lanes<N>(lanes, [](const LaneInit& li) { return li.eq15_sum_at_start; });
 
   // GNSS epochs: one shared schedule when every lane has the same event list and position,
   // else per-lane cursors with masked accumulation (same arithmetic per lane).
@@ -472,31 +808,6 @@ void run_group(const NavigationProblem& nav, const Precomputed& im, LaneInit* co
     }
   };
 
-  // Earth terms of each lane at its current latitude: exact (series about the reference, one
-  // square root and division) every 32 steps, carried between by first-order updates in the
-  // step's latitude change (~3e-8 rad; the dropped second-order terms sum to < 2e-14 relative
-  // over 32 steps). kk = (dRN/dlat)/RN = (dRM/dlat)/(3 RM) and the derivatives are held.
-  PN es{}, ec{}, eRN{}, eRM{}, edRN{}, edRM{}, ekk{}, ekk3{};
-  auto anchor = [&](std::size_t blk) __attribute__((always_inline)) {
-    const double lref = im.ref_lat[blk], sref = im.ref_sin[blk], cref = im.ref_cos[blk];
-    const PN d = lat - lref;
-    const PN z = d * d;
-    const PN sd =
-        fma(d * z, fma(z, fma(z, fma(z, 1.0 / 362880, -1.0 / 5040), 1.0 / 120), -1.0 / 6), d);
-    const PN cm1 =
-        z * fma(z, fma(z, fma(z, fma(z, -1.0 / 3628800, 1.0 / 40320), -1.0 / 720), 1.0 / 24), -0.5);
-    es = sref + fma(sref, cm1, cref * sd);
-    ec = cref + fma(cref, cm1, -(sref * sd));
-    const PN rs = 1.0 / vsqrt(fma(-e2 * es, es, 1.0));  // 1 / sqrt(1 - e2 sin^2)
-    const PN rs2 = rs * rs;
-    eRN = a_m * rs;
-    eRM = a1e2 * (rs2 * rs);
-    ekk = e2 * (es * ec) * rs2;
-    ekk3 = 3.0 * ekk;
-    edRN = eRN * ekk;
-    edRM = eRM * ekk3;
-  };
-
   // The step splits into a part that depends only on the data and the lane's parameters
   // (compensation, sculling, coning, the body-rotation quaternion: phase A) and the recurrence
   // (phase B). Phase A runs over a block of steps into a small buffer (L1-resident), so that
@@ -504,12 +815,7 @@ void run_group(const NavigationProblem& nav, const Precomputed& im, LaneInit* co
   // fewer registers are live.
   constexpr int kBlock = 16;
   static_assert(((1 << kAnchorShift) % kBlock) == 0, "anchors fall on block starts");
-  struct Pre {
-    PN fx, fy, fz;        // velocity increment in b, sculling-corrected [m/s]
-    PN pw, px, py, pz;    // body-rotation quaternion of the step (coning-corrected)
-    PN dthx, dthy, dthz;  // compensated angle increment in b [rad]
-  };
-  Pre pre[kBlock];
+  Pre<N> pre[kBlock];
 
   double h_old = im.h0, h_pv = im.h0, vz_old = im.vz0, vz_pv = im.vz0;
   // Interval of the increment before row k (the seed's before the first navigated row), for the
@@ -543,77 +849,19 @@ void run_group(const NavigationProblem& nav, const Precomputed& im, LaneInit* co
     // --- Phase A.
     for (int j = 0; j < kb; ++j) {
       const std::size_t k = k0 + static_cast<std::size_t>(j);
-      const ImuSample& m = imu[k];
-      const double dt = m.t_s - imu[k - 1].t_s;
-      const double t_mid = m.t_s - 0.5 * dt;
-      // Compensation (ImuCompensator::compensate): m - (b + b_dot t_mid + b_motor u) dt, then
-      // D^-1, u the part of the step the motors ran. Without drift b + b_dot t_mid = b exactly,
-      // and b_motor 0 u = 0 adds nothing, so every form gives the fast path's bits.
-      PN gx, gy, gz, fx0, fy0, fz0;
-      if constexpr (kGeneral) {
-        const double u = nav.motor_on(k);
-        gx = fma(-fma(mgx, u, fma(dgx, t_mid, bgx)), dt, m.dtheta_b_rad.x());
-        gy = fma(-fma(mgy, u, fma(dgy, t_mid, bgy)), dt, m.dtheta_b_rad.y());
-        gz = fma(-fma(mgz, u, fma(dgz, t_mid, bgz)), dt, m.dtheta_b_rad.z());
-        fx0 = fma(-fma(mfx, u, fma(dax, t_mid, bax)), dt, m.dv_b_mps.x());
-        fy0 = fma(-fma(mfy, u, fma(day, t_mid, bay)), dt, m.dv_b_mps.y());
-        fz0 = fma(-fma(mfz, u, fma(daz, t_mid, baz)), dt, m.dv_b_mps.z());
-      } else {
-        (void)t_mid;
-        gx = fma(-bgx, dt, m.dtheta_b_rad.x());
-        gy = fma(-bgy, dt, m.dtheta_b_rad.y());
-        gz = fma(-bgz, dt, m.dtheta_b_rad.z());
-        fx0 = fma(-bax, dt, m.dv_b_mps.x());
-        fy0 = fma(-bay, dt, m.dv_b_mps.y());
-        fz0 = fma(-baz, dt, m.dv_b_mps.z());
-      }
-      PN dthx, dthy, dthz, dvx, dvy, dvz;
-      if constexpr (kGeneral) {
-        dthx = fma(Gi[2], gz, fma(Gi[1], gy, Gi[0] * gx));
-        dthy = fma(Gi[5], gz, fma(Gi[4], gy, Gi[3] * gx));
-        dthz = fma(Gi[8], gz, fma(Gi[7], gy, Gi[6] * gx));
-        dvx = fma(Ai[2], fz0, fma(Ai[1], fy0, Ai[0] * fx0));
-        dvy = fma(Ai[5], fz0, fma(Ai[4], fy0, Ai[3] * fx0));
-        dvz = fma(Ai[8], fz0, fma(Ai[7], fy0, Ai[6] * fx0));
-      } else {
-        dthx = gx, dthy = gy, dthz = gz, dvx = fx0, dvy = fy0, dvz = fz0;
-      }
-      Pre& p = pre[j];
-      // Sculling and rotation (Savage two-sample): f = dv + dth x dv / 2 + (dthp x dv +
-      // dvp x dth) / D = dv + ((D/2 dth + dthp) x dv + dvp x dth) / D, D = 12 for equal steps.
-      const double divisor = two_sample_divisor(previous_dt(k), dt);
-      const double weight = 1.0 / divisor;  // 1/12 for equal steps
-      const PN ax6 = fma(0.5 * divisor, dthx, dthpx), ay6 = fma(0.5 * divisor, dthy, dthpy),
-               az6 = fma(0.5 * divisor, dthz, dthpz);
-      p.fx = fma(fma(ay6, dvz, fma(-az6, dvy, fma(dvpy, dthz, -(dvpz * dthy)))), weight, dvx);
-      p.fy = fma(fma(az6, dvx, fma(-ax6, dvz, fma(dvpz, dthx, -(dvpx * dthz)))), weight, dvy);
-      p.fz = fma(fma(ax6, dvy, fma(-ay6, dvx, fma(dvpx, dthy, -(dvpy * dthx)))), weight, dvz);
-      // Coning-corrected body rotation vector (Savage) and its quaternion: cos(x/2) and
-      // sin(x/2)/x to degree 6 (truncation < 2e-22 for |x| < 0.06 rad per step).
-      const PN phx = fma(fma(dthpy, dthz, -(dthpz * dthy)), weight, dthx);
-      const PN phy = fma(fma(dthpz, dthx, -(dthpx * dthz)), weight, dthy);
-      const PN phz = fma(fma(dthpx, dthy, -(dthpy * dthx)), weight, dthz);
-      const PN th2 = fma(phx, phx, fma(phy, phy, phz * phz));
-      p.pw = fma(th2, fma(th2, fma(th2, -1.0 / 46080, 1.0 / 384), -1.0 / 8), 1.0);
-      const PN kp = fma(th2, fma(th2, fma(th2, -1.0 / 645120, 1.0 / 3840), -1.0 / 48), 0.5);
-      p.px = kp * phx;
-      p.py = kp * phy;
-      p.pz = kp * phz;
-      if constexpr (kLever) {
-        p.dthx = dthx;
-        p.dthy = dthy;
-        p.dthz = dthz;
-      }
-      dthpx = dthx, dthpy = dthy, dthpz = dthz;
-      dvpx = dvx, dvpy = dvy, dvpz = dvz;
+      const double dt = imu[k].t_s - imu[k - 1].t_s;
+      double u = 0.0;  // the part of the step the motors ran
+      if constexpr (kGeneral) u = nav.motor_on(k);
+      pre[j] = g.compensate_and_rotate(imu[k], dt, u, two_sample_divisor(previous_dt(k), dt));
     }
 
-    if (((k0 - nb) & ((std::size_t{1} << kAnchorShift) - 1)) == 0) anchor((k0 - nb) >> kRefShift);
+    if (((k0 - nb) & ((std::size_t{1} << kAnchorShift) - 1)) == 0)
+      g.anchor(im, (k0 - nb) >> kRefShift, a_m, e2, a1e2);
 
     // --- Phase B.
     for (int j = 0; j < kb; ++j) {
       const std::size_t k = k0 + static_cast<std::size_t>(j);
-      const Pre& p = pre[j];
+      const Pre<N>& p = pre[j];
       const double dt = imu[k].t_s - imu[k - 1].t_s;
       PN h_mid = bcast<N>(1.5 * h_old - 0.5 * h_pv);
       PN vz_mid = bcast<N>(1.5 * vz_old - 0.5 * vz_pv);
@@ -626,122 +874,8 @@ void run_group(const NavigationProblem& nav, const Precomputed& im, LaneInit* co
       // quarter step of the candidate's unaided vertical velocity error (< 1e-4 m: 2e-11 of R,
       // zero-mean).
       const double h_avg = 0.5 * (h_old + (h_old + 0.5 * (vz_old + vuref[k]) * dt));
-      const double wdt = wie * dt;
-
-      // Extrapolated mid-point (Strapdown::update step 1): lat_mid = lat + em, |em| ~ 1e-8:
-      // first-order expansions about the old latitude (the dropped terms, ~1e-16 relative, turn
-      // the attitude by < 1e-22 rad per step).
-      const PN etn = es / ec;
-      const PN T1 = fma(etn, etn, 1.0);  // d tan / d lat
-      const PN s_m = fma(ec, em, es);
-      const PN c_m = fma(-es, em, ec);
-      const PN tan_m = fma(T1, em, etn);
-      // Rates are carried multiplied by dt (zeta = (omega_ie + omega_en) dt and the Coriolis
-      // increment): dt/(R + h) costs the same division as 1/(R + h).
-      const PN Adt = dt / (fma(edRM, em, eRM) + h_mid);  // dt/(RM(lat_mid) + h_mid)
-      const PN Bdt = dt / (fma(edRN, em, eRN) + h_mid);  // dt/(RN(lat_mid) + h_mid)
-      const PN vEm = fma(0.5, vE - vEp, vE);
-      const PN vNm = fma(0.5, vN - vNp, vN);
-      const PN zx = -(vNm * Adt);                     // omega_en_x dt (omega_ie_x = 0)
-      const PN zen_y = vEm * Bdt;                     // omega_en_y dt
-      const PN zen_z = zen_y * tan_m;                 // omega_en_z dt
-      const PN zie_y = wdt * c_m, zie_z = wdt * s_m;  // omega_ie dt
-      const PN zy = zie_y + zen_y, zz = zie_z + zen_z;
-
-      // u = q f q* (old attitude): t = 2 qv x f, u = f + w t + qv x t.
-      const PN qx2 = qx + qx, qy2 = qy + qy, qz2 = qz + qz;
-      const PN tx = fma(qy2, p.fz, -(qz2 * p.fy));
-      const PN ty = fma(qz2, p.fx, -(qx2 * p.fz));
-      const PN tz = fma(qx2, p.fy, -(qy2 * p.fx));
-      const PN ux = fma(qw, tx, p.fx) + fma(qy, tz, -(qz * ty));
-      const PN uy = fma(qw, ty, p.fy) + fma(qz, tx, -(qx * tz));
-      const PN uz = fma(qw, tz, p.fz) + fma(qx, ty, -(qy * tx));
-      // (I - 0.5 skew(zeta)) u
-      const PN nx = fma(-0.5, fma(zy, uz, -(zz * uy)), ux);
-      const PN ny = fma(-0.5, fma(zz, ux, -(zx * uz)), uy);
-      // Coriolis: dv = -(2 omega_ie + omega_en) x v_mid dt (gravity is vertical only).
-      const PN ay = zy + zie_y, az = zz + zie_z;
-      const PN cx = fma(ay, vz_mid, -(az * vNm));
-      const PN cy = fma(az, vEm, -(zx * vz_mid));
-      // Summed in the reference's order: (v + dv_sf_n) + dv_gcor.
-      const PN vE_n = (vE + nx) - cx;
-      const PN vN_n = (vN + ny) - cy;
-
-      // Position (trapezoidal, two latitude iterations). 1/(R(lat + d) + h) =
-      // 1/(R + h) (1 - R' d/(R + h)) to first order (d ~ 1e-8, the next term ~1e-20); R'/(R + h)
-      // is taken as R'/R (relative error h/R in a 1e-10 correction).
-      //   x = v_avg_N dt/(RM(lat) + h_avg), first iteration's latitude increment;
-      //   lat_n - lat = x (1 - RM' (x/2)/(RM + h)) = x - (3 kk / 2) x^2.
-      const PN hC1 = dt * 0.5 / (eRM + h_avg);  // (dt/2)/(RM(lat) + h_avg)
-      const PN hE0 = dt * 0.5 / (eRN + h_avg);  // (dt/2)/(RN(lat) + h_avg)
-      const PN x = (vN + vN_n) * hC1;
-      const PN inc = fma(-0.5 * ekk3 * x, x, x);
-      const PN lat_n = lat + inc;
-      const PN dl = lat_n - lat;
-      const PN e = 0.5 * inc;  // lat_avg2 - lat
-      const PN s2 = fma(ec, e, es);
-      const PN c2 = fma(-es, e, ec);
-      const PN tan2 = fma(T1, e, etn);
-
-      // Attitude: q(-zeta_mid) * q * q(phi), zeta_mid = (omega_ie + omega_en)(lat_avg2, h_avg,
-      // v_avg) dt; dt/(R(lat_avg2) + h_avg) = dt/(R + h_avg) (1 - kk' e).
-      const PN y = (vE + vE_n) * hE0;
-      const PN vEE = fma(-y, ekk * e, y);
-      const PN zmx = -fma(-x, ekk3 * e, x);
-      const PN zmy = fma(wdt, c2, vEE);
-      const PN zmz = fma(vEE, tan2, wdt * s2);
-      // cos(|z|/2) and sin(|z|/2)/|z| of the tiny n-frame rotation need |z|^2 only to ~1e-3
-      // relative (it enters as 1e-14 corrections): the mid-point rotation's, known early.
-      const PN th2z = fma(zx, zx, fma(zy, zy, zz * zz));
-      const PN qzw = fma(th2z, -1.0 / 8, 1.0);  // cos(x/2), |x| < 1e-5
-      const PN kz = fma(th2z, 1.0 / 48, -0.5);  // -sin(x/2)/x
-      const PN pzx = kz * zmx, pzy = kz * zmy, pzz = kz * zmz;
-      const PN pw = p.pw, ppx = p.px, ppy = p.py, ppz = p.pz;
-      // q(-zeta) * q * q(phi) in the reference's arithmetic order: Eigen's SSE quaternion
-      // product as GCC compiles it (t1 = ww*xy + yy*zw etc., the second product of each pair
-      // fused), then normalize(). The attitude integrates ~1e5 rotations far below its ulp;
-      // another grouping biases the rounding and the attitude drifts ~1e-17 rad per step away
-      // from the reference (1e-9 of the fitness after ten minutes).
-      const PN rx = fma(pzy, qz, qzw * qx) - fma(-pzx, qw, pzz * qy);
-      const PN ry = fma(pzy, qw, qzw * qy) + fma(-pzx, qz, pzz * qx);
-      const PN rz = fma(-pzy, qx, qzw * qz) + fma(pzx, qy, pzz * qw);
-      const PN rw = fma(-pzy, qy, qzw * qw) - fma(pzx, qx, pzz * qz);
-      const PN nqx = fma(ry, ppz, rw * ppx) - fma(-rx, pw, rz * ppy);
-      const PN nqy = fma(ry, pw, rw * ppy) + fma(-rx, ppz, rz * ppx);
-      const PN nqz = fma(-ry, ppx, rw * ppz) + fma(rx, ppy, rz * pw);
-      const PN nw = fma(-ry, ppy, rw * pw) - fma(rx, ppx, rz * ppz);
-      // normalize(), exactly as q / RN(sqrt(n2)) but without square root or division: n2 is
-      // within a few ulps of 1 (|n2 - 1| = k ulp), where RN(sqrt(1 + e)) = RN(1 + e/2 - e^2/8)
-      // is 1 + e/2 rounded with ties toward 1 - sign(e) (the e^2 term only breaks ties): one FMA
-      // with a multiplier nudged off 1/2. Then q / (1 + d) = RN(q - q d) (the q d^2 term only
-      // matters at exact midpoints). Valid for |n2 - 1| < 2^-32; the products keep
-      // |n2 - 1| < 1e-15.
-      const PN en = ((nqx * nqx + nqz * nqz) + (nqy * nqy + nw * nw)) - 1.0;
-      M<N> pos;
-      for (int i = 0; i < N; ++i) pos.c[i] = en.c[i] > 0.0;
-      const PN dn =
-          fma(en, blend(pos, bcast<N>(0.5 - 0x1p-21), bcast<N>(0.5 + 0x1p-21)), 1.0) - 1.0;
-      qw = fma(-nw, dn, nw);
-      qx = fma(-nqx, dn, nqx);
-      qy = fma(-nqy, dn, nqy);
-      qz = fma(-nqz, dn, nqz);
-
-      // Earth terms carried to the new latitude (first order in dl).
-      {
-        const PN s_old = es;
-        es = fma(ec, dl, s_old);
-        ec = fma(-s_old, dl, ec);
-        eRN = fma(edRN, dl, eRN);
-        eRM = fma(edRM, dl, eRM);
-      }
-
-      // State update (height and vertical velocity aided: shared).
-      em = e;  // next step's lat_mid - lat: 1.5 lat_n - 0.5 lat - lat_n
-      lat = lat_n;
-      vEp = vE;
-      vNp = vN;
-      vE = vE_n;
-      vN = vN_n;
+      g.navigate(p, h_mid, vz_mid, h_avg, dt, wie * dt);
+      // Height and vertical velocity aided: shared.
       h_pv = h_old;
       h_old = href[k];
       vz_pv = vz_old;
@@ -750,36 +884,18 @@ void run_group(const NavigationProblem& nav, const Precomputed& im, LaneInit* co
       // Antenna velocity (lever arm) and the GNSS epochs of this step.
       const auto kk64 = static_cast<std::int64_t>(k);
       const bool restart_here = kk64 == next_restart;
-      PN vaE = vE, vaN = vN;
+      PN vaE = g.vE, vaN = g.vN;
       PN oex{}, oey{}, oez{};
-      // v_ant_n = v_eb_n + C_b_n (omega_ib_b x l_b) - omega_ie_n x (C_b_n l_b) of the lanes'
-      // current state, omega_ib_b extrapolated to the epoch (oex, oey, oez).
-      auto antenna = [&](PN & outE, PN & outN) __attribute__((always_inline)) {
-        const PN Tx = 2.0 * qx, Ty = 2.0 * qy, Tz = 2.0 * qz;
-        const PN Twx = Tx * qw, Twy = Ty * qw, Twz = Tz * qw;
-        const PN Txx = Tx * qx, Txy = Ty * qx, Txz = Tz * qx;
-        const PN Tyy = Ty * qy, Tyz = Tz * qy, Tzz = Tz * qz;
-        const PN C00 = 1.0 - (Tyy + Tzz), C01 = Txy - Twz, C02 = Txz + Twy;
-        const PN C10 = Txy + Twz, C11 = 1.0 - (Txx + Tzz), C12 = Tyz - Twx;
-        const PN C20 = Txz - Twy, C21 = Tyz + Twx, C22 = 1.0 - (Txx + Tyy);
-        const V3<N> wl = cross(oex, oey, oez, lx, ly, lz);
-        const PN bx = C00 * lx + C01 * ly + C02 * lz;
-        const PN by = C10 * lx + C11 * ly + C12 * lz;
-        const PN bz = C20 * lx + C21 * ly + C22 * lz;
-        const PN Oy = wie * ec, Oz = wie * es;  // Earth rate at the current latitude
-        outE = vE + (C00 * wl.x + C01 * wl.y + C02 * wl.z) - (Oy * bz - Oz * by);
-        outN = vN + (C10 * wl.x + C11 * wl.y + C12 * wl.z) - (Oz * bx);
-      };
       if constexpr (kLever) {
         const double inv_dt = 1.0 / dt;
         const PN omx = p.dthx * inv_dt, omy = p.dthy * inv_dt, omz = p.dthz * inv_dt;
         if (next_step <= kk64 + 1 || next_restart <= kk64 + 1) {
-          oex = 1.5 * omx - 0.5 * ompx;
-          oey = 1.5 * omy - 0.5 * ompy;
-          oez = 1.5 * omz - 0.5 * ompz;
-          antenna(vaE, vaN);
+          oex = 1.5 * omx - 0.5 * g.ompx;
+          oey = 1.5 * omy - 0.5 * g.ompy;
+          oez = 1.5 * omz - 0.5 * g.ompz;
+          g.antenna(oex, oey, oez, wie, vaE, vaN);
         }
-        ompx = omx, ompy = omy, ompz = omz;
+        g.ompx = omx, g.ompy = omy, g.ompz = omz;
       }
       if (next_step == kk64) {
         if (uniform && !any_res) {
@@ -804,7 +920,7 @@ void run_group(const NavigationProblem& nav, const Precomputed& im, LaneInit* co
         // mid-point extrapolation: em = 0, vEp = vE, `fresh` for h and vU), Earth terms exact at
         // the new latitude. The other lanes are left as they are, bit for bit.
         M<N> rm{}, sm{};  // lanes restarting here; those with a non-zero shift
-        PN rlat = lat, rgE{}, rgN{}, rshift{};
+        PN rlat = g.lat, rgE{}, rgN{}, rshift{};
         for (int l = 0; l < L; ++l) {
           if (lane_next_start(l) != kk64) continue;
           const Start& st = (*lst[l])[scur[l]++];
@@ -816,63 +932,10 @@ void run_group(const NavigationProblem& nav, const Precomputed& im, LaneInit* co
           rshift.c[l / W][l % W] = st.shift_s;
         }
         next_restart = next_start_step();
-        // The antenna's acceleration over this step (vaE, vaN at this step, vaEp, vaNp at the one
-        // before: the antenna is computed on the step before a restart too).
-        const PN aE = (vaE - vaEp) / dt, aN = (vaN - vaNp) / dt;
-        // The other lanes keep their state and carried Earth terms bit for bit.
-        const PN lat0 = lat, es0 = es, ec0 = ec, eRN0 = eRN, eRM0 = eRM, edRN0 = edRN, edRM0 = edRM,
-                 ekk0 = ekk, ekk30 = ekk3;
-        lat = rlat;
-        anchor((k - nb) >> kRefShift);  // Earth terms at the GNSS latitude (its RM)
-        // North shift of the start [m]: shift * vN (GNSS), less the lever arm's north part.
-        PN shift_N = rshift * rgN;
-        PN C00{}, C01{}, C02{}, C10{}, C11{}, C12{}, bx{}, by{}, bz{};
-        if constexpr (kLever) {
-          const PN Tx = 2.0 * qx, Ty = 2.0 * qy, Tz = 2.0 * qz;
-          const PN Twx = Tx * qw, Twy = Ty * qw, Twz = Tz * qw;
-          const PN Txx = Tx * qx, Txy = Ty * qx, Txz = Tz * qx;
-          const PN Tyy = Ty * qy, Tyz = Tz * qy, Tzz = Tz * qz;
-          C00 = 1.0 - (Tyy + Tzz), C01 = Txy - Twz, C02 = Txz + Twy;
-          C10 = Txy + Twz, C11 = 1.0 - (Txx + Tzz), C12 = Tyz - Twx;
-          const PN C20 = Txz - Twy, C21 = Tyz + Twx, C22 = 1.0 - (Txx + Tyy);
-          bx = C00 * lx + C01 * ly + C02 * lz;
-          by = C10 * lx + C11 * ly + C12 * lz;
-          bz = C20 * lx + C21 * ly + C22 * lz;
-          shift_N = shift_N - by;
-        }
-        // lat = lat_GNSS + (shift vN - (C_b_n l_b)_N) / (RM(lat_GNSS) + h), then the Earth terms
-        // at the IMU's latitude (a lane with neither effect shifts by exactly 0).
-        lat = lat + shift_N / (eRM + h_old);
-        anchor((k - nb) >> kRefShift);
-        PN vEs = blend(sm, rgE + rshift * aE, rgE), vNs = blend(sm, rgN + rshift * aN, rgN);
-        if constexpr (kLever) {
-          // less C_b_n (omega_ib_b x l_b) - omega_ie_n x (C_b_n l_b), omega_ib_b extrapolated to
-          // the epoch (oex, oey, oez), Earth rate at the IMU's latitude.
-          const V3<N> wl = cross(oex, oey, oez, lx, ly, lz);
-          const PN Oy = wie * ec, Oz = wie * es;
-          vEs = vEs - ((C00 * wl.x + C01 * wl.y + C02 * wl.z) - (Oy * bz - Oz * by));
-          vNs = vNs - ((C10 * wl.x + C11 * wl.y + C12 * wl.z) - (Oz * bx));
-        }
-        lat = blend(rm, lat, lat0);
-        es = blend(rm, es, es0);
-        ec = blend(rm, ec, ec0);
-        eRN = blend(rm, eRN, eRN0);
-        eRM = blend(rm, eRM, eRM0);
-        edRN = blend(rm, edRN, edRN0);
-        edRM = blend(rm, edRM, edRM0);
-        ekk = blend(rm, ekk, ekk0);
-        ekk3 = blend(rm, ekk3, ekk30);
-        vE = blend(rm, vEs, vE);
-        vN = blend(rm, vNs, vN);
-        vEp = blend(rm, vE, vEp);
-        vNp = blend(rm, vN, vNp);
-        em = blend(rm, bcast<N>(0.0), em);
+        g.restart(rm, sm, rlat, rgE, rgN, rshift, oex, oey, oez, dt, h_old, im,
+                  (k - nb) >> kRefShift, a_m, e2, a1e2, wie, vaEp, vaNp, vaE, vaN);
         fresh = rm;
         any_fresh = true;
-        PN vaEs = vE, vaNs = vN;
-        if constexpr (kLever) antenna(vaEs, vaNs);
-        vaE = blend(rm, vaEs, vaE);
-        vaN = blend(rm, vaNs, vaN);
       }
       vaEp = vaE;
       vaNp = vaN;
