@@ -14,6 +14,7 @@
 #include <set>
 #include <sstream>
 #include <stdexcept>
+#include <tuple>
 
 #include <omp.h>
 #include <Eigen/Cholesky>
@@ -416,6 +417,19 @@ json params_json(const ModelFit& fit, const Vec& sd_sigma) {
                    {"unit", std::string(effect_info(fit.params[k].name).unit)}});
   }
   return arr;
+}
+
+// A model's block of the report: its parameters with the replicas' sd scaled by its misfit
+// (misfit_ratio), its fitness and RMS; also the sd (sigma units) and the misfit themselves.
+std::tuple<json, Vec, MisfitRatio> model_json(const ModelFit& fit, const Mat& D,
+                                              double misfit_min_ratio) {
+  const MisfitRatio misfit = misfit_ratio(fit.J, fit.r, D, misfit_min_ratio);
+  const Vec sd = parameter_sd(fit.J, D) * misfit.sd_scale;
+  return {json{{"parameters", params_json(fit, sd)},
+               {"fitness", fit.fitness},
+               {"rms_mps", fit.rms},
+               {"misfit", misfit_json(misfit)}},
+          sd, misfit};
 }
 
 }  // namespace
@@ -851,14 +865,7 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
   }
 
   // Base parameters with sd from the same noise model, scaled by the base's misfit.
-  {
-    const MisfitRatio misfit = misfit_ratio(fit.J, fit.r, D, options.misfit_min_ratio);
-    const Vec sd = parameter_sd(fit.J, D) * misfit.sd_scale;
-    report["base"] = {{"parameters", params_json(fit, sd)},
-                      {"fitness", fit.fitness},
-                      {"rms_mps", fit.rms},
-                      {"misfit", misfit_json(misfit)}};
-  }
+  report["base"] = std::get<0>(model_json(fit, D, options.misfit_min_ratio));
 
   // 3-6. Iterate.
   json iterations = json::array();
@@ -1036,12 +1043,8 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
       withdraw_stand_ins(nav, evaluator, rest, D, iterations, progress, fit, found, found_names);
 
   // Final estimates (SI) with sd from the noise model, scaled by the final model's misfit.
-  const MisfitRatio misfit_final = misfit_ratio(fit.J, fit.r, D, options.misfit_min_ratio);
-  const Vec sd_final = parameter_sd(fit.J, D) * misfit_final.sd_scale;
-  report["model"] = {{"parameters", params_json(fit, sd_final)},
-                     {"fitness", fit.fitness},
-                     {"rms_mps", fit.rms},
-                     {"misfit", misfit_json(misfit_final)}};
+  const auto [final_json, sd_final, misfit_final] = model_json(fit, D, options.misfit_min_ratio);
+  report["model"] = final_json;
   if (misfit_final.sd_scale > 1.0)
     progress("the final model's residual is " +
              number_text(*misfit_final.residual_vs_noise_rms, 3) +
