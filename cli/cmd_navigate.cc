@@ -21,6 +21,7 @@
 #include "cli/progress.h"
 #include "data/dataset.h"
 #include "model/rotation.h"
+#include "model/units.h"
 #include "nav/fitness.h"
 #include "optimizers/parameters.h"
 
@@ -41,8 +42,9 @@ struct NavigateArgs {
 };
 
 // The estimates of an identify result (insid-identify/1 or /2): its `parameters` array (name,
-// estimate in SI) when it has one, else its `estimate` object {name: SI value}. Throws naming the
-// file and what it lacks.
+// estimate in SI) when it has one, else its `estimate` object {name: SI value}; with gyro biases
+// measured at rest (identify --gyro-bias-at-rest), those biases too (gyro_bias_at_rest.bias_deg_s,
+// the motors-off b0 at the estimate). Throws naming the file and what it lacks.
 std::map<std::string, double> identify_estimates(const std::string& path) {
   const std::string where = "--compensate-from " + path;
   nlohmann::json j;
@@ -83,6 +85,23 @@ std::map<std::string, double> identify_estimates(const std::string& path) {
     for (const auto& [name, value] : j["estimate"].items()) take(name, value, "estimate." + name);
   } else {
     throw std::invalid_argument(where + ": neither \"parameters\" nor an \"estimate\" object");
+  }
+  if (j.contains("gyro_bias_at_rest")) {
+    const nlohmann::json& rest = j["gyro_bias_at_rest"];
+    const char* field = "gyro_bias_at_rest.bias_deg_s";
+    if (!rest.is_object() || !rest.contains("bias_deg_s") || !rest["bias_deg_s"].is_array() ||
+        rest["bias_deg_s"].size() != 3)
+      throw std::invalid_argument(where + ": " + field + " must be an array of 3 numbers (deg/s)");
+    const char* names[3] = {"gyro_bias_x", "gyro_bias_y", "gyro_bias_z"};
+    for (int i = 0; i < 3; ++i) {
+      const nlohmann::json& v = rest["bias_deg_s"][static_cast<std::size_t>(i)];
+      if (estimates.count(names[i]))
+        throw std::invalid_argument(where + ": " + names[i] + " is both estimated and in " + field);
+      if (!v.is_number() || !std::isfinite(v.get<double>()))
+        throw std::invalid_argument(where + ": " + field + "[" + std::to_string(i) + "] is " +
+                                    v.dump() + ", expected a finite number (deg/s)");
+      estimates[names[i]] = v.get<double>() * kDegToRad;
+    }
   }
   return estimates;
 }

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <numbers>
 #include <sstream>
 #include <string>
 #include <utility>
@@ -790,6 +791,27 @@ TEST_F(CliSafety, NavigateCompensatesFromAnIdentifyResult) {
   const fs::path r1 = root_ / "r1.json";
   std::ofstream(r1) << v1.dump(2);
   EXPECT_EQ(fitness(" --compensate-from " + r1.string()), f_hand);
+  // Gyro biases measured at rest (identify --gyro-bias-at-rest) are compensated too.
+  nlohmann::json at_rest = r;
+  nlohmann::json kept = nlohmann::json::array();
+  for (const auto& p : r["parameters"])
+    if (p["name"].get<std::string>().rfind("gyro_bias_", 0) != 0) kept.push_back(p);
+  at_rest["parameters"] = kept;
+  at_rest["gyro_bias_at_rest"] = {{"bias_deg_s", {0.1, -0.05, 0.02}}};
+  const fs::path rr = root_ / "rest.json";
+  std::ofstream(rr) << at_rest.dump(2);
+  std::string rest_by_hand;
+  for (const auto& p : kept) {
+    std::snprintf(value, sizeof value, "%.17g", p["estimate"].get<double>());
+    rest_by_hand += " --compensate " + p["name"].get<std::string>() + "=" + value;
+  }
+  const char* names[3] = {"gyro_bias_x", "gyro_bias_y", "gyro_bias_z"};
+  const double deg_s[3] = {0.1, -0.05, 0.02};
+  for (int i = 0; i < 3; ++i) {
+    std::snprintf(value, sizeof value, "%.17g", deg_s[i] * std::numbers::pi / 180.0);
+    rest_by_hand += std::string(" --compensate ") + names[i] + "=" + value;
+  }
+  EXPECT_EQ(fitness(" --compensate-from " + rr.string()), fitness(rest_by_hand));
   // An effect in both: refused.
   const std::string first = r["parameters"][0]["name"].get<std::string>();
   o = insid("navigate --data " + d + " --compensate-from " + result.string() + " --compensate " +
