@@ -92,6 +92,20 @@ PROGRAMS = {
             (["--threads", "0"], "--threads"),
         ],
     ),
+    "insid-fitness-surrogate-study": (
+        ["--data", "--preset", "--flight-s", "--grade", "--window-s", "--initial-attitude",
+         "--estimate", "--candidates", "--near", "--floor", "--step", "--seed", "--threads",
+         "--jsonl"],
+        [
+            (["--preset", "nowhere"], "--preset"),
+            (["--grade", "consumer"], "--grade"),
+            (["--window-s", "nan"], "--window-s"),
+            (["--candidates", "0"], "--candidates"),
+            (["--step", "0"], "--step"),
+            (["--estimate", "gyro_bias_q"], "--estimate"),
+            (["--initial-attitude", "sideways"], "--initial-attitude"),
+        ],
+    ),
 }
 
 
