@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <system_error>
 
 #include "data/dataset.h"
 #include "test_support/test_support.h"
@@ -44,7 +45,17 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   static const char* kFiles[] = {"imu.csv", "gnss.csv", "truth.csv", "meta.json", "heading.csv"};
   const fs::path work = valid_dataset().string() + "-case";
   fs::remove_all(work);
-  fs::copy(valid_dataset(), work);
+  // libFuzzer's own signals (its time limits) can interrupt the copy's system calls: retried, so
+  // that the harness never reports itself as a finding.
+  for (int attempt = 0;; ++attempt) {
+    try {
+      fs::copy(valid_dataset(), work);
+      break;
+    } catch (const fs::filesystem_error& e) {
+      if (e.code() != std::errc::interrupted || attempt >= 100) throw;
+      fs::remove_all(work);
+    }
+  }
   {
     std::ofstream out(work / kFiles[data[0] % 5], std::ios::binary | std::ios::trunc);
     out.write(reinterpret_cast<const char*>(data + 1), static_cast<std::streamsize>(size - 1));
