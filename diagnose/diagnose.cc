@@ -745,14 +745,12 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
   // purpose: the reason in docs/design.md, section 9.
   const SensorGrade& grade = options.grade ? *options.grade : grade_for(*dataset);
   std::vector<EstimatedParameter> base = options.base;
-  const auto measured_at_rest = [&options](std::string_view name) {
-    const EffectInfo& info = effect_info(name);
-    return options.gyro_bias_at_rest && info.sensor == EffectSensor::kGyro &&
-           info.kind == EffectKind::kBias;
+  const auto fixed_at_rest = [&options](std::string_view name) {
+    return options.gyro_bias_at_rest && measured_at_rest(name);
   };
   if (base.empty()) {
     base = default_estimated(grade);
-    std::erase_if(base, [&](const EstimatedParameter& p) { return measured_at_rest(p.name); });
+    std::erase_if(base, [&](const EstimatedParameter& p) { return fixed_at_rest(p.name); });
   }
   NavigationOptions nav_options;
   nav_options.alignment = options.alignment;
@@ -773,7 +771,7 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
     // A motor offset needs the motor state; without it its column would be zero.
     const bool motors_known = !dataset->meta.motors.empty();
     for (const EffectInfo& e : effect_catalogue())
-      if (!in_model.count(std::string(e.name)) && !measured_at_rest(e.name) &&
+      if (!in_model.count(std::string(e.name)) && !fixed_at_rest(e.name) &&
           (motors_known || e.kind != EffectKind::kMotorOffset))
         candidates.emplace_back(e.name);
   } else {
@@ -781,7 +779,7 @@ DiagnoseResult run_diagnose(std::shared_ptr<const Dataset> dataset,
       effect_info(c);  // throws on unknown names
       if (in_model.count(c))
         throw std::invalid_argument("candidate '" + c + "' is in the base model");
-      if (measured_at_rest(c))
+      if (fixed_at_rest(c))
         throw std::invalid_argument("candidate '" + c + "' is measured at rest");
       if (std::find(candidates.begin(), candidates.end(), c) == candidates.end())
         candidates.push_back(c);

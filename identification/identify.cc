@@ -355,10 +355,7 @@ IdentifySetup identify_setup(const IdentifySpec& spec, const Dataset& dataset) {
     throw field_error("estimate", e.what());
   }
   if (spec.gyro_bias_at_rest) {
-    const auto measured = [](const EstimatedParameter& p) {
-      const EffectInfo& info = effect_info(p.name);
-      return info.sensor == EffectSensor::kGyro && info.kind == EffectKind::kBias;
-    };
+    const auto measured = [](const EstimatedParameter& p) { return measured_at_rest(p.name); };
     if (spec.estimate.empty())  // the default set, less what the rest window measures
       std::erase_if(setup.estimated, measured);
     for (const EstimatedParameter& p : setup.estimated)

@@ -121,8 +121,7 @@ ParameterMapping::ParameterMapping(std::vector<EstimatedParameter> parameters, S
         throw std::invalid_argument("parameter '" + parameters_[i].name + "' is estimated twice");
   if (!gyro_at_rest_) return;
   for (const EstimatedParameter& p : parameters_) {
-    const EffectInfo* info = find_effect_info(p.name);
-    if (info != nullptr && info->sensor == EffectSensor::kGyro && info->kind == EffectKind::kBias)
+    if (measured_at_rest(p.name))
       throw std::invalid_argument("'" + p.name +
                                   "' is measured at rest (the gyro bias at rest), so it cannot be "
                                   "estimated as well: leave it out of the estimated parameters");

@@ -324,7 +324,6 @@ struct Pre {
 // stack; the arithmetic and its order are those of the single function it was).
 template <int N, bool kGeneral, bool kLever>
 struct Group {
-  static constexpr int L = N * W;
   using PN = P<N>;
 
   // Parameters, one lane per candidate (LaneInit's fields): bg* gyro bias b [rad/s], dg* its

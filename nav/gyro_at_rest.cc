@@ -9,6 +9,11 @@
 
 namespace insid {
 
+bool measured_at_rest(std::string_view effect_name) {
+  const EffectInfo* info = find_effect_info(effect_name);
+  return info != nullptr && info->sensor == EffectSensor::kGyro && info->kind == EffectKind::kBias;
+}
+
 GyroAtRest gyro_at_rest(const NavigationProblem& navigation) {
   const AlignmentWindow& window = navigation.alignment_window();
   const Dataset& dataset = navigation.dataset();

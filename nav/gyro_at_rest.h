@@ -15,6 +15,7 @@
 #pragma once
 
 #include <string>
+#include <string_view>
 
 #include <Eigen/Core>
 
@@ -42,6 +43,10 @@ struct GyroAtRest {
            gyro.motor_offset * motor_on_mean;
   }
 };
+
+/// True for the effects a rest measurement fixes instead of a search: the gyro biases b0
+/// (gyro_bias_x|y|z). Unknown names are not.
+bool measured_at_rest(std::string_view effect_name);
 
 /// The alignment window of `navigation` as a rest measurement. Throws std::invalid_argument
 /// naming why it cannot be one: no window (align_s = 0), the motors ran in it, or the initial
