@@ -174,6 +174,7 @@ nlohmann::json CampaignConfig::to_json() const {
   // Only when set to something else than the default: manifests written before the key existed
   // still match on resume.
   if (uncertainty_replicas != 0) j["uncertainty_replicas"] = uncertainty_replicas;
+  j["fitness"] = insid::to_string(search_fitness);
   j["target_error_sigma"] = target_error_sigma;
   j["target_fitness_gap"] = target_fitness_gap;
   return j;
@@ -188,7 +189,7 @@ CampaignConfig parse_campaign(const nlohmann::json& j, const std::string& origin
       {"name", "scenarios", "algorithms", "seeds", "max_iterations", "max_evaluations", "alignment",
        "initial_attitude", "heading_deg", "heading_source", "window_s", "estimation_grade",
        "estimate", "record_positions_seeds", "target_error_sigma", "target_fitness_gap",
-       "uncertainty_replicas"});
+       "uncertainty_replicas", "fitness"});
   CampaignConfig c;
   c.name = r.string("name", c.name);
   const JsonArray scenarios = r.array("scenarios");
@@ -268,6 +269,9 @@ CampaignConfig parse_campaign(const nlohmann::json& j, const std::string& origin
   if (r.has("uncertainty_replicas"))
     c.uncertainty_replicas =
         static_cast<int>(r.field("uncertainty_replicas").integer(0, kMaxWhole));
+  if (r.has("fitness"))
+    c.search_fitness = parsed_name(
+        r, "fitness", [](const std::string& text) { return kSearchFitnessNames.value(text); });
   if (r.has("target_error_sigma")) c.target_error_sigma = r.array("target_error_sigma").numbers();
   if (r.has("target_fitness_gap")) c.target_fitness_gap = r.array("target_fitness_gap").numbers();
   c.validate(origin);

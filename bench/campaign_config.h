@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "identification/ins_problem.h"
+#include "identification/search_fitness.h"
 #include "nav/fitness.h"
 
 namespace insid::campaign {
@@ -84,6 +85,11 @@ struct CampaignConfig {
   /// INS runs of the scalar reference, i.e. about 3x a Table 4 run on a 300 s flight and minutes
   /// per run on the paper's 2.4 h flight, so campaigns ask for it explicitly (results/README.md).
   int uncertainty_replicas = 0;
+  /// What steers the optimizers (identification/search_fitness.h; `--fitness`): the fast
+  /// second-order model (when its check passes) or the exact kernel. The exact kernel scores every
+  /// reported number either way. Always written: a directory whose config lacks the key was
+  /// searched on the exact kernel and is not resumed with another fitness.
+  SearchFitnessKind search_fitness = SearchFitnessKind::kFast;
   std::vector<double> target_error_sigma = {1.0, 0.3, 0.1};   ///< max |error vs optimum|
   std::vector<double> target_fitness_gap = {1.0, 0.1, 0.01};  ///< (f - f_opt) / f_opt
 

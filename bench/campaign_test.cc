@@ -181,6 +181,52 @@ TEST(Campaign, FilesFollowTheDocumentedSchema) {
   fs::remove_all(dir);
 }
 
+// GIVEN a campaign searched with the fast fitness (the default) and the same one with --fitness
+// exact. THEN every run's reported fitness is the exact kernel's Eq. 15 of its best point (the
+// search's value, recorded beside it, differs from it), the record says which fitness did what,
+// and on this navigation-grade flight both searches end at the same final fitness (issue 47).
+TEST(Campaign, TheExactKernelScoresEveryReportedFitness) {
+  const fs::path dir = test::fresh_dir("fitness");
+  RunOptions options;
+  options.out_dir = (dir / "fast").string();
+  options.quiet = true;
+  CampaignConfig config = small_config();
+  ASSERT_EQ(config.search_fitness, SearchFitnessKind::kFast);
+  ASSERT_TRUE(run_campaign(config, options).complete);
+  config.search_fitness = SearchFitnessKind::kExact;
+  options.out_dir = (dir / "exact").string();
+  ASSERT_TRUE(run_campaign(config, options).complete);
+  EXPECT_EQ(test::read_json(dir / "fast" / "manifest.json")["config"]["fitness"], "fast");
+  EXPECT_EQ(test::read_json(dir / "exact" / "manifest.json")["config"]["fitness"], "exact");
+
+  const ParameterMapping mapping(estimated_parameters(config));
+  const auto navigation = std::make_shared<const NavigationProblem>(
+      scenario_dataset(config.scenarios.front()), config.navigation_options());
+  const InsIdentificationProblem exact(navigation, mapping);
+  for (const std::uint64_t seed : config.seeds)
+    for (const char* label : {"PSO", "DVPIO"}) {
+      const nlohmann::json fast =
+          test::read_json(run_file((dir / "fast").string(), "rich-short", label, seed));
+      const nlohmann::json slow =
+          test::read_json(run_file((dir / "exact").string(), "rich-short", label, seed));
+      EXPECT_EQ(fast["search_fitness"]["used"], "fast");
+      EXPECT_EQ(fast["search_fitness"]["reported"], "exact");
+      EXPECT_EQ(slow["search_fitness"]["used"], "exact");
+      const Eigen::VectorXd x = mapping.from_sigma(estimate_in_sigma_units(fast, mapping));
+      std::vector<double> f(1);
+      exact.evaluate_batch(std::span(&x, 1), f);
+      const double reported = fast["result"]["fitness"].get<double>();
+      const double searched = fast["search_fitness"]["best_f_search"].get<double>();
+      EXPECT_NEAR(reported, f[0], 1e-9 * f[0]) << label << " seed " << seed;
+      EXPECT_GT(std::abs(searched - reported), 1e-9 * reported) << label << " seed " << seed;
+      EXPECT_NEAR(reported, slow["result"]["fitness"].get<double>(), 1e-4 * reported)
+          << label << " seed " << seed;
+      // The exact search's record: its search value is its reported one.
+      EXPECT_EQ(slow["search_fitness"]["best_f_search"], slow["result"]["fitness"]);
+    }
+  fs::remove_all(dir);
+}
+
 TEST(Campaign, DifferentConfigIsRefusedUnlessForceNew) {
   const fs::path dir = test::fresh_dir("mismatch");
   RunOptions options;

@@ -15,6 +15,7 @@
 #include "base/output_dir.h"
 #include "identification/identify.h"
 #include "identification/ins_problem.h"
+#include "identification/search_fitness.h"
 #include "identification/uncertainty.h"
 #include "kernel/batch_fitness.h"
 #include "optimizers/external.h"
@@ -76,7 +77,7 @@ struct LockstepRunner::Impl {
           add_member(ids[next++], wave, wave_candidates);
       }
       const auto t_wave = std::chrono::steady_clock::now();
-      run_wave(wave, *st.problem, st.memo);
+      run_wave(wave, *st.search, st.memo);
       const double wave_s =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - t_wave).count();
       // The speed of this wave sizes the next one of the scenario (waves of bounded wall time).
@@ -119,6 +120,9 @@ struct LockstepRunner::Impl {
     std::shared_ptr<const Dataset> dataset;
     std::shared_ptr<const NavigationProblem> navigation;
     std::unique_ptr<InsIdentificationProblem> problem;
+    /// What the optimizers are scored with (the fast search fitness or `problem` itself);
+    /// `problem`, the exact kernel, scores every reported number.
+    std::unique_ptr<SearchProblem> search;
     std::optional<ReferenceOptimum> optimum;
     /// The optimum being found alongside the runs, on its own single-threaded problem.
     std::unique_ptr<InsIdentificationProblem> optimum_problem;
@@ -128,6 +132,7 @@ struct LockstepRunner::Impl {
       std::size_t id;  // position in the run list
       opt::Result result;
       nlohmann::json uncertainty;  // the run's uncertainty blocks, computed when it finished
+      double search_best_f;        // the search fitness of the best point (result.best_f: exact)
     };
     std::vector<Parked> parked;
     /// Wall seconds per candidate-per-round of the scenario's last wave (0: none yet).
@@ -194,6 +199,7 @@ struct LockstepRunner::Impl {
       st.problem = std::make_unique<InsIdentificationProblem>(
           st.navigation, mapping_, FitnessKind::kEq15, eval,
           settings_.scalar_reference ? FitnessEvaluator::kScalar : FitnessEvaluator::kBatched);
+      st.search = std::make_unique<SearchProblem>(*st.problem, config_.search_fitness);
     }
     if (st.optimum || st.optimum_future.valid()) return;
     st.optimum = read_optimum(s);
@@ -254,7 +260,7 @@ struct LockstepRunner::Impl {
       if (states_[s].parked.empty() || !optimum_ready(s)) continue;
       std::vector<ScenarioState::Parked> parked;
       parked.swap(states_[s].parked);
-      for (const auto& r : parked) write_run(runs_[r.id], r.result, r.uncertainty);
+      for (const auto& r : parked) write_run(runs_[r.id], r.result, r.uncertainty, r.search_best_f);
     }
   }
 
@@ -349,20 +355,16 @@ struct LockstepRunner::Impl {
   // result depends only on its own fitness values, which do not depend on how candidates are
   // grouped, so results equal separate runs, whatever the waves, shards or ranks. Each run's
   // file is written as soon as the run is done; a failed run is recorded, the others go on.
-  void run_wave(std::vector<Member>& wave, const InsIdentificationProblem& problem,
-                opt::FitnessMemo& memo) {
+  //
+  // The search fitness steers the runs; when the wave is done, the exact kernel scores every
+  // finished run's best point in one batch, and that is the run's reported best_f (the search's
+  // value is kept beside it).
+  void run_wave(std::vector<Member>& wave, const SearchProblem& problem, opt::FitnessMemo& memo) {
     std::vector<opt::Optimizer*> optimizers;
     for (Member& m : wave) optimizers.push_back(m.optimizer.get());
+    std::vector<std::size_t> finished;
     opt::TogetherHooks hooks;
-    hooks.finished = [&](std::size_t i) {
-      const RunSpec& run = runs_[wave[i].id];
-      ScenarioState& st = states_[run.scenario];
-      nlohmann::json uncertainty = uncertainty_blocks(run, *wave[i].optimizer);
-      if (st.optimum_future.valid() && !optimum_ready(run.scenario))
-        st.parked.push_back({wave[i].id, wave[i].optimizer->result(), std::move(uncertainty)});
-      else
-        write_run(run, wave[i].optimizer->result(), uncertainty);
-    };
+    hooks.finished = [&](std::size_t i) { finished.push_back(i); };
     hooks.failed = [&](std::size_t i, std::exception_ptr error) { errors_[wave[i].id] = error; };
     if (settings_.round_finished) {
       hooks.round_done = [&](std::size_t candidates, std::size_t scored, double scoring_s,
@@ -377,6 +379,37 @@ struct LockstepRunner::Impl {
     }
     opt::run_together(optimizers, problem, hooks, &memo);
     ++waves_;
+    if (finished.empty()) return;
+    std::vector<Eigen::VectorXd> best;
+    for (std::size_t i : finished) best.push_back(wave[i].optimizer->result().best_x);
+    std::vector<double> exact(best.size());
+    std::vector<std::exception_ptr> failed(best.size());
+    try {
+      exact = problem.exact_fitness(best);
+    } catch (...) {  // one at a time, to tell which run's best point the exact kernel refuses
+      for (std::size_t n = 0; n < best.size(); ++n) try {
+          exact[n] = problem.exact_fitness(std::span(&best[n], 1)).front();
+        } catch (...) {
+          failed[n] = std::current_exception();
+        }
+    }
+    for (std::size_t n = 0; n < finished.size(); ++n) {
+      const std::size_t i = finished[n];
+      if (failed[n]) {
+        errors_[wave[i].id] = failed[n];
+        continue;
+      }
+      const RunSpec& run = runs_[wave[i].id];
+      ScenarioState& st = states_[run.scenario];
+      opt::Result result = wave[i].optimizer->result();
+      const double search_best_f = result.best_f;
+      result.best_f = exact[n];
+      nlohmann::json uncertainty = uncertainty_blocks(run, *wave[i].optimizer);
+      if (st.optimum_future.valid() && !optimum_ready(run.scenario))
+        st.parked.push_back({wave[i].id, std::move(result), std::move(uncertainty), search_best_f});
+      else
+        write_run(run, result, uncertainty, search_best_f);
+    }
   }
 
   // How sure the run's estimate is, as in identify results: "parameters" with sd and
@@ -400,7 +433,8 @@ struct LockstepRunner::Impl {
     return j;
   }
 
-  void write_run(const RunSpec& run, const opt::Result& result, const nlohmann::json& uncertainty) {
+  void write_run(const RunSpec& run, const opt::Result& result, const nlohmann::json& uncertainty,
+                 double search_best_f) {
     const ScenarioSpec& scenario = config_.scenarios[run.scenario];
     const AlgorithmSpec& algo = config_.algorithms[run.algorithm];
     const ReferenceOptimum& opt = optimum(run.scenario);
@@ -420,6 +454,12 @@ struct LockstepRunner::Impl {
     for (const EstimatedParameter& p : mapping_.parameters())
       j["parameters"].push_back({{"name", p.name}});
     j["result"] = optimizer_result_json(result, mapping_);
+    // Which fitness steered the search (its convergence curves) and which scored best_f.
+    const SearchProblem& search = *states_[run.scenario].search;
+    j["search_fitness"] = {{"requested", insid::to_string(search.requested())},
+                           {"used", search.used()},
+                           {"reported", "exact"},
+                           {"best_f_search", search_best_f}};
     for (const auto& item : uncertainty.items()) j[item.key()] = item.value();
     add_run_assessment_json(j, result, mapping_, states_[run.scenario].dataset->meta.injected,
                             &opt);

@@ -10,6 +10,8 @@
 #include <benchmark/benchmark.h>
 
 #include "data/static_dataset.h"
+#include "identification/ins_problem.h"
+#include "identification/search_fitness.h"
 #include "kernel/batch_fitness.h"
 #include "nav/fitness.h"
 #include "optimizers/registry.h"
@@ -88,6 +90,43 @@ void BM_FitnessBatched(benchmark::State& state) {
 BENCHMARK(BM_FitnessBatched)
     ->ArgNames({"K", "threads"})
     ->ArgsProduct({{8, 16, 24, 32}, {1, 2}})
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(2.0)
+    ->UseRealTime();
+
+// The two search fitnesses (identification/search_fitness.h) on the same K candidates of the
+// paper's four parameters, one thread: state.range(0) = K; "exact" is the batched kernel, "fast"
+// the second-order model (the ratio of the two is issue 47's speed-up of the scoring itself).
+void BM_SearchFitness(benchmark::State& state, SearchFitnessKind kind) {
+  const int k = static_cast<int>(state.range(0));
+  static const InsIdentificationProblem exact(one_hour_problem(),
+                                              ParameterMapping(EstimatedParameter::paper_four()));
+  static const FastFitness fast(exact);
+  std::vector<Eigen::VectorXd> xs;
+  for (int i = 0; i < k; ++i) {
+    const double u = (i + 0.5) / k - 0.5;
+    xs.push_back(Eigen::Vector4d(-0.45 + u, 0.35 - u, 0.5 + 0.1 * u, -0.3 + 0.2 * u));
+  }
+  std::vector<double> f(xs.size());
+  for (auto _ : state) {
+    if (kind == SearchFitnessKind::kFast)
+      fast.evaluate(xs, f, 1);
+    else
+      exact.evaluate_batch(xs, f);
+    benchmark::DoNotOptimize(f.data());
+  }
+  set_counters(state,
+               static_cast<double>(k) * static_cast<double>(one_hour_problem()->num_steps()));
+}
+BENCHMARK_CAPTURE(BM_SearchFitness, exact, SearchFitnessKind::kExact)
+    ->ArgNames({"K"})
+    ->Arg(32)
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(2.0)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(BM_SearchFitness, fast, SearchFitnessKind::kFast)
+    ->ArgNames({"K"})
+    ->Arg(32)
     ->Unit(benchmark::kMillisecond)
     ->MinTime(2.0)
     ->UseRealTime();

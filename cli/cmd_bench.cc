@@ -22,6 +22,7 @@ struct BenchArgs {
   int max_new_runs = 0;
   double flight_s = 0.0;
   std::string round_log;
+  std::string fitness;
   CampaignRunArgs run;
 };
 
@@ -37,6 +38,9 @@ void run_bench(const BenchArgs& args) {
     config = campaign::read_campaign_file(args.config_path);
   }
   if (args.seeds > 0) config.seeds = campaign::seed_range(args.seeds);
+  if (!args.fitness.empty())
+    config.search_fitness =
+        parse_option("--fitness", [&] { return kSearchFitnessNames.value(args.fitness); });
   if (args.flight_s > 0)
     for (auto& s : config.scenarios) s.flight_s = args.flight_s;
   const auto printer = std::make_shared<ProgressPrinter>("insid bench", args.run.verbosity);
@@ -104,6 +108,12 @@ void add_bench_command(CLI::App& app) {
   cmd->add_option("--flight-s", args->flight_s,
                   "override every simulated scenario's flight length after alignment (s)")
       ->check(positive_seconds(kMaxFlightS));
+  cmd->add_option(
+      "--fitness", args->fitness,
+      "what steers the optimizers, overriding the config: fast (a second-order model "
+      "of the residuals, used when its check against the exact kernel passes; the "
+      "default) | exact (the exact kernel for every candidate). The exact kernel scores "
+      "every reported number either way (docs/design.md sec. 8)");
   cmd->add_option("--max-new-runs", args->max_new_runs,
                   "stop after this many new runs (the rest on the next invocation)")
       ->check(whole_in(1, 1000000000));

@@ -39,6 +39,7 @@
 
 #include "data/grade_table.h"
 #include "data/noise_model.h"
+#include "identification/search_fitness.h"
 #include "model/rotation.h"
 #include "model/units.h"
 #include "nav/mechanization.h"
@@ -633,6 +634,8 @@ void EkfRtsOptimizer::bind(const opt::Problem& problem) {
   if (bound_ != nullptr) throw std::logic_error("EKF-RTS: bound to a second problem");
   start_clock();  // the filter and smoother pass below is this run's main work
   const auto* ins = dynamic_cast<const InsIdentificationProblem*>(&problem);
+  // A campaign's search problem (identification/search_fitness.h): the filter reads the exact one.
+  if (const auto* search = dynamic_cast<const SearchProblem*>(&problem)) ins = &search->exact();
   if (ins == nullptr)
     throw std::invalid_argument("ekf-rts runs on the INS identification problem only, not on '" +
                                 problem.name() + "'");

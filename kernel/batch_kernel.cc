@@ -39,6 +39,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 
 #include <immintrin.h>
@@ -984,8 +985,50 @@ GroupFn pick_group(int n_vectors, bool general, bool lever) {
   return n_vectors == 1 ? pick<1>(general, lever) : pick<2>(general, lever);
 }
 
+// The fast search fitness's loop (batch_kernel.h, SumNormsFn): kSumNormsLanes = 2 vectors.
+static_assert(kSumNormsLanes == 2 * W);
+INSID_AI P<2> load_lanes(const double* p) {
+  P<2> r;
+  std::memcpy(&r, p, sizeof r);
+  return r;
+}
+
+// The node's x-dependent part, east and north: sum_p coeff[c][p] phi[p] from 0, in p order.
+INSID_AI void node_values(const double* coeff, std::size_t features, const double* phi, P<2>& vE,
+                          P<2>& vN) {
+  vE = bcast<2>(0.0);
+  vN = bcast<2>(0.0);
+  for (std::size_t p = 0; p < features; ++p) {
+    const P<2> ph = load_lanes(phi + p * kSumNormsLanes);
+    vE = vE + coeff[p] * ph;
+    vN = vN + coeff[features + p] * ph;
+  }
+}
+
+void sum_norms(const double* r0, const double* w, const double* coeff, std::size_t features,
+               const double* phi, const SumBlock* blocks, std::size_t n_blocks, double* acc) {
+  P<2> sum = load_lanes(acc), aE = bcast<2>(0.0), aN = aE, bE = aE, bN = aE;
+  std::size_t have_a = static_cast<std::size_t>(-1);
+  for (std::size_t j = 0; j < n_blocks; ++j) {
+    const SumBlock& block = blocks[j];
+    if (have_a != block.node_a)
+      node_values(coeff + 2 * features * block.node_a, features, phi, aE, aN);
+    node_values(coeff + 2 * features * block.node_b, features, phi, bE, bN);
+    const P<2> dE = bE - aE, dN = bN - aN;
+    for (std::size_t e = block.first_epoch; e < block.end_epoch; ++e) {
+      const P<2> rE = r0[2 * e] + (aE + w[e] * dE);
+      const P<2> rN = r0[2 * e + 1] + (aN + w[e] * dN);
+      sum = sum + vsqrt(rE * rE + rN * rN);
+    }
+    aE = bE;
+    aN = bN;
+    have_a = block.node_b;
+  }
+  std::memcpy(acc, &sum, sizeof sum);
+}
+
 }  // namespace
 extern const KernelPath kPath = {INSID_KERNEL_NAME, INSID_KERNEL_DESCRIPTION, kPlannedChains,
-                                 &pick_group};
+                                 &pick_group, &sum_norms};
 
 }  // namespace insid::INSID_KERNEL_NS

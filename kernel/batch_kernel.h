@@ -94,12 +94,30 @@ struct Precomputed {
 using GroupFn = void (*)(const NavigationProblem& nav, const Precomputed& pre,
                          LaneInit* const* lanes, bool sum_squares, double* acc_out);
 
+/// Candidates the fast search fitness sums together (identification/search_fitness.h).
+constexpr int kSumNormsLanes = 16;
+/// Epochs [first_epoch, end_epoch) of the fast search fitness, interpolated between two nodes.
+struct SumBlock {
+  std::size_t first_epoch, end_epoch;
+  std::size_t node_a, node_b;
+};
+/// The fast search fitness's loop over its blocks, for kSumNormsLanes candidates at once:
+///   v_c(node)[k] = sum_p coeff[node][c][p] phi[p][k]          (the model's x-dependent part),
+///   acc[k] += sum over e in [first, end) of |(r0[2e] + (a_E[k] + w[e] (b_E[k] - a_E[k])),
+///                                             r0[2e + 1] + (a_N[k] + w[e] (b_N[k] - a_N[k])))|
+/// with a = v(node_a), b = v(node_b); coeff holds 2 * features values per node (east, then
+/// north), phi features * kSumNormsLanes. Unfused on every path (the file is compiled with
+/// -ffp-contract=off), so every path gives the same bits.
+using SumNormsFn = void (*)(const double* r0, const double* w, const double* coeff,
+                            std::size_t features, const double* phi, const SumBlock* blocks,
+                            std::size_t n_blocks, double* acc);
 /// One instruction-set path of the kernel (one compilation of batch_kernel.cc).
 struct KernelPath {
   const char* name;         ///< INSID_CPU value: avx512, avx2, baseline (native: not dispatching)
   const char* description;  ///< for --version and every result's build block (`cpu_path`)
   int planned_chains;       ///< vectors per group BatchFitness::plan_groups plans on this path
   GroupFn (*pick)(int n_vectors, bool general, bool lever);  ///< n_vectors 1 or 2
+  SumNormsFn sum_norms;  ///< the fast search fitness's loop on this path
 };
 
 }  // namespace insid::batch_kernel

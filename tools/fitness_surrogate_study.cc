@@ -35,6 +35,7 @@
 #include "identification/identify.h"
 #include "identification/ins_problem.h"
 #include "identification/local_fit.h"
+#include "identification/search_fitness.h"
 #include "identification/uncertainty.h"
 #include "scenarios/noise.h"
 #include "scenarios/scenario.h"
@@ -131,7 +132,7 @@ int fitness_surrogate_study_main(int argc, char** argv) {
       "insid-fitness-surrogate-study: a Taylor model of the residuals against the exact Eq. 15",
       "insid-fitness-surrogate-study");
   std::string data_dir, preset = "paper", grade = "nav", attitude = "auto", jsonl;
-  double flight_s = 0.0, window_s = 0.0, step = 0.02;
+  double flight_s = 0.0, window_s = 0.0, step = 0.02, node_spacing_s = 0.2;
   int candidates = 1000, near = 100, floor_points = 5, threads = 0;
   std::uint64_t seed = 1;
   std::vector<std::string> estimate;
@@ -163,6 +164,11 @@ int fitness_surrogate_study_main(int argc, char** argv) {
       ->capture_default_str()
       ->check(tools::finite_number())
       ->check(CLI::Range(1e-6, 0.5));
+  app.add_option("--node-spacing-s", node_spacing_s,
+                 "the fast search fitness's time between nodes (identification/search_fitness.h)")
+      ->capture_default_str()
+      ->check(tools::finite_number())
+      ->check(CLI::Range(1e-6, 1e6));
   app.add_option("--seed", seed, "simulation and candidate seed")->capture_default_str();
   app.add_option("--threads", threads, "threads (0 = all)")
       ->capture_default_str()
@@ -250,6 +256,22 @@ int fitness_surrogate_study_main(int argc, char** argv) {
     return w;
   };
   const Worst in_box = compare(box, model);
+  // The fast search fitness itself (the model at the centre, interpolated between nodes).
+  FastFitnessOptions fo;
+  fo.step = step;
+  fo.node_spacing_s = node_spacing_s;
+  const FastFitness fast(problem, fo);
+  const auto compare_fast = [&](const std::vector<Vec>& xs) {
+    std::vector<double> f(xs.size()), f_fast(xs.size());
+    problem.evaluate_batch(xs, f);
+    fast.evaluate(xs, f_fast, evaluator.threads());
+    double worst = 0.0;
+    for (std::size_t n = 0; n < xs.size(); ++n)
+      worst = std::max(worst, std::abs(f_fast[n] - f[n]) / f[n]);
+    return worst;
+  };
+  const double fast_box = compare_fast(box);
+  const double fast_near = around.empty() ? 0.0 : compare_fast(around);
   const Worst near_optimum = around.empty() ? Worst{} : compare(around, model);
   // What a search fitness re-centred where the search is would use: the model at the optimum.
   const TaylorModel at_optimum = taylor_at(problem, optimum.x, step);
@@ -287,6 +309,9 @@ int fitness_surrogate_study_main(int argc, char** argv) {
       {"max_rel_diff_second_order_near", near_optimum.second},
       {"max_rel_diff_first_order_near_model_at_optimum", near_by_optimum_model.first},
       {"max_rel_diff_second_order_near_model_at_optimum", near_by_optimum_model.second},
+      {"fast_fitness", fast.to_json()},
+      {"max_rel_diff_fast_box", fast_box},
+      {"max_rel_diff_fast_near", fast_near},
       {"kernel_supported", problem.uses_batched_kernel()},
       {"kernel_floor_vs_scalar", floor},
       {"floor_points", std::min(floor_points, candidates)},
@@ -297,7 +322,7 @@ int fitness_surrogate_study_main(int argc, char** argv) {
             << " | " << epochs << " | " << in_box.first << " | " << in_box.second << " | "
             << near_optimum.first << " | " << near_optimum.second << " | "
             << near_by_optimum_model.second << " | " << floor << " | " << model_fmas / steps
-            << " |\n";
+            << " | " << node_spacing_s << " | " << fast_box << " | " << fast_near << " |\n";
   if (!jsonl.empty()) std::ofstream(jsonl, std::ios::app) << j.dump() << "\n";
   return cli::kExitOk;
 }
