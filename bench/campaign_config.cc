@@ -66,7 +66,10 @@ std::string first_difference(const nlohmann::json& a, const nlohmann::json& b,
 // new config has such a parameter at its default the campaigns are the same: the old config
 // gets it added before the two are compared, and such directories can still be resumed and
 // merged. A parameter away from its default is a difference.
+//
+// A config written before issue 47 lacks "fitness": it was searched on the exact kernel.
 nlohmann::json with_added_defaults(nlohmann::json old_config, const nlohmann::json& new_config) {
+  if (old_config.is_object() && !old_config.contains("fitness")) old_config["fitness"] = "exact";
   const nlohmann::json* new_algorithms = new_config.is_object() && new_config.contains("algorithms")
                                              ? &new_config["algorithms"]
                                              : nullptr;
@@ -499,6 +502,8 @@ CampaignConfig config_from_manifest(const nlohmann::json& manifest, const std::s
     specs.push_back(spec.str());
   }
   j["estimate"] = specs;
+  // Written before issue 47: searched on the exact kernel (with_added_defaults).
+  if (!j.contains("fitness")) j["fitness"] = "exact";
   const CampaignConfig config = parse_campaign(j, origin + " config");
   const nlohmann::json config_json = config.to_json();
   const std::string diff = config_difference(manifest.at("config"), config_json);

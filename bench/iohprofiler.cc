@@ -135,7 +135,9 @@ IohExportOutcome export_iohprofiler(const std::string& campaign_dir, const std::
           "', DIM = " + std::to_string(dimension) + ", maximization = F, algId = '" +
           header_safe(algo.label) + "', algInfo = '" + header_safe(alg_info) + "'\n" +
           "% insid campaign " + header_safe(config.name) +
-          ": f = Eq. 15 fitness (minimised); instance = the scenario's noise seed (data_seed); "
+          ": f = Eq. 15 fitness (minimised) of the " +
+          std::string(to_string(config.search_fitness)) +
+          " search fitness; instance = the scenario's noise seed (data_seed); "
           "runs = optimizer seeds " +
           seeds + "\n" + dat_name + entries + "\n";
       write_file_atomic_under(out_dir, folder / ("IOHprofiler_f" + fid + "_i" + instance + ".info"),

@@ -7,7 +7,9 @@
 //   instance  -> the scenario's noise seed (data_seed);
 //   DIM       -> the number of estimated parameters;
 //   run       -> one optimizer seed (a block of the .dat file, in config seed order);
-//   f(x)      -> the Eq. 15 fitness, minimised (maximization = F).
+//   f(x)      -> the Eq. 15 fitness, minimised (maximization = F), as the search saw it: the
+//                best-so-far curves of the campaign's search fitness (config "fitness"; the run
+//                files' result.fitness is the exact kernel's Eq. 15 of the best point).
 // Files, following IOHanalyzer's documented format (inst/shiny-server/markdown/dataformat.md):
 //   DIR2/<label>/IOHprofiler_f<fid>_i<instance>.info, three lines:
 //     suite = 'insid', funcId = 1, funcName = 'rich-short', DIM = 4, maximization = F,

@@ -40,6 +40,7 @@ struct IdentifyArgs {
   bool fixed_box = false;
   int max_widenings = BoxWideningOptions{}.max_rounds;
   bool gyro_bias_at_rest = false;
+  std::string fitness = "fast";
   std::string out;
   bool force = false;
   Verbosity verbosity = Verbosity::kNormal;
@@ -98,6 +99,8 @@ void run_identify(const IdentifyArgs& args) {
   spec.box_widening.enabled = !args.fixed_box;
   spec.box_widening.max_rounds = args.max_widenings;
   spec.gyro_bias_at_rest = args.gyro_bias_at_rest;
+  spec.search_fitness =
+      parse_option("--fitness", [&] { return kSearchFitnessNames.value(args.fitness); });
   if (const std::optional<IdentifySpecError> problem = spec_problem(spec))
     throw_usage(*problem);  // before the dataset is read
   ProgressPrinter progress("insid identify", args.verbosity);
@@ -183,6 +186,11 @@ void add_identify_command(CLI::App& app) {
                 "(nav/gyro_at_rest.h) instead of searching them; the window must end before the "
                 "motors start, so that a motor offset (gyro_motor_offset_*) is told apart from "
                 "the bias. Needs --initial-attitude level+heading or given");
+  cmd->add_option("--fitness", args->fitness,
+                  "what steers the search: fast (a second-order model of the residuals, used when "
+                  "its check against the exact kernel passes) | exact. The exact kernel scores "
+                  "every reported number either way (search_fitness in the result)")
+      ->capture_default_str();
   cmd->add_option("--out", args->out, "result JSON file (default: stdout)");
   add_verbosity_flags(cmd, args->verbosity);
   cmd->callback([args] { run_identify(*args); });

@@ -24,6 +24,7 @@
 #include "identification/grade.h"
 #include "identification/ins_problem.h"
 #include "identification/local_fit.h"
+#include "identification/search_fitness.h"
 #include "kernel/build_info.h"  // build_info_json, recorded in every result
 #include "nav/fitness.h"
 #include "optimizers/optimizer.h"
@@ -179,6 +180,10 @@ struct IdentifySpec {
   /// searched: gyro_bias_x|y|z leave the default set and may not be named in `estimate`; what
   /// the flight sees beyond them (a motor offset) is then told apart from them.
   bool gyro_bias_at_rest = false;
+  /// What steers the search (identification/search_fitness.h): the fast second-order model when
+  /// its check passes, or the exact kernel. The exact kernel scores every reported number either
+  /// way; lm and ekf-rts always run on it.
+  SearchFitnessKind search_fitness = SearchFitnessKind::kFast;
 
   /// "" when the spec can be run, else what is wrong, naming the bad field and value (the
   /// project's convention for options; spec_problem keeps the field for a front end): no data

@@ -133,8 +133,14 @@ std::string autopilot_comparison_table(const nlohmann::json& cmp) {
 struct Search {
   std::shared_ptr<const NavigationProblem> navigation;
   std::unique_ptr<InsIdentificationProblem> problem;
+  /// What the optimizer was scored with (the fast search fitness or `problem` itself).
+  std::unique_ptr<SearchProblem> search_problem;
   std::unique_ptr<opt::Optimizer> optimizer;
   int best_at_iteration = 0;
+  /// The optimizer's result with best_f the exact kernel's Eq. 15 of best_x (what is reported);
+  /// best_f_search is the search fitness's value there.
+  opt::Result result;
+  double best_f_search = 0.0;
 };
 
 // `overrides`: the algorithm's parameters in the normalised box (algorithm_params_in_box of the
@@ -178,6 +184,23 @@ Search run_search(const IdentifySpec& spec, const std::shared_ptr<const Dataset>
   if (!first_note.empty() && progress.note) progress.note(first_note);
   opt::Optimizer& optimizer = *search.optimizer;
   if (auto* ekf = dynamic_cast<EkfRtsOptimizer*>(&optimizer)) ekf->set_grade(grade);
+  // The baselines that see residual vectors or the problem itself search on the exact kernel.
+  const bool fitness_only = dynamic_cast<opt::ProblemConsumer*>(&optimizer) == nullptr &&
+                            dynamic_cast<opt::ResidualConsumer*>(&optimizer) == nullptr;
+  search.search_problem = std::make_unique<SearchProblem>(
+      problem, fitness_only ? spec.search_fitness : SearchFitnessKind::kExact);
+  if (spec.search_fitness == SearchFitnessKind::kFast && progress.note) {
+    const SearchProblem& s = *search.search_problem;
+    const nlohmann::json j = s.to_json();
+    if (!fitness_only)
+      progress.note("search fitness: exact (" + spec.algorithm + " reads the exact kernel)");
+    else if (s.uses_fast())
+      progress.note("search fitness: fast (second-order residual model, " +
+                    number_text(j["fast"]["check_max_relative_difference"].get<double>(), 2) +
+                    " of the exact Eq. 15 on its check points); reported numbers: exact");
+    else
+      progress.note("search fitness: exact (" + j["reason"].get<std::string>() + ")");
+  }
 
   // ask / evaluate / tell, with progress (opt::step also feeds the baselines that need residual
   // vectors or the problem itself: lm, ekf-rts). The status shows the iterations done; the
@@ -188,7 +211,7 @@ Search run_search(const IdentifySpec& spec, const std::shared_ptr<const Dataset>
   if (spec.iterations > 0) budget.append("/").append(std::to_string(spec.iterations));
   double best_so_far = std::numeric_limits<double>::infinity();
   while (!optimizer.done()) {
-    opt::step(optimizer, problem);
+    opt::step(optimizer, *search.search_problem);
     const opt::Result& live = optimizer.result();
     if (live.best_f < best_so_far) {
       best_so_far = live.best_f;
@@ -200,6 +223,11 @@ Search run_search(const IdentifySpec& spec, const std::shared_ptr<const Dataset>
                       number_text(live.best_f, 6));
   }
   if (progress.finish) progress.finish();
+  // The exact kernel's Eq. 15 of the best point: the reported fitness.
+  search.result = optimizer.result();
+  search.best_f_search = search.result.best_f;
+  search.result.best_f =
+      search.search_problem->exact_fitness(std::span(&search.result.best_x, 1)).front();
   return search;
 }
 
@@ -254,10 +282,13 @@ IdentifyReport identify(const IdentifySpec& spec, const IdentifyProgress& progre
   Search search = run_search(spec, dataset, setup.navigation, setup.estimated, grade, overrides,
                              setup.settled.line(), progress);
   auto closing_line = [&](const Search& s) {
-    const opt::Result& r = s.optimizer->result();
+    const opt::Result& r = s.result;
     note(spec.algorithm + " stopped after " + std::to_string(r.iterations) + " iteration(s) and " +
          std::to_string(r.evaluations) + " evaluations (" +
          std::string(opt::to_string(r.termination)) + "); best " + number_text(r.best_f, 6) +
+         (s.search_problem->uses_fast()
+              ? " (exact; the search fitness said " + number_text(s.best_f_search, 6) + ")"
+              : "") +
          " first reached at iteration " + std::to_string(s.best_at_iteration));
   };
   closing_line(search);
@@ -288,7 +319,7 @@ IdentifyReport identify(const IdentifySpec& spec, const IdentifyProgress& progre
   }
   nlohmann::json rounds = nlohmann::json::array();
   auto round_json = [&](const Search& s) {
-    const opt::Result& r = s.optimizer->result();
+    const opt::Result& r = s.result;
     nlohmann::json box = nlohmann::json::object();
     for (const EstimatedParameter& p : s.problem->mapping().parameters())
       box[p.name] = {p.lower_sigma, p.upper_sigma};
@@ -338,11 +369,14 @@ IdentifyReport identify(const IdentifySpec& spec, const IdentifyProgress& progre
   const InsIdentificationProblem& problem = *search.problem;
   const ParameterMapping& mapping = problem.mapping();
   const opt::Optimizer& optimizer = *search.optimizer;
-  const opt::Result& result = optimizer.result();
+  const opt::Result& result = search.result;
   report.optimizer_result = result;
 
   nlohmann::json& out = report.result;
   out = optimizer_result_json(result, mapping);
+  // Which fitness steered the search (its history) and which scored the reported numbers.
+  out["search_fitness"] = search.search_problem->to_json();
+  out["search_fitness"]["best_f_search"] = search.best_f_search;
   if (const std::optional<GyroAtRest>& rest = mapping.gyro_at_rest()) {
     const Eigen::Vector3d bias = mapping.to_errors(result.best_x).gyro.bias;
     const auto deg_s = [](const Eigen::Vector3d& v) {

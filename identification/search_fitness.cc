@@ -248,8 +248,8 @@ SearchProblem::SearchProblem(const InsIdentificationProblem& exact, SearchFitnes
   if (!fast_->usable())
     reason_ = "the second-order model's check on " + std::to_string(fast_->options().check_points) +
               " box points differs from the exact kernel by up to " +
-              number_text(fast_->check_max_relative_difference()) +
-              " relative, beyond the tolerance " + number_text(fast_->options().tolerance) +
+              number_text(fast_->check_max_relative_difference(), 3) +
+              " relative, beyond the tolerance " + number_text(fast_->options().tolerance, 3) +
               ": the search runs on the exact kernel";
 }
 

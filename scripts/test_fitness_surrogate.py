@@ -40,6 +40,12 @@ def main():
     expect(j["kernel_floor_vs_scalar"] < j["max_rel_diff_second_order_near_model_at_optimum"],
            "the exact kernel's floor below the model's difference")
     expect(j["exact_runs_to_build"] == 1 + 2 * 4 + 6, "1 + 2d + d(d - 1)/2 exact runs for d = 4")
+    # The fast search fitness itself (identification/search_fitness.h: the model at the centre,
+    # its x-dependent part interpolated between nodes): as close as the model it interpolates.
+    expect(j["max_rel_diff_fast_box"] <= 1e-4, "the fast search fitness within 1e-4 over the box")
+    expect(j["max_rel_diff_fast_near"] <= 1e-4, "the fast search fitness within 1e-4 near the optimum")
+    expect(j["max_rel_diff_fast_box"] > 0, "the fast search fitness is not the exact kernel")
+    expect(j["fast_fitness"]["check_max_relative_difference"] <= 1e-4, "its own check passes")
     return 0 if ok else 1
 
 
