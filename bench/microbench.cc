@@ -244,7 +244,7 @@ alignas(64) double probe_buffer[32 * 8];
         "xmm9", "xmm10", "xmm11", "xmm12", "xmm13", "xmm16", "xmm17", "xmm18", "xmm19", "xmm20", \
         "memory")
 
-enum class Probe { kFma, kFmaLoads, kFmaStores, kFmaLoadsStores, kKernelMix, kDiv, kFmaDiv };
+enum class Probe { kFma, kFmaLoads, kFmaStores, kFmaLoadsStores, kKernelMix, kDiv, kFmaDiv, kSqrt };
 
 __attribute__((target("avx512f"))) void BM_Pipe(benchmark::State& state, Probe probe) {
   __builtin_cpu_init();
@@ -277,6 +277,16 @@ __attribute__((target("avx512f"))) void BM_Pipe(benchmark::State& state, Probe p
             "vdivpd %%zmm12, %%zmm13, %%zmm0\n vdivpd %%zmm12, %%zmm13, %%zmm1\n"
             "vdivpd %%zmm12, %%zmm13, %%zmm2\n vdivpd %%zmm12, %%zmm13, %%zmm3\n");
         break;
+      case Probe::kSqrt:  // 4 independent square roots per block (the fast search fitness's limit)
+        fma_per_block = 0.0;
+        div_per_block = 4.0;
+        // Of 2.0 (a root of 0 may take a shortcut), loaded once per block.
+        for (int k = 64; k < 72; ++k) probe_buffer[k] = 2.0;
+        INSID_PROBE(
+            "vmovapd 512(%%rax), %%zmm17\n"
+            "vsqrtpd %%zmm17, %%zmm0\n vsqrtpd %%zmm17, %%zmm1\n"
+            "vsqrtpd %%zmm17, %%zmm2\n vsqrtpd %%zmm17, %%zmm3\n");
+        break;
       case Probe::kFmaDiv:  // 36 FMAs and 1 independent division (the kernel: 10 per 312)
         fma_per_block = 36.0;
         div_per_block = 1.0;
@@ -300,6 +310,9 @@ BENCHMARK_CAPTURE(BM_Pipe, fma_store3, Probe::kFmaStores)->UseRealTime();
 BENCHMARK_CAPTURE(BM_Pipe, fma_load10_store3, Probe::kFmaLoadsStores)->UseRealTime();
 BENCHMARK_CAPTURE(BM_Pipe, kernel_mix, Probe::kKernelMix)->UseRealTime();
 BENCHMARK_CAPTURE(BM_Pipe, div, Probe::kDiv)->UseRealTime();
+// Square roots (div_zmm_per_ns counts them): 512-bit vsqrtpd throughput, which bounds the fast
+// search fitness's loop (scripts/fast_fitness_limit.py).
+BENCHMARK_CAPTURE(BM_Pipe, sqrt, Probe::kSqrt)->UseRealTime();
 // Whether the divider overlaps the FMA pipes (results/perf/xeon16/README.md): a block of fma_div
 // takes 1 / div_zmm_per_ns ns; with the probes above, 36 FMAs alone take 36 / fma and a division
 // alone 1 / div ns, so an overlapped block takes the longer of the two, a serialized one the sum.

@@ -7,8 +7,6 @@
 #include <random>
 #include <stdexcept>
 
-#include <omp.h>
-
 #include "base/number_text.h"
 #include "kernel/batch_kernel.h"
 #include "kernel/cpu_path.h"
