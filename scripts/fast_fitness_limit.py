@@ -21,10 +21,9 @@ import re
 import statistics
 import subprocess
 import sys
-import tempfile
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from kernel_limit import basic_blocks, count, parse_annotate  # noqa: E402
+from kernel_limit import annotated, basic_blocks, count, microbench  # noqa: E402
 
 FUNC = "kernel_avx512::(anonymous namespace)::sum_norms"
 LANES = 16  # two vectors of 8 doubles per epoch
@@ -55,26 +54,10 @@ def main():
     ap.add_argument("--out", default="results/perf/fast-fitness")
     ap.add_argument("--repetitions", type=int, default=5)
     a = ap.parse_args()
-    bench = os.path.join(a.build, "bench", "insid-microbench")
-    if not os.access(bench, os.X_OK):
-        sys.exit(f"fast_fitness_limit.py: {bench} not found: build insid-microbench first")
-
-    with tempfile.TemporaryDirectory() as tmp:
-        data = os.path.join(tmp, "perf.data")
-        subprocess.run(["perf", "record", "-q", "-e", "cpu-clock", "-F", "4000", "-o", data, bench,
-                        "--benchmark_filter=SearchFitness/fast", "--benchmark_min_time=2"],
-                       check=True, capture_output=True, env={**os.environ, "INSID_CPU": "avx512"})
-        sym = subprocess.run(["perf", "report", "-i", data, "--stdio", "--sort", "sym"],
-                             check=True, capture_output=True, text=True).stdout
-        names = [m.group(1) for m in re.finditer(r"\[\.\]\s+(.*\S)", sym)]
-        name = next((n for n in names if FUNC in n), None)
-        if name is None:
-            sys.exit(f"fast_fitness_limit.py: no samples in {FUNC}; perf report:\n{sym[:2000]}")
-        share_of_run = next(float(m.group(1)) for m in
-                            re.finditer(r"([0-9.]+)%.*\[\.\]\s+(.*\S)", sym) if m.group(2) == name)
-        ann = subprocess.run(["perf", "annotate", "-i", data, "--stdio", "-s", name],
-                             check=True, capture_output=True, text=True).stdout
-    rows = parse_annotate(ann)
+    bench = microbench(a.build, "fast_fitness_limit.py")
+    avx512 = {**os.environ, "INSID_CPU": "avx512"}
+    rows, share_of_run = annotated(bench, "SearchFitness/fast", FUNC, "fast_fitness_limit.py",
+                                   avx512)
     (lo, hi), loop_share = hottest_loop(rows)
     instrs = [r for b in basic_blocks(rows, lo, hi) for r in b]
     c = count(instrs)
@@ -87,8 +70,7 @@ def main():
 
     out = subprocess.run([bench, "--benchmark_filter=Pipe/(fma|sqrt)/|SearchFitness/fast",
                           f"--benchmark_repetitions={a.repetitions}", "--benchmark_format=json"],
-                         check=True, capture_output=True, text=True,
-                         env={**os.environ, "INSID_CPU": "avx512"}).stdout
+                         check=True, capture_output=True, text=True, env=avx512).stdout
     med = {}
     for b in json.loads(out)["benchmarks"]:
         if b.get("run_type") != "iteration":

@@ -115,30 +115,44 @@ def count(instrs):
     return c
 
 
+def microbench(build, tool):
+    """build/bench/insid-microbench, or exit naming `tool` and what to build."""
+    bench = os.path.join(build, "bench", "insid-microbench")
+    if not os.access(bench, os.X_OK):
+        sys.exit(f"{tool}: {bench} not found: build the insid-microbench target first")
+    return bench
+
+
+def annotated(bench, benchmark_filter, func, tool, env=None):
+    """perf samples (cpu-clock) of `bench` on `benchmark_filter`: the annotated rows of the first
+    function whose name holds `func` (not one of its lambdas) and that function's percent of the
+    run's samples."""
+    with tempfile.TemporaryDirectory() as tmp:
+        data = os.path.join(tmp, "perf.data")
+        subprocess.run(["perf", "record", "-q", "-e", "cpu-clock", "-F", "4000", "-o", data, bench,
+                        f"--benchmark_filter={benchmark_filter}", "--benchmark_min_time=2"],
+                       check=True, capture_output=True, env=env)
+        sym = subprocess.run(["perf", "report", "-i", data, "--stdio", "--sort", "sym"],
+                             check=True, capture_output=True, text=True).stdout
+        shares = [(float(m.group(1)), m.group(2))
+                  for m in re.finditer(r"([0-9.]+)%.*\[\.\]\s+(.*\S)", sym)]
+        share, name = next(((p, n) for p, n in shares if func in n and "lambda" not in n),
+                           (0.0, None))
+        if name is None:
+            sys.exit(f"{tool}: no samples in {func}; perf report:\n{sym[:2000]}")
+        ann = subprocess.run(["perf", "annotate", "-i", data, "--stdio", "-s", name],
+                             check=True, capture_output=True, text=True).stdout
+    return parse_annotate(ann), share
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--build", default="build")
     ap.add_argument("--out", default="results/perf")
     ap.add_argument("--repetitions", type=int, default=5)
     a = ap.parse_args()
-    bench = os.path.join(a.build, "bench", "insid-microbench")
-    if not os.access(bench, os.X_OK):
-        sys.exit(f"kernel_limit.py: {bench} not found: build the insid-microbench target first")
-
-    with tempfile.TemporaryDirectory() as tmp:
-        data = os.path.join(tmp, "perf.data")
-        subprocess.run(["perf", "record", "-q", "-e", "cpu-clock", "-F", "4000", "-o", data, bench,
-                        "--benchmark_filter=FitnessBatched/K:16/threads:1/",
-                        "--benchmark_min_time=2"], check=True, capture_output=True)
-        sym = subprocess.run(["perf", "report", "-i", data, "--stdio", "--sort", "sym"],
-                             check=True, capture_output=True, text=True).stdout
-        names = [m.group(1) for m in re.finditer(r"\[\.\]\s+(.*\S)", sym)]
-        name = next((n for n in names if FUNC in n and "lambda" not in n), None)
-        if name is None:
-            sys.exit(f"kernel_limit.py: no samples in {FUNC}; perf report:\n{sym[:2000]}")
-        ann = subprocess.run(["perf", "annotate", "-i", data, "--stdio", "-s", name],
-                             check=True, capture_output=True, text=True).stdout
-    rows = parse_annotate(ann)
+    bench = microbench(a.build, "kernel_limit.py")
+    rows, _ = annotated(bench, "FitnessBatched/K:16/threads:1/", FUNC, "kernel_limit.py")
     # Phase A: the shortest loop holding > 5 % of the samples. Phase B: the shortest loop beside it
     # holding > 40 % (the step loop) and the shorter hot loops beside both (the GNSS-epoch loop of
     # a step, placed out of line). Blocks run once per block of 16 steps or less often (anchors,
