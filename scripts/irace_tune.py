@@ -194,7 +194,7 @@ def write_files(args, out, insid, instances):
     with open(os.path.join(out, "instances.txt"), "w") as f:
         f.write("".join(d + "\n" for d in instances))
     runner = os.path.join(out, "target-runner")
-    extra = "".join(" --identify-arg %s" % shlex.quote(a) for a in args.identify_arg)
+    extra = "".join(" %s" % shlex.quote("--identify-arg=" + a) for a in args.identify_arg)
     with open(runner, "w") as f:
         f.write("#!/bin/sh\n# irace target runner (scripts/irace_tune.py): irace's arguments "
                 "CONFIG_ID INSTANCE_ID SEED INSTANCE SWITCHES...\nexec /usr/bin/python3 %s "
