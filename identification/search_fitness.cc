@@ -67,11 +67,11 @@ FastFitness::FastFitness(const InsIdentificationProblem& exact, FastFitnessOptio
   std::vector<double> f_exact(xs.size()), f_model(xs.size());
   exact.evaluate_batch(xs, f_exact);
   evaluate(xs, f_model, exact.evaluator().threads());
-  for (std::size_t n = 0; n < xs.size(); ++n)
-    check_max_relative_difference_ =
-        std::max(check_max_relative_difference_, std::abs(f_model[n] - f_exact[n]) / f_exact[n]);
-  if (!std::isfinite(check_max_relative_difference_))
-    check_max_relative_difference_ = std::numeric_limits<double>::infinity();
+  for (std::size_t n = 0; n < xs.size(); ++n) {
+    double relative = std::abs(f_model[n] - f_exact[n]) / f_exact[n];
+    if (!std::isfinite(relative)) relative = std::numeric_limits<double>::infinity();  // NaN too
+    check_max_relative_difference_ = std::max(check_max_relative_difference_, relative);
+  }
   build_s_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
@@ -242,7 +242,14 @@ SearchProblem::SearchProblem(const InsIdentificationProblem& exact, SearchFitnes
                              FastFitnessOptions options)
     : opt::Problem(exact.bounds()), exact_(exact), requested_(kind) {
   if (kind == SearchFitnessKind::kExact) return;
-  fast_ = std::make_unique<FastFitness>(exact, std::move(options));
+  if (const std::string why = options.validate(); !why.empty()) throw std::invalid_argument(why);
+  try {
+    fast_ = std::make_unique<FastFitness>(exact, std::move(options));
+  } catch (const std::exception& e) {  // an exact run of the build or check failed
+    reason_ = std::string("the second-order model could not be built (") + e.what() +
+              "): the search runs on the exact kernel";
+    return;
+  }
   if (!fast_->usable())
     reason_ = "the second-order model's check on " + std::to_string(fast_->options().check_points) +
               " box points differs from the exact kernel by up to " +
