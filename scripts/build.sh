@@ -2,7 +2,8 @@
 # Configure and build insid (Release) into ./build: the program, build/cli/insid.
 #   scripts/build.sh [--all] [CMAKE_ARGS ...]
 # --all also builds the tests, the micro-benchmarks and the research programs in build/tools/
-# (insid-*-study, insid-diagnose-campaign, insid-paper-table); scripts/test.sh does. Other
+# (insid-*-study, insid-diagnose-campaign, insid-paper-table) and the Python module (build/python/,
+# when pybind11 is installed); scripts/test.sh does. Other
 # arguments go to cmake.
 set -euo pipefail
 cd "$(dirname "$0")/.."

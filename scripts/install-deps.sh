@@ -7,6 +7,7 @@ packages=(build-essential cmake git libeigen3-dev nlohmann-json3-dev libcli11-de
           libpagmo-dev libceres-dev libnlopt-cxx-dev
           libopenmpi-dev openmpi-bin
           python3 python3-numpy python3-scipy python3-matplotlib
+          python3-dev pybind11-dev  # the insid Python module (python/)
           r-cran-irace)  # irace: scripts/irace_tune.py (optional: without it only that test skips)
 missing=()
 for p in "${packages[@]}"; do
