@@ -15,15 +15,13 @@ results/perf/fast-fitness/limit.md), as scripts/kernel_limit.py does for the exa
    FMA rate, the adds sharing those pipes), and the measured loop as a fraction of the larger.
 """
 import argparse
-import json
 import os
 import re
-import statistics
-import subprocess
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from kernel_limit import annotated, basic_blocks, count, microbench  # noqa: E402
+from kernel_limit import (annotated, basic_blocks, benchmark_medians, count,  # noqa: E402
+                          microbench, write_limit)
 
 FUNC = "kernel_avx512::(anonymous namespace)::sum_norms"
 LANES = 16  # two vectors of 8 doubles per epoch
@@ -68,17 +66,8 @@ def main():
     per_candidate = {k: v / (epochs * LANES) for k, v in c.items()}
     fma_pipe_ops = c["fma"] + c["mul"] + c["add"]
 
-    out = subprocess.run([bench, "--benchmark_filter=Pipe/(fma|sqrt)/|SearchFitness/fast",
-                          f"--benchmark_repetitions={a.repetitions}", "--benchmark_format=json"],
-                         check=True, capture_output=True, text=True, env=avx512).stdout
-    med = {}
-    for b in json.loads(out)["benchmarks"]:
-        if b.get("run_type") != "iteration":
-            continue
-        for counter in ("fma_zmm_per_ns", "div_zmm_per_ns", "ns_per_candidate_step"):
-            if counter in b:
-                med.setdefault((b["run_name"], counter), []).append(b[counter])
-    med = {k: statistics.median(v) for k, v in med.items()}
+    med = benchmark_medians(bench, "Pipe/(fma|sqrt)/|SearchFitness/fast", a.repetitions,
+                            ("fma_zmm_per_ns", "div_zmm_per_ns", "ns_per_candidate_step"), avx512)
     sqrt_rate = med[("BM_Pipe/sqrt/real_time", "div_zmm_per_ns")]
     fma_rate = med[("BM_Pipe/fma/real_time", "fma_zmm_per_ns")]
     measured = next(v for (k, counter), v in med.items()
@@ -97,9 +86,6 @@ def main():
         "fraction_of_limit": limit / measured,
         "repetitions": a.repetitions,
     }
-    os.makedirs(a.out, exist_ok=True)
-    with open(os.path.join(a.out, "limit.json"), "w") as f:
-        json.dump(res, f, indent=2)
     lines = [
         "# The fast search fitness's loop against this core's limit",
         "",
@@ -121,9 +107,7 @@ def main():
         "the limit",
         "",
     ]
-    with open(os.path.join(a.out, "limit.md"), "w") as f:
-        f.write("\n".join(lines))
-    print("\n".join(lines))
+    write_limit(a.out, res, lines)
 
 
 if __name__ == "__main__":

@@ -145,6 +145,31 @@ def annotated(bench, benchmark_filter, func, tool, env=None):
     return parse_annotate(ann), share
 
 
+def benchmark_medians(bench, benchmark_filter, repetitions, counters, env=None):
+    """{(run name, counter): median over the repetitions} of one Google Benchmark run."""
+    out = subprocess.run([bench, f"--benchmark_filter={benchmark_filter}",
+                          f"--benchmark_repetitions={repetitions}", "--benchmark_format=json"],
+                         check=True, capture_output=True, text=True, env=env).stdout
+    med = {}
+    for b in json.loads(out)["benchmarks"]:
+        if b.get("run_type") != "iteration":
+            continue
+        for counter in counters:
+            if counter in b:
+                med.setdefault((b["run_name"], counter), []).append(b[counter])
+    return {k: statistics.median(v) for k, v in med.items()}
+
+
+def write_limit(out_dir, res, lines):
+    """limit.json and limit.md in out_dir; the markdown printed too."""
+    os.makedirs(out_dir, exist_ok=True)
+    with open(os.path.join(out_dir, "limit.json"), "w") as f:
+        json.dump(res, f, indent=2)
+    with open(os.path.join(out_dir, "limit.md"), "w") as f:
+        f.write("\n".join(lines))
+    print("\n".join(lines))
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--build", default="build")
@@ -183,20 +208,8 @@ def main():
              for k in ("fma", "mul", "add", "div", "sqrt", "loads", "stores", "instructions")}
     fma_pipe_ops = total["fma"] + total["mul"]
 
-    out = subprocess.run([bench, "--benchmark_filter=Pipe|FitnessBatched/K:(16|32)/threads:1/",
-                          f"--benchmark_repetitions={a.repetitions}",
-                          "--benchmark_format=json"], check=True, capture_output=True,
-                         text=True).stdout
-    bj = json.loads(out)
-    med = {}
-    for b in bj["benchmarks"]:
-        if b.get("run_type") != "iteration":
-            continue
-        key = b["run_name"]
-        for counter in ("fma_zmm_per_ns", "div_zmm_per_ns", "ns_per_candidate_step"):
-            if counter in b:
-                med.setdefault((key, counter), []).append(b[counter])
-    med = {k: statistics.median(v) for k, v in med.items()}
+    med = benchmark_medians(bench, "Pipe|FitnessBatched/K:(16|32)/threads:1/", a.repetitions,
+                            ("fma_zmm_per_ns", "div_zmm_per_ns", "ns_per_candidate_step"))
 
     def rate(probe, counter="fma_zmm_per_ns"):
         return med[(f"BM_Pipe/{probe}/real_time", counter)]
@@ -227,9 +240,6 @@ def main():
         "fraction_of_fma_pipe_limit": {k: limit_fma / v for k, v in kernel.items()},
         "fraction_of_mix_limit": {k: limit_mix / v for k, v in kernel.items()},
     }
-    os.makedirs(a.out, exist_ok=True)
-    with open(os.path.join(a.out, "limit.json"), "w") as f:
-        json.dump(res, f, indent=2)
     lines = [
         "# The batched kernel against this core's limits",
         "",
@@ -255,9 +265,7 @@ def main():
         f"({100 * limit_fma / kernel[32]:.0f} %, {100 * limit_mix / kernel[32]:.0f} %)",
         "",
     ]
-    with open(os.path.join(a.out, "limit.md"), "w") as f:
-        f.write("\n".join(lines))
-    print("\n".join(lines))
+    write_limit(a.out, res, lines)
 
 
 if __name__ == "__main__":
