@@ -113,7 +113,7 @@ void add_bench_command(CLI::App& app) {
       "what steers the optimizers, overriding the config: fast (a second-order model "
       "of the residuals, used when its check against the exact kernel passes; the "
       "default) | exact (the exact kernel for every candidate). The exact kernel scores "
-      "every reported number either way (docs/design.md sec. 8)");
+      "every reported number either way (docs/design.md sec. 12)");
   cmd->add_option("--max-new-runs", args->max_new_runs,
                   "stop after this many new runs (the rest on the next invocation)")
       ->check(whole_in(1, 1000000000));

@@ -1,4 +1,4 @@
-// The search fitness (issue 47, docs/design.md sec. 8 "Two fitnesses, one contract"): what the
+// The search fitness (issue 47, docs/design.md sec. 12 "Two fitnesses, one contract"): what the
 // optimizers are steered by, and the exact kernel that scores every number insid reports.
 //
 // The fast search fitness is a second-order model of the residual vector in the normalised
@@ -22,7 +22,8 @@
 // largest relative difference of Eq. 15 is within `tolerance` (else the search runs on the exact
 // kernel, and says why). results/perf/fast-fitness/ measures 1000 box points and 100 points near
 // the optimum per flight (issue 47's criterion 1). A model taken once does not hold over a MEMS
-// box (4-8 deg attitude errors over a window are far from linear): there the check refuses it.
+// box (a gyro bias near the box edge turns the attitude by degrees within a window, and the
+// attitude is carried from window to window: far from linear): there the check refuses it.
 #pragma once
 
 #include <cstdint>
