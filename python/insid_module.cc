@@ -29,6 +29,7 @@
 #include "identification/identify.h"
 #include "identification/ins_problem.h"
 #include "identification/search_fitness.h"
+#include "identification/uncertainty.h"
 #include "scenarios/scenario.h"
 
 namespace py = pybind11;
@@ -74,6 +75,7 @@ class PythonProblem {
     opt::EvaluatorOptions evaluator;
     evaluator.parallelism = threads == 1 ? opt::Parallelism::kSerial : opt::Parallelism::kOpenMP;
     evaluator.num_threads = threads;
+    threads_ = threads;
     exact_ = std::make_unique<InsIdentificationProblem>(
         navigation, ParameterMapping(setup_.estimated), FitnessKind::kEq15, evaluator);
     search_ = std::make_unique<SearchProblem>(*exact_, kind);
@@ -161,6 +163,35 @@ class PythonProblem {
     return out;
   }
 
+  // How sure the candidate is as an estimate, as `insid identify` reports it (identification/
+  // uncertainty.h: Gauss-Newton with `replicas` noise replicas of the flight, on the exact Eq. 15):
+  // {"fitness": its exact Eq. 15, "parameters": [{name, estimate, sd, units, flags, ...}]}.
+  py::object report(py::array_t<double, py::array::c_style | py::array::forcecast> x,
+                    int replicas) const {
+    if (replicas < 10)
+      throw std::invalid_argument("insid.Problem.report: replicas must be >= 10, got " +
+                                  std::to_string(replicas));
+    py::array_t<double> row =
+        x.ndim() == 1 ? py::array_t<double>(x.reshape({static_cast<py::ssize_t>(1), x.shape(0)}))
+                      : py::array_t<double>(x);
+    const std::vector<Eigen::VectorXd> xs = candidates(row);
+    if (xs.size() != 1)
+      throw std::invalid_argument("insid.Problem.report: one candidate at a time");
+    nlohmann::json j;
+    {
+      py::gil_scoped_release release;
+      UncertaintyOptions options;
+      options.replicas = replicas;
+      options.criterion = UncertaintyCriterion::kEq15;
+      options.threads = threads_;
+      const UncertaintyReport u =
+          estimate_uncertainty(*exact_, exact_->mapping().to_sigma(xs.front()), options);
+      j["parameters"] = u.parameters_json();
+      j["fitness"] = search_->exact_fitness(xs).front();
+    }
+    return py::module_::import("json").attr("loads")(j.dump());
+  }
+
  private:
   std::vector<Eigen::VectorXd> candidates(const py::array_t<double>& x) const {
     const int d = dimension();
@@ -187,6 +218,7 @@ class PythonProblem {
   IdentifySetup setup_;
   std::unique_ptr<InsIdentificationProblem> exact_;
   std::unique_ptr<SearchProblem> search_;
+  int threads_ = 0;
 };
 
 }  // namespace
@@ -223,6 +255,10 @@ PYBIND11_MODULE(insid, m) {
       .def("_evaluate_timed", &insid::PythonProblem::evaluate_timed, py::arg("X"),
            "evaluate(X) and the seconds of the C++ batch call inside it (for benchmarks)")
       .def("__call__", &insid::PythonProblem::call, py::arg("x"), "Eq. 15 of one candidate")
+      .def("report", &insid::PythonProblem::report, py::arg("x"), py::arg("replicas") = 100,
+           "how sure x is as an estimate, as insid identify reports it: a dict with its exact "
+           "Eq. 15 and per parameter the estimate, sd (Gauss-Newton, noise replicas), units and "
+           "flags")
       .def("to_si", &insid::PythonProblem::to_si, py::arg("x"),
            "the candidate's effects in SI units, by name");
 }

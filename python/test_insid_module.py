@@ -102,6 +102,25 @@ def main():
         expect(abs(si[p.names[0]] - (mid[0] + half[0] * X[0][0]) * p.sigma[0]) <=
                1e-15 + 1e-12 * abs(si[p.names[0]]), f"to_si value {si}")
 
+        # How sure a point is, as identify reports it: identify's best with its uncertainty (in the
+        # box as given: a widened box would change the flags that read the box).
+        full = os.path.join(tmp, "full.json")
+        subprocess.run([program, "identify", "--data", data, "--algo", "dvpio", "--iterations", "3",
+                        "--seed", "2", "--fitness", "exact", "--no-reference-optimum", "--quiet",
+                        "--fixed-box", "--out", full], check=True)
+        with open(full) as fh:
+            rf = json.load(fh)
+        best = (np.array([rf["estimate_in_sigma_units"][n] for n in p.names]) - mid) / half
+        rep = p.report(best)
+        expect(abs(rep["fitness"] - rf["fitness"]) <= 1e-12 * rf["fitness"],
+               f"report fitness {rep['fitness']} vs identify's {rf['fitness']}")
+        for mine, cli in zip(rep["parameters"], rf["parameters"]):
+            expect(mine["name"] == cli["name"] and mine["flags"] == cli["flags"],
+                   f"report {mine['name']} {mine['flags']} vs {cli['name']} {cli['flags']}")
+            expect(abs(mine["sd"] - cli["sd"]) <= 1e-9 * cli["sd"],
+                   f"report sd of {cli['name']}: {mine['sd']} vs identify's {cli['sd']}")
+        raises(ValueError, lambda: p.report(best, replicas=5), "replicas")
+
         # The fast search fitness is there too, within its tolerance of the exact one.
         fast = insid.Problem(data=data, fitness="fast")
         expect(fast.fitness == "fast", f"fitness {fast.fitness}")
