@@ -155,7 +155,7 @@ ExternalOptimizer::ExternalOptimizer(std::string command, const Bounds& bounds,
 
 ExternalOptimizer::~ExternalOptimizer() {
   if (pid_ > 0) {
-    if (fd_ >= 0) {
+    if (fd_ >= 0 && !stopped_) {
       const std::string reason(done() ? to_string(result().termination) : "aborted");
       const std::string line = nlohmann::json{{"type", "stop"}, {"reason", reason}}.dump() + "\n";
       // Best effort, without blocking: a client that does not read is killed below.
@@ -333,6 +333,28 @@ void ExternalOptimizer::refuse_unasked_output(const std::string& after) {
        " answers no ask (it follows " + after + "; the protocol is one reply line per ask)");
 }
 
+void ExternalOptimizer::stop_and_refuse_leftover(const std::string& reason,
+                                                 const std::string& after) {
+  const std::string line = nlohmann::json{{"type", "stop"}, {"reason", reason}}.dump() + "\n";
+  stopped_ = true;
+  (void)::send(fd_, line.data(), line.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
+  ::shutdown(fd_, SHUT_WR);
+  const auto deadline =
+      Clock::now() + std::chrono::milliseconds(static_cast<int>(kStopGraceS * 1e3));
+  while (buffer_.size() <= kMaxLineBytes) {
+    pollfd p{fd_, POLLIN, 0};
+    const int ready = ::poll(&p, 1, remaining_ms(deadline));
+    if (ready < 0 && errno == EINTR) continue;
+    if (ready <= 0) break;  // it has not exited within the grace: the destructor kills it
+    char chunk[65536];
+    const ssize_t n = ::recv(fd_, chunk, sizeof(chunk), 0);
+    if (n < 0 && (errno == EINTR || errno == EAGAIN)) continue;
+    if (n <= 0) break;  // EOF: it exited
+    buffer_.append(chunk, static_cast<std::size_t>(n));
+  }
+  refuse_unasked_output(after);
+}
+
 void ExternalOptimizer::launch() {
   if (!error_.empty()) throw ExternalOptimizerError(error_);
   if (pid_ < 0 && fd_ < 0) start();
@@ -375,7 +397,17 @@ void ExternalOptimizer::accept(std::span<const Eigen::VectorXd>, std::span<const
   try {
     send_line(tell.dump(), "tell " + std::to_string(k));
   } catch (const ExternalOptimizerError&) {
+    return;
   }
+  // The run ends with this batch (Optimizer::tell's order: target, iterations, evaluations): no
+  // ask follows that would see a line left over, so look for one now.
+  const RunConfig& c = config();
+  const char* ends = result().best_f <= c.target_fitness             ? "target"
+                     : c.max_iterations > 0 && k >= c.max_iterations ? "iterations"
+                     : c.max_evaluations > 0 && result().evaluations >= c.max_evaluations
+                         ? "evaluations"
+                         : nullptr;
+  if (ends != nullptr) stop_and_refuse_leftover(ends, "its reply to ask " + std::to_string(k));
 }
 
 }  // namespace insid::opt

@@ -110,6 +110,11 @@ class ExternalOptimizer final : public Optimizer {
   /// Fails when the process has written anything but blank lines that no ask asked for (read
   /// without waiting): after the problem message, or after `after`, the reply it already gave.
   void refuse_unasked_output(const std::string& after);
+  /// The run's last batch was told: sends "stop" (`reason`), closes the pipe's write side and
+  /// reads what the process writes until it exits (at most the stop grace). A line left there
+  /// answers no ask: a second reply that arrived after the next ask was sent, and was taken as
+  /// that ask's reply, is caught here whatever the timing. Throws ExternalOptimizerError then.
+  void stop_and_refuse_leftover(const std::string& reason, const std::string& after);
   /// Kills the process group and reaps it; returns how it ended ("exited with status 3").
   std::string kill_and_reap();
   /// Reaps the process if it has ended within `wait_s`; returns how it ended or "".
@@ -120,10 +125,11 @@ class ExternalOptimizer final : public Optimizer {
   std::string command_;
   ExternalParams params_;
   pid_t pid_ = -1;
-  int fd_ = -1;         ///< our end of the socket pair (the child's stdin and stdout)
-  std::string buffer_;  ///< bytes read past the last line
-  int lines_read_ = 0;  ///< lines of the child's stdout read so far (for messages)
-  std::string error_;   ///< set once the run has failed
+  int fd_ = -1;           ///< our end of the socket pair (the child's stdin and stdout)
+  std::string buffer_;    ///< bytes read past the last line
+  int lines_read_ = 0;    ///< lines of the child's stdout read so far (for messages)
+  std::string error_;     ///< set once the run has failed
+  bool stopped_ = false;  ///< "stop" sent and the write side closed (stop_and_refuse_leftover)
 };
 
 }  // namespace insid::opt
