@@ -65,9 +65,11 @@ void expect_fields(const nlohmann::json& j, const std::vector<std::pair<std::str
 
 CampaignConfig small_config() { return parse_campaign(nlohmann::json::parse(kConfig), "test"); }
 
-// For the kill test: long enough (4 x 6 runs of 20 iterations on a longer flight) that the
-// campaign cannot finish between the poll that sees the first runs and the kill, even though a
-// lock-step wave finishes several runs at once.
+// For the kill test: long enough (4 x 6 runs of 20 iterations on a longer flight, searched on the
+// exact kernel: the fast search fitness would finish every run before the data's optimum is
+// found, and all 24 would be written at once) that the campaign cannot finish between the poll
+// that sees the first runs and the kill, even though a lock-step wave finishes several runs at
+// once.
 const char* kKillConfig = R"({
   "name": "test-kill",
   "scenarios": [{"name": "rich-short", "preset": "rich", "flight_s": 600, "grade": "nav",
@@ -77,7 +79,8 @@ const char* kKillConfig = R"({
                  {"label": "GA", "name": "ga"},
                  {"label": "PIO", "name": "pio"}],
   "seeds": 6,
-  "max_iterations": 20
+  "max_iterations": 20,
+  "fitness": "exact"
 })";
 constexpr int kKillRuns = 24;
 

@@ -123,14 +123,16 @@ TEST(DirectorySafety, AnotherCampaignCannotStartWhileOneRuns) {
   fs::remove_all(empty);
 }
 
-// Long enough that the holder still runs while the test tries the directory (it is killed).
+// Long enough that the holder still runs while the test tries the directory (it is killed): on
+// the exact kernel, as the fast search fitness would end it within a second.
 const char* kLongConfig = R"({
   "name": "safety-long",
   "scenarios": [{"name": "short", "preset": "rich", "flight_s": 120, "grade": "nav",
                  "data_seed": 3}],
   "algorithms": [{"label": "PSO", "name": "pso"}],
   "seeds": 40,
-  "max_iterations": 400
+  "max_iterations": 400,
+  "fitness": "exact"
 })";
 
 // Starts `insid bench` on kLongConfig (written to config_path) into dir, as a shard when `shard`
