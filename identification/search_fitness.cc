@@ -215,11 +215,11 @@ std::vector<double> FastFitness::residuals(const Eigen::VectorXd& x) const {
   };
   std::vector<double> r(2 * epochs_);
   for (const batch_kernel::SumBlock& block : blocks_)
-    for (std::size_t e = block.first_epoch; e < block.end_epoch; ++e)
-      for (std::size_t comp = 0; comp < 2; ++comp) {
-        const double a = value(block.node_a, comp), b = value(block.node_b, comp);
+    for (std::size_t comp = 0; comp < 2; ++comp) {
+      const double a = value(block.node_a, comp), b = value(block.node_b, comp);
+      for (std::size_t e = block.first_epoch; e < block.end_epoch; ++e)
         r[2 * e + comp] = r0_[2 * e + comp] + (a + w_[e] * (b - a));
-      }
+    }
   return r;
 }
 

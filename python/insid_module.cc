@@ -113,13 +113,7 @@ class PythonProblem {
   // X: (n, d) float64, finite. Returns (n,) Eq. 15 values.
   py::array_t<double> evaluate(
       py::array_t<double, py::array::c_style | py::array::forcecast> x) const {
-    const std::vector<Eigen::VectorXd> xs = candidates(x);
-    std::vector<double> f(xs.size());
-    {
-      py::gil_scoped_release release;
-      search_->evaluate_batch(xs, f);
-    }
-    return py::array_t<double>(static_cast<py::ssize_t>(f.size()), f.data());
+    return evaluate_timed(std::move(x)).first;
   }
 
   // evaluate() and the seconds the C++ batch call took inside it (python/bench_boundary.py: the
@@ -143,19 +137,13 @@ class PythonProblem {
       throw std::invalid_argument("insid.Problem(x): x must be one candidate, shape (" +
                                   std::to_string(dimension()) + ",), got " +
                                   std::to_string(x.ndim()) + " dimensions");
-    py::array_t<double> row = x.reshape({static_cast<py::ssize_t>(1), x.shape(0)});
-    return evaluate(row).at(0);
+    return evaluate(as_row(x)).at(0);
   }
 
   // The candidate's estimated effects in SI units, by name.
   std::map<std::string, double> to_si(
       py::array_t<double, py::array::c_style | py::array::forcecast> x) const {
-    py::array_t<double> row =
-        x.ndim() == 1 ? py::array_t<double>(x.reshape({static_cast<py::ssize_t>(1), x.shape(0)}))
-                      : py::array_t<double>(x);
-    const std::vector<Eigen::VectorXd> xs = candidates(row);
-    if (xs.size() != 1) throw std::invalid_argument("insid.Problem.to_si: one candidate at a time");
-    const Eigen::VectorXd s = exact_->mapping().to_sigma(xs.front());
+    const Eigen::VectorXd s = exact_->mapping().to_sigma(one_candidate(x, "to_si"));
     std::map<std::string, double> out;
     for (int i = 0; i < dimension(); ++i)
       out[setup_.estimated[static_cast<std::size_t>(i)].name] =
@@ -171,12 +159,7 @@ class PythonProblem {
     if (replicas < 10)
       throw std::invalid_argument("insid.Problem.report: replicas must be >= 10, got " +
                                   std::to_string(replicas));
-    py::array_t<double> row =
-        x.ndim() == 1 ? py::array_t<double>(x.reshape({static_cast<py::ssize_t>(1), x.shape(0)}))
-                      : py::array_t<double>(x);
-    const std::vector<Eigen::VectorXd> xs = candidates(row);
-    if (xs.size() != 1)
-      throw std::invalid_argument("insid.Problem.report: one candidate at a time");
+    const std::vector<Eigen::VectorXd> xs{one_candidate(x, "report")};
     nlohmann::json j;
     {
       py::gil_scoped_release release;
@@ -193,6 +176,20 @@ class PythonProblem {
   }
 
  private:
+  // A 1-D candidate as a one-row batch; other arrays as they are.
+  static py::array_t<double> as_row(py::array_t<double> x) {
+    if (x.ndim() != 1) return x;
+    return x.reshape({static_cast<py::ssize_t>(1), x.shape(0)});
+  }
+  // The one candidate of x (shape (d,) or (1, d)) for `method`.
+  Eigen::VectorXd one_candidate(py::array_t<double> x, const char* method) const {
+    std::vector<Eigen::VectorXd> xs = candidates(as_row(std::move(x)));
+    if (xs.size() != 1)
+      throw std::invalid_argument(std::string("insid.Problem.") + method +
+                                  ": one candidate at a time");
+    return std::move(xs.front());
+  }
+
   std::vector<Eigen::VectorXd> candidates(const py::array_t<double>& x) const {
     const int d = dimension();
     if (x.ndim() != 2 || x.shape(1) != d)
