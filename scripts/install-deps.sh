@@ -8,6 +8,7 @@ packages=(build-essential cmake git libeigen3-dev nlohmann-json3-dev libcli11-de
           libopenmpi-dev openmpi-bin
           python3 python3-numpy python3-scipy python3-matplotlib
           python3-dev pybind11-dev  # the insid Python module (python/)
+          python3-cmaes python3-venv  # its examples (python/examples/; build/venv)
           r-cran-irace)  # irace: scripts/irace_tune.py (optional: without it only that test skips)
 missing=()
 for p in "${packages[@]}"; do
