@@ -11,6 +11,8 @@
 #include <thread>
 #include <utility>
 
+#include <unistd.h>
+
 #include "base/json_reader.h"
 #include "base/output_dir.h"
 #include "identification/identify.h"
@@ -29,6 +31,21 @@ namespace fs = std::filesystem;
 // An external optimizer's first batch, counted towards a wave's size before it is asked (the
 // reference client's batch is 10).
 constexpr std::size_t kExternalCandidatesGuess = 10;
+
+std::size_t least_squares_run_bytes(int dimension, int residual_count) {
+  return 6 * (static_cast<std::size_t>(dimension) + 1) * static_cast<std::size_t>(residual_count) *
+         sizeof(double);
+}
+
+namespace {
+// A quarter of the machine's memory: 31 LM runs of the paper flight (about 12 GB) in one wave
+// were killed by the kernel's out-of-memory killer on a 24 GiB machine.
+std::size_t default_wave_residual_bytes() {
+  const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGE_SIZE);
+  if (pages <= 0 || page <= 0) return std::size_t{4} << 30;
+  return static_cast<std::size_t>(pages) * static_cast<std::size_t>(page) / 4;
+}
+}  // namespace
 
 struct LockstepRunner::Impl {
  public:
@@ -51,31 +68,37 @@ struct LockstepRunner::Impl {
       ScenarioState& st = states_[scenario];
       const std::size_t target = bounded_wave_target(wave_target, st.seconds_per_candidate);
       const std::size_t cap = filled_groups_cap(target);
-      // Runs join while the wave's first round fits under the cap; the run that would overflow
-      // it is made again as the first of the next wave (unless it would be alone here).
+      // Runs join while the wave's first round fits under the cap and its least-squares runs
+      // within the memory bound; the run that would overflow either is made again as the first
+      // of the next wave (unless it would be alone here).
       std::vector<Member> wave;
-      std::size_t wave_candidates = 0;
-      while (next < ids.size() && runs_[ids[next]].scenario == scenario && wave_candidates < cap) {
-        const std::size_t before = wave_candidates, members = wave.size();
-        add_member(ids[next], wave, wave_candidates);
-        if (members > 0 && wave.size() > members && wave_candidates > cap) {
+      WaveSize size;
+      while (next < ids.size() && runs_[ids[next]].scenario == scenario && size.candidates < cap &&
+             size.residual_bytes < residual_cap_) {
+        const WaveSize before = size;
+        const std::size_t members = wave.size();
+        add_member(ids[next], wave, size);
+        if (members > 0 && wave.size() > members &&
+            (size.candidates > cap || size.residual_bytes > residual_cap_)) {
           wave.pop_back();
-          wave_candidates = before;
+          size = before;
           break;
         }
         ++next;
       }
       // A tail of the scenario's runs smaller than a quarter of the cap (by this wave's
-      // candidates per run) joins this wave instead of running alone on a few threads.
+      // candidates per run) joins this wave instead of running alone on a few threads, unless
+      // the wave holds least-squares runs (the memory bound).
       std::size_t tail_runs = 0;
       for (std::size_t i = next; i < ids.size() && runs_[ids[i]].scenario == scenario; ++i)
         ++tail_runs;
-      if (!wave.empty() && tail_runs > 0 &&
-          static_cast<double>(tail_runs * wave_candidates) <=
+      if (!wave.empty() && tail_runs > 0 && size.residual_bytes == 0 &&
+          static_cast<double>(tail_runs * size.candidates) <=
               0.25 * static_cast<double>(cap * wave.size())) {
         while (next < ids.size() && runs_[ids[next]].scenario == scenario)
-          add_member(ids[next++], wave, wave_candidates);
+          add_member(ids[next++], wave, size);
       }
+      const std::size_t wave_candidates = size.candidates;
       const auto t_wave = std::chrono::steady_clock::now();
       run_wave(wave, *st.search, st.memo);
       const double wave_s =
@@ -325,7 +348,13 @@ struct LockstepRunner::Impl {
     return dynamic_cast<opt::ResidualConsumer*>(&optimizer);
   }
 
-  void add_member(std::size_t id, std::vector<Member>& wave, std::size_t& wave_candidates) {
+  // What a wave holds: candidates of its first round, and its least-squares runs' memory.
+  struct WaveSize {
+    std::size_t candidates = 0;
+    std::size_t residual_bytes = 0;
+  };
+
+  void add_member(std::size_t id, std::vector<Member>& wave, WaveSize& size) {
     const RunSpec& run = runs_[id];
     const AlgorithmSpec& algo = config_.algorithms[run.algorithm];
     try {
@@ -338,9 +367,13 @@ struct LockstepRunner::Impl {
         // does not change it). Its batch size is unknown until it replies: counted as
         // kExternalCandidatesGuess for the wave's size.
         external->launch();
-        wave_candidates += kExternalCandidatesGuess;
-      } else if (!takes_own_step(*optimizer) && residual_consumer(*optimizer) == nullptr) {
-        wave_candidates += optimizer->ask().size();
+        size.candidates += kExternalCandidatesGuess;
+      } else if (residual_consumer(*optimizer) != nullptr) {
+        const SearchProblem& problem = *states_[run.scenario].search;
+        size.residual_bytes +=
+            least_squares_run_bytes(problem.dimension(), problem.residual_count());
+      } else if (!takes_own_step(*optimizer)) {
+        size.candidates += optimizer->ask().size();
       }
       wave.push_back({id, std::move(optimizer)});
     } catch (...) {
@@ -487,6 +520,9 @@ struct LockstepRunner::Impl {
 
   const CampaignConfig& config_;
   const RunnerSettings settings_;
+  const std::size_t residual_cap_ = settings_.max_wave_residual_bytes > 0
+                                        ? settings_.max_wave_residual_bytes
+                                        : default_wave_residual_bytes();
   const std::vector<RunSpec>& runs_;
   const ParameterMapping mapping_;
   std::vector<ScenarioState> states_;

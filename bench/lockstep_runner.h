@@ -81,6 +81,10 @@ struct RunnerSettings {
   /// speed sizes the next, waves take about this long at most, but never fewer candidates per
   /// round than wave_target(threads, 0); 0 = no bound (waves of wave_target's size).
   double max_wave_s = 0.0;
+  /// Memory bound of a wave's least-squares runs (LM): each holds its candidates' residual vectors
+  /// and its solver's dense Jacobian, estimated as least_squares_run_bytes(); runs join a wave
+  /// while their sum stays within this (at least one run). 0 = a quarter of the machine's memory.
+  std::size_t max_wave_residual_bytes = 0;
   /// Called after each wave: its runs, candidates per round (first round), the target it was
   /// built for and its wall time. For tests; may be empty.
   std::function<void(std::size_t runs, std::size_t candidates, std::size_t target, double wall_s)>
@@ -88,6 +92,12 @@ struct RunnerSettings {
   /// Called after each lock-step round; may be empty.
   RoundCallback round_finished;
 };
+
+/// What one least-squares run holds (bytes) on a problem of `dimension` parameters whose residual
+/// vector has `residual_count` entries: 6 (d + 1) residual vectors, its batch's and its solver's
+/// Jacobian with their copies (measured: an LM run on the 2.4 h paper flight, d = 4, 1.72 million
+/// residuals, holds 388 MB more than a Nelder-Mead run, about 28 such vectors).
+std::size_t least_squares_run_bytes(int dimension, int residual_count);
 
 /// Runs lists of runs of one campaign in lock-step waves, preparing scenarios on first use.
 class LockstepRunner {
