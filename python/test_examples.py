@@ -67,6 +67,15 @@ def main():
         return 1
     print(f"python_examples: {sys.executable}")
     failures, ran, skipped = [], [], []
+    venv = os.path.join(build_dir, "venv")
+    if os.path.realpath(sys.prefix) == os.path.realpath(venv):
+        # The set-up's venv finds the module without PYTHONPATH (scripts/python-env.sh).
+        env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+        found = subprocess.run([sys.executable, "-c", "import insid; print(insid.__file__)"],
+                               env=env, capture_output=True, text=True)
+        if found.returncode != 0:
+            failures.append(f"build/venv does not import insid: {found.stderr.strip()}")
+            print("FAIL:", failures[-1])
     with tempfile.TemporaryDirectory() as tmp:
         data = os.path.join(tmp, "paper")
         subprocess.run([program, "simulate", "--preset", "paper", "--seed", "1", "--out", data],
