@@ -2,13 +2,15 @@
 """insid's identification problem as an IOHexperimenter problem, logged for IOHanalyzer.
 
 `ioh.wrap_problem` makes Eq. 15 on the box [-1, 1]^d an ioh problem (minimised) and an
-`ioh.logger.Analyzer` writes its evaluations in IOHprofiler's format, the format `insid export
---to iohprofiler` writes for insid's own campaigns: IOHanalyzer reads both alike. insid scores a
+`ioh.logger.Analyzer` writes its evaluations for IOHanalyzer (a .json of the run and a .dat of
+its improvements), which loads them beside insid's own campaigns (`insid export --to
+iohprofiler`, the .info form of the same format). insid scores a
 generation in one batch; the ioh problem then sees the candidates one by one, in order, and logs
 each. Any ask/tell optimizer drives it the same way; here Debian's `cmaes`.
 Usage: ioh_logged.py DATASET_DIR [BUDGET [SEED [LOG_ROOT]]]   (PYTHONPATH holds the built module)
 """
 import glob
+import json
 import os
 import sys
 
@@ -41,7 +43,9 @@ def minimize(problem, budget, seed, log_root="ioh-runs", name="insid_identificat
     f = ioh.wrap_problem(scored, name=name, problem_class=ioh.ProblemClass.REAL,
                          dimension=problem.dimension, instance=1,
                          optimization_type=ioh.OptimizationType.MIN, lb=-1.0, ub=1.0)
-    logger = ioh.logger.Analyzer(root=log_root, folder_name="insid", algorithm_name="cmaes",
+    # Every improvement (the default trigger skips those under ioh's delta, 1e-10).
+    logger = ioh.logger.Analyzer(triggers=[ioh.logger.trigger.ON_IMPROVEMENT],
+                                 root=log_root, folder_name="insid", algorithm_name="cmaes",
                                  algorithm_info=f"Debian cmaes, sigma0 0.3, seed {seed}, "
                                                 f"insid fitness {problem.fitness}")
     f.attach_logger(logger)
@@ -62,31 +66,30 @@ def minimize(problem, budget, seed, log_root="ioh-runs", name="insid_identificat
 
 
 def check_logs(log_root, best_f, evaluations):
-    """What IOHanalyzer will read: one .info naming the problem, its dimension and the run's
-    evaluations and best; a .dat whose last best-so-far is the run's best. -> failures."""
+    """What IOHanalyzer will read (ioh's Analyzer: a .json of the run, a .dat of its
+    evaluations): the problem, minimised, in insid's dimension, the run's evaluations and best,
+    and a .dat whose best value is that best. -> failures."""
+    metas = glob.glob(os.path.join(log_root, "insid*", "IOHprofiler_f*.json"))
+    if len(metas) != 1:
+        return [f"ioh wrote {len(metas)} .json files under {log_root}, expected 1"]
+    with open(metas[0]) as fh:
+        meta = json.load(fh)
     failures = []
-    infos = glob.glob(os.path.join(log_root, "insid*", "IOHprofiler_f*.info"))
-    if len(infos) != 1:
-        return [f"ioh wrote {len(infos)} .info files under {log_root}, expected 1"]
-    with open(infos[0]) as fh:
-        header, _, runs = (fh.readline().strip(), fh.readline(), fh.readline().strip())
-    fields = dict(kv.split(" = ", 1) for kv in header.split(", "))
-    if fields.get("DIM") != "4" or "insid_identification" not in fields.get("funcName", ""):
-        failures.append(f"ioh .info header: {header}")
-    if fields.get("maximization", "").strip() not in ("F", "False", "0"):
-        failures.append(f"ioh logged a maximisation: {header}")
-    data_file, *records = [s.strip() for s in runs.split(",")]
-    last_evaluations, last_best = records[-1].split(":")[1].split("|")
-    if int(last_evaluations) != evaluations or not np.isclose(float(last_best), best_f,
-                                                                rtol=1e-9, atol=0):
-        failures.append(f"ioh .info run record {records[-1]}: expected {evaluations} "
-                        f"evaluations, best {best_f!r}")
-    with open(os.path.join(os.path.dirname(infos[0]), data_file)) as fh:
-        lines = [line.split() for line in fh if line.strip()]
-    if lines[0][:2] != ["evaluations", "raw_y"]:
-        failures.append(f"ioh .dat header {lines[0]}")
-    elif not np.isclose(float(lines[-1][1]), best_f, rtol=1e-9, atol=0):
-        failures.append(f"ioh .dat last best-so-far {lines[-1][1]} != {best_f!r}")
+    scenario = meta["scenarios"][0]
+    run = scenario["runs"][-1]
+    if meta["function_name"] != "insid_identification" or meta["maximization"]:
+        failures.append(f"ioh logged {meta['function_name']}, maximization {meta['maximization']}")
+    if scenario["dimension"] != 4 or run["evals"] != evaluations:
+        failures.append(f"ioh logged dimension {scenario['dimension']}, {run['evals']} "
+                        f"evaluations; expected 4, {evaluations}")
+    if run["best"]["y"] != best_f:
+        failures.append(f"ioh logged the best {run['best']['y']!r}, the run's is {best_f!r}")
+    with open(os.path.join(os.path.dirname(metas[0]), scenario["path"])) as fh:
+        rows = [line.split() for line in fh if line.strip()]
+    if rows[0] != ["evaluations", "raw_y"]:
+        failures.append(f"ioh .dat header {rows[0]}")
+    elif not np.isclose(min(float(r[1]) for r in rows[1:]), best_f, rtol=1e-9, atol=0):
+        failures.append(f"the .dat's best {min(float(r[1]) for r in rows[1:])} != {best_f!r}")
     return failures
 
 
