@@ -7,7 +7,12 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 venv=build/venv
-[ -x "$venv/bin/python" ] || /usr/bin/python3 -m venv --system-site-packages "$venv"
+if [ ! -x "$venv/bin/python" ] && ! /usr/bin/python3 -m venv --system-site-packages "$venv" >&2; then
+  echo "insid: could not make build/venv (python3-venv missing?): python_examples runs with" \
+       "/usr/bin/python3 and skips the examples of the optimisers Debian does not package" >&2
+  rm -rf "$venv"
+  exit 0
+fi
 # The module the build made (build/python/insid*.so): `build/venv/bin/python -c "import insid"`.
 site=$("$venv/bin/python" -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')
 echo "$PWD/build/python" > "$site/insid.pth"
