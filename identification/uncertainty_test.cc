@@ -369,11 +369,12 @@ TEST(Uncertainty, OptionsNameTheBadValue) {
             std::string::npos);
 }
 
-// Results written before the rename (estimate_sigma) still read: the committed optimum of the
-// paper-plus-baselines campaign, and an old-style block next to the new one.
+// Results written before the rename (estimate_sigma) still read: a committed optimum of the
+// accuracy study's campaigns, and an old-style block next to the new one.
 TEST(Uncertainty, OldResultFilesStillRead) {
   const std::filesystem::path old_file =
-      std::filesystem::path(INSID_SOURCE_DIR) / "results/paper-plus-baselines/optimum/rich.json";
+      std::filesystem::path(INSID_SOURCE_DIR) /
+      "results/accuracy/ladder-rich-nav-E1000/optimum/rich-nav.json";
   const nlohmann::json j = read_json_file(old_file);
   ASSERT_TRUE(j.contains("estimate_sigma")) << "the committed file is an old one";
   const ParameterMapping mapping(EstimatedParameter::paper_four());
