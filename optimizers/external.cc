@@ -399,15 +399,10 @@ void ExternalOptimizer::accept(std::span<const Eigen::VectorXd>, std::span<const
   } catch (const ExternalOptimizerError&) {
     return;
   }
-  // The run ends with this batch (Optimizer::tell's order: target, iterations, evaluations): no
-  // ask follows that would see a line left over, so look for one now.
-  const RunConfig& c = config();
-  const char* ends = result().best_f <= c.target_fitness             ? "target"
-                     : c.max_iterations > 0 && k >= c.max_iterations ? "iterations"
-                     : c.max_evaluations > 0 && result().evaluations >= c.max_evaluations
-                         ? "evaluations"
-                         : nullptr;
-  if (ends != nullptr) stop_and_refuse_leftover(ends, "its reply to ask " + std::to_string(k));
+  // The run ends with this batch: no ask follows that would see a line left over, so look for
+  // one now.
+  if (const Termination ends = termination_after(k); ends != Termination::kNone)
+    stop_and_refuse_leftover(std::string(to_string(ends)), "its reply to ask " + std::to_string(k));
 }
 
 }  // namespace insid::opt

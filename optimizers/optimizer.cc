@@ -125,17 +125,21 @@ void Optimizer::tell(std::span<const double> fitness) {
   record_iteration(fitness);
   pending_ = false;
 
-  if (result_.best_f <= config_.target_fitness) {
-    finish(Termination::kTarget);
-  } else if (config_.max_iterations > 0 && result_.iterations >= config_.max_iterations) {
-    finish(Termination::kIterations);
-  } else if (truncated_ ||
-             (config_.max_evaluations > 0 && result_.evaluations >= config_.max_evaluations)) {
-    finish(Termination::kEvaluations);
+  if (const Termination ends = termination_after(result_.iterations); ends != Termination::kNone) {
+    finish(ends);
   } else {
     result_.wall_time_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - *start_).count();
   }
+}
+
+Termination Optimizer::termination_after(int iterations) const {
+  if (result_.best_f <= config_.target_fitness) return Termination::kTarget;
+  if (config_.max_iterations > 0 && iterations >= config_.max_iterations)
+    return Termination::kIterations;
+  if (truncated_ || (config_.max_evaluations > 0 && result_.evaluations >= config_.max_evaluations))
+    return Termination::kEvaluations;
+  return Termination::kNone;
 }
 
 void Optimizer::record_iteration(std::span<const double> fitness) {

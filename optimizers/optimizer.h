@@ -166,6 +166,9 @@ class Optimizer {
   /// Starts the run's wall clock now (it otherwise starts at the first ask()): for work done
   /// before the first batch, e.g. a Kalman filter pass in ProblemConsumer::bind.
   void start_clock();
+  /// How the run ends once `iterations` batches are counted (the batch being told included), or
+  /// kNone: target, then iterations, then evaluations, the rule tell() applies after accept().
+  Termination termination_after(int iterations) const;
 
  private:
   void record_iteration(std::span<const double> fitness);
